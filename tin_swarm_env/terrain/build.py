@@ -1,0 +1,68 @@
+"""``build_tin``: DEM or point cloud -> :class:`~tin_swarm_env.terrain.tin.Tin`."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .dem import Dem, PointCloud
+from .tin import Tin
+
+__all__ = ["build_tin"]
+
+METHODS = ("vip", "greedy", "delaunay")
+
+
+def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices: int | None = None,
+              min_significance_m: float | None = None, max_error_m: float | None = None,
+              border: str = "line", backbone: float = 0.5) -> Tin:
+    """Reduce and triangulate elevation data into a :class:`Tin`.
+
+    ========== ================================================================================
+    method     what it does
+    ========== ================================================================================
+    "vip"      VIP point reduction (:func:`~.vip.vip_select`: ``max_vertices`` or
+               ``min_significance_m``; ``border`` and ``backbone`` as documented there), then
+               Delaunay in x, y. The default for a :class:`Dem`.
+    "greedy"   Garland-Heckbert greedy insertion via pydelatin (:func:`~.greedy.greedy_mesh`),
+               until ``max_error_m`` and/or ``max_vertices``; its own triangles are kept.
+    "delaunay" every point, Delaunay in x, y. The default (and only choice) for a
+               :class:`PointCloud`; ``max_vertices`` smaller than the cloud is an error.
+    ========== ================================================================================
+    """
+    if method is None:
+        method = "delaunay" if isinstance(dem, PointCloud) else "vip"
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}; expected one of {METHODS}")
+    if isinstance(dem, PointCloud):
+        if method != "delaunay":
+            raise ValueError(f"{dem.source}: method {method!r} needs a regular grid; scattered points "
+                             "are triangulated whole with method='delaunay'")
+        if max_vertices is not None and max_vertices < len(dem.points):
+            raise ValueError(f"{dem.source}: {len(dem.points)} scattered points exceed max_vertices="
+                             f"{max_vertices}; reduction needs a regular grid")
+        return Tin.from_points(dem.points, source=dem.source)
+    if not isinstance(dem, Dem):
+        raise TypeError(f"build_tin needs a Dem or PointCloud, got {type(dem).__name__}")
+    if method == "vip":
+        from .vip import vip_select
+
+        if max_error_m is not None:
+            raise ValueError("max_error_m applies to method='greedy'; VIP takes max_vertices or min_significance_m")
+        if max_vertices is None and min_significance_m is None:
+            raise ValueError("method='vip' needs max_vertices or min_significance_m")
+        keep = vip_select(dem, max_vertices, min_significance_m, border=border, backbone=backbone)
+        r, c = np.nonzero(keep)
+        pts = np.column_stack([dem.x[c], dem.y[r], dem.z[r, c]])
+        return Tin.from_points(pts, source=f"{dem.source} (vip)")
+    if method == "greedy":
+        from .greedy import greedy_mesh
+
+        if min_significance_m is not None:
+            raise ValueError("min_significance_m applies to method='vip'")
+        v, t = greedy_mesh(dem, max_error_m=max_error_m, max_vertices=max_vertices)
+        return Tin(v, t, source=f"{dem.source} (greedy)")
+    if np.isnan(dem.z).any():
+        from ..errors import DemFormatError
+
+        raise DemFormatError(f"{dem.source}: {dem.n_nodata} NODATA cells; fill or crop them first")
+    return Tin.from_points(dem.points(), source=f"{dem.source} (delaunay)")

@@ -1,0 +1,351 @@
+"""Reading DEMs: thesis ``x y z`` text, ESRI ASCII grid, ``.npy``/``.npz``, GeoTIFF, and samples.
+
+:func:`load_dem` picks the reader from the file suffix. Every reader returns a :class:`Dem`
+in metres with increasing cell-centre coordinates (row 0 south), except a text file whose
+points do not form a complete regular grid, which comes back as a :class:`PointCloud`.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DemFormatError, require
+from .dem import Dem, PointCloud, geographic_to_metres
+
+__all__ = ["load_dem", "sample_dem", "SAMPLES"]
+
+
+def load_dem(path, *, geographic: bool | None = None) -> Dem | PointCloud:
+    """Read an elevation model from ``path``.
+
+    ============  ===========================================================================
+    suffix        format
+    ============  ===========================================================================
+    .xyz .txt     the thesis format: ``x y z`` per line (whitespace or comma separated; blank
+    .csv          lines and ``#`` comments ignored). Points forming a complete regular grid, in
+                  any line order, give a :class:`Dem`; anything else a :class:`PointCloud`.
+                  Exact duplicate lines are dropped; the same x,y with two different z is an
+                  error naming both line numbers.
+    .asc          ESRI ASCII grid (``ncols nrows xllcorner|xllcenter yllcorner|yllcenter
+                  cellsize|dx,dy [NODATA_value]``); NODATA cells become NaN.
+    .npy          a 2-D elevation array, 1 m cells, origin (0, 0).
+    .npz          ``elevation`` (or ``z``/``topo``) plus optional ``dx``, ``dy`` and the extents
+                  ``xmin xmax ymin ymax`` (matplotlib's sample layout: rows north first), or
+                  ``x``/``longitude`` and ``y``/``latitude`` cell-centre vectors.
+    .tif .tiff    GeoTIFF through rasterio (``pip install 'tin_swarm_env[geo]'``).
+    ============  ===========================================================================
+
+    ``geographic``: whether x/y are longitude/latitude degrees, converted to metres with
+    :func:`~tin_swarm_env.terrain.dem.geographic_to_metres`. ``None`` (default) decides for
+    ``.npz``/``.tif`` files: coordinates named longitude/latitude, or extents inside
+    ±180/±90 with cells under 0.01°, are taken as degrees. Text and ``.asc`` files are metres
+    unless ``geographic=True``.
+    """
+    p = Path(os.fspath(path))
+    if not p.exists():
+        raise DemFormatError(f"{p}: no such DEM file")
+    if p.is_dir():
+        raise DemFormatError(f"{p}: is a directory, not a DEM file")
+    suffix = p.suffix.lower()
+    if suffix in (".xyz", ".txt", ".csv"):
+        return _read_xyz(p, geographic=bool(geographic))
+    if suffix == ".asc":
+        return _read_asc(p, geographic=bool(geographic))
+    if suffix == ".npy":
+        return _read_npy(p)
+    if suffix == ".npz":
+        return _read_npz(p, geographic)
+    if suffix in (".tif", ".tiff"):
+        return _read_geotiff(p, geographic)
+    raise DemFormatError(
+        f"{p}: unknown DEM suffix {suffix!r}; expected .xyz/.txt/.csv, .asc, .npy, .npz or .tif"
+    )
+
+
+# -- thesis x y z text ---------------------------------------------------------------------
+
+
+def _read_xyz(p: Path, geographic: bool) -> Dem | PointCloud:
+    rows: list[tuple[float, float, float]] = []
+    line_no: list[int] = []
+    with open(p, "r", encoding="utf-8", errors="replace") as fh:
+        for i, line in enumerate(fh, start=1):
+            s = line.split("#", 1)[0].replace(",", " ").split()
+            if not s:
+                continue
+            if len(s) != 3:
+                raise DemFormatError(f"{p}:{i}: expected 3 numbers 'x y z', found {len(s)}: {line.strip()!r}")
+            try:
+                vals = tuple(float(t) for t in s)
+            except ValueError:
+                raise DemFormatError(f"{p}:{i}: not a number in {line.strip()!r}") from None
+            if not all(np.isfinite(vals[:2])):
+                raise DemFormatError(f"{p}:{i}: x and y must be finite, got {line.strip()!r}")
+            if np.isinf(vals[2]):
+                raise DemFormatError(f"{p}:{i}: infinite elevation in {line.strip()!r}")
+            rows.append(vals)
+            line_no.append(i)
+    if not rows:
+        raise DemFormatError(f"{p}: empty DEM file (no 'x y z' lines)")
+    pts = np.asarray(rows, dtype=np.float64)
+    lines = np.asarray(line_no)
+    pts, lines = _drop_duplicates(p, pts, lines)
+    if geographic:
+        x, y, _ = geographic_to_metres(pts[:, 0], pts[:, 1])
+        pts = np.column_stack([x, y, pts[:, 2]])
+    grid = _as_grid(pts)
+    if grid is not None:
+        xs, ys, z = grid
+        return Dem(z, xs, ys, source=str(p))
+    if np.isnan(pts[:, 2]).any():
+        bad = lines[np.isnan(pts[:, 2])][0]
+        raise DemFormatError(f"{p}:{bad}: NaN elevation in a scattered (non-grid) point file")
+    if len(pts) < 3:
+        raise DemFormatError(f"{p}: {len(pts)} distinct point(s); a TIN needs at least 3")
+    return PointCloud(pts, source=str(p))
+
+
+def _drop_duplicates(p: Path, pts: np.ndarray, lines: np.ndarray):
+    """Drop exact duplicate points; the same (x, y) with different z is an error."""
+    order = np.lexsort((pts[:, 1], pts[:, 0]))
+    s = pts[order]
+    same_xy = np.all(s[1:, :2] == s[:-1, :2], axis=1)
+    if not same_xy.any():
+        return pts, lines
+    zs = s[:, 2]
+    same_z = (zs[1:] == zs[:-1]) | (np.isnan(zs[1:]) & np.isnan(zs[:-1]))
+    clash = same_xy & ~same_z
+    if clash.any():
+        k = int(np.flatnonzero(clash)[0])
+        a, b = sorted((int(lines[order[k]]), int(lines[order[k + 1]])))
+        raise DemFormatError(
+            f"{p}: lines {a} and {b} give the same point x={s[k, 0]!r} y={s[k, 1]!r} "
+            f"with different elevations ({s[k, 2]!r} and {s[k + 1, 2]!r})"
+        )
+    keep = np.ones(len(pts), dtype=bool)
+    keep[order[1:][same_xy]] = False
+    return pts[keep], lines[keep]
+
+
+def _as_grid(pts: np.ndarray):
+    """(x, y, z) if the points are exactly a complete, evenly spaced grid, else None."""
+    xs = np.unique(pts[:, 0])
+    ys = np.unique(pts[:, 1])
+    if xs.size < 2 or ys.size < 2 or xs.size * ys.size != len(pts):
+        return None
+    for c in (xs, ys):
+        d = np.diff(c)
+        if not np.allclose(d, d[0], rtol=1e-6, atol=0):
+            return None
+    ci = np.searchsorted(xs, pts[:, 0])
+    ri = np.searchsorted(ys, pts[:, 1])
+    z = np.full((ys.size, xs.size), np.nan)
+    filled = np.zeros(z.shape, dtype=bool)
+    filled[ri, ci] = True
+    if not filled.all():  # pragma: no cover - impossible after de-duplication and the count check
+        return None
+    z[ri, ci] = pts[:, 2]
+    return xs, ys, z
+
+
+# -- ESRI ASCII grid -----------------------------------------------------------------------
+
+_ASC_KEYS = {"ncols", "nrows", "xllcorner", "xllcenter", "yllcorner", "yllcenter", "cellsize",
+             "dx", "dy", "nodata_value"}
+
+
+def _read_asc(p: Path, geographic: bool) -> Dem:
+    header: dict[str, float] = {}
+    with open(p, "r", encoding="utf-8", errors="replace") as fh:
+        text_lines = fh.readlines()
+    if not any(t.strip() for t in text_lines):
+        raise DemFormatError(f"{p}: empty DEM file")
+    i = 0
+    while i < len(text_lines):
+        parts = text_lines[i].split()
+        if not parts:
+            i += 1
+            continue
+        key = parts[0].lower()
+        if key[0].isdigit() or key[0] in "+-.":
+            break
+        if key not in _ASC_KEYS:
+            raise DemFormatError(f"{p}:{i + 1}: unknown ESRI ASCII header key {parts[0]!r}")
+        if len(parts) != 2:
+            raise DemFormatError(f"{p}:{i + 1}: header line must be 'key value', got {text_lines[i].strip()!r}")
+        try:
+            header[key] = float(parts[1])
+        except ValueError:
+            raise DemFormatError(f"{p}:{i + 1}: header {parts[0]} has a non-numeric value {parts[1]!r}") from None
+        i += 1
+    for k in ("ncols", "nrows"):
+        if k not in header:
+            raise DemFormatError(f"{p}: ESRI ASCII header lacks {k}")
+    ncols, nrows = int(header["ncols"]), int(header["nrows"])
+    if "cellsize" in header:
+        dx = dy = header["cellsize"]
+    elif "dx" in header and "dy" in header:
+        dx, dy = header["dx"], header["dy"]
+    else:
+        raise DemFormatError(f"{p}: ESRI ASCII header lacks cellsize (or dx and dy)")
+    if not (dx > 0 and dy > 0):
+        raise DemFormatError(f"{p}: cell size must be positive, got dx={dx}, dy={dy}")
+    if "xllcenter" in header:
+        x0 = header["xllcenter"]
+    elif "xllcorner" in header:
+        x0 = header["xllcorner"] + dx / 2
+    else:
+        raise DemFormatError(f"{p}: ESRI ASCII header lacks xllcorner/xllcenter")
+    if "yllcenter" in header:
+        y0 = header["yllcenter"]
+    elif "yllcorner" in header:
+        y0 = header["yllcorner"] + dy / 2
+    else:
+        raise DemFormatError(f"{p}: ESRI ASCII header lacks yllcorner/yllcenter")
+    values: list[float] = []
+    first_data_line = i + 1
+    for j in range(i, len(text_lines)):
+        for tok in text_lines[j].split():
+            try:
+                values.append(float(tok))
+            except ValueError:
+                raise DemFormatError(f"{p}:{j + 1}: not a number: {tok!r}") from None
+    if len(values) != nrows * ncols:
+        raise DemFormatError(
+            f"{p}: header says {nrows} rows x {ncols} cols = {nrows * ncols} values, "
+            f"found {len(values)} from line {first_data_line} on"
+        )
+    z = np.asarray(values, dtype=np.float64).reshape(nrows, ncols)
+    if "nodata_value" in header:
+        z[z == header["nodata_value"]] = np.nan
+    z = z[::-1]  # ESRI rows run north to south; ours run south to north
+    x = x0 + dx * np.arange(ncols)
+    y = y0 + dy * np.arange(nrows)
+    if geographic:
+        x, y, _ = geographic_to_metres(x, y)
+    return Dem(z, x, y, source=str(p))
+
+
+# -- numpy ---------------------------------------------------------------------------------
+
+
+def _read_npy(p: Path) -> Dem:
+    try:
+        z = np.load(p, allow_pickle=False)
+    except Exception as exc:
+        raise DemFormatError(f"{p}: not a readable .npy array ({exc})") from None
+    if z.ndim != 2:
+        raise DemFormatError(f"{p}: a .npy DEM must be a 2-D array, got shape {z.shape}")
+    return Dem(z.astype(np.float64), np.arange(z.shape[1], dtype=float), np.arange(z.shape[0], dtype=float), str(p))
+
+
+def _read_npz(p: Path, geographic: bool | None) -> Dem:
+    try:
+        with np.load(p, allow_pickle=False) as f:
+            d = {k: f[k] for k in f.files}
+    except Exception as exc:
+        raise DemFormatError(f"{p}: not a readable .npz archive ({exc})") from None
+    return dem_from_arrays(d, source=str(p), geographic=geographic)
+
+
+def dem_from_arrays(d: dict, source: str, geographic: bool | None = None) -> Dem:
+    """Build a :class:`Dem` from a dict of arrays in the ``.npz`` layout of :func:`load_dem`."""
+    zkey = next((k for k in ("elevation", "z", "topo") if k in d), None)
+    if zkey is None:
+        raise DemFormatError(f"{source}: no elevation array (expected a key 'elevation', 'z' or 'topo'; found {sorted(d)})")
+    z = np.asarray(d[zkey], dtype=np.float64)
+    if z.ndim != 2:
+        raise DemFormatError(f"{source}: '{zkey}' must be 2-D, got shape {z.shape}")
+    rows, cols = z.shape
+    xkey = next((k for k in ("x", "longitude", "lon") if k in d), None)
+    ykey = next((k for k in ("y", "latitude", "lat") if k in d), None)
+    named_geo = xkey in ("longitude", "lon") or ykey in ("latitude", "lat")
+    if xkey and ykey:
+        x = np.asarray(d[xkey], dtype=np.float64).reshape(-1)
+        y = np.asarray(d[ykey], dtype=np.float64).reshape(-1)
+        if x.size != cols or y.size != rows:
+            raise DemFormatError(f"{source}: '{xkey}' ({x.size}) / '{ykey}' ({y.size}) do not match '{zkey}' {z.shape}")
+    elif all(k in d for k in ("xmin", "xmax", "ymin", "ymax")):
+        # matplotlib's sample layout: extents are cell edges, rows are image rows (north first);
+        # its jacksboro file stores the north edge in 'ymin'. We only need the extent.
+        x_lo, x_hi = sorted((float(d["xmin"]), float(d["xmax"])))
+        y_lo, y_hi = sorted((float(d["ymin"]), float(d["ymax"])))
+        dx = (x_hi - x_lo) / cols
+        dy = (y_hi - y_lo) / rows
+        x = x_lo + dx * (np.arange(cols) + 0.5)
+        y = y_lo + dy * (np.arange(rows) + 0.5)
+        z = z[::-1]  # image rows (north first) -> ours (south first)
+    else:
+        dx = float(d.get("dx", 1.0))
+        dy = float(d.get("dy", dx))
+        if not (dx > 0 and dy > 0):
+            raise DemFormatError(f"{source}: dx and dy must be positive, got {dx}, {dy}")
+        x = dx * np.arange(cols, dtype=float)
+        y = dy * np.arange(rows, dtype=float)
+    if x.size > 1 and x[1] < x[0]:
+        x, z = x[::-1], z[:, ::-1]
+    if y.size > 1 and y[1] < y[0]:
+        y, z = y[::-1], z[::-1]
+    if geographic is None:
+        small_cells = x.size > 1 and y.size > 1 and (x[1] - x[0]) < 0.01 and (y[1] - y[0]) < 0.01
+        in_range = np.all(np.abs(y) <= 90) and np.all(np.abs(x) <= 360)
+        geographic = named_geo or (small_cells and in_range)
+    if geographic:
+        x, y, _ = geographic_to_metres(x, y)
+    return Dem(z, x, y, source=source)
+
+
+# -- GeoTIFF -------------------------------------------------------------------------------
+
+
+def _read_geotiff(p: Path, geographic: bool | None) -> Dem:  # pragma: no cover - needs rasterio
+    rasterio = require("rasterio", "geo", "Reading GeoTIFF DEMs")
+    with rasterio.open(p) as src:
+        band = src.read(1, masked=True)
+        z = np.asarray(band.filled(np.nan), dtype=np.float64)
+        t = src.transform
+        if t.b != 0 or t.d != 0:
+            raise DemFormatError(f"{p}: rotated rasters are not supported")
+        cols, rows = src.width, src.height
+        x = t.c + t.a * (np.arange(cols) + 0.5)
+        y = t.f + t.e * (np.arange(rows) + 0.5)
+        if geographic is None:
+            geographic = bool(src.crs is not None and src.crs.is_geographic)
+    arrays = {"z": z, "x": x, "y": y}
+    return dem_from_arrays(arrays, str(p), geographic=geographic)
+
+
+# -- samples -------------------------------------------------------------------------------
+
+SAMPLES = {
+    "jacksboro": "jacksboro_fault_dem.npz",
+    "topobathy": "topobathy.npz",
+}
+
+
+def sample_dem(name: str = "jacksboro") -> Dem:
+    """A real DEM shipped with matplotlib, converted to metres.
+
+    * ``"jacksboro"``: the Jacksboro fault, Tennessee (344x403 cells of 3 arc-seconds,
+      236-1076 m). Longitudes/latitudes of the cell centres come from the file's extents
+      (cell edges); rows are image rows (north first) and are flipped to south first.
+    * ``"topobathy"``: topography and bathymetry off Vancouver Island (91x120 cells of
+      2 arc-minutes, -1437..2205 m; sea floor included).
+
+    Degrees become metres by a local equirectangular projection at the grid's mid latitude
+    (:func:`~tin_swarm_env.terrain.dem.geographic_to_metres`): x = (lon - lon_min) *
+    m_per_deg_lon(lat_mid), y = (lat - lat_min) * m_per_deg_lat(lat_mid), with WGS84's
+    metres per degree; the origin is the south-west cell centre. Jacksboro's cells come out
+    74.5 m east-west by 92.5 m north-south.
+    """
+    if name not in SAMPLES:
+        raise ValueError(f"unknown sample DEM {name!r}; known: {sorted(SAMPLES)}")
+    from matplotlib import cbook
+
+    path = cbook.get_sample_data(SAMPLES[name], asfileobj=False)
+    with np.load(path, allow_pickle=False) as f:
+        d = {k: f[k] for k in f.files}
+    return dem_from_arrays(d, source=f"sample:{name}", geographic=True)

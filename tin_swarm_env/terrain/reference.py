@@ -1,0 +1,104 @@
+"""Slow, obvious reference implementations of the compiled queries (for tests and benches).
+
+Each is plain numpy over all triangles or all edges: O(n * T) work, no walks, no indexes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["locate_brute", "line_of_sight_brute", "line_of_sight_dense", "height_brute"]
+
+
+def _bary(tin, pts):
+    v = tin.vertices[:, :2]
+    a, b, c = v[tin.triangles[:, 0]], v[tin.triangles[:, 1]], v[tin.triangles[:, 2]]
+    # (n, T) orientations of the point against each edge
+    def orient(p, q):
+        return (q[None, :, 0] - p[None, :, 0]) * (pts[:, None, 1] - p[None, :, 1]) - (
+            q[None, :, 1] - p[None, :, 1]) * (pts[:, None, 0] - p[None, :, 0])
+    return orient(a, b), orient(b, c), orient(c, a)
+
+
+def locate_brute(tin, xy, tol: float | None = None) -> np.ndarray:
+    """Every triangle tested: the lowest-index triangle containing each point (-1 if none)."""
+    pts = np.atleast_2d(np.asarray(xy, dtype=np.float64))
+    if tol is None:
+        tol = tin._tol[0]
+    out = np.full(len(pts), -1, dtype=np.int64)
+    for s in range(0, len(pts), 256):
+        o1, o2, o3 = _bary(tin, pts[s:s + 256])
+        inside = (o1 >= -tol) & (o2 >= -tol) & (o3 >= -tol)
+        has = inside.any(axis=1)
+        out[s:s + 256][has] = inside[has].argmax(axis=1)
+    return out
+
+
+def height_brute(tin, xy) -> np.ndarray:
+    """Barycentric interpolation in the triangle :func:`locate_brute` finds (NaN outside)."""
+    pts = np.atleast_2d(np.asarray(xy, dtype=np.float64))
+    t = locate_brute(tin, pts)
+    z = np.full(len(pts), np.nan)
+    ok = t >= 0
+    v = tin.vertices[tin.triangles[t[ok]]]  # (m, 3, 3)
+    p = pts[ok]
+    a, b, c = v[:, 0], v[:, 1], v[:, 2]
+    den = (b[:, 1] - c[:, 1]) * (a[:, 0] - c[:, 0]) + (c[:, 0] - b[:, 0]) * (a[:, 1] - c[:, 1])
+    l1 = ((b[:, 1] - c[:, 1]) * (p[:, 0] - c[:, 0]) + (c[:, 0] - b[:, 0]) * (p[:, 1] - c[:, 1])) / den
+    l2 = ((c[:, 1] - a[:, 1]) * (p[:, 0] - c[:, 0]) + (a[:, 0] - c[:, 0]) * (p[:, 1] - c[:, 1])) / den
+    z[ok] = l1 * a[:, 2] + l2 * b[:, 2] + (1 - l1 - l2) * c[:, 2]
+    return z
+
+
+def line_of_sight_brute(tin, a_xyz, b_xyz, ztol: float | None = None) -> np.ndarray:
+    """Every edge tested: visible iff both end points are on or above the surface inside the
+    TIN and the sight line is not below the terrain at any edge it crosses, and it crosses no
+    border edge strictly between its ends."""
+    a = np.atleast_2d(np.asarray(a_xyz, dtype=np.float64))
+    b = np.atleast_2d(np.asarray(b_xyz, dtype=np.float64))
+    if ztol is None:
+        ztol = tin._tol[1]
+    za = height_brute(tin, a[:, :2])
+    zb = height_brute(tin, b[:, :2])
+    ok = (a[:, 2] >= za - ztol) & (b[:, 2] >= zb - ztol)  # NaN -> False
+    E = tin.edges
+    border = tin.edge_triangles[:, 1] < 0
+    P = tin.vertices[E[:, 0]]
+    Q = tin.vertices[E[:, 1]]
+    for i in np.flatnonzero(ok):
+        d = b[i, :2] - a[i, :2]
+        e = Q[:, :2] - P[:, :2]
+        den = d[0] * e[:, 1] - d[1] * e[:, 0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = ((P[:, 0] - a[i, 0]) * e[:, 1] - (P[:, 1] - a[i, 1]) * e[:, 0]) / den
+            u = ((P[:, 0] - a[i, 0]) * d[1] - (P[:, 1] - a[i, 1]) * d[0]) / den
+        hit = (den != 0) & (s >= 0) & (s <= 1) & (u >= 0) & (u <= 1)
+        if np.any(hit & border & (s > 1e-9) & (s < 1 - 1e-9)):
+            ok[i] = False
+            continue
+        z_edge = P[hit, 2] + u[hit] * (Q[hit, 2] - P[hit, 2])
+        z_sight = a[i, 2] + s[hit] * (b[i, 2] - a[i, 2])
+        ok[i] = not np.any(z_edge > z_sight + ztol)
+    return ok
+
+
+def line_of_sight_dense(tin, a_xyz, b_xyz, n_samples: int = 2000):
+    """Dense sampling: min over ``n_samples`` points of (sight line - terrain) per ray.
+    Returns ``(n,)`` clearances in m (NaN where a sample falls outside the TIN)."""
+    a = np.atleast_2d(np.asarray(a_xyz, dtype=np.float64))
+    b = np.atleast_2d(np.asarray(b_xyz, dtype=np.float64))
+    s = np.linspace(0.0, 1.0, n_samples)
+    out = np.empty(len(a))
+    for i in range(len(a)):
+        p = a[i] + s[:, None] * (b[i] - a[i])
+        z = height_brute(tin, p[:, :2]) if tin.n_triangles < 64 else _height_fast(tin, p[:, :2])
+        out[i] = np.min(p[:, 2] - z)
+    return out
+
+
+def _height_fast(tin, xy):
+    t = tin.locate(xy)
+    z = np.full(len(xy), np.nan)
+    ok = t >= 0
+    z[ok] = tin._height_in(xy[ok], t[ok])
+    return z
