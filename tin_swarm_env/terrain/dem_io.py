@@ -268,6 +268,8 @@ def dem_from_arrays(d: dict, source: str, geographic: bool | None = None) -> Dem
         y = np.asarray(d[ykey], dtype=np.float64).reshape(-1)
         if x.size != cols or y.size != rows:
             raise DemFormatError(f"{source}: '{xkey}' ({x.size}) / '{ykey}' ({y.size}) do not match '{zkey}' {z.shape}")
+        # coordinates stored in float32 (topobathy) wobble by ~1e-6: snap near-regular ones
+        x, y = _snap_regular(x), _snap_regular(y)
     elif all(k in d for k in ("xmin", "xmax", "ymin", "ymax")):
         # matplotlib's sample layout: extents are cell edges, rows are image rows (north first);
         # its jacksboro file stores the north edge in 'ymin'. We only need the extent.
@@ -296,6 +298,14 @@ def dem_from_arrays(d: dict, source: str, geographic: bool | None = None) -> Dem
     if geographic:
         x, y, _ = geographic_to_metres(x, y)
     return Dem(z, x, y, source=source)
+
+
+def _snap_regular(c: np.ndarray) -> np.ndarray:
+    if c.size > 2:
+        d = np.diff(c)
+        if np.all(np.abs(d - d.mean()) <= 1e-3 * np.abs(d.mean())):
+            return np.linspace(c[0], c[-1], c.size)
+    return c
 
 
 # -- GeoTIFF -------------------------------------------------------------------------------
@@ -332,8 +342,10 @@ def sample_dem(name: str = "jacksboro") -> Dem:
     * ``"jacksboro"``: the Jacksboro fault, Tennessee (344x403 cells of 3 arc-seconds,
       236-1076 m). Longitudes/latitudes of the cell centres come from the file's extents
       (cell edges); rows are image rows (north first) and are flipped to south first.
-    * ``"topobathy"``: topography and bathymetry off Vancouver Island (91x120 cells of
-      2 arc-minutes, -1437..2205 m; sea floor included).
+    * ``"topobathy"``: topography and bathymetry around Vancouver Island (91x120 cells of
+      2 arc-minutes of longitude, -1437..2205 m; sea floor included). Its rows are evenly
+      spaced in Mercator y; they are placed evenly in latitude between the first and last
+      row, which moves a row by at most 0.3 of a cell.
 
     Degrees become metres by a local equirectangular projection at the grid's mid latitude
     (:func:`~tin_swarm_env.terrain.dem.geographic_to_metres`): x = (lon - lon_min) *
@@ -348,4 +360,11 @@ def sample_dem(name: str = "jacksboro") -> Dem:
     path = cbook.get_sample_data(SAMPLES[name], asfileobj=False)
     with np.load(path, allow_pickle=False) as f:
         d = {k: f[k] for k in f.files}
+    if name == "topobathy":
+        # float32 longitudes wobble by 0.3 %, and rows are evenly spaced in Mercator y, not
+        # in latitude: place both evenly between the first and last centre (rows move by at
+        # most 0.3 cell)
+        for k in ("longitude", "latitude"):
+            c = np.asarray(d[k], dtype=np.float64)
+            d[k] = np.linspace(c[0], c[-1], c.size)
     return dem_from_arrays(d, source=f"sample:{name}", geographic=True)

@@ -1,0 +1,30 @@
+import os
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, settings
+
+settings.register_profile(
+    "ci", max_examples=60, deadline=None, derandomize=True,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+settings.register_profile("dev", max_examples=200, deadline=None)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+
+def random_tin(seed: int, n: int = 30, zscale: float = 50.0):
+    """A Delaunay TIN over n random points in a 1000 m square, corners included."""
+    from tin_swarm_env.terrain import Tin
+
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(0, 1000, (n, 2))
+    xy = np.vstack([[[0, 0], [1000, 0], [1000, 1000], [0, 1000]], xy])
+    z = rng.uniform(0, zscale, len(xy))
+    return Tin.from_points(np.column_stack([xy, z]))
+
+
+@pytest.fixture(scope="session")
+def jacksboro():
+    from tin_swarm_env.terrain import sample_dem
+
+    return sample_dem("jacksboro")

@@ -1,0 +1,178 @@
+"""DEM readers: thesis xyz, ESRI ASCII, npy/npz, samples, and their bad input."""
+
+import numpy as np
+import pytest
+
+from tin_swarm_env.errors import DemFormatError, MissingExtraError
+from tin_swarm_env.terrain import Dem, PointCloud, build_tin, load_dem, sample_dem
+from tin_swarm_env.terrain.dem import metres_per_degree
+
+
+def write(path, text):
+    path.write_text(text)
+    return path
+
+
+def test_xyz_grid_in_any_order_is_a_grid(tmp_path):
+    xs, ys = np.arange(4) * 10.0, np.arange(3) * 5.0 + 100
+    rows = [(x, y, x + 2 * y) for y in ys for x in xs]
+    rng = np.random.default_rng(0)
+    rng.shuffle(rows)
+    p = write(tmp_path / "g.xyz", "\n".join(f"{x} {y} {z}" for x, y, z in rows) + "\n")
+    dem = load_dem(p)
+    assert isinstance(dem, Dem)
+    assert dem.shape == (3, 4)
+    np.testing.assert_array_equal(dem.x, xs)
+    np.testing.assert_array_equal(dem.y, ys)
+    np.testing.assert_array_equal(dem.z, xs[None, :] + 2 * ys[:, None])
+    assert dem.dx == 10.0 and dem.dy == 5.0
+
+
+def test_xyz_scattered_is_a_point_cloud_and_triangulates(tmp_path):
+    p = write(tmp_path / "s.txt", "# scattered\n0 0 1\n10 0 2\n\n0 10 3\n7,7,4\n3 4 5\n")
+    cloud = load_dem(p)
+    assert isinstance(cloud, PointCloud)
+    assert cloud.points.shape == (5, 3)
+    tin = build_tin(cloud)
+    assert tin.n_vertices == 5
+    with pytest.raises(ValueError, match="regular grid"):
+        build_tin(cloud, method="vip", max_vertices=4)
+
+
+def test_xyz_exact_duplicates_dropped_conflicting_duplicates_named(tmp_path):
+    p = write(tmp_path / "d.xyz", "0 0 1\n1 0 1\n0 1 1\n1 1 1\n1 1 1\n")
+    assert load_dem(p).shape == (2, 2)
+    p = write(tmp_path / "c.xyz", "0 0 1\n1 0 1\n0 1 1\n1 1 1\n1 1 2\n")
+    with pytest.raises(DemFormatError, match=r"lines 4 and 5"):
+        load_dem(p)
+
+
+def test_xyz_bad_line_names_the_line(tmp_path):
+    p = write(tmp_path / "b.xyz", "0 0 1\n1 0 1\n0 1\n")
+    with pytest.raises(DemFormatError, match=r"b\.xyz:3: expected 3 numbers"):
+        load_dem(p)
+    p = write(tmp_path / "n.xyz", "0 0 1\n1 zero 1\n")
+    with pytest.raises(DemFormatError, match=r"n\.xyz:2: not a number"):
+        load_dem(p)
+
+
+@pytest.mark.parametrize("text", ["", "\n\n# only a comment\n"])
+def test_empty_file_is_an_error(tmp_path, text):
+    with pytest.raises(DemFormatError, match="empty"):
+        load_dem(write(tmp_path / "e.xyz", text))
+    with pytest.raises(DemFormatError, match="empty"):
+        load_dem(write(tmp_path / "e.asc", text))
+
+
+def test_fewer_than_three_points_and_collinear(tmp_path):
+    with pytest.raises(DemFormatError, match="at least 3"):
+        load_dem(write(tmp_path / "two.xyz", "0 0 0\n5 1 0\n"))
+    cloud = load_dem(write(tmp_path / "line.xyz", "0 0 0\n1 1 0\n2 2 1\n5 5 1\n"))
+    from tin_swarm_env.errors import TinStructureError
+
+    with pytest.raises(TinStructureError, match="collinear"):
+        build_tin(cloud)
+
+
+ASC = """ncols 3
+nrows 2
+xllcorner 100
+yllcorner 200
+cellsize 10
+NODATA_value -9999
+1 2 3
+4 -9999 6
+"""
+
+
+def test_asc_flips_rows_and_masks_nodata(tmp_path):
+    dem = load_dem(write(tmp_path / "a.asc", ASC))
+    np.testing.assert_array_equal(dem.x, [105, 115, 125])
+    np.testing.assert_array_equal(dem.y, [205, 215])
+    assert dem.z[1, 0] == 1 and dem.z[0, 0] == 4  # first file row is the north row
+    assert np.isnan(dem.z[0, 1]) and dem.n_nodata == 1
+    with pytest.raises(DemFormatError, match="NODATA"):
+        build_tin(dem, max_vertices=5)
+    filled = dem.fill_nodata()
+    assert filled.n_nodata == 0 and filled.z[0, 1] in (4.0, 6.0, 2.0)
+    tin = build_tin(filled, max_vertices=6)
+    assert tin.n_vertices == 6
+
+
+def test_asc_errors(tmp_path):
+    with pytest.raises(DemFormatError, match="found 5"):
+        load_dem(write(tmp_path / "short.asc", ASC.replace("4 -9999 6", "4 6")))
+    with pytest.raises(DemFormatError, match=r":3: unknown ESRI ASCII header key 'xllwrong'"):
+        load_dem(write(tmp_path / "k.asc", ASC.replace("xllcorner", "xllwrong")))
+    with pytest.raises(DemFormatError, match="cellsize"):
+        load_dem(write(tmp_path / "c.asc", ASC.replace("cellsize 10\n", "")))
+
+
+def test_npy_and_npz(tmp_path):
+    z = np.arange(12.0).reshape(3, 4)
+    np.save(tmp_path / "z.npy", z)
+    dem = load_dem(tmp_path / "z.npy")
+    np.testing.assert_array_equal(dem.z, z)
+    assert dem.dx == 1.0
+    np.savez(tmp_path / "z.npz", elevation=z, dx=2.0, dy=3.0)
+    dem = load_dem(tmp_path / "z.npz")
+    assert (dem.dx, dem.dy) == (2.0, 3.0)
+    np.savez(tmp_path / "bad.npz", other=z)
+    with pytest.raises(DemFormatError, match="no elevation array"):
+        load_dem(tmp_path / "bad.npz")
+    (tmp_path / "junk.npz").write_bytes(b"not a zip")
+    with pytest.raises(DemFormatError, match="not a readable"):
+        load_dem(tmp_path / "junk.npz")
+
+
+def test_unknown_suffix_and_missing_file(tmp_path):
+    with pytest.raises(DemFormatError, match="unknown DEM suffix"):
+        load_dem(write(tmp_path / "x.dem", "1"))
+    with pytest.raises(DemFormatError, match="no such DEM file"):
+        load_dem(tmp_path / "missing.xyz")
+
+
+def test_geotiff_without_rasterio_names_the_extra(tmp_path, monkeypatch):
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_rasterio(name, *a, **k):
+        if name == "rasterio" or name.startswith("rasterio."):
+            raise ImportError("No module named 'rasterio'")
+        return real_import(name, *a, **k)
+
+    monkeypatch.setattr(builtins, "__import__", no_rasterio)
+    monkeypatch.delitem(__import__("sys").modules, "rasterio", raising=False)
+    with pytest.raises(MissingExtraError, match=r"tin_swarm_env\[geo\]"):
+        load_dem(write(tmp_path / "t.tif", "x"))
+
+
+def test_jacksboro_sample_in_metres(jacksboro):
+    dem = jacksboro
+    assert dem.shape == (344, 403)
+    assert np.nanmin(dem.z) == 236 and np.nanmax(dem.z) == 1076
+    m_lon, m_lat = metres_per_degree(0.5 * (36.44625 + 36.73291666666667))
+    assert dem.dx == pytest.approx(m_lon * 3 / 3600, rel=1e-9)
+    assert dem.dy == pytest.approx(m_lat * 3 / 3600, rel=1e-9)
+    assert 74 < dem.dx < 75 and 92 < dem.dy < 93
+    assert dem.x[0] == 0 and dem.y[0] == 0
+
+
+def test_topobathy_sample():
+    dem = sample_dem("topobathy")
+    assert dem.shape == (91, 120)
+    assert np.nanmin(dem.z) < 0 < np.nanmax(dem.z)
+    # 2 arc-minutes of longitude at 49 N; rows about 1.3 arc-minutes apart (Mercator-square cells)
+    assert 2400 < dem.dx < 2480 and 2400 < dem.dy < 2480
+    with pytest.raises(ValueError, match="unknown sample"):
+        sample_dem("everest")
+
+
+def test_metres_per_degree_known_values():
+    m_lon, m_lat = metres_per_degree(0.0)
+    assert m_lon == pytest.approx(111319.5, abs=1.0)
+    assert m_lat == pytest.approx(110574.3, abs=1.0)
+    m_lon, m_lat = metres_per_degree(45.0)
+    assert m_lon == pytest.approx(78846.8, abs=1.0)
+    assert m_lat == pytest.approx(111131.8, abs=1.0)
