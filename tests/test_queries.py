@@ -207,3 +207,15 @@ def test_queries_on_jacksboro_agree_with_references(jacksboro):
     assert all(contains(tin, ti, p, tol=1e-3) for ti, p in zip(t, xy))
     a, b = random_rays(tin, rng, 300, height=(2.0, 2.0))
     np.testing.assert_array_equal(tin.line_of_sight(a, b), line_of_sight_brute(tin, a, b))
+
+
+def test_slope_and_aspect_at_points_follow_their_triangles():
+    tin = random_tin(3, 20, zscale=200)
+    rng = np.random.default_rng(3)
+    xy = rng.uniform(0, 1000, (100, 2))
+    t = locate_brute(tin, xy)
+    np.testing.assert_array_equal(tin.slope_at(xy), tin.slope_deg[tin.locate(xy)])
+    # on shared edges either side may be reported; away from edges it is the brute-force one
+    inside = np.array([contains(tin, ti, p, tol=-1e-3) for ti, p in zip(t, xy)])
+    np.testing.assert_array_equal(tin.aspect_at(xy)[inside], tin.aspect_deg[t[inside]])
+    np.testing.assert_array_equal(tin.slope_at(xy)[inside], tin.slope_deg[t[inside]])
