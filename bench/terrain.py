@@ -154,13 +154,14 @@ def main(args: Args):
         ("lattice (backbone ~1)", dict(method="vip", backbone=0.999)),
         ("greedy (pydelatin/hmm)", dict(method="greedy")),
     ]
-    hdr = f"{'method':38s} {'verts':>6s} {'tris':>6s} {'max m':>7s} {'rms m':>6s} {'build s':>8s} {'B/tri':>6s} {'LOS fid':>7s}"
+    hdr = (f"{'method':38s} {'verts':>6s} {'tris':>6s} {'max m':>7s} {'rms m':>6s} {'build s':>8s} "
+           f"{'B/tri':>6s} {'LOS fid':>7s}")
     print(hdr)
     print("-" * len(hdr))
     rms_at = {}
     for n in args.sizes:
         for name, kw in variants:
-            tin, dt = timed(lambda: build_tin(dem, max_vertices=n, **kw), 1)
+            tin, dt = timed(lambda n=n, kw=kw: build_tin(dem, max_vertices=n, **kw), 1)
             st, _ = vertical_error(tin, dem)
             fid = fidelity(tin, a, b, truth)
             rms_at[(name, n)] = st.rms_m
@@ -188,7 +189,8 @@ def main(args: Args):
 
     # -- query speed ---------------------------------------------------------------------
     tin = build_tin(dem, method="greedy", max_vertices=10_100)
-    print(f"queries on {tin!r}; bucket index {sum(v.nbytes for v in tin._bucket.values() if hasattr(v, 'nbytes')) / tin.n_triangles:.0f} B/tri")
+    bucket_bytes = sum(v.nbytes for v in tin._bucket.values() if hasattr(v, "nbytes"))
+    print(f"queries on {tin!r}; bucket index {bucket_bytes / tin.n_triangles:.0f} B/tri")
     n = args.queries
     x0, y0, x1, y1 = tin.bounds
     xy = rng.uniform([x0, y0], [x1, y1], (n, 2))

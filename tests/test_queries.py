@@ -5,10 +5,10 @@ import math
 
 import numpy as np
 import pytest
+from conftest import random_tin
 from hypothesis import given
 from hypothesis import strategies as st
 
-from conftest import random_tin
 from tin_swarm_env.terrain import Tin
 from tin_swarm_env.terrain import _kernels as K
 from tin_swarm_env.terrain.reference import (

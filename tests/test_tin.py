@@ -4,10 +4,10 @@ import math
 
 import numpy as np
 import pytest
+from conftest import random_tin
 from hypothesis import given
 from hypothesis import strategies as st
 
-from conftest import random_tin
 from tin_swarm_env.errors import TinStructureError
 from tin_swarm_env.terrain import Dem, Tin, build_tin
 

@@ -2,10 +2,10 @@
 
 import numpy as np
 import pytest
+from conftest import random_tin
 from hypothesis import given
 from hypothesis import strategies as st
 
-from conftest import random_tin
 from tin_swarm_env.errors import TinFormatError
 from tin_swarm_env.terrain import load_tin, save_tin
 

@@ -99,7 +99,7 @@ class Dem:
         ok = ~np.isnan(z)
         return np.column_stack([xy[ok], z[ok]])
 
-    def fill_nodata(self) -> "Dem":
+    def fill_nodata(self) -> Dem:
         """A copy with every NaN cell set to the elevation of its nearest valid cell."""
         from scipy import ndimage
 
@@ -111,7 +111,7 @@ class Dem:
         idx = ndimage.distance_transform_edt(nan, return_distances=False, return_indices=True)
         return Dem(self.z[tuple(idx)], self.x, self.y, self.source)
 
-    def crop(self, rows: slice, cols: slice) -> "Dem":
+    def crop(self, rows: slice, cols: slice) -> Dem:
         """A sub-grid (numpy slices over rows and columns)."""
         return Dem(self.z[rows, cols], self.x[cols], self.y[rows], self.source)
 

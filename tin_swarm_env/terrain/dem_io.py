@@ -71,7 +71,7 @@ def load_dem(path, *, geographic: bool | None = None) -> Dem | PointCloud:
 def _read_xyz(p: Path, geographic: bool) -> Dem | PointCloud:
     rows: list[tuple[float, float, float]] = []
     line_no: list[int] = []
-    with open(p, "r", encoding="utf-8", errors="replace") as fh:
+    with open(p, encoding="utf-8", errors="replace") as fh:
         for i, line in enumerate(fh, start=1):
             s = line.split("#", 1)[0].replace(",", " ").split()
             if not s:
@@ -159,7 +159,7 @@ _ASC_KEYS = {"ncols", "nrows", "xllcorner", "xllcenter", "yllcorner", "yllcenter
 
 def _read_asc(p: Path, geographic: bool) -> Dem:
     header: dict[str, float] = {}
-    with open(p, "r", encoding="utf-8", errors="replace") as fh:
+    with open(p, encoding="utf-8", errors="replace") as fh:
         text_lines = fh.readlines()
     if not any(t.strip() for t in text_lines):
         raise DemFormatError(f"{p}: empty DEM file")
@@ -255,7 +255,8 @@ def dem_from_arrays(d: dict, source: str, geographic: bool | None = None) -> Dem
     """Build a :class:`Dem` from a dict of arrays in the ``.npz`` layout of :func:`load_dem`."""
     zkey = next((k for k in ("elevation", "z", "topo") if k in d), None)
     if zkey is None:
-        raise DemFormatError(f"{source}: no elevation array (expected a key 'elevation', 'z' or 'topo'; found {sorted(d)})")
+        raise DemFormatError(
+            f"{source}: no elevation array (expected a key 'elevation', 'z' or 'topo'; found {sorted(d)})")
     z = np.asarray(d[zkey], dtype=np.float64)
     if z.ndim != 2:
         raise DemFormatError(f"{source}: '{zkey}' must be 2-D, got shape {z.shape}")

@@ -101,7 +101,7 @@ class Tin:
 
     # -- construction helpers -------------------------------------------------------------
     @classmethod
-    def from_points(cls, points, *, source: str = "<points>") -> "Tin":
+    def from_points(cls, points, *, source: str = "<points>") -> Tin:
         """Delaunay triangulation (in x, y) of scattered ``(n, 3)`` points."""
         from .triangulate import delaunay_triangles
 

@@ -70,7 +70,8 @@ def _load_npz(p: Path) -> Tin:
     try:
         with np.load(p, allow_pickle=False) as f:
             if "vertices" not in f.files or "triangles" not in f.files:
-                raise TinFormatError(f"{p}: not a TIN archive: needs arrays 'vertices' and 'triangles', found {f.files}")
+                raise TinFormatError(
+                    f"{p}: not a TIN archive: needs arrays 'vertices' and 'triangles', found {f.files}")
             v, t = f["vertices"], f["triangles"]
     except TinFormatError:
         raise
@@ -84,7 +85,7 @@ def _load_npz(p: Path) -> Tin:
 
 def _load_text(p: Path) -> Tin:
     rows = []
-    with open(p, "r", encoding="utf-8", errors="replace") as fh:
+    with open(p, encoding="utf-8", errors="replace") as fh:
         for i, line in enumerate(fh, start=1):
             s = line.split("#", 1)[0].replace(",", " ").split()
             if not s:

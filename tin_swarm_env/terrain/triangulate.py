@@ -34,7 +34,9 @@ def delaunay_triangles(points, *, source: str = "<points>") -> np.ndarray:
     try:
         d = Delaunay(xy, qhull_options="Qbb Qc Qz Q12")
     except QhullError as exc:
-        raise TinStructureError(f"{source}: cannot triangulate: all points collinear or degenerate ({str(exc).splitlines()[0]})") from None
+        first = str(exc).splitlines()[0]
+        raise TinStructureError(
+            f"{source}: cannot triangulate: all points collinear or degenerate ({first})") from None
     tri = d.simplices.astype(np.int64)
     a, b, c = xy[tri[:, 0]], xy[tri[:, 1]], xy[tri[:, 2]]
     cross = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
