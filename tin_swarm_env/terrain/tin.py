@@ -259,6 +259,11 @@ class Tin:
         pts, t = self._located(xy, hint, "height_at")
         return self._height_in(pts, t)
 
+    def height_in(self, xy, tri) -> np.ndarray:
+        """Heights ``(n,)`` at points whose triangles ``tri (n,)`` are already known (no
+        location step; the points are assumed to lie in those triangles' planes)."""
+        return self._height_in(np.asarray(xy, dtype=np.float64).reshape(-1, 2), np.asarray(tri))
+
     def _height_in(self, pts, t):
         a = self.triangles[t, 0]
         g = self._grad[t]
@@ -286,7 +291,12 @@ class Tin:
         positive when the downhill side is on the robot's left. 0 on flat triangles.
         """
         pts, t = self._located(xy, hint, "sensor_tilt")
-        h = np.broadcast_to(np.asarray(heading_rad, dtype=np.float64), (len(pts),))
+        return self.sensor_tilt_in(t, heading_rad)
+
+    def sensor_tilt_in(self, tri, heading_rad) -> np.ndarray:
+        """:meth:`sensor_tilt` for robots whose triangles ``tri (n,)`` are already known."""
+        t = np.asarray(tri)
+        h = np.broadcast_to(np.asarray(heading_rad, dtype=np.float64), t.shape)
         slope = np.radians(self.slope_deg[t])
         aspect = np.radians(np.maximum(self.aspect_deg[t], 0.0))
         heading_compass = np.pi / 2 - h
@@ -309,6 +319,15 @@ class Tin:
         if a.shape != b.shape:
             raise ValueError(f"a_xyz {a.shape} and b_xyz {b.shape} must have the same shape")
         ta = self.locate(a[:, :2], hint)
+        # an end point on a vertex or edge belongs to several triangles: start the walk in
+        # the one the segment enters (holding a point 1 um along it)
+        d = b[:, :2] - a[:, :2]
+        L = np.hypot(d[:, 0], d[:, 1])
+        mv = (L > 0) & (ta >= 0)
+        if mv.any():
+            ahead = a[mv, :2] + d[mv] * np.minimum(1e-6 / L[mv], 1e-3)[:, None]
+            t2 = self.locate(ahead, hint=ta[mv])
+            ta[np.flatnonzero(mv)[t2 >= 0]] = t2[t2 >= 0]
         ztol = self._tol[1]
         res = K.los_walk(self._vx, self._vy, self._vz, self.triangles, self.neighbors, self._grad,
                          a, b, ta, self.n_triangles + 3, ztol)

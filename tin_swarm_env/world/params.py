@@ -1,0 +1,130 @@
+"""Robot, sensor, battery and world parameters: frozen dataclasses, units in the names.
+
+The thesis's robot (4.3) is a sensor model + a locomotion model + a battery model + its
+location and containing triangle; the first three are these parameters, the last lives in
+:class:`~tin_swarm_env.world.state.WorldState`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+__all__ = ["RobotParams", "SensorParams", "BatteryParams", "WorldParams"]
+
+
+def _positive(obj, *names):
+    for n in names:
+        v = getattr(obj, n)
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise ValueError(f"{type(obj).__name__}.{n} must be a finite number > 0, got {v!r}")
+
+
+def _non_negative(obj, *names):
+    for n in names:
+        v = getattr(obj, n)
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+            raise ValueError(f"{type(obj).__name__}.{n} must be a finite number >= 0, got {v!r}")
+
+
+@dataclass(frozen=True)
+class RobotParams:
+    """Locomotion model.
+
+    radius_m          body radius; two robots closer than 2 radii have collided
+    max_speed_mps     speed for a command of norm 1 on level ground
+    turn_rate_dps     the heading turns toward the direction of motion at most this fast
+    max_slope_deg     steepest traversable triangle; steeper ones block a robot going up into
+                      them and make a robot going down into them fall (destroyed)
+    max_climb_deg     uphill pitch at which the speed drops to zero; speed scales by
+                      ``1 - pitch / max_climb_deg`` going uphill (downhill: no change)
+    """
+
+    radius_m: float = 0.5
+    max_speed_mps: float = 2.0
+    turn_rate_dps: float = 180.0
+    max_slope_deg: float = 30.0
+    max_climb_deg: float = 45.0
+
+    def __post_init__(self):
+        _positive(self, "radius_m", "max_speed_mps", "turn_rate_dps", "max_slope_deg", "max_climb_deg")
+        if self.max_slope_deg >= 90:
+            raise ValueError(f"RobotParams.max_slope_deg must be < 90, got {self.max_slope_deg}")
+        if self.max_climb_deg < self.max_slope_deg:
+            raise ValueError(f"RobotParams.max_climb_deg ({self.max_climb_deg}) must be >= max_slope_deg "
+                             f"({self.max_slope_deg}): a robot must be able to climb every traversable slope")
+
+
+@dataclass(frozen=True)
+class SensorParams:
+    """Sensor model.
+
+    range_m           sensing range (horizontal distance)
+    fov_deg           horizontal field of view centred on the heading (360 = all round)
+    height_m          sensor height above the ground; the sight line runs between sensors
+    check_los         whether the terrain can block sight (thesis Algorithm 7)
+    """
+
+    range_m: float = 60.0
+    fov_deg: float = 270.0
+    height_m: float = 0.5
+    check_los: bool = True
+
+    def __post_init__(self):
+        _positive(self, "range_m", "fov_deg")
+        _non_negative(self, "height_m")
+        if self.fov_deg > 360:
+            raise ValueError(f"SensorParams.fov_deg must be in (0, 360], got {self.fov_deg}")
+
+
+@dataclass(frozen=True)
+class BatteryParams:
+    """Battery model: energy drawn each step (J)::
+
+        idle_w * dt + sensing_w * dt + drive_j_per_m * distance + climb_j_per_m * max(dz, 0)
+
+    At zero the robot stops for good (status EMPTY). The step that empties the battery still
+    moves the robot; the charge is clipped at 0 and never increases.
+    """
+
+    capacity_j: float = 20_000.0
+    idle_w: float = 2.0
+    sensing_w: float = 3.0
+    drive_j_per_m: float = 20.0
+    climb_j_per_m: float = 200.0  # ~ 20 kg * 9.81 m/s^2
+
+    def __post_init__(self):
+        _positive(self, "capacity_j")
+        _non_negative(self, "idle_w", "sensing_w", "drive_j_per_m", "climb_j_per_m")
+
+
+@dataclass(frozen=True)
+class WorldParams:
+    """The world: robot models, time step, entity heights, the flat plane's size.
+
+    dt_s              simulated seconds per step
+    entity_height_m   height above ground of the point robots aim their sight at on a
+                      threat/target or asset
+    entity_speed_mps  speed of mobile threats/targets and assets (random walk)
+    entity_turn_sd_deg  standard deviation of a mobile entity's heading change per step
+    flat_size_m       (width, height) of the plane used when no TIN is given
+    break_angle_deg   planes meeting at more than this angle form a terrain break
+    """
+
+    robot: RobotParams = field(default_factory=RobotParams)
+    sensor: SensorParams = field(default_factory=SensorParams)
+    battery: BatteryParams = field(default_factory=BatteryParams)
+    dt_s: float = 0.5
+    entity_height_m: float = 1.0
+    entity_speed_mps: float = 0.5
+    entity_turn_sd_deg: float = 20.0
+    flat_size_m: tuple[float, float] = (500.0, 500.0)
+    break_angle_deg: float = 25.0
+
+    def __post_init__(self):
+        _positive(self, "dt_s")
+        _non_negative(self, "entity_height_m", "entity_speed_mps", "entity_turn_sd_deg")
+        if len(self.flat_size_m) != 2 or min(self.flat_size_m) <= 0:
+            raise ValueError(f"WorldParams.flat_size_m must be (width, height) > 0, got {self.flat_size_m}")
+        if not 0 <= self.break_angle_deg <= 180:
+            raise ValueError(f"WorldParams.break_angle_deg must be in [0, 180], got {self.break_angle_deg}")

@@ -1,0 +1,100 @@
+"""World state: every array ``step`` reads, and the random generator."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+__all__ = ["WorldState", "Entities", "ACTIVE", "FELL", "EMPTY", "STATUS_NAMES"]
+
+# robot status codes
+ACTIVE, FELL, EMPTY = 0, 1, 2
+STATUS_NAMES = {ACTIVE: "active", FELL: "fell", EMPTY: "battery"}
+
+
+@dataclass
+class Entities:
+    """Threats/targets or assets: points on the terrain, static or mobile.
+
+    positions   (m, 2) m
+    tri_idx     (m,)   containing triangle
+    headings    (m,)   rad, direction of travel of mobile ones
+    mobile      (m,)   bool
+    """
+
+    positions: np.ndarray
+    tri_idx: np.ndarray
+    headings: np.ndarray
+    mobile: np.ndarray
+
+    @classmethod
+    def empty(cls) -> Entities:
+        return cls(np.zeros((0, 2)), np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0, dtype=bool))
+
+    def __len__(self) -> int:
+        return len(self.positions)
+
+    def copy(self) -> Entities:
+        return Entities(*(getattr(self, f.name).copy() for f in fields(self)))
+
+
+@dataclass
+class WorldState:
+    """One world snapshot. Arrays over the ``n`` robots:
+
+    positions   (n, 2) m        x east, y north
+    headings    (n,)   rad      counter-clockwise from east
+    tri_idx     (n,)   int64    triangle under each robot
+    heights     (n,)   m        ground height under each robot
+    speeds      (n,)   m/s      speed achieved in the last step
+    battery_j   (n,)   J        charge left
+    status      (n,)   int8     ACTIVE, FELL or EMPTY
+    collisions  (n,)   int64    collisions counted so far (robots within 2 radii, per step)
+    targets, assets             :class:`Entities`
+    step        int             steps taken
+    rng         np.random.Generator, the only source of randomness below reset()
+    """
+
+    positions: np.ndarray
+    headings: np.ndarray
+    tri_idx: np.ndarray
+    heights: np.ndarray
+    speeds: np.ndarray
+    battery_j: np.ndarray
+    status: np.ndarray
+    collisions: np.ndarray
+    targets: Entities
+    assets: Entities
+    rng: np.random.Generator
+    step: int = 0
+
+    @property
+    def n_robots(self) -> int:
+        return len(self.positions)
+
+    @property
+    def active(self) -> np.ndarray:
+        return self.status == ACTIVE
+
+    @property
+    def present(self) -> np.ndarray:
+        """Robots physically on the terrain (active or out of battery; fallen ones are gone)."""
+        return self.status != FELL
+
+    def copy(self) -> WorldState:
+        """A deep copy (the generator too, so the copy's future draws equal the original's)."""
+        import copy
+
+        kw = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, np.ndarray):
+                kw[f.name] = v.copy()
+            elif isinstance(v, Entities):
+                kw[f.name] = v.copy()
+            elif f.name == "rng":
+                kw[f.name] = copy.deepcopy(v)
+            else:
+                kw[f.name] = v
+        return WorldState(**kw)

@@ -1,0 +1,154 @@
+"""The swarm world: static terrain context plus a batched, deterministic ``step``."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..terrain import Tin
+from . import locomotion
+from .battery import drain
+from .entities import make_entities, move_entities
+from .params import WorldParams
+from .sensing import BreakIndex, SensorReadings, sense
+from .state import ACTIVE, EMPTY, FELL, Entities, WorldState
+
+__all__ = ["World", "StepEvents", "flat_tin"]
+
+
+def flat_tin(width_m: float, height_m: float) -> Tin:
+    """The plane used when no terrain is given: two triangles at z = 0 over [0, w] x [0, h]."""
+    v = np.array([[0, 0, 0], [width_m, 0, 0], [width_m, height_m, 0], [0, height_m, 0]], dtype=float)
+    return Tin(v, [[0, 1, 2], [0, 2, 3]], source="flat plane")
+
+
+@dataclass
+class StepEvents:
+    """What happened in one step, per robot (n,) unless noted."""
+
+    moved_m: np.ndarray  # distance driven
+    climb_m: np.ndarray  # height gained (negative: lost)
+    energy_j: np.ndarray  # battery drawn
+    motion_event: np.ndarray  # locomotion.MOVED / BLOCKED_BORDER / BLOCKED_STEEP / FELL_INTO
+    fell: np.ndarray  # bool: fell this step
+    emptied: np.ndarray  # bool: battery ran out this step
+    collisions: np.ndarray  # robots within two radii of this one, this step
+    collision_pairs: np.ndarray  # (C, 2) int64
+
+
+class World:
+    """Robots on a TIN (or on a flat plane when ``tin`` is None, thesis 4.3).
+
+    Holds what does not change during an episode: the terrain, which triangles are too steep
+    (slope > ``params.robot.max_slope_deg``), the terrain breaks and their spatial index.
+    :meth:`reset` makes a :class:`~.state.WorldState`; :meth:`step` advances one; :meth:`sense`
+    tells what every robot senses. Same state, same commands -> the same next state, bit for
+    bit: every random draw comes from ``state.rng``.
+    """
+
+    def __init__(self, tin: Tin | None = None, params: WorldParams | None = None):
+        self.params = params or WorldParams()
+        self.flat = tin is None
+        self.tin = flat_tin(*self.params.flat_size_m) if tin is None else tin
+        self.steep = np.ascontiguousarray(self.tin.slope_deg > self.params.robot.max_slope_deg)
+        self.breaks = self.tin.breaks(max_slope_deg=self.params.robot.max_slope_deg,
+                                      break_angle_deg=self.params.break_angle_deg)
+        self.break_index = BreakIndex(self.breaks, piece_m=self.params.sensor.range_m)
+
+    # -- reset --------------------------------------------------------------------------
+    def reset(self, rng: np.random.Generator | int | None, robot_positions, headings=None, *,
+              targets=None, targets_mobile=False, assets=None, assets_mobile=False) -> WorldState:
+        """A new state. ``robot_positions (n, 2)``; ``headings (n,)`` rad (default: drawn
+        uniformly from ``rng``); ``targets``/``assets`` ``(m, 2)`` positions, ``*_mobile`` a bool
+        or ``(m,)`` bools. Raises ValueError naming the robot (or entity) that lies outside the
+        terrain or on a too-steep triangle, and for zero robots."""
+        rng = np.random.default_rng(rng) if not isinstance(rng, np.random.Generator) else rng
+        p = np.asarray(robot_positions, dtype=np.float64)
+        if p.ndim != 2 or p.shape[1] != 2:
+            raise ValueError(f"robot_positions must have shape (n, 2), got {p.shape}")
+        n = len(p)
+        if n == 0:
+            raise ValueError("a world needs at least one robot, got 0")
+        if not np.all(np.isfinite(p)):
+            i = int(np.flatnonzero(~np.all(np.isfinite(p), axis=1))[0])
+            raise ValueError(f"robot {i}: position {p[i].tolist()} is not finite")
+        tri = self.tin.locate(p)
+        if np.any(tri < 0):
+            i = int(np.flatnonzero(tri < 0)[0])
+            raise ValueError(f"robot {i} at {p[i].tolist()} lies outside the terrain (bounds {self.tin.bounds})")
+        if np.any(self.steep[tri]):
+            i = int(np.flatnonzero(self.steep[tri])[0])
+            raise ValueError(f"robot {i} at {p[i].tolist()} starts on a too-steep triangle "
+                             f"({self.tin.slope_deg[tri[i]]:.1f} deg > max_slope_deg "
+                             f"{self.params.robot.max_slope_deg})")
+        if headings is None:
+            h = rng.uniform(-math.pi, math.pi, n)
+        else:
+            h = np.broadcast_to(np.asarray(headings, dtype=np.float64), (n,)).copy()
+            if not np.all(np.isfinite(h)):
+                raise ValueError("headings must be finite")
+        tg = Entities.empty() if targets is None else make_entities(
+            self.tin, self.steep, targets, targets_mobile, rng, "target")
+        at = Entities.empty() if assets is None else make_entities(
+            self.tin, self.steep, assets, assets_mobile, rng, "asset")
+        return WorldState(positions=p.copy(), headings=h, tri_idx=tri, heights=self.tin.height_in(p, tri),
+                          speeds=np.zeros(n), battery_j=np.full(n, float(self.params.battery.capacity_j)),
+                          status=np.zeros(n, dtype=np.int8), collisions=np.zeros(n, dtype=np.int64),
+                          targets=tg, assets=at, rng=rng, step=0)
+
+    # -- step ---------------------------------------------------------------------------
+    def check_commands(self, state: WorldState, commands) -> np.ndarray:
+        c = np.asarray(commands, dtype=np.float64)
+        if c.shape != (state.n_robots, 2):
+            raise ValueError(f"commands must have shape ({state.n_robots}, 2), got {c.shape}")
+        bad = ~np.all(np.isfinite(c), axis=1)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"robot {i}: command {c[i].tolist()} is not finite (NaN or inf)")
+        return c
+
+    def step(self, state: WorldState, commands) -> tuple[WorldState, StepEvents]:
+        """Advance one step of ``params.dt_s``. ``commands (n, 2)``: body-frame velocity as
+        fractions of max speed (clipped; see :mod:`.locomotion`). NaN/inf commands raise a
+        ValueError naming the robot. Returns the new state (the old one is not modified) and
+        the step's events."""
+        c = self.check_commands(state, commands)
+        P = self.params
+        s = state.copy()
+        pos, tri, head, speeds, ev = locomotion.move(self.tin, self.steep, s.positions, s.tri_idx, s.headings,
+                                                     s.status, c, P.robot, P.dt_s)
+        heights = self.tin.height_in(pos, tri)
+        moved = np.hypot(*(pos - s.positions).T)
+        climb = heights - s.heights
+        new_batt = drain(s.battery_j, s.status, moved, climb, P.battery, P.dt_s)
+        energy = s.battery_j - new_batt
+        fell = ev == locomotion.FELL_INTO
+        status = s.status.copy()
+        status[fell] = FELL
+        emptied = (status == ACTIVE) & (new_batt <= 0.0)
+        status[emptied] = EMPTY
+        # collisions among robots still on the terrain
+        present = np.flatnonzero(status != FELL)
+        coll = np.zeros(s.n_robots, dtype=np.int64)
+        pairs = np.zeros((0, 2), dtype=np.int64)
+        if len(present) > 1:
+            pp = cKDTree(pos[present]).query_pairs(2 * P.robot.radius_m, output_type="ndarray")
+            pairs = present[pp] if len(pp) else pairs
+            d = np.hypot(*(pos[pairs[:, 0]] - pos[pairs[:, 1]]).T)
+            pairs = pairs[d < 2 * P.robot.radius_m]
+            coll = np.bincount(pairs.ravel(), minlength=s.n_robots).astype(np.int64)
+        turn_sd = math.radians(P.entity_turn_sd_deg)
+        targets = move_entities(self.tin, self.steep, s.targets, P.entity_speed_mps, turn_sd, P.dt_s, s.rng)
+        assets = move_entities(self.tin, self.steep, s.assets, P.entity_speed_mps, turn_sd, P.dt_s, s.rng)
+        new = WorldState(positions=pos, headings=head, tri_idx=tri, heights=heights, speeds=speeds,
+                         battery_j=new_batt, status=status, collisions=s.collisions + coll,
+                         targets=targets, assets=assets, rng=s.rng, step=s.step + 1)
+        return new, StepEvents(moved_m=moved, climb_m=climb, energy_j=energy, motion_event=ev, fell=fell,
+                               emptied=emptied, collisions=coll, collision_pairs=pairs)
+
+    def sense(self, state: WorldState) -> SensorReadings:
+        """What every robot senses (see :mod:`.sensing`)."""
+        return sense(self.tin, self.break_index, state, self.params)
