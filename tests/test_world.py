@@ -271,7 +271,7 @@ def reference_sense(w, s):
         if s.status[i] != ACTIVE:
             continue
 
-        def sees(xy, zt):
+        def sees(xy, zt, i=i):
             dx, dy = xy[0] - s.positions[i, 0], xy[1] - s.positions[i, 1]
             if math.hypot(dx, dy) > sp.range_m:
                 return False
