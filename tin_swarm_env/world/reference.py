@@ -1,0 +1,51 @@
+"""A slow, obvious per-robot reference for the batched sensing (tests and benches)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .state import ACTIVE, FELL
+
+__all__ = ["reference_sense"]
+
+
+def reference_sense(w, s):
+    """One robot at a time, every other robot / entity / break checked by hand. Returns the
+    sets of (observer, target) pairs for robots, targets, assets and breaks."""
+    sp, P = w.params.sensor, w.params
+    robots, targets, assets, breaks = set(), set(), set(), set()
+    fov = math.radians(sp.fov_deg) / 2 + 1e-12
+    z = s.heights + sp.height_m
+    for i in range(s.n_robots):
+        if s.status[i] != ACTIVE:
+            continue
+
+        def sees(xy, zt, i=i):
+            dx, dy = xy[0] - s.positions[i, 0], xy[1] - s.positions[i, 1]
+            if math.hypot(dx, dy) > sp.range_m:
+                return False
+            b = (math.atan2(dy, dx) - s.headings[i] + math.pi) % (2 * math.pi) - math.pi
+            if abs(b) > fov:
+                return False
+            if not sp.check_los:
+                return True
+            a = np.array([[s.positions[i, 0], s.positions[i, 1], z[i]]])
+            return bool(w.tin.line_of_sight(a, np.array([[xy[0], xy[1], zt]]))[0])
+
+        for j in range(s.n_robots):
+            if j != i and s.status[j] != FELL and sees(s.positions[j], z[j]):
+                robots.add((i, j))
+        for ents, out in ((s.targets, targets), (s.assets, assets)):
+            for j in range(len(ents)):
+                zt = w.tin.height_at(ents.positions[j])[0] + P.entity_height_m
+                if sees(ents.positions[j], zt):
+                    out.add((i, j))
+        for j, seg in enumerate(w.breaks.segments):
+            a, b = seg[0, :2], seg[1, :2]
+            ab = b - a
+            u = min(max(np.dot(s.positions[i] - a, ab) / np.dot(ab, ab), 0.0), 1.0)
+            if np.linalg.norm(s.positions[i] - (a + u * ab)) <= sp.range_m:
+                breaks.add((i, j))
+    return robots, targets, assets, breaks
