@@ -1,0 +1,182 @@
+"""Observations: one flat float32 vector per robot, egocentric, normalised, in [-1, 1].
+
+Body frame: x forward, y left; world vectors are rotated by minus the robot's heading.
+``R`` is the sensor range. Layout (``K_r``, ``K_t``, ``K_b`` slots; see :class:`ObsLayout`):
+
+===================  =====  ==================================================================
+slice                size   contents (range)
+===================  =====  ==================================================================
+own.battery          1      charge / capacity (0..1)
+own.speed            1      speed achieved last step / max speed (0..1)
+own.tilt             1      sensor tilt (thesis 3.1) / 90 deg (-1..1)
+own.slope            1      slope of the triangle underfoot / 90 deg (0..1)
+own.uphill           2      unit vector toward uphill, body frame; 0 on flat ground
+own.target_valid     1      1 when the task assigns this robot a target
+own.target_dir       2      unit vector toward the assigned target, body frame
+own.target_dist      1      d / (d + R), d the horizontal distance to it (0..1)
+own.target_dz        1      dz / (|dz| + 10 m), dz its height above the robot (-1..1)
+robots               4 K_r  per slot: valid, x / R, y / R, d / R of the K_r nearest visible robots
+targets              4 K_t  the same for the K_t nearest visible threats/targets
+breaks               7 K_b  per slot: valid, closest point x / R, y / R, unit normal toward the
+                            safe side (x, y), drop / (|drop| + 10 m), d / R, of the K_b nearest
+                            terrain breaks in range
+===================  =====  ==================================================================
+
+Empty slots are all zero. Robots no longer in ``agents`` get an all-zero vector.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["ObsLayout", "build_observations", "OWN_FIELDS"]
+
+OWN_FIELDS = (("battery", 1), ("speed", 1), ("tilt", 1), ("slope", 1), ("uphill", 2), ("target_valid", 1),
+              ("target_dir", 2), ("target_dist", 1), ("target_dz", 1))
+ROBOT_SLOT, TARGET_SLOT, BREAK_SLOT = 4, 4, 7
+DZ_SCALE_M = 10.0
+
+
+@dataclass(frozen=True)
+class ObsLayout:
+    """Named slices of the observation vector, for policies (APF or learned) to read.
+
+    ``layout.own["battery"]`` is a slice; ``layout.robots`` the slice of all robot slots, which
+    :meth:`slots` reshapes to ``(..., K, per_slot)``.
+    """
+
+    k_robots: int = 4
+    k_targets: int = 2
+    k_breaks: int = 3
+
+    @property
+    def own(self) -> dict[str, slice]:
+        out, i = {}, 0
+        for name, n in OWN_FIELDS:
+            out[name] = slice(i, i + n)
+            i += n
+        return out
+
+    @property
+    def own_size(self) -> int:
+        return sum(n for _, n in OWN_FIELDS)
+
+    @property
+    def robots(self) -> slice:
+        a = self.own_size
+        return slice(a, a + ROBOT_SLOT * self.k_robots)
+
+    @property
+    def targets(self) -> slice:
+        a = self.robots.stop
+        return slice(a, a + TARGET_SLOT * self.k_targets)
+
+    @property
+    def breaks(self) -> slice:
+        a = self.targets.stop
+        return slice(a, a + BREAK_SLOT * self.k_breaks)
+
+    @property
+    def size(self) -> int:
+        return self.breaks.stop
+
+    def slots(self, obs: np.ndarray, part: str) -> np.ndarray:
+        """``obs[..., part]`` reshaped to ``(..., K, per_slot)`` for part robots/targets/breaks."""
+        sl = getattr(self, part)
+        per = {"robots": ROBOT_SLOT, "targets": TARGET_SLOT, "breaks": BREAK_SLOT}[part]
+        return obs[..., sl].reshape(*obs.shape[:-1], -1, per)
+
+    def names(self) -> list[str]:
+        """One name per element, e.g. ``own.uphill[1]``, ``robots[2].x``."""
+        out = []
+        for name, n in OWN_FIELDS:
+            out += [f"own.{name}"] if n == 1 else [f"own.{name}[{j}]" for j in range(n)]
+        for part, k, fields in (("robots", self.k_robots, ("valid", "x", "y", "d")),
+                                ("targets", self.k_targets, ("valid", "x", "y", "d")),
+                                ("breaks", self.k_breaks, ("valid", "x", "y", "nx", "ny", "drop", "d"))):
+            out += [f"{part}[{i}].{f}" for i in range(k) for f in fields]
+        return out
+
+
+def _to_body(vx, vy, heading):
+    c, s = np.cos(heading), np.sin(heading)
+    return c * vx + s * vy, -s * vx + c * vy
+
+
+def build_observations(world, state, readings, target_idx, live, layout: ObsLayout) -> np.ndarray:
+    """``(n, layout.size)`` float32 observations for all robots (zeros where ``live`` is False)."""
+    P = world.params
+    R = P.sensor.range_m
+    n = state.n_robots
+    obs = np.zeros((n, layout.size), dtype=np.float64)
+    h = state.headings
+    own = layout.own
+    obs[:, own["battery"]] = (state.battery_j / P.battery.capacity_j)[:, None]
+    obs[:, own["speed"]] = np.clip(state.speeds / P.robot.max_speed_mps, 0, 1)[:, None]
+    obs[:, own["tilt"]] = (readings.tilt_rad / (np.pi / 2))[:, None]
+    obs[:, own["slope"]] = (readings.slope_deg / 90.0)[:, None]
+    g = world.tin.planes[state.tri_idx, :2]
+    gn = np.hypot(g[:, 0], g[:, 1])
+    ux, uy = _to_body(g[:, 0], g[:, 1], h)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # below 1e-6 (a micro-degree) the ground counts as level: no uphill direction
+        obs[:, own["uphill"]] = np.where(gn[:, None] > 1e-6, np.column_stack([ux, uy]) / gn[:, None], 0.0)
+    has = target_idx >= 0
+    if has.any() and len(state.targets):
+        t = target_idx[has]
+        tp = state.targets.positions[t]
+        d = tp - state.positions[has]
+        dist = np.hypot(d[:, 0], d[:, 1])
+        bx, by = _to_body(d[:, 0], d[:, 1], h[has])
+        safe = np.maximum(dist, 1e-12)
+        tz = world.tin.height_in(tp, state.targets.tri_idx[t])
+        dz = tz - state.heights[has]
+        rows = np.flatnonzero(has)
+        obs[rows, own["target_valid"].start] = 1.0
+        obs[rows, own["target_dir"].start] = np.where(dist > 0, bx / safe, 0.0)
+        obs[rows, own["target_dir"].start + 1] = np.where(dist > 0, by / safe, 0.0)
+        obs[rows, own["target_dist"].start] = dist / (dist + R)
+        obs[rows, own["target_dz"].start] = dz / (np.abs(dz) + DZ_SCALE_M)
+
+    # robot slots
+    if layout.k_robots:
+        idx, dist, _ = readings.robots.nearest(n, layout.k_robots)
+        ok = idx >= 0
+        j = np.where(ok, idx, 0)
+        d = state.positions[j] - state.positions[:, None, :]
+        bx, by = _to_body(d[..., 0], d[..., 1], h[:, None])
+        slot = np.stack([ok, bx / R, by / R, np.where(ok, dist, 0.0) / R], axis=-1) * ok[..., None]
+        obs[:, layout.robots] = slot.reshape(n, -1)
+    if layout.k_targets:
+        idx, dist, _ = readings.targets.nearest(n, layout.k_targets)
+        ok = idx >= 0
+        if len(state.targets):
+            j = np.where(ok, idx, 0)
+            d = state.targets.positions[j] - state.positions[:, None, :]
+        else:
+            d = np.zeros((n, layout.k_targets, 2))
+        bx, by = _to_body(d[..., 0], d[..., 1], h[:, None])
+        slot = np.stack([ok, bx / R, by / R, np.where(ok, dist, 0.0) / R], axis=-1) * ok[..., None]
+        obs[:, layout.targets] = slot.reshape(n, -1)
+    if layout.k_breaks:
+        bidx, dist, closest = readings.breaks.nearest(n, layout.k_breaks)
+        ok = bidx >= 0
+        j = np.where(ok, bidx, 0)
+        br = world.breaks
+        if len(br):
+            nrm = br.normals[j]
+            drop = br.drops_m[j]
+        else:
+            nrm = np.zeros((n, layout.k_breaks, 2))
+            drop = np.zeros((n, layout.k_breaks))
+        d = closest - state.positions[:, None, :]
+        px, py = _to_body(d[..., 0], d[..., 1], h[:, None])
+        nx, ny = _to_body(nrm[..., 0], nrm[..., 1], h[:, None])
+        slot = np.stack([ok, px / R, py / R, nx, ny, drop / (np.abs(drop) + DZ_SCALE_M),
+                         np.where(ok, dist, 0.0) / R], axis=-1) * ok[..., None]
+        obs[:, layout.breaks] = slot.reshape(n, -1)
+    obs[~live] = 0.0
+    np.clip(obs, -1.0, 1.0, out=obs)
+    return obs.astype(np.float32)

@@ -1,0 +1,300 @@
+"""The PettingZoo parallel environment ``tin_swarm_v0``."""
+
+from __future__ import annotations
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import EzPickle
+from pettingzoo import ParallelEnv
+
+from ..scenario import ScenarioConfig, assignments, build_world, initial_state, load_scenario
+from ..world import ACTIVE, World
+from .observation import ObsLayout, build_observations
+from .reward import REASONS, compute_rewards
+
+__all__ = ["TinSwarmEnv", "parallel_env", "raw_env", "env"]
+
+
+class TinSwarmEnv(ParallelEnv, EzPickle):
+    """A swarm of ground robots on real terrain stored as a Triangulated Irregular Network.
+
+    Robots drive over a TIN (a reduced real DEM, a procedural thesis scenario, or a flat
+    plane), sense each other, threats/targets and terrain breaks with a range-, field-of-view-
+    and line-of-sight-limited sensor, and must not drive down into too-steep triangles (cliffs
+    are fatal). The scenario (``scenario=``, a built-in name or a TOML path) fixes the terrain,
+    the robot, sensor and battery models, the targets, the task and the reward weights.
+
+    **Agents**: ``robot_0 … robot_{n-1}``; a robot leaves ``agents`` the step after it is
+    reported terminated or truncated.
+
+    **Observation** (identical ``Box(-1, 1, (d,), float32)`` for every robot; egocentric, body
+    frame x forward / y left, distances over the sensor range ``R``); named slices in
+    ``env.layout`` (:class:`~tin_swarm_env.env.observation.ObsLayout`):
+
+    ==================  =====  =================================================================
+    slice               size   contents
+    ==================  =====  =================================================================
+    own.battery         1      charge / capacity
+    own.speed           1      last step's speed / max speed
+    own.tilt            1      sensor tilt asin(sin(slope) sin(heading - aspect)) / 90 deg
+    own.slope           1      slope underfoot / 90 deg
+    own.uphill          2      unit vector toward uphill (0 on flat ground)
+    own.target_valid    1      1 when the task assigns a target
+    own.target_dir      2      unit vector toward the assigned target
+    own.target_dist     1      d / (d + R)
+    own.target_dz       1      dz / (|dz| + 10 m), the target's height above the robot
+    robots              4·K_r  valid, x/R, y/R, d/R of the K_r nearest visible robots
+    targets             4·K_t  the same for the nearest visible threats/targets
+    breaks              7·K_b  valid, closest point x/R, y/R, normal to safety (x, y),
+                               drop / (|drop| + 10 m), d/R of the nearest breaks in range
+    ==================  =====  =================================================================
+
+    Defaults K_r = 4, K_t = 2, K_b = 3 (d = 56). Empty slots and robots no longer in
+    ``agents`` read all zeros.
+
+    **Action**: ``Box(-1, 1, (2,), float32)``: commanded velocity in the body frame as a
+    fraction of max speed. Out-of-range values are clipped (then to norm 1); NaN/inf raise
+    ValueError naming the agent, and so does an unknown agent key; a live agent missing from
+    the action dict gets the zero action (it stands still).
+
+    **Rewards** (per robot; weights in the scenario's ``[rewards]``; defaults in brackets):
+    goal task: ``progress_per_m`` [1] per metre gained toward the assigned target,
+    ``arrival`` [10] on reaching it; containment: ``progress_per_m`` per metre gained toward
+    the standoff ring around the assigned threat and ``on_ring_per_step`` [0.1] while on it;
+    both: ``fall`` [-10], ``battery_empty`` [-5], ``collision`` [-1] per robot touched,
+    ``energy_per_kj`` [-1] per kJ drawn.
+
+    **Termination**: "arrived" (goal task, within ``arrival_radius_m``), "fell" (drove down
+    into a too-steep triangle), "battery" (charge ran out); the reason is in
+    ``infos[agent]["reason"]``. **Truncation**: every live robot when the step count reaches
+    ``max_cycles`` (read at step time, so it may be changed between steps).
+
+    **Arguments**
+
+    ==============  ==========================================================================
+    scenario        built-in name (``tin_swarm_env.scenario.list_scenarios()``), a TOML path, or
+                    a :class:`~tin_swarm_env.scenario.ScenarioConfig` ["cliff_goal"]
+    n_robots        overrides the scenario's robot count
+    max_cycles      overrides the scenario's episode length
+    render_mode     None, "human" (matplotlib window) or "rgb_array" (HxWx3 uint8)
+    sensor_cones    draw each robot's field of view when rendering [False]
+    render_width    width of rendered frames in pixels [640]
+    ==============  ==========================================================================
+
+    ``state()`` (for centralised critics): per robot x, y (scaled to the terrain's bounds), cos
+    and sin of the heading, battery fraction and an active flag; per target x, y.
+
+    **Batched path**: :meth:`reset_arrays` / :meth:`step_arrays` do the same on arrays over all
+    ``n`` robots (``obs (n, d)``, ``actions (n, 2)``), without per-agent dicts; the dict API is
+    a thin layer over them.
+
+    **Version history**: v0 (0.1.0): first release.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "name": "tin_swarm_v0", "is_parallelizable": True,
+                "render_fps": 10}
+
+    def __init__(self, scenario: str | ScenarioConfig = "cliff_goal", n_robots: int | None = None,
+                 max_cycles: int | None = None, render_mode: str | None = None, sensor_cones: bool = False,
+                 render_width: int = 640):
+        EzPickle.__init__(self, scenario=scenario, n_robots=n_robots, max_cycles=max_cycles,
+                          render_mode=render_mode, sensor_cones=sensor_cones, render_width=render_width)
+        cfg = scenario if isinstance(scenario, ScenarioConfig) else load_scenario(scenario)
+        if n_robots is not None:
+            if int(n_robots) != n_robots or n_robots < 1:
+                raise ValueError(f"n_robots must be a positive integer, got {n_robots!r}")
+            cfg = cfg.replace(robots=type(cfg.robots)(count=int(n_robots), spawn_region=cfg.robots.spawn_region,
+                                                      min_separation_m=cfg.robots.min_separation_m))
+        if max_cycles is not None:
+            if int(max_cycles) != max_cycles or max_cycles < 1:
+                raise ValueError(f"max_cycles must be a positive integer, got {max_cycles!r}")
+            cfg = cfg.replace(max_cycles=int(max_cycles))
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        self.config = cfg
+        self.max_cycles = cfg.max_cycles
+        self.render_mode = render_mode
+        self.world: World = build_world(cfg)
+        self.n = cfg.robots.count
+        self.possible_agents = [f"robot_{i}" for i in range(self.n)]
+        self.agent_name_mapping = {a: i for i, a in enumerate(self.possible_agents)}
+        self.layout = ObsLayout(cfg.observation.k_robots, cfg.observation.k_targets, cfg.observation.k_breaks)
+        self._obs_space = spaces.Box(-1.0, 1.0, (self.layout.size,), np.float32)
+        self._act_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        n_targets = len(cfg.targets.positions)
+        self.state_space = spaces.Box(-1.0, 1.0, (6 * self.n + 2 * n_targets,), np.float32)
+        self._sensor_cones = sensor_cones
+        self._render_width = render_width
+        self._viewer = None
+        self._np_random = None
+        self.agents: list[str] = []
+        self.wstate = None
+
+    # -- spaces ----------------------------------------------------------------------------
+    def observation_space(self, agent):
+        return self._obs_space
+
+    def action_space(self, agent):
+        return self._act_space
+
+    # -- batched path -----------------------------------------------------------------------
+    def reset_arrays(self, seed: int | None = None, options: dict | None = None) -> np.ndarray:
+        """Reset and return observations ``(n, d)`` float32 for all robots. ``options`` may
+        place the robots: ``{"robot_positions": (n, 2), "headings": (n,)}`` (radians, counter-
+        clockwise from east); otherwise they spawn at random in the scenario's spawn region."""
+        if seed is not None or self._np_random is None:
+            s = seed if seed is not None else self.config.seed
+            self._np_random = np.random.default_rng(s)
+        options = dict(options or {})
+        unknown = set(options) - {"robot_positions", "headings"}
+        if unknown:  # Gymnasium convention: options an env does not know are ignored (with a warning)
+            import warnings
+
+            warnings.warn(f"ignoring unknown reset option(s) {sorted(unknown)}; known: robot_positions, headings",
+                          stacklevel=3)
+        if "robot_positions" in options:
+            pos = np.asarray(options["robot_positions"], dtype=np.float64)
+            if pos.shape != (self.n, 2):
+                raise ValueError(f"options['robot_positions'] must have shape ({self.n}, 2), got {pos.shape}")
+            tg = np.asarray(self.config.targets.positions, dtype=float).reshape(-1, 2)
+            at = np.asarray(self.config.assets.positions, dtype=float).reshape(-1, 2)
+            self.wstate = self.world.reset(self._np_random, pos, options.get("headings"),
+                                           targets=tg if len(tg) else None, targets_mobile=self.config.targets.mobile,
+                                           assets=at if len(at) else None, assets_mobile=self.config.assets.mobile)
+        elif "headings" in options:
+            raise ValueError("options['headings'] needs options['robot_positions']")
+        else:
+            self.wstate = initial_state(self.world, self.config, self._np_random, self.n)
+        self.target_idx = assignments(self.n, len(self.wstate.targets))
+        self.live = np.ones(self.n, dtype=bool)
+        self.reasons = np.zeros(self.n, dtype=np.int8)
+        self.steps = 0
+        self.readings = self.world.sense(self.wstate)
+        return build_observations(self.world, self.wstate, self.readings, self.target_idx, self.live, self.layout)
+
+    def step_arrays(self, actions) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """One step for all robots: ``actions (n, 2)`` (rows of robots no longer live are
+        ignored). Returns ``obs (n, d)``, ``rewards (n,)``, ``terminated (n,)``, ``truncated (n,)``
+        and ``reasons (n,)`` (codes of :data:`~tin_swarm_env.env.reward.REASONS`, 0 none), all for
+        this step; robots already gone read zeros/False. Robots that end this step are not
+        live on the next."""
+        if self.wstate is None:
+            raise RuntimeError("call reset() before step()")
+        a = np.asarray(actions, dtype=np.float64)
+        if a.shape != (self.n, 2):
+            raise ValueError(f"actions must have shape ({self.n}, 2), got {a.shape}")
+        a = np.where(self.live[:, None], a, 0.0)
+        bad = ~np.all(np.isfinite(a), axis=1)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"action of {self.possible_agents[i]} is not finite: {a[i].tolist()}")
+        prev = self.wstate
+        new, events = self.world.step(prev, a)
+        live = self.live
+        rewards, terminated, reasons = compute_rewards(self.config, prev, new, events, self.target_idx, live)
+        self.steps += 1
+        truncated = live & ~terminated & (self.steps >= self.max_cycles)
+        self.wstate = new
+        self.readings = self.world.sense(new)
+        obs = build_observations(self.world, new, self.readings, self.target_idx, live, self.layout)
+        self.reasons = reasons
+        self.live = live & ~terminated & ~truncated
+        return obs, rewards, terminated, truncated, reasons
+
+    # -- dict API -----------------------------------------------------------------------------
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        obs = self.reset_arrays(seed, options)
+        self.agents = self.possible_agents[:]
+        infos = {a: {} for a in self.agents}
+        return {a: obs[i] for i, a in enumerate(self.possible_agents)}, infos
+
+    def step(self, actions: dict):
+        if self.wstate is None:
+            raise RuntimeError("call reset() before step()")
+        arr = np.zeros((self.n, 2))
+        for agent, act in actions.items():
+            i = self.agent_name_mapping.get(agent)
+            if i is None:
+                raise ValueError(f"unknown agent {agent!r} in actions; agents are robot_0..robot_{self.n - 1}")
+            if not self.live[i]:
+                continue  # acting for an agent that is done: ignored
+            v = np.asarray(act, dtype=np.float64).reshape(-1)
+            if v.shape != (2,):
+                raise ValueError(f"action of {agent} must have shape (2,), got {np.shape(act)}")
+            if not np.all(np.isfinite(v)):
+                raise ValueError(f"action of {agent} is not finite: {v.tolist()}")
+            arr[i] = v
+        live_before = np.flatnonzero(self.live)
+        obs, rew, term, trunc, reasons = self.step_arrays(arr)
+        names = self.possible_agents
+        observations = {names[i]: obs[i] for i in live_before}
+        rewards = {names[i]: float(rew[i]) for i in live_before}
+        terminations = {names[i]: bool(term[i]) for i in live_before}
+        truncations = {names[i]: bool(trunc[i]) for i in live_before}
+        infos = {}
+        for i in live_before:
+            info = {}
+            if term[i]:
+                info["reason"] = REASONS[int(reasons[i])]
+            elif trunc[i]:
+                info["reason"] = "max_cycles"
+            infos[names[i]] = info
+        self.agents = [names[i] for i in np.flatnonzero(self.live)]
+        if self.render_mode == "human":
+            self.render()
+        return observations, rewards, terminations, truncations, infos
+
+    # -- state, rendering -------------------------------------------------------------------
+    def state(self) -> np.ndarray:
+        s = self.wstate
+        if s is None:
+            raise RuntimeError("call reset() before state()")
+        x0, y0, x1, y1 = self.world.tin.bounds
+        span = np.array([x1 - x0, y1 - y0])
+        p = (s.positions - [x0, y0]) / span
+        robots = np.column_stack([p, np.cos(s.headings), np.sin(s.headings),
+                                  s.battery_j / self.config.world.battery.capacity_j, s.status == ACTIVE])
+        t = (s.targets.positions - [x0, y0]) / span if len(s.targets) else np.zeros((0, 2))
+        return np.clip(np.concatenate([robots.ravel(), t.ravel()]), -1, 1).astype(np.float32)
+
+    def render(self):
+        if self.render_mode is None:
+            import gymnasium
+
+            gymnasium.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        if self.wstate is None:
+            raise RuntimeError("call reset() before render()")
+        if self._viewer is None:
+            from .viewer import Viewer
+
+            self._viewer = Viewer(self.world, width_px=self._render_width, sensor_cones=self._sensor_cones)
+        img = self._viewer.frame(self.wstate)
+        if self.render_mode == "rgb_array":
+            return img
+        self._viewer.show(img)
+        return None
+
+    def close(self):
+        if self._viewer is not None:
+            self._viewer.close()
+            self._viewer = None
+
+
+def parallel_env(**kwargs) -> TinSwarmEnv:
+    """The parallel environment (see :class:`TinSwarmEnv` for the arguments)."""
+    return TinSwarmEnv(**kwargs)
+
+
+def raw_env(**kwargs):
+    """The AEC version, unwrapped (PettingZoo's ``parallel_to_aec_wrapper``)."""
+    from pettingzoo.utils.conversions import parallel_to_aec_wrapper
+
+    return parallel_to_aec_wrapper(parallel_env(**kwargs))
+
+
+def env(**kwargs):
+    """The AEC version with PettingZoo's order-enforcing checks (``parallel_to_aec``)."""
+    from pettingzoo.utils.conversions import parallel_to_aec
+
+    return parallel_to_aec(parallel_env(**kwargs))

@@ -1,0 +1,279 @@
+"""Scenario configuration: TOML files -> frozen dataclasses.
+
+Every key maps onto one dataclass field; an unknown key, a wrong type, or a missing required
+value raises :class:`ScenarioError` naming the file and the key (``[robots] cuont``).
+
+Layout of a scenario file (every table and key optional except ``terrain.source``)::
+
+    name = "cliff_goal"
+    task = "goal"                 # "goal" (reach an assigned target) or "containment"
+    max_cycles = 400
+    seed = 0
+
+    [terrain]
+    source = "procedural"         # "procedural" | "sample" | "dem" | "tin" | "flat"
+    recipe = "cliff_goal"         # procedural recipe name (see scenario/terrains.py)
+    path = ""                     # DEM/TIN file (relative to the scenario file) or sample name
+    method = "greedy"             # reduction for a DEM: "vip" | "greedy" | "delaunay"
+    max_vertices = 0              # 0: not set
+    max_error_m = 0.5
+    size_m = [500.0, 500.0]       # flat plane / procedural extent
+    params = {}                   # recipe parameters
+
+    [robots]
+    count = 20
+    spawn_region = [x0, y0, x1, y1]  # m; default: the whole terrain
+    min_separation_m = 2.0
+    # any RobotParams field: radius_m, max_speed_mps, turn_rate_dps, max_slope_deg, max_climb_deg
+
+    [sensor]     # SensorParams fields
+    [battery]    # BatteryParams fields
+    [world]      # dt_s, entity_height_m, entity_speed_mps, entity_turn_sd_deg, break_angle_deg
+
+    [targets]    # threats/targets
+    positions = [[x, y], ...]
+    mobile = false
+    standoff_m = 0.0              # containment: ring radius; goal: 0
+    arrival_radius_m = 5.0
+
+    [assets]
+    positions = [[x, y], ...]
+    mobile = false
+
+    [rewards]    # RewardWeights fields
+    [observation]  # k_robots, k_targets, k_breaks
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import tomllib
+
+from ..errors import TinSwarmError
+from ..world import BatteryParams, RobotParams, SensorParams, WorldParams
+
+__all__ = ["ScenarioError", "TerrainSpec", "RobotsSpec", "EntitiesSpec", "RewardWeights", "ObservationSpec",
+           "ScenarioConfig", "load_scenario", "scenario_from_dict", "SCENARIO_DIR", "list_scenarios"]
+
+SCENARIO_DIR = Path(__file__).with_name("builtin")
+
+
+class ScenarioError(TinSwarmError, ValueError):
+    """A scenario file or setting is wrong (names the file and the key)."""
+
+
+@dataclass(frozen=True)
+class TerrainSpec:
+    source: str = "flat"
+    recipe: str = ""
+    path: str = ""
+    method: str = "greedy"
+    max_vertices: int = 0
+    max_error_m: float = 0.5
+    size_m: tuple[float, float] = (500.0, 500.0)
+    params: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class RobotsSpec:
+    count: int = 10
+    spawn_region: tuple[float, float, float, float] | None = None
+    min_separation_m: float = 2.0
+
+
+@dataclass(frozen=True)
+class EntitiesSpec:
+    positions: tuple[tuple[float, float], ...] = ()
+    mobile: bool = False
+    standoff_m: float = 0.0
+    arrival_radius_m: float = 5.0
+
+
+@dataclass(frozen=True)
+class RewardWeights:
+    """Per-robot reward = progress_per_m * (metres gained toward the goal or standoff ring)
+    + arrival (once, goal task) + on_ring_per_step (containment, within ring_tolerance_m)
+    + fall (once) + battery_empty (once) + collision * (robots touched this step)
+    + energy_per_kj * (kJ drawn this step)."""
+
+    progress_per_m: float = 1.0
+    arrival: float = 10.0
+    on_ring_per_step: float = 0.1
+    ring_tolerance_m: float = 2.0
+    fall: float = -10.0
+    battery_empty: float = -5.0
+    collision: float = -1.0
+    energy_per_kj: float = -1.0
+
+
+@dataclass(frozen=True)
+class ObservationSpec:
+    k_robots: int = 4
+    k_targets: int = 2
+    k_breaks: int = 3
+
+
+@dataclass(frozen=True)
+class ScenarioConfig:
+    name: str = "custom"
+    task: str = "goal"
+    max_cycles: int = 400
+    seed: int | None = None
+    terrain: TerrainSpec = field(default_factory=TerrainSpec)
+    robots: RobotsSpec = field(default_factory=RobotsSpec)
+    world: WorldParams = field(default_factory=WorldParams)
+    targets: EntitiesSpec = field(default_factory=EntitiesSpec)
+    assets: EntitiesSpec = field(default_factory=EntitiesSpec)
+    rewards: RewardWeights = field(default_factory=RewardWeights)
+    observation: ObservationSpec = field(default_factory=ObservationSpec)
+    base_dir: str = "."  # where relative terrain paths are resolved
+
+    def __post_init__(self):
+        if self.task not in ("goal", "containment"):
+            raise ScenarioError(f"scenario {self.name!r}: task must be 'goal' or 'containment', got {self.task!r}")
+        if not (isinstance(self.max_cycles, int) and self.max_cycles > 0):
+            raise ScenarioError(f"scenario {self.name!r}: max_cycles must be a positive integer, got {self.max_cycles!r}")
+        if self.robots.count < 1:
+            raise ScenarioError(f"scenario {self.name!r}: robots.count must be >= 1, got {self.robots.count}")
+        if self.task == "goal" and len(self.targets.positions) == 0:
+            raise ScenarioError(f"scenario {self.name!r}: the goal task needs at least one target position")
+
+    def replace(self, **kw) -> ScenarioConfig:
+        return dataclasses.replace(self, **kw)
+
+
+# -- parsing ------------------------------------------------------------------------------------
+
+_ROBOT_KEYS = {f.name for f in dataclasses.fields(RobotParams)}
+_RSPEC_KEYS = {f.name for f in dataclasses.fields(RobotsSpec)}
+_WORLD_KEYS = {"dt_s", "entity_height_m", "entity_speed_mps", "entity_turn_sd_deg", "break_angle_deg"}
+_TOP_KEYS = {"name", "task", "max_cycles", "seed", "terrain", "robots", "sensor", "battery", "world", "targets",
+             "assets", "rewards", "observation", "description"}
+
+
+def _typed(where: str, key: str, value, ftype):
+    """Check ``value`` against a dataclass field type (the handful used here)."""
+    t = ftype if isinstance(ftype, str) else getattr(ftype, "__name__", str(ftype))
+    if t in ("float",):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ScenarioError(f"{where}: '{key}' must be a number, got {value!r}")
+        return float(value)
+    if t in ("int",):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ScenarioError(f"{where}: '{key}' must be an integer, got {value!r}")
+        return value
+    if t in ("bool",):
+        if not isinstance(value, bool):
+            raise ScenarioError(f"{where}: '{key}' must be true or false, got {value!r}")
+        return value
+    if t in ("str",):
+        if not isinstance(value, str):
+            raise ScenarioError(f"{where}: '{key}' must be a string, got {value!r}")
+        return value
+    if t.startswith("tuple[float, float, float, float]"):
+        return _floats(where, key, value, 4)
+    if t.startswith("tuple[float, float]"):
+        return _floats(where, key, value, 2)
+    if t.startswith("tuple[tuple[float, float]"):
+        if not isinstance(value, list):
+            raise ScenarioError(f"{where}: '{key}' must be a list of [x, y] pairs, got {value!r}")
+        return tuple(_floats(where, f"{key}[{i}]", v, 2) for i, v in enumerate(value))
+    if t.startswith("int | None"):
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int)):
+            raise ScenarioError(f"{where}: '{key}' must be an integer, got {value!r}")
+        return value
+    if t == "dict":
+        if not isinstance(value, dict):
+            raise ScenarioError(f"{where}: '{key}' must be a table, got {value!r}")
+        return dict(value)
+    return value  # pragma: no cover
+
+
+def _floats(where, key, value, n):
+    if not isinstance(value, (list, tuple)) or len(value) != n or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+        raise ScenarioError(f"{where}: '{key}' must be a list of {n} numbers, got {value!r}")
+    return tuple(float(v) for v in value)
+
+
+def _build(cls, table: dict, where: str, allowed: set | None = None, **extra):
+    if not isinstance(table, dict):
+        raise ScenarioError(f"{where}: must be a table, got {table!r}")
+    fields_ = {f.name: f for f in dataclasses.fields(cls)}
+    allowed = set(fields_) if allowed is None else allowed
+    kw = dict(extra)
+    for k, v in table.items():
+        if k not in allowed:
+            raise ScenarioError(f"{where}: unknown key '{k}' (known: {', '.join(sorted(allowed))})")
+        kw[k] = _typed(where, k, v, fields_[k].type)
+    try:
+        return cls(**kw)
+    except ScenarioError:
+        raise
+    except (TypeError, ValueError) as exc:
+        raise ScenarioError(f"{where}: {exc}") from None
+
+
+def scenario_from_dict(d: dict, source: str = "<dict>", base_dir: str = ".") -> ScenarioConfig:
+    """Build a :class:`ScenarioConfig` from a parsed TOML document (``source`` names it in errors)."""
+    for k in d:
+        if k not in _TOP_KEYS:
+            raise ScenarioError(f"{source}: unknown key '{k}' (known: {', '.join(sorted(_TOP_KEYS))})")
+    robots_t = dict(d.get("robots", {}))
+    robot_params = {k: robots_t.pop(k) for k in list(robots_t) if k in _ROBOT_KEYS}
+    robot = _build(RobotParams, robot_params, f"{source} [robots]")
+    rspec = _build(RobotsSpec, robots_t, f"{source} [robots]", allowed=_RSPEC_KEYS)
+    sensor = _build(SensorParams, d.get("sensor", {}), f"{source} [sensor]")
+    battery = _build(BatteryParams, d.get("battery", {}), f"{source} [battery]")
+    terrain = _build(TerrainSpec, d.get("terrain", {}), f"{source} [terrain]")
+    if terrain.source not in ("procedural", "sample", "dem", "tin", "flat"):
+        raise ScenarioError(f"{source} [terrain]: 'source' must be procedural, sample, dem, tin or flat, "
+                            f"got {terrain.source!r}")
+    world = _build(WorldParams, d.get("world", {}), f"{source} [world]", allowed=_WORLD_KEYS,
+                   robot=robot, sensor=sensor, battery=battery, flat_size_m=terrain.size_m)
+    targets = _build(EntitiesSpec, d.get("targets", {}), f"{source} [targets]")
+    assets = _build(EntitiesSpec, d.get("assets", {}), f"{source} [assets]", allowed={"positions", "mobile"})
+    rewards = _build(RewardWeights, d.get("rewards", {}), f"{source} [rewards]")
+    obs = _build(ObservationSpec, d.get("observation", {}), f"{source} [observation]")
+    top = {}
+    for k, t in (("name", "str"), ("task", "str"), ("max_cycles", "int"), ("seed", "int | None")):
+        if k in d:
+            top[k] = _typed(source, k, d[k], t)
+    try:
+        return ScenarioConfig(terrain=terrain, robots=rspec, world=world, targets=targets, assets=assets,
+                              rewards=rewards, observation=obs, base_dir=base_dir, **top)
+    except ScenarioError as exc:
+        raise ScenarioError(f"{source}: {exc}") from None
+
+
+def list_scenarios() -> dict[str, str]:
+    """Built-in scenario names -> their one-line description."""
+    out = {}
+    for p in sorted(SCENARIO_DIR.glob("*.toml")):
+        with open(p, "rb") as fh:
+            out[p.stem] = tomllib.load(fh).get("description", "")
+    return out
+
+
+def load_scenario(name_or_path) -> ScenarioConfig:
+    """A built-in scenario by name (``"cliff_goal"``) or a TOML file by path."""
+    s = os.fspath(name_or_path)
+    p = Path(s)
+    if not (s.endswith(".toml") or os.sep in s or p.exists()):
+        p = SCENARIO_DIR / f"{s}.toml"
+        if not p.exists():
+            raise ScenarioError(f"unknown scenario {s!r}; built-in: {', '.join(sorted(list_scenarios()))}, "
+                                "or give a path to a .toml file")
+    if not p.exists():
+        raise ScenarioError(f"{p}: no such scenario file")
+    try:
+        with open(p, "rb") as fh:
+            d = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{p}: not valid TOML ({exc})") from None
+    d.setdefault("name", p.stem)
+    return scenario_from_dict(d, source=str(p), base_dir=str(p.parent))

@@ -1,0 +1,94 @@
+"""Procedural terrains for the thesis's scenarios (DEM grids in metres).
+
+Each recipe takes keyword parameters (the scenario's ``[terrain] params``) and returns a
+:class:`~tin_swarm_env.terrain.Dem`; unknown parameters are an error naming the recipe.
+"""
+
+from __future__ import annotations
+
+import inspect
+
+import numpy as np
+
+from ..terrain import Dem
+
+__all__ = ["RECIPES", "make_dem"]
+
+
+def _grid(width, height, cell):
+    x = np.arange(0.0, width + 1e-9, cell)
+    y = np.arange(0.0, height + 1e-9, cell)
+    return x, y, *np.meshgrid(x, y)
+
+
+def ramp(width=300.0, height=200.0, cell=2.5, ramp_start_x=60.0, ramp_end_x=160.0, cliff_x=220.0,
+         band_y0=60.0, band_y1=140.0, plateau_m=15.0) -> Dem:
+    """Thesis figure 4.2: a ramp rising east to a plateau that ends in a cliff. The ramp and
+    plateau form a band between ``band_y0`` and ``band_y1`` with steep sides; the ground
+    around the band is level, so the low ground east of the cliff is reachable around it."""
+    x, y, X, Y = _grid(width, height, cell)
+    z = np.clip((X - ramp_start_x) / (ramp_end_x - ramp_start_x), 0, 1) * plateau_m
+    z[X > cliff_x] = 0.0
+    z[(Y < band_y0) | (Y > band_y1)] = 0.0
+    return Dem(z, x, y, source="procedural:ramp")
+
+
+def cliff_goal(width=400.0, height=300.0, cell=2.5, plateau_m=20.0, cliff_x=150.0, pass_y=220.0,
+               pass_len_m=100.0, hill_xy=(260.0, 120.0), hill_m=25.0, hill_sd_m=18.0) -> Dem:
+    """Thesis figure 1.1: robots start on a plateau (x < ``cliff_x``) whose east edge is a cliff
+    south of ``pass_y``; north of it the plateau descends gently (over ``pass_len_m``) to the low
+    ground where the goal lies, hidden behind a steep hill."""
+    x, y, X, Y = _grid(width, height, cell)
+    z = np.where(X <= cliff_x, plateau_m, 0.0)
+    north = Y >= pass_y
+    z[north] = plateau_m * np.clip(1 - (X[north] - cliff_x) / pass_len_m, 0, 1)
+    hx, hy = hill_xy
+    z += hill_m * np.exp(-((X - hx) ** 2 + (Y - hy) ** 2) / (2 * hill_sd_m ** 2))
+    return Dem(z, x, y, source="procedural:cliff_goal")
+
+
+def hills(width=400.0, height=400.0, cell=4.0, n_hills=9, height_m=30.0, sd_m=30.0, seed=3) -> Dem:
+    """Thesis figure 4.3: several hills and valleys (Gaussian bumps and dips from ``seed``) that
+    block line of sight; the steepest flanks are not traversable."""
+    x, y, X, Y = _grid(width, height, cell)
+    rng = np.random.default_rng(seed)
+    z = np.zeros_like(X)
+    for _ in range(n_hills):
+        cx, cy = rng.uniform(0.15, 0.85) * width, rng.uniform(0.15, 0.85) * height
+        amp = height_m * rng.choice([-0.5, 1.0]) * rng.uniform(0.5, 1.0)
+        sd = sd_m * rng.uniform(0.6, 1.2)
+        z += amp * np.exp(-((X - cx) ** 2 + (Y - cy) ** 2) / (2 * sd ** 2))
+    return Dem(z, x, y, source="procedural:hills")
+
+
+def rolling(width=300.0, height=300.0, cell=5.0, amplitude_m=4.0, wavelength_m=120.0) -> Dem:
+    """Gentle rolling ground (sine waves), all of it traversable."""
+    x, y, X, Y = _grid(width, height, cell)
+    k = 2 * np.pi / wavelength_m
+    z = amplitude_m * (np.sin(k * X) * np.cos(0.7 * k * Y) + 0.5 * np.sin(0.5 * k * (X + Y)))
+    return Dem(z, x, y, source="procedural:rolling")
+
+
+def ridge(width=200.0, height=100.0, cell=2.0, ridge_m=10.0, half_width_m=20.0) -> Dem:
+    """A straight north-south ridge of triangular profile across the middle of level ground."""
+    x, y, X, Y = _grid(width, height, cell)
+    z = ridge_m * np.clip(1 - np.abs(X - width / 2) / half_width_m, 0, 1)
+    return Dem(z, x, y, source="procedural:ridge")
+
+
+RECIPES = {"ramp": ramp, "cliff_goal": cliff_goal, "hills": hills, "rolling": rolling, "ridge": ridge}
+
+
+def make_dem(recipe: str, params: dict, where: str = "") -> Dem:
+    """Run a recipe with parameters; errors name the recipe and the parameter."""
+    from .config import ScenarioError
+
+    if recipe not in RECIPES:
+        raise ScenarioError(f"{where}: unknown terrain recipe {recipe!r}; known: {', '.join(sorted(RECIPES))}")
+    fn = RECIPES[recipe]
+    sig = inspect.signature(fn)
+    for k in params:
+        if k not in sig.parameters:
+            raise ScenarioError(f"{where}: recipe {recipe!r} has no parameter '{k}' "
+                                f"(known: {', '.join(sig.parameters)})")
+    return fn(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in params.items()})
