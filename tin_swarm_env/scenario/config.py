@@ -136,7 +136,8 @@ class ScenarioConfig:
         if self.task not in ("goal", "containment"):
             raise ScenarioError(f"scenario {self.name!r}: task must be 'goal' or 'containment', got {self.task!r}")
         if not (isinstance(self.max_cycles, int) and self.max_cycles > 0):
-            raise ScenarioError(f"scenario {self.name!r}: max_cycles must be a positive integer, got {self.max_cycles!r}")
+            raise ScenarioError(
+                f"scenario {self.name!r}: max_cycles must be a positive integer, got {self.max_cycles!r}")
         if self.robots.count < 1:
             raise ScenarioError(f"scenario {self.name!r}: robots.count must be >= 1, got {self.robots.count}")
         if self.task == "goal" and len(self.targets.positions) == 0:
