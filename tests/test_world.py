@@ -333,3 +333,17 @@ def test_locomotion_walk_matches_substepping(seed):
         if ev[i] == L.MOVED:
             np.testing.assert_allclose(p[i], pos[i] + disp[i])
         assert (not w.steep[t[i]]) or ev[i] == FELL_INTO
+
+
+@given(st.integers(0, 10_000), st.integers(1, 30), st.integers(1, 6))
+def test_nearest_k_kernel_equals_the_stable_sort_reference(seed, n, k):
+    from tin_swarm_env.world.sensing import _nearest_k, nearest_k, nearest_k_reference
+
+    rng = np.random.default_rng(seed)
+    p = int(rng.integers(0, 200))
+    obs = rng.integers(0, n, p)
+    key = rng.integers(0, 8, p).astype(float)  # many ties
+    got = nearest_k(obs, key, n, k)
+    np.testing.assert_array_equal(got, nearest_k_reference(obs, key, n, k))
+    if p:
+        np.testing.assert_array_equal(_nearest_k.py_func(obs, key, n, k), got)

@@ -30,8 +30,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
-__all__ = ["ObsLayout", "build_observations", "OWN_FIELDS"]
+__all__ = ["ObsLayout", "build_observations", "build_observations_reference", "OWN_FIELDS"]
 
 OWN_FIELDS = (("battery", 1), ("speed", 1), ("tilt", 1), ("slope", 1), ("uphill", 2), ("target_valid", 1),
               ("target_dir", 2), ("target_dist", 1), ("target_dz", 1))
@@ -105,8 +106,9 @@ def _to_body(vx, vy, heading):
     return c * vx + s * vy, -s * vx + c * vy
 
 
-def build_observations(world, state, readings, target_idx, live, layout: ObsLayout) -> np.ndarray:
-    """``(n, layout.size)`` float32 observations for all robots (zeros where ``live`` is False)."""
+def build_observations_reference(world, state, readings, target_idx, live, layout: ObsLayout) -> np.ndarray:
+    """Plain numpy version of :func:`build_observations` (the reference its kernel is tested
+    against)."""
     P = world.params
     R = P.sensor.range_m
     n = state.n_robots
@@ -180,3 +182,98 @@ def build_observations(world, state, readings, target_idx, live, layout: ObsLayo
     obs[~live] = 0.0
     np.clip(obs, -1.0, 1.0, out=obs)
     return obs.astype(np.float32)
+
+
+@njit(cache=True)
+def _fill(obs, pos, head, heights, speeds_n, battery_n, tilt_n, slope_n, grad, live,
+          target_idx, tpos, tz, r_idx, r_dist, t_idx, t_dist, b_idx, b_dist, b_closest, b_normals, b_drops,
+          R, dz_scale, o_rob, o_tgt, o_brk):
+    n = pos.shape[0]
+    for i in range(n):
+        if not live[i]:
+            continue
+        c = np.cos(head[i])
+        s = np.sin(head[i])
+        obs[i, 0] = battery_n[i]
+        obs[i, 1] = min(max(speeds_n[i], 0.0), 1.0)
+        obs[i, 2] = tilt_n[i]
+        obs[i, 3] = slope_n[i]
+        gx = grad[i, 0]
+        gy = grad[i, 1]
+        gn = np.sqrt(gx * gx + gy * gy)
+        if gn > 1e-6:
+            obs[i, 4] = (c * gx + s * gy) / gn
+            obs[i, 5] = (-s * gx + c * gy) / gn
+        t = target_idx[i]
+        if t >= 0 and tpos.shape[0] > 0:
+            dx = tpos[t, 0] - pos[i, 0]
+            dy = tpos[t, 1] - pos[i, 1]
+            d = np.sqrt(dx * dx + dy * dy)
+            obs[i, 6] = 1.0
+            if d > 0:
+                obs[i, 7] = (c * dx + s * dy) / d
+                obs[i, 8] = (-s * dx + c * dy) / d
+            obs[i, 9] = d / (d + R)
+            dz = tz[t] - heights[i]
+            obs[i, 10] = dz / (abs(dz) + dz_scale)
+        for k in range(r_idx.shape[1]):
+            j = r_idx[i, k]
+            if j < 0:
+                continue
+            dx = pos[j, 0] - pos[i, 0]
+            dy = pos[j, 1] - pos[i, 1]
+            b = o_rob + 4 * k
+            obs[i, b] = 1.0
+            obs[i, b + 1] = (c * dx + s * dy) / R
+            obs[i, b + 2] = (-s * dx + c * dy) / R
+            obs[i, b + 3] = r_dist[i, k] / R
+        for k in range(t_idx.shape[1]):
+            j = t_idx[i, k]
+            if j < 0:
+                continue
+            dx = tpos[j, 0] - pos[i, 0]
+            dy = tpos[j, 1] - pos[i, 1]
+            b = o_tgt + 4 * k
+            obs[i, b] = 1.0
+            obs[i, b + 1] = (c * dx + s * dy) / R
+            obs[i, b + 2] = (-s * dx + c * dy) / R
+            obs[i, b + 3] = t_dist[i, k] / R
+        for k in range(b_idx.shape[1]):
+            j = b_idx[i, k]
+            if j < 0:
+                continue
+            dx = b_closest[i, k, 0] - pos[i, 0]
+            dy = b_closest[i, k, 1] - pos[i, 1]
+            nx = b_normals[j, 0]
+            ny = b_normals[j, 1]
+            b = o_brk + 7 * k
+            obs[i, b] = 1.0
+            obs[i, b + 1] = (c * dx + s * dy) / R
+            obs[i, b + 2] = (-s * dx + c * dy) / R
+            obs[i, b + 3] = c * nx + s * ny
+            obs[i, b + 4] = -s * nx + c * ny
+            obs[i, b + 5] = b_drops[j] / (abs(b_drops[j]) + dz_scale)
+            obs[i, b + 6] = b_dist[i, k] / R
+        for m in range(obs.shape[1]):
+            obs[i, m] = min(max(obs[i, m], -1.0), 1.0)
+
+
+def build_observations(world, state, readings, target_idx, live, layout: ObsLayout) -> np.ndarray:
+    """``(n, layout.size)`` float32 observations for all robots (zeros where ``live`` is False);
+    one compiled pass over the robots (see :func:`build_observations_reference`)."""
+    P = world.params
+    n = state.n_robots
+    ri, rd, _ = readings.robots.nearest(n, layout.k_robots)
+    ti, td, _ = readings.targets.nearest(n, layout.k_targets)
+    bi, bd, bc = readings.breaks.nearest(n, layout.k_breaks)
+    tg = state.targets
+    tz = world.tin.height_in(tg.positions, tg.tri_idx) if len(tg) else np.zeros(0)
+    br = world.breaks
+    obs = np.zeros((n, layout.size), dtype=np.float32)
+    _fill(obs, state.positions, state.headings, state.heights, state.speeds / P.robot.max_speed_mps,
+          state.battery_j / P.battery.capacity_j, readings.tilt_rad / (np.pi / 2), readings.slope_deg / 90.0,
+          world.tin.planes[state.tri_idx, :2], live, target_idx, tg.positions.reshape(-1, 2), tz,
+          ri, rd, ti, td, bi, bd, np.ascontiguousarray(bc, dtype=np.float64),
+          br.normals.reshape(-1, 2), br.drops_m.reshape(-1), float(P.sensor.range_m), DZ_SCALE_M,
+          layout.robots.start, layout.targets.start, layout.breaks.start)
+    return obs

@@ -21,6 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from scipy.spatial import cKDTree
 
 from .state import ACTIVE, FELL
@@ -28,9 +29,37 @@ from .state import ACTIVE, FELL
 __all__ = ["Contacts", "BreakContacts", "SensorReadings", "BreakIndex", "sense", "nearest_k"]
 
 
+@njit(cache=True)
+def _nearest_k(observer, key, n, k):
+    out = np.full((n, k), -1, dtype=np.int64)
+    best = np.full((n, k), np.inf)
+    for p in range(observer.shape[0]):
+        i = observer[p]
+        v = key[p]
+        if v >= best[i, k - 1]:
+            continue  # not better than the k-th (ties keep the earlier row)
+        j = k - 1
+        while j > 0 and best[i, j - 1] > v:
+            best[i, j] = best[i, j - 1]
+            out[i, j] = out[i, j - 1]
+            j -= 1
+        best[i, j] = v
+        out[i, j] = p
+    return out
+
+
 def nearest_k(observer, key, n, k):
     """Row positions of the ``k`` smallest ``key`` per observer: ``(n, k)`` int64, -1 where
-    fewer exist. Ties keep the input order (stable)."""
+    fewer exist, nearest first. Ties keep the input order (stable). One pass with a sorted
+    k-buffer per observer (numba): O(pairs * k)."""
+    if len(observer) == 0 or k == 0:
+        return np.full((n, k), -1, dtype=np.int64)
+    return _nearest_k(np.ascontiguousarray(observer, dtype=np.int64),
+                      np.ascontiguousarray(key, dtype=np.float64), int(n), int(k))
+
+
+def nearest_k_reference(observer, key, n, k):
+    """:func:`nearest_k` by a stable sort (the plain reference)."""
     out = np.full((n, k), -1, dtype=np.int64)
     if len(observer) == 0 or k == 0:
         return out
