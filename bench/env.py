@@ -42,36 +42,34 @@ def rate(fn, steps):
     return (time.perf_counter() - t) / steps
 
 
+def measure(n, steps):
+    """Seconds per step: world step + sensing, the batched env path, the dict API."""
+    env = tse.parallel_env(scenario=config(n))
+    rng = np.random.default_rng(0)
+    acts = rng.uniform(-1, 1, (n, 2)).astype(np.float32)
+    env.reset_arrays(seed=0)
+    w = env.world
+    state = {"s": env.wstate}
+
+    def world_step():
+        s, _ = w.step(state["s"], acts)
+        w.sense(s)
+        state["s"] = s
+
+    dacts = {a: acts[i] for i, a in enumerate(env.possible_agents)}
+    t_world = rate(world_step, steps)
+    env.reset_arrays(seed=0)
+    t_batch = rate(lambda: env.step_arrays(acts), steps)
+    env.reset(seed=0)
+    t_dict = rate(lambda: env.step({a: dacts[a] for a in env.agents}), steps)
+    return t_world, t_batch, t_dict
+
+
 def main(steps: int):
     print("agent-steps per second (higher is better); the same terrain, density and actions for each path\n")
     print(f"{'robots':>7s} {'world step':>12s} {'batched env':>12s} {'dict API':>12s} {'batched/world':>14s}")
     for n in (100, 1000):
-        env = tse.parallel_env(scenario=config(n))
-        rng = np.random.default_rng(0)
-        acts = rng.uniform(-1, 1, (n, 2)).astype(np.float32)
-        env.reset_arrays(seed=0)
-        w, s0 = env.world, env.wstate
-
-        state = {"s": s0}
-
-        def world_step():
-            s, _ = w.step(state["s"], acts)
-            w.sense(s)
-            state["s"] = s
-
-        def batched():
-            env.step_arrays(acts)
-
-        dacts = {a: acts[i] for i, a in enumerate(env.possible_agents)}
-
-        def dict_api():
-            env.step({a: dacts[a] for a in env.agents})
-
-        t_world = rate(world_step, steps)
-        env.reset_arrays(seed=0)
-        t_batch = rate(batched, steps)
-        env.reset(seed=0)
-        t_dict = rate(dict_api, steps)
+        t_world, t_batch, t_dict = measure(n, steps)
         print(f"{n:7d} {n / t_world:12.3e} {n / t_batch:12.3e} {n / t_dict:12.3e} {t_world / t_batch:14.0%}")
 
     n = 500
