@@ -192,6 +192,7 @@ def test_break_slots_next_to_a_cliff_point_to_the_safe_side():
     np.testing.assert_allclose(world_pt[0], 5.0, atol=0.6)
     np.testing.assert_allclose(world_n, [-1.0, 0.0], atol=0.05)  # back onto the plateau
     assert b[k, 5] > 0.5  # the ground falls away (a 15 m drop -> 15 / 25)
+    assert b[k, 7] == 1.0  # a dangerous break (cliff edge)
 
 
 def ridge_env(ridge_m):

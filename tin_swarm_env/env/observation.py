@@ -17,9 +17,10 @@ own.target_dist      1      d / (d + R), d the horizontal distance to it (0..1)
 own.target_dz        1      dz / (|dz| + 10 m), dz its height above the robot (-1..1)
 robots               4 K_r  per slot: valid, x / R, y / R, d / R of the K_r nearest visible robots
 targets              4 K_t  the same for the K_t nearest visible threats/targets
-breaks               7 K_b  per slot: valid, closest point x / R, y / R, unit normal toward the
-                            safe side (x, y), drop / (|drop| + 10 m), d / R, of the K_b nearest
-                            terrain breaks in range
+breaks               8 K_b  per slot: valid, closest point x / R, y / R, unit normal toward the
+                            safe side (x, y), drop / (|drop| + 10 m), d / R, danger (1 for a
+                            cliff edge or the terrain's border, 0 for a bend between two
+                            traversable planes), of the K_b nearest terrain breaks in range
 ===================  =====  ==================================================================
 
 Empty slots are all zero. Robots no longer in ``agents`` get an all-zero vector.
@@ -32,11 +33,13 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from ..terrain import ANGLE
+
 __all__ = ["ObsLayout", "build_observations", "build_observations_reference", "OWN_FIELDS"]
 
 OWN_FIELDS = (("battery", 1), ("speed", 1), ("tilt", 1), ("slope", 1), ("uphill", 2), ("target_valid", 1),
               ("target_dir", 2), ("target_dist", 1), ("target_dz", 1))
-ROBOT_SLOT, TARGET_SLOT, BREAK_SLOT = 4, 4, 7
+ROBOT_SLOT, TARGET_SLOT, BREAK_SLOT = 4, 4, 8
 DZ_SCALE_M = 10.0
 
 
@@ -96,7 +99,7 @@ class ObsLayout:
             out += [f"own.{name}"] if n == 1 else [f"own.{name}[{j}]" for j in range(n)]
         for part, k, fields in (("robots", self.k_robots, ("valid", "x", "y", "d")),
                                 ("targets", self.k_targets, ("valid", "x", "y", "d")),
-                                ("breaks", self.k_breaks, ("valid", "x", "y", "nx", "ny", "drop", "d"))):
+                                ("breaks", self.k_breaks, ("valid", "x", "y", "nx", "ny", "drop", "d", "danger"))):
             out += [f"{part}[{i}].{f}" for i in range(k) for f in fields]
         return out
 
@@ -170,14 +173,16 @@ def build_observations_reference(world, state, readings, target_idx, live, layou
         if len(br):
             nrm = br.normals[j]
             drop = br.drops_m[j]
+            danger = (br.kinds[j] != ANGLE).astype(float)
         else:
             nrm = np.zeros((n, layout.k_breaks, 2))
             drop = np.zeros((n, layout.k_breaks))
+            danger = np.zeros((n, layout.k_breaks))
         d = closest - state.positions[:, None, :]
         px, py = _to_body(d[..., 0], d[..., 1], h[:, None])
         nx, ny = _to_body(nrm[..., 0], nrm[..., 1], h[:, None])
         slot = np.stack([ok, px / R, py / R, nx, ny, drop / (np.abs(drop) + DZ_SCALE_M),
-                         np.where(ok, dist, 0.0) / R], axis=-1) * ok[..., None]
+                         np.where(ok, dist, 0.0) / R, danger], axis=-1) * ok[..., None]
         obs[:, layout.breaks] = slot.reshape(n, -1)
     obs[~live] = 0.0
     np.clip(obs, -1.0, 1.0, out=obs)
@@ -187,7 +192,7 @@ def build_observations_reference(world, state, readings, target_idx, live, layou
 @njit(cache=True)
 def _fill(obs, pos, head, heights, speeds_n, battery_n, tilt_n, slope_n, grad, live,
           target_idx, tpos, tz, r_idx, r_dist, t_idx, t_dist, b_idx, b_dist, b_closest, b_normals, b_drops,
-          R, dz_scale, o_rob, o_tgt, o_brk):
+          b_danger, R, dz_scale, o_rob, o_tgt, o_brk):
     n = pos.shape[0]
     for i in range(n):
         if not live[i]:
@@ -246,7 +251,7 @@ def _fill(obs, pos, head, heights, speeds_n, battery_n, tilt_n, slope_n, grad, l
             dy = b_closest[i, k, 1] - pos[i, 1]
             nx = b_normals[j, 0]
             ny = b_normals[j, 1]
-            b = o_brk + 7 * k
+            b = o_brk + 8 * k
             obs[i, b] = 1.0
             obs[i, b + 1] = (c * dx + s * dy) / R
             obs[i, b + 2] = (-s * dx + c * dy) / R
@@ -254,6 +259,7 @@ def _fill(obs, pos, head, heights, speeds_n, battery_n, tilt_n, slope_n, grad, l
             obs[i, b + 4] = -s * nx + c * ny
             obs[i, b + 5] = b_drops[j] / (abs(b_drops[j]) + dz_scale)
             obs[i, b + 6] = b_dist[i, k] / R
+            obs[i, b + 7] = b_danger[j]
         for m in range(obs.shape[1]):
             obs[i, m] = min(max(obs[i, m], -1.0), 1.0)
 
@@ -274,6 +280,7 @@ def build_observations(world, state, readings, target_idx, live, layout: ObsLayo
           state.battery_j / P.battery.capacity_j, readings.tilt_rad / (np.pi / 2), readings.slope_deg / 90.0,
           world.tin.planes[state.tri_idx, :2], live, target_idx, tg.positions.reshape(-1, 2), tz,
           ri, rd, ti, td, bi, bd, np.ascontiguousarray(bc, dtype=np.float64),
-          br.normals.reshape(-1, 2), br.drops_m.reshape(-1), float(P.sensor.range_m), DZ_SCALE_M,
+          br.normals.reshape(-1, 2), br.drops_m.reshape(-1), (br.kinds != ANGLE).astype(np.float64),
+          float(P.sensor.range_m), DZ_SCALE_M,
           layout.robots.start, layout.targets.start, layout.breaks.start)
     return obs

@@ -45,11 +45,12 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     own.target_dz       1      dz / (|dz| + 10 m), the target's height above the robot
     robots              4·K_r  valid, x/R, y/R, d/R of the K_r nearest visible robots
     targets             4·K_t  the same for the nearest visible threats/targets
-    breaks              7·K_b  valid, closest point x/R, y/R, normal to safety (x, y),
-                               drop / (|drop| + 10 m), d/R of the nearest breaks in range
+    breaks              8·K_b  valid, closest point x/R, y/R, normal to safety (x, y),
+                               drop / (|drop| + 10 m), d/R, danger (cliff edge or border: 1;
+                               a bend between traversable planes: 0) of the nearest breaks
     ==================  =====  =================================================================
 
-    Defaults K_r = 4, K_t = 2, K_b = 3 (d = 56). Empty slots and robots no longer in
+    Defaults K_r = 4, K_t = 2, K_b = 3 (d = 59). Empty slots and robots no longer in
     ``agents`` read all zeros.
 
     **Action**: ``Box(-1, 1, (2,), float32)``: commanded velocity in the body frame as a
