@@ -10,7 +10,7 @@ from pettingzoo import ParallelEnv
 from ..scenario import ScenarioConfig, assignments, build_world, initial_state, load_scenario
 from ..world import ACTIVE, World
 from .observation import ObsLayout, build_observations
-from .reward import REASONS, compute_rewards
+from .reward import ARRIVED, REASONS, compute_rewards
 
 __all__ = ["TinSwarmEnv", "parallel_env", "raw_env", "env"]
 
@@ -65,7 +65,8 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     both: ``fall`` [-10], ``battery_empty`` [-5], ``collision`` [-1] per robot touched,
     ``energy_per_kj`` [-1] per kJ drawn.
 
-    **Termination**: "arrived" (goal task, within ``arrival_radius_m``), "fell" (drove down
+    **Termination**: "arrived" (goal task, within ``arrival_radius_m``; the robot then leaves
+    the terrain: it is no longer seen and does not block the robots behind it), "fell" (drove down
     into a too-steep triangle), "battery" (charge ran out); the reason is in
     ``infos[agent]["reason"]``. **Truncation**: every live robot when the step count reaches
     ``max_cycles`` (read at step time, so it may be changed between steps).
@@ -195,6 +196,9 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         rewards, terminated, reasons = compute_rewards(self.config, prev, new, events, self.target_idx, live)
         self.steps += 1
         truncated = live & ~terminated & (self.steps >= self.max_cycles)
+        arrived = reasons == ARRIVED
+        if arrived.any():
+            new = self.world.retire(new, arrived)  # arrived robots leave the terrain
         self.wstate = new
         self.readings = self.world.sense(new)
         obs = build_observations(self.world, new, self.readings, self.target_idx, live, self.layout)

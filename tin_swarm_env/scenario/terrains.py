@@ -21,15 +21,17 @@ def _grid(width, height, cell):
     return x, y, *np.meshgrid(x, y)
 
 
-def ramp(width=300.0, height=200.0, cell=2.5, ramp_start_x=60.0, ramp_end_x=160.0, cliff_x=220.0,
-         band_y0=60.0, band_y1=140.0, plateau_m=15.0) -> Dem:
-    """Thesis figure 4.2: a ramp rising east to a plateau that ends in a cliff. The ramp and
-    plateau form a band between ``band_y0`` and ``band_y1`` with steep sides; the ground
-    around the band is level, so the low ground east of the cliff is reachable around it."""
+def ramp(width=300.0, height=240.0, cell=2.5, ramp_start_x=60.0, ramp_end_x=160.0, cliff_x=220.0,
+         band_y0=80.0, band_y1=160.0, side_m=45.0, plateau_m=15.0) -> Dem:
+    """Thesis figure 4.2: a ramp rising east to a plateau that ends in a cliff at ``cliff_x``.
+    Ramp and plateau form a band between ``band_y0`` and ``band_y1`` whose sides slope gently
+    down to the level ground over ``side_m``; the low ground east of the cliff is reachable
+    around the band's ends, where the cliff runs out."""
     x, y, X, Y = _grid(width, height, cell)
     z = np.clip((X - ramp_start_x) / (ramp_end_x - ramp_start_x), 0, 1) * plateau_m
+    outside = np.maximum(band_y0 - Y, Y - band_y1).clip(min=0)
+    z = z * np.clip(1 - outside / side_m, 0, 1)
     z[X > cliff_x] = 0.0
-    z[(Y < band_y0) | (Y > band_y1)] = 0.0
     return Dem(z, x, y, source="procedural:ramp")
 
 

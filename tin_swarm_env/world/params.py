@@ -87,7 +87,7 @@ class BatteryParams:
     moves the robot; the charge is clipped at 0 and never increases.
     """
 
-    capacity_j: float = 20_000.0
+    capacity_j: float = 50_000.0
     idle_w: float = 2.0
     sensing_w: float = 3.0
     drive_j_per_m: float = 20.0

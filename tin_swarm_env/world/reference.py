@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from .state import ACTIVE, FELL
+from .state import ACTIVE, EMPTY
 
 __all__ = ["reference_sense"]
 
@@ -35,7 +35,7 @@ def reference_sense(w, s):
             return bool(w.tin.line_of_sight(a, np.array([[xy[0], xy[1], zt]]))[0])
 
         for j in range(s.n_robots):
-            if j != i and s.status[j] != FELL and sees(s.positions[j], z[j]):
+            if j != i and s.status[j] in (ACTIVE, EMPTY) and sees(s.positions[j], z[j]):
                 robots.add((i, j))
         for ents, out in ((s.targets, targets), (s.assets, assets)):
             for j in range(len(ents)):

@@ -2,7 +2,8 @@
 
 A robot *sees* another robot, a threat/target or an asset when all of these hold:
 
-* it is ACTIVE (robots out of battery sense nothing; fallen robots are gone and are not seen);
+* it is ACTIVE (robots out of battery sense nothing but are still seen; fallen robots and
+  robots the task took off the terrain (DONE) are gone and are not seen);
 * the horizontal distance is at most ``range_m``;
 * the bearing relative to its heading lies within ``±fov_deg / 2``;
 * with ``check_los``, the sight line from its sensor (ground + ``height_m``) to the other's
@@ -24,7 +25,7 @@ import numpy as np
 from numba import njit
 from scipy.spatial import cKDTree
 
-from .state import ACTIVE, FELL
+from .state import ACTIVE, EMPTY
 
 __all__ = ["Contacts", "BreakContacts", "SensorReadings", "BreakIndex", "sense", "nearest_k"]
 
@@ -201,7 +202,7 @@ def sense(tin, break_index: BreakIndex, state, params) -> SensorReadings:
     r = sp.range_m
     pos, head, status = state.positions, state.headings, state.status
     n = len(pos)
-    present = np.flatnonzero(status != FELL)
+    present = np.flatnonzero((status == ACTIVE) | (status == EMPTY))
     active = status == ACTIVE
     sensor_z = state.heights + sp.height_m
 

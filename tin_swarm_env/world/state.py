@@ -6,11 +6,12 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-__all__ = ["WorldState", "Entities", "ACTIVE", "FELL", "EMPTY", "STATUS_NAMES"]
+__all__ = ["WorldState", "Entities", "ACTIVE", "FELL", "EMPTY", "DONE", "STATUS_NAMES"]
 
-# robot status codes
-ACTIVE, FELL, EMPTY = 0, 1, 2
-STATUS_NAMES = {ACTIVE: "active", FELL: "fell", EMPTY: "battery"}
+# robot status codes. DONE: taken off the terrain by the task (e.g. arrived at its goal);
+# like a fallen robot it no longer moves, senses, is seen or collides.
+ACTIVE, FELL, EMPTY, DONE = 0, 1, 2, 3
+STATUS_NAMES = {ACTIVE: "active", FELL: "fell", EMPTY: "battery", DONE: "done"}
 
 
 @dataclass
@@ -49,7 +50,7 @@ class WorldState:
     heights     (n,)   m        ground height under each robot
     speeds      (n,)   m/s      speed achieved in the last step
     battery_j   (n,)   J        charge left
-    status      (n,)   int8     ACTIVE, FELL or EMPTY
+    status      (n,)   int8     ACTIVE, FELL, EMPTY or DONE
     collisions  (n,)   int64    collisions counted so far (robots within 2 radii, per step)
     targets, assets             :class:`Entities`
     step        int             steps taken
@@ -79,8 +80,8 @@ class WorldState:
 
     @property
     def present(self) -> np.ndarray:
-        """Robots physically on the terrain (active or out of battery; fallen ones are gone)."""
-        return self.status != FELL
+        """Robots physically on the terrain (active or out of battery; fallen and done ones are gone)."""
+        return (self.status == ACTIVE) | (self.status == EMPTY)
 
     def copy(self) -> WorldState:
         """A deep copy (the generator too, so the copy's future draws equal the original's)."""

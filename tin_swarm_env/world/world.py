@@ -14,7 +14,7 @@ from .battery import drain
 from .entities import make_entities, move_entities
 from .params import WorldParams
 from .sensing import BreakIndex, SensorReadings, sense
-from .state import ACTIVE, EMPTY, FELL, Entities, WorldState
+from .state import ACTIVE, DONE, EMPTY, FELL, Entities, WorldState
 
 __all__ = ["World", "StepEvents", "flat_tin"]
 
@@ -131,7 +131,7 @@ class World:
         emptied = (status == ACTIVE) & (new_batt <= 0.0)
         status[emptied] = EMPTY
         # collisions among robots still on the terrain
-        present = np.flatnonzero(status != FELL)
+        present = np.flatnonzero((status == ACTIVE) | (status == EMPTY))
         coll = np.zeros(s.n_robots, dtype=np.int64)
         pairs = np.zeros((0, 2), dtype=np.int64)
         if len(present) > 1:
@@ -148,6 +148,15 @@ class World:
                          targets=targets, assets=assets, rng=s.rng, step=s.step + 1)
         return new, StepEvents(moved_m=moved, climb_m=climb, energy_j=energy, motion_event=ev, fell=fell,
                                emptied=emptied, collisions=coll, collision_pairs=pairs)
+
+    def retire(self, state: WorldState, mask) -> WorldState:
+        """A copy of ``state`` with the robots in ``mask`` taken off the terrain (status DONE):
+        the task is over for them (e.g. they arrived); they no longer move, sense, are seen or
+        collide. Fallen robots stay FELL."""
+        s = state.copy()
+        m = np.asarray(mask, dtype=bool) & (s.status != FELL)
+        s.status[m] = DONE
+        return s
 
     def sense(self, state: WorldState) -> SensorReadings:
         """What every robot senses (see :mod:`.sensing`)."""

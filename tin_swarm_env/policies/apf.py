@@ -1,0 +1,122 @@
+"""Artificial Potential Field policy: acts from the observation alone, for all robots at once.
+
+The observation (see :class:`~tin_swarm_env.env.observation.ObsLayout`) is egocentric, so the
+four fields of :mod:`tin_swarm_env.world.fields` are evaluated in the body frame and their sum is
+the commanded body-frame velocity, full speed once the force reaches ``speed_saturation``:
+``action = F / max(|F|, speed_saturation)``.
+What the policy takes from the environment is static: the observation layout, the sensor range
+and the task's standoff distance, never the world state.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..world.fields import (
+    FIELDS,
+    HEIGHT_SCALE_M,
+    FieldParams,
+    break_field,
+    height_field,
+    robot_field,
+    slide_field,
+    target_field,
+)
+
+__all__ = ["APFPolicy", "RandomPolicy", "apf_forces"]
+
+
+def _unwrap(env):
+    e = env
+    for _ in range(10):
+        if hasattr(e, "layout") and hasattr(e, "config"):
+            return e
+        e = getattr(e, "env", None) or getattr(e, "unwrapped", None)
+        if e is None:
+            break
+    raise TypeError("the policy needs a tin_swarm_env environment (or a wrapper of one)")
+
+
+def apf_forces(obs, layout, range_m, standoff_m, params: FieldParams):
+    """Per-field body-frame forces for observations ``obs (n, d)``: a dict name -> ``(n, 2)``
+    (``robot``, ``target``, ``break``, ``slide``, ``height``; fields switched off are zeros)."""
+    obs = np.asarray(obs, dtype=np.float64)
+    n = obs.shape[0]
+    own = layout.own
+    R = range_m
+    zero = np.zeros((n, 2))
+    out = {k: zero for k in ("robot", "target", "break", "slide", "height")}
+    has_t = obs[:, own["target_valid"]][:, 0] > 0.5
+    v = np.clip(obs[:, own["target_dist"]][:, 0], 0.0, 1 - 1e-9)
+    dist = v * R / (1 - v)
+    rel_t = obs[:, own["target_dir"]] * dist[:, None]
+    if params.on("target"):
+        f, _ = target_field(rel_t, standoff_m, params.target_gain, params.target_range_m)
+        out["target"] = np.where(has_t[:, None], f, 0.0)
+    if params.on("height"):
+        vz = np.clip(obs[:, own["target_dz"]][:, 0], -1 + 1e-9, 1 - 1e-9)
+        dz = HEIGHT_SCALE_M * vz / (1 - np.abs(vz))
+        slope = np.radians(obs[:, own["slope"]][:, 0] * 90.0)
+        grad_z = np.tan(slope)[:, None] * obs[:, own["uphill"]]
+        f, _ = height_field(grad_z, dz, params.height_gain)
+        out["height"] = np.where(has_t[:, None], f, 0.0)
+    if params.on("robot") and layout.k_robots:
+        s = layout.slots(obs, "robots")
+        out["robot"], _ = robot_field(s[..., 1:3] * R, s[..., 0], params.robot_gain, params.robot_range_m)
+    if params.on("break") and layout.k_breaks:
+        s = layout.slots(obs, "breaks")
+        rel, nrm, danger = s[..., 1:3] * R, s[..., 3:5], s[..., 0] * s[..., 7]
+        out["break"], _ = break_field(rel, nrm, danger, params.break_gain, params.break_range_m,
+                                      params.break_decay_m)
+        pull = out["target"] + out["height"]
+        out["slide"] = slide_field(pull, rel, nrm, danger, params.break_range_m, params.slide_decay_m,
+                                   params.slide_full_m)
+    return out
+
+
+class APFPolicy:
+    """The thesis's potential-field controller as a policy: ``act(obs_dict) -> action_dict``
+    and ``act_batch(obs (n, d)) -> actions (n, 2)``.
+
+    ``fields``: any subset of ``("robot", "target", "break", "height")``; ``params``: gains and
+    ranges (:class:`~tin_swarm_env.world.fields.FieldParams`), ``fields`` overriding its own.
+    """
+
+    def __init__(self, env, fields=FIELDS, params: FieldParams | None = None):
+        base = _unwrap(env)
+        p = params or FieldParams()
+        self.params = FieldParams(**{**p.__dict__, "fields": tuple(fields)})
+        self.layout = base.layout
+        cfg = base.config
+        self.range_m = cfg.world.sensor.range_m
+        self.standoff_m = cfg.targets.standoff_m if cfg.task == "containment" else 0.0
+
+    def forces(self, obs):
+        return apf_forces(obs, self.layout, self.range_m, self.standoff_m, self.params)
+
+    def act_batch(self, obs) -> np.ndarray:
+        f = sum(self.forces(obs).values())
+        mag = np.sqrt(np.sum(f * f, axis=-1, keepdims=True))
+        return (f / np.maximum(mag, self.params.speed_saturation)).astype(np.float32)
+
+    def act(self, obs: dict) -> dict:
+        if not obs:
+            return {}
+        keys = list(obs)
+        a = self.act_batch(np.stack([obs[k] for k in keys]))
+        return {k: a[i] for i, k in enumerate(keys)}
+
+
+class RandomPolicy:
+    """Uniform random body-frame velocities (its own generator, seeded)."""
+
+    def __init__(self, env=None, seed: int | None = None):
+        self.rng = np.random.default_rng(seed)
+
+    def act_batch(self, obs) -> np.ndarray:
+        return self.rng.uniform(-1, 1, (len(obs), 2)).astype(np.float32)
+
+    def act(self, obs: dict) -> dict:
+        keys = list(obs)
+        a = self.act_batch(keys)
+        return {k: a[i] for i, k in enumerate(keys)}

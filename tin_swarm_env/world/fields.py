@@ -1,0 +1,144 @@
+"""The thesis's four artificial potential fields (3.3), as batched pure math.
+
+The thesis gives shapes, not formulas; these are ours. Every field is a force ``-grad U`` of a
+potential ``U`` (returned too, for plots and for the finite-difference tests), evaluated on
+relative vectors so that one implementation serves the egocentric policy (body frame) and
+world-frame grids (plots).
+
+=========  ==========================================================================================
+field      potential U and force F = -grad U (``p`` the robot, ``d`` a distance)
+=========  ==========================================================================================
+robot      purely repulsive, quadratic, stronger the closer: for ``d < range``,
+           ``U = gain * range / 3 * (1 - d/range)^3``, ``|F| = gain * (1 - d/range)^2`` away from the
+           other robot; 0 beyond ``range``.
+target     attraction that turns repulsive inside ``standoff`` (0 for a goal): with ``e = d - standoff``,
+           ``U = gain * e^2 / (2 range)`` for ``|e| <= range`` and linear beyond (a Huber potential), so
+           ``|F| = gain * clip(e / range, -1, 1)`` toward the target (away from it when ``e < 0``).
+break      purely repulsive, perpendicular to the break segment, strong at its core and dying quickly:
+           ``U = gain * decay * exp(-d / decay)`` for ``d < range`` (``d`` to the segment), ``F`` along
+           the segment's normal toward the safe side, ``|F| = gain * exp(-d / decay)``. Only dangerous
+           breaks (cliff edges, the border) push, and only from their safe side.
+height     pulls along the local slope toward the target's height: ``U = gain * f(z - z_t)`` with
+           ``f(x) = |x| - s ln(1 + |x|/s)`` (``s`` = 10 m), so ``F = gain * dz/(|dz| + s) * grad z``,
+           ``dz = z_t - z``: uphill when the target is higher, downhill when lower, 0 on level ground.
+=========  ==========================================================================================
+
+Not a potential: the break field's *slide* term (:func:`slide_field`). Near a dangerous break
+that the attraction points into, the attraction is turned along the break, always to the left
+(``t = (n_y, -n_x)``, the break on the robot's right), the more the closer. Pure potential fields
+stop at the edge of a cliff that lies between a robot and its goal (a local minimum: with the
+break field off the thesis's "poor ending" is a fall, with it on a robot would stand at the edge
+for ever); the slide turns the minimum into wall-following, which gets around the cliff.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["FIELDS", "FieldParams", "robot_field", "target_field", "break_field", "height_field", "slide_field",
+           "HEIGHT_SCALE_M"]
+
+FIELDS = ("robot", "target", "break", "height")
+HEIGHT_SCALE_M = 10.0
+
+
+@dataclass(frozen=True)
+class FieldParams:
+    """Gains and ranges of the four fields, and which are on."""
+
+    robot_gain: float = 1.0
+    robot_range_m: float = 4.0
+    target_gain: float = 1.0
+    target_range_m: float = 10.0
+    break_gain: float = 4.0
+    break_range_m: float = 15.0
+    break_decay_m: float = 2.5
+    slide_full_m: float = 8.0
+    slide_decay_m: float = 10.0
+    speed_saturation: float = 0.3
+    height_gain: float = 0.5
+    fields: tuple[str, ...] = FIELDS
+
+    def __post_init__(self):
+        unknown = set(self.fields) - set(FIELDS)
+        if unknown:
+            raise ValueError(f"unknown field(s) {sorted(unknown)}; the fields are {', '.join(FIELDS)}")
+        for k in ("robot_range_m", "target_range_m", "break_range_m", "break_decay_m", "slide_decay_m"):
+            if not getattr(self, k) > 0:
+                raise ValueError(f"FieldParams.{k} must be > 0, got {getattr(self, k)}")
+
+    def on(self, name: str) -> bool:
+        return name in self.fields
+
+
+def _norm(v):
+    return np.sqrt(np.sum(v * v, axis=-1))
+
+
+def _facing(rel, normal, valid):
+    """Breaks whose safe side the robot is on (the normal points from the break toward it);
+    a break seen from its unsafe side lies behind another one and does not push."""
+    return valid.astype(bool) & (np.sum(rel * normal, axis=-1) <= 1e-9)
+
+
+def robot_field(rel, valid, gain, range_m):
+    """Sum over slots of the robot-robot field. ``rel (..., K, 2)``: vectors from the robot to
+    the others; ``valid (..., K)``. Returns ``(force (..., 2), potential (...))``."""
+    d = _norm(rel)
+    inside = valid.astype(bool) & (d < range_m) & (d > 0)
+    w = np.where(inside, 1 - d / range_m, 0.0)
+    unit = rel / np.where(d > 0, d, 1.0)[..., None]
+    force = -(gain * w * w)[..., None] * unit
+    pot = gain * range_m / 3 * w ** 3
+    return force.sum(axis=-2), pot.sum(axis=-1)
+
+
+def target_field(rel, standoff_m, gain, range_m):
+    """``rel (..., 2)`` from the robot to its target. Returns ``(force (..., 2), potential (...))``."""
+    d = _norm(rel)
+    e = d - standoff_m
+    a = np.abs(e)
+    pot = np.where(a <= range_m, gain * e * e / (2 * range_m), gain * (a - range_m / 2))
+    mag = gain * np.clip(e / range_m, -1.0, 1.0)
+    unit = rel / np.where(d > 0, d, 1.0)[..., None]
+    return mag[..., None] * unit * (d > 0)[..., None], pot
+
+
+def break_field(rel, normal, valid, gain, range_m, decay_m):
+    """Sum over slots of the break field. ``rel (..., K, 2)``: from the robot to the closest
+    point of each break; ``normal (..., K, 2)``: unit normal toward the safe side; ``valid``
+    selects dangerous breaks. Returns ``(force (..., 2), potential (...))``."""
+    d = _norm(rel)
+    inside = _facing(rel, normal, valid) & (d < range_m)
+    mag = np.where(inside, gain * np.exp(-d / decay_m), 0.0)
+    pot = np.where(inside, gain * decay_m * (np.exp(-d / decay_m) - np.exp(-range_m / decay_m)), 0.0)
+    return (mag[..., None] * normal).sum(axis=-2), pot.sum(axis=-1)
+
+
+def slide_field(pull, rel, normal, valid, range_m, decay_m, full_m=0.0):
+    """The break field's slide term (not a potential). ``pull (..., 2)``: the attraction (target
+    and height fields). Near a dangerous break that the pull points into, the pull is turned
+    along the break: with ``s = exp(-max(d - full, 0) / decay)`` for the nearest such break and ``t`` its
+    tangent with the break on the robot's right, the term is ``s * (|pull| t - pull)``, so the
+    pull becomes ``(1 - s) pull + s |pull| t``. Returns ``force (..., 2)``."""
+    d = _norm(rel)
+    into = np.sum(pull[..., None, :] * normal, axis=-1) < 0
+    ok = _facing(rel, normal, valid) & (d < range_m) & into
+    s = np.where(ok, np.exp(-np.maximum(d - full_m, 0.0) / decay_m), 0.0)
+    k = np.argmax(s, axis=-1)
+    s_max = np.take_along_axis(s, k[..., None], axis=-1)[..., 0]
+    n_k = np.take_along_axis(normal, k[..., None, None], axis=-2)[..., 0, :]
+    tangent = np.stack([n_k[..., 1], -n_k[..., 0]], axis=-1)
+    mag = _norm(pull)
+    return s_max[..., None] * (mag[..., None] * tangent - pull)
+
+
+def height_field(grad_z, dz, gain, scale_m=HEIGHT_SCALE_M):
+    """``grad_z (..., 2)``: the terrain gradient under the robot (tan(slope) times the uphill
+    unit vector); ``dz (...)``: the target's height above the robot. Returns
+    ``(force (..., 2), potential (...))`` with the potential ``gain * f(-dz)``."""
+    x = np.abs(dz)
+    pot = gain * (x - scale_m * np.log1p(x / scale_m))
+    return (gain * dz / (x + scale_m))[..., None] * grad_z, pot
