@@ -1,11 +1,17 @@
 """The ``tin-swarm`` command line.
 
+    tin-swarm run SCENARIO [--robots N] [--policy apf|random|PATH] [--episodes K] [--seed S]
+                  [--gif OUT.gif] [--fields robot,target,break,height] [--summary OUT.md]
+    tin-swarm scenarios
     tin-swarm build-tin DEM -o OUT.tin [--method vip|greedy|delaunay] [--max-vertices N]
                         [--max-error-m E] [--min-significance-m S] [--png OUT.png]
 
-``DEM`` is a file :func:`~tin_swarm_env.terrain.load_dem` reads, or ``sample:jacksboro`` /
-``sample:topobathy``. Prints vertices, triangles, the max and RMS vertical error against every
-DEM cell, and the build time.
+``run`` runs a swarm on a scenario (a built-in name or a TOML path) with the APF baseline (or
+random actions, or a saved SB3 model), shows progress, prints a table per episode and writes a
+GIF (or, for a ``.png`` path, the last frame) of the first episode. ``build-tin``: ``DEM`` is a
+file :func:`~tin_swarm_env.terrain.load_dem` reads, or ``sample:jacksboro`` /
+``sample:topobathy``; it prints vertices, triangles, the max and RMS vertical error against
+every DEM cell, and the build time.
 """
 
 from __future__ import annotations
@@ -84,9 +90,63 @@ def _plot_tin(tin, path):
     plt.close(fig)
 
 
+def _cmd_run(args) -> int:
+    from .run import format_table, run_episodes, save_gif
+    from .world.fields import FIELDS
+
+    fields = None
+    if args.fields is not None:
+        fields = tuple(f for f in args.fields.split(",") if f)
+        bad = set(fields) - set(FIELDS)
+        if bad:
+            raise ValueError(f"--fields: unknown field(s) {sorted(bad)}; choose from {','.join(FIELDS)}")
+    if args.episodes < 1:
+        raise ValueError("--episodes must be >= 1")
+    every = max(1, args.frame_every) if args.gif else 0
+    stats, frames = run_episodes(args.scenario, policy=args.policy, robots=args.robots, episodes=args.episodes,
+                                 seed=args.seed, fields=fields, frames_every=every, max_cycles=args.max_cycles,
+                                 progress=not args.quiet)
+    table = format_table(stats)
+    print(f"scenario {args.scenario}, policy {args.policy}" + (f", fields {','.join(fields)}" if fields else ""))
+    print(table)
+    if args.summary:
+        from ._atomic import atomic_path
+
+        with atomic_path(args.summary) as tmp, open(tmp, "w") as fh:
+            fh.write(f"# tin-swarm run {args.scenario} ({args.policy})\n\n{table}\n")
+        print(f"wrote {args.summary}")
+    if args.gif:
+        save_gif(frames, args.gif)
+        print(f"wrote {args.gif} ({len(frames)} frames)")
+    return 0
+
+
+def _cmd_scenarios(args) -> int:
+    from .scenario import list_scenarios
+
+    for name, desc in list_scenarios().items():
+        print(f"{name:12s} {desc}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="tin-swarm", description="Robot swarms on TIN terrain.")
     sub = p.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="run a swarm on a scenario and report each episode")
+    r.add_argument("scenario", help="built-in scenario name (tin-swarm scenarios) or a .toml path")
+    r.add_argument("--robots", type=int, default=None, help="number of robots (default: the scenario's)")
+    r.add_argument("--policy", default="apf", help="apf, random, or a saved SB3 model .zip")
+    r.add_argument("--episodes", type=int, default=1)
+    r.add_argument("--seed", type=int, default=0)
+    r.add_argument("--fields", default=None, help="APF fields to use, e.g. robot,target,height (default: all)")
+    r.add_argument("--gif", default=None, help="write the first episode as a GIF (or its last frame as .png)")
+    r.add_argument("--frame-every", type=int, default=5, help="steps between GIF frames")
+    r.add_argument("--max-cycles", type=int, default=None)
+    r.add_argument("--summary", default=None, help="also write the table to this Markdown file")
+    r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.set_defaults(func=_cmd_run)
+    s = sub.add_parser("scenarios", help="list the built-in scenarios")
+    s.set_defaults(func=_cmd_scenarios)
     b = sub.add_parser("build-tin", help="reduce a DEM to a TIN and write it (.tin or .npz)")
     b.add_argument("dem", help="DEM file (.xyz/.txt/.asc/.npy/.npz/.tif) or sample:jacksboro")
     b.add_argument("-o", "--output", required=True, help="output .tin (thesis text) or .npz")

@@ -80,16 +80,26 @@ class APFPolicy:
 
     ``fields``: any subset of ``("robot", "target", "break", "height")``; ``params``: gains and
     ranges (:class:`~tin_swarm_env.world.fields.FieldParams`), ``fields`` overriding its own.
+    Without ``params``, the containment task widens the robot field's range to 1.1 times the
+    arc between robots evenly spread on the standoff ring (from the scenario's robot and threat
+    counts), so that robots spread around each threat instead of bunching where they arrive.
     """
 
     def __init__(self, env, fields=FIELDS, params: FieldParams | None = None):
         base = _unwrap(env)
-        p = params or FieldParams()
-        self.params = FieldParams(**{**p.__dict__, "fields": tuple(fields)})
-        self.layout = base.layout
         cfg = base.config
         self.range_m = cfg.world.sensor.range_m
         self.standoff_m = cfg.targets.standoff_m if cfg.task == "containment" else 0.0
+        if params is None:
+            params = FieldParams()
+            n_threats = len(cfg.targets.positions)
+            if cfg.task == "containment" and n_threats and self.standoff_m > 0:
+                # spread around the ring: robots repel out to the arc spacing of an even ring
+                per_ring = -(-cfg.robots.count // n_threats)
+                spacing = 2 * np.pi * self.standoff_m / max(per_ring, 1)
+                params = FieldParams(robot_range_m=max(params.robot_range_m, 1.1 * spacing))
+        self.params = FieldParams(**{**params.__dict__, "fields": tuple(fields)})
+        self.layout = base.layout
 
     def forces(self, obs):
         return apf_forces(obs, self.layout, self.range_m, self.standoff_m, self.params)

@@ -56,7 +56,7 @@ def build_tin_for(cfg: ScenarioConfig):
     t = cfg.terrain
     key = json.dumps({"source": t.source, "recipe": t.recipe, "path": t.path, "method": t.method,
                       "max_vertices": t.max_vertices, "max_error_m": t.max_error_m, "params": t.params,
-                      "_where": cfg.name, "_base": str(Path(cfg.base_dir).resolve())}, sort_keys=True)
+                      "_where": cfg.source, "_base": str(Path(cfg.base_dir).resolve())}, sort_keys=True)
     return _cached_tin(key)
 
 
@@ -74,10 +74,10 @@ def _check_entities(world: World, cfg: ScenarioConfig):
         tri = world.tin.locate(p)
         for i in range(len(p)):  # a handful of entities, checked once per scenario
             if tri[i] < 0:
-                raise ScenarioError(f"{cfg.name} [{what}] positions[{i}] = {p[i].tolist()} lies outside the "
+                raise ScenarioError(f"{cfg.source} [{what}] positions[{i}] = {p[i].tolist()} lies outside the "
                                     f"terrain (bounds {tuple(round(b, 1) for b in world.tin.bounds)})")
             if world.steep[tri[i]]:
-                raise ScenarioError(f"{cfg.name} [{what}] positions[{i}] = {p[i].tolist()} lies inside a "
+                raise ScenarioError(f"{cfg.source} [{what}] positions[{i}] = {p[i].tolist()} lies inside a "
                                     f"too-steep (cliff) triangle ({world.tin.slope_deg[tri[i]]:.0f} deg)")
 
 

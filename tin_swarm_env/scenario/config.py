@@ -131,6 +131,7 @@ class ScenarioConfig:
     rewards: RewardWeights = field(default_factory=RewardWeights)
     observation: ObservationSpec = field(default_factory=ObservationSpec)
     base_dir: str = "."  # where relative terrain paths are resolved
+    source: str = "<dict>"  # the file it came from, for messages
 
     def __post_init__(self):
         if self.task not in ("goal", "containment"):
@@ -246,7 +247,7 @@ def scenario_from_dict(d: dict, source: str = "<dict>", base_dir: str = ".") -> 
             top[k] = _typed(source, k, d[k], t)
     try:
         return ScenarioConfig(terrain=terrain, robots=rspec, world=world, targets=targets, assets=assets,
-                              rewards=rewards, observation=obs, base_dir=base_dir, **top)
+                              rewards=rewards, observation=obs, base_dir=base_dir, source=source, **top)
     except ScenarioError as exc:
         raise ScenarioError(f"{source}: {exc}") from None
 

@@ -15,11 +15,11 @@ renamed over the target, so a failed write never leaves a partial file.
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from .._atomic import atomic_path
 from ..errors import TinFormatError, TinStructureError
 from .tin import Tin
 
@@ -34,25 +34,14 @@ def save_tin(tin: Tin, path) -> Path:
     suffix = p.suffix.lower()
     if suffix not in (".tin", ".npz", ".txt"):
         raise ValueError(f"{p}: unknown TIN suffix {suffix!r}; expected .tin (thesis text) or .npz")
-    if not p.parent.exists():
-        raise FileNotFoundError(f"{p.parent}: directory does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".part", dir=p.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            if suffix == ".npz":
-                np.savez(fh, vertices=tin.vertices, triangles=tin.triangles, format=np.array(NPZ_FORMAT))
-            else:
-                rows = tin.vertices[tin.triangles].reshape(-1, 9)
-                np.savetxt(fh, rows, fmt="%.17g")
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, p)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+    with atomic_path(p) as tmp, open(tmp, "wb") as fh:
+        if suffix == ".npz":
+            np.savez(fh, vertices=tin.vertices, triangles=tin.triangles, format=np.array(NPZ_FORMAT))
+        else:
+            rows = tin.vertices[tin.triangles].reshape(-1, 9)
+            np.savetxt(fh, rows, fmt="%.17g")
+        fh.flush()
+        os.fsync(fh.fileno())
     return p
 
 
