@@ -37,3 +37,47 @@ def test_console_script_runs_on_the_sample(tmp_path):
     assert r.returncode == 0, r.stderr
     assert "triangles" in r.stdout
     assert load_tin(tmp_path / "j.npz").n_vertices == 2000
+
+
+def test_scenarios_lists_the_builtins(capsys):
+    assert main(["scenarios"]) == 0
+    out = capsys.readouterr().out
+    for name in ("flat", "ramp", "hill", "cliff_goal", "jacksboro", "containment"):
+        assert name in out
+
+
+def test_run_writes_table_summary_and_gif(tmp_path, capsys):
+    gif, md = tmp_path / "run.gif", tmp_path / "run.md"
+    assert main(["run", "flat", "--robots", "6", "--episodes", "2", "--seed", "3", "--gif", str(gif),
+                 "--summary", str(md), "--max-cycles", "60", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "| episode | seed | robots | arrived | fell | battery-dead |" in out and "| mean |" in out
+    from PIL import Image
+
+    im = Image.open(gif)
+    assert im.n_frames >= 2 and im.size[0] == 640
+    assert "| 2 | 4 | 6 |" in md.read_text()
+    assert main(["run", "flat", "--robots", "2", "--max-cycles", "5", "--gif", str(tmp_path / "last.png"),
+                 "--quiet"]) == 0
+    assert Image.open(tmp_path / "last.png").size[0] == 640
+
+
+def test_run_errors_exit_2(tmp_path, capsys):
+    assert main(["run", "atlantis", "--quiet"]) == 2
+    assert "unknown scenario 'atlantis'" in capsys.readouterr().err
+    assert main(["run", "flat", "--fields", "robot,wind", "--quiet"]) == 2
+    assert "unknown field" in capsys.readouterr().err
+    assert main(["run", "flat", "--gif", str(tmp_path / "no" / "x.gif"), "--max-cycles", "3", "--quiet"]) == 2
+    assert not (tmp_path / "no").exists()
+
+
+def test_run_jacksboro_with_200_robots_finishes_and_writes_a_gif(tmp_path):
+    gif = tmp_path / "jacksboro.gif"
+    r = subprocess.run([sys.executable, "-m", "tin_swarm_env.cli", "run", "jacksboro", "--robots", "200",
+                        "--gif", str(gif), "--frame-every", "30"], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    row = next(line for line in r.stdout.splitlines() if line.startswith("| 1 |"))
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    arrived, fell, dead, timed_out = map(int, cells[3:7])
+    assert arrived + fell + dead + timed_out == 200 and arrived > 0
+    assert gif.stat().st_size > 10_000

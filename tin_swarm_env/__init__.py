@@ -8,12 +8,7 @@ Layers (imports flow downwards only): ``terrain`` (DEM -> TIN, geometry queries)
 >>> env = tse.parallel_env(scenario="cliff_goal", n_robots=20)   # doctest: +SKIP
 """
 
-from . import (
-    scenario,
-    terrain,
-    tin_swarm_v0,  # noqa: E402  (after env)
-    world,
-)
+from . import policies, scenario, terrain, tin_swarm_v0, world
 from .env import TinSwarmEnv, env, parallel_env, raw_env
 from .errors import (
     DemFormatError,
@@ -46,6 +41,7 @@ _register()
 
 __all__ = [
     "ENV_ID", "DemFormatError", "MissingExtraError", "TinFormatError", "TinStructureError", "TinSwarmError",
-    "TinSwarmEnv", "__version__", "env", "parallel_env", "raw_env", "scenario", "terrain", "tin_swarm_v0",
+    "TinSwarmEnv", "__version__", "env", "parallel_env", "raw_env", "policies", "scenario", "terrain",
+    "tin_swarm_v0",
     "world",
 ]

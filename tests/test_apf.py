@@ -1,0 +1,88 @@
+"""The APF baseline on the thesis scenarios (a reduced seed/robot budget; bench/apf.py runs the
+full 20-seed table)."""
+
+import numpy as np
+import pytest
+
+import tin_swarm_env as tse
+from tin_swarm_env.policies import APFPolicy, RandomPolicy
+
+
+def outcomes(scenario, fields, seeds, n_robots):
+    tot = {"arrived": 0, "fell": 0, "battery": 0, "max_cycles": 0}
+    for sd in seeds:
+        env = tse.parallel_env(scenario=scenario, n_robots=n_robots)
+        pol = APFPolicy(env, fields=fields)
+        obs, _ = env.reset(seed=sd)
+        while env.agents:
+            obs, _, _, _, info = env.step(pol.act(obs))
+            for i in info.values():
+                if "reason" in i:
+                    tot[i["reason"]] += 1
+    return tot
+
+
+ALL = ("robot", "target", "break", "height")
+NO_BREAK = ("robot", "target", "height")
+
+
+@pytest.mark.parametrize("scenario", ["ramp", "cliff_goal"])
+def test_apf_with_all_fields_arrives_and_never_falls(scenario):
+    t = outcomes(scenario, ALL, seeds=(0, 7, 13), n_robots=12)
+    n = sum(t.values())
+    assert n == 36
+    assert t["arrived"] >= 0.9 * n, t
+    assert t["fell"] == 0, t
+
+
+@pytest.mark.parametrize("scenario", ["ramp", "cliff_goal"])
+def test_without_the_break_field_robots_fall(scenario):
+    t = outcomes(scenario, NO_BREAK, seeds=(0,), n_robots=12)
+    assert t["fell"] > 0, t  # the thesis's "poor ending"
+
+
+def test_containment_robots_settle_on_the_ring_spread_around_each_threat():
+    for sd in (0, 1):
+        env = tse.parallel_env(scenario="containment")
+        pol = APFPolicy(env)
+        obs, _ = env.reset(seed=sd)
+        while env.agents:
+            obs, *_ = env.step(pol.act(obs))
+        s = env.wstate
+        standoff = env.config.targets.standoff_m
+        T = s.targets.positions
+        for k in range(len(T)):
+            v = s.positions[env.target_idx == k] - T[k]
+            d = np.hypot(v[:, 0], v[:, 1])
+            assert abs(d.mean() - standoff) <= 0.1 * standoff
+            ang = np.arctan2(v[:, 1], v[:, 0])
+            resultant = np.hypot(np.cos(ang).mean(), np.sin(ang).mean())
+            gaps = np.diff(np.sort(np.r_[ang, ang.min() + 2 * np.pi]))
+            assert resultant < 0.5 and gaps.max() < np.pi, (sd, k, resultant, np.degrees(gaps.max()))
+
+
+def test_apf_acts_from_the_observation_alone():
+    env = tse.parallel_env(scenario="cliff_goal", n_robots=5)
+    pol = APFPolicy(env)
+    obs, _ = env.reset(seed=0)
+    a1 = pol.act(obs)
+    env.wstate = None  # no world state to peek at
+    env.world = None
+    a2 = pol.act(obs)
+    for k in obs:
+        np.testing.assert_array_equal(a1[k], a2[k])
+    batch = pol.act_batch(np.stack(list(obs.values())))
+    np.testing.assert_array_equal(batch[0], a1["robot_0"])
+    assert all(env.action_space(k).contains(v) for k, v in a1.items())
+
+
+def test_fields_subset_and_random_policy():
+    env = tse.parallel_env(scenario="ramp", n_robots=3)
+    obs, _ = env.reset(seed=0)
+    pol = APFPolicy(env, fields=("robot", "target", "height"))
+    f = pol.forces(np.stack(list(obs.values())))
+    assert not np.any(f["break"]) and not np.any(f["slide"])
+    with pytest.raises(ValueError, match="unknown field"):
+        APFPolicy(env, fields=("robot", "gravity"))
+    r1, r2 = RandomPolicy(env, seed=1).act(obs), RandomPolicy(env, seed=1).act(obs)
+    assert all(np.array_equal(r1[k], r2[k]) and env.action_space(k).contains(r1[k]) for k in obs)
