@@ -3,7 +3,7 @@
 The terrain (hillshade over a height colour map, too-steep triangles white as in the thesis's
 MATLAB tool, cliff edges red, other breaks brown) is drawn once with matplotlib's Agg canvas;
 each frame copies that image and stamps targets (red), assets (blue) and robots (active
-orange, out of battery grey, fallen black) with a heading tick, and optionally the edges of
+orange, out of battery grey, fallen black; robots that arrived have left) with a heading tick, and optionally the edges of
 each robot's sensor cone, with numpy indexing: the cost per frame grows with the robots, not
 with the terrain, and stays far below a world step.
 """
@@ -104,7 +104,7 @@ class Viewer:
 
     def frame(self, state) -> np.ndarray:
         """An ``(H, W, 3)`` uint8 picture of ``state``."""
-        from ..world import ACTIVE, EMPTY
+        from ..world import ACTIVE, DONE, EMPTY
 
         img = self.background.copy()
         P = self.world.params
@@ -120,8 +120,10 @@ class Viewer:
             self._stamp(img, *self.to_px(state.targets.positions), RED, self._disc5)
         if len(state.assets):
             self._stamp(img, *self.to_px(state.assets.positions), BLUE, self._disc5)
-        colors = np.where((state.status == ACTIVE)[:, None], ORANGE,
-                          np.where((state.status == EMPTY)[:, None], GREY, BLACK)).astype(np.uint8)
+        shown = state.status != DONE  # robots the task took off the terrain are not drawn
+        pos, h, status = pos[shown], h[shown], state.status[shown]
+        colors = np.where((status == ACTIVE)[:, None], ORANGE,
+                          np.where((status == EMPTY)[:, None], GREY, BLACK)).astype(np.uint8)
         r, c = self.to_px(pos)
         self._stamp(img, r, c, colors, self._disc3)
         x0, y0, x1, y1 = self.bounds
