@@ -3,9 +3,9 @@
 The terrain (hillshade over a height colour map, too-steep triangles white as in the thesis's
 MATLAB tool, cliff edges red, other breaks brown) is drawn once with matplotlib's Agg canvas;
 each frame copies that image and stamps targets (red), assets (blue) and robots (active
-orange, out of battery grey, fallen black; robots that arrived have left) with a heading tick, and optionally the edges of
-each robot's sensor cone, with numpy indexing: the cost per frame grows with the robots, not
-with the terrain, and stays far below a world step.
+orange, out of battery grey, fallen black; robots that arrived have left) with a heading
+tick, and optionally the edges of each robot's sensor cone, with numpy indexing: the cost
+per frame grows with the robots, not with the terrain, and stays far below a world step.
 """
 
 from __future__ import annotations
