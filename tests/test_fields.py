@@ -156,3 +156,54 @@ def test_field_params_validate():
         FieldParams(fields=("robot", "wind"))
     with pytest.raises(ValueError, match="break_decay_m"):
         FieldParams(break_decay_m=0)
+
+
+def test_fields_on_a_grid_are_minus_the_gradient_of_their_potential():
+    from tin_swarm_env.terrain import Tin
+    from tin_swarm_env.world.fields import fields_at
+
+    # a tilted plane (rising east at 0.1) with a cliff-free TIN; robots, a target, height
+    xy = np.array([[0, 0], [200, 0], [200, 200], [0, 200], [100, 100]], float)
+    tin = Tin.from_points(np.column_stack([xy, 0.1 * xy[:, 0]]))
+    gx, gy = np.meshgrid(np.linspace(60, 140, 161), np.linspace(60, 140, 161))
+    pts = np.column_stack([gx.ravel(), gy.ravel()])
+    params = FieldParams(robot_range_m=15.0)
+    out = fields_at(pts, params, robots=[[100.0, 100.0], [120.0, 90.0]], target=[130.0, 120.0], standoff_m=10.0,
+                    tin=tin, z_target=13.0)
+    assert set(out) == {"robot", "target", "height", "total"}
+    f, u = out["total"]
+    U = u.reshape(gx.shape)
+    h = 0.5
+    dUdy, dUdx = np.gradient(U, h, h)
+    F = f.reshape(*gx.shape, 2)
+    # compare away from the kinks (robot centres, range circles, the target's standoff ring)
+    d1 = np.hypot(gx - 100, gy - 100)
+    d2 = np.hypot(gx - 120, gy - 90)
+    dt = np.hypot(gx - 130, gy - 120)
+    # (point sources are cone-like at their centres: finite differences need room there)
+    smooth = (np.abs(d1 - 15) > 1.5) & (np.abs(d2 - 15) > 1.5) & (d1 > 8) & (d2 > 8) & \
+        (np.abs(dt - 10) > 1.5) & (np.abs(dt - 20) > 1.5) & (dt > 8)
+    smooth[:2] = smooth[-2:] = False
+    smooth[:, :2] = smooth[:, -2:] = False
+    err = np.hypot(F[..., 0] + dUdx, F[..., 1] + dUdy)
+    assert smooth.mean() > 0.5
+    np.testing.assert_array_less(err[smooth], 2e-3, err_msg=str(np.argwhere(smooth & (err > 2e-3))[:5]))
+    np.testing.assert_allclose(F[..., 0][smooth], -dUdx[smooth], atol=2e-3)
+    np.testing.assert_allclose(F[..., 1][smooth], -dUdy[smooth], atol=2e-3)
+    # switching a field off removes it
+    off = fields_at(pts, FieldParams(fields=("target",)), robots=[[100.0, 100.0]], target=[130.0, 120.0])
+    assert set(off) == {"target", "total"}
+
+
+def test_break_field_on_a_grid_pushes_back_from_a_cliff_edge():
+    from tin_swarm_env.terrain import Tin
+    from tin_swarm_env.world.fields import fields_at
+
+    xs, zs = [0.0, 100.0, 101.0, 200.0], [50.0, 50.0, 0.0, 0.0]
+    tin = Tin.from_points(np.array([(x, y, z) for x, z in zip(xs, zs) for y in (0.0, 100.0)]))
+    br = tin.breaks(max_slope_deg=30, break_angle_deg=None)
+    out = fields_at([[95.0, 50.0], [60.0, 50.0]], FieldParams(), breaks=br)
+    f = out["break"][0]
+    assert f[0, 0] < -0.5 and abs(f[0, 1]) < 1e-9  # 5 m from the edge: pushed west, hard
+    # 40 m away the border (west, 60 m off) and the cliff are both beyond the 15 m range
+    np.testing.assert_allclose(f[1], [0.0, 0.0])

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["FIELDS", "FieldParams", "robot_field", "target_field", "break_field", "height_field", "slide_field",
-           "HEIGHT_SCALE_M"]
+           "fields_at", "HEIGHT_SCALE_M"]
 
 FIELDS = ("robot", "target", "break", "height")
 HEIGHT_SCALE_M = 10.0
@@ -142,3 +142,46 @@ def height_field(grad_z, dz, gain, scale_m=HEIGHT_SCALE_M):
     x = np.abs(dz)
     pot = gain * (x - scale_m * np.log1p(x / scale_m))
     return (gain * dz / (x + scale_m))[..., None] * grad_z, pot
+
+
+def fields_at(points, params: FieldParams, *, robots=None, target=None, standoff_m=0.0, breaks=None,
+              tin=None, z_target=None):
+    """The fields felt at world points ``(P, 2)`` (a grid around a robot, for plots): a dict
+    name -> ``(force (P, 2), potential (P,))`` for each field that is on and has sources, plus
+    ``"total"``. Sources: ``robots (M, 2)``, ``target (2,)`` with ``standoff_m``, ``breaks`` a
+    :class:`~tin_swarm_env.terrain.Breaks` (dangerous ones push: cliff edges and border),
+    and ``tin`` with ``z_target`` for the height field. The slide term is left out (it depends
+    on the robot's motion, not on its position alone)."""
+    from ..terrain import ANGLE
+
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    P = len(p)
+    out = {}
+    if params.on("robot") and robots is not None and len(robots):
+        rel = np.asarray(robots, dtype=np.float64)[None, :, :] - p[:, None, :]
+        out["robot"] = robot_field(rel, np.ones(rel.shape[:2]), params.robot_gain, params.robot_range_m)
+    if params.on("target") and target is not None:
+        rel = np.asarray(target, dtype=np.float64)[None, :] - p
+        out["target"] = target_field(rel, standoff_m, params.target_gain, params.target_range_m)
+    if params.on("break") and breaks is not None and len(breaks):
+        a = breaks.segments[:, 0, :2]
+        ab = breaks.segments[:, 1, :2] - a
+        ap = p[:, None, :] - a[None]
+        u = np.clip(np.einsum("pbj,bj->pb", ap, ab) / np.einsum("bj,bj->b", ab, ab), 0, 1)
+        rel = a[None] + u[..., None] * ab[None] - p[:, None, :]
+        danger = np.broadcast_to(breaks.kinds != ANGLE, rel.shape[:2])
+        nrm = np.broadcast_to(breaks.normals[None], rel.shape)
+        out["break"] = break_field(rel, nrm, danger, params.break_gain, params.break_range_m, params.break_decay_m)
+    if params.on("height") and tin is not None and z_target is not None:
+        t = tin.locate(p)
+        inside = t >= 0
+        g = np.zeros((P, 2))
+        dz = np.zeros(P)
+        g[inside] = tin.planes[t[inside], :2]
+        dz[inside] = z_target - tin.height_in(p[inside], t[inside])
+        f, u = height_field(g, dz, params.height_gain)
+        out["height"] = (f, np.where(inside, u, 0.0))
+    total_f = sum((v[0] for v in out.values()), np.zeros((P, 2)))
+    total_u = sum((v[1] for v in out.values()), np.zeros(P))
+    out["total"] = (total_f, total_u)
+    return out
