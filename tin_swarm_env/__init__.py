@@ -8,7 +8,7 @@ Layers (imports flow downwards only): ``terrain`` (DEM -> TIN, geometry queries)
 >>> env = tse.parallel_env(scenario="cliff_goal", n_robots=20)   # doctest: +SKIP
 """
 
-from . import policies, scenario, terrain, tin_swarm_v0, world
+from . import adapters, policies, scenario, terrain, tin_swarm_v0, world
 from .env import TinSwarmEnv, env, parallel_env, raw_env
 from .errors import (
     DemFormatError,
@@ -40,7 +40,7 @@ def _register():
 _register()
 
 __all__ = [
-    "ENV_ID", "DemFormatError", "MissingExtraError", "TinFormatError", "TinStructureError", "TinSwarmError",
+    "ENV_ID", "adapters", "DemFormatError", "MissingExtraError", "TinFormatError", "TinStructureError", "TinSwarmError",
     "TinSwarmEnv", "__version__", "env", "parallel_env", "raw_env", "policies", "scenario", "terrain",
     "tin_swarm_v0",
     "world",

@@ -62,7 +62,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     goal task: ``progress_per_m`` [1] per metre gained toward the assigned target,
     ``arrival`` [10] on reaching it; containment: ``progress_per_m`` per metre gained toward
     the standoff ring around the assigned threat and ``on_ring_per_step`` [0.1] while on it;
-    both: ``fall`` [-10], ``battery_empty`` [-5], ``collision`` [-1] per robot touched,
+    both: ``fall`` [-100], ``battery_empty`` [-5], ``collision`` [-1] per robot touched,
     ``energy_per_kj`` [-1] per kJ drawn.
 
     **Termination**: "arrived" (goal task, within ``arrival_radius_m``; the robot then leaves

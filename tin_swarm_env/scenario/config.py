@@ -104,7 +104,7 @@ class RewardWeights:
     arrival: float = 10.0
     on_ring_per_step: float = 0.1
     ring_tolerance_m: float = 2.0
-    fall: float = -10.0
+    fall: float = -100.0
     battery_empty: float = -5.0
     collision: float = -1.0
     energy_per_kj: float = -1.0

@@ -1,0 +1,178 @@
+"""Stable-Baselines3 adapter: every robot of every environment copy is one sub-environment of
+one SB3 ``VecEnv`` (parameter sharing), stepped through the env's batched array path.
+
+Contract (what SB3 expects of a ``VecEnv``, and how robots map onto it):
+
+* ``num_envs = n_envs * n_robots``; sub-environment ``c * n_robots + i`` is robot ``i`` of copy
+  ``c``. Observations ``(num_envs, d)`` float32, rewards float32, dones bool.
+* A robot's episode ends when it is terminated (arrived, fell, battery: ``done`` with
+  ``info["TimeLimit.truncated"] = False``) or when its copy reaches ``max_cycles``
+  (``done`` with ``TimeLimit.truncated = True``); ``info["terminal_observation"]`` holds its last
+  observation and ``info["episode"] = {"r", "l"}`` its return and length (SB3's ep_rew_mean).
+* Dead robots are frozen: from the step after their end until their copy's episode ends they
+  observe zeros and get reward 0 (their actions are ignored); when the copy resets they get
+  ``done`` once more (``TimeLimit.truncated = False``, a zero terminal observation, no
+  ``episode`` entry), so that a frozen stretch is an episode of its own that bootstraps from
+  nothing. (SuperSuit's black-death wrapper does the same, but ends episodes a step late and
+  never sets ``TimeLimit.truncated``.)
+* A copy resets automatically when none of its robots is live; the observations returned for
+  its robots at that step are the new episode's.
+* Seeding: ``seed(s)`` (or the constructor's ``seed``) gives copy ``c`` the seed ``s + c`` at the
+  next reset; later resets continue each copy's own generator, so two adapters with the same
+  seed and actions produce the same rollouts.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import require
+
+__all__ = ["TinSwarmVecEnv", "make_sb3_vec_env"]
+
+
+def _vecenv_base():
+    return require("stable_baselines3", "train", "The SB3 adapter").common.vec_env.base_vec_env.VecEnv
+
+
+def make_sb3_vec_env(scenario="cliff_goal", n_robots=None, n_envs=1, seed=0, **env_kwargs):
+    """An SB3 ``VecEnv`` of ``n_envs`` copies of ``tin_swarm_v0`` (see the module docstring);
+    ``env_kwargs`` (``max_cycles``, ``render_mode``...) pass through to each copy."""
+    cls = _vec_class()
+    return cls(scenario=scenario, n_robots=n_robots, n_envs=n_envs, seed=seed, **env_kwargs)
+
+
+_CLASS = None
+
+
+def _vec_class():
+    global _CLASS
+    if _CLASS is not None:
+        return _CLASS
+    VecEnv = _vecenv_base()
+
+    class TinSwarmVecEnv(VecEnv):
+        __doc__ = __doc__
+
+        def __init__(self, scenario="cliff_goal", n_robots=None, n_envs=1, seed=0, **env_kwargs):
+            from ..env import parallel_env
+
+            if n_envs < 1:
+                raise ValueError(f"n_envs must be >= 1, got {n_envs}")
+            self.envs = [parallel_env(scenario=scenario, n_robots=n_robots, **env_kwargs) for _ in range(n_envs)]
+            e0 = self.envs[0]
+            self.n_robots = e0.n
+            self.n_copies = n_envs
+            super().__init__(n_envs * e0.n, e0.observation_space("robot_0"), e0.action_space("robot_0"))
+            self.render_mode = e0.render_mode
+            self._seeds = [None if seed is None else seed + c for c in range(n_envs)]
+            self._actions = None
+            self._obs = None
+            self._ep_ret = np.zeros(self.num_envs)
+            self._ep_len = np.zeros(self.num_envs, dtype=np.int64)
+            self._frozen = np.zeros(self.num_envs, dtype=bool)
+
+        # -- VecEnv interface ----------------------------------------------------------------
+        def seed(self, seed=None):
+            self._seeds = [None if seed is None else seed + c for c in range(self.n_copies)]
+            return self._seeds
+
+        def reset(self):
+            n = self.n_robots
+            obs = np.zeros((self.num_envs, self.observation_space.shape[0]), dtype=np.float32)
+            for c, env in enumerate(self.envs):
+                obs[c * n:(c + 1) * n] = env.reset_arrays(seed=self._seeds[c])
+            self._seeds = [None] * self.n_copies
+            self._ep_ret[:] = 0
+            self._ep_len[:] = 0
+            self._frozen[:] = False
+            self._obs = obs
+            self.reset_infos = [{} for _ in range(self.num_envs)]
+            return obs.copy()
+
+        def step_async(self, actions):
+            self._actions = np.asarray(actions, dtype=np.float32).reshape(self.num_envs, -1)
+
+        def step_wait(self):
+            n = self.n_robots
+            d = self.observation_space.shape[0]
+            obs = np.zeros((self.num_envs, d), dtype=np.float32)
+            rewards = np.zeros(self.num_envs, dtype=np.float32)
+            dones = np.zeros(self.num_envs, dtype=bool)
+            infos = [{} for _ in range(self.num_envs)]
+            for c, env in enumerate(self.envs):
+                sl = slice(c * n, (c + 1) * n)
+                live_before = env.live.copy()
+                o, r, term, trunc, reasons = env.step_arrays(self._actions[sl])
+                rewards[sl] = np.where(live_before, r, 0.0)
+                ended = term | trunc
+                idx = np.flatnonzero(ended) + c * n
+                self._ep_ret[sl] += rewards[sl]
+                self._ep_len[sl] += live_before
+                for k, j in zip(np.flatnonzero(ended), idx):
+                    infos[j] = {"terminal_observation": o[k].copy(), "TimeLimit.truncated": bool(trunc[k]),
+                                "episode": {"r": float(self._ep_ret[j]), "l": int(self._ep_len[j])},
+                                "reason": "max_cycles" if trunc[k] else _reason(reasons[k])}
+                dones[idx] = True
+                o = np.where(ended[:, None], 0.0, o)
+                self._frozen[idx] = True
+                if not env.live.any():  # the copy's episode is over: reset it
+                    was_frozen = self._frozen[sl] & ~ended
+                    for j in np.flatnonzero(was_frozen) + c * n:
+                        infos[j] = {"terminal_observation": np.zeros(d, dtype=np.float32),
+                                    "TimeLimit.truncated": False}
+                    dones[sl] = True
+                    o = env.reset_arrays()
+                    self._frozen[sl] = False
+                    self._ep_ret[sl] = 0
+                    self._ep_len[sl] = 0
+                else:
+                    self._ep_ret[idx] = 0
+                    self._ep_len[idx] = 0
+                obs[sl] = o
+            self._obs = obs
+            return obs.copy(), rewards, dones, infos
+
+        def close(self):
+            for e in self.envs:
+                e.close()
+
+        def get_images(self):
+            return [e.render() for e in self.envs]
+
+        def render(self, mode=None):
+            imgs = self.get_images()
+            return imgs[0] if imgs else None
+
+        def get_attr(self, attr_name, indices=None):
+            return [getattr(self.envs[self._copy(i)], attr_name) for i in self._get_indices(indices)]
+
+        def set_attr(self, attr_name, value, indices=None):
+            for c in {self._copy(i) for i in self._get_indices(indices)}:
+                setattr(self.envs[c], attr_name, value)
+
+        def env_method(self, method_name, *method_args, indices=None, **method_kwargs):
+            return [getattr(self.envs[self._copy(i)], method_name)(*method_args, **method_kwargs)
+                    for i in self._get_indices(indices)]
+
+        def env_is_wrapped(self, wrapper_class, indices=None):
+            return [False for _ in self._get_indices(indices)]
+
+        def _copy(self, i):
+            return int(i) // self.n_robots
+
+    TinSwarmVecEnv.__name__ = TinSwarmVecEnv.__qualname__ = "TinSwarmVecEnv"
+    _CLASS = TinSwarmVecEnv
+    return TinSwarmVecEnv
+
+
+def _reason(code):
+    from ..env.reward import REASONS
+
+    return REASONS.get(int(code), "")
+
+
+def __getattr__(name):
+    if name == "TinSwarmVecEnv":
+        return _vec_class()
+    raise AttributeError(name)
