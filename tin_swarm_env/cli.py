@@ -3,6 +3,8 @@
     tin-swarm run SCENARIO [--robots N] [--policy apf|random|PATH] [--episodes K] [--seed S]
                   [--gif OUT.gif] [--fields robot,target,break,height] [--summary OUT.md]
     tin-swarm scenarios
+    tin-swarm train SCENARIO --timesteps N [agents/train_sb3.py options]
+    tin-swarm eval SCENARIO... [--seeds K] [--model PATH]... [--out OUT]
     tin-swarm build-tin DEM -o OUT.tin [--method vip|greedy|delaunay] [--max-vertices N]
                         [--max-error-m E] [--min-significance-m S] [--png OUT.png]
 
@@ -121,6 +123,39 @@ def _cmd_run(args) -> int:
     return 0
 
 
+def _agent_script(name: str):
+    """Import ``agents/<name>.py`` of the source checkout this package runs from."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "agents" / f"{name}.py"
+    if not path.exists():
+        raise FileNotFoundError(f"{path} not found: the agents/ scripts come with a source checkout of "
+                                "tin_swarm_env (pip install -e .), not with the installed package")
+    spec = importlib.util.spec_from_file_location(f"tin_swarm_agents_{name}", path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # dataclasses look their module up
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _cmd_train(args) -> int:
+    mod = _agent_script("train_sb3")
+    argv = ["--scenario", args.scenario, "--total-timesteps", str(args.timesteps), *args.extra]
+    mod.main(mod.parse_args(argv))
+    return 0
+
+
+def _cmd_eval(args) -> int:
+    mod = _agent_script("evaluate")
+    argv = ["--scenarios", ",".join(args.scenarios), "--seeds", str(args.seeds), "--out", args.out,
+            "--models", ",".join(args.model), "--policies", args.policies]
+    if args.robots:
+        argv += ["--robots", str(args.robots)]
+    mod.main(mod.parse_args(argv))
+    return 0
+
+
 def _cmd_scenarios(args) -> int:
     from .scenario import list_scenarios
 
@@ -147,6 +182,19 @@ def build_parser() -> argparse.ArgumentParser:
     r.set_defaults(func=_cmd_run)
     s = sub.add_parser("scenarios", help="list the built-in scenarios")
     s.set_defaults(func=_cmd_scenarios)
+    t = sub.add_parser("train", help="train PPO (agents/train_sb3.py; needs the [train] extra)")
+    t.add_argument("scenario")
+    t.add_argument("--timesteps", type=int, default=200_000)
+    # any further options go to agents/train_sb3.py (see main())
+    t.set_defaults(func=_cmd_train)
+    e = sub.add_parser("eval", help="random, APF and saved models on the same scenarios and seeds")
+    e.add_argument("scenarios", nargs="+")
+    e.add_argument("--seeds", type=int, default=20)
+    e.add_argument("--robots", type=int, default=0)
+    e.add_argument("--model", action="append", default=[], help="a saved SB3 model (repeatable)")
+    e.add_argument("--policies", default="random,apf")
+    e.add_argument("--out", default="eval", help="writes OUT.md, OUT.csv and OUT.png")
+    e.set_defaults(func=_cmd_eval)
     b = sub.add_parser("build-tin", help="reduce a DEM to a TIN and write it (.tin or .npz)")
     b.add_argument("dem", help="DEM file (.xyz/.txt/.asc/.npy/.npz/.tif) or sample:jacksboro")
     b.add_argument("-o", "--output", required=True, help="output .tin (thesis text) or .npz")
@@ -160,7 +208,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args, extra = parser.parse_known_args(argv)
+    if extra and args.command != "train":
+        parser.error(f"unrecognized arguments: {' '.join(extra)}")
+    args.extra = extra
     try:
         return args.func(args)
     except (TinSwarmError, ValueError, FileNotFoundError) as exc:

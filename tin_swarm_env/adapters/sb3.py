@@ -28,7 +28,7 @@ import numpy as np
 
 from ..errors import require
 
-__all__ = ["TinSwarmVecEnv", "make_sb3_vec_env"]
+__all__ = ["TinSwarmVecEnv", "make_sb3_vec_env"]  # noqa: F822 (lazy, see __getattr__)
 
 
 def _vecenv_base():

@@ -1,0 +1,105 @@
+"""PPO with Ray RLlib on a tin_swarm scenario: one shared policy (RLModule) for all robots.
+
+    python agents/train_rllib.py --scenario cliff_goal --iterations 50
+
+Runs on this machine by default. On a Ray cluster: start the head node with ``ray start
+--head``, join each other node with ``ray start --address=HEAD_IP:6379``, then run the same
+command on the head with ``RAY_ADDRESS=auto`` (or ``HEAD_IP:6379``) and ``--env-runners`` set to
+the number of sampling workers the cluster can hold; every node needs this package installed
+(``pip install -e '.[rllib]'``). Needs the ``[rllib]`` extra (ray 2.60, which pins gymnasium
+1.2.2). Writes a checkpoint to ``--out-dir`` and the per-iteration returns to ``progress.csv``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+
+@dataclass
+class Args:
+    scenario: str = "cliff_goal"
+    n_robots: int = 8
+    max_cycles: int = 0  # 0: the scenario's
+    iterations: int = 20
+    env_runners: int = 0  # 0: sample in the driver process (one machine)
+    train_batch_size: int = 4000
+    minibatch_size: int = 500
+    num_epochs: int = 5
+    lr: float = 3e-4
+    gamma: float = 0.99
+    seed: int = 0
+    num_cpus: int = 0  # for a local Ray instance (0: all); ignored with RAY_ADDRESS
+    out_dir: str = "runs/rllib"
+
+
+def build_config(args: Args):
+    from ray.rllib.algorithms.ppo import PPOConfig
+    from ray.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
+    from ray.rllib.core.rl_module.rl_module import RLModuleSpec
+    from ray.tune.registry import register_env
+
+    from tin_swarm_env.adapters.rllib import ENV_NAME, rllib_env_creator
+
+    register_env(ENV_NAME, rllib_env_creator)
+    env_config = {"scenario": args.scenario, "n_robots": args.n_robots}
+    if args.max_cycles:
+        env_config["max_cycles"] = args.max_cycles
+    return (PPOConfig()
+            .environment(ENV_NAME, env_config=env_config)
+            .multi_agent(policies={"shared"}, policy_mapping_fn=lambda agent_id, *a, **k: "shared")
+            .rl_module(rl_module_spec=MultiRLModuleSpec(rl_module_specs={"shared": RLModuleSpec()}))
+            .env_runners(num_env_runners=args.env_runners)
+            .learners(num_learners=0)
+            .training(train_batch_size_per_learner=args.train_batch_size, minibatch_size=args.minibatch_size,
+                      num_epochs=args.num_epochs, lr=args.lr, gamma=args.gamma)
+            .debugging(seed=args.seed))
+
+
+def main(args: Args):
+    import ray
+
+    address = os.environ.get("RAY_ADDRESS")
+    if address:
+        ray.init(address=address)  # an existing cluster
+    else:
+        ray.init(num_cpus=args.num_cpus or None, include_dashboard=False, log_to_driver=False)
+    algo = build_config(args).build_algo()
+    out = Path(args.out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    t0 = time.perf_counter()
+    for it in range(1, args.iterations + 1):
+        r = algo.train()
+        er = r.get("env_runners", {})
+        row = {"iteration": it, "env_steps": r.get("num_env_steps_sampled_lifetime", 0),
+               "episode_return_mean": er.get("episode_return_mean", float("nan")),
+               "seconds": time.perf_counter() - t0}
+        rows.append(row)
+        print(f"iteration {it}: env steps {row['env_steps']}, episode return (all robots) "
+              f"{row['episode_return_mean']:.1f}, {row['seconds']:.0f} s", flush=True)
+    ckpt = algo.save(str(out.resolve() / "checkpoint"))
+    with open(out / "progress.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    print(f"saved {getattr(ckpt, 'checkpoint', ckpt)}")
+    algo.stop()
+    ray.shutdown()
+    return rows
+
+
+def parse_args(argv=None) -> Args:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    for f in dataclasses.fields(Args):
+        p.add_argument("--" + f.name.replace("_", "-"), type=type(f.default), default=f.default)
+    return Args(**vars(p.parse_args(argv)))
+
+
+if __name__ == "__main__":
+    main(parse_args())

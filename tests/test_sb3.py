@@ -1,0 +1,153 @@
+"""The Stable-Baselines3 adapter: VecEnv contract, seeding, dead robots, and a PPO smoke run."""
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from stable_baselines3 import PPO
+from stable_baselines3.common.vec_env import VecEnv
+
+import tin_swarm_env as tse
+
+
+def vec(**kw):
+    args = {"scenario": "cliff_goal", "n_robots": 4, "n_envs": 2, "seed": 0, "max_cycles": 30}
+    args.update(kw)
+    return tse.adapters.make_sb3_vec_env(args.pop("scenario"), **args)
+
+
+def test_vecenv_contract_shapes_dtypes_and_time_limit():
+    v = vec()
+    assert isinstance(v, VecEnv) and v.num_envs == 8
+    obs = v.reset()
+    assert obs.shape == (8, 59) and obs.dtype == np.float32
+    rng = np.random.default_rng(0)
+    for t in range(30):
+        obs, rew, done, info = v.step(rng.uniform(-1, 1, (8, 2)).astype(np.float32))
+        assert obs.shape == (8, 59) and obs.dtype == np.float32
+        assert rew.shape == (8,) and rew.dtype == np.float32 and done.dtype == bool
+        assert len(info) == 8
+        assert all(v.observation_space.contains(o) for o in obs)
+    # step 30 = max_cycles: every live robot ends, truncated, with its last observation
+    assert done.all()
+    live_end = [i for i in info if "episode" in i]
+    assert live_end and all(i["TimeLimit.truncated"] and i["terminal_observation"].shape == (59,) for i in live_end)
+    assert all(i["episode"]["l"] == 30 for i in live_end)
+    # auto-reset: the observations returned are the new episode's (robots back in the spawn region)
+    assert all(env.steps == 0 and env.live.all() for env in v.envs)
+    assert not np.any(np.all(obs == 0, axis=1))
+
+
+def test_fall_is_done_without_time_limit_and_dead_robots_are_frozen():
+    v = vec(scenario="ramp", n_robots=2, n_envs=1, max_cycles=60)
+    v.reset()
+    env = v.envs[0]
+    # robot 0 next to the cliff facing east; robot 1 far away, standing still
+    obs = env.reset_arrays(seed=0, options={"robot_positions": [[217.0, 120.0], [30.0, 120.0]],
+                                            "headings": [0.0, 0.0]})
+    act = np.array([[1.0, 0.0], [0.0, 0.0]], np.float32)
+    obs, rew, done, info = v.step(act)
+    for _ in range(5):
+        if done[0]:
+            break
+        obs, rew, done, info = v.step(act)
+    assert done[0] and not done[1]
+    assert info[0]["TimeLimit.truncated"] is False and info[0]["reason"] == "fell"
+    assert np.any(info[0]["terminal_observation"] != 0)
+    assert rew[0] <= env.config.rewards.fall + 5
+    # frozen: zero observation, zero reward, not done, until the copy's episode ends
+    for _ in range(10):
+        obs, rew, done, info = v.step(np.ones((2, 2), np.float32))
+        assert np.all(obs[0] == 0) and rew[0] == 0.0 and not done[0]
+        assert np.any(obs[1] != 0)
+
+
+def test_frozen_robots_end_once_more_when_their_copy_resets():
+    v = vec(scenario="ramp", n_robots=2, n_envs=1, max_cycles=12)
+    v.reset()
+    v.envs[0].reset_arrays(seed=0, options={"robot_positions": [[217.0, 120.0], [30.0, 120.0]],
+                                            "headings": [0.0, 0.0]})
+    act = np.array([[1.0, 0.0], [0.0, 0.0]], np.float32)
+    ends = []
+    for t in range(12):
+        obs, rew, done, info = v.step(act)
+        ends.append((t, done.copy(), info))
+    t_last, done, info = ends[-1]
+    assert done.all()  # the copy's episode ended (time limit)
+    assert info[0] == {"terminal_observation": info[0]["terminal_observation"], "TimeLimit.truncated": False}
+    assert np.all(info[0]["terminal_observation"] == 0)
+    assert info[1]["TimeLimit.truncated"] is True
+
+
+def rollout(v, steps, seed):
+    rng = np.random.default_rng(seed)
+    v.seed(5)
+    out = [v.reset()]
+    for _ in range(steps):
+        o, r, d, _ = v.step(rng.uniform(-1, 1, (v.num_envs, 2)).astype(np.float32))
+        out += [o, r[:, None].repeat(o.shape[1], 1), d[:, None].repeat(o.shape[1], 1)]
+    return np.concatenate(out)
+
+
+def test_two_adapters_with_the_same_seed_give_identical_rollouts():
+    a = rollout(vec(max_cycles=25), 60, 1)
+    b = rollout(vec(max_cycles=25), 60, 1)
+    assert a.tobytes() == b.tobytes()
+    c = vec(max_cycles=25)
+    c.seed(6)
+    assert not np.array_equal(c.reset(), vec(max_cycles=25).reset())
+    # copies get different seeds
+    v = vec()
+    o = v.reset()
+    assert not np.array_equal(o[:4], o[4:])
+
+
+def test_ppo_accepts_the_adapter_with_a_seed():
+    v = vec(max_cycles=20)
+    m = PPO("MlpPolicy", v, n_steps=16, batch_size=32, n_epochs=1, seed=3, device="cpu")
+    m.learn(total_timesteps=256)
+    assert m.num_timesteps >= 256
+    a, _ = m.predict(v.reset(), deterministic=True)
+    assert a.shape == (8, 2)
+
+
+def test_smoke_train_in_a_subprocess_then_evaluate_the_saved_model(tmp_path):
+    out = tmp_path / "ppo"
+    r = subprocess.run([sys.executable, "-m", "tin_swarm_env.cli", "train", "flat", "--timesteps", "512",
+                        "--n-robots", "4", "--n-envs", "1", "--n-steps", "64", "--batch-size", "64",
+                        "--eval-every", "256", "--eval-episodes", "1", "--max-cycles", "40",
+                        "--out-dir", str(out), "--progress-bar", "false"],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-2000:]
+    for f in ("model.zip", "model.json", "eval.csv", "curve.png"):
+        assert (out / f).exists(), f
+    ev = tmp_path / "ev"
+    r = subprocess.run([sys.executable, "-m", "tin_swarm_env.cli", "eval", "flat", "--seeds", "2", "--robots", "4",
+                        "--model", str(out / "model.zip"), "--out", str(ev)], capture_output=True, text=True,
+                       timeout=600)
+    assert r.returncode == 0, r.stderr[-2000:]
+    md = (tmp_path / "ev.md").read_text()
+    assert "| flat | random |" in md and "| flat | apf |" in md and "| flat | ppo (ppo) |" in md
+    assert (tmp_path / "ev.csv").exists() and (tmp_path / "ev.png").stat().st_size > 5000
+    assert math.isfinite(float(md.split("| flat | ppo (ppo) |")[1].split("|")[-2].split("±")[0]))
+
+
+def test_missing_sb3_names_the_extra(monkeypatch):
+    import builtins
+
+    from tin_swarm_env.errors import MissingExtraError
+
+    real = builtins.__import__
+
+    def no_sb3(name, *a, **k):
+        if name.startswith("stable_baselines3"):
+            raise ImportError("no sb3")
+        return real(name, *a, **k)
+
+    monkeypatch.setattr(builtins, "__import__", no_sb3)
+    with pytest.raises(MissingExtraError, match=r"tin_swarm_env\[train\]"):
+        from tin_swarm_env.run import _SB3Policy
+
+        _SB3Policy("x.zip")
