@@ -1,8 +1,9 @@
 """The ``tin-swarm`` command line.
 
     tin-swarm run SCENARIO [--robots N] [--policy apf|random|PATH] [--episodes K] [--seed S]
-                  [--gif OUT.gif] [--fields robot,target,break,height] [--summary OUT.md]
+                  [--gif OUT.gif] [--mp4 OUT.mp4] [--fields robot,target,break,height] [--summary OUT.md]
     tin-swarm scenarios
+    tin-swarm explore SCENARIO [--png OUT.png] [--robot I|all] [--fields ...] [--steps K]
     tin-swarm train SCENARIO --timesteps N [agents/train_sb3.py options]
     tin-swarm eval SCENARIO... [--seeds K] [--model PATH]... [--out OUT]
     tin-swarm build-tin DEM -o OUT.tin [--method vip|greedy|delaunay] [--max-vertices N]
@@ -104,7 +105,7 @@ def _cmd_run(args) -> int:
             raise ValueError(f"--fields: unknown field(s) {sorted(bad)}; choose from {','.join(FIELDS)}")
     if args.episodes < 1:
         raise ValueError("--episodes must be >= 1")
-    every = max(1, args.frame_every) if args.gif else 0
+    every = max(1, args.frame_every) if (args.gif or args.mp4) else 0
     stats, frames = run_episodes(args.scenario, policy=args.policy, robots=args.robots, episodes=args.episodes,
                                  seed=args.seed, fields=fields, frames_every=every, max_cycles=args.max_cycles,
                                  progress=not args.quiet)
@@ -120,6 +121,11 @@ def _cmd_run(args) -> int:
     if args.gif:
         save_gif(frames, args.gif)
         print(f"wrote {args.gif} ({len(frames)} frames)")
+    if args.mp4:
+        from .run import save_mp4
+
+        save_mp4(frames, args.mp4)
+        print(f"wrote {args.mp4} ({len(frames)} frames)")
     return 0
 
 
@@ -156,6 +162,37 @@ def _cmd_eval(args) -> int:
     return 0
 
 
+def _cmd_explore(args) -> int:
+    import matplotlib
+
+    if args.png:
+        matplotlib.use("Agg")
+    from .explorer import FieldExplorer
+    from .world.fields import FIELDS
+
+    fields = FIELDS if args.fields is None else tuple(f for f in args.fields.split(",") if f)
+    bad = set(fields) - set(FIELDS)
+    if bad:
+        raise ValueError(f"--fields: unknown field(s) {sorted(bad)}; choose from {','.join(FIELDS)}")
+    robot = None if args.robot == "all" else int(args.robot)
+    ex = FieldExplorer(args.scenario, robot=robot, fields=fields, n_robots=args.robots, seed=args.seed)
+    if robot is not None and not 0 <= robot < ex.env.n:
+        raise ValueError(f"--robot {robot}: the scenario has robots 0..{ex.env.n - 1}")
+    for _ in range(args.steps):
+        ex.next_step(draw=False)
+    ex.redraw()
+    if args.png:
+        from ._atomic import atomic_path
+
+        with atomic_path(args.png) as tmp:
+            ex.fig.savefig(tmp, format="png")
+        print(f"wrote {args.png}")
+        ex.close()
+    else:
+        ex.show()
+    return 0
+
+
 def _cmd_scenarios(args) -> int:
     from .scenario import list_scenarios
 
@@ -175,13 +212,23 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, default=0)
     r.add_argument("--fields", default=None, help="APF fields to use, e.g. robot,target,height (default: all)")
     r.add_argument("--gif", default=None, help="write the first episode as a GIF (or its last frame as .png)")
-    r.add_argument("--frame-every", type=int, default=5, help="steps between GIF frames")
+    r.add_argument("--mp4", default=None, help="write the first episode as an MP4 video (the [video] extra)")
+    r.add_argument("--frame-every", type=int, default=5, help="steps between GIF/MP4 frames")
     r.add_argument("--max-cycles", type=int, default=None)
     r.add_argument("--summary", default=None, help="also write the table to this Markdown file")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=_cmd_run)
     s = sub.add_parser("scenarios", help="list the built-in scenarios")
     s.set_defaults(func=_cmd_scenarios)
+    x = sub.add_parser("explore", help="the field explorer (a window, or --png OUT.png headless)")
+    x.add_argument("scenario")
+    x.add_argument("--png", default=None, help="draw into this file instead of opening a window")
+    x.add_argument("--robot", default="0", help="robot index whose field is shown, or 'all'")
+    x.add_argument("--fields", default=None, help="fields switched on, e.g. robot,target,break (default: all)")
+    x.add_argument("--robots", type=int, default=None)
+    x.add_argument("--steps", type=int, default=0, help="APF steps to take before drawing")
+    x.add_argument("--seed", type=int, default=0)
+    x.set_defaults(func=_cmd_explore)
     t = sub.add_parser("train", help="train PPO (agents/train_sb3.py; needs the [train] extra)")
     t.add_argument("scenario")
     t.add_argument("--timesteps", type=int, default=200_000)

@@ -16,7 +16,7 @@ import numpy as np
 from .env import parallel_env
 from .errors import MissingExtraError
 
-__all__ = ["EpisodeStats", "make_policy", "run_episodes", "format_table", "save_gif"]
+__all__ = ["EpisodeStats", "make_policy", "run_episodes", "format_table", "save_gif", "save_mp4"]
 
 
 @dataclass
@@ -159,3 +159,19 @@ def save_gif(frames, path, fps=10):
             imgs = [Image.fromarray(f).convert("P", palette=Image.Palette.ADAPTIVE, colors=128) for f in frames]
             imgs[0].save(tmp, format="GIF", save_all=True, append_images=imgs[1:], duration=int(1000 / fps),
                          loop=0)
+
+
+def save_mp4(frames, path, fps=10):
+    """Write frames as an H.264 MP4 through imageio and the ffmpeg binary its imageio-ffmpeg
+    package ships (``pip install 'tin_swarm_env[video]'``), atomically."""
+    from ._atomic import atomic_path
+    from .errors import require
+
+    iio = require("imageio.v2", "video", "Writing MP4 video")
+    require("imageio_ffmpeg", "video", "Writing MP4 video")
+    if not frames:
+        raise ValueError("no frames to write")
+    h, w = frames[0].shape[:2]
+    frames = [f[: h - h % 2, : w - w % 2] for f in frames]  # H.264 wants even sizes
+    with atomic_path(path) as tmp:
+        iio.mimwrite(tmp, frames, fps=fps, format="FFMPEG", codec="libx264", macro_block_size=1)

@@ -1,0 +1,83 @@
+"""The field explorer, driven headless (Agg), and episode video."""
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from matplotlib.backend_bases import MouseEvent  # noqa: E402
+
+import tin_swarm_env as tse  # noqa: E402
+from tin_swarm_env.cli import main  # noqa: E402
+from tin_swarm_env.explorer import FieldExplorer  # noqa: E402
+
+
+@pytest.fixture
+def ex():
+    e = FieldExplorer("ramp", robot=0, n_robots=6, grid=21)
+    yield e
+    e.close()
+
+
+def test_toggling_a_field_changes_the_plotted_field(ex):
+    u0 = ex.field_values.copy()
+    labels = [t.get_text() for t in ex.checks.labels]
+    ex.checks.set_active(labels.index("target"))  # the check box callback
+    assert "target" not in ex.fields and "target" not in ex.policy.params.fields
+    u1 = ex.field_values.copy()
+    assert not np.allclose(u0, u1)
+    ex.checks.set_active(labels.index("target"))
+    np.testing.assert_allclose(ex.field_values, u0)
+
+
+def test_next_step_button_moves_the_robots_and_reset_restores(ex):
+    p0 = ex.env.wstate.positions.copy()
+    ex.btn_next._observers.process("clicked", None)  # what a click on "next step" does
+    assert ex.env.steps == 1
+    assert np.all(np.hypot(*(ex.env.wstate.positions - p0).T) > 0)
+    ex.btn_reset._observers.process("clicked", None)
+    np.testing.assert_array_equal(ex.env.wstate.positions, p0)
+
+
+def test_clicking_the_heatmap_moves_the_robot_and_adds_a_threat(ex):
+    ax = ex.ax_heat
+    x, y = ex.env.wstate.positions[0] + [10.0, 5.0]
+    px, py = ax.transData.transform((x, y))
+    ex.fig.canvas.callbacks.process("button_press_event", MouseEvent("button_press_event", ex.fig.canvas, px, py, 1))
+    np.testing.assert_allclose(ex.env.wstate.positions[0], [x, y], atol=1.0)
+    n = len(ex.env.wstate.targets)
+    px, py = ax.transData.transform((x + 5, y))
+    ex.fig.canvas.callbacks.process("button_press_event", MouseEvent("button_press_event", ex.fig.canvas, px, py, 3))
+    assert len(ex.env.wstate.targets) == n + 1
+
+
+def test_explore_cli_writes_a_png_that_is_not_blank(tmp_path):
+    out = tmp_path / "ramp.png"
+    assert main(["explore", "ramp", "--png", str(out), "--robots", "6", "--steps", "20"]) == 0
+    from PIL import Image
+
+    img = np.asarray(Image.open(out).convert("RGB")).astype(float)
+    assert img.shape[0] > 400 and img.std() > 20
+    assert main(["explore", "ramp", "--png", str(tmp_path / "all.png"), "--robot", "all", "--fields",
+                 "robot,target"]) == 0
+    assert main(["explore", "ramp", "--png", str(tmp_path / "x.png"), "--fields", "magnetism"]) == 2
+
+
+def test_run_writes_an_mp4_and_record_video_parallel_works(tmp_path):
+    out = tmp_path / "flat.mp4"
+    assert main(["run", "flat", "--robots", "4", "--max-cycles", "40", "--mp4", str(out), "--quiet"]) == 0
+    import imageio.v2 as iio
+
+    frames = iio.mimread(out, memtest=False)
+    assert len(frames) >= 8 and frames[0].ndim == 3
+    from pettingzoo.utils.wrappers import RecordVideoParallel
+
+    env = RecordVideoParallel(tse.parallel_env(scenario="flat", n_robots=3, max_cycles=15, render_mode="rgb_array"),
+                              str(tmp_path / "vid"), episode_trigger=lambda e: True)
+    env.reset(seed=0)
+    while env.agents:
+        env.step({a: env.action_space(a).sample() for a in env.agents})
+    env.close()
+    videos = list((tmp_path / "vid").glob("*.mp4"))
+    assert videos and videos[0].stat().st_size > 1000
