@@ -100,6 +100,28 @@ def bucket_locate(vx, vy, tris, cell_start, cell_tris, gx0, gy0, inv_cs, gnx, gn
     return out
 
 
+@njit(cache=True)
+def exit_edge(vx, vy, tris, t, ax, ay, dx, dy):
+    """Where the directed line ``a + s * (dx, dy)`` leaves triangle ``t``: ``(k, s, u)`` with
+    ``k`` the exit edge (opposite vertex ``k``; -1 if the line does not cross ``t``), ``s`` the
+    line parameter of the crossing and ``u`` the fraction along the edge from vertex
+    ``tris[t, (k+1)%3]``. A vertex exactly on the line counts as lying to its left (a symbolic
+    perturbation), which makes the exit edge unique: the counter-clockwise edge whose start
+    lies strictly right of the line and whose end does not."""
+    for k in range(3):
+        vi = tris[t, (k + 1) % 3]
+        vj = tris[t, (k + 2) % 3]
+        si = dx * (vy[vi] - ay) - dy * (vx[vi] - ax)
+        sj = dx * (vy[vj] - ay) - dy * (vx[vj] - ax)
+        if si < 0.0 and sj >= 0.0:
+            exx = vx[vj] - vx[vi]
+            eyy = vy[vj] - vy[vi]
+            den = dx * eyy - dy * exx  # = sj - si > 0
+            s = ((vx[vi] - ax) * eyy - (vy[vi] - ay) * exx) / den
+            return k, s, -si / den
+    return -1, 0.0, 0.0
+
+
 @njit(cache=True, inline="always")
 def _plane_z(vx, vy, vz, tris, grad, t, x, y):
     a = tris[t, 0]
@@ -142,30 +164,15 @@ def los_walk(vx, vy, vz, tris, nbrs, grad, a_xyz, b_xyz, start, max_steps, ztol)
             continue
         res = -2
         for step in range(max_steps):
-            # sides of the three vertices relative to the directed line a->b (0 counts as left)
-            ex = -1
-            for k in range(3):
-                vi = tris[t, (k + 1) % 3]
-                vj = tris[t, (k + 2) % 3]
-                si = dx * (vy[vi] - ay) - dy * (vx[vi] - ax)
-                sj = dx * (vy[vj] - ay) - dy * (vx[vj] - ax)
-                if si < 0.0 and sj >= 0.0:
-                    ex = k
-                    break
+            ex, s, u = exit_edge(vx, vy, tris, t, ax, ay, dx, dy)
             if ex < 0:
                 break  # degenerate: gave up
-            vi = tris[t, (ex + 1) % 3]
-            vj = tris[t, (ex + 2) % 3]
-            exx = vx[vj] - vx[vi]
-            eyy = vy[vj] - vy[vi]
-            den = dx * eyy - dy * exx
-            s = ((vx[vi] - ax) * eyy - (vy[vi] - ay) * exx) / den
             if s >= 1.0:
                 # b lies in this triangle, before the exit edge
                 res = 1 if bz >= _plane_z(vx, vy, vz, tris, grad, t, bx, by) - ztol else 0
                 break
-            si = dx * (vy[vi] - ay) - dy * (vx[vi] - ax)
-            u = -si / den  # fraction along the edge vi->vj where the line crosses it
+            vi = tris[t, (ex + 1) % 3]
+            vj = tris[t, (ex + 2) % 3]
             z_edge = vz[vi] + u * (vz[vj] - vz[vi])
             z_sight = az + s * (bz - az)
             if z_edge > z_sight + ztol:

@@ -27,6 +27,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ..terrain._kernels import exit_edge
 from .state import ACTIVE
 
 __all__ = ["MOVED", "BLOCKED_BORDER", "BLOCKED_STEEP", "FELL_INTO", "body_to_world", "move", "turn_toward",
@@ -61,23 +62,9 @@ def move_walk(vx, vy, tris, nbrs, grad, steep, pos, tri, disp, max_steps):
         s_in = 0.0  # where the segment entered t
         ev = STUCK
         for _ in range(max_steps):
-            ex = -1
-            for k in range(3):
-                vi = tris[t, (k + 1) % 3]
-                vj = tris[t, (k + 2) % 3]
-                si = dx * (vy[vi] - ay) - dy * (vx[vi] - ax)
-                sj = dx * (vy[vj] - ay) - dy * (vx[vj] - ax)
-                if si < 0.0 and sj >= 0.0:
-                    ex = k
-                    break
+            ex, s, _u = exit_edge(vx, vy, tris, t, ax, ay, dx, dy)
             if ex < 0:
                 break
-            vi = tris[t, (ex + 1) % 3]
-            vj = tris[t, (ex + 2) % 3]
-            exx = vx[vj] - vx[vi]
-            eyy = vy[vj] - vy[vi]
-            den = dx * eyy - dy * exx
-            s = ((vx[vi] - ax) * eyy - (vy[vi] - ay) * exx) / den
             if s >= 1.0:
                 out_pos[i, 0] = ax + dx
                 out_pos[i, 1] = ay + dy
