@@ -176,3 +176,27 @@ def test_metres_per_degree_known_values():
     m_lon, m_lat = metres_per_degree(45.0)
     assert m_lon == pytest.approx(78846.8, abs=1.0)
     assert m_lat == pytest.approx(111131.8, abs=1.0)
+
+
+def test_geotiff_projected_and_geographic(tmp_path):
+    import rasterio
+    from rasterio.transform import from_origin
+
+    z = np.arange(12, dtype="float32").reshape(3, 4)
+    z[1, 2] = -9999
+    p = tmp_path / "utm.tif"
+    with rasterio.open(p, "w", driver="GTiff", height=3, width=4, count=1, dtype="float32", crs="EPSG:32616",
+                       transform=from_origin(1000, 2000, 10, 10), nodata=-9999) as dst:
+        dst.write(z, 1)
+    dem = load_dem(p)
+    np.testing.assert_array_equal(dem.x, [1005, 1015, 1025, 1035])
+    np.testing.assert_array_equal(dem.y, [1975, 1985, 1995])
+    np.testing.assert_array_equal(dem.z[0], [8, 9, 10, 11])  # the file's last (southern) row
+    assert np.isnan(dem.z[1, 2]) and dem.n_nodata == 1
+    g = tmp_path / "wgs84.tif"
+    with rasterio.open(g, "w", driver="GTiff", height=3, width=4, count=1, dtype="float32", crs="EPSG:4326",
+                       transform=from_origin(-84.4, 36.7, 0.001, 0.001)) as dst:
+        dst.write(np.ones((3, 4), "float32"), 1)
+    dem = load_dem(g)
+    m_lon, m_lat = metres_per_degree(36.7 - 0.0015)
+    assert dem.dx == pytest.approx(0.001 * m_lon, rel=1e-6) and dem.dy == pytest.approx(0.001 * m_lat, rel=1e-6)
