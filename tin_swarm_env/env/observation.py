@@ -189,6 +189,22 @@ def build_observations_reference(world, state, readings, target_idx, live, layou
     return obs.astype(np.float32)
 
 
+@njit(cache=True, inline="always")
+def _point_slots(obs, i, start, idx, dist, src, pos, c, s, R):
+    """Robot or target slots of robot ``i``: valid, x/R, y/R (body frame), d/R."""
+    for k in range(idx.shape[1]):
+        j = idx[i, k]
+        if j < 0:
+            continue
+        dx = src[j, 0] - pos[i, 0]
+        dy = src[j, 1] - pos[i, 1]
+        b = start + 4 * k
+        obs[i, b] = 1.0
+        obs[i, b + 1] = (c * dx + s * dy) / R
+        obs[i, b + 2] = (-s * dx + c * dy) / R
+        obs[i, b + 3] = dist[i, k] / R
+
+
 @njit(cache=True)
 def _fill(obs, pos, head, heights, speeds_n, battery_n, tilt_n, slope_n, grad, live,
           target_idx, tpos, tz, r_idx, r_dist, t_idx, t_dist, b_idx, b_dist, b_closest, b_normals, b_drops,
@@ -221,28 +237,8 @@ def _fill(obs, pos, head, heights, speeds_n, battery_n, tilt_n, slope_n, grad, l
             obs[i, 9] = d / (d + R)
             dz = tz[t] - heights[i]
             obs[i, 10] = dz / (abs(dz) + dz_scale)
-        for k in range(r_idx.shape[1]):
-            j = r_idx[i, k]
-            if j < 0:
-                continue
-            dx = pos[j, 0] - pos[i, 0]
-            dy = pos[j, 1] - pos[i, 1]
-            b = o_rob + 4 * k
-            obs[i, b] = 1.0
-            obs[i, b + 1] = (c * dx + s * dy) / R
-            obs[i, b + 2] = (-s * dx + c * dy) / R
-            obs[i, b + 3] = r_dist[i, k] / R
-        for k in range(t_idx.shape[1]):
-            j = t_idx[i, k]
-            if j < 0:
-                continue
-            dx = tpos[j, 0] - pos[i, 0]
-            dy = tpos[j, 1] - pos[i, 1]
-            b = o_tgt + 4 * k
-            obs[i, b] = 1.0
-            obs[i, b + 1] = (c * dx + s * dy) / R
-            obs[i, b + 2] = (-s * dx + c * dy) / R
-            obs[i, b + 3] = t_dist[i, k] / R
+        _point_slots(obs, i, o_rob, r_idx, r_dist, pos, pos, c, s, R)
+        _point_slots(obs, i, o_tgt, t_idx, t_dist, tpos, pos, c, s, R)
         for k in range(b_idx.shape[1]):
             j = b_idx[i, k]
             if j < 0:

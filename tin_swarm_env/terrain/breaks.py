@@ -20,9 +20,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Breaks", "find_breaks", "BORDER", "STEEP", "ANGLE"]
+__all__ = ["Breaks", "find_breaks", "closest_on_segments", "BORDER", "STEEP", "ANGLE"]
 
 BORDER, STEEP, ANGLE = 0, 1, 2
+
+
+def closest_on_segments(points, a, b):
+    """Closest points on segments ``a -> b`` to ``points`` (all broadcast against each other,
+    last axis x, y): ``(closest (..., 2), distance (...))``."""
+    ab = b - a
+    L2 = np.maximum(np.sum(ab * ab, axis=-1), 1e-300)
+    u = np.clip(np.sum((points - a) * ab, axis=-1) / L2, 0.0, 1.0)
+    closest = a + u[..., None] * ab
+    return closest, np.sqrt(np.sum((points - closest) ** 2, axis=-1))
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,15 +66,12 @@ class Breaks:
         points x segments in chunks: for a few points; the world layer keeps its own index."""
         pts = np.atleast_2d(np.asarray(xy, dtype=np.float64))
         a = self.segments[:, 0, :2]
-        ab = self.segments[:, 1, :2] - a
-        L2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
+        b = self.segments[:, 1, :2]
         best = np.full(len(pts), np.inf)
         idx = np.full(len(pts), -1, dtype=np.int64)
         for s in range(0, len(pts), 512):
             p = pts[s:s + 512]
-            ap = p[:, None, :] - a[None]
-            u = np.clip(np.einsum("nbj,bj->nb", ap, ab) / L2, 0.0, 1.0)
-            d = np.linalg.norm(ap - u[..., None] * ab[None], axis=2)
+            _, d = closest_on_segments(p[:, None, :], a[None], b[None])
             j = d.argmin(axis=1) if d.shape[1] else np.zeros(len(p), dtype=np.int64)
             dm = d[np.arange(len(p)), j] if d.shape[1] else np.full(len(p), np.inf)
             best[s:s + 512] = dm

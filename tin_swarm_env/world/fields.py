@@ -153,6 +153,7 @@ def fields_at(points, params: FieldParams, *, robots=None, target=None, standoff
     and ``tin`` with ``z_target`` for the height field. The slide term is left out (it depends
     on the robot's motion, not on its position alone)."""
     from ..terrain import ANGLE
+    from ..terrain.breaks import closest_on_segments
 
     p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     P = len(p)
@@ -164,11 +165,9 @@ def fields_at(points, params: FieldParams, *, robots=None, target=None, standoff
         rel = np.asarray(target, dtype=np.float64)[None, :] - p
         out["target"] = target_field(rel, standoff_m, params.target_gain, params.target_range_m)
     if params.on("break") and breaks is not None and len(breaks):
-        a = breaks.segments[:, 0, :2]
-        ab = breaks.segments[:, 1, :2] - a
-        ap = p[:, None, :] - a[None]
-        u = np.clip(np.einsum("pbj,bj->pb", ap, ab) / np.einsum("bj,bj->b", ab, ab), 0, 1)
-        rel = a[None] + u[..., None] * ab[None] - p[:, None, :]
+        closest, _ = closest_on_segments(p[:, None, :], breaks.segments[None, :, 0, :2],
+                                         breaks.segments[None, :, 1, :2])
+        rel = closest - p[:, None, :]
         danger = np.broadcast_to(breaks.kinds != ANGLE, rel.shape[:2])
         nrm = np.broadcast_to(breaks.normals[None], rel.shape)
         out["break"] = break_field(rel, nrm, danger, params.break_gain, params.break_range_m, params.break_decay_m)

@@ -25,6 +25,7 @@ import numpy as np
 from numba import njit
 from scipy.spatial import cKDTree
 
+from ..terrain.breaks import closest_on_segments
 from .state import ACTIVE, EMPTY
 
 __all__ = ["Contacts", "BreakContacts", "SensorReadings", "BreakIndex", "sense", "nearest_k"]
@@ -172,11 +173,7 @@ class BreakIndex:
         seg = self.piece_seg[m["j"]]
         key = np.unique(obs * np.int64(len(self.a)) + seg)
         obs, seg = key // len(self.a), key % len(self.a)
-        ap = xy[obs] - self.a[seg]
-        ab = self.ab[seg]
-        u = np.clip(np.einsum("ij,ij->i", ap, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0, 1)
-        closest = self.a[seg] + u[:, None] * ab
-        d = np.hypot(*(xy[obs] - closest).T)
+        closest, d = closest_on_segments(xy[obs], self.a[seg], self.a[seg] + self.ab[seg])
         ok = d <= range_m
         return BreakContacts(obs[ok], seg[ok], d[ok], closest[ok])
 
