@@ -169,7 +169,6 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
             self.wstate = initial_state(self.world, self.config, self._np_random, self.n)
         self.target_idx = assignments(self.n, len(self.wstate.targets))
         self.live = np.ones(self.n, dtype=bool)
-        self.reasons = np.zeros(self.n, dtype=np.int8)
         self.steps = 0
         self.readings = self.world.sense(self.wstate)
         return build_observations(self.world, self.wstate, self.readings, self.target_idx, self.live, self.layout)
@@ -202,7 +201,6 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         self.wstate = new
         self.readings = self.world.sense(new)
         obs = build_observations(self.world, new, self.readings, self.target_idx, live, self.layout)
-        self.reasons = reasons
         self.live = live & ~terminated & ~truncated
         return obs, rewards, terminated, truncated, reasons
 
