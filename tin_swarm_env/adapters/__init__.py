@@ -1,9 +1,11 @@
-"""Layer 2: training adapters (SB3 VecEnv, RLlib env). Heavy dependencies load lazily; a
+"""Layer 2: training adapters (SB3 VecEnv, RLlib env, Gymnasium single-robot and centralised
+views). Heavy dependencies load lazily; a
 missing one raises an error naming the extra to install."""
 
 from .sb3 import make_sb3_vec_env
 
-__all__ = ["make_sb3_vec_env", "TinSwarmVecEnv", "RLlibTinSwarmEnv", "rllib_env_creator"]
+__all__ = ["make_sb3_vec_env", "TinSwarmVecEnv", "RLlibTinSwarmEnv", "rllib_env_creator",
+           "TinSwarmSingleEnv", "TinSwarmCentralEnv", "register_gymnasium"]
 
 
 def __getattr__(name):
@@ -15,4 +17,8 @@ def __getattr__(name):
         from . import rllib
 
         return getattr(rllib, name)
+    if name in ("TinSwarmSingleEnv", "TinSwarmCentralEnv", "register_gymnasium"):
+        from . import gym_views
+
+        return getattr(gym_views, name)
     raise AttributeError(name)
