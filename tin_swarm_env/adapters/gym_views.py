@@ -152,7 +152,7 @@ class TinSwarmSingleEnv(_SwarmView):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         swarm_seed = self._reset_swarm(seed, options)
-        if self.others == "random":
+        if isinstance(self.others, str) and self.others == "random":
             self._random_others = np.random.default_rng(np.random.SeedSequence((swarm_seed, 1)))
         if self.render_mode == "human":
             self.render()
@@ -161,9 +161,9 @@ class TinSwarmSingleEnv(_SwarmView):
     def _others_actions(self) -> np.ndarray:
         """Actions ``(n, 2)`` float64 (a new array) of every robot under the others' policy;
         row 0 is the caller's to overwrite."""
-        if self.n == 1 or self.others == "still":
+        if self.n == 1 or (isinstance(self.others, str) and self.others == "still"):
             return np.zeros((self.n, 2))
-        if self.others == "random":
+        if isinstance(self.others, str) and self.others == "random":
             return self._random_others.uniform(-1, 1, (self.n, 2))
         acts = np.array(self.others.act_batch(self._obs), dtype=np.float64)
         if acts.shape != (self.n, 2):
