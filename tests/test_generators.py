@@ -292,9 +292,10 @@ def tin_route(task, tin):
 @pytest.mark.parametrize("family", ["canyon", "mesa", "hills"])
 def test_tin_tasks_with_a_solvable_check_are_solvable_on_the_greedy_tin(family):
     """What the integrator does with cost_to_go: mesh each draw (greedy, 0.5 m) and keep it only if
-    the target is reachable over passable triangles; the route then goes the labelled way and the
-    straight line crosses a triangle the robots cannot drive."""
+    the target is reachable over passable triangles; the route then goes the labelled way, the
+    straight line crosses a triangle the robots cannot drive, and 50 robots fit the spawn region."""
     from tin_swarm_env.terrain import build_tin
+    from tin_swarm_env.world.spawn import spawn_positions
 
     tins = {}
 
@@ -308,6 +309,10 @@ def test_tin_tasks_with_a_solvable_check_are_solvable_on_the_greedy_tin(family):
         side = tin_route(t, tin)
         if t.detour_side in ("left", "right"):
             assert side == t.detour_side, (seed, t.params)
+        # the spawn region holds 50 robots 2 m apart on drivable triangles (the world's own sampler)
+        steep = tin.slope_deg > MAX_SLOPE
+        pos = spawn_positions(tin, steep, 50, np.random.default_rng(seed), region=t.spawn_region, min_separation_m=2.0)
+        assert pos.shape == (50, 2)
         if family != "hills":
             s, g = t.spawn_centre, t.targets[0]
             line = s + np.linspace(0, 1, 1000)[:, None] * (g - s)
