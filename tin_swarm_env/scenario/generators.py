@@ -1,0 +1,541 @@
+"""Seeded terrain generators: a new goal task (terrain, spawn region, target) from a random stream.
+
+The jumanji "generator" idea: :func:`generate` draws a family and its parameters from ``ranges``
+and returns a :class:`GeneratedTask`; the same generator state gives the same task bit for bit.
+Each family is a function ``family(rng, **params) -> GeneratedTask`` (``FAMILIES``); parameters
+left out take the middle of their default range (or the first choice).
+
+Geometry is built in a *travel frame*: ``v`` forward from the spawn toward the target, ``u`` to
+the robots' right, origin at the map centre; ``heading`` turns that frame onto the map (travel
+north, east, south or west). "Left" and "right" are as seen from the spawn looking at the target.
+Every cliff is a one-cell step at least ``cell_m * tan(cliff_min_deg)`` high, so steeper than
+``cliff_min_deg = (90 + max_slope_deg) / 2`` (60 deg for the robots' default 30 deg limit);
+every pass or ramp floor is at most ``max_slope_deg / 2`` steep (15 deg) including the noise,
+which never adds more than ``max_slope_deg / 10`` (3 deg) of slope; a pass's flanks (``4 m + 2
+cells`` wide, at most about 24 deg) join it to the ground over its full width near its ends, so a
+greedy TIN never reduces that joint to one vertex. So the task stays unambiguous after TIN
+reduction (measured: the target was reachable over passable triangles of the greedy 0.5 m TIN in
+298 of 300 draws; the two misses, both mesas, had a steep sliver triangle across a ramp, which is
+what the ``solvable`` check below catches).
+
+=========== ================ ================ ===================================================
+family      parameter        default range    meaning
+=========== ================ ================ ===================================================
+(all)       size_m           [200, 400]       side of the square map, m
+(all)       cell_m           [1, 4]           DEM cell size, m
+(all)       noise_m          [0, 1.5]         amplitude of the smooth fractal noise, m
+(all)       noise_scale_m    [20, 60]         largest wavelength of the noise, m
+(all)       spawn_m          [22, 30]         side of the square spawn region, m (about 25-50
+                                              robots at 2 m separation)
+canyon      heading          n/e/s/w          direction of travel (the cliff runs across it)
+canyon      spawn_on         top, bottom      robots start on the plateau or below the cliff
+canyon      side             left/right/both  where the pass(es) lie; "both": mirror-image pair
+canyon      cliff_m          [8, 16]          height of the escarpment, m
+canyon      cliff_v_frac     [-0.1, 0.1]      cliff line's offset along travel, of half the size
+canyon      pass_offset_frac [0.4, 0.75]      pass centre's lateral offset, of half the size
+canyon      pass_width_m     [10, 20]         width of a pass, m
+canyon      ramp_slope_deg   [9, 13]          slope of a pass (capped as above), deg
+canyon      target_u_frac    [-0.15, 0.15]    target's lateral offset, of half the size
+mesa        spawn_on         top, bottom      robots on the mesa (target below) or the reverse
+mesa        side             left/right/both  where the ramp(s) lie; "both": mirror-image pair
+mesa        bearing_deg      [0, 360]         bearing of the low end (spawn or target) from the
+                                              mesa centre, deg counter-clockwise from east
+mesa        mesa_m           [8, 11]          height of the mesa, m
+mesa        radius_frac      [0.35, 0.5]      mesa radius, of half the size
+mesa        ramp_angle_deg   [60, 120]        angle at the centre between that bearing and a ramp
+mesa        ramp_width_m     [10, 18]         width of a ramp, m
+mesa        ramp_slope_deg   [10, 13]         slope of a ramp (capped as above), deg
+mesa        place_frac       [0.2, 0.8]       where the low end sits between its nearest and
+                                              farthest allowed distance from the centre
+hills       heading          n/e/s/w          direction of travel
+hills       hill_m           [3, 10]          amplitude of the rolling hills, m (their slope is
+                                              capped at max_slope_deg / 2)
+hills       hill_scale_m     [60, 140]        largest wavelength of the hills, m
+hills       n_blocks         [2, 6]           steep-walled raised blocks (rectangles)
+hills       block_m          [8, 14]          height of a block, m
+hills       block_size_m     [12, 36]         longest side of a block, m (each side is drawn
+                                              in [0.5, 1] of it)
+hills       n_pits           [1, 4]           steep-walled round pits
+hills       pit_m            [6, 12]          depth of a pit, m
+hills       pit_radius_m     [6, 16]          largest radius of a pit, m
+hills       target_u_frac    [-0.3, 0.3]      target's lateral offset, of half the size
+=========== ================ ================ ===================================================
+
+``detour_side``: canyon and mesa put the only way(s) down or up on the drawn ``side``; the
+straight line from the spawn centre to the target always crosses a cliff. Hills keep every block
+and pit (their bounding circles) ``6 m + 2 cells`` apart and away from the map edge, the spawn
+region and the target, so their tasks are solvable by construction; their label is "none". A
+``solvable(task) -> bool`` check (the integrator passes one built on ``terrain.cost_to_go``)
+makes :func:`generate` draw again from the same stream until it holds.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..terrain import Dem
+from .config import ScenarioError
+
+__all__ = ["GeneratedTask", "PARAMS", "DEFAULT_RANGES", "FAMILIES", "HEADINGS", "generate", "validate_ranges",
+           "draw_params", "replay", "canyon", "mesa", "hills"]
+
+HEADINGS = {"north": (0.0, 1.0), "east": (1.0, 0.0), "south": (0.0, -1.0), "west": (-1.0, 0.0)}
+SIDES = ("left", "right", "both")
+MARGIN_M = 4.0  # clear ground kept between a spawn region / target and the map edge or a cliff
+
+
+@dataclass(frozen=True)
+class Param:
+    """One drawn parameter: ``kind`` "float" | "int" | "choice"; ``default`` the default range
+    ``(lo, hi)`` or the choices; ``bounds`` the allowed ``(lo, hi)`` (or the allowed choices)."""
+
+    kind: str
+    default: tuple
+    bounds: tuple
+
+
+def _f(lo, hi, blo, bhi):
+    return Param("float", (float(lo), float(hi)), (float(blo), float(bhi)))
+
+
+def _i(lo, hi, blo, bhi):
+    return Param("int", (int(lo), int(hi)), (int(blo), int(bhi)))
+
+
+def _c(*choices):
+    return Param("choice", tuple(choices), tuple(choices))
+
+
+_COMMON = {
+    "size_m": _f(200, 400, 100, 2000), "cell_m": _f(1, 4, 0.25, 10), "noise_m": _f(0, 1.5, 0, 10),
+    "noise_scale_m": _f(20, 60, 5, 500), "spawn_m": _f(22, 30, 5, 200),
+}
+PARAMS: dict[str, dict[str, Param]] = {
+    "canyon": {**_COMMON, "heading": _c(*HEADINGS), "spawn_on": _c("top", "bottom"), "side": _c(*SIDES),
+               "cliff_m": _f(8, 16, 1, 200), "cliff_v_frac": _f(-0.1, 0.1, -0.5, 0.5),
+               "pass_offset_frac": _f(0.4, 0.75, 0.05, 0.95), "pass_width_m": _f(10, 20, 2, 200),
+               "ramp_slope_deg": _f(9, 13, 1, 45), "target_u_frac": _f(-0.15, 0.15, -0.9, 0.9)},
+    "mesa": {**_COMMON, "spawn_on": _c("top", "bottom"), "side": _c(*SIDES), "bearing_deg": _f(0, 360, -360, 720),
+             "mesa_m": _f(8, 11, 1, 200), "radius_frac": _f(0.35, 0.5, 0.05, 0.9),
+             "ramp_angle_deg": _f(60, 120, 20, 160), "ramp_width_m": _f(10, 18, 2, 200),
+             "ramp_slope_deg": _f(10, 13, 1, 45), "place_frac": _f(0.2, 0.8, 0, 1)},
+    "hills": {**_COMMON, "heading": _c(*HEADINGS), "hill_m": _f(3, 10, 0, 200), "hill_scale_m": _f(60, 140, 5, 2000),
+              "n_blocks": _i(2, 6, 0, 50), "block_m": _f(8, 14, 1, 200), "block_size_m": _f(12, 36, 2, 500),
+              "n_pits": _i(1, 4, 0, 50), "pit_m": _f(6, 12, 1, 200), "pit_radius_m": _f(6, 16, 1, 500),
+              "target_u_frac": _f(-0.3, 0.3, -0.9, 0.9)},
+}
+DEFAULT_RANGES: dict[str, dict[str, list]] = {
+    fam: {k: list(p.default) for k, p in spec.items()} for fam, spec in PARAMS.items()}
+
+
+@dataclass(frozen=True, eq=False)
+class GeneratedTask:
+    """One drawn goal task.
+
+    dem            the terrain grid (source "generated:<family>")
+    spawn_region   (x0, y0, x1, y1) m, traversable ground for the robots
+    targets        (m, 2) m, target positions (read-only)
+    family         the family's name
+    params         every parameter the family was called with (drawn ones and ``max_slope_deg``)
+    detour_side    "left", "right", "both" or "none": where the way round the cliff lies, as
+                   seen from the spawn centre looking at the target
+    passes         (k, 2, 2) m, the centre line of each pass or ramp, high end first
+    seed           the seed of the family's own generator (``replay`` rebuilds the task from it);
+                   None when the family was called directly
+    """
+
+    dem: Dem
+    spawn_region: tuple[float, float, float, float]
+    targets: np.ndarray
+    family: str
+    params: dict
+    detour_side: str
+    passes: np.ndarray
+    seed: int | None = None
+
+    @property
+    def spawn_centre(self) -> np.ndarray:
+        """(2,) m, the middle of the spawn region."""
+        x0, y0, x1, y1 = self.spawn_region
+        return np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+
+
+# -- parameters -------------------------------------------------------------------------------
+
+
+def _check_family(fam, where):
+    if fam not in PARAMS:
+        raise ScenarioError(f"{where}: unknown terrain family {fam!r}; known: {', '.join(PARAMS)}")
+
+
+def _check_range(fam, key, value, where):
+    """Normalise one range (a [lo, hi] pair, a single number, or a list of choices)."""
+    if key not in PARAMS[fam]:
+        raise ScenarioError(f"{where}: family {fam!r} has no parameter {key!r} (known: {', '.join(PARAMS[fam])})")
+    p, name = PARAMS[fam][key], f"{where}: {fam}.{key}"
+    if p.kind == "choice":
+        vals = [value] if isinstance(value, str) else value
+        if not isinstance(vals, (list, tuple)) or not vals or any(v not in p.bounds for v in vals):
+            raise ScenarioError(f"{name} must be a non-empty list of {list(p.bounds)}, got {value!r}")
+        return tuple(vals)
+    pair = [value, value] if isinstance(value, (int, float)) else value
+    ok = isinstance(pair, (list, tuple)) and len(pair) == 2 and all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in pair)
+    if ok and p.kind == "int":
+        ok = all(float(v).is_integer() for v in pair)
+    if not ok:
+        raise ScenarioError(f"{name} must be a [lo, hi] pair of {'integers' if p.kind == 'int' else 'numbers'}, "
+                            f"got {value!r}")
+    lo, hi = pair
+    if lo > hi or lo < p.bounds[0] or hi > p.bounds[1]:
+        raise ScenarioError(f"{name}: range {[lo, hi]} must have lo <= hi within {list(p.bounds)}")
+    return (int(lo), int(hi)) if p.kind == "int" else (float(lo), float(hi))
+
+
+def validate_ranges(ranges: Mapping | None, families: Sequence[str] = tuple(PARAMS),
+                    where: str = "generated terrain") -> dict[str, dict[str, tuple]]:
+    """The default ranges of ``families`` with ``ranges`` (``{family: {param: [lo, hi] | value |
+    [choices]}}``) laid over them, checked. An unknown family or parameter, or a bad range, is a
+    :class:`ScenarioError` naming ``where``, the family and the key."""
+    for fam in families:
+        _check_family(fam, where)
+    out = {fam: {k: p.default for k, p in PARAMS[fam].items()} for fam in families}
+    for fam, over in (ranges or {}).items():
+        _check_family(fam, where)
+        if fam not in out:
+            raise ScenarioError(f"{where}: ranges given for family {fam!r}, which is not among {list(families)}")
+        if not isinstance(over, Mapping):
+            raise ScenarioError(f"{where}: ranges for family {fam!r} must be a table, got {over!r}")
+        for key, value in over.items():
+            out[fam][key] = _check_range(fam, key, value, where)
+    return out
+
+
+def draw_params(rng: np.random.Generator, family: str, ranges: Mapping[str, tuple]) -> dict:
+    """One value per parameter of ``family``, uniform in its (checked) range, in table order."""
+    out = {}
+    for key, p in PARAMS[family].items():
+        r = ranges[key]
+        if p.kind == "float":
+            out[key] = float(rng.uniform(r[0], r[1]))
+        elif p.kind == "int":
+            out[key] = int(rng.integers(r[0], r[1] + 1))
+        else:
+            out[key] = r[int(rng.integers(len(r)))]
+    return out
+
+
+def _resolve(family: str, params: dict) -> dict:
+    """Fill missing parameters with the middle of their default range; check the given ones."""
+    out = {"max_slope_deg": 30.0}
+    for key, p in PARAMS[family].items():
+        out[key] = p.default[0] if p.kind == "choice" else (p.default[0] + p.default[1]) / 2
+        if p.kind == "int":
+            out[key] = int(out[key])
+    for key, value in params.items():
+        if key == "max_slope_deg":
+            if not isinstance(value, (int, float)) or not 5.0 <= value <= 60.0:
+                raise ScenarioError(f"{family}: max_slope_deg must be within [5, 60], got {value!r}")
+        else:
+            choice = key in PARAMS[family] and PARAMS[family][key].kind == "choice"
+            _check_range(family, key, [value] if choice else value, family)
+        out[key] = value
+    return out
+
+
+# -- shared geometry --------------------------------------------------------------------------
+
+
+def _grid(p):
+    """Cell centres ``(n,)`` m (the same for x and y: maps are square) and the half size, m."""
+    n = int(round(p["size_m"] / p["cell_m"])) + 1
+    x = np.arange(n) * p["cell_m"]
+    return x, x[-1] / 2
+
+
+def _noise(rng, x, scale_m, octaves=3):
+    """Smooth fractal value noise on the grid ``x`` x ``x``: random lattices ``scale_m / 2**o``
+    apart, smoothstep-interpolated, amplitudes halving; max |value| scaled to 1. (n, n)."""
+    out = np.zeros((x.size, x.size))
+    for o in range(octaves):
+        wl = scale_m / 2 ** o
+        f = x / wl
+        i = np.floor(f).astype(np.int64)
+        t = f - i
+        s = t * t * (3 - 2 * t)
+        lat = rng.standard_normal((i[-1] + 2, i[-1] + 2))
+        a, b = lat[i][:, i], lat[i][:, i + 1]
+        c, d = lat[i + 1][:, i], lat[i + 1][:, i + 1]
+        sy, sx = s[:, None], s[None, :]
+        out += 0.5 ** o * ((1 - sy) * ((1 - sx) * a + sx * b) + sy * ((1 - sx) * c + sx * d))
+    peak = np.abs(out).max()
+    return out / peak if peak > 0 else out
+
+
+def _capped(field, amplitude_m, max_tan, cell_m):
+    """``amplitude_m * field``, scaled down where needed so its steepest slope is ``max_tan``."""
+    z = amplitude_m * field
+    gy, gx = np.gradient(z, cell_m)
+    steepest = float(np.sqrt(gx * gx + gy * gy).max())
+    return z * (max_tan / steepest) if steepest > max_tan else z
+
+
+def _slopes(p):
+    """(cliff height floor m, ramp tangent cap, noise tangent cap) from ``max_slope_deg``."""
+    ms = math.radians(p["max_slope_deg"])
+    noise_tan = math.tan(ms / 10)
+    return p["cell_m"] * math.tan((math.pi / 2 + ms) / 2), math.tan(ms / 2) - noise_tan, noise_tan
+
+
+def _frame(x, half, heading):
+    """Travel-frame coordinates ``u`` (right) and ``v`` (forward) of every cell, (n, n) m, and the
+    map from travel frame to world xy."""
+    fx, fy = HEADINGS[heading]
+    rx, ry = fy, -fx
+    dx, dy = x[None, :] - half, x[:, None] - half
+
+    def to_world(uv):
+        uv = np.asarray(uv, dtype=np.float64)
+        return np.stack([half + uv[..., 0] * rx + uv[..., 1] * fx, half + uv[..., 0] * ry + uv[..., 1] * fy], -1)
+
+    return dx * rx + dy * ry, dx * fx + dy * fy, to_world
+
+
+def _flare_m(p):
+    """Width of a pass's gentle flanks, m (see :func:`_cut_pass`)."""
+    return 4.0 + 2.0 * p["cell_m"]
+
+
+def _cut_pass(z, along, across, start, run, h, width_m, p):
+    """``z`` (n, n) m with a pass cut into / built onto it: along the axis coordinate ``along``
+    (n, n) m from ``start`` (height ``h``) to ``start + run`` (height 0), a floor ``width_m`` wide
+    about ``across == 0``. Each side has a flank ``_flare_m`` wide rising or falling from the floor
+    at ``tan(0.6 max_slope_deg)`` (18 deg) until it meets ``z``; beyond it ``z`` is kept, so the
+    pass has steep walls where it is deep and gentle sides near its two ends (a TIN joins it to
+    the ground over its full width there, never through one vertex)."""
+    ramp = h * np.clip((start + run - along) / run, 0.0, 1.0)
+    d = np.maximum(np.abs(across) - width_m / 2, 0.0)
+    flank = np.where(d <= _flare_m(p), math.tan(0.6 * math.radians(p["max_slope_deg"])) * d, np.inf)
+    on = (along >= start) & (along <= start + run)
+    return np.where(on, np.clip(z, ramp - flank, ramp + flank), z)
+
+
+def _square(centre, side):
+    cx, cy = (float(c) for c in centre)
+    return (cx - side / 2, cy - side / 2, cx + side / 2, cy + side / 2)
+
+
+def _side_of(spawn, target, points):
+    """'left' / 'right' / 'both': the side of the line spawn -> target where ``points`` (k, 2) lie."""
+    d = target - spawn
+    cross = d[0] * (points[:, 1] - spawn[1]) - d[1] * (points[:, 0] - spawn[0])
+    left, right = bool((cross > 0).any()), bool((cross < 0).any())
+    return "both" if left and right else ("left" if left else "right")
+
+
+def _task(family, p, x, z, spawn_centre, target, passes, rng_noise):
+    """Add the common noise and wrap up. ``passes`` (k, 2, 2) m world; the rest as in GeneratedTask."""
+    _, _, noise_tan = _slopes(p)
+    z = z + _capped(_noise(rng_noise, x, p["noise_scale_m"]), p["noise_m"], noise_tan, p["cell_m"])
+    targets = np.asarray(target, dtype=np.float64).reshape(1, 2)
+    targets.setflags(write=False)
+    passes = np.asarray(passes, dtype=np.float64).reshape(-1, 2, 2)
+    passes.setflags(write=False)
+    side = "none" if len(passes) == 0 else _side_of(np.asarray(spawn_centre), targets[0], passes.mean(axis=1))
+    return GeneratedTask(Dem(z, x, x, source=f"generated:{family}"), _square(spawn_centre, p["spawn_m"]),
+                         targets, family, p, side, passes)
+
+
+def _fit(ok: bool, family: str, what: str, p: dict):
+    if not ok:
+        raise ScenarioError(f"{family}: {what} does not fit a {p['size_m']:.0f} m map with these parameters: "
+                            + ", ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in p.items()))
+
+
+# -- families ---------------------------------------------------------------------------------
+
+
+def canyon(rng: np.random.Generator, **params) -> GeneratedTask:
+    """An escarpment across the way: a one-cell cliff ``cliff_m`` high spans the map between spawn
+    and target; pass(es) ``pass_width_m`` wide ramp through it at ``ramp_slope_deg`` (half cut into
+    the plateau, half built out below it) on the drawn ``side``, ``pass_offset_frac`` of the half
+    size off the spawn-target line. ``rng`` draws only the noise."""
+    p = _resolve("canyon", params)
+    x, half = _grid(p)
+    u, v, to_world = _frame(x, half, p["heading"])
+    h_min, ramp_tan, _ = _slopes(p)
+    h = max(p["cliff_m"], h_min)
+    run = h / min(math.tan(math.radians(p["ramp_slope_deg"])), ramp_tan)  # horizontal length of a pass, m
+    vc, off, w, s = p["cliff_v_frac"] * half, p["pass_offset_frac"] * half, p["pass_width_m"], p["spawn_m"]
+    spawn_uv = np.array([0.0, (vc - half) / 2])
+    target_uv = np.array([p["target_u_frac"] * half, (vc + half) / 2])
+    cross_u = spawn_uv[0] + (target_uv[0] - spawn_uv[0]) * (vc - spawn_uv[1]) / (target_uv[1] - spawn_uv[1])
+    _fit(abs(vc) + run / 2 <= half - MARGIN_M, "canyon", f"a pass {run:.0f} m long", p)
+    clear = off - w / 2 - _flare_m(p) - MARGIN_M  # from the spawn-target axis to the nearest pass flank, m
+    _fit(s / 2 <= clear and abs(cross_u) <= clear and off + w / 2 <= half - MARGIN_M, "canyon",
+         "the passes beside the spawn region and the straight way", p)
+    _fit(spawn_uv[1] - s / 2 >= -half + MARGIN_M and spawn_uv[1] + s / 2 <= vc - MARGIN_M, "canyon",
+         "the spawn region", p)
+    z = np.where(v < vc, h, 0.0)  # (n, n) m, the plateau behind the cliff
+    pass_u = {"left": [-off], "right": [off], "both": [-off, off]}[p["side"]]
+    for uc in pass_u:
+        z = _cut_pass(z, v, u - uc, vc - run / 2, run, h, w, p)
+    ends = [[[uc, vc - run / 2], [uc, vc + run / 2]] for uc in pass_u]  # high end first
+    if p["spawn_on"] == "bottom":
+        z = h - z
+        ends = [e[::-1] for e in ends]
+    return _task("canyon", p, x, z, to_world(spawn_uv), to_world(target_uv), to_world(ends), rng)
+
+
+def mesa(rng: np.random.Generator, **params) -> GeneratedTask:
+    """A round mesa ``mesa_m`` high and ``radius_frac`` of the half size wide in the middle of the
+    map, with one-cell cliffs all round except for radial ramp(s) ``ramp_width_m`` wide at
+    ``ramp_slope_deg`` (cut into the rim as far as the spawn region or target allows, built out
+    below it for the rest), ``ramp_angle_deg`` round from the low end's bearing on the drawn
+    ``side``. Spawn on top: the spawn region is centred on the mesa and the target lies below at
+    ``bearing_deg``; spawn at the bottom: the reverse. ``rng`` draws only the noise."""
+    p = _resolve("mesa", params)
+    x, half = _grid(p)
+    dx, dy = x[None, :] - half, x[:, None] - half  # (1, n), (n, 1) m from the centre
+    h_min, ramp_tan, _ = _slopes(p)
+    h = max(p["mesa_m"], h_min)
+    run = h / min(math.tan(math.radians(p["ramp_slope_deg"])), ramp_tan)
+    r, s, w, top = p["radius_frac"] * half, p["spawn_m"], p["ramp_width_m"], p["spawn_on"] == "top"
+    room = r - (s / math.sqrt(2) + MARGIN_M if top else 2 * MARGIN_M)  # rim to spawn region / target, m
+    _fit(room >= 0, "mesa", "the spawn region or target on top", p)
+    inner = r - min(run / 2, room)  # the ramp's top end from the centre, m
+    _fit(inner + run <= half - 1.5 * MARGIN_M, "mesa", f"a ramp {run:.0f} m long", p)
+    beta = math.radians(p["bearing_deg"])
+    bearing = np.array([math.cos(beta), math.sin(beta)])
+    z = np.where(dx * dx + dy * dy <= r * r, h, 0.0)  # (n, n) m
+    signs = {"left": [1.0], "right": [-1.0], "both": [1.0, -1.0]}[p["side"]]
+    ends = []
+    for sg in signs:  # seen from the centre, left is counter-clockwise; seen from outside, clockwise
+        phi = beta + sg * (1.0 if top else -1.0) * math.radians(p["ramp_angle_deg"])
+        c, sn = math.cos(phi), math.sin(phi)
+        along, across = dx * c + dy * sn, dy * c - dx * sn
+        z = _cut_pass(z, along, across, inner, run, h, w, p)
+        ends.append([[half + inner * c, half + inner * sn], [half + (inner + run) * c, half + (inner + run) * sn]])
+    reach = 1.0 / max(abs(bearing[0]), abs(bearing[1]))  # distance to the map edge per metre of half size
+    if top:
+        lo, hi = r + 2 * MARGIN_M, (half - 2 * MARGIN_M) * reach
+    else:
+        lo, hi = r + s / math.sqrt(2) + 2 * MARGIN_M, (half - s / 2 - MARGIN_M) * reach
+    _fit(lo <= hi, "mesa", "the low end (spawn region or target) between the mesa and the map edge", p)
+    low = half + (lo + p["place_frac"] * (hi - lo)) * bearing
+    centre = np.array([half, half])
+    spawn, target = (centre, low) if top else (low, centre)
+    return _task("mesa", p, x, z, spawn, target, ends, rng)
+
+
+def _place(rng, k, radii, half, keep_out, gap):
+    """Up to ``k`` centres (travel frame, m) for features of bounding radii ``radii`` (k,), each at
+    least ``gap`` from the map edge, the ``keep_out`` circles ``[(centre, radius), ...]`` and every
+    feature placed before it. 32 candidates per feature, the first that fits wins (none: skipped)."""
+    cands = rng.uniform(-half, half, (k, 32, 2))
+    placed, rads = list(keep_out), []
+    for i in range(k):
+        c, ri = cands[i], radii[i]
+        ok = np.all(np.abs(c) <= half - ri - gap, axis=1)
+        for pc, pr in placed:
+            ok &= np.hypot(c[:, 0] - pc[0], c[:, 1] - pc[1]) >= ri + pr + gap
+        if ok.any():
+            placed.append((c[np.argmax(ok)], ri))
+            rads.append(i)
+    return [placed[len(keep_out) + j][0] for j in range(len(rads))], rads
+
+
+def hills(rng: np.random.Generator, **params) -> GeneratedTask:
+    """Rolling hills (fractal noise ``hill_m`` high, slope capped at ``max_slope_deg / 2``) with
+    ``n_blocks`` steep-walled blocks (rectangles at random angles, ``block_m`` high) and ``n_pits``
+    steep-walled round pits (``pit_m`` deep) scattered over them. The spawn region sits at the
+    rear edge, the target near the front edge. Every feature's bounding circle keeps ``6 m + 2
+    cells`` from the others, the map edge, the spawn region and the target (fewer features when
+    32 tries find no room), so the open ground stays connected. ``rng`` draws the hills, the
+    features and the noise."""
+    p = _resolve("hills", params)
+    x, half = _grid(p)
+    u, v, to_world = _frame(x, half, p["heading"])
+    h_min, _, _ = _slopes(p)
+    z = _capped(_noise(rng, x, p["hill_scale_m"]), p["hill_m"], math.tan(math.radians(p["max_slope_deg"]) / 2),
+                p["cell_m"])
+    s, gap = p["spawn_m"], 6.0 + 2 * p["cell_m"]
+    spawn_uv = np.array([0.0, -half + MARGIN_M + s / 2])
+    target_uv = np.array([p["target_u_frac"] * half, half - 3 * MARGIN_M])
+    keep_out = [(spawn_uv, s / math.sqrt(2)), (target_uv, 0.0)]
+    nb, npit = p["n_blocks"], p["n_pits"]
+    sides = p["block_size_m"] * rng.uniform(0.5, 1.0, (nb, 2))  # (nb, 2) m
+    angles = rng.uniform(0.0, math.pi, nb)
+    pit_r = p["pit_radius_m"] * rng.uniform(0.6, 1.0, npit)
+    radii = np.concatenate([np.hypot(sides[:, 0], sides[:, 1]) / 2, pit_r])
+    centres, which = _place(rng, nb + npit, radii, half, keep_out, gap)
+    for c, i in zip(centres, which, strict=True):
+        du, dv = u - c[0], v - c[1]
+        if i < nb:
+            ca, sa = math.cos(angles[i]), math.sin(angles[i])
+            inside = (np.abs(du * ca + dv * sa) <= sides[i, 0] / 2) & (np.abs(dv * ca - du * sa) <= sides[i, 1] / 2)
+            z = z + np.where(inside, max(p["block_m"], h_min), 0.0)
+        else:
+            z = z - np.where(du * du + dv * dv <= pit_r[i - nb] ** 2, max(p["pit_m"], h_min), 0.0)
+    return _task("hills", p, x, z, to_world(spawn_uv), to_world(target_uv), np.zeros((0, 2, 2)), rng)
+
+
+FAMILIES: dict[str, Callable[..., GeneratedTask]] = {"canyon": canyon, "mesa": mesa, "hills": hills}
+
+
+# -- the dispatcher ---------------------------------------------------------------------------
+
+
+def _weights(families, where):
+    if isinstance(families, str):
+        families = (families,)
+    if isinstance(families, Mapping):
+        names, w = list(families), [families[k] for k in families]
+    else:
+        names, w = list(families), [1.0] * len(families)
+    if not names:
+        raise ScenarioError(f"{where}: no terrain families given")
+    for fam in names:
+        _check_family(fam, where)
+    w = np.asarray(w, dtype=np.float64)
+    if not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() <= 0:
+        raise ScenarioError(f"{where}: family weights must be finite, >= 0 and not all 0, got {dict(zip(names, w))}")
+    return names, w / w.sum()
+
+
+def generate(rng: np.random.Generator, families: Sequence[str] | Mapping[str, float] = tuple(PARAMS),
+             ranges: Mapping | None = None, *, max_slope_deg: float = 30.0,
+             solvable: Callable[[GeneratedTask], bool] | None = None, max_tries: int = 20,
+             where: str = "generated terrain") -> GeneratedTask:
+    """Draw a task: a family (uniformly, or by the weights of a ``{family: weight}`` mapping), its
+    parameters uniformly from ``ranges`` laid over :data:`DEFAULT_RANGES` (see
+    :func:`validate_ranges`), then the family's own generator seed; all from ``rng``, so the same
+    state gives the same task bit for bit. With ``solvable``, draws again from the same stream
+    until ``solvable(task)`` is true, at most ``max_tries`` times, then raises ScenarioError.
+    ``where`` (the scenario file) prefixes error messages."""
+    names, weights = _weights(families, where)
+    checked = validate_ranges(ranges, names, where)
+    if max_tries < 1:
+        raise ScenarioError(f"{where}: max_tries must be >= 1, got {max_tries}")
+    for _ in range(max_tries):
+        fam = names[int(rng.choice(len(names), p=weights))]
+        params = draw_params(rng, fam, checked[fam])
+        seed = int(rng.integers(2 ** 63))
+        task = FAMILIES[fam](np.random.default_rng(seed), max_slope_deg=max_slope_deg, **params)
+        task = dataclasses.replace(task, seed=seed)
+        if solvable is None or solvable(task):
+            return task
+    raise ScenarioError(f"{where}: no solvable task in {max_tries} draws from families {names}")
+
+
+def replay(task: GeneratedTask) -> GeneratedTask:
+    """Rebuild a task made by :func:`generate` from its family, parameters and seed (bit for bit)."""
+    if task.seed is None:
+        raise ValueError("replay needs a task made by generate() (its seed is None)")
+    out = FAMILIES[task.family](np.random.default_rng(task.seed), **task.params)
+    return dataclasses.replace(out, seed=task.seed)
