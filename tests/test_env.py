@@ -270,7 +270,8 @@ def test_pickle_round_trip():
 
 @pytest.mark.parametrize("scenario", ["cliff_goal", "containment", "flat"])
 def test_compiled_observations_equal_the_numpy_reference(scenario):
-    from tin_swarm_env.env.observation import build_observations, build_observations_reference
+    from tin_swarm_env.env.observation import build_observations
+    from tin_swarm_env.env.reference import build_observations_reference
 
     env = tse.parallel_env(scenario=scenario, n_robots=30)
     env.reset(seed=2)

@@ -120,7 +120,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         self.n = cfg.robots.count
         self.possible_agents = [f"robot_{i}" for i in range(self.n)]
         self.agent_name_mapping = {a: i for i, a in enumerate(self.possible_agents)}
-        self.layout = ObsLayout(cfg.observation.k_robots, cfg.observation.k_targets, cfg.observation.k_breaks)
+        self.layout = ObsLayout.from_spec(cfg.observation)
         self._obs_space = spaces.Box(-1.0, 1.0, (self.layout.size,), np.float32)
         self._act_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         n_targets = len(cfg.targets.positions)

@@ -10,7 +10,8 @@ import numpy as np
 
 from .. import terrain as T
 from ..world import World, WorldState, spawn_positions
-from .config import ScenarioConfig, ScenarioError
+from ..errors import ScenarioError
+from .config import ScenarioConfig
 from .terrains import make_dem
 
 __all__ = ["build_tin_for", "build_world", "initial_state", "assignments"]

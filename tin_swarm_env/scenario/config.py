@@ -53,17 +53,13 @@ from pathlib import Path
 
 import tomllib
 
-from ..errors import TinSwarmError
+from ..errors import ScenarioError
 from ..world import BatteryParams, RobotParams, SensorParams, WorldParams
 
 __all__ = ["ScenarioError", "TerrainSpec", "RobotsSpec", "EntitiesSpec", "RewardWeights", "ObservationSpec",
            "ScenarioConfig", "load_scenario", "scenario_from_dict", "SCENARIO_DIR", "list_scenarios"]
 
 SCENARIO_DIR = Path(__file__).with_name("builtin")
-
-
-class ScenarioError(TinSwarmError, ValueError):
-    """A scenario file or setting is wrong (names the file and the key)."""
 
 
 @dataclass(frozen=True)
@@ -112,6 +108,9 @@ class RewardWeights:
 
 @dataclass(frozen=True)
 class ObservationSpec:
+    """Slot counts of the observation (the only place they are written;
+    :class:`~tin_swarm_env.env.observation.ObsLayout` is built from it)."""
+
     k_robots: int = 4
     k_targets: int = 2
     k_breaks: int = 3
