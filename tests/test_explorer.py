@@ -9,8 +9,8 @@ import pytest  # noqa: E402
 from matplotlib.backend_bases import MouseEvent  # noqa: E402
 
 import tin_swarm_env as tse  # noqa: E402
-from tin_swarm_env.cli import main  # noqa: E402
-from tin_swarm_env.explorer import FieldExplorer  # noqa: E402
+from tin_swarm_env.apps.cli import main  # noqa: E402
+from tin_swarm_env.apps.explorer import FieldExplorer  # noqa: E402
 
 
 @pytest.fixture
@@ -32,24 +32,24 @@ def test_toggling_a_field_changes_the_plotted_field(ex):
 
 
 def test_next_step_button_moves_the_robots_and_reset_restores(ex):
-    p0 = ex.env.wstate.positions.copy()
+    p0 = ex.env.world_state.positions.copy()
     ex.btn_next._observers.process("clicked", None)  # what a click on "next step" does
     assert ex.env.steps == 1
-    assert np.all(np.hypot(*(ex.env.wstate.positions - p0).T) > 0)
+    assert np.all(np.hypot(*(ex.env.world_state.positions - p0).T) > 0)
     ex.btn_reset._observers.process("clicked", None)
-    np.testing.assert_array_equal(ex.env.wstate.positions, p0)
+    np.testing.assert_array_equal(ex.env.world_state.positions, p0)
 
 
 def test_clicking_the_heatmap_moves_the_robot_and_adds_a_threat(ex):
     ax = ex.ax_heat
-    x, y = ex.env.wstate.positions[0] + [10.0, 5.0]
+    x, y = ex.env.world_state.positions[0] + [10.0, 5.0]
     px, py = ax.transData.transform((x, y))
     ex.fig.canvas.callbacks.process("button_press_event", MouseEvent("button_press_event", ex.fig.canvas, px, py, 1))
-    np.testing.assert_allclose(ex.env.wstate.positions[0], [x, y], atol=1.0)
-    n = len(ex.env.wstate.targets)
+    np.testing.assert_allclose(ex.env.world_state.positions[0], [x, y], atol=1.0)
+    n = len(ex.env.world_state.targets)
     px, py = ax.transData.transform((x + 5, y))
     ex.fig.canvas.callbacks.process("button_press_event", MouseEvent("button_press_event", ex.fig.canvas, px, py, 3))
-    assert len(ex.env.wstate.targets) == n + 1
+    assert len(ex.env.world_state.targets) == n + 1
 
 
 def test_explore_cli_writes_a_png_that_is_not_blank(tmp_path):
