@@ -81,3 +81,20 @@ def test_run_writes_an_mp4_and_record_video_parallel_works(tmp_path):
     env.close()
     videos = list((tmp_path / "vid").glob("*.mp4"))
     assert videos and videos[0].stat().st_size > 1000
+
+
+def test_an_added_threat_is_assigned_and_changes_the_trajectories():
+    runs = []
+    for add in (False, True):
+        e = FieldExplorer("ramp", robot=0, n_robots=6, grid=11)
+        if add:
+            n = len(e.env.world_state.targets)
+            e.add_threat((60.0, 60.0))
+            assert n + 1 == len(e.env.world_state.targets)
+            assert n in e.env.target_assignment  # some robot now heads for the new threat
+        for _ in range(15):
+            e.next_step(draw=False)
+        runs.append(e.env.world_state.positions.copy())
+        e.close()
+    moved_apart = np.hypot(*(runs[1] - runs[0]).T)
+    assert moved_apart.max() > 1.0

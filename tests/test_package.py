@@ -146,3 +146,19 @@ def test_reset_options_go_through_the_generator_and_are_checked():
         env.reset(options={"robot_positions": [[20.0, 100.0], [221.0, 120.0]]})
     with pytest.raises(PlacementError, match=r"target 0 at \[-5.0, 0.0\] lies outside"):
         env.reset(options={"target_positions": [[-5.0, 0.0]]})
+
+
+def test_each_setting_has_one_default():
+    import inspect
+
+    from tin_swarm_env.terrain import Tin
+    from tin_swarm_env.terrain.breaks import find_breaks
+    from tin_swarm_env.world import RobotParams, WorldParams
+
+    for fn in (Tin.breaks, find_breaks):
+        sig = inspect.signature(fn).parameters
+        assert sig["max_slope_deg"].default == RobotParams().max_slope_deg == WorldParams().robot.max_slope_deg
+        assert sig["break_angle_deg"].default == WorldParams().break_angle_deg
+    for p in ("tin_swarm_env/terrain/tin.py", "tin_swarm_env/terrain/breaks.py", "tin_swarm_env/world/params.py"):
+        src = (ROOT / p).read_text()
+        assert not re.search(r"(max_slope_deg|break_angle_deg)(: float[^=\n]*)? = [0-9]", src), p  # no literal default

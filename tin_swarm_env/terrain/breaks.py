@@ -20,9 +20,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Breaks", "find_breaks", "closest_on_segments", "BORDER", "STEEP", "ANGLE"]
+__all__ = ["Breaks", "find_breaks", "closest_on_segments", "BORDER", "STEEP", "ANGLE", "MAX_SLOPE_DEG",
+           "BREAK_ANGLE_DEG"]
 
 BORDER, STEEP, ANGLE = 0, 1, 2
+
+# the defaults of these settings everywhere (terrain queries, robot and world parameters)
+MAX_SLOPE_DEG = 30.0  # steepest traversable triangle
+BREAK_ANGLE_DEG = 25.0  # planes meeting at more than this angle form a break
 
 
 def closest_on_segments(points, a, b):
@@ -83,7 +88,7 @@ class Breaks:
         return best, idx
 
 
-def find_breaks(tin, max_slope_deg: float = 30.0, break_angle_deg: float | None = 20.0) -> Breaks:
+def find_breaks(tin, max_slope_deg: float = MAX_SLOPE_DEG, break_angle_deg: float | None = BREAK_ANGLE_DEG) -> Breaks:
     """All break edges of ``tin`` (see the module docstring). ``break_angle_deg=None`` turns
     angle breaks off."""
     if not (0 < max_slope_deg <= 90):

@@ -25,6 +25,7 @@ import numpy as np
 
 from ..errors import TinStructureError
 from . import _kernels as K
+from .breaks import BREAK_ANGLE_DEG, MAX_SLOPE_DEG
 
 __all__ = ["Tin"]
 
@@ -348,7 +349,7 @@ class Tin:
                            self._tol[1], 1e-9)
 
     # -- terrain breaks -------------------------------------------------------------------
-    def breaks(self, max_slope_deg: float = 30.0, break_angle_deg: float | None = 20.0):
+    def breaks(self, max_slope_deg: float = MAX_SLOPE_DEG, break_angle_deg: float | None = BREAK_ANGLE_DEG):
         """Terrain breaks: see :func:`tin_swarm_env.terrain.breaks.find_breaks`."""
         from .breaks import find_breaks
 
