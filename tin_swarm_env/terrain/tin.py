@@ -211,6 +211,23 @@ class Tin:
     def _vz(self):
         return np.ascontiguousarray(self.vertices[:, 2])
 
+    @property
+    def xy_columns(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(x (V,), y (V,))`` contiguous vertex coordinates, for compiled triangle walks
+        (:func:`tin_swarm_env.terrain.exit_edge`)."""
+        return self._vx, self._vy
+
+    def locate_ahead(self, xy, direction, hint=None) -> tuple[np.ndarray, np.ndarray]:
+        """The triangle a segment from each point ``xy (n, 2)`` along ``direction (n, 2)``
+        (non-zero) enters: a point on a vertex or an edge belongs to several triangles, so this
+        is the one holding the point 1 um along the segment (or a thousandth of its length when
+        shorter). Returns ``(ahead points (n, 2), tri_idx (n,))``, -1 outside."""
+        xy = np.asarray(xy, dtype=np.float64)
+        d = np.asarray(direction, dtype=np.float64)
+        length = np.hypot(d[:, 0], d[:, 1])
+        ahead = xy + d * np.minimum(1e-6 / length, 1e-3)[:, None]
+        return ahead, self.locate(ahead, hint=hint)
+
     def locate(self, xy, hint=None) -> np.ndarray:
         """Triangle holding each point: ``(n,)`` int64, ``-1`` outside the TIN.
 
@@ -321,13 +338,11 @@ class Tin:
             raise ValueError(f"a_xyz {a.shape} and b_xyz {b.shape} must have the same shape")
         ta = self.locate(a[:, :2], hint)
         # an end point on a vertex or edge belongs to several triangles: start the walk in
-        # the one the segment enters (holding a point 1 um along it)
+        # the one the segment enters
         d = b[:, :2] - a[:, :2]
-        L = np.hypot(d[:, 0], d[:, 1])
-        mv = (L > 0) & (ta >= 0)
+        mv = (np.hypot(d[:, 0], d[:, 1]) > 0) & (ta >= 0)
         if mv.any():
-            ahead = a[mv, :2] + d[mv] * np.minimum(1e-6 / L[mv], 1e-3)[:, None]
-            t2 = self.locate(ahead, hint=ta[mv])
+            _, t2 = self.locate_ahead(a[mv, :2], d[mv], hint=ta[mv])
             ta[np.flatnonzero(mv)[t2 >= 0]] = t2[t2 >= 0]
         ztol = self._tol[1]
         res = K.los_walk(self._vx, self._vy, self._vz, self.triangles, self.neighbors, self._grad,
