@@ -20,6 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import ArgumentError
+
 __all__ = ["Breaks", "find_breaks", "closest_on_segments", "BORDER", "STEEP", "ANGLE", "MAX_SLOPE_DEG",
            "BREAK_ANGLE_DEG"]
 
@@ -92,9 +94,9 @@ def find_breaks(tin, max_slope_deg: float = MAX_SLOPE_DEG, break_angle_deg: floa
     """All break edges of ``tin`` (see the module docstring). ``break_angle_deg=None`` turns
     angle breaks off."""
     if not (0 < max_slope_deg <= 90):
-        raise ValueError(f"max_slope_deg must be in (0, 90], got {max_slope_deg}")
+        raise ArgumentError(f"max_slope_deg must be in (0, 90], got {max_slope_deg}")
     if break_angle_deg is not None and not (0 <= break_angle_deg <= 180):
-        raise ValueError(f"break_angle_deg must be in [0, 180], got {break_angle_deg}")
+        raise ArgumentError(f"break_angle_deg must be in [0, 180], got {break_angle_deg}")
     E = tin.edges
     t0, t1 = tin.edge_triangles[:, 0], tin.edge_triangles[:, 1]
     border = t1 < 0

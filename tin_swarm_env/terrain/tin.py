@@ -23,7 +23,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ..errors import TinStructureError
+from ..errors import ArgumentError, TinStructureError
 from . import _kernels as K
 from .breaks import BREAK_ANGLE_DEG, MAX_SLOPE_DEG
 
@@ -244,7 +244,7 @@ class Tin:
             return self._bucket_locate(px, py)
         h = np.asarray(hint, dtype=np.int64).reshape(-1)
         if h.shape[0] != px.shape[0]:
-            raise ValueError(f"hint has {h.shape[0]} entries for {px.shape[0]} points")
+            raise ArgumentError(f"hint has {h.shape[0]} entries for {px.shape[0]} points")
         bad_h = (h < 0) | (h >= self.n_triangles)
         h = np.where(bad_h, 0, h)
         out = K.walk_locate(self._vx, self._vy, self.triangles, self.neighbors, px, py, h,
@@ -264,7 +264,7 @@ class Tin:
         t = self.locate(pts, hint)
         if np.any(t < 0):
             i = int(np.flatnonzero(t < 0)[0])
-            raise ValueError(f"{what}: point {i} at {pts[i].tolist()} lies outside the TIN "
+            raise ArgumentError(f"{what}: point {i} at {pts[i].tolist()} lies outside the TIN "
                              f"(bounds {self.bounds}); {int((t < 0).sum())} of {len(t)} outside")
         return pts, t
 
@@ -335,7 +335,7 @@ class Tin:
         a = _as_xyz(a_xyz, "a_xyz")
         b = _as_xyz(b_xyz, "b_xyz")
         if a.shape != b.shape:
-            raise ValueError(f"a_xyz {a.shape} and b_xyz {b.shape} must have the same shape")
+            raise ArgumentError(f"a_xyz {a.shape} and b_xyz {b.shape} must have the same shape")
         ta = self.locate(a[:, :2], hint)
         # an end point on a vertex or edge belongs to several triangles: start the walk in
         # the one the segment enters
@@ -379,10 +379,10 @@ def _as_xy(xy, name) -> np.ndarray:
     if a.ndim == 1 and a.shape[0] == 2:
         a = a[None, :]
     if a.ndim != 2 or a.shape[1] != 2:
-        raise ValueError(f"{name} must have shape (n, 2), got {np.shape(xy)}")
+        raise ArgumentError(f"{name} must have shape (n, 2), got {np.shape(xy)}")
     if not np.all(np.isfinite(a)):
         i = int(np.flatnonzero(~np.all(np.isfinite(a), axis=1))[0])
-        raise ValueError(f"{name}: point {i} is not finite: {a[i].tolist()}")
+        raise ArgumentError(f"{name}: point {i} is not finite: {a[i].tolist()}")
     return a
 
 
@@ -391,10 +391,10 @@ def _as_xyz(p, name) -> np.ndarray:
     if a.ndim == 1 and a.shape[0] == 3:
         a = a[None, :]
     if a.ndim != 2 or a.shape[1] != 3:
-        raise ValueError(f"{name} must have shape (n, 3), got {np.shape(p)}")
+        raise ArgumentError(f"{name} must have shape (n, 3), got {np.shape(p)}")
     if not np.all(np.isfinite(a)):
         i = int(np.flatnonzero(~np.all(np.isfinite(a), axis=1))[0])
-        raise ValueError(f"{name}: point {i} is not finite: {a[i].tolist()}")
+        raise ArgumentError(f"{name}: point {i} is not finite: {a[i].tolist()}")
     return np.ascontiguousarray(a)
 
 
