@@ -47,6 +47,8 @@ _CLASS = None
 
 
 def _vec_class():
+    """The ``TinSwarmVecEnv`` class, made on first use. Long because it is the whole class body:
+    the class derives from SB3's ``VecEnv``, so it can only be defined once SB3 is imported."""
     global _CLASS
     if _CLASS is not None:
         return _CLASS

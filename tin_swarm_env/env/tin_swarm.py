@@ -70,7 +70,8 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     the terrain: it is no longer seen and does not block the robots behind it), "fell" (drove down
     into a too-steep triangle), "battery" (charge ran out); the reason is in
     ``infos[agent]["reason"]``. **Truncation**: every live robot when the step count reaches
-    ``max_cycles`` (read at step time, so it may be changed between steps).
+    ``max_cycles`` (read at step time, so it may be changed between steps), reason
+    "max_cycles". The codes are :class:`~tin_swarm_env.Reason` (``.label`` is the string).
 
     **Arguments**
 
@@ -90,6 +91,11 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     **Batched path**: :meth:`reset_arrays` / :meth:`step_arrays` do the same on arrays over all
     ``n`` robots (``obs (n, d)``, ``actions (n, 2)``), without per-agent dicts; the dict API is
     a thin layer over them.
+
+    **Read-only views** (for apps and plots; policies read observations only): ``tin``,
+    ``world``, ``world_state``, ``live_mask``, ``target_assignment``, ``steps``, ``sensed()``.
+    Reset options place robots and targets: ``robot_positions (n, 2)``, ``headings (n,)``,
+    ``target_positions (m, 2)``.
 
     **Version history**: v0 (0.1.0): first release.
     """
