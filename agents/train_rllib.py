@@ -12,13 +12,13 @@ the number of sampling workers the cluster can hold; every node needs this packa
 
 from __future__ import annotations
 
-import argparse
 import csv
-import dataclasses
 import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
+
+from tin_swarm_env.apps.args import parse_dataclass
 
 
 @dataclass
@@ -94,12 +94,5 @@ def main(args: Args):
     return rows
 
 
-def parse_args(argv=None) -> Args:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    for f in dataclasses.fields(Args):
-        p.add_argument("--" + f.name.replace("_", "-"), type=type(f.default), default=f.default)
-    return Args(**vars(p.parse_args(argv)))
-
-
 if __name__ == "__main__":
-    main(parse_args())
+    main(parse_dataclass(Args, description=__doc__.splitlines()[0]))

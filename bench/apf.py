@@ -16,7 +16,8 @@ import time
 import numpy as np
 
 import tin_swarm_env as tse
-from tin_swarm_env.run import run_episodes
+from tin_swarm_env.apps.rollout import rollout
+from tin_swarm_env.apps.run import run_episodes
 
 CONFIGS = [("apf, all fields", "apf", None), ("apf, no break field", "apf", ("robot", "target", "height")),
            ("random", "random", None)]
@@ -41,13 +42,10 @@ def main(seeds: int, robots: int):
     worst_d, worst_r, worst_gap = 0.0, 0.0, 0.0
     for sd in range(seeds):
         env = tse.parallel_env(scenario="containment")
-        pol = tse.policies.APFPolicy(env)
-        obs, _ = env.reset(seed=sd)
-        while env.agents:
-            obs, *_ = env.step(pol.act(obs))
-        s, so = env.wstate, env.config.targets.standoff_m
+        rollout(env, tse.policies.APFPolicy(env), sd)
+        s, so = env.world_state, env.config.targets.standoff_m
         for k, T in enumerate(s.targets.positions):
-            v = s.positions[env.target_idx == k] - T
+            v = s.positions[env.target_assignment == k] - T
             ang = np.arctan2(v[:, 1], v[:, 0])
             worst_d = max(worst_d, abs(np.hypot(v[:, 0], v[:, 1]).mean() / so - 1))
             worst_r = max(worst_r, np.hypot(np.cos(ang).mean(), np.sin(ang).mean()))

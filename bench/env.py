@@ -49,7 +49,7 @@ def measure(n, steps):
     acts = rng.uniform(-1, 1, (n, 2)).astype(np.float32)
     env.reset_arrays(seed=0)
     w = env.world
-    state = {"s": env.wstate}
+    state = {"s": env.world_state}
 
     def world_step():
         s, _ = w.step(state["s"], acts)

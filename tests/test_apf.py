@@ -48,11 +48,11 @@ def test_containment_robots_settle_on_the_ring_spread_around_each_threat():
         obs, _ = env.reset(seed=sd)
         while env.agents:
             obs, *_ = env.step(pol.act(obs))
-        s = env.wstate
+        s = env.world_state
         standoff = env.config.targets.standoff_m
         T = s.targets.positions
         for k in range(len(T)):
-            v = s.positions[env.target_idx == k] - T[k]
+            v = s.positions[env.target_assignment == k] - T[k]
             d = np.hypot(v[:, 0], v[:, 1])
             assert abs(d.mean() - standoff) <= 0.1 * standoff
             ang = np.arctan2(v[:, 1], v[:, 0])
@@ -66,8 +66,8 @@ def test_apf_acts_from_the_observation_alone():
     pol = APFPolicy(env)
     obs, _ = env.reset(seed=0)
     a1 = pol.act(obs)
-    env.wstate = None  # no world state to peek at
-    env.world = None
+    env._wstate = None  # no world state to peek at
+    env._world = None
     a2 = pol.act(obs)
     for k in obs:
         np.testing.assert_array_equal(a1[k], a2[k])

@@ -5,7 +5,7 @@ import sys
 
 import numpy as np
 
-from tin_swarm_env.cli import main
+from tin_swarm_env.apps.cli import main
 from tin_swarm_env.terrain import load_tin
 
 
@@ -31,7 +31,7 @@ def test_build_tin_errors_exit_2(tmp_path, capsys):
 
 
 def test_console_script_runs_on_the_sample(tmp_path):
-    r = subprocess.run([sys.executable, "-m", "tin_swarm_env.cli", "build-tin", "sample:jacksboro",
+    r = subprocess.run([sys.executable, "-m", "tin_swarm_env", "build-tin", "sample:jacksboro",
                         "-o", str(tmp_path / "j.npz"), "--max-vertices", "2000"],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
@@ -73,7 +73,7 @@ def test_run_errors_exit_2(tmp_path, capsys):
 
 def test_run_jacksboro_with_200_robots_finishes_and_writes_a_gif(tmp_path):
     gif = tmp_path / "jacksboro.gif"
-    r = subprocess.run([sys.executable, "-m", "tin_swarm_env.cli", "run", "jacksboro", "--robots", "200",
+    r = subprocess.run([sys.executable, "-m", "tin_swarm_env", "run", "jacksboro", "--robots", "200",
                         "--gif", str(gif), "--frame-every", "30"], capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr
     row = next(line for line in r.stdout.splitlines() if line.startswith("| 1 |"))

@@ -115,9 +115,9 @@ def test_bad_actions_are_named():
     with pytest.raises(ValueError, match=r"shape \(2,\)"):
         env.step({"robot_0": np.zeros(3)})
     # missing agents stand still; out-of-range actions are clipped
-    p0 = env.wstate.positions.copy()
+    p0 = env.world_state.positions.copy()
     env.step({"robot_0": np.array([5.0, 0.0], np.float32)})
-    moved = np.hypot(*(env.wstate.positions - p0).T)
+    moved = np.hypot(*(env.world_state.positions - p0).T)
     assert moved[1:].max() == 0.0
     assert moved[0] <= env.config.world.robot.max_speed_mps * env.config.world.dt_s + 1e-9
     with pytest.warns(UserWarning, match="ignoring unknown reset option"):
@@ -145,7 +145,7 @@ def test_truncation_and_dead_agents_leave_the_step_after():
 
 def toward(env, xy_goal):
     """Body-frame action (unit, clipped) driving each live robot toward a world point."""
-    s = env.wstate
+    s = env.world_state
     acts = {}
     for a in env.agents:
         i = env.agent_name_mapping[a]
@@ -270,14 +270,15 @@ def test_pickle_round_trip():
 
 @pytest.mark.parametrize("scenario", ["cliff_goal", "containment", "flat"])
 def test_compiled_observations_equal_the_numpy_reference(scenario):
-    from tin_swarm_env.env.observation import build_observations, build_observations_reference
+    from tin_swarm_env.env.observation import build_observations
+    from tin_swarm_env.env.reference import build_observations_reference
 
     env = tse.parallel_env(scenario=scenario, n_robots=30)
     env.reset(seed=2)
     rng = np.random.default_rng(1)
     for _ in range(40):
         env.step_arrays(rng.uniform(-1, 1, (30, 2)))
-        args = (env.world, env.wstate, env.readings, env.target_idx, env.live, env.layout)
+        args = (env.world, env.world_state, env.sensed(), env.target_assignment, env.live_mask, env.layout)
         a, b = build_observations(*args), build_observations_reference(*args)
         assert a.dtype == b.dtype == np.float32
         np.testing.assert_allclose(a, b, atol=2e-7)

@@ -9,8 +9,8 @@ import pytest  # noqa: E402
 from matplotlib.backend_bases import MouseEvent  # noqa: E402
 
 import tin_swarm_env as tse  # noqa: E402
-from tin_swarm_env.cli import main  # noqa: E402
-from tin_swarm_env.explorer import FieldExplorer  # noqa: E402
+from tin_swarm_env.apps.cli import main  # noqa: E402
+from tin_swarm_env.apps.explorer import FieldExplorer  # noqa: E402
 
 
 @pytest.fixture
@@ -32,24 +32,24 @@ def test_toggling_a_field_changes_the_plotted_field(ex):
 
 
 def test_next_step_button_moves_the_robots_and_reset_restores(ex):
-    p0 = ex.env.wstate.positions.copy()
+    p0 = ex.env.world_state.positions.copy()
     ex.btn_next._observers.process("clicked", None)  # what a click on "next step" does
     assert ex.env.steps == 1
-    assert np.all(np.hypot(*(ex.env.wstate.positions - p0).T) > 0)
+    assert np.all(np.hypot(*(ex.env.world_state.positions - p0).T) > 0)
     ex.btn_reset._observers.process("clicked", None)
-    np.testing.assert_array_equal(ex.env.wstate.positions, p0)
+    np.testing.assert_array_equal(ex.env.world_state.positions, p0)
 
 
 def test_clicking_the_heatmap_moves_the_robot_and_adds_a_threat(ex):
     ax = ex.ax_heat
-    x, y = ex.env.wstate.positions[0] + [10.0, 5.0]
+    x, y = ex.env.world_state.positions[0] + [10.0, 5.0]
     px, py = ax.transData.transform((x, y))
     ex.fig.canvas.callbacks.process("button_press_event", MouseEvent("button_press_event", ex.fig.canvas, px, py, 1))
-    np.testing.assert_allclose(ex.env.wstate.positions[0], [x, y], atol=1.0)
-    n = len(ex.env.wstate.targets)
+    np.testing.assert_allclose(ex.env.world_state.positions[0], [x, y], atol=1.0)
+    n = len(ex.env.world_state.targets)
     px, py = ax.transData.transform((x + 5, y))
     ex.fig.canvas.callbacks.process("button_press_event", MouseEvent("button_press_event", ex.fig.canvas, px, py, 3))
-    assert len(ex.env.wstate.targets) == n + 1
+    assert len(ex.env.world_state.targets) == n + 1
 
 
 def test_explore_cli_writes_a_png_that_is_not_blank(tmp_path):
@@ -81,3 +81,20 @@ def test_run_writes_an_mp4_and_record_video_parallel_works(tmp_path):
     env.close()
     videos = list((tmp_path / "vid").glob("*.mp4"))
     assert videos and videos[0].stat().st_size > 1000
+
+
+def test_an_added_threat_is_assigned_and_changes_the_trajectories():
+    runs = []
+    for add in (False, True):
+        e = FieldExplorer("ramp", robot=0, n_robots=6, grid=11)
+        if add:
+            n = len(e.env.world_state.targets)
+            e.add_threat((60.0, 60.0))
+            assert n + 1 == len(e.env.world_state.targets)
+            assert n in e.env.target_assignment  # some robot now heads for the new threat
+        for _ in range(15):
+            e.next_step(draw=False)
+        runs.append(e.env.world_state.positions.copy())
+        e.close()
+    moved_apart = np.hypot(*(runs[1] - runs[0]).T)
+    assert moved_apart.max() > 1.0

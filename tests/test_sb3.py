@@ -36,7 +36,7 @@ def test_vecenv_contract_shapes_dtypes_and_time_limit():
     assert live_end and all(i["TimeLimit.truncated"] and i["terminal_observation"].shape == (59,) for i in live_end)
     assert all(i["episode"]["l"] == 30 for i in live_end)
     # auto-reset: the observations returned are the new episode's (robots back in the spawn region)
-    assert all(env.steps == 0 and env.live.all() for env in v.envs)
+    assert all(env.steps == 0 and env.live_mask.all() for env in v.envs)
     assert not np.any(np.all(obs == 0, axis=1))
 
 
@@ -115,7 +115,7 @@ def test_ppo_accepts_the_adapter_with_a_seed():
 
 def test_smoke_train_in_a_subprocess_then_evaluate_the_saved_model(tmp_path):
     out = tmp_path / "ppo"
-    r = subprocess.run([sys.executable, "-m", "tin_swarm_env.cli", "train", "flat", "--timesteps", "512",
+    r = subprocess.run([sys.executable, "-m", "tin_swarm_env", "train", "flat", "--timesteps", "512",
                         "--n-robots", "4", "--n-envs", "1", "--n-steps", "64", "--batch-size", "64",
                         "--eval-every", "256", "--eval-episodes", "1", "--max-cycles", "40",
                         "--out-dir", str(out), "--progress-bar", "false"],
@@ -124,7 +124,7 @@ def test_smoke_train_in_a_subprocess_then_evaluate_the_saved_model(tmp_path):
     for f in ("model.zip", "model.json", "eval.csv", "curve.png"):
         assert (out / f).exists(), f
     ev = tmp_path / "ev"
-    r = subprocess.run([sys.executable, "-m", "tin_swarm_env.cli", "eval", "flat", "--seeds", "2", "--robots", "4",
+    r = subprocess.run([sys.executable, "-m", "tin_swarm_env", "eval", "flat", "--seeds", "2", "--robots", "4",
                         "--model", str(out / "model.zip"), "--out", str(ev)], capture_output=True, text=True,
                        timeout=600)
     assert r.returncode == 0, r.stderr[-2000:]
@@ -148,6 +148,6 @@ def test_missing_sb3_names_the_extra(monkeypatch):
 
     monkeypatch.setattr(builtins, "__import__", no_sb3)
     with pytest.raises(MissingExtraError, match=r"tin_swarm_env\[train\]"):
-        from tin_swarm_env.run import _SB3Policy
+        from tin_swarm_env.apps.policy_factory import SB3Policy
 
-        _SB3Policy("x.zip")
+        SB3Policy.load("x.zip")

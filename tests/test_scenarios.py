@@ -76,8 +76,8 @@ def test_missing_dem_file_and_target_in_a_cliff(tmp_path):
         tse.parallel_env(scenario=str(p))
     text = (SCENARIO_DIR / "ramp.toml").read_text().replace("[[270.0, 120.0]]", "[[221.0, 120.0]]")
     p = write(tmp_path, text, "cliff.toml")
-    with pytest.raises(ScenarioError, match=r"cliff\.toml \[targets\] positions\[0\] = \[221\.0, 120\.0\] lies "
-                                            r"inside a too-steep"):
+    with pytest.raises(ScenarioError, match=r"cliff\.toml \[targets\] positions\[0\] at \[221\.0, 120\.0\] lies "
+                                            r"on a too-steep"):
         tse.parallel_env(scenario=str(p))
     p = write(tmp_path, BASE.replace('source = "flat"', 'source = "procedural"\nrecipe = "volcano"'))
     with pytest.raises(ScenarioError, match="unknown terrain recipe 'volcano'"):

@@ -244,7 +244,7 @@ def test_bad_input_is_named():
         w.reset(0, np.zeros((0, 2)))
     with pytest.raises(ValueError, match=r"robot 1 at \[300.0, 50.0\] lies outside"):
         w.reset(0, [[10, 10], [300, 50]])
-    with pytest.raises(ValueError, match=r"robot 0 at \[102.0, 50.0\] starts on a too-steep"):
+    with pytest.raises(ValueError, match=r"robot 0 at \[102.0, 50.0\] lies on a too-steep"):
         w.reset(0, [[102, 50]])
     with pytest.raises(ValueError, match="target 0 .* too-steep"):
         w.reset(0, [[10, 10]], targets=[[102, 50]])

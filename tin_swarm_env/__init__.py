@@ -2,14 +2,22 @@
 
 Layers (imports flow downwards only): ``terrain`` (DEM -> TIN, geometry queries), ``world``
 (robots, sensing, locomotion, battery), ``scenario`` (TOML -> config -> initial state), ``env``
-(the PettingZoo parallel environment). See ``../shared/DESIGN.md`` for the full layout.
+(the PettingZoo parallel environment), ``adapters``/``policies``, ``apps`` (CLI, run, evaluate,
+train, explorer). See ``../shared/DESIGN.md`` for the full layout.
+
+The package root is lazy: it loads only :mod:`.errors`; ``tse.parallel_env``, ``tse.TinSwarmEnv``,
+``tse.Reason`` and the subpackages load on first use, so ``import tin_swarm_env.terrain`` needs
+numpy/scipy/numba only. ``tse.env`` is the :mod:`tin_swarm_env.env` subpackage; the AEC
+constructor is ``tse.tin_swarm_v0.env()``. ``tin_swarm/TinSwarm-v0`` is registered with
+PettingZoo when pettingzoo is imported (see :mod:`._registration`).
 
 >>> import tin_swarm_env as tse
 >>> env = tse.parallel_env(scenario="cliff_goal", n_robots=20)   # doctest: +SKIP
 """
 
-from . import adapters, policies, scenario, terrain, tin_swarm_v0, world
-from .env import TinSwarmEnv, env, parallel_env, raw_env
+import importlib
+
+from ._registration import ENV_ID, register_pettingzoo
 from .errors import (
     DemFormatError,
     MissingExtraError,
@@ -20,28 +28,29 @@ from .errors import (
 
 __version__ = "0.1.0"
 
-ENV_ID = "tin_swarm/TinSwarm-v0"
+_SUBPACKAGES = ("adapters", "apps", "env", "policies", "scenario", "terrain", "tin_swarm_v0", "world")
+_LAZY = {"TinSwarmEnv": "env.tin_swarm", "parallel_env": "env.tin_swarm", "raw_env": "env.tin_swarm",
+         "Reason": "world.state"}
 
 
-def _register():
-    import warnings
-
-    import pettingzoo
-
-    for kind, entry in (("parallel", "tin_swarm_env.tin_swarm_v0:parallel_env"),
-                        ("aec", "tin_swarm_env.tin_swarm_v0:env")):
-        registry = pettingzoo.parallel_registry if kind == "parallel" else pettingzoo.aec_registry
-        if ENV_ID not in registry:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                pettingzoo.register(kind, ENV_ID, entry_point=entry)
+def __getattr__(name):
+    if name in _SUBPACKAGES:
+        return importlib.import_module(f"{__name__}.{name}")
+    if name in _LAZY:
+        value = getattr(importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-_register()
+def __dir__():
+    return sorted(set(globals()) | set(_SUBPACKAGES) | set(_LAZY))
+
+
+register_pettingzoo()
 
 __all__ = [
-    "ENV_ID", "adapters", "DemFormatError", "MissingExtraError", "TinFormatError", "TinStructureError", "TinSwarmError",
-    "TinSwarmEnv", "__version__", "env", "parallel_env", "raw_env", "policies", "scenario", "terrain",
-    "tin_swarm_v0",
-    "world",
+    "ENV_ID", "DemFormatError", "MissingExtraError", "Reason", "TinFormatError", "TinStructureError", "TinSwarmError",
+    "TinSwarmEnv", "__version__", "adapters", "apps", "env", "parallel_env", "policies", "raw_env", "scenario",
+    "terrain", "tin_swarm_v0", "world",
 ]

@@ -13,6 +13,11 @@ __all__ = [
     "TinFormatError",
     "TinStructureError",
     "MissingExtraError",
+    "ScenarioError",
+    "PlacementError",
+    "ObservationLayoutError",
+    "ParameterError",
+    "ArgumentError",
 ]
 
 
@@ -34,6 +39,27 @@ class TinStructureError(TinSwarmError, ValueError):
 
 class MissingExtraError(TinSwarmError, ImportError):
     """An optional dependency is missing; the message names the extra to install."""
+
+
+class ScenarioError(TinSwarmError, ValueError):
+    """A scenario file or setting is wrong (names the file and the key)."""
+
+
+class PlacementError(TinSwarmError, ValueError):
+    """A robot, target or asset position is not finite, lies outside the terrain or on a
+    too-steep triangle (names the entity and its index)."""
+
+
+class ObservationLayoutError(TinSwarmError, ValueError):
+    """An observation layout is invalid, or a saved one does not match this version's."""
+
+
+class ParameterError(TinSwarmError, ValueError):
+    """A model parameter (robot, sensor, battery, world, field) is out of its range (names it)."""
+
+
+class ArgumentError(TinSwarmError, ValueError):
+    """A function, method or command-line argument is wrong (names the argument or the agent)."""
 
 
 def require(module: str, extra: str, purpose: str):

@@ -26,7 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import require
+from ..errors import ArgumentError, require
+from ..world.state import Reason
 
 __all__ = ["TinSwarmVecEnv", "make_sb3_vec_env"]  # noqa: F822 (lazy, see __getattr__)
 
@@ -46,6 +47,8 @@ _CLASS = None
 
 
 def _vec_class():
+    """The ``TinSwarmVecEnv`` class, made on first use. Long because it is the whole class body:
+    the class derives from SB3's ``VecEnv``, so it can only be defined once SB3 is imported."""
     global _CLASS
     if _CLASS is not None:
         return _CLASS
@@ -58,7 +61,7 @@ def _vec_class():
             from ..env import parallel_env
 
             if n_envs < 1:
-                raise ValueError(f"n_envs must be >= 1, got {n_envs}")
+                raise ArgumentError(f"n_envs must be >= 1, got {n_envs}")
             self.envs = [parallel_env(scenario=scenario, n_robots=n_robots, **env_kwargs) for _ in range(n_envs)]
             e0 = self.envs[0]
             self.n_robots = e0.n
@@ -102,7 +105,7 @@ def _vec_class():
             infos = [{} for _ in range(self.num_envs)]
             for c, env in enumerate(self.envs):
                 sl = slice(c * n, (c + 1) * n)
-                live_before = env.live.copy()
+                live_before = env.live_mask
                 o, r, term, trunc, reasons = env.step_arrays(self._actions[sl])
                 rewards[sl] = np.where(live_before, r, 0.0)
                 ended = term | trunc
@@ -112,11 +115,11 @@ def _vec_class():
                 for k, j in zip(np.flatnonzero(ended), idx):
                     infos[j] = {"terminal_observation": o[k].copy(), "TimeLimit.truncated": bool(trunc[k]),
                                 "episode": {"r": float(self._ep_ret[j]), "l": int(self._ep_len[j])},
-                                "reason": "max_cycles" if trunc[k] else _reason(reasons[k])}
+                                "reason": Reason(int(reasons[k])).label}
                 dones[idx] = True
                 o = np.where(ended[:, None], 0.0, o)
                 self._frozen[idx] = True
-                if not env.live.any():  # the copy's episode is over: reset it
+                if not env.live_mask.any():  # the copy's episode is over: reset it
                     was_frozen = self._frozen[sl] & ~ended
                     for j in np.flatnonzero(was_frozen) + c * n:
                         infos[j] = {"terminal_observation": np.zeros(d, dtype=np.float32),
@@ -164,12 +167,6 @@ def _vec_class():
     TinSwarmVecEnv.__name__ = TinSwarmVecEnv.__qualname__ = "TinSwarmVecEnv"
     _CLASS = TinSwarmVecEnv
     return TinSwarmVecEnv
-
-
-def _reason(code):
-    from ..env.reward import REASONS
-
-    return REASONS.get(int(code), "")
 
 
 def __getattr__(name):

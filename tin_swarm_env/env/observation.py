@@ -1,7 +1,8 @@
 """Observations: one flat float32 vector per robot, egocentric, normalised, in [-1, 1].
 
 Body frame: x forward, y left; world vectors are rotated by minus the robot's heading.
-``R`` is the sensor range. Layout (``K_r``, ``K_t``, ``K_b`` slots; see :class:`ObsLayout`):
+``R`` is the sensor range. Layout (``K_r``, ``K_t``, ``K_b`` slots; :class:`ObsLayout` is its one
+description: names, offsets, scales, and the encode/decode helpers):
 
 ===================  =====  ==================================================================
 slice                size   contents (range)
@@ -18,43 +19,80 @@ own.target_dz        1      dz / (|dz| + 10 m), dz its height above the robot (-
 robots               4 K_r  per slot: valid, x / R, y / R, d / R of the K_r nearest visible robots
 targets              4 K_t  the same for the K_t nearest visible threats/targets
 breaks               8 K_b  per slot: valid, closest point x / R, y / R, unit normal toward the
-                            safe side (x, y), drop / (|drop| + 10 m), d / R, danger (1 for a
+                            safe side (nx, ny), drop / (|drop| + 10 m), d / R, danger (1 for a
                             cliff edge or the terrain's border, 0 for a bend between two
                             traversable planes), of the K_b nearest terrain breaks in range
 ===================  =====  ==================================================================
 
-Empty slots are all zero. Robots no longer in ``agents`` get an all-zero vector.
+The 10 m is :data:`DZ_SCALE_M` (the height field's scale, ``world.fields.HEIGHT_SCALE_M``: one
+constant). Empty slots are all zero. Robots no longer in ``agents`` get an all-zero vector.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections import namedtuple
+from dataclasses import dataclass, fields
 
 import numpy as np
 from numba import njit
 
+from ..errors import ObservationLayoutError
+from ..scenario.config import ObservationSpec
 from ..terrain import ANGLE
+from ..world.fields import HEIGHT_SCALE_M as DZ_SCALE_M
 
-__all__ = ["ObsLayout", "build_observations", "build_observations_reference", "OWN_FIELDS"]
+__all__ = ["ObsLayout", "build_observations", "OWN_FIELDS", "SLOT_FIELDS", "DZ_SCALE_M"]
 
 OWN_FIELDS = (("battery", 1), ("speed", 1), ("tilt", 1), ("slope", 1), ("uphill", 2), ("target_valid", 1),
               ("target_dir", 2), ("target_dist", 1), ("target_dz", 1))
-ROBOT_SLOT, TARGET_SLOT, BREAK_SLOT = 4, 4, 8
-DZ_SCALE_M = 10.0
+SLOT_FIELDS = {"robots": ("valid", "x", "y", "d"), "targets": ("valid", "x", "y", "d"),
+               "breaks": ("valid", "x", "y", "nx", "ny", "drop", "d", "danger")}
+PARTS = tuple(SLOT_FIELDS)
+_COUNT = {"robots": "k_robots", "targets": "k_targets", "breaks": "k_breaks"}
+
+# offsets handed to the compiled encoder (named, so the kernel never indexes by number)
+OwnOffsets = namedtuple("OwnOffsets", [name for name, _ in OWN_FIELDS])
+PointSlot = namedtuple("PointSlot", ["start", "width", *SLOT_FIELDS["robots"]])
+BreakSlot = namedtuple("BreakSlot", ["start", "width", *SLOT_FIELDS["breaks"]])
+
+_DEFAULT = ObservationSpec()
+
+
+def _ratio(v, scale):
+    """Inverse of ``x / (|x| + scale)``: ``scale * v / (1 - |v|)`` (v clipped just inside +-1)."""
+    v = np.clip(np.asarray(v, dtype=np.float64), -1 + 1e-9, 1 - 1e-9)
+    return scale * v / (1 - np.abs(v))
 
 
 @dataclass(frozen=True)
 class ObsLayout:
-    """Named slices of the observation vector, for policies (APF or learned) to read.
+    """The observation vector's one description: named slices, per-slot fields, scales.
 
-    ``layout.own["battery"]`` is a slice; ``layout.robots`` the slice of all robot slots, which
-    :meth:`slots` reshapes to ``(..., K, per_slot)``.
+    ``layout.own["battery"]`` is a slice; ``layout.robots`` / ``targets`` / ``breaks`` the slice of
+    all slots of a part, which :meth:`slots` reshapes to ``(..., K, per_slot)`` and :meth:`field`
+    reads one slot field of, by name (``layout.field(obs, "breaks", "danger")`` -> ``(..., K)``).
+    Distances (slot x, y, d) are over the sensor range ``R``; the target distance is
+    ``d / (d + R)`` and heights/drops ``dz / (|dz| + DZ_SCALE_M)``: :meth:`target_distance_m`,
+    :meth:`target_dz_m` and :meth:`drop_m` invert them. The slot counts' defaults are
+    :class:`~tin_swarm_env.scenario.ObservationSpec`'s (:meth:`from_spec`).
     """
 
-    k_robots: int = 4
-    k_targets: int = 2
-    k_breaks: int = 3
+    k_robots: int = _DEFAULT.k_robots
+    k_targets: int = _DEFAULT.k_targets
+    k_breaks: int = _DEFAULT.k_breaks
 
+    def __post_init__(self):
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
+                raise ObservationLayoutError(f"ObsLayout.{f.name} must be an integer >= 0, got {v!r}")
+
+    @classmethod
+    def from_spec(cls, spec: ObservationSpec) -> ObsLayout:
+        """The layout of a scenario's ``[observation]`` table."""
+        return cls(spec.k_robots, spec.k_targets, spec.k_breaks)
+
+    # -- slices ------------------------------------------------------------------------------
     @property
     def own(self) -> dict[str, slice]:
         out, i = {}, 0
@@ -67,202 +105,227 @@ class ObsLayout:
     def own_size(self) -> int:
         return sum(n for _, n in OWN_FIELDS)
 
+    def count(self, part: str) -> int:
+        """Number of slots ``K`` of ``part`` (robots, targets or breaks)."""
+        if part not in _COUNT:
+            raise ObservationLayoutError(f"unknown observation part {part!r}; parts are {', '.join(PARTS)}")
+        return getattr(self, _COUNT[part])
+
+    def _part_slice(self, part: str) -> slice:
+        a = self.own_size
+        for p in PARTS:
+            b = a + len(SLOT_FIELDS[p]) * self.count(p)
+            if p == part:
+                return slice(a, b)
+            a = b
+        raise ObservationLayoutError(f"unknown observation part {part!r}; parts are {', '.join(PARTS)}")
+
     @property
     def robots(self) -> slice:
-        a = self.own_size
-        return slice(a, a + ROBOT_SLOT * self.k_robots)
+        return self._part_slice("robots")
 
     @property
     def targets(self) -> slice:
-        a = self.robots.stop
-        return slice(a, a + TARGET_SLOT * self.k_targets)
+        return self._part_slice("targets")
 
     @property
     def breaks(self) -> slice:
-        a = self.targets.stop
-        return slice(a, a + BREAK_SLOT * self.k_breaks)
+        return self._part_slice("breaks")
 
     @property
     def size(self) -> int:
         return self.breaks.stop
 
+    # -- reading -----------------------------------------------------------------------------
     def slots(self, obs: np.ndarray, part: str) -> np.ndarray:
         """``obs[..., part]`` reshaped to ``(..., K, per_slot)`` for part robots/targets/breaks."""
-        sl = getattr(self, part)
-        per = {"robots": ROBOT_SLOT, "targets": TARGET_SLOT, "breaks": BREAK_SLOT}[part]
-        return obs[..., sl].reshape(*obs.shape[:-1], -1, per)
+        sl = self._part_slice(part)
+        return obs[..., sl].reshape(*obs.shape[:-1], self.count(part), len(SLOT_FIELDS[part]))
+
+    def slot_index(self, part: str, name: str) -> int:
+        """Position of field ``name`` inside one slot of ``part``."""
+        names = SLOT_FIELDS.get(part)
+        if names is None or name not in names:
+            raise ObservationLayoutError(f"no slot field {part}.{name}; {part} slots hold "
+                                         f"{', '.join(names) if names else '(unknown part)'}")
+        return names.index(name)
+
+    def field(self, obs: np.ndarray, part: str, name: str) -> np.ndarray:
+        """One field of every slot of ``part``: ``(..., K)``; ``part="own"`` gives ``obs[..., own[name]]``."""
+        obs = np.asarray(obs)
+        if part == "own":
+            if name not in self.own:
+                raise ObservationLayoutError(f"no own field {name!r}; own fields are {', '.join(self.own)}")
+            return obs[..., self.own[name]]
+        return self.slots(obs, part)[..., self.slot_index(part, name)]
+
+    def vectors(self, obs: np.ndarray, part: str, x: str = "x", y: str = "y") -> np.ndarray:
+        """Two slot fields stacked: ``(..., K, 2)`` (e.g. the body-frame position over R)."""
+        s = self.slots(np.asarray(obs), part)
+        return s[..., [self.slot_index(part, x), self.slot_index(part, y)]]
+
+    def target_distance_m(self, obs: np.ndarray, range_m: float) -> np.ndarray:
+        """``(...,)`` horizontal distance to the assigned target (inverse of ``d / (d + R)``)."""
+        v = np.clip(np.asarray(obs, dtype=np.float64)[..., self.own["target_dist"].start], 0.0, 1 - 1e-9)
+        return v * range_m / (1 - v)
+
+    def target_dz_m(self, obs: np.ndarray) -> np.ndarray:
+        """``(...,)`` the assigned target's height above the robot (inverse of ``dz / (|dz| + s)``)."""
+        return _ratio(np.asarray(obs)[..., self.own["target_dz"].start], DZ_SCALE_M)
+
+    def drop_m(self, obs: np.ndarray) -> np.ndarray:
+        """``(..., K_b)`` each break slot's drop in metres (inverse of ``drop / (|drop| + s)``)."""
+        return _ratio(self.field(obs, "breaks", "drop"), DZ_SCALE_M)
 
     def names(self) -> list[str]:
         """One name per element, e.g. ``own.uphill[1]``, ``robots[2].x``."""
         out = []
         for name, n in OWN_FIELDS:
             out += [f"own.{name}"] if n == 1 else [f"own.{name}[{j}]" for j in range(n)]
-        for part, k, fields in (("robots", self.k_robots, ("valid", "x", "y", "d")),
-                                ("targets", self.k_targets, ("valid", "x", "y", "d")),
-                                ("breaks", self.k_breaks, ("valid", "x", "y", "nx", "ny", "drop", "d", "danger"))):
-            out += [f"{part}[{i}].{f}" for i in range(k) for f in fields]
+        for part in PARTS:
+            out += [f"{part}[{i}].{f}" for i in range(self.count(part)) for f in SLOT_FIELDS[part]]
         return out
 
+    # -- saving ------------------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        """JSON-able description (counts, field names, scale constants, size): a saved policy
+        records it; two layouts read the same vectors exactly when their dicts are equal."""
+        return {"k_robots": self.k_robots, "k_targets": self.k_targets, "k_breaks": self.k_breaks,
+                "own": [[name, n] for name, n in OWN_FIELDS],
+                "slots": {p: list(SLOT_FIELDS[p]) for p in PARTS},
+                "scales": {"distance": "sensor range_m", "target_dist": "d / (d + range_m)",
+                           "dz_scale_m": DZ_SCALE_M},
+                "size": self.size}
 
-def _to_body(vx, vy, heading):
-    c, s = np.cos(heading), np.sin(heading)
-    return c * vx + s * vy, -s * vx + c * vy
+    @classmethod
+    def from_dict(cls, d: dict) -> ObsLayout:
+        """The layout :meth:`to_dict` described; raises :class:`~tin_swarm_env.errors.ObservationLayoutError`
+        naming the first key that this version's layout does not share."""
+        try:
+            out = cls(int(d["k_robots"]), int(d["k_targets"]), int(d["k_breaks"]))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ObservationLayoutError(f"observation layout {d!r}: needs integer k_robots, k_targets, "
+                                         f"k_breaks ({exc})") from None
+        want = out.to_dict()
+        for key in want:
+            if key in d and _jsonish(d[key]) != _jsonish(want[key]):
+                raise ObservationLayoutError(f"observation layout mismatch in {key!r}: saved {d[key]!r}, "
+                                             f"this version has {want[key]!r}")
+        return out
+
+    # -- the compiled encoder's offsets -----------------------------------------------------------
+    def kernel_offsets(self):
+        """``(own, robots, targets, breaks)`` named offsets for :func:`_fill`."""
+        own = OwnOffsets(*(sl.start for sl in self.own.values()))
+
+        def slot(cls, part):
+            names = SLOT_FIELDS[part]
+            return cls(self._part_slice(part).start, len(names), *range(len(names)))
+
+        return own, slot(PointSlot, "robots"), slot(PointSlot, "targets"), slot(BreakSlot, "breaks")
 
 
-def build_observations_reference(world, state, readings, target_idx, live, layout: ObsLayout) -> np.ndarray:
-    """Plain numpy version of :func:`build_observations` (the reference its kernel is tested
-    against)."""
-    P = world.params
-    R = P.sensor.range_m
-    n = state.n_robots
-    obs = np.zeros((n, layout.size), dtype=np.float64)
-    h = state.headings
-    own = layout.own
-    obs[:, own["battery"]] = (state.battery_j / P.battery.capacity_j)[:, None]
-    obs[:, own["speed"]] = np.clip(state.speeds / P.robot.max_speed_mps, 0, 1)[:, None]
-    obs[:, own["tilt"]] = (readings.tilt_rad / (np.pi / 2))[:, None]
-    obs[:, own["slope"]] = (readings.slope_deg / 90.0)[:, None]
-    g = world.tin.planes[state.tri_idx, :2]
-    gn = np.hypot(g[:, 0], g[:, 1])
-    ux, uy = _to_body(g[:, 0], g[:, 1], h)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        # below 1e-6 (a micro-degree) the ground counts as level: no uphill direction
-        obs[:, own["uphill"]] = np.where(gn[:, None] > 1e-6, np.column_stack([ux, uy]) / gn[:, None], 0.0)
-    has = target_idx >= 0
-    if has.any() and len(state.targets):
-        t = target_idx[has]
-        tp = state.targets.positions[t]
-        d = tp - state.positions[has]
-        dist = np.hypot(d[:, 0], d[:, 1])
-        bx, by = _to_body(d[:, 0], d[:, 1], h[has])
-        safe = np.maximum(dist, 1e-12)
-        tz = world.tin.height_in(tp, state.targets.tri_idx[t])
-        dz = tz - state.heights[has]
-        rows = np.flatnonzero(has)
-        obs[rows, own["target_valid"].start] = 1.0
-        obs[rows, own["target_dir"].start] = np.where(dist > 0, bx / safe, 0.0)
-        obs[rows, own["target_dir"].start + 1] = np.where(dist > 0, by / safe, 0.0)
-        obs[rows, own["target_dist"].start] = dist / (dist + R)
-        obs[rows, own["target_dz"].start] = dz / (np.abs(dz) + DZ_SCALE_M)
-
-    # robot slots
-    if layout.k_robots:
-        idx, dist, _ = readings.robots.nearest(n, layout.k_robots)
-        ok = idx >= 0
-        j = np.where(ok, idx, 0)
-        d = state.positions[j] - state.positions[:, None, :]
-        bx, by = _to_body(d[..., 0], d[..., 1], h[:, None])
-        slot = np.stack([ok, bx / R, by / R, np.where(ok, dist, 0.0) / R], axis=-1) * ok[..., None]
-        obs[:, layout.robots] = slot.reshape(n, -1)
-    if layout.k_targets:
-        idx, dist, _ = readings.targets.nearest(n, layout.k_targets)
-        ok = idx >= 0
-        if len(state.targets):
-            j = np.where(ok, idx, 0)
-            d = state.targets.positions[j] - state.positions[:, None, :]
-        else:
-            d = np.zeros((n, layout.k_targets, 2))
-        bx, by = _to_body(d[..., 0], d[..., 1], h[:, None])
-        slot = np.stack([ok, bx / R, by / R, np.where(ok, dist, 0.0) / R], axis=-1) * ok[..., None]
-        obs[:, layout.targets] = slot.reshape(n, -1)
-    if layout.k_breaks:
-        bidx, dist, closest = readings.breaks.nearest(n, layout.k_breaks)
-        ok = bidx >= 0
-        j = np.where(ok, bidx, 0)
-        br = world.breaks
-        if len(br):
-            nrm = br.normals[j]
-            drop = br.drops_m[j]
-            danger = (br.kinds[j] != ANGLE).astype(float)
-        else:
-            nrm = np.zeros((n, layout.k_breaks, 2))
-            drop = np.zeros((n, layout.k_breaks))
-            danger = np.zeros((n, layout.k_breaks))
-        d = closest - state.positions[:, None, :]
-        px, py = _to_body(d[..., 0], d[..., 1], h[:, None])
-        nx, ny = _to_body(nrm[..., 0], nrm[..., 1], h[:, None])
-        slot = np.stack([ok, px / R, py / R, nx, ny, drop / (np.abs(drop) + DZ_SCALE_M),
-                         np.where(ok, dist, 0.0) / R, danger], axis=-1) * ok[..., None]
-        obs[:, layout.breaks] = slot.reshape(n, -1)
-    obs[~live] = 0.0
-    np.clip(obs, -1.0, 1.0, out=obs)
-    return obs.astype(np.float32)
+def _jsonish(v):
+    """Tuples as lists, recursively (a dict read back from JSON compares equal)."""
+    if isinstance(v, dict):
+        return {k: _jsonish(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_jsonish(x) for x in v]
+    return v
 
 
 @njit(cache=True, inline="always")
-def _point_slots(obs, i, start, idx, dist, src, pos, c, s, R):
-    """Robot or target slots of robot ``i``: valid, x/R, y/R (body frame), d/R."""
+def _point_slots(obs, i, sl, idx, dist, src, pos, c, s, R):
+    """Robot or target slots of robot ``i`` (``sl`` a :class:`PointSlot`): valid, x/R, y/R
+    (body frame), d/R."""
     for k in range(idx.shape[1]):
         j = idx[i, k]
         if j < 0:
             continue
         dx = src[j, 0] - pos[i, 0]
         dy = src[j, 1] - pos[i, 1]
-        b = start + 4 * k
-        obs[i, b] = 1.0
-        obs[i, b + 1] = (c * dx + s * dy) / R
-        obs[i, b + 2] = (-s * dx + c * dy) / R
-        obs[i, b + 3] = dist[i, k] / R
+        b = sl.start + sl.width * k
+        obs[i, b + sl.valid] = 1.0
+        obs[i, b + sl.x] = (c * dx + s * dy) / R
+        obs[i, b + sl.y] = (-s * dx + c * dy) / R
+        obs[i, b + sl.d] = dist[i, k] / R
+
+
+@njit(cache=True, inline="always")
+def _break_slots(obs, i, sl, idx, dist, closest, normals, drops, danger, pos, c, s, R, dz_scale):
+    """Break slots of robot ``i`` (``sl`` a :class:`BreakSlot`)."""
+    for k in range(idx.shape[1]):
+        j = idx[i, k]
+        if j < 0:
+            continue
+        dx = closest[i, k, 0] - pos[i, 0]
+        dy = closest[i, k, 1] - pos[i, 1]
+        nx = normals[j, 0]
+        ny = normals[j, 1]
+        b = sl.start + sl.width * k
+        obs[i, b + sl.valid] = 1.0
+        obs[i, b + sl.x] = (c * dx + s * dy) / R
+        obs[i, b + sl.y] = (-s * dx + c * dy) / R
+        obs[i, b + sl.nx] = c * nx + s * ny
+        obs[i, b + sl.ny] = -s * nx + c * ny
+        obs[i, b + sl.drop] = drops[j] / (abs(drops[j]) + dz_scale)
+        obs[i, b + sl.d] = dist[i, k] / R
+        obs[i, b + sl.danger] = danger[j]
+
+
+@njit(cache=True, inline="always")
+def _own(obs, i, o, c, s, own_n, grad, target_idx, tpos, tz, pos, heights, R, dz_scale):
+    """Own fields of robot ``i`` (``o`` an :class:`OwnOffsets`; ``own_n (n, 4)`` battery, speed,
+    tilt and slope already normalised)."""
+    obs[i, o.battery] = own_n[i, 0]
+    obs[i, o.speed] = min(max(own_n[i, 1], 0.0), 1.0)
+    obs[i, o.tilt] = own_n[i, 2]
+    obs[i, o.slope] = own_n[i, 3]
+    gx = grad[i, 0]
+    gy = grad[i, 1]
+    gn = np.sqrt(gx * gx + gy * gy)
+    if gn > 1e-6:  # below a micro-degree the ground counts as level: no uphill direction
+        obs[i, o.uphill] = (c * gx + s * gy) / gn
+        obs[i, o.uphill + 1] = (-s * gx + c * gy) / gn
+    t = target_idx[i]
+    if t >= 0 and tpos.shape[0] > 0:
+        dx = tpos[t, 0] - pos[i, 0]
+        dy = tpos[t, 1] - pos[i, 1]
+        d = np.sqrt(dx * dx + dy * dy)
+        obs[i, o.target_valid] = 1.0
+        if d > 0:
+            obs[i, o.target_dir] = (c * dx + s * dy) / d
+            obs[i, o.target_dir + 1] = (-s * dx + c * dy) / d
+        obs[i, o.target_dist] = d / (d + R)
+        dz = tz[t] - heights[i]
+        obs[i, o.target_dz] = dz / (abs(dz) + dz_scale)
 
 
 @njit(cache=True)
-def _fill(obs, pos, head, heights, speeds_n, battery_n, tilt_n, slope_n, grad, live,
-          target_idx, tpos, tz, r_idx, r_dist, t_idx, t_dist, b_idx, b_dist, b_closest, b_normals, b_drops,
-          b_danger, R, dz_scale, o_rob, o_tgt, o_brk):
-    n = pos.shape[0]
-    for i in range(n):
+def _fill(obs, offsets, pos, head, heights, own_n, grad, live, target_idx, tpos, tz, robots, targets, breaks,
+          R, dz_scale):
+    """Write every live robot's row of ``obs``; ``offsets`` from :meth:`ObsLayout.kernel_offsets`;
+    ``robots``/``targets`` ``(idx, dist)`` and ``breaks`` ``(idx, dist, closest, normals, drops,
+    danger)`` from the sensor readings and the break set."""
+    o, o_rob, o_tgt, o_brk = offsets
+    for i in range(pos.shape[0]):
         if not live[i]:
             continue
         c = np.cos(head[i])
         s = np.sin(head[i])
-        obs[i, 0] = battery_n[i]
-        obs[i, 1] = min(max(speeds_n[i], 0.0), 1.0)
-        obs[i, 2] = tilt_n[i]
-        obs[i, 3] = slope_n[i]
-        gx = grad[i, 0]
-        gy = grad[i, 1]
-        gn = np.sqrt(gx * gx + gy * gy)
-        if gn > 1e-6:
-            obs[i, 4] = (c * gx + s * gy) / gn
-            obs[i, 5] = (-s * gx + c * gy) / gn
-        t = target_idx[i]
-        if t >= 0 and tpos.shape[0] > 0:
-            dx = tpos[t, 0] - pos[i, 0]
-            dy = tpos[t, 1] - pos[i, 1]
-            d = np.sqrt(dx * dx + dy * dy)
-            obs[i, 6] = 1.0
-            if d > 0:
-                obs[i, 7] = (c * dx + s * dy) / d
-                obs[i, 8] = (-s * dx + c * dy) / d
-            obs[i, 9] = d / (d + R)
-            dz = tz[t] - heights[i]
-            obs[i, 10] = dz / (abs(dz) + dz_scale)
-        _point_slots(obs, i, o_rob, r_idx, r_dist, pos, pos, c, s, R)
-        _point_slots(obs, i, o_tgt, t_idx, t_dist, tpos, pos, c, s, R)
-        for k in range(b_idx.shape[1]):
-            j = b_idx[i, k]
-            if j < 0:
-                continue
-            dx = b_closest[i, k, 0] - pos[i, 0]
-            dy = b_closest[i, k, 1] - pos[i, 1]
-            nx = b_normals[j, 0]
-            ny = b_normals[j, 1]
-            b = o_brk + 8 * k
-            obs[i, b] = 1.0
-            obs[i, b + 1] = (c * dx + s * dy) / R
-            obs[i, b + 2] = (-s * dx + c * dy) / R
-            obs[i, b + 3] = c * nx + s * ny
-            obs[i, b + 4] = -s * nx + c * ny
-            obs[i, b + 5] = b_drops[j] / (abs(b_drops[j]) + dz_scale)
-            obs[i, b + 6] = b_dist[i, k] / R
-            obs[i, b + 7] = b_danger[j]
+        _own(obs, i, o, c, s, own_n, grad, target_idx, tpos, tz, pos, heights, R, dz_scale)
+        _point_slots(obs, i, o_rob, robots[0], robots[1], pos, pos, c, s, R)
+        _point_slots(obs, i, o_tgt, targets[0], targets[1], tpos, pos, c, s, R)
+        _break_slots(obs, i, o_brk, breaks[0], breaks[1], breaks[2], breaks[3], breaks[4], breaks[5], pos, c, s,
+                     R, dz_scale)
         for m in range(obs.shape[1]):
             obs[i, m] = min(max(obs[i, m], -1.0), 1.0)
 
 
 def build_observations(world, state, readings, target_idx, live, layout: ObsLayout) -> np.ndarray:
     """``(n, layout.size)`` float32 observations for all robots (zeros where ``live`` is False);
-    one compiled pass over the robots (see :func:`build_observations_reference`)."""
+    one compiled pass over the robots (:func:`tin_swarm_env.env.reference.build_observations_reference`
+    is the plain numpy version it is tested against)."""
     P = world.params
     n = state.n_robots
     ri, rd, _ = readings.robots.nearest(n, layout.k_robots)
@@ -271,12 +334,12 @@ def build_observations(world, state, readings, target_idx, live, layout: ObsLayo
     tg = state.targets
     tz = world.tin.height_in(tg.positions, tg.tri_idx) if len(tg) else np.zeros(0)
     br = world.breaks
+    own_n = np.column_stack([state.battery_j / P.battery.capacity_j, state.speeds / P.robot.max_speed_mps,
+                             readings.tilt_rad / (np.pi / 2), readings.slope_deg / 90.0])
+    breaks = (bi, bd, np.ascontiguousarray(bc, dtype=np.float64), br.normals.reshape(-1, 2),
+              br.drops_m.reshape(-1), (br.kinds != ANGLE).astype(np.float64))
     obs = np.zeros((n, layout.size), dtype=np.float32)
-    _fill(obs, state.positions, state.headings, state.heights, state.speeds / P.robot.max_speed_mps,
-          state.battery_j / P.battery.capacity_j, readings.tilt_rad / (np.pi / 2), readings.slope_deg / 90.0,
-          world.tin.planes[state.tri_idx, :2], live, target_idx, tg.positions.reshape(-1, 2), tz,
-          ri, rd, ti, td, bi, bd, np.ascontiguousarray(bc, dtype=np.float64),
-          br.normals.reshape(-1, 2), br.drops_m.reshape(-1), (br.kinds != ANGLE).astype(np.float64),
-          float(P.sensor.range_m), DZ_SCALE_M,
-          layout.robots.start, layout.targets.start, layout.breaks.start)
+    _fill(obs, layout.kernel_offsets(), state.positions, state.headings, state.heights, own_n,
+          world.tin.planes[state.tri_idx, :2], live, target_idx, tg.positions.reshape(-1, 2), tz, (ri, rd),
+          (ti, td), breaks, float(P.sensor.range_m), DZ_SCALE_M)
     return obs

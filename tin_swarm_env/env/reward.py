@@ -13,10 +13,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["REASONS", "NONE", "ARRIVED", "FELL", "BATTERY", "target_distance", "compute_rewards"]
+from ..world import Reason
 
-NONE, ARRIVED, FELL, BATTERY = 0, 1, 2, 3
-REASONS = {ARRIVED: "arrived", FELL: "fell", BATTERY: "battery"}
+__all__ = ["Reason", "target_distance", "compute_rewards"]
 
 
 def target_distance(state, target_idx) -> np.ndarray:
@@ -30,7 +29,8 @@ def target_distance(state, target_idx) -> np.ndarray:
 
 
 def compute_rewards(cfg, prev_state, state, events, target_idx, live):
-    """``(rewards (n,), terminated (n,) bool, reasons (n,) int8)`` for robots in ``live``."""
+    """``(rewards (n,), terminated (n,) bool, reasons (n,) int8)`` for robots in ``live``;
+    reasons are :class:`~tin_swarm_env.world.Reason` codes (NONE, ARRIVED, FELL or BATTERY)."""
     w = cfg.rewards
     d0 = target_distance(prev_state, target_idx)
     d1 = target_distance(state, target_idx)
@@ -49,11 +49,11 @@ def compute_rewards(cfg, prev_state, state, events, target_idx, live):
     r += w.fall * events.fell
     r += w.battery_empty * events.emptied
     r += w.arrival * arrived
-    reasons = np.full(state.n_robots, NONE, dtype=np.int8)
-    reasons[arrived] = ARRIVED
-    reasons[events.emptied] = BATTERY
-    reasons[events.fell] = FELL
-    terminated = (reasons != NONE) & live
+    reasons = np.full(state.n_robots, Reason.NONE, dtype=np.int8)
+    reasons[arrived] = Reason.ARRIVED
+    reasons[events.emptied] = Reason.BATTERY
+    reasons[events.fell] = Reason.FELL
+    terminated = (reasons != Reason.NONE) & live
     r = np.where(live, r, 0.0)
-    reasons = np.where(live, reasons, NONE).astype(np.int8)
+    reasons = np.where(live, reasons, Reason.NONE).astype(np.int8)
     return r.astype(np.float32), terminated, reasons

@@ -7,10 +7,11 @@ from gymnasium import spaces
 from gymnasium.utils import EzPickle
 from pettingzoo import ParallelEnv
 
+from ..errors import ArgumentError
 from ..scenario import ScenarioConfig, assignments, build_world, initial_state, load_scenario
-from ..world import ACTIVE, World
+from ..world import Reason, World
 from .observation import ObsLayout, build_observations
-from .reward import ARRIVED, REASONS, compute_rewards
+from .reward import compute_rewards
 
 __all__ = ["TinSwarmEnv", "parallel_env", "raw_env", "env"]
 
@@ -69,7 +70,8 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     the terrain: it is no longer seen and does not block the robots behind it), "fell" (drove down
     into a too-steep triangle), "battery" (charge ran out); the reason is in
     ``infos[agent]["reason"]``. **Truncation**: every live robot when the step count reaches
-    ``max_cycles`` (read at step time, so it may be changed between steps).
+    ``max_cycles`` (read at step time, so it may be changed between steps), reason
+    "max_cycles". The codes are :class:`~tin_swarm_env.Reason` (``.label`` is the string).
 
     **Arguments**
 
@@ -90,6 +92,11 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     ``n`` robots (``obs (n, d)``, ``actions (n, 2)``), without per-agent dicts; the dict API is
     a thin layer over them.
 
+    **Read-only views** (for apps and plots; policies read observations only): ``tin``,
+    ``world``, ``world_state``, ``live_mask``, ``target_assignment``, ``steps``, ``sensed()``.
+    Reset options place robots and targets: ``robot_positions (n, 2)``, ``headings (n,)``,
+    ``target_positions (m, 2)``.
+
     **Version history**: v0 (0.1.0): first release.
     """
 
@@ -104,23 +111,24 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         cfg = scenario if isinstance(scenario, ScenarioConfig) else load_scenario(scenario)
         if n_robots is not None:
             if int(n_robots) != n_robots or n_robots < 1:
-                raise ValueError(f"n_robots must be a positive integer, got {n_robots!r}")
+                raise ArgumentError(f"n_robots must be a positive integer, got {n_robots!r}")
             cfg = cfg.replace(robots=type(cfg.robots)(count=int(n_robots), spawn_region=cfg.robots.spawn_region,
                                                       min_separation_m=cfg.robots.min_separation_m))
         if max_cycles is not None:
             if int(max_cycles) != max_cycles or max_cycles < 1:
-                raise ValueError(f"max_cycles must be a positive integer, got {max_cycles!r}")
+                raise ArgumentError(f"max_cycles must be a positive integer, got {max_cycles!r}")
             cfg = cfg.replace(max_cycles=int(max_cycles))
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+            raise ArgumentError(
+                f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.config = cfg
         self.max_cycles = cfg.max_cycles
         self.render_mode = render_mode
-        self.world: World = build_world(cfg)
+        self._world: World = build_world(cfg)
         self.n = cfg.robots.count
         self.possible_agents = [f"robot_{i}" for i in range(self.n)]
         self.agent_name_mapping = {a: i for i, a in enumerate(self.possible_agents)}
-        self.layout = ObsLayout(cfg.observation.k_robots, cfg.observation.k_targets, cfg.observation.k_breaks)
+        self.layout = ObsLayout.from_spec(cfg.observation)
         self._obs_space = spaces.Box(-1.0, 1.0, (self.layout.size,), np.float32)
         self._act_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         n_targets = len(cfg.targets.positions)
@@ -130,7 +138,47 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         self._viewer = None
         self._np_random = None
         self.agents: list[str] = []
-        self.wstate = None
+        self._wstate = None  # WorldState; set by reset
+        self._live = np.zeros(self.n, dtype=bool)
+        self._target_idx = np.full(self.n, -1, dtype=np.int64)
+        self._readings = None
+        self._steps = 0
+
+    # -- read-only views for apps, policies' tests and plots ------------------------------------
+    @property
+    def world(self) -> World:
+        """The static world (terrain, breaks, parameters)."""
+        return self._world
+
+    @property
+    def tin(self):
+        """The current :class:`~tin_swarm_env.terrain.Tin`."""
+        return self._world.tin
+
+    @property
+    def world_state(self):
+        """The current :class:`~tin_swarm_env.world.WorldState` (None before reset). Read it, never
+        change it: the env replaces it every step; place robots and targets with reset options."""
+        return self._wstate
+
+    @property
+    def live_mask(self) -> np.ndarray:
+        """``(n,)`` bool, a copy: robots still in the episode (in ``agents``)."""
+        return self._live.copy()
+
+    @property
+    def target_assignment(self) -> np.ndarray:
+        """``(n,)`` int64, a copy: each robot's assigned target index (-1: none)."""
+        return self._target_idx.copy()
+
+    @property
+    def steps(self) -> int:
+        """Steps taken in this episode."""
+        return self._steps
+
+    def sensed(self):
+        """What every robot senses now (:class:`~tin_swarm_env.world.SensorReadings`; read-only)."""
+        return self._readings
 
     # -- spaces ----------------------------------------------------------------------------
     def observation_space(self, agent):
@@ -141,67 +189,63 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
 
     # -- batched path -----------------------------------------------------------------------
     def reset_arrays(self, seed: int | None = None, options: dict | None = None) -> np.ndarray:
-        """Reset and return observations ``(n, d)`` float32 for all robots. ``options`` may
-        place the robots: ``{"robot_positions": (n, 2), "headings": (n,)}`` (radians, counter-
-        clockwise from east); otherwise they spawn at random in the scenario's spawn region."""
+        """Reset and return observations ``(n, d)`` float32 for all robots. ``options`` may place
+        things: ``{"robot_positions": (n, 2), "headings": (n,), "target_positions": (m, 2)}``
+        (metres; headings in radians counter-clockwise from east, only with robot_positions);
+        otherwise robots spawn at random in the scenario's spawn region and targets stand where
+        the scenario puts them. Robots are assigned targets ``i mod m`` either way."""
         if seed is not None or self._np_random is None:
             s = seed if seed is not None else self.config.seed
             self._np_random = np.random.default_rng(s)
         options = dict(options or {})
-        unknown = set(options) - {"robot_positions", "headings"}
+        known = ("robot_positions", "headings", "target_positions")
+        unknown = set(options) - set(known)
         if unknown:  # Gymnasium convention: options an env does not know are ignored (with a warning)
             import warnings
 
-            warnings.warn(f"ignoring unknown reset option(s) {sorted(unknown)}; known: robot_positions, headings",
+            warnings.warn(f"ignoring unknown reset option(s) {sorted(unknown)}; known: {', '.join(known)}",
                           stacklevel=3)
-        if "robot_positions" in options:
-            pos = np.asarray(options["robot_positions"], dtype=np.float64)
-            if pos.shape != (self.n, 2):
-                raise ValueError(f"options['robot_positions'] must have shape ({self.n}, 2), got {pos.shape}")
-            tg = np.asarray(self.config.targets.positions, dtype=float).reshape(-1, 2)
-            at = np.asarray(self.config.assets.positions, dtype=float).reshape(-1, 2)
-            self.wstate = self.world.reset(self._np_random, pos, options.get("headings"),
-                                           targets=tg if len(tg) else None, targets_mobile=self.config.targets.mobile,
-                                           assets=at if len(at) else None, assets_mobile=self.config.assets.mobile)
-        elif "headings" in options:
-            raise ValueError("options['headings'] needs options['robot_positions']")
-        else:
-            self.wstate = initial_state(self.world, self.config, self._np_random, self.n)
-        self.target_idx = assignments(self.n, len(self.wstate.targets))
-        self.live = np.ones(self.n, dtype=bool)
-        self.steps = 0
-        self.readings = self.world.sense(self.wstate)
-        return build_observations(self.world, self.wstate, self.readings, self.target_idx, self.live, self.layout)
+        if "headings" in options and "robot_positions" not in options:
+            raise ArgumentError("options['headings'] needs options['robot_positions']")
+        self._wstate = initial_state(self._world, self.config, self._np_random, self.n,
+                                     **{k: options[k] for k in known if k in options})
+        self._target_idx = assignments(self.n, len(self._wstate.targets))
+        self._live = np.ones(self.n, dtype=bool)
+        self._steps = 0
+        self._readings = self._world.sense(self._wstate)
+        return build_observations(self._world, self._wstate, self._readings, self._target_idx, self._live,
+                                  self.layout)
 
     def step_arrays(self, actions) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """One step for all robots: ``actions (n, 2)`` (rows of robots no longer live are
         ignored). Returns ``obs (n, d)``, ``rewards (n,)``, ``terminated (n,)``, ``truncated (n,)``
-        and ``reasons (n,)`` (codes of :data:`~tin_swarm_env.env.reward.REASONS`, 0 none), all for
-        this step; robots already gone read zeros/False. Robots that end this step are not
-        live on the next."""
-        if self.wstate is None:
+        and ``reasons (n,)`` int8 :class:`~tin_swarm_env.Reason` codes (ARRIVED, FELL, BATTERY for
+        terminated robots, TIMEOUT for truncated ones, NONE otherwise), all for this step; robots
+        already gone read zeros/False. Robots that end this step are not live on the next."""
+        if self._wstate is None:
             raise RuntimeError("call reset() before step()")
         a = np.asarray(actions, dtype=np.float64)
         if a.shape != (self.n, 2):
-            raise ValueError(f"actions must have shape ({self.n}, 2), got {a.shape}")
-        a = np.where(self.live[:, None], a, 0.0)
+            raise ArgumentError(f"actions must have shape ({self.n}, 2), got {a.shape}")
+        a = np.where(self._live[:, None], a, 0.0)
         bad = ~np.all(np.isfinite(a), axis=1)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            raise ValueError(f"action of {self.possible_agents[i]} is not finite: {a[i].tolist()}")
-        prev = self.wstate
-        new, events = self.world.step(prev, a)
-        live = self.live
-        rewards, terminated, reasons = compute_rewards(self.config, prev, new, events, self.target_idx, live)
-        self.steps += 1
-        truncated = live & ~terminated & (self.steps >= self.max_cycles)
-        arrived = reasons == ARRIVED
+            raise ArgumentError(f"action of {self.possible_agents[i]} is not finite: {a[i].tolist()}")
+        prev = self._wstate
+        new, events = self._world.step(prev, a)
+        live = self._live
+        rewards, terminated, reasons = compute_rewards(self.config, prev, new, events, self._target_idx, live)
+        self._steps += 1
+        truncated = live & ~terminated & (self._steps >= self.max_cycles)
+        reasons[truncated] = Reason.TIMEOUT
+        arrived = reasons == Reason.ARRIVED
         if arrived.any():
-            new = self.world.retire(new, arrived)  # arrived robots leave the terrain
-        self.wstate = new
-        self.readings = self.world.sense(new)
-        obs = build_observations(self.world, new, self.readings, self.target_idx, live, self.layout)
-        self.live = live & ~terminated & ~truncated
+            new = self._world.retire(new, arrived)  # arrived robots leave the terrain
+        self._wstate = new
+        self._readings = self._world.sense(new)
+        obs = build_observations(self._world, new, self._readings, self._target_idx, live, self.layout)
+        self._live = live & ~terminated & ~truncated
         return obs, rewards, terminated, truncated, reasons
 
     # -- dict API -----------------------------------------------------------------------------
@@ -212,51 +256,44 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         return {a: obs[i] for i, a in enumerate(self.possible_agents)}, infos
 
     def step(self, actions: dict):
-        if self.wstate is None:
+        if self._wstate is None:
             raise RuntimeError("call reset() before step()")
         arr = np.zeros((self.n, 2))
         for agent, act in actions.items():
             i = self.agent_name_mapping.get(agent)
             if i is None:
-                raise ValueError(f"unknown agent {agent!r} in actions; agents are robot_0..robot_{self.n - 1}")
-            if not self.live[i]:
+                raise ArgumentError(f"unknown agent {agent!r} in actions; agents are robot_0..robot_{self.n - 1}")
+            if not self._live[i]:
                 continue  # acting for an agent that is done: ignored
             v = np.asarray(act, dtype=np.float64).reshape(-1)
             if v.shape != (2,):
-                raise ValueError(f"action of {agent} must have shape (2,), got {np.shape(act)}")
+                raise ArgumentError(f"action of {agent} must have shape (2,), got {np.shape(act)}")
             if not np.all(np.isfinite(v)):
-                raise ValueError(f"action of {agent} is not finite: {v.tolist()}")
+                raise ArgumentError(f"action of {agent} is not finite: {v.tolist()}")
             arr[i] = v
-        live_before = np.flatnonzero(self.live)
+        live_before = np.flatnonzero(self._live)
         obs, rew, term, trunc, reasons = self.step_arrays(arr)
         names = self.possible_agents
         observations = {names[i]: obs[i] for i in live_before}
         rewards = {names[i]: float(rew[i]) for i in live_before}
         terminations = {names[i]: bool(term[i]) for i in live_before}
         truncations = {names[i]: bool(trunc[i]) for i in live_before}
-        infos = {}
-        for i in live_before:
-            info = {}
-            if term[i]:
-                info["reason"] = REASONS[int(reasons[i])]
-            elif trunc[i]:
-                info["reason"] = "max_cycles"
-            infos[names[i]] = info
-        self.agents = [names[i] for i in np.flatnonzero(self.live)]
+        infos = {names[i]: ({"reason": Reason(int(reasons[i])).label} if reasons[i] else {}) for i in live_before}
+        self.agents = [names[i] for i in np.flatnonzero(self._live)]
         if self.render_mode == "human":
             self.render()
         return observations, rewards, terminations, truncations, infos
 
     # -- state, rendering -------------------------------------------------------------------
     def state(self) -> np.ndarray:
-        s = self.wstate
+        s = self._wstate
         if s is None:
             raise RuntimeError("call reset() before state()")
-        x0, y0, x1, y1 = self.world.tin.bounds
+        x0, y0, x1, y1 = self.tin.bounds
         span = np.array([x1 - x0, y1 - y0])
         p = (s.positions - [x0, y0]) / span
         robots = np.column_stack([p, np.cos(s.headings), np.sin(s.headings),
-                                  s.battery_j / self.config.world.battery.capacity_j, s.status == ACTIVE])
+                                  s.battery_j / self.config.world.battery.capacity_j, s.active])
         t = (s.targets.positions - [x0, y0]) / span if len(s.targets) else np.zeros((0, 2))
         return np.clip(np.concatenate([robots.ravel(), t.ravel()]), -1, 1).astype(np.float32)
 
@@ -266,13 +303,13 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
 
             gymnasium.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
             return None
-        if self.wstate is None:
+        if self._wstate is None:
             raise RuntimeError("call reset() before render()")
         if self._viewer is None:
             from .viewer import Viewer
 
-            self._viewer = Viewer(self.world, width_px=self._render_width, sensor_cones=self._sensor_cones)
-        img = self._viewer.frame(self.wstate)
+            self._viewer = Viewer(self._world, width_px=self._render_width, sensor_cones=self._sensor_cones)
+        img = self._viewer.frame(self._wstate)
         if self.render_mode == "rgb_array":
             return img
         self._viewer.show(img)

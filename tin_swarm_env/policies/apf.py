@@ -14,7 +14,6 @@ import numpy as np
 
 from ..world.fields import (
     FIELDS,
-    HEIGHT_SCALE_M,
     FieldParams,
     break_field,
     height_field,
@@ -42,30 +41,26 @@ def apf_forces(obs, layout, range_m, standoff_m, params: FieldParams):
     (``robot``, ``target``, ``break``, ``slide``, ``height``; fields switched off are zeros)."""
     obs = np.asarray(obs, dtype=np.float64)
     n = obs.shape[0]
-    own = layout.own
     R = range_m
     zero = np.zeros((n, 2))
     out = {k: zero for k in ("robot", "target", "break", "slide", "height")}
-    has_t = obs[:, own["target_valid"]][:, 0] > 0.5
-    v = np.clip(obs[:, own["target_dist"]][:, 0], 0.0, 1 - 1e-9)
-    dist = v * R / (1 - v)
-    rel_t = obs[:, own["target_dir"]] * dist[:, None]
+    has_t = layout.field(obs, "own", "target_valid")[:, 0] > 0.5
+    rel_t = layout.field(obs, "own", "target_dir") * layout.target_distance_m(obs, R)[:, None]
     if params.on("target"):
         f, _ = target_field(rel_t, standoff_m, params.target_gain, params.target_range_m)
         out["target"] = np.where(has_t[:, None], f, 0.0)
     if params.on("height"):
-        vz = np.clip(obs[:, own["target_dz"]][:, 0], -1 + 1e-9, 1 - 1e-9)
-        dz = HEIGHT_SCALE_M * vz / (1 - np.abs(vz))
-        slope = np.radians(obs[:, own["slope"]][:, 0] * 90.0)
-        grad_z = np.tan(slope)[:, None] * obs[:, own["uphill"]]
+        dz = layout.target_dz_m(obs)
+        slope = np.radians(layout.field(obs, "own", "slope")[:, 0] * 90.0)
+        grad_z = np.tan(slope)[:, None] * layout.field(obs, "own", "uphill")
         f, _ = height_field(grad_z, dz, params.height_gain)
         out["height"] = np.where(has_t[:, None], f, 0.0)
     if params.on("robot") and layout.k_robots:
-        s = layout.slots(obs, "robots")
-        out["robot"], _ = robot_field(s[..., 1:3] * R, s[..., 0], params.robot_gain, params.robot_range_m)
+        out["robot"], _ = robot_field(layout.vectors(obs, "robots") * R, layout.field(obs, "robots", "valid"),
+                                      params.robot_gain, params.robot_range_m)
     if params.on("break") and layout.k_breaks:
-        s = layout.slots(obs, "breaks")
-        rel, nrm, danger = s[..., 1:3] * R, s[..., 3:5], s[..., 0] * s[..., 7]
+        rel, nrm = layout.vectors(obs, "breaks") * R, layout.vectors(obs, "breaks", "nx", "ny")
+        danger = layout.field(obs, "breaks", "valid") * layout.field(obs, "breaks", "danger")
         out["break"], _ = break_field(rel, nrm, danger, params.break_gain, params.break_range_m,
                                       params.break_decay_m)
         pull = out["target"] + out["height"]

@@ -10,7 +10,8 @@ import numpy as np
 
 from .. import terrain as T
 from ..world import World, WorldState, spawn_positions
-from .config import ScenarioConfig, ScenarioError
+from ..errors import ArgumentError, PlacementError, ScenarioError
+from .config import ScenarioConfig
 from .terrains import make_dem
 
 __all__ = ["build_tin_for", "build_world", "initial_state", "assignments"]
@@ -61,34 +62,40 @@ def build_tin_for(cfg: ScenarioConfig):
 
 
 def build_world(cfg: ScenarioConfig) -> World:
+    """The scenario's world; its targets and assets are checked to stand on traversable ground
+    (a ScenarioError names the file, the table and the position's index)."""
     world = World(build_tin_for(cfg), cfg.world)
-    _check_entities(world, cfg)
+    for what, spec in (("targets", cfg.targets), ("assets", cfg.assets)):
+        try:
+            world.check_placement(_positions(spec), f"{cfg.source} [{what}] positions[{{i}}]")
+        except PlacementError as exc:
+            raise ScenarioError(str(exc)) from None
     return world
 
 
-def _check_entities(world: World, cfg: ScenarioConfig):
-    for what, spec in (("targets", cfg.targets), ("assets", cfg.assets)):
-        if not spec.positions:
-            continue
-        p = np.asarray(spec.positions, dtype=float)
-        tri = world.tin.locate(p)
-        for i in range(len(p)):  # a handful of entities, checked once per scenario
-            if tri[i] < 0:
-                raise ScenarioError(f"{cfg.source} [{what}] positions[{i}] = {p[i].tolist()} lies outside the "
-                                    f"terrain (bounds {tuple(round(b, 1) for b in world.tin.bounds)})")
-            if world.steep[tri[i]]:
-                raise ScenarioError(f"{cfg.source} [{what}] positions[{i}] = {p[i].tolist()} lies inside a "
-                                    f"too-steep (cliff) triangle ({world.tin.slope_deg[tri[i]]:.0f} deg)")
+def _positions(spec) -> np.ndarray:
+    """``(m, 2)`` positions of an entities table (``(0, 2)`` when it has none)."""
+    return np.asarray(spec.positions, dtype=float).reshape(-1, 2)
 
 
-def initial_state(world: World, cfg: ScenarioConfig, rng: np.random.Generator, n_robots: int) -> WorldState:
-    """Robots spawned uniformly (from ``rng``) in the spawn region on traversable ground,
-    targets and assets where the scenario puts them."""
-    pos = spawn_positions(world.tin, world.steep, n_robots, rng, region=cfg.robots.spawn_region,
-                          min_separation_m=cfg.robots.min_separation_m)
-    tg = np.asarray(cfg.targets.positions, dtype=float).reshape(-1, 2) if cfg.targets.positions else None
-    at = np.asarray(cfg.assets.positions, dtype=float).reshape(-1, 2) if cfg.assets.positions else None
-    return world.reset(rng, pos, targets=tg, targets_mobile=cfg.targets.mobile, assets=at,
+def initial_state(world: World, cfg: ScenarioConfig, rng: np.random.Generator, n_robots: int, *,
+                  robot_positions=None, headings=None, target_positions=None) -> WorldState:
+    """The generator: robots spawned uniformly (from ``rng``) in the spawn region on traversable
+    ground, targets and assets where the scenario puts them. ``robot_positions (n, 2)`` (with
+    optional ``headings (n,)``) and ``target_positions (m, 2)`` replace the spawned robots and
+    the scenario's targets (the env's reset options); a position off traversable ground raises
+    a PlacementError naming it."""
+    if robot_positions is None:
+        if headings is not None:
+            raise ArgumentError("headings need robot_positions")
+        pos = spawn_positions(world.tin, world.steep, n_robots, rng, region=cfg.robots.spawn_region,
+                              min_separation_m=cfg.robots.min_separation_m)
+    else:
+        pos = np.asarray(robot_positions, dtype=np.float64)
+        if pos.shape != (n_robots, 2):
+            raise ArgumentError(f"robot_positions must have shape ({n_robots}, 2), got {pos.shape}")
+    tg = _positions(cfg.targets) if target_positions is None else np.asarray(target_positions, float).reshape(-1, 2)
+    return world.reset(rng, pos, headings, targets=tg, targets_mobile=cfg.targets.mobile, assets=_positions(cfg.assets),
                        assets_mobile=cfg.assets.mobile)
 
 

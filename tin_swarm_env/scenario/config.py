@@ -48,22 +48,20 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import types
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import tomllib
 
-from ..errors import TinSwarmError
+from ..errors import ScenarioError
 from ..world import BatteryParams, RobotParams, SensorParams, WorldParams
 
 __all__ = ["ScenarioError", "TerrainSpec", "RobotsSpec", "EntitiesSpec", "RewardWeights", "ObservationSpec",
            "ScenarioConfig", "load_scenario", "scenario_from_dict", "SCENARIO_DIR", "list_scenarios"]
 
 SCENARIO_DIR = Path(__file__).with_name("builtin")
-
-
-class ScenarioError(TinSwarmError, ValueError):
-    """A scenario file or setting is wrong (names the file and the key)."""
 
 
 @dataclass(frozen=True)
@@ -112,6 +110,9 @@ class RewardWeights:
 
 @dataclass(frozen=True)
 class ObservationSpec:
+    """Slot counts of the observation (the only place they are written;
+    :class:`~tin_swarm_env.env.observation.ObsLayout` is built from it)."""
+
     k_robots: int = 4
     k_targets: int = 2
     k_breaks: int = 3
@@ -152,47 +153,40 @@ class ScenarioConfig:
 
 _ROBOT_KEYS = {f.name for f in dataclasses.fields(RobotParams)}
 _RSPEC_KEYS = {f.name for f in dataclasses.fields(RobotsSpec)}
-_WORLD_KEYS = {"dt_s", "entity_height_m", "entity_speed_mps", "entity_turn_sd_deg", "break_angle_deg"}
-_TOP_KEYS = {"name", "task", "max_cycles", "seed", "terrain", "robots", "sensor", "battery", "world", "targets",
-             "assets", "rewards", "observation", "description"}
+# [world] takes WorldParams' own settings: not the robot/sensor/battery models (their own tables)
+# nor flat_size_m (the [terrain] table's size_m)
+_WORLD_KEYS = {f.name for f in dataclasses.fields(WorldParams)} - {"robot", "sensor", "battery", "flat_size_m"}
+_TOP_KEYS = {f.name for f in dataclasses.fields(ScenarioConfig)} - {"world", "base_dir", "source"} | {
+    "sensor", "battery", "world", "description"}
 
 
-def _typed(where: str, key: str, value, ftype):
-    """Check ``value`` against a dataclass field type (the handful used here)."""
-    t = ftype if isinstance(ftype, str) else getattr(ftype, "__name__", str(ftype))
-    if t in ("float",):
+def _typed(where: str, key: str, value, t):
+    """Check ``value`` against the (resolved) type ``t`` of a dataclass field: float, int, bool,
+    str, dict, ``X | None``, ``tuple[float, ...n]`` and ``tuple[tuple[float, float], ...]``."""
+    origin, args = typing.get_origin(t), typing.get_args(t)
+    if origin in (typing.Union, types.UnionType) and type(None) in args:
+        inner = [a for a in args if a is not type(None)]
+        return None if value is None else _typed(where, key, value, inner[0])
+    if t is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ScenarioError(f"{where}: '{key}' must be a number, got {value!r}")
         return float(value)
-    if t in ("int",):
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ScenarioError(f"{where}: '{key}' must be an integer, got {value!r}")
+    if t in (int, bool, str):
+        kind = {int: "an integer", bool: "true or false", str: "a string"}[t]
+        if not isinstance(value, t) or (t is int and isinstance(value, bool)):
+            raise ScenarioError(f"{where}: '{key}' must be {kind}, got {value!r}")
         return value
-    if t in ("bool",):
-        if not isinstance(value, bool):
-            raise ScenarioError(f"{where}: '{key}' must be true or false, got {value!r}")
-        return value
-    if t in ("str",):
-        if not isinstance(value, str):
-            raise ScenarioError(f"{where}: '{key}' must be a string, got {value!r}")
-        return value
-    if t.startswith("tuple[float, float, float, float]"):
-        return _floats(where, key, value, 4)
-    if t.startswith("tuple[float, float]"):
-        return _floats(where, key, value, 2)
-    if t.startswith("tuple[tuple[float, float]"):
-        if not isinstance(value, list):
-            raise ScenarioError(f"{where}: '{key}' must be a list of [x, y] pairs, got {value!r}")
-        return tuple(_floats(where, f"{key}[{i}]", v, 2) for i, v in enumerate(value))
-    if t.startswith("int | None"):
-        if value is not None and (isinstance(value, bool) or not isinstance(value, int)):
-            raise ScenarioError(f"{where}: '{key}' must be an integer, got {value!r}")
-        return value
-    if t == "dict":
+    if t is dict or origin is dict:
         if not isinstance(value, dict):
             raise ScenarioError(f"{where}: '{key}' must be a table, got {value!r}")
         return dict(value)
-    return value  # pragma: no cover
+    if origin is tuple and len(args) == 2 and args[1] is Ellipsis:
+        if not isinstance(value, list):
+            raise ScenarioError(f"{where}: '{key}' must be a list of [x, y] pairs, got {value!r}")
+        return tuple(_typed(where, f"{key}[{i}]", v, args[0]) for i, v in enumerate(value))
+    if origin is tuple and all(a is float for a in args):
+        return _floats(where, key, value, len(args))
+    raise TypeError(f"{where}: no check for the type {t!r} of '{key}'")  # a new field type: add it here
 
 
 def _floats(where, key, value, n):
@@ -205,13 +199,13 @@ def _floats(where, key, value, n):
 def _build(cls, table: dict, where: str, allowed: set | None = None, **extra):
     if not isinstance(table, dict):
         raise ScenarioError(f"{where}: must be a table, got {table!r}")
-    fields_ = {f.name: f for f in dataclasses.fields(cls)}
-    allowed = set(fields_) if allowed is None else allowed
+    hints = typing.get_type_hints(cls)
+    allowed = set(hints) if allowed is None else allowed
     kw = dict(extra)
     for k, v in table.items():
         if k not in allowed:
             raise ScenarioError(f"{where}: unknown key '{k}' (known: {', '.join(sorted(allowed))})")
-        kw[k] = _typed(where, k, v, fields_[k].type)
+        kw[k] = _typed(where, k, v, hints[k])
     try:
         return cls(**kw)
     except ScenarioError:
@@ -241,10 +235,8 @@ def scenario_from_dict(d: dict, source: str = "<dict>", base_dir: str = ".") -> 
     assets = _build(EntitiesSpec, d.get("assets", {}), f"{source} [assets]", allowed={"positions", "mobile"})
     rewards = _build(RewardWeights, d.get("rewards", {}), f"{source} [rewards]")
     obs = _build(ObservationSpec, d.get("observation", {}), f"{source} [observation]")
-    top = {}
-    for k, t in (("name", "str"), ("task", "str"), ("max_cycles", "int"), ("seed", "int | None")):
-        if k in d:
-            top[k] = _typed(source, k, d[k], t)
+    hints = typing.get_type_hints(ScenarioConfig)
+    top = {k: _typed(source, k, d[k], hints[k]) for k in ("name", "task", "max_cycles", "seed") if k in d}
     try:
         return ScenarioConfig(terrain=terrain, robots=rspec, world=world, targets=targets, assets=assets,
                               rewards=rewards, observation=obs, base_dir=base_dir, source=source, **top)

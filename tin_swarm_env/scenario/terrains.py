@@ -83,7 +83,7 @@ RECIPES = {"ramp": ramp, "cliff_goal": cliff_goal, "hills": hills, "rolling": ro
 
 def make_dem(recipe: str, params: dict, where: str = "") -> Dem:
     """Run a recipe with parameters; errors name the recipe and the parameter."""
-    from .config import ScenarioError
+    from ..errors import ScenarioError
 
     if recipe not in RECIPES:
         raise ScenarioError(f"{where}: unknown terrain recipe {recipe!r}; known: {', '.join(sorted(RECIPES))}")

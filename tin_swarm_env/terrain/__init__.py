@@ -6,6 +6,7 @@
 >>> tin.locate([[1000.0, 1000.0]])            # doctest: +SKIP
 """
 
+from ._kernels import exit_edge
 from .breaks import ANGLE, BORDER, STEEP, Breaks, find_breaks
 from .build import build_tin
 from .dem import Dem, PointCloud, geographic_to_metres, metres_per_degree
@@ -19,5 +20,5 @@ __all__ = [
     "Dem", "PointCloud", "load_dem", "sample_dem", "SAMPLES", "geographic_to_metres", "metres_per_degree",
     "Tin", "build_tin", "vip_significance", "vip_select",
     "save_tin", "load_tin", "Breaks", "find_breaks", "BORDER", "STEEP", "ANGLE",
-    "vertical_error", "ErrorStats",
+    "vertical_error", "ErrorStats", "exit_edge",
 ]

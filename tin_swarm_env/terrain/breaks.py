@@ -20,9 +20,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Breaks", "find_breaks", "closest_on_segments", "BORDER", "STEEP", "ANGLE"]
+from ..errors import ArgumentError
+
+__all__ = ["Breaks", "find_breaks", "closest_on_segments", "BORDER", "STEEP", "ANGLE", "MAX_SLOPE_DEG",
+           "BREAK_ANGLE_DEG"]
 
 BORDER, STEEP, ANGLE = 0, 1, 2
+
+# the defaults of these settings everywhere (terrain queries, robot and world parameters)
+MAX_SLOPE_DEG = 30.0  # steepest traversable triangle
+BREAK_ANGLE_DEG = 25.0  # planes meeting at more than this angle form a break
 
 
 def closest_on_segments(points, a, b):
@@ -83,13 +90,13 @@ class Breaks:
         return best, idx
 
 
-def find_breaks(tin, max_slope_deg: float = 30.0, break_angle_deg: float | None = 20.0) -> Breaks:
+def find_breaks(tin, max_slope_deg: float = MAX_SLOPE_DEG, break_angle_deg: float | None = BREAK_ANGLE_DEG) -> Breaks:
     """All break edges of ``tin`` (see the module docstring). ``break_angle_deg=None`` turns
     angle breaks off."""
     if not (0 < max_slope_deg <= 90):
-        raise ValueError(f"max_slope_deg must be in (0, 90], got {max_slope_deg}")
+        raise ArgumentError(f"max_slope_deg must be in (0, 90], got {max_slope_deg}")
     if break_angle_deg is not None and not (0 <= break_angle_deg <= 180):
-        raise ValueError(f"break_angle_deg must be in [0, 180], got {break_angle_deg}")
+        raise ArgumentError(f"break_angle_deg must be in [0, 180], got {break_angle_deg}")
     E = tin.edges
     t0, t1 = tin.edge_triangles[:, 0], tin.edge_triangles[:, 1]
     border = t1 < 0

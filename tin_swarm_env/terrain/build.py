@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import ArgumentError
 from .dem import Dem, PointCloud
 from .tin import Tin
 
@@ -32,13 +33,13 @@ def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices:
     if method is None:
         method = "delaunay" if isinstance(dem, PointCloud) else "vip"
     if method not in METHODS:
-        raise ValueError(f"unknown method {method!r}; expected one of {METHODS}")
+        raise ArgumentError(f"unknown method {method!r}; expected one of {METHODS}")
     if isinstance(dem, PointCloud):
         if method != "delaunay":
-            raise ValueError(f"{dem.source}: method {method!r} needs a regular grid; scattered points "
+            raise ArgumentError(f"{dem.source}: method {method!r} needs a regular grid; scattered points "
                              "are triangulated whole with method='delaunay'")
         if max_vertices is not None and max_vertices < len(dem.points):
-            raise ValueError(f"{dem.source}: {len(dem.points)} scattered points exceed max_vertices="
+            raise ArgumentError(f"{dem.source}: {len(dem.points)} scattered points exceed max_vertices="
                              f"{max_vertices}; reduction needs a regular grid")
         return Tin.from_points(dem.points, source=dem.source)
     if not isinstance(dem, Dem):
@@ -47,9 +48,9 @@ def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices:
         from .vip import vip_select
 
         if max_error_m is not None:
-            raise ValueError("max_error_m applies to method='greedy'; VIP takes max_vertices or min_significance_m")
+            raise ArgumentError("max_error_m applies to method='greedy'; VIP takes max_vertices or min_significance_m")
         if max_vertices is None and min_significance_m is None:
-            raise ValueError("method='vip' needs max_vertices or min_significance_m")
+            raise ArgumentError("method='vip' needs max_vertices or min_significance_m")
         keep = vip_select(dem, max_vertices, min_significance_m, border=border, backbone=backbone)
         r, c = np.nonzero(keep)
         pts = np.column_stack([dem.x[c], dem.y[r], dem.z[r, c]])
@@ -58,7 +59,7 @@ def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices:
         from .greedy import greedy_mesh
 
         if min_significance_m is not None:
-            raise ValueError("min_significance_m applies to method='vip'")
+            raise ArgumentError("min_significance_m applies to method='vip'")
         v, t = greedy_mesh(dem, max_error_m=max_error_m, max_vertices=max_vertices)
         return Tin(v, t, source=f"{dem.source} (greedy)")
     if np.isnan(dem.z).any():

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import DemFormatError
+from ..errors import ArgumentError, DemFormatError
 from .dem import Dem
 
 __all__ = ["greedy_mesh"]
@@ -25,11 +25,11 @@ def greedy_mesh(dem: Dem, max_error_m: float | None = None, max_vertices: int | 
     ``max_vertices`` vertices. At least one of the two must be given.
     """
     if max_error_m is None and max_vertices is None:
-        raise ValueError("greedy reduction needs max_error_m, max_vertices or both")
+        raise ArgumentError("greedy reduction needs max_error_m, max_vertices or both")
     if max_error_m is not None and not (np.isfinite(max_error_m) and max_error_m >= 0):
-        raise ValueError(f"max_error_m must be a finite number >= 0, got {max_error_m}")
+        raise ArgumentError(f"max_error_m must be a finite number >= 0, got {max_error_m}")
     if max_vertices is not None and (int(max_vertices) != max_vertices or max_vertices < 4):
-        raise ValueError(f"max_vertices must be an integer >= 4, got {max_vertices}")
+        raise ArgumentError(f"max_vertices must be an integer >= 4, got {max_vertices}")
     if np.isnan(dem.z).any():
         raise DemFormatError(f"{dem.source}: {dem.n_nodata} NODATA cells; greedy insertion needs a "
                              "complete grid (use dem.fill_nodata() or crop them away)")

@@ -23,8 +23,9 @@ from functools import cached_property
 
 import numpy as np
 
-from ..errors import TinStructureError
+from ..errors import ArgumentError, TinStructureError
 from . import _kernels as K
+from .breaks import BREAK_ANGLE_DEG, MAX_SLOPE_DEG
 
 __all__ = ["Tin"]
 
@@ -210,6 +211,23 @@ class Tin:
     def _vz(self):
         return np.ascontiguousarray(self.vertices[:, 2])
 
+    @property
+    def xy_columns(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(x (V,), y (V,))`` contiguous vertex coordinates, for compiled triangle walks
+        (:func:`tin_swarm_env.terrain.exit_edge`)."""
+        return self._vx, self._vy
+
+    def locate_ahead(self, xy, direction, hint=None) -> tuple[np.ndarray, np.ndarray]:
+        """The triangle a segment from each point ``xy (n, 2)`` along ``direction (n, 2)``
+        (non-zero) enters: a point on a vertex or an edge belongs to several triangles, so this
+        is the one holding the point 1 um along the segment (or a thousandth of its length when
+        shorter). Returns ``(ahead points (n, 2), tri_idx (n,))``, -1 outside."""
+        xy = np.asarray(xy, dtype=np.float64)
+        d = np.asarray(direction, dtype=np.float64)
+        length = np.hypot(d[:, 0], d[:, 1])
+        ahead = xy + d * np.minimum(1e-6 / length, 1e-3)[:, None]
+        return ahead, self.locate(ahead, hint=hint)
+
     def locate(self, xy, hint=None) -> np.ndarray:
         """Triangle holding each point: ``(n,)`` int64, ``-1`` outside the TIN.
 
@@ -226,7 +244,7 @@ class Tin:
             return self._bucket_locate(px, py)
         h = np.asarray(hint, dtype=np.int64).reshape(-1)
         if h.shape[0] != px.shape[0]:
-            raise ValueError(f"hint has {h.shape[0]} entries for {px.shape[0]} points")
+            raise ArgumentError(f"hint has {h.shape[0]} entries for {px.shape[0]} points")
         bad_h = (h < 0) | (h >= self.n_triangles)
         h = np.where(bad_h, 0, h)
         out = K.walk_locate(self._vx, self._vy, self.triangles, self.neighbors, px, py, h,
@@ -246,7 +264,7 @@ class Tin:
         t = self.locate(pts, hint)
         if np.any(t < 0):
             i = int(np.flatnonzero(t < 0)[0])
-            raise ValueError(f"{what}: point {i} at {pts[i].tolist()} lies outside the TIN "
+            raise ArgumentError(f"{what}: point {i} at {pts[i].tolist()} lies outside the TIN "
                              f"(bounds {self.bounds}); {int((t < 0).sum())} of {len(t)} outside")
         return pts, t
 
@@ -317,16 +335,14 @@ class Tin:
         a = _as_xyz(a_xyz, "a_xyz")
         b = _as_xyz(b_xyz, "b_xyz")
         if a.shape != b.shape:
-            raise ValueError(f"a_xyz {a.shape} and b_xyz {b.shape} must have the same shape")
+            raise ArgumentError(f"a_xyz {a.shape} and b_xyz {b.shape} must have the same shape")
         ta = self.locate(a[:, :2], hint)
         # an end point on a vertex or edge belongs to several triangles: start the walk in
-        # the one the segment enters (holding a point 1 um along it)
+        # the one the segment enters
         d = b[:, :2] - a[:, :2]
-        L = np.hypot(d[:, 0], d[:, 1])
-        mv = (L > 0) & (ta >= 0)
+        mv = (np.hypot(d[:, 0], d[:, 1]) > 0) & (ta >= 0)
         if mv.any():
-            ahead = a[mv, :2] + d[mv] * np.minimum(1e-6 / L[mv], 1e-3)[:, None]
-            t2 = self.locate(ahead, hint=ta[mv])
+            _, t2 = self.locate_ahead(a[mv, :2], d[mv], hint=ta[mv])
             ta[np.flatnonzero(mv)[t2 >= 0]] = t2[t2 >= 0]
         ztol = self._tol[1]
         res = K.los_walk(self._vx, self._vy, self._vz, self.triangles, self.neighbors, self._grad,
@@ -348,7 +364,7 @@ class Tin:
                            self._tol[1], 1e-9)
 
     # -- terrain breaks -------------------------------------------------------------------
-    def breaks(self, max_slope_deg: float = 30.0, break_angle_deg: float | None = 20.0):
+    def breaks(self, max_slope_deg: float = MAX_SLOPE_DEG, break_angle_deg: float | None = BREAK_ANGLE_DEG):
         """Terrain breaks: see :func:`tin_swarm_env.terrain.breaks.find_breaks`."""
         from .breaks import find_breaks
 
@@ -363,10 +379,10 @@ def _as_xy(xy, name) -> np.ndarray:
     if a.ndim == 1 and a.shape[0] == 2:
         a = a[None, :]
     if a.ndim != 2 or a.shape[1] != 2:
-        raise ValueError(f"{name} must have shape (n, 2), got {np.shape(xy)}")
+        raise ArgumentError(f"{name} must have shape (n, 2), got {np.shape(xy)}")
     if not np.all(np.isfinite(a)):
         i = int(np.flatnonzero(~np.all(np.isfinite(a), axis=1))[0])
-        raise ValueError(f"{name}: point {i} is not finite: {a[i].tolist()}")
+        raise ArgumentError(f"{name}: point {i} is not finite: {a[i].tolist()}")
     return a
 
 
@@ -375,10 +391,10 @@ def _as_xyz(p, name) -> np.ndarray:
     if a.ndim == 1 and a.shape[0] == 3:
         a = a[None, :]
     if a.ndim != 2 or a.shape[1] != 3:
-        raise ValueError(f"{name} must have shape (n, 3), got {np.shape(p)}")
+        raise ArgumentError(f"{name} must have shape (n, 3), got {np.shape(p)}")
     if not np.all(np.isfinite(a)):
         i = int(np.flatnonzero(~np.all(np.isfinite(a), axis=1))[0])
-        raise ValueError(f"{name}: point {i} is not finite: {a[i].tolist()}")
+        raise ArgumentError(f"{name}: point {i} is not finite: {a[i].tolist()}")
     return np.ascontiguousarray(a)
 
 

@@ -46,7 +46,7 @@ import math
 
 import numpy as np
 
-from ..errors import DemFormatError
+from ..errors import ArgumentError, DemFormatError
 from .dem import Dem
 
 __all__ = ["vip_significance", "vip_select"]
@@ -59,7 +59,7 @@ def vip_significance(dem: Dem, border: str = "line") -> np.ndarray:
     docstring); ``"none"`` gives border cells 0 (the thesis read literally).
     """
     if border not in ("line", "none"):
-        raise ValueError(f"border must be 'line' or 'none', got {border!r}")
+        raise ArgumentError(f"border must be 'line' or 'none', got {border!r}")
     z = dem.z
     if np.isnan(z).any():
         raise DemFormatError(f"{dem.source}: {dem.n_nodata} NODATA cells; VIP needs a complete grid "
@@ -120,16 +120,16 @@ def vip_select(dem: Dem, max_vertices: int | None = None, min_significance_m: fl
     corners, and a backbone lattice of ``backbone / (1 - backbone)`` times as many cells).
     """
     if (max_vertices is None) == (min_significance_m is None):
-        raise ValueError("give exactly one of max_vertices or min_significance_m")
+        raise ArgumentError("give exactly one of max_vertices or min_significance_m")
     if not 0.0 <= backbone < 1.0:
-        raise ValueError(f"backbone must be in [0, 1), got {backbone}")
+        raise ArgumentError(f"backbone must be in [0, 1), got {backbone}")
     sig = vip_significance(dem, border=border)
     rows, cols = sig.shape
     n_cells = rows * cols
     flat = sig.ravel()
     if max_vertices is not None:
         if int(max_vertices) != max_vertices or max_vertices < 4:
-            raise ValueError(f"max_vertices must be an integer >= 4 (the four corners), got {max_vertices}")
+            raise ArgumentError(f"max_vertices must be an integer >= 4 (the four corners), got {max_vertices}")
         n = int(min(max_vertices, n_cells))
         keep = _lattice_mask(dem, int(backbone * n)).ravel()
         keep[[0, cols - 1, n_cells - cols, n_cells - 1]] = True
@@ -150,7 +150,7 @@ def vip_select(dem: Dem, max_vertices: int | None = None, min_significance_m: fl
         return keep.reshape(rows, cols)
     thr = float(min_significance_m)
     if not np.isfinite(thr) or thr < 0:
-        raise ValueError(f"min_significance_m must be a finite number >= 0, got {min_significance_m}")
+        raise ArgumentError(f"min_significance_m must be a finite number >= 0, got {min_significance_m}")
     keep = flat >= thr
     n_sig = int(keep.sum())
     if backbone > 0:

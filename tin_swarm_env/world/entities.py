@@ -6,28 +6,18 @@ import math
 
 import numpy as np
 
+from .placement import check_placement
 from .state import Entities
 
 __all__ = ["make_entities", "move_entities"]
 
 
 def make_entities(tin, steep, positions, mobile, rng, what: str) -> Entities:
-    """Entities at ``positions (m, 2)``; each must lie on a traversable triangle (an error
-    names the entity otherwise). Mobile ones get a random initial heading from ``rng``."""
-    p = np.asarray(positions, dtype=np.float64).reshape(-1, 2)
-    if not np.all(np.isfinite(p)):
-        raise ValueError(f"{what}: positions must be finite")
+    """Entities at ``positions (m, 2)``; each must lie on a traversable triangle (a
+    PlacementError names the entity otherwise: :func:`~.placement.check_placement`). Mobile
+    ones get a random initial heading from ``rng``."""
+    p, tri = check_placement(tin, steep, positions, what + " {i}")
     mob = np.broadcast_to(np.asarray(mobile, dtype=bool), (len(p),)).copy()
-    tri = tin.locate(p) if len(p) else np.zeros(0, dtype=np.int64)
-    bad = tri < 0
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        raise ValueError(f"{what} {i} at {p[i].tolist()} lies outside the terrain (bounds {tin.bounds})")
-    on_steep = steep[tri]
-    if on_steep.any():
-        i = int(np.flatnonzero(on_steep)[0])
-        raise ValueError(f"{what} {i} at {p[i].tolist()} lies on a too-steep triangle "
-                         f"({tin.slope_deg[tri[i]]:.1f} deg)")
     headings = rng.uniform(-math.pi, math.pi, len(p)) if mob.any() else np.zeros(len(p))
     return Entities(p.copy(), tri, headings, mob)
 

@@ -37,6 +37,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import ParameterError
+
 __all__ = ["FIELDS", "FieldParams", "robot_field", "target_field", "break_field", "height_field", "slide_field",
            "fields_at", "HEIGHT_SCALE_M"]
 
@@ -64,10 +66,10 @@ class FieldParams:
     def __post_init__(self):
         unknown = set(self.fields) - set(FIELDS)
         if unknown:
-            raise ValueError(f"unknown field(s) {sorted(unknown)}; the fields are {', '.join(FIELDS)}")
+            raise ParameterError(f"unknown field(s) {sorted(unknown)}; the fields are {', '.join(FIELDS)}")
         for k in ("robot_range_m", "target_range_m", "break_range_m", "break_decay_m", "slide_decay_m"):
             if not getattr(self, k) > 0:
-                raise ValueError(f"FieldParams.{k} must be > 0, got {getattr(self, k)}")
+                raise ParameterError(f"FieldParams.{k} must be > 0, got {getattr(self, k)}")
 
     def on(self, name: str) -> bool:
         return name in self.fields

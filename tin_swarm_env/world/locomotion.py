@@ -27,7 +27,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..terrain._kernels import exit_edge
+from ..terrain import exit_edge
 from .state import ACTIVE
 
 __all__ = ["MOVED", "BLOCKED_BORDER", "BLOCKED_STEEP", "FELL_INTO", "body_to_world", "move", "turn_toward",
@@ -96,12 +96,12 @@ def walk(tin, steep, positions, tri_idx, disp):
     ``events`` (see the module docstring).
 
     A robot sitting exactly on a vertex or an edge belongs to several triangles; the walk
-    starts in the one holding a point 1 um ahead along its motion. When that one is too steep
-    or outside, the robot meets the cliff or the border where it stands (fall or block at
-    zero distance).
+    starts in the one its motion enters (:meth:`~tin_swarm_env.terrain.Tin.locate_ahead`). When
+    that one is too steep or outside, the robot meets the cliff or the border where it stands
+    (fall or block at zero distance).
     """
     grad = np.ascontiguousarray(tin.planes[:, :2])
-    args = (tin._vx, tin._vy, tin.triangles, tin.neighbors, grad, steep)
+    args = (*tin.xy_columns, tin.triangles, tin.neighbors, grad, steep)
     max_steps = tin.n_triangles + 3
     pos = positions.copy()
     tri = tri_idx.copy()
@@ -110,8 +110,7 @@ def walk(tin, steep, positions, tri_idx, disp):
     mv = np.flatnonzero(length > 0)
     if len(mv) == 0:
         return pos, tri, ev
-    ahead = positions[mv] + disp[mv] * np.minimum(1e-6 / length[mv], 1e-3)[:, None]
-    t_ahead = tin.locate(ahead, hint=tri_idx[mv])
+    ahead, t_ahead = tin.locate_ahead(positions[mv], disp[mv], hint=tri_idx[mv])
     out = t_ahead < 0
     cliff = ~out & steep[np.where(out, 0, t_ahead)]
     down = cliff & (np.einsum("ij,ij->i", grad[np.where(out, 0, t_ahead)], disp[mv]) < 0)

@@ -10,6 +10,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from ..errors import ParameterError
+from ..terrain.breaks import BREAK_ANGLE_DEG, MAX_SLOPE_DEG
+
 __all__ = ["RobotParams", "SensorParams", "BatteryParams", "WorldParams"]
 
 
@@ -17,14 +20,14 @@ def _positive(obj, *names):
     for n in names:
         v = getattr(obj, n)
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise ValueError(f"{type(obj).__name__}.{n} must be a finite number > 0, got {v!r}")
+            raise ParameterError(f"{type(obj).__name__}.{n} must be a finite number > 0, got {v!r}")
 
 
 def _non_negative(obj, *names):
     for n in names:
         v = getattr(obj, n)
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-            raise ValueError(f"{type(obj).__name__}.{n} must be a finite number >= 0, got {v!r}")
+            raise ParameterError(f"{type(obj).__name__}.{n} must be a finite number >= 0, got {v!r}")
 
 
 @dataclass(frozen=True)
@@ -43,15 +46,15 @@ class RobotParams:
     radius_m: float = 0.5
     max_speed_mps: float = 2.0
     turn_rate_dps: float = 180.0
-    max_slope_deg: float = 30.0
+    max_slope_deg: float = MAX_SLOPE_DEG
     max_climb_deg: float = 45.0
 
     def __post_init__(self):
         _positive(self, "radius_m", "max_speed_mps", "turn_rate_dps", "max_slope_deg", "max_climb_deg")
         if self.max_slope_deg >= 90:
-            raise ValueError(f"RobotParams.max_slope_deg must be < 90, got {self.max_slope_deg}")
+            raise ParameterError(f"RobotParams.max_slope_deg must be < 90, got {self.max_slope_deg}")
         if self.max_climb_deg < self.max_slope_deg:
-            raise ValueError(f"RobotParams.max_climb_deg ({self.max_climb_deg}) must be >= max_slope_deg "
+            raise ParameterError(f"RobotParams.max_climb_deg ({self.max_climb_deg}) must be >= max_slope_deg "
                              f"({self.max_slope_deg}): a robot must be able to climb every traversable slope")
 
 
@@ -74,7 +77,7 @@ class SensorParams:
         _positive(self, "range_m", "fov_deg")
         _non_negative(self, "height_m")
         if self.fov_deg > 360:
-            raise ValueError(f"SensorParams.fov_deg must be in (0, 360], got {self.fov_deg}")
+            raise ParameterError(f"SensorParams.fov_deg must be in (0, 360], got {self.fov_deg}")
 
 
 @dataclass(frozen=True)
@@ -119,12 +122,12 @@ class WorldParams:
     entity_speed_mps: float = 0.5
     entity_turn_sd_deg: float = 20.0
     flat_size_m: tuple[float, float] = (500.0, 500.0)
-    break_angle_deg: float = 25.0
+    break_angle_deg: float = BREAK_ANGLE_DEG
 
     def __post_init__(self):
         _positive(self, "dt_s")
         _non_negative(self, "entity_height_m", "entity_speed_mps", "entity_turn_sd_deg")
         if len(self.flat_size_m) != 2 or min(self.flat_size_m) <= 0:
-            raise ValueError(f"WorldParams.flat_size_m must be (width, height) > 0, got {self.flat_size_m}")
+            raise ParameterError(f"WorldParams.flat_size_m must be (width, height) > 0, got {self.flat_size_m}")
         if not 0 <= self.break_angle_deg <= 180:
-            raise ValueError(f"WorldParams.break_angle_deg must be in [0, 180], got {self.break_angle_deg}")
+            raise ParameterError(f"WorldParams.break_angle_deg must be in [0, 180], got {self.break_angle_deg}")

@@ -26,7 +26,6 @@ from numba import njit
 from scipy.spatial import cKDTree
 
 from ..terrain.breaks import closest_on_segments
-from .state import ACTIVE, EMPTY
 
 __all__ = ["Contacts", "BreakContacts", "SensorReadings", "BreakIndex", "sense", "nearest_k"]
 
@@ -197,10 +196,10 @@ def sense(tin, break_index: BreakIndex, state, params) -> SensorReadings:
     """What every robot senses in ``state`` (see the module docstring)."""
     sp = params.sensor
     r = sp.range_m
-    pos, head, status = state.positions, state.headings, state.status
+    pos, head = state.positions, state.headings
     n = len(pos)
-    present = np.flatnonzero((status == ACTIVE) | (status == EMPTY))
-    active = status == ACTIVE
+    present = np.flatnonzero(state.present)
+    active = state.active
     sensor_z = state.heights + sp.height_m
 
     # robots: unordered pairs in range, both directions, observers active, within FOV

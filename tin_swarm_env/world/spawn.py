@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..errors import ArgumentError, PlacementError
+
 __all__ = ["spawn_positions"]
 
 
@@ -16,10 +18,10 @@ def spawn_positions(tin, steep, n: int, rng: np.random.Generator, region=None,
     and drops candidates on steep or missing ground and the later member of each pair that
     is too close. Raises ValueError when ``max_rounds`` rounds do not find room."""
     if n < 0:
-        raise ValueError(f"n must be >= 0, got {n}")
+        raise ArgumentError(f"n must be >= 0, got {n}")
     x0, y0, x1, y1 = tin.bounds if region is None else region
     if not (x1 > x0 and y1 > y0):
-        raise ValueError(f"spawn region {region} is empty")
+        raise ArgumentError(f"spawn region {region} is empty")
     got = np.zeros((0, 2))
     for _ in range(max_rounds):
         if len(got) >= n:
@@ -39,6 +41,6 @@ def spawn_positions(tin, steep, n: int, rng: np.random.Generator, region=None,
             pts = pts[~drop]
         got = pts[:n]
     if len(got) < n:
-        raise ValueError(f"could only place {len(got)} of {n} robots on traversable ground in region "
+        raise PlacementError(f"could only place {len(got)} of {n} robots on traversable ground in region "
                          f"{(x0, y0, x1, y1)} with separation {min_separation_m} m")
     return got

@@ -3,15 +3,45 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from enum import IntEnum
 
 import numpy as np
 
-__all__ = ["WorldState", "Entities", "ACTIVE", "FELL", "EMPTY", "DONE", "STATUS_NAMES"]
+__all__ = ["WorldState", "Entities", "Reason", "ACTIVE", "FELL", "EMPTY", "DONE", "STATUS_NAMES",
+           "is_present"]
 
-# robot status codes. DONE: taken off the terrain by the task (e.g. arrived at its goal);
-# like a fallen robot it no longer moves, senses, is seen or collides.
-ACTIVE, FELL, EMPTY, DONE = 0, 1, 2, 3
+
+class Reason(IntEnum):
+    """Why a robot's episode ended (the codes ``step_arrays`` returns; ``NONE``: it did not).
+
+    ``.label`` is the string in ``infos[agent]["reason"]``: "arrived", "fell", "battery",
+    "max_cycles" (TIMEOUT: cut off by the episode length, a truncation).
+    """
+
+    NONE = 0
+    ARRIVED = 1
+    FELL = 2
+    BATTERY = 3
+    TIMEOUT = 4
+
+    @property
+    def label(self) -> str:
+        return _LABELS[self]
+
+
+_LABELS = {Reason.NONE: "", Reason.ARRIVED: "arrived", Reason.FELL: "fell", Reason.BATTERY: "battery",
+           Reason.TIMEOUT: "max_cycles"}
+
+# robot status codes: the Reason code of the same meaning. DONE: taken off the terrain by the
+# task (arrived at its goal); like a fallen robot it no longer moves, senses, is seen or collides.
+ACTIVE, DONE, FELL, EMPTY = int(Reason.NONE), int(Reason.ARRIVED), int(Reason.FELL), int(Reason.BATTERY)
 STATUS_NAMES = {ACTIVE: "active", FELL: "fell", EMPTY: "battery", DONE: "done"}
+
+
+def is_present(status: np.ndarray) -> np.ndarray:
+    """``(n,)`` bool: robots physically on the terrain (active or out of battery; fallen and
+    done ones are gone): they are seen and collide."""
+    return (status == ACTIVE) | (status == EMPTY)
 
 
 @dataclass
@@ -76,12 +106,13 @@ class WorldState:
 
     @property
     def active(self) -> np.ndarray:
+        """``(n,)`` bool: robots that move, sense and draw power."""
         return self.status == ACTIVE
 
     @property
     def present(self) -> np.ndarray:
-        """Robots physically on the terrain (active or out of battery; fallen and done ones are gone)."""
-        return (self.status == ACTIVE) | (self.status == EMPTY)
+        """``(n,)`` bool, see :func:`is_present`."""
+        return is_present(self.status)
 
     def copy(self) -> WorldState:
         """A deep copy (the generator too, so the copy's future draws equal the original's)."""

@@ -8,13 +8,15 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..errors import ArgumentError
 from ..terrain import Tin
 from . import locomotion
 from .battery import drain
 from .entities import make_entities, move_entities
 from .params import WorldParams
+from .placement import check_placement
 from .sensing import BreakIndex, SensorReadings, sense
-from .state import ACTIVE, DONE, EMPTY, FELL, Entities, WorldState
+from .state import ACTIVE, DONE, EMPTY, FELL, Entities, WorldState, is_present
 
 __all__ = ["World", "StepEvents", "flat_tin"]
 
@@ -63,51 +65,44 @@ class World:
               targets=None, targets_mobile=False, assets=None, assets_mobile=False) -> WorldState:
         """A new state. ``robot_positions (n, 2)``; ``headings (n,)`` rad (default: drawn
         uniformly from ``rng``); ``targets``/``assets`` ``(m, 2)`` positions, ``*_mobile`` a bool
-        or ``(m,)`` bools. Raises ValueError naming the robot (or entity) that lies outside the
-        terrain or on a too-steep triangle, and for zero robots."""
+        or ``(m,)`` bools. Raises a PlacementError naming the robot (or entity) that lies outside
+        the terrain or on a too-steep triangle, an ArgumentError for zero robots."""
         rng = np.random.default_rng(rng) if not isinstance(rng, np.random.Generator) else rng
-        p = np.asarray(robot_positions, dtype=np.float64)
-        if p.ndim != 2 or p.shape[1] != 2:
-            raise ValueError(f"robot_positions must have shape (n, 2), got {p.shape}")
+        if np.ndim(robot_positions) != 2 or np.shape(robot_positions)[1] != 2:
+            raise ArgumentError(f"robot_positions must have shape (n, 2), got {np.shape(robot_positions)}")
+        if len(robot_positions) == 0:
+            raise ArgumentError("a world needs at least one robot, got 0")
+        p, tri = self.check_placement(robot_positions, "robot {i}")
         n = len(p)
-        if n == 0:
-            raise ValueError("a world needs at least one robot, got 0")
-        if not np.all(np.isfinite(p)):
-            i = int(np.flatnonzero(~np.all(np.isfinite(p), axis=1))[0])
-            raise ValueError(f"robot {i}: position {p[i].tolist()} is not finite")
-        tri = self.tin.locate(p)
-        if np.any(tri < 0):
-            i = int(np.flatnonzero(tri < 0)[0])
-            raise ValueError(f"robot {i} at {p[i].tolist()} lies outside the terrain (bounds {self.tin.bounds})")
-        if np.any(self.steep[tri]):
-            i = int(np.flatnonzero(self.steep[tri])[0])
-            raise ValueError(f"robot {i} at {p[i].tolist()} starts on a too-steep triangle "
-                             f"({self.tin.slope_deg[tri[i]]:.1f} deg > max_slope_deg "
-                             f"{self.params.robot.max_slope_deg})")
         if headings is None:
             h = rng.uniform(-math.pi, math.pi, n)
         else:
             h = np.broadcast_to(np.asarray(headings, dtype=np.float64), (n,)).copy()
             if not np.all(np.isfinite(h)):
-                raise ValueError("headings must be finite")
-        tg = Entities.empty() if targets is None else make_entities(
+                raise ArgumentError("headings must be finite")
+        tg = Entities.empty() if targets is None or not np.size(targets) else make_entities(
             self.tin, self.steep, targets, targets_mobile, rng, "target")
-        at = Entities.empty() if assets is None else make_entities(
+        at = Entities.empty() if assets is None or not np.size(assets) else make_entities(
             self.tin, self.steep, assets, assets_mobile, rng, "asset")
         return WorldState(positions=p.copy(), headings=h, tri_idx=tri, heights=self.tin.height_in(p, tri),
                           speeds=np.zeros(n), battery_j=np.full(n, float(self.params.battery.capacity_j)),
                           status=np.zeros(n, dtype=np.int8), collisions=np.zeros(n, dtype=np.int64),
                           targets=tg, assets=at, rng=rng, step=0)
 
+    def check_placement(self, positions, label: str = "point {i}"):
+        """``(positions (m, 2), tri_idx (m,))`` of points on traversable ground, or a
+        PlacementError naming the first that is not (:func:`~.placement.check_placement`)."""
+        return check_placement(self.tin, self.steep, positions, label)
+
     # -- step ---------------------------------------------------------------------------
     def check_commands(self, state: WorldState, commands) -> np.ndarray:
         c = np.asarray(commands, dtype=np.float64)
         if c.shape != (state.n_robots, 2):
-            raise ValueError(f"commands must have shape ({state.n_robots}, 2), got {c.shape}")
+            raise ArgumentError(f"commands must have shape ({state.n_robots}, 2), got {c.shape}")
         bad = ~np.all(np.isfinite(c), axis=1)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            raise ValueError(f"robot {i}: command {c[i].tolist()} is not finite (NaN or inf)")
+            raise ArgumentError(f"robot {i}: command {c[i].tolist()} is not finite (NaN or inf)")
         return c
 
     def step(self, state: WorldState, commands) -> tuple[WorldState, StepEvents]:
@@ -131,7 +126,7 @@ class World:
         emptied = (status == ACTIVE) & (new_batt <= 0.0)
         status[emptied] = EMPTY
         # collisions among robots still on the terrain
-        present = np.flatnonzero((status == ACTIVE) | (status == EMPTY))
+        present = np.flatnonzero(is_present(status))
         coll = np.zeros(s.n_robots, dtype=np.int64)
         pairs = np.zeros((0, 2), dtype=np.int64)
         if len(present) > 1:

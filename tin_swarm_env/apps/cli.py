@@ -4,7 +4,7 @@
                   [--gif OUT.gif] [--mp4 OUT.mp4] [--fields robot,target,break,height] [--summary OUT.md]
     tin-swarm scenarios
     tin-swarm explore SCENARIO [--png OUT.png] [--robot I|all] [--fields ...] [--steps K]
-    tin-swarm train SCENARIO --timesteps N [agents/train_sb3.py options]
+    tin-swarm train SCENARIO --timesteps N [any field of apps.train.Args: --n-robots 8 ...]
     tin-swarm eval SCENARIO... [--seeds K] [--model PATH]... [--out OUT]
     tin-swarm build-tin DEM -o OUT.tin [--method vip|greedy|delaunay] [--max-vertices N]
                         [--max-error-m E] [--min-significance-m S] [--png OUT.png]
@@ -23,13 +23,13 @@ import argparse
 import sys
 import time
 
-from .errors import TinSwarmError
+from ..errors import ArgumentError, TinSwarmError
 
 __all__ = ["main"]
 
 
 def _load(spec: str):
-    from . import terrain
+    from .. import terrain
 
     if spec.startswith("sample:"):
         return terrain.sample_dem(spec.split(":", 1)[1])
@@ -37,7 +37,7 @@ def _load(spec: str):
 
 
 def _cmd_build_tin(args) -> int:
-    from . import terrain
+    from .. import terrain
 
     dem = _load(args.dem)
     method = args.method
@@ -93,18 +93,26 @@ def _plot_tin(tin, path):
     plt.close(fig)
 
 
-def _cmd_run(args) -> int:
-    from .run import format_table, run_episodes, save_gif
-    from .world.fields import FIELDS
+def _fields(spec, default=None):
+    """``--fields robot,target`` -> a tuple of APF field names (``default`` when not given)."""
+    from ..world.fields import FIELDS
 
-    fields = None
-    if args.fields is not None:
-        fields = tuple(f for f in args.fields.split(",") if f)
-        bad = set(fields) - set(FIELDS)
-        if bad:
-            raise ValueError(f"--fields: unknown field(s) {sorted(bad)}; choose from {','.join(FIELDS)}")
+    if spec is None:
+        return default
+    fields = tuple(f for f in spec.split(",") if f)
+    bad = set(fields) - set(FIELDS)
+    if bad:
+        raise ArgumentError(f"--fields: unknown field(s) {sorted(bad)}; choose from {','.join(FIELDS)}")
+    return fields
+
+
+def _cmd_run(args) -> int:
+    from .media import save_gif, save_mp4
+    from .run import format_table, run_episodes
+
+    fields = _fields(args.fields)
     if args.episodes < 1:
-        raise ValueError("--episodes must be >= 1")
+        raise ArgumentError("--episodes must be >= 1")
     every = max(1, args.frame_every) if (args.gif or args.mp4) else 0
     stats, frames = run_episodes(args.scenario, policy=args.policy, robots=args.robots, episodes=args.episodes,
                                  seed=args.seed, fields=fields, frames_every=every, max_cycles=args.max_cycles,
@@ -113,7 +121,7 @@ def _cmd_run(args) -> int:
     print(f"scenario {args.scenario}, policy {args.policy}" + (f", fields {','.join(fields)}" if fields else ""))
     print(table)
     if args.summary:
-        from ._atomic import atomic_path
+        from .._atomic import atomic_path
 
         with atomic_path(args.summary) as tmp, open(tmp, "w") as fh:
             fh.write(f"# tin-swarm run {args.scenario} ({args.policy})\n\n{table}\n")
@@ -122,43 +130,24 @@ def _cmd_run(args) -> int:
         save_gif(frames, args.gif)
         print(f"wrote {args.gif} ({len(frames)} frames)")
     if args.mp4:
-        from .run import save_mp4
-
         save_mp4(frames, args.mp4)
         print(f"wrote {args.mp4} ({len(frames)} frames)")
     return 0
 
 
-def _agent_script(name: str):
-    """Import ``agents/<name>.py`` of the source checkout this package runs from."""
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[1] / "agents" / f"{name}.py"
-    if not path.exists():
-        raise FileNotFoundError(f"{path} not found: the agents/ scripts come with a source checkout of "
-                                "tin_swarm_env (pip install -e .), not with the installed package")
-    spec = importlib.util.spec_from_file_location(f"tin_swarm_agents_{name}", path)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # dataclasses look their module up
-    spec.loader.exec_module(mod)
-    return mod
-
-
 def _cmd_train(args) -> int:
-    mod = _agent_script("train_sb3")
-    argv = ["--scenario", args.scenario, "--total-timesteps", str(args.timesteps), *args.extra]
-    mod.main(mod.parse_args(argv))
+    from .args import dataclass_from_namespace
+    from .train import Args, train
+
+    train(dataclass_from_namespace(Args, args, total_timesteps=args.timesteps))
     return 0
 
 
 def _cmd_eval(args) -> int:
-    mod = _agent_script("evaluate")
-    argv = ["--scenarios", ",".join(args.scenarios), "--seeds", str(args.seeds), "--out", args.out,
-            "--models", ",".join(args.model), "--policies", args.policies]
-    if args.robots:
-        argv += ["--robots", str(args.robots)]
-    mod.main(mod.parse_args(argv))
+    from .evaluate import Args, evaluate
+
+    evaluate(Args(scenarios=",".join(args.scenarios), seeds=args.seeds, robots=args.robots,
+                  models=",".join(args.model), policies=args.policies, out=args.out))
     return 0
 
 
@@ -167,22 +156,19 @@ def _cmd_explore(args) -> int:
 
     if args.png:
         matplotlib.use("Agg")
+    from ..world.fields import FIELDS
     from .explorer import FieldExplorer
-    from .world.fields import FIELDS
 
-    fields = FIELDS if args.fields is None else tuple(f for f in args.fields.split(",") if f)
-    bad = set(fields) - set(FIELDS)
-    if bad:
-        raise ValueError(f"--fields: unknown field(s) {sorted(bad)}; choose from {','.join(FIELDS)}")
+    fields = _fields(args.fields, FIELDS)
     robot = None if args.robot == "all" else int(args.robot)
     ex = FieldExplorer(args.scenario, robot=robot, fields=fields, n_robots=args.robots, seed=args.seed)
     if robot is not None and not 0 <= robot < ex.env.n:
-        raise ValueError(f"--robot {robot}: the scenario has robots 0..{ex.env.n - 1}")
+        raise ArgumentError(f"--robot {robot}: the scenario has robots 0..{ex.env.n - 1}")
     for _ in range(args.steps):
         ex.next_step(draw=False)
     ex.redraw()
     if args.png:
-        from ._atomic import atomic_path
+        from .._atomic import atomic_path
 
         with atomic_path(args.png) as tmp:
             ex.fig.savefig(tmp, format="png")
@@ -194,7 +180,7 @@ def _cmd_explore(args) -> int:
 
 
 def _cmd_scenarios(args) -> int:
-    from .scenario import list_scenarios
+    from ..scenario import list_scenarios
 
     for name, desc in list_scenarios().items():
         print(f"{name:12s} {desc}")
@@ -202,6 +188,10 @@ def _cmd_scenarios(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The parser of every subcommand (a flat list of options; see the module docstring)."""
+    from .args import add_dataclass_args
+    from .train import Args as TrainArgs
+
     p = argparse.ArgumentParser(prog="tin-swarm", description="Robot swarms on TIN terrain.")
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a swarm on a scenario and report each episode")
@@ -229,10 +219,10 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("--steps", type=int, default=0, help="APF steps to take before drawing")
     x.add_argument("--seed", type=int, default=0)
     x.set_defaults(func=_cmd_explore)
-    t = sub.add_parser("train", help="train PPO (agents/train_sb3.py; needs the [train] extra)")
+    t = sub.add_parser("train", help="train PPO (apps/train.py, = agents/train_sb3.py; needs the [train] extra)")
     t.add_argument("scenario")
     t.add_argument("--timesteps", type=int, default=200_000)
-    # any further options go to agents/train_sb3.py (see main())
+    add_dataclass_args(t, TrainArgs, skip=("scenario", "total_timesteps"))
     t.set_defaults(func=_cmd_train)
     e = sub.add_parser("eval", help="random, APF and saved models on the same scenarios and seeds")
     e.add_argument("scenarios", nargs="+")
@@ -255,11 +245,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    parser = build_parser()
-    args, extra = parser.parse_known_args(argv)
-    if extra and args.command != "train":
-        parser.error(f"unrecognized arguments: {' '.join(extra)}")
-    args.extra = extra
+    args = build_parser().parse_args(argv)
     try:
         return args.func(args)
     except (TinSwarmError, ValueError, FileNotFoundError) as exc:

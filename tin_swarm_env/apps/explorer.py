@@ -11,6 +11,10 @@ Works in a desktop window (``FieldExplorer("ramp").show()``), in Jupyter with ip
 (``%matplotlib widget``), and headless: ``tin-swarm explore ramp --png out.png`` draws the same
 views into a file (Agg).
 
+It drives the env through its public API only: moving a robot or adding a threat resets the
+episode with the current positions (reset options ``robot_positions``, ``headings``,
+``target_positions``), so an added threat is assigned to robots (``i mod m``) and felt.
+
 The field shown is what the selected robot feels (:func:`tin_swarm_env.world.fields.fields_at`):
 its own target (with the task's standoff), the robots it currently sees, the dangerous terrain
 breaks within its sensor range, and the height field toward its target's height, evaluated on a
@@ -22,10 +26,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .env import parallel_env
-from .policies import APFPolicy
-from .world import ACTIVE, EMPTY
-from .world.fields import FIELDS, fields_at
+from ..env import parallel_env
+from ..errors import PlacementError
+from ..policies import APFPolicy
+from ..world.fields import FIELDS, fields_at
 
 __all__ = ["FieldExplorer"]
 
@@ -89,38 +93,29 @@ class FieldExplorer:
         self.redraw()
 
     def move_robot(self, xy):
-        """Put the selected robot at ``xy`` (kept if that is outside or on too-steep ground)."""
+        """Put the selected robot at ``xy`` (ignored outside or on too-steep ground); the
+        episode restarts from the current positions."""
         if self.robot is None:
             return
-        s = self.env.wstate
-        t = self.env.world.tin.locate(np.asarray(xy, float)[None])[0]
-        if t < 0 or self.env.world.steep[t]:
-            return
-        s.positions[self.robot] = xy
-        s.tri_idx[self.robot] = t
-        s.heights[self.robot] = self.env.world.tin.height_in(np.asarray(xy, float)[None], [t])[0]
-        self._refresh_observations()
+        pos = self.env.world_state.positions.copy()
+        pos[self.robot] = xy
+        self._replace(robot_positions=pos)
 
     def add_threat(self, xy):
-        """Add a threat/target at ``xy`` (on traversable ground)."""
-        w = self.env.world
-        t = w.tin.locate(np.asarray(xy, float)[None])[0]
-        if t < 0 or w.steep[t]:
+        """Add a threat/target at ``xy`` (ignored outside or on too-steep ground); the episode
+        restarts from the current positions and robots are assigned the targets anew."""
+        tg = self.env.world_state.targets.positions
+        self._replace(target_positions=np.vstack([tg, np.asarray(xy, float)[None]]))
+
+    def _replace(self, **options):
+        """Reset the env with the current robots and targets, changed by ``options``."""
+        s = self.env.world_state
+        opts = {"robot_positions": s.positions.copy(), "headings": s.headings.copy(),
+                "target_positions": s.targets.positions.copy(), **options}
+        try:
+            self.obs, _ = self.env.reset(options=opts)
+        except PlacementError:
             return
-        tg = self.env.wstate.targets
-        tg.positions = np.vstack([tg.positions, np.asarray(xy, float)[None]])
-        tg.tri_idx = np.append(tg.tri_idx, t)
-        tg.headings = np.append(tg.headings, 0.0)
-        tg.mobile = np.append(tg.mobile, False)
-        self._refresh_observations()
-
-    def _refresh_observations(self):
-        from .env.observation import build_observations
-
-        env = self.env
-        env.readings = env.world.sense(env.wstate)
-        arr = build_observations(env.world, env.wstate, env.readings, env.target_idx, env.live, env.layout)
-        self.obs = {a: arr[env.agent_name_mapping[a]] for a in env.agents}
         self.redraw()
 
     def _toggle_run(self, label):
@@ -143,13 +138,13 @@ class FieldExplorer:
     # -- the field -----------------------------------------------------------------------------
     def compute_field(self):
         """The selected robot's field on a grid: ``(X, Y, potential, force)``."""
-        env, w, s = self.env, self.env.world, self.env.wstate
+        env, w, s = self.env, self.env.world, self.env.world_state
         pol = self.policy
         R = w.params.sensor.range_m
         x0, y0, x1, y1 = w.tin.bounds
         if self.robot is None:
             gx, gy = np.linspace(x0, x1, self.grid), np.linspace(y0, y1, self.grid)
-            robots = s.positions[(s.status == ACTIVE) | (s.status == EMPTY)]
+            robots = s.positions[s.present]
             target = s.targets.positions[0] if len(s.targets) else None
         else:
             i = self.robot
@@ -157,9 +152,9 @@ class FieldExplorer:
             half = 1.2 * R
             gx = np.linspace(max(x0, c[0] - half), min(x1, c[0] + half), self.grid)
             gy = np.linspace(max(y0, c[1] - half), min(y1, c[1] + half), self.grid)
-            seen = env.readings.robots
+            seen = env.sensed().robots
             robots = s.positions[seen.target[seen.observer == i]]
-            k = env.target_idx[i]
+            k = env.target_assignment[i]
             target = s.targets.positions[k] if k >= 0 and len(s.targets) else None
         X, Y = np.meshgrid(gx, gy)
         pts = np.column_stack([X.ravel(), Y.ravel()])
@@ -191,17 +186,16 @@ class FieldExplorer:
         ax.set_zlim(z.min(), z.max() + 1e-6 + 0.3 * (x1 - x0 + y1 - y0) / 20)
         ax.set_title(f"{self.env.config.name}: white = too steep (> {w.params.robot.max_slope_deg:.0f} deg)")
         self._tin_drawn = True
-        self._robot_art = None
 
     def redraw(self):
-        env, s = self.env, self.env.wstate
+        env, s = self.env, self.env.world_state
         if not self._tin_drawn:
             self._draw_tin()
         ax = self.ax3d
         for a in getattr(self, "_dyn", []):
             a.remove()
         self._dyn = []
-        on = (s.status == ACTIVE) | (s.status == EMPTY)
+        on = s.present
         lift = 0.5
         self._dyn.append(ax.scatter(s.positions[on, 0], s.positions[on, 1], s.heights[on] + lift, c="orange",
                                     s=12, depthshade=False))
@@ -230,10 +224,6 @@ class FieldExplorer:
         who = "all robots" if self.robot is None else f"robot_{self.robot}"
         h.set_title(f"field felt by {who}: {', '.join(self.fields) or 'none'} (step {env.steps})", fontsize=9)
         self.fig.canvas.draw_idle()
-
-    def save(self, path):
-        self.fig.canvas.draw()
-        self.fig.savefig(path)
 
     def show(self):
         import matplotlib.pyplot as plt

@@ -1,0 +1,97 @@
+"""The one episode loop: ``rollout(env, policy, seed) -> Outcome`` (per-robot results).
+
+Used by ``tin-swarm run``, ``tin-swarm eval``, the training entry's evaluation and the bench
+scripts. ``policy`` has ``act_batch(obs (n, d)) -> actions (n, 2)``; when it has a ``reset()``
+method it is called right after the env resets (policies with per-robot memory).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..world.state import Reason
+
+__all__ = ["Outcome", "rollout"]
+
+
+@dataclass
+class Outcome:
+    """One episode, per robot (arrays over the ``n`` robots).
+
+    reasons       (n,) int8   :class:`~tin_swarm_env.Reason` code of how it ended (TIMEOUT: cut
+                              off by ``max_cycles``; NONE only if the episode was stopped early)
+    steps         (n,) int64  the step at which it ended
+    returns       (n,) float  sum of its rewards
+    collisions    (n,) int64  collisions it was in
+    battery_left  (n,) float  charge left at the end / capacity
+    seed, n_steps (the episode's length), seconds (wall clock); frames: rendered RGB frames
+    when asked for.
+    """
+
+    seed: int | None
+    reasons: np.ndarray
+    steps: np.ndarray
+    returns: np.ndarray
+    collisions: np.ndarray
+    battery_left: np.ndarray
+    n_steps: int
+    seconds: float
+    frames: list = field(default_factory=list, repr=False)
+
+    @property
+    def n_robots(self) -> int:
+        return len(self.reasons)
+
+    def count(self, reason: Reason) -> int:
+        """Robots whose episode ended for ``reason``."""
+        return int(np.sum(self.reasons == reason))
+
+    def share(self, reason: Reason) -> float:
+        """Fraction of the robots whose episode ended for ``reason``."""
+        return self.count(reason) / max(self.n_robots, 1)
+
+    def counts(self) -> dict[str, int]:
+        """``{"arrived": k, "fell": k, "battery": k, "max_cycles": k}``."""
+        return {r.label: self.count(r) for r in (Reason.ARRIVED, Reason.FELL, Reason.BATTERY, Reason.TIMEOUT)}
+
+    def steps_to_arrive(self) -> float:
+        """Mean step of arrival over the robots that arrived (NaN when none did)."""
+        got = self.reasons == Reason.ARRIVED
+        return float(self.steps[got].mean()) if got.any() else float("nan")
+
+
+def rollout(env, policy, seed: int | None, *, on_step=None, frames_every: int = 0) -> Outcome:
+    """Run one episode of ``env`` (a :class:`~tin_swarm_env.TinSwarmEnv`) from ``reset(seed)``
+    until no robot is left. ``on_step(env, reasons (n,))`` is called after every step with the
+    reasons so far; ``frames_every > 0`` keeps ``env.render()`` every that many steps and at
+    the end (the env needs ``render_mode="rgb_array"``)."""
+    t0 = time.perf_counter()
+    obs = env.reset_arrays(seed=seed)
+    if hasattr(policy, "reset"):
+        policy.reset()
+    n = env.n
+    reasons = np.zeros(n, dtype=np.int8)
+    steps = np.zeros(n, dtype=np.int64)
+    returns = np.zeros(n)
+    frames = []
+    live = env.live_mask
+    while live.any():
+        if frames_every and env.steps % frames_every == 0:
+            frames.append(env.render())
+        obs, rew, term, trunc, why = env.step_arrays(policy.act_batch(obs))
+        returns += np.where(live, rew, 0.0)
+        ended = term | trunc
+        reasons[ended] = why[ended]
+        steps[ended] = env.steps
+        live = env.live_mask
+        if on_step is not None:
+            on_step(env, reasons)
+    if frames_every:
+        frames.append(env.render())
+    s = env.world_state
+    return Outcome(seed=seed, reasons=reasons, steps=steps, returns=returns, collisions=s.collisions.copy(),
+                   battery_left=s.battery_j / env.config.world.battery.capacity_j, n_steps=env.steps,
+                   seconds=time.perf_counter() - t0, frames=frames)
