@@ -124,7 +124,7 @@ def test_single_view_equals_the_parallel_env_bit_for_bit(scenario, others):
         p, pr, pterm, ptrunc, preason = penv.step_arrays(full)
         assert np.array_equal(o, p[0]) and o.dtype == np.float32
         assert r == float(pr[0]) and term == bool(pterm[0]) and trunc == bool(ptrunc[0])
-        assert np.array_equal(view.parallel_env.wstate.positions, penv.wstate.positions)  # the others too
+        assert np.array_equal(view.parallel_env.world_state.positions, penv.world_state.positions)  # the others too
         moved += np.abs(full[1:]).sum()
         if term or trunc:
             assert info["reason"] == reason_labels(preason[:1], ptrunc[:1])[0]
@@ -139,7 +139,7 @@ def test_random_others_are_seeded_by_the_episode_seed():
         env.reset(seed=seed)
         for a in fixed_actions(10, (2,)):
             env.step(a)
-        return env.parallel_env.wstate.positions.copy()
+        return env.parallel_env.world_state.positions.copy()
 
     assert np.array_equal(run(3), run(3))
     assert not np.array_equal(run(3), run(4))

@@ -9,7 +9,8 @@ The package root is lazy: it loads only :mod:`.errors`; ``tse.parallel_env``, ``
 ``tse.Reason`` and the subpackages load on first use, so ``import tin_swarm_env.terrain`` needs
 numpy/scipy/numba only. ``tse.env`` is the :mod:`tin_swarm_env.env` subpackage; the AEC
 constructor is ``tse.tin_swarm_v0.env()``. ``tin_swarm/TinSwarm-v0`` is registered with
-PettingZoo when pettingzoo is imported (see :mod:`._registration`).
+PettingZoo when pettingzoo is imported, ``tin_swarm/TinSwarmSingle-v0`` and
+``tin_swarm/TinSwarmCentral-v0`` with Gymnasium when gymnasium is imported (see :mod:`._registration`).
 
 >>> import tin_swarm_env as tse
 >>> env = tse.parallel_env(scenario="cliff_goal", n_robots=20)   # doctest: +SKIP
@@ -17,7 +18,7 @@ PettingZoo when pettingzoo is imported (see :mod:`._registration`).
 
 import importlib
 
-from ._registration import ENV_ID, register_pettingzoo
+from ._registration import ENV_ID, register_gymnasium, register_pettingzoo
 from .errors import (
     DemFormatError,
     MissingExtraError,
@@ -48,6 +49,7 @@ def __dir__():
 
 
 register_pettingzoo()
+register_gymnasium()
 
 __all__ = [
     "ENV_ID", "DemFormatError", "MissingExtraError", "Reason", "TinFormatError", "TinStructureError", "TinSwarmError",

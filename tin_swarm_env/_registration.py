@@ -16,9 +16,11 @@ import sys
 import threading
 import warnings
 
-__all__ = ["ENV_ID", "register_pettingzoo", "_on_import"]
+__all__ = ["ENV_ID", "SINGLE_ID", "CENTRAL_ID", "register_pettingzoo", "register_gymnasium", "_on_import"]
 
 ENV_ID = "tin_swarm/TinSwarm-v0"
+SINGLE_ID = "tin_swarm/TinSwarmSingle-v0"
+CENTRAL_ID = "tin_swarm/TinSwarmCentral-v0"
 
 _PENDING: dict[str, list] = {}
 _LOCK = threading.RLock()
@@ -96,3 +98,17 @@ def _register_pettingzoo(pettingzoo) -> None:
 def register_pettingzoo() -> None:
     """Register ``tin_swarm/TinSwarm-v0`` (parallel and AEC) with PettingZoo, now or on its import."""
     _on_import("pettingzoo", _register_pettingzoo)
+
+
+def _register_gymnasium(gymnasium) -> None:
+    for env_id, cls in ((SINGLE_ID, "TinSwarmSingleEnv"), (CENTRAL_ID, "TinSwarmCentralEnv")):
+        if env_id not in gymnasium.registry:
+            gymnasium.register(id=env_id, entry_point=f"tin_swarm_env.adapters.gym_views:{cls}",
+                               max_episode_steps=None, nondeterministic=False)
+
+
+def register_gymnasium() -> None:
+    """Register ``"tin_swarm/TinSwarmSingle-v0"`` and ``"tin_swarm/TinSwarmCentral-v0"`` with
+    Gymnasium (entry-point strings; ``max_episode_steps=None``: the env truncates itself at
+    ``max_cycles``), now or on gymnasium's import. Calling it again does nothing."""
+    _on_import("gymnasium", _register_gymnasium)

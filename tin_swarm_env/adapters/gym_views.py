@@ -32,17 +32,15 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from ..env.reward import REASONS
+from .._registration import CENTRAL_ID, SINGLE_ID, register_gymnasium
 from ..env.tin_swarm import TinSwarmEnv
+from ..world.state import Reason
 
 __all__ = ["SINGLE_ID", "CENTRAL_ID", "TinSwarmSingleEnv", "TinSwarmCentralEnv", "register_gymnasium",
            "reason_labels", "END_LABELS"]
 
-SINGLE_ID = "tin_swarm/TinSwarmSingle-v0"
-CENTRAL_ID = "tin_swarm/TinSwarmCentral-v0"
-
-TIMEOUT_LABEL = "max_cycles"
-END_LABELS = (*REASONS.values(), TIMEOUT_LABEL)  # every way a robot's episode ends
+TIMEOUT_LABEL = Reason.TIMEOUT.label
+END_LABELS = tuple(r.label for r in Reason if r != Reason.NONE)  # every way a robot's episode ends
 _LABEL_DTYPE = "<U16"  # fixed width so that vectorised infos never truncate a label
 
 
@@ -52,7 +50,7 @@ def reason_labels(codes, truncated) -> np.ndarray:
 
     The one place reason codes become strings in this module."""
     codes = np.asarray(codes).reshape(-1)
-    out = np.array([REASONS.get(int(c), "") for c in codes], dtype=_LABEL_DTYPE)
+    out = np.array([Reason(int(c)).label for c in codes], dtype=_LABEL_DTYPE)
     out[np.asarray(truncated, dtype=bool).reshape(-1)] = TIMEOUT_LABEL
     return out
 
@@ -154,6 +152,8 @@ class TinSwarmSingleEnv(_SwarmView):
         swarm_seed = self._reset_swarm(seed, options)
         if isinstance(self.others, str) and self.others == "random":
             self._random_others = np.random.default_rng(np.random.SeedSequence((swarm_seed, 1)))
+        elif hasattr(self.others, "reset"):  # a policy with per-robot memory (APF) starts afresh
+            self.others.reset()
         if self.render_mode == "human":
             self.render()
         return self._obs[0].copy(), {}
@@ -254,13 +254,3 @@ class TinSwarmCentralEnv(_SwarmView):
         if self.render_mode == "human":
             self.render()
         return obs, reward, all_done and not trunc, trunc, self._info()
-
-
-def register_gymnasium() -> None:
-    """Register ``"tin_swarm/TinSwarmSingle-v0"`` and ``"tin_swarm/TinSwarmCentral-v0"`` with
-    Gymnasium (entry-point strings; ``max_episode_steps=None``: the env truncates itself at
-    ``max_cycles``). Calling it again does nothing."""
-    for env_id, cls in ((SINGLE_ID, "TinSwarmSingleEnv"), (CENTRAL_ID, "TinSwarmCentralEnv")):
-        if env_id not in gymnasium.registry:
-            gymnasium.register(id=env_id, entry_point=f"tin_swarm_env.adapters.gym_views:{cls}",
-                               max_episode_steps=None, nondeterministic=False)
