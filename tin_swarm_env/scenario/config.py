@@ -51,7 +51,10 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import tomllib
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10: the same parser from PyPI
+    import tomli as tomllib
 
 from ..errors import TinSwarmError
 from ..world import BatteryParams, RobotParams, SensorParams, WorldParams
