@@ -25,6 +25,7 @@ import numpy as np
 
 from ..errors import TinStructureError
 from . import _kernels as K
+from .validity import check_single_surface
 
 __all__ = ["Tin"]
 
@@ -45,7 +46,9 @@ class Tin:
     Zero-area triangles (area below ``1e-12`` of the squared extent) are dropped and counted
     in :attr:`n_degenerate_removed`; vertices no triangle uses are dropped too. An edge shared
     by more than two triangles, or two triangles overlapping on a shared edge, raise
-    :class:`~tin_swarm_env.errors.TinStructureError` naming the edge.
+    :class:`~tin_swarm_env.errors.TinStructureError` naming the edge; two vertices at one
+    (x, y), triangles overlapping in plan and T-junctions raise it naming the vertices and
+    triangles (:func:`~tin_swarm_env.terrain.validity.check_single_surface`).
     """
 
     def __init__(self, vertices, triangles, *, source: str = "<array>"):
@@ -94,6 +97,9 @@ class Tin:
         self.vertices = v
         self.triangles = tri
         self.neighbors = _neighbors(tri, v, source)
+        bucket = _build_bucket(v, tri)
+        check_single_surface(v, tri, self.neighbors, bucket, source)
+        self.__dict__["_bucket"] = bucket  # the cached point-location grid, built once
         self._derive_planes()
         for a in (self.vertices, self.triangles, self.neighbors, self.planes, self.normals,
                   self.slope_deg, self.aspect_deg, self.areas, self._grad):
@@ -457,7 +463,7 @@ def _build_bucket(v: np.ndarray, tri: np.ndarray, per_cell: float = 2.0) -> dict
     start = np.zeros(nx * ny + 1, dtype=np.int64)
     np.cumsum(np.bincount(cell, minlength=nx * ny), out=start[1:])
     return {"start": start, "tris": tid[order], "x0": float(xmin), "y0": float(ymin),
-            "inv_cs": 1.0 / cs, "nx": nx, "ny": ny}
+            "inv_cs": 1.0 / cs, "cs": cs, "nx": nx, "ny": ny}
 
 
 def _canonical(t: Tin):
