@@ -159,6 +159,7 @@ _ASC_KEYS = {"ncols", "nrows", "xllcorner", "xllcenter", "yllcorner", "yllcenter
 
 def _read_asc(p: Path, geographic: bool) -> Dem:
     header: dict[str, float] = {}
+    header_line: dict[str, int] = {}
     with open(p, encoding="utf-8", errors="replace") as fh:
         text_lines = fh.readlines()
     if not any(t.strip() for t in text_lines):
@@ -176,14 +177,20 @@ def _read_asc(p: Path, geographic: bool) -> Dem:
             raise DemFormatError(f"{p}:{i + 1}: unknown ESRI ASCII header key {parts[0]!r}")
         if len(parts) != 2:
             raise DemFormatError(f"{p}:{i + 1}: header line must be 'key value', got {text_lines[i].strip()!r}")
+        if key in header:
+            raise DemFormatError(f"{p}:{i + 1}: header key {parts[0]} repeats line {header_line[key]}")
         try:
             header[key] = float(parts[1])
         except ValueError:
             raise DemFormatError(f"{p}:{i + 1}: header {parts[0]} has a non-numeric value {parts[1]!r}") from None
+        header_line[key] = i + 1
         i += 1
     for k in ("ncols", "nrows"):
         if k not in header:
             raise DemFormatError(f"{p}: ESRI ASCII header lacks {k}")
+        n = header[k]
+        if not (np.isfinite(n) and n == int(n) and n >= 1):
+            raise DemFormatError(f"{p}:{header_line[k]}: header {k} must be a positive whole number, got {n!r}")
     ncols, nrows = int(header["ncols"]), int(header["nrows"])
     if "cellsize" in header:
         dx = dy = header["cellsize"]
@@ -313,18 +320,30 @@ def _snap_regular(c: np.ndarray) -> np.ndarray:
 
 
 def _read_geotiff(p: Path, geographic: bool | None) -> Dem:  # pragma: no cover - needs rasterio
+    """Band 1 of a GeoTIFF. Integer rasters (SRTM's int16 with nodata -32768, uint16, int32)
+    are cast to float64 before their NODATA cells become NaN."""
     rasterio = require("rasterio", "geo", "Reading GeoTIFF DEMs")
-    with rasterio.open(p) as src:
-        band = src.read(1, masked=True)
-        z = np.asarray(band.filled(np.nan), dtype=np.float64)
-        t = src.transform
-        if t.b != 0 or t.d != 0:
-            raise DemFormatError(f"{p}: rotated rasters are not supported")
-        cols, rows = src.width, src.height
-        x = t.c + t.a * (np.arange(cols) + 0.5)
-        y = t.f + t.e * (np.arange(rows) + 0.5)
-        if geographic is None:
-            geographic = bool(src.crs is not None and src.crs.is_geographic)
+    try:
+        with rasterio.open(p) as src:
+            if src.count < 1:
+                raise DemFormatError(f"{p}: the raster has no bands")
+            band = src.read(1, masked=True)
+            t = src.transform
+            cols, rows = src.width, src.height
+            is_geo = bool(src.crs is not None and src.crs.is_geographic)
+    except DemFormatError:
+        raise
+    except Exception as exc:  # rasterio's own errors (not a TIFF, truncated, unsupported)
+        raise DemFormatError(f"{p}: not a readable GeoTIFF ({type(exc).__name__}: {exc})") from None
+    if not (np.issubdtype(band.dtype, np.integer) or np.issubdtype(band.dtype, np.floating)):
+        raise DemFormatError(f"{p}: band 1 holds {band.dtype} values; a DEM needs integer or real elevations")
+    z = np.ma.asarray(band).astype(np.float64).filled(np.nan)  # cast first: int16 cannot hold NaN
+    if t.b != 0 or t.d != 0:
+        raise DemFormatError(f"{p}: rotated rasters are not supported")
+    x = t.c + t.a * (np.arange(cols) + 0.5)
+    y = t.f + t.e * (np.arange(rows) + 0.5)
+    if geographic is None:
+        geographic = is_geo
     arrays = {"z": z, "x": x, "y": y}
     return dem_from_arrays(arrays, str(p), geographic=geographic)
 

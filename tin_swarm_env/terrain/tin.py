@@ -30,6 +30,7 @@ from .validity import check_single_surface
 __all__ = ["Tin"]
 
 _FLAT_ASPECT = -1.0
+MAX_ABS_COORD_M = 1e15  # products of coordinate differences stay far inside float64
 
 
 class Tin:
@@ -60,6 +61,10 @@ class Tin:
             raise TinStructureError(f"{source}: triangles must have shape (T, 3), got {tri.shape}")
         if not np.all(np.isfinite(v)):
             raise TinStructureError(f"{source}: vertices contain NaN or infinite coordinates")
+        if np.any(np.abs(v) > MAX_ABS_COORD_M):
+            i = int(np.flatnonzero(np.any(np.abs(v) > MAX_ABS_COORD_M, axis=1))[0])
+            raise TinStructureError(f"{source}: vertex {i} {v[i].tolist()} has a coordinate beyond "
+                                    f"{MAX_ABS_COORD_M:g} m (planes and slopes would overflow); check the units")
         if tri.size and not np.issubdtype(tri.dtype, np.integer):
             raise TinStructureError(f"{source}: triangles must be integer vertex indices")
         tri = tri.astype(np.int64)
