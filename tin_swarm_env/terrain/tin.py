@@ -53,7 +53,10 @@ class Tin:
     """
 
     def __init__(self, vertices, triangles, *, source: str = "<array>"):
-        v = np.array(vertices, dtype=np.float64)
+        v = np.array(vertices)
+        if not (np.issubdtype(v.dtype, np.integer) or np.issubdtype(v.dtype, np.floating)):
+            raise TinStructureError(f"{source}: vertices must be real numbers, got {v.dtype}")
+        v = v.astype(np.float64)
         tri = np.array(triangles)
         if v.ndim != 2 or v.shape[1] != 3:
             raise TinStructureError(f"{source}: vertices must have shape (V, 3), got {v.shape}")
