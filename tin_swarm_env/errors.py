@@ -13,6 +13,7 @@ __all__ = [
     "TinFormatError",
     "TinStructureError",
     "MissingExtraError",
+    "PolicyFileError",
 ]
 
 
@@ -30,6 +31,11 @@ class TinFormatError(TinSwarmError, ValueError):
 
 class TinStructureError(TinSwarmError, ValueError):
     """Vertices/triangles do not form a valid TIN (non-manifold edge, overlap, too few points...)."""
+
+
+class PolicyFileError(TinSwarmError, ValueError):
+    """A policy file (policy.json / weights.npz) is missing, malformed or made for other
+    observations (names the file and the key)."""
 
 
 class MissingExtraError(TinSwarmError, ImportError):
