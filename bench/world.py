@@ -7,7 +7,11 @@ line of sight) for 100, 1 000 and 10 000 robots on a ~20k-triangle greedy TIN of
 a fixed density (about 10 robots within sensor range of each robot); then how the cost grows
 with robots at that density, and with TIN size at 1 000 robots (least-squares exponents of
 log time against log size); and the batched sensing against the per-robot reference loop at
-100 robots, in the same process.
+100 robots, in the same process; and the memory of one sensing call (tracemalloc peak) at
+10 000 robots at that density and packed 10x denser (bounded neighbours per robot keep the
+dense one within about the default's).
+
+    python bench/world.py --memory-only      # just the memory figures
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
+import tracemalloc
 
 import numpy as np
 
@@ -25,9 +30,9 @@ from tin_swarm_env.world.reference import reference_sense
 NEIGHBOURS_IN_RANGE = 10
 
 
-def make_state(world, n, rng):
+def make_state(world, n, rng, neighbours=NEIGHBOURS_IN_RANGE):
     r = world.params.sensor.range_m
-    area = n * math.pi * r * r / NEIGHBOURS_IN_RANGE
+    area = n * math.pi * r * r / neighbours
     side = math.sqrt(area)
     x0, y0, x1, y1 = world.tin.bounds
     cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
@@ -52,16 +57,42 @@ def time_steps(world, state, steps, rng):
     return dt, n_seen / steps / n
 
 
+def sensing_memory(world, n, neighbours, rng):
+    """(tracemalloc peak bytes of one world.sense call, robots seen per robot) at n robots."""
+    st = make_state(world, n, rng, neighbours)
+    world.sense(st)  # warm-up: compilation and cached indexes are not the call's memory
+    tracemalloc.start()
+    r = world.sense(st)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    return peak, len(r.robots) / n
+
+
+def print_memory(world, n=10_000):
+    rng = np.random.default_rng(4)
+    base, seen0 = sensing_memory(world, n, NEIGHBOURS_IN_RANGE, rng)
+    dense, seen1 = sensing_memory(world, n, 10 * NEIGHBOURS_IN_RANGE, rng)
+    print(f"\nsensing memory at {n} robots (tracemalloc peak of one sense call):")
+    print(f"  default density ({NEIGHBOURS_IN_RANGE} robots in range): {base / 2**20:7.1f} MiB, "
+          f"{seen0:.1f} robots seen per robot")
+    print(f"  10x denser      ({10 * NEIGHBOURS_IN_RANGE} robots in range): {dense / 2**20:7.1f} MiB, "
+          f"{seen1:.1f} robots seen per robot")
+    print(f"  dense / default: {dense / base:.2f}x")
+
+
 def fit_exponent(x, y):
     return float(np.polyfit(np.log(x), np.log(y), 1)[0])
 
 
-def main(steps: int, quick: bool):
+def main(steps: int, quick: bool, memory_only: bool = False):
     rng = np.random.default_rng(0)
     dem = tse.terrain.sample_dem("jacksboro")
     tin = tse.terrain.build_tin(dem, method="greedy", max_vertices=10_100)
     params = WorldParams()
     world = World(tin, params)
+    if memory_only:
+        print_memory(world)
+        return
     print(f"{tin!r}; sensor range {params.sensor.range_m} m, fov {params.sensor.fov_deg} deg, "
           f"line of sight on; {len(world.breaks)} break segments\n")
     print(f"{'robots':>7s} {'step+sense ms':>14s} {'robot-steps/s':>14s} {'robots seen/robot':>18s}")
@@ -100,11 +131,13 @@ def main(steps: int, quick: bool):
     t_ref = time.perf_counter() - t
     print(f"\nsensing, 100 robots: batched {t_batch * 1e3:.2f} ms, per-robot reference loop {t_ref * 1e3:.0f} ms "
           f"({t_ref / t_batch:.0f}x)")
+    print_memory(world)
 
 
 if __name__ == "__main__":
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--steps", type=int, default=20)
     p.add_argument("--quick", action="store_true")
+    p.add_argument("--memory-only", action="store_true")
     a = p.parse_args()
-    main(a.steps, a.quick)
+    main(a.steps, a.quick, a.memory_only)

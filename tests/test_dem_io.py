@@ -200,3 +200,74 @@ def test_geotiff_projected_and_geographic(tmp_path):
     dem = load_dem(g)
     m_lon, m_lat = metres_per_degree(36.7 - 0.0015)
     assert dem.dx == pytest.approx(0.001 * m_lon, rel=1e-6) and dem.dy == pytest.approx(0.001 * m_lat, rel=1e-6)
+
+
+@pytest.mark.parametrize("dtype,nodata", [("int16", -32768), ("int16", None), ("uint16", 65535), ("uint16", 0),
+                                          ("uint16", None), ("int32", -2147483648), ("int32", -9999),
+                                          ("int32", None), ("float32", None)])
+def test_integer_geotiffs_with_and_without_nodata(tmp_path, dtype, nodata):
+    """SRTM-style rasters: integers cast to float64 before NODATA cells become NaN."""
+    import rasterio
+    from rasterio.transform import from_origin
+
+    z = (np.arange(12).reshape(3, 4) * 7 + 100).astype(dtype)
+    if nodata is not None:
+        z[1, 2] = nodata
+    p = tmp_path / f"srtm_{dtype}.tif"
+    kw = {} if nodata is None else {"nodata": nodata}
+    with rasterio.open(p, "w", driver="GTiff", height=3, width=4, count=1, dtype=dtype, crs="EPSG:32616",
+                       transform=from_origin(1000, 2000, 30, 30), **kw) as dst:
+        dst.write(z, 1)
+    dem = load_dem(p)
+    assert dem.z.dtype == np.float64
+    expect = z[::-1].astype(np.float64)
+    if nodata is not None:
+        expect[1, 2] = np.nan  # file row 1 is our row 1 of 3 (flipped)
+        assert dem.n_nodata == 1
+    else:
+        assert dem.n_nodata == 0
+    np.testing.assert_array_equal(dem.z, expect)
+    tin = build_tin(dem.fill_nodata(), method="delaunay")
+    assert np.all(np.isfinite(tin.slope_deg))
+
+
+def test_unreadable_geotiff_is_a_dem_error(tmp_path):
+    with pytest.raises(DemFormatError, match=r"junk\.tif: not a readable GeoTIFF"):
+        load_dem(write(tmp_path / "junk.tif", "II*\x00 not really a tiff"))
+
+
+@pytest.mark.parametrize("key,value", [("ncols", "3.7"), ("ncols", "-3"), ("ncols", "0"), ("nrows", "2.5"),
+                                       ("nrows", "nan"), ("nrows", "inf"), ("ncols", "1e400")])
+def test_asc_counts_must_be_positive_whole_numbers(tmp_path, key, value):
+    line = {"ncols": 1, "nrows": 2}[key]
+    text = ASC.replace(f"{key} {3 if key == 'ncols' else 2}\n", f"{key} {value}\n")
+    assert text != ASC
+    with pytest.raises(DemFormatError, match=rf"bad\.asc:{line}: header {key} must be a positive whole number"):
+        load_dem(write(tmp_path / "bad.asc", text))
+
+
+def test_asc_repeated_header_key_names_both_lines(tmp_path):
+    with pytest.raises(DemFormatError, match=r"rep\.asc:2: header key NCOLS repeats line 1"):
+        load_dem(write(tmp_path / "rep.asc", ASC.replace("nrows 2\n", "NCOLS 3\nnrows 2\n")))
+
+
+@pytest.mark.parametrize("big", [1e300, -1e35, 3.5e38])
+def test_elevations_beyond_float32_are_refused_by_greedy_naming_the_dem(tmp_path, big):
+    z = np.arange(16.0).reshape(4, 4)
+    z[2, 1] = big
+    np.save(tmp_path / "huge.npy", z)
+    dem = load_dem(tmp_path / "huge.npy")
+    with pytest.raises(DemFormatError, match=r"huge\.npy: elevation .* at row 2, col 1 .*float32"):
+        build_tin(dem, method="greedy", max_error_m=1)
+
+
+def test_elevations_that_would_overflow_the_planes_are_refused_by_every_method(tmp_path):
+    from tin_swarm_env.errors import TinStructureError
+
+    z = np.arange(16.0).reshape(4, 4)
+    z[2, 1] = 1e300
+    np.save(tmp_path / "huge.npy", z)
+    dem = load_dem(tmp_path / "huge.npy")
+    for kw in ({"method": "delaunay"}, {"method": "vip", "max_vertices": 16}):
+        with pytest.raises(TinStructureError, match=r"huge\.npy.*coordinate beyond 1e\+15 m"):
+            build_tin(dem, **kw)

@@ -347,3 +347,71 @@ def test_nearest_k_kernel_equals_the_stable_sort_reference(seed, n, k):
     np.testing.assert_array_equal(got, nearest_k_reference(obs, key, n, k))
     if p:
         np.testing.assert_array_equal(_nearest_k.py_func(obs, key, n, k), got)
+
+
+# -- bounded neighbours per robot (sensing memory linear in robots at any density) ----------------
+
+
+def _line_of_robots(w, xs, headings):
+    pos = np.column_stack([np.asarray(xs, float), np.full(len(xs), 250.0)])
+    return w.reset(np.random.default_rng(0), pos, headings=np.asarray(headings, float))
+
+
+def test_only_the_max_candidates_nearest_are_checked():
+    w = World(None, params(sensor={"range_m": 100, "fov_deg": 360, "max_candidates": 3}))
+    s = _line_of_robots(w, [100.0] + [100.0 + d for d in range(1, 11)], np.zeros(11))
+    got = w.sense(s).robots
+    assert {j for o, j in got.as_set() if o == 0} == {1, 2, 3}
+    assert np.all(np.bincount(got.observer, minlength=11) <= 3)
+
+
+def test_candidates_behind_the_observer_crowd_out_farther_ones_in_front():
+    """The documented bound: the nearest max_candidates by distance are checked for FOV."""
+    xs = [250.0, 251.0, 252.0, 253.0, 246.0, 245.0, 244.0]  # 3 behind (east), 3 in front (west)
+    heads = [math.pi] + [0.0] * 6  # robot 0 faces west
+    w3 = World(None, params(sensor={"range_m": 100, "fov_deg": 180, "max_candidates": 3}))
+    assert {j for o, j in w3.sense(_line_of_robots(w3, xs, heads)).robots.as_set() if o == 0} == set()
+    w6 = World(None, params(sensor={"range_m": 100, "fov_deg": 180, "max_candidates": 6}))
+    assert {j for o, j in w6.sense(_line_of_robots(w6, xs, heads)).robots.as_set() if o == 0} == {4, 5, 6}
+
+
+def test_contacts_per_robot_are_bounded_however_dense():
+    k = 8
+    w = World(None, params(sensor={"range_m": 60, "fov_deg": 360, "max_candidates": k}))
+    rng = np.random.default_rng(1)
+    n = 3000
+    s = w.reset(rng, rng.uniform(240, 260, (n, 2)))  # all 3000 within range of each other
+    r = w.sense(s)
+    assert len(r.robots) == n * k
+    d_all = np.hypot(*(s.positions[None, :, :] - s.positions[:50, None, :]).transpose(2, 0, 1))
+    for i in range(50):  # the k nearest, exactly
+        mine = np.sort(r.robots.distance_m[r.robots.observer == i])
+        np.testing.assert_allclose(mine, np.sort(d_all[i])[1:k + 1])
+
+
+def test_max_candidates_must_be_a_positive_integer():
+    for bad in (0, -1, 2.5, True):
+        with pytest.raises(ValueError, match="max_candidates"):
+            SensorParams(max_candidates=bad)
+
+
+@settings(max_examples=20)
+@given(st.integers(0, 10_000), st.integers(2, 40), st.floats(50, 400), st.floats(30, 360), st.booleans(),
+       st.integers(1, 6))
+def test_batched_sensing_with_few_candidates_equals_the_per_robot_loop(seed, n, range_m, fov, los, k):
+    rng = np.random.default_rng(seed)
+    tin = random_tin(seed, 40, zscale=60)
+    w = World(tin, params(sensor={"range_m": range_m, "fov_deg": fov, "check_los": los, "max_candidates": k},
+                          robot={"max_slope_deg": 25.0, "max_climb_deg": 40.0}, break_angle_deg=10.0))
+    if (~w.steep).sum() == 0:
+        return
+    pos = spawn_positions(w.tin, w.steep, n, rng)
+    ents = spawn_positions(w.tin, w.steep, 12, rng)
+    s = w.reset(rng, pos, targets=ents[:6], assets=ents[6:])
+    s.status[rng.random(n) < 0.2] = FELL
+    s.status[rng.random(n) < 0.2] = EMPTY
+    got = w.sense(s)
+    ref = reference_sense(w, s)
+    assert got.robots.as_set() == ref[0]
+    assert got.targets.as_set() == ref[1]
+    assert got.assets.as_set() == ref[2]

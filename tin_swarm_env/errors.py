@@ -18,6 +18,7 @@ __all__ = [
     "ObservationLayoutError",
     "ParameterError",
     "ArgumentError",
+    "PolicyFileError",
 ]
 
 
@@ -35,6 +36,11 @@ class TinFormatError(TinSwarmError, ValueError):
 
 class TinStructureError(TinSwarmError, ValueError):
     """Vertices/triangles do not form a valid TIN (non-manifold edge, overlap, too few points...)."""
+
+
+class PolicyFileError(TinSwarmError, ValueError):
+    """A policy file (policy.json / weights.npz) is missing, malformed or made for other
+    observations (names the file and the key)."""
 
 
 class MissingExtraError(TinSwarmError, ImportError):

@@ -29,7 +29,7 @@ import numpy as np
 from ..errors import ArgumentError, require
 from ..world.state import Reason
 
-__all__ = ["TinSwarmVecEnv", "make_sb3_vec_env"]  # noqa: F822 (lazy, see __getattr__)
+__all__ = ["TinSwarmVecEnv", "make_sb3_vec_env", "export_sb3_policy"]  # noqa: F822 (lazy, see __getattr__)
 
 
 def _vecenv_base():
@@ -167,6 +167,65 @@ def _vec_class():
     TinSwarmVecEnv.__name__ = TinSwarmVecEnv.__qualname__ = "TinSwarmVecEnv"
     _CLASS = TinSwarmVecEnv
     return TinSwarmVecEnv
+
+
+_TORCH_ACTIVATIONS = {"Tanh": "tanh", "ReLU": "relu", "ELU": "elu", "LeakyReLU": "leaky_relu", "Identity": "identity"}
+
+
+def export_sb3_policy(model, path, env_or_layout, scenario: str | None = None, extra: dict | None = None):
+    """Write the actor of an SB3 PPO/A2C ``MlpPolicy`` as a pickle-free policy directory
+    (:func:`tin_swarm_env.policies.save_policy`): the Linear layers of
+    ``policy.mlp_extractor.policy_net`` and ``policy.action_net``, the activation from
+    ``policy_kwargs["activation_fn"]`` (default Tanh), the deterministic action (the Gaussian's
+    mean, clipped to [-1, 1]). ``env_or_layout``: the env (or this module's VecEnv) it was trained on
+    (its layout and scenario name are recorded) or an ``ObsLayout``. Returns the path."""
+    require("torch", "train", "Exporting an SB3 policy")
+    from ..policies.learned import save_policy
+
+    pol = model.policy
+    where = f"{type(model).__name__}.policy"
+    for attr in ("mlp_extractor", "action_net"):
+        if not hasattr(pol, attr):
+            raise TypeError(f"{where} has no {attr}: only SB3 MlpPolicy actors (PPO, A2C) can be exported")
+    fx = getattr(pol, "pi_features_extractor", getattr(pol, "features_extractor", None))
+    if fx is not None and type(fx).__name__ != "FlattenExtractor":
+        raise TypeError(f"{where}: features extractor {type(fx).__name__} is not exportable (FlattenExtractor only)")
+    if getattr(pol, "squash_output", False) or type(pol.action_dist).__name__ != "DiagGaussianDistribution":
+        raise TypeError(f"{where}: only an unsquashed diagonal Gaussian actor can be exported")
+    layers, acts = [], set()
+    for m in list(pol.mlp_extractor.policy_net) + [pol.action_net]:
+        name = type(m).__name__
+        if name == "Linear":
+            layers.append((m.weight.detach().cpu().double().numpy(), m.bias.detach().cpu().double().numpy()))
+        elif name in _TORCH_ACTIVATIONS:
+            acts.add(_TORCH_ACTIVATIONS[name])
+        else:
+            raise TypeError(f"{where}: layer {name} of the actor is not exportable")
+    if len(acts) > 1:
+        raise TypeError(f"{where}: mixed activations {sorted(acts)} are not exportable")
+    act_fn = pol.activation_fn.__name__ if hasattr(pol, "activation_fn") else "Tanh"
+    activation = acts.pop() if acts else _TORCH_ACTIVATIONS.get(act_fn, "tanh")
+    src = env_or_layout.envs[0] if hasattr(env_or_layout, "envs") else env_or_layout  # our VecEnv: a copy
+    layout = getattr(src, "layout", src)
+    if scenario is None:
+        cfg = getattr(src, "config", None)
+        scenario = getattr(cfg, "name", "") if cfg is not None else ""
+    meta = {"algorithm": type(model).__name__, "num_timesteps": int(getattr(model, "num_timesteps", 0))}
+    try:
+        import stable_baselines3
+        import torch
+
+        meta.update(stable_baselines3=stable_baselines3.__version__, torch=torch.__version__)
+    except ImportError:  # pragma: no cover
+        pass
+    meta.update(extra or {})
+    return save_policy(path, layers, activation, layout=layout, scenario=scenario, extra=meta)
+
+
+def _reason(code):
+    from ..env.reward import REASONS
+
+    return REASONS.get(int(code), "")
 
 
 def __getattr__(name):

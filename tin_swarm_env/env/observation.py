@@ -195,7 +195,7 @@ class ObsLayout:
                 "slots": {p: list(SLOT_FIELDS[p]) for p in PARTS},
                 "scales": {"distance": "sensor range_m", "target_dist": "d / (d + range_m)",
                            "dz_scale_m": DZ_SCALE_M},
-                "size": self.size}
+                "size": self.size, "names": self.names()}
 
     @classmethod
     def from_dict(cls, d: dict) -> ObsLayout:

@@ -22,6 +22,7 @@ def _cached_tin(key: str):
     spec = json.loads(key)
     where = spec.pop("_where")
     base = Path(spec.pop("_base"))
+    spec.pop("_stamp")
     src = spec["source"]
     if src == "flat":
         return None
@@ -52,12 +53,24 @@ def _cached_tin(key: str):
     return T.build_tin(dem, method=spec["method"], **kw)
 
 
+def _file_stamp(path: Path) -> list[int] | None:
+    """(modification time ns, size) of a terrain file, None when it does not exist."""
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return [st.st_mtime_ns, st.st_size]
+
+
 def build_tin_for(cfg: ScenarioConfig):
-    """The scenario's TIN (None for a flat plane), built once per process and reused."""
+    """The scenario's TIN (None for a flat plane), built once per process and reused while the
+    DEM/TIN file it comes from keeps its modification time and size (an edited file is re-read)."""
     t = cfg.terrain
+    base = Path(cfg.base_dir).resolve()
+    stamp = _file_stamp(base / t.path) if t.source in ("dem", "tin") else None
     key = json.dumps({"source": t.source, "recipe": t.recipe, "path": t.path, "method": t.method,
                       "max_vertices": t.max_vertices, "max_error_m": t.max_error_m, "params": t.params,
-                      "_where": cfg.source, "_base": str(Path(cfg.base_dir).resolve())}, sort_keys=True)
+                      "_where": cfg.source, "_base": str(base), "_stamp": stamp}, sort_keys=True)
     return _cached_tin(key)
 
 

@@ -53,7 +53,10 @@ import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import tomllib
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10: the same parser from PyPI
+    import tomli as tomllib
 
 from ..errors import ScenarioError
 from ..world import BatteryParams, RobotParams, SensorParams, WorldParams

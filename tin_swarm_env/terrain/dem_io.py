@@ -159,6 +159,7 @@ _ASC_KEYS = {"ncols", "nrows", "xllcorner", "xllcenter", "yllcorner", "yllcenter
 
 def _read_asc(p: Path, geographic: bool) -> Dem:
     header: dict[str, float] = {}
+    header_line: dict[str, int] = {}
     with open(p, encoding="utf-8", errors="replace") as fh:
         text_lines = fh.readlines()
     if not any(t.strip() for t in text_lines):
@@ -176,14 +177,20 @@ def _read_asc(p: Path, geographic: bool) -> Dem:
             raise DemFormatError(f"{p}:{i + 1}: unknown ESRI ASCII header key {parts[0]!r}")
         if len(parts) != 2:
             raise DemFormatError(f"{p}:{i + 1}: header line must be 'key value', got {text_lines[i].strip()!r}")
+        if key in header:
+            raise DemFormatError(f"{p}:{i + 1}: header key {parts[0]} repeats line {header_line[key]}")
         try:
             header[key] = float(parts[1])
         except ValueError:
             raise DemFormatError(f"{p}:{i + 1}: header {parts[0]} has a non-numeric value {parts[1]!r}") from None
+        header_line[key] = i + 1
         i += 1
     for k in ("ncols", "nrows"):
         if k not in header:
             raise DemFormatError(f"{p}: ESRI ASCII header lacks {k}")
+        n = header[k]
+        if not (np.isfinite(n) and n == int(n) and n >= 1):
+            raise DemFormatError(f"{p}:{header_line[k]}: header {k} must be a positive whole number, got {n!r}")
     ncols, nrows = int(header["ncols"]), int(header["nrows"])
     if "cellsize" in header:
         dx = dy = header["cellsize"]
@@ -237,9 +244,10 @@ def _read_npy(p: Path) -> Dem:
         z = np.load(p, allow_pickle=False)
     except Exception as exc:
         raise DemFormatError(f"{p}: not a readable .npy array ({exc})") from None
+    z = _as_real(z, "the array", str(p))
     if z.ndim != 2:
         raise DemFormatError(f"{p}: a .npy DEM must be a 2-D array, got shape {z.shape}")
-    return Dem(z.astype(np.float64), np.arange(z.shape[1], dtype=float), np.arange(z.shape[0], dtype=float), str(p))
+    return Dem(z, np.arange(z.shape[1], dtype=float), np.arange(z.shape[0], dtype=float), str(p))
 
 
 def _read_npz(p: Path, geographic: bool | None) -> Dem:
@@ -257,16 +265,18 @@ def dem_from_arrays(d: dict, source: str, geographic: bool | None = None) -> Dem
     if zkey is None:
         raise DemFormatError(
             f"{source}: no elevation array (expected a key 'elevation', 'z' or 'topo'; found {sorted(d)})")
-    z = np.asarray(d[zkey], dtype=np.float64)
+    z = _as_real(d[zkey], f"'{zkey}'", source)
     if z.ndim != 2:
         raise DemFormatError(f"{source}: '{zkey}' must be 2-D, got shape {z.shape}")
+    if min(z.shape) < 2:
+        raise DemFormatError(f"{source}: a DEM needs at least 2x2 cells, '{zkey}' has shape {z.shape}")
     rows, cols = z.shape
     xkey = next((k for k in ("x", "longitude", "lon") if k in d), None)
     ykey = next((k for k in ("y", "latitude", "lat") if k in d), None)
     named_geo = xkey in ("longitude", "lon") or ykey in ("latitude", "lat")
     if xkey and ykey:
-        x = np.asarray(d[xkey], dtype=np.float64).reshape(-1)
-        y = np.asarray(d[ykey], dtype=np.float64).reshape(-1)
+        x = _as_real(d[xkey], f"'{xkey}'", source).reshape(-1)
+        y = _as_real(d[ykey], f"'{ykey}'", source).reshape(-1)
         if x.size != cols or y.size != rows:
             raise DemFormatError(f"{source}: '{xkey}' ({x.size}) / '{ykey}' ({y.size}) do not match '{zkey}' {z.shape}")
         # coordinates stored in float32 (topobathy) wobble by ~1e-6: snap near-regular ones
@@ -274,16 +284,16 @@ def dem_from_arrays(d: dict, source: str, geographic: bool | None = None) -> Dem
     elif all(k in d for k in ("xmin", "xmax", "ymin", "ymax")):
         # matplotlib's sample layout: extents are cell edges, rows are image rows (north first);
         # its jacksboro file stores the north edge in 'ymin'. We only need the extent.
-        x_lo, x_hi = sorted((float(d["xmin"]), float(d["xmax"])))
-        y_lo, y_hi = sorted((float(d["ymin"]), float(d["ymax"])))
+        x_lo, x_hi = sorted((_scalar(d, "xmin", source), _scalar(d, "xmax", source)))
+        y_lo, y_hi = sorted((_scalar(d, "ymin", source), _scalar(d, "ymax", source)))
         dx = (x_hi - x_lo) / cols
         dy = (y_hi - y_lo) / rows
         x = x_lo + dx * (np.arange(cols) + 0.5)
         y = y_lo + dy * (np.arange(rows) + 0.5)
         z = z[::-1]  # image rows (north first) -> ours (south first)
     else:
-        dx = float(d.get("dx", 1.0))
-        dy = float(d.get("dy", dx))
+        dx = _scalar(d, "dx", source) if "dx" in d else 1.0
+        dy = _scalar(d, "dy", source) if "dy" in d else dx
         if not (dx > 0 and dy > 0):
             raise DemFormatError(f"{source}: dx and dy must be positive, got {dx}, {dy}")
         x = dx * np.arange(cols, dtype=float)
@@ -301,6 +311,21 @@ def dem_from_arrays(d: dict, source: str, geographic: bool | None = None) -> Dem
     return Dem(z, x, y, source=source)
 
 
+def _as_real(a, what: str, source: str) -> np.ndarray:
+    """``a`` as float64, refusing arrays that do not hold real numbers (strings, complex, bool)."""
+    a = np.asarray(a)
+    if not (np.issubdtype(a.dtype, np.integer) or np.issubdtype(a.dtype, np.floating)):
+        raise DemFormatError(f"{source}: {what} holds {a.dtype} values; expected real numbers")
+    return a.astype(np.float64)
+
+
+def _scalar(d: dict, key: str, source: str) -> float:
+    a = _as_real(d[key], f"'{key}'", source)
+    if a.size != 1:
+        raise DemFormatError(f"{source}: '{key}' must be a single number, got shape {a.shape}")
+    return float(a.reshape(-1)[0])
+
+
 def _snap_regular(c: np.ndarray) -> np.ndarray:
     if c.size > 2:
         d = np.diff(c)
@@ -313,18 +338,30 @@ def _snap_regular(c: np.ndarray) -> np.ndarray:
 
 
 def _read_geotiff(p: Path, geographic: bool | None) -> Dem:  # pragma: no cover - needs rasterio
+    """Band 1 of a GeoTIFF. Integer rasters (SRTM's int16 with nodata -32768, uint16, int32)
+    are cast to float64 before their NODATA cells become NaN."""
     rasterio = require("rasterio", "geo", "Reading GeoTIFF DEMs")
-    with rasterio.open(p) as src:
-        band = src.read(1, masked=True)
-        z = np.asarray(band.filled(np.nan), dtype=np.float64)
-        t = src.transform
-        if t.b != 0 or t.d != 0:
-            raise DemFormatError(f"{p}: rotated rasters are not supported")
-        cols, rows = src.width, src.height
-        x = t.c + t.a * (np.arange(cols) + 0.5)
-        y = t.f + t.e * (np.arange(rows) + 0.5)
-        if geographic is None:
-            geographic = bool(src.crs is not None and src.crs.is_geographic)
+    try:
+        with rasterio.open(p) as src:
+            if src.count < 1:
+                raise DemFormatError(f"{p}: the raster has no bands")
+            band = src.read(1, masked=True)
+            t = src.transform
+            cols, rows = src.width, src.height
+            is_geo = bool(src.crs is not None and src.crs.is_geographic)
+    except DemFormatError:
+        raise
+    except Exception as exc:  # rasterio's own errors (not a TIFF, truncated, unsupported)
+        raise DemFormatError(f"{p}: not a readable GeoTIFF ({type(exc).__name__}: {exc})") from None
+    if not (np.issubdtype(band.dtype, np.integer) or np.issubdtype(band.dtype, np.floating)):
+        raise DemFormatError(f"{p}: band 1 holds {band.dtype} values; a DEM needs integer or real elevations")
+    z = np.ma.asarray(band).astype(np.float64).filled(np.nan)  # cast first: int16 cannot hold NaN
+    if t.b != 0 or t.d != 0:
+        raise DemFormatError(f"{p}: rotated rasters are not supported")
+    x = t.c + t.a * (np.arange(cols) + 0.5)
+    y = t.f + t.e * (np.arange(rows) + 0.5)
+    if geographic is None:
+        geographic = is_geo
     arrays = {"z": z, "x": x, "y": y}
     return dem_from_arrays(arrays, str(p), geographic=geographic)
 

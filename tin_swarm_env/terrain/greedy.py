@@ -17,6 +17,8 @@ from .dem import Dem
 
 __all__ = ["greedy_mesh"]
 
+MAX_ABS_ELEVATION_M = 1e30  # pydelatin works in float32 (max 3.4e38); its errors need headroom
+
 
 def greedy_mesh(dem: Dem, max_error_m: float | None = None, max_vertices: int | None = None):
     """Vertices ``(V, 3)`` m and triangles ``(T, 3)`` of a greedy-insertion TIN of ``dem``.
@@ -37,6 +39,7 @@ def greedy_mesh(dem: Dem, max_error_m: float | None = None, max_vertices: int | 
 
     rows, cols = dem.shape
     # hmm's row 0 is the top of the image: give it north first
+    _check_float32(dem)
     z_img = np.ascontiguousarray(dem.z[::-1], dtype=np.float32)
     kw = {"max_error": float(max_error_m) if max_error_m is not None else 0.0}
     if max_vertices is not None:
@@ -51,3 +54,13 @@ def greedy_mesh(dem: Dem, max_error_m: float | None = None, max_vertices: int | 
         raise RuntimeError("pydelatin returned vertices outside the grid")  # pragma: no cover
     xyz = np.column_stack([dem.x[col], dem.y[row], dem.z[row, col]])
     return xyz, tri
+
+
+def _check_float32(dem: Dem) -> None:
+    """Refuse elevations that float32 (pydelatin's type) cannot hold, naming the DEM and cell."""
+    big = np.abs(dem.z) > MAX_ABS_ELEVATION_M
+    if big.any():
+        r, c = np.argwhere(big)[0]
+        raise DemFormatError(
+            f"{dem.source}: elevation {dem.z[r, c]!r} m at row {r}, col {c} is beyond what greedy insertion "
+            f"(float32) can hold (|z| <= {MAX_ABS_ELEVATION_M:g} m); check the file's units and NODATA value")

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["locate_brute", "line_of_sight_brute", "line_of_sight_dense", "height_brute"]
+__all__ = ["locate_brute", "line_of_sight_brute", "line_of_sight_dense", "height_brute", "single_surface_brute"]
 
 
 def _bary(tin, pts):
@@ -102,3 +102,18 @@ def _height_fast(tin, xy):
     ok = t >= 0
     z[ok] = tin._height_in(xy[ok], t[ok])
     return z
+
+
+def single_surface_brute(vertices, triangles) -> np.ndarray:
+    """Every pair of triangles tested (T^2/2 pairs, no grid): ``(T, T)`` int64 upper-triangular
+    matrix of :func:`~tin_swarm_env.terrain.validity.pair_status` codes (0 OK, 1 overlap in plan,
+    2 T-junction), 0 for pairs sharing an edge and on and below the diagonal."""
+    from .validity import on_line_tolerance, pair_status
+
+    v = np.asarray(vertices, dtype=np.float64)
+    tri = np.asarray(triangles, dtype=np.int64)
+    a, b = np.triu_indices(len(tri), k=1)
+    shared = (tri[a][:, :, None] == tri[b][:, None, :]).any(axis=2).sum(axis=1)
+    out = np.zeros((len(tri), len(tri)), dtype=np.int64)
+    out[a, b] = np.where(shared == 2, 0, pair_status(v, tri, a, b, on_line_tolerance(v)))
+    return out

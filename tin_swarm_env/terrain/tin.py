@@ -26,10 +26,12 @@ import numpy as np
 from ..errors import ArgumentError, TinStructureError
 from . import _kernels as K
 from .breaks import BREAK_ANGLE_DEG, MAX_SLOPE_DEG
+from .validity import check_single_surface
 
 __all__ = ["Tin"]
 
 _FLAT_ASPECT = -1.0
+MAX_ABS_COORD_M = 1e15  # products of coordinate differences stay far inside float64
 
 
 class Tin:
@@ -46,11 +48,16 @@ class Tin:
     Zero-area triangles (area below ``1e-12`` of the squared extent) are dropped and counted
     in :attr:`n_degenerate_removed`; vertices no triangle uses are dropped too. An edge shared
     by more than two triangles, or two triangles overlapping on a shared edge, raise
-    :class:`~tin_swarm_env.errors.TinStructureError` naming the edge.
+    :class:`~tin_swarm_env.errors.TinStructureError` naming the edge; two vertices at one
+    (x, y), triangles overlapping in plan and T-junctions raise it naming the vertices and
+    triangles (:func:`~tin_swarm_env.terrain.validity.check_single_surface`).
     """
 
     def __init__(self, vertices, triangles, *, source: str = "<array>"):
-        v = np.array(vertices, dtype=np.float64)
+        v = np.array(vertices)
+        if not (np.issubdtype(v.dtype, np.integer) or np.issubdtype(v.dtype, np.floating)):
+            raise TinStructureError(f"{source}: vertices must be real numbers, got {v.dtype}")
+        v = v.astype(np.float64)
         tri = np.array(triangles)
         if v.ndim != 2 or v.shape[1] != 3:
             raise TinStructureError(f"{source}: vertices must have shape (V, 3), got {v.shape}")
@@ -58,6 +65,10 @@ class Tin:
             raise TinStructureError(f"{source}: triangles must have shape (T, 3), got {tri.shape}")
         if not np.all(np.isfinite(v)):
             raise TinStructureError(f"{source}: vertices contain NaN or infinite coordinates")
+        if np.any(np.abs(v) > MAX_ABS_COORD_M):
+            i = int(np.flatnonzero(np.any(np.abs(v) > MAX_ABS_COORD_M, axis=1))[0])
+            raise TinStructureError(f"{source}: vertex {i} {v[i].tolist()} has a coordinate beyond "
+                                    f"{MAX_ABS_COORD_M:g} m (planes and slopes would overflow); check the units")
         if tri.size and not np.issubdtype(tri.dtype, np.integer):
             raise TinStructureError(f"{source}: triangles must be integer vertex indices")
         tri = tri.astype(np.int64)
@@ -95,6 +106,9 @@ class Tin:
         self.vertices = v
         self.triangles = tri
         self.neighbors = _neighbors(tri, v, source)
+        bucket = _build_bucket(v, tri)
+        check_single_surface(v, tri, self.neighbors, bucket, source)
+        self.__dict__["_bucket"] = bucket  # the cached point-location grid, built once
         self._derive_planes()
         for a in (self.vertices, self.triangles, self.neighbors, self.planes, self.normals,
                   self.slope_deg, self.aspect_deg, self.areas, self._grad):
@@ -473,7 +487,7 @@ def _build_bucket(v: np.ndarray, tri: np.ndarray, per_cell: float = 2.0) -> dict
     start = np.zeros(nx * ny + 1, dtype=np.int64)
     np.cumsum(np.bincount(cell, minlength=nx * ny), out=start[1:])
     return {"start": start, "tris": tid[order], "x0": float(xmin), "y0": float(ymin),
-            "inv_cs": 1.0 / cs, "nx": nx, "ny": ny}
+            "inv_cs": 1.0 / cs, "cs": cs, "nx": nx, "ny": ny}
 
 
 def _canonical(t: Tin):

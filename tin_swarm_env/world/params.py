@@ -66,16 +66,26 @@ class SensorParams:
     fov_deg           horizontal field of view centred on the heading (360 = all round)
     height_m          sensor height above the ground; the sight line runs between sensors
     check_los         whether the terrain can block sight (thesis Algorithm 7)
+    max_candidates    per observer, at most this many nearest robots (and as many nearest
+                      threats/targets, and assets) within range are checked for field of view
+                      and line of sight; farther ones are not seen. Bounds sensing memory and
+                      work at robots x max_candidates at any density. Keep it well above the
+                      observation's k_robots/k_targets (4x or more), so that robots behind or
+                      hidden do not crowd visible ones out of the nearest slots.
     """
 
     range_m: float = 60.0
     fov_deg: float = 270.0
     height_m: float = 0.5
     check_los: bool = True
+    max_candidates: int = 16
 
     def __post_init__(self):
         _positive(self, "range_m", "fov_deg")
         _non_negative(self, "height_m")
+        if isinstance(self.max_candidates, bool) or not isinstance(self.max_candidates, int) \
+                or self.max_candidates < 1:
+            raise ValueError(f"SensorParams.max_candidates must be an integer >= 1, got {self.max_candidates!r}")
         if self.fov_deg > 360:
             raise ParameterError(f"SensorParams.fov_deg must be in (0, 360], got {self.fov_deg}")
 

@@ -11,9 +11,16 @@ from .state import ACTIVE, EMPTY
 __all__ = ["reference_sense"]
 
 
+def _nearest_in_range(xy, pts, ok, range_m, k):
+    """Indices of the at most k nearest of ``pts`` (where ``ok``) within range_m of xy."""
+    d = [(math.hypot(p[0] - xy[0], p[1] - xy[1]), j) for j, p in enumerate(pts) if ok[j]]
+    return {j for dj, j in sorted(d)[:k] if dj <= range_m}
+
+
 def reference_sense(w, s):
     """One robot at a time, every other robot / entity / break checked by hand. Returns the
-    sets of (observer, target) pairs for robots, targets, assets and breaks."""
+    sets of (observer, target) pairs for robots, targets, assets and breaks. Only each
+    observer's ``max_candidates`` nearest robots (entities) within range are candidates."""
     sp, P = w.params.sensor, w.params
     robots, targets, assets, breaks = set(), set(), set(), set()
     fov = math.radians(sp.fov_deg) / 2 + 1e-12
@@ -34,11 +41,13 @@ def reference_sense(w, s):
             a = np.array([[s.positions[i, 0], s.positions[i, 1], z[i]]])
             return bool(w.tin.line_of_sight(a, np.array([[xy[0], xy[1], zt]]))[0])
 
-        for j in range(s.n_robots):
-            if j != i and s.status[j] in (ACTIVE, EMPTY) and sees(s.positions[j], z[j]):
+        K = sp.max_candidates
+        others = [j != i and s.status[j] in (ACTIVE, EMPTY) for j in range(s.n_robots)]
+        for j in _nearest_in_range(s.positions[i], s.positions, others, sp.range_m, K):
+            if sees(s.positions[j], z[j]):
                 robots.add((i, j))
         for ents, out in ((s.targets, targets), (s.assets, assets)):
-            for j in range(len(ents)):
+            for j in _nearest_in_range(s.positions[i], ents.positions, [True] * len(ents), sp.range_m, K):
                 zt = w.tin.height_at(ents.positions[j])[0] + P.entity_height_m
                 if sees(ents.positions[j], zt):
                     out.add((i, j))

@@ -10,8 +10,15 @@ A robot *sees* another robot, a threat/target or an asset when all of these hold
   sensor (robots) or to ``entity_height_m`` above the ground (entities) clears the TIN
   (exact walk, :meth:`~tin_swarm_env.terrain.Tin.line_of_sight`).
 
-Candidates come from KD-trees (``scipy.spatial.cKDTree``: ``query_pairs`` and
-``sparse_distance_matrix``), so the work grows with robots x neighbours, not robots².
+* it is among the observer's ``max_candidates`` nearest robots (or entities) within range: only
+  those are checked for field of view and line of sight (a bound, documented in
+  :class:`~tin_swarm_env.world.params.SensorParams`, that keeps memory and work at robots x
+  ``max_candidates`` however densely robots are packed; the observations' K nearest visible
+  slots need far fewer).
+
+Candidates come from KD-trees (``scipy.spatial.cKDTree.query`` with ``k = max_candidates`` and
+``distance_upper_bound = range_m``), so the work grows with robots x ``max_candidates``, not
+robots².
 Terrain breaks are sensed all round (the robot's scan of the terrain it stands on): every
 break segment within ``range_m`` of the robot, found through a KD-tree over pieces of the
 segments no longer than the range.
@@ -27,7 +34,7 @@ from scipy.spatial import cKDTree
 
 from ..terrain.breaks import closest_on_segments
 
-__all__ = ["Contacts", "BreakContacts", "SensorReadings", "BreakIndex", "sense", "nearest_k"]
+__all__ = ["Contacts", "BreakContacts", "SensorReadings", "BreakIndex", "sense", "nearest_k", "nearest_candidates"]
 
 
 @njit(cache=True)
@@ -177,6 +184,30 @@ class BreakIndex:
         return BreakContacts(obs[ok], seg[ok], d[ok], closest[ok])
 
 
+def nearest_candidates(tree_xy, query_xy, range_m, k, *, query_idx, tree_idx=None, self_idx=None):
+    """For each query point, its at most ``k`` nearest tree points within ``range_m`` (nearest
+    first): ``(observer (P,), target (P,))`` int64, observers from ``query_idx (m,)``, targets
+    from ``tree_idx (N,)`` (default: tree row numbers). With ``self_idx (m,)`` a target equal to
+    the observer's own index is left out (and one more neighbour asked for). Memory O(m * k)."""
+    n_tree = len(tree_xy)
+    extra = 1 if self_idx is not None else 0
+    kq = min(k + extra, n_tree)
+    if kq == 0 or len(query_xy) == 0:
+        z = np.zeros(0, dtype=np.int64)
+        return z, z
+    _, j = cKDTree(tree_xy).query(query_xy, k=kq, distance_upper_bound=range_m * (1 + 1e-9))
+    j = np.asarray(j, dtype=np.int64).reshape(len(query_xy), kq)  # n_tree where fewer in range
+    ok = j < n_tree
+    tgt = np.where(ok, j, 0)
+    if tree_idx is not None:
+        tgt = tree_idx[tgt]
+    if self_idx is not None:
+        ok &= tgt != self_idx[:, None]
+        ok &= np.cumsum(ok, axis=1) <= k  # self was not among them: keep k
+    obs = np.broadcast_to(np.asarray(query_idx, dtype=np.int64)[:, None], ok.shape)
+    return obs[ok], tgt[ok]
+
+
 def _bearing(dx, dy, heading):
     return (np.arctan2(dy, dx) - heading + np.pi) % (2 * np.pi) - np.pi
 
@@ -197,35 +228,10 @@ def sense(tin, break_index: BreakIndex, state, params) -> SensorReadings:
     sp = params.sensor
     r = sp.range_m
     pos, head = state.positions, state.headings
-    n = len(pos)
     present = np.flatnonzero(state.present)
-    active = state.active
+    act_idx = np.flatnonzero(state.active)
     sensor_z = state.heights + sp.height_m
-
-    # robots: unordered pairs in range, both directions, observers active, within FOV
-    if len(present) > 1:
-        pairs = cKDTree(pos[present]).query_pairs(r * (1 + 1e-9), output_type="ndarray")
-        i, j = present[pairs[:, 0]], present[pairs[:, 1]]
-    else:
-        i = j = np.zeros(0, dtype=np.int64)
-    obs = np.concatenate([i, j])
-    tgt = np.concatenate([j, i])
-    keep = active[obs]
-    obs, tgt = obs[keep], tgt[keep]
-    dx, dy = pos[tgt, 0] - pos[obs, 0], pos[tgt, 1] - pos[obs, 1]
-    in_range = np.hypot(dx, dy) <= r
-    robots = _contacts(obs[in_range], tgt[in_range], dx[in_range], dy[in_range], head, sp.fov_deg)
-    if sp.check_los and len(robots):
-        # sight is symmetric: test each unordered pair once
-        lo, hi = np.minimum(robots.observer, robots.target), np.maximum(robots.observer, robots.target)
-        key, inv = np.unique(lo * np.int64(n) + hi, return_inverse=True)
-        a_i, b_i = key // n, key % n
-        A = np.column_stack([pos[a_i], sensor_z[a_i]])
-        B = np.column_stack([pos[b_i], sensor_z[b_i]])
-        vis = tin.line_of_sight(A, B, hint=state.tri_idx[a_i])[inv.ravel()]
-        robots = Contacts(robots.observer[vis], robots.target[vis], robots.distance_m[vis], robots.bearing_rad[vis])
-
-    act_idx = np.flatnonzero(active)
+    robots = _sense_robots(tin, state, present, act_idx, sensor_z, sp)
     targets = _sense_entities(tin, state.targets, pos, head, sensor_z, state.tri_idx, act_idx, params)
     assets = _sense_entities(tin, state.assets, pos, head, sensor_z, state.tri_idx, act_idx, params)
     breaks = break_index.query(pos, act_idx, r)
@@ -235,15 +241,38 @@ def sense(tin, break_index: BreakIndex, state, params) -> SensorReadings:
                           aspect_deg=tin.aspect_deg[tri])
 
 
+def _sense_robots(tin, state, present, act_idx, sensor_z, sp) -> Contacts:
+    """Each active observer's nearest present robots in range, within FOV, in sight."""
+    pos, n = state.positions, state.n_robots
+    if len(present) < 2 or len(act_idx) == 0:
+        z = np.zeros(0, dtype=np.int64)
+        return Contacts(z, z, np.zeros(0), np.zeros(0))
+    obs, tgt = nearest_candidates(pos[present], pos[act_idx], sp.range_m, sp.max_candidates, self_idx=act_idx,
+                                  tree_idx=present, query_idx=act_idx)
+    dx, dy = pos[tgt, 0] - pos[obs, 0], pos[tgt, 1] - pos[obs, 1]
+    in_range = np.hypot(dx, dy) <= sp.range_m
+    robots = _contacts(obs[in_range], tgt[in_range], dx[in_range], dy[in_range], state.headings, sp.fov_deg)
+    del obs, tgt, dx, dy, in_range
+    if sp.check_los and len(robots):
+        # sight is symmetric: test each unordered pair once
+        lo, hi = np.minimum(robots.observer, robots.target), np.maximum(robots.observer, robots.target)
+        key, inv = np.unique(lo * np.int64(n) + hi, return_inverse=True)
+        del lo, hi
+        a_i, b_i = key // n, key % n
+        A = np.column_stack([pos[a_i], sensor_z[a_i]])
+        B = np.column_stack([pos[b_i], sensor_z[b_i]])
+        vis = tin.line_of_sight(A, B, hint=state.tri_idx[a_i])[inv.ravel()]
+        robots = Contacts(robots.observer[vis], robots.target[vis], robots.distance_m[vis], robots.bearing_rad[vis])
+    return robots
+
+
 def _sense_entities(tin, ent, pos, head, sensor_z, tri_idx, act_idx, params) -> Contacts:
     sp = params.sensor
     empty = Contacts(np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))
     if len(ent) == 0 or len(act_idx) == 0:
         return empty
-    m = cKDTree(pos[act_idx]).sparse_distance_matrix(cKDTree(ent.positions), sp.range_m * (1 + 1e-9),
-                                                     output_type="ndarray")
-    obs = act_idx[m["i"]].astype(np.int64)
-    tgt = m["j"].astype(np.int64)
+    obs, tgt = nearest_candidates(ent.positions, pos[act_idx], sp.range_m, sp.max_candidates,
+                                  query_idx=act_idx)
     dx = ent.positions[tgt, 0] - pos[obs, 0]
     dy = ent.positions[tgt, 1] - pos[obs, 1]
     in_range = np.hypot(dx, dy) <= sp.range_m

@@ -1,0 +1,307 @@
+"""Pickle-free learned policy files: a directory with ``policy.json`` and ``weights.npz``.
+
+Loading one never unpickles and never runs code from the file: the JSON is parsed as data, the
+weights are read with ``np.load(allow_pickle=False)``, and the forward pass is plain numpy.
+(An SB3 ``.zip`` is a pickle: loading one runs whatever it holds, so only trusted ones may be
+loaded that way; export them once with :func:`tin_swarm_env.adapters.sb3.export_sb3_policy`.)
+
+``policy.json``::
+
+    {"format": "tin_swarm_env.policy", "version": 1,
+     "network": {"type": "mlp", "layer_sizes": [59, 64, 64, 2], "activation": "tanh",
+                 "action_transform": "clip"},
+     "observation": {"size": 59, "layout": {"k_robots": 4, "k_targets": 2, "k_breaks": 3,
+                                             "names": ["own.battery", ...]}},
+     "action": {"size": 2, "low": -1.0, "high": 1.0},
+     "scenario": "cliff_goal",
+     "training": {...}}                      # free-form metadata (library versions, steps...)
+
+``weights.npz``: ``W0, b0, W1, b1, ...``; ``W{i}`` has shape ``(layer_sizes[i+1], layer_sizes[i])``
+(torch's ``nn.Linear`` layout), ``b{i}`` ``(layer_sizes[i+1],)``, real and finite. The network is
+``a = transform(W_L (act(... act(W_0 x + b_0) ...)) + b_L)``: the activation after every layer
+but the last; ``"clip"`` clips the output to ``[-1, 1]`` (the deterministic action of a Gaussian
+policy: its mean, clipped to the action space, as SB3's ``predict(deterministic=True)``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import PolicyFileError
+
+__all__ = ["MLPPolicy", "save_policy", "load_policy", "FORMAT", "VERSION", "ACTIVATIONS"]
+
+FORMAT = "tin_swarm_env.policy"
+VERSION = 1
+POLICY_JSON = "policy.json"
+WEIGHTS = "weights.npz"
+ACTIVATIONS = {
+    "tanh": np.tanh,
+    "relu": lambda x: np.maximum(x, 0.0),
+    "elu": lambda x: np.where(x > 0, x, np.expm1(np.minimum(x, 0.0))),
+    "leaky_relu": lambda x: np.where(x > 0, x, 0.01 * x),
+    "identity": lambda x: x,
+}
+ACTION_TRANSFORMS = ("clip",)
+ACTION_SIZE = 2
+
+
+def _layout_dict(layout) -> dict:
+    """The observation layout as plain data (:meth:`ObsLayout.to_dict`; a dict passes through)."""
+    if isinstance(layout, dict):
+        return layout
+    return layout.to_dict()
+
+
+class MLPPolicy:
+    """A multi-layer perceptron policy read from a policy file (numpy forward pass).
+
+    ``layers``: ``[(W (out, in), b (out,)), ...]`` float64. ``act_batch(obs (n, d)) -> (n, 2)``
+    float32, deterministic; ``act({agent: obs}) -> {agent: action}``.
+    """
+
+    def __init__(self, layers, activation: str = "tanh", action_transform: str = "clip", *, layout: dict,
+                 scenario: str = "", training: dict | None = None, source: str = "<memory>"):
+        self.layers = [(np.asarray(W, dtype=np.float64), np.asarray(b, dtype=np.float64)) for W, b in layers]
+        self.activation = activation
+        self.action_transform = action_transform
+        self.layout = layout
+        self.scenario = scenario
+        self.training = dict(training or {})
+        self.source = source
+        self.obs_size = self.layers[0][0].shape[1]
+
+    def act_batch(self, obs) -> np.ndarray:
+        x = np.asarray(obs, dtype=np.float64)
+        if x.ndim != 2 or x.shape[1] != self.obs_size:
+            raise ValueError(f"{self.source}: observations must have shape (n, {self.obs_size}), got {x.shape}")
+        f = ACTIVATIONS[self.activation]
+        for i, (W, b) in enumerate(self.layers):
+            x = x @ W.T + b
+            if i < len(self.layers) - 1:
+                x = f(x)
+        return np.clip(x, -1.0, 1.0).astype(np.float32)
+
+    def act(self, obs: dict) -> dict:
+        if not obs:
+            return {}
+        keys = list(obs)
+        a = self.act_batch(np.stack([obs[k] for k in keys]))
+        return {k: a[i] for i, k in enumerate(keys)}
+
+    def __repr__(self) -> str:
+        sizes = [self.obs_size] + [W.shape[0] for W, _ in self.layers]
+        return f"MLPPolicy({self.source!r}, {sizes}, {self.activation}, scenario={self.scenario!r})"
+
+
+# -- saving ---------------------------------------------------------------------------------
+
+
+def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str, action_transform: str = "clip",
+                extra: dict | None = None) -> Path:
+    """Write a policy directory ``path/`` (``policy.json`` + ``weights.npz``) atomically: both
+    files go into a temporary directory beside it, which is then renamed into place; an existing
+    policy directory at ``path`` is replaced, anything else there is refused. Returns the path."""
+    p = Path(os.fspath(path))
+    layers = [(np.asarray(W, dtype=np.float64), np.asarray(b, dtype=np.float64)) for W, b in layers]
+    lay = _layout_dict(layout)
+    sizes = [int(layers[0][0].shape[1])] + [int(W.shape[0]) for W, _ in layers] if layers else []
+    meta = {"format": FORMAT, "version": VERSION,
+            "network": {"type": "mlp", "layer_sizes": sizes, "activation": activation,
+                        "action_transform": action_transform},
+            "observation": {"size": sizes[0] if sizes else 0, "layout": lay},
+            "action": {"size": ACTION_SIZE, "low": -1.0, "high": 1.0},
+            "scenario": str(scenario), "training": dict(extra or {})}
+    _validate(meta, {f"{k}{i}": a for i, (W, b) in enumerate(layers) for k, a in (("W", W), ("b", b))},
+              str(p / POLICY_JSON), str(p / WEIGHTS))
+    if p.exists() and not (p.is_dir() and (p / POLICY_JSON).is_file()):
+        raise PolicyFileError(f"{p}: exists and is not a policy directory; refusing to replace it")
+    if not p.parent.is_dir():
+        raise PolicyFileError(f"{p.parent}: directory does not exist")
+    tmp = Path(tempfile.mkdtemp(prefix=f".{p.name}.", suffix=".part", dir=p.parent))
+    try:
+        with open(tmp / WEIGHTS, "wb") as fh:
+            np.savez(fh, **{f"{k}{i}": a for i, (W, b) in enumerate(layers) for k, a in (("W", W), ("b", b))})
+            fh.flush()
+            os.fsync(fh.fileno())
+        with open(tmp / POLICY_JSON, "w", encoding="utf-8") as fh:
+            json.dump(meta, fh, indent=1, allow_nan=False)
+            fh.write("\n")
+            fh.flush()
+            os.fsync(fh.fileno())
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o777 & ~umask)
+        _swap_into_place(tmp, p)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return p
+
+
+def _swap_into_place(tmp: Path, p: Path) -> None:
+    if not p.exists():
+        os.replace(tmp, p)
+        return
+    old = Path(tempfile.mkdtemp(prefix=f".{p.name}.", suffix=".old", dir=p.parent))
+    os.replace(p, old / "policy")  # the old policy moves aside whole, then the new one moves in
+    try:
+        os.replace(tmp, p)
+    except BaseException:
+        os.replace(old / "policy", p)
+        raise
+    finally:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+# -- loading --------------------------------------------------------------------------------
+
+
+def load_policy(path, env) -> MLPPolicy:
+    """Read the policy directory ``path`` (or its ``policy.json``) for ``env``: no pickle, no
+    torch. Raises :class:`~tin_swarm_env.errors.PolicyFileError` naming the file and the key for
+    anything wrong: a missing file, bad JSON, unknown format or version, a missing key, unknown
+    activation, weights that do not chain or are not finite, an object array in the weights, an
+    observation size other than the env's, or a layout other than the env's (both named)."""
+    p = Path(os.fspath(path))
+    d = p.parent if p.name == POLICY_JSON and p.is_file() else p
+    jpath, wpath = d / POLICY_JSON, d / WEIGHTS
+    if not d.is_dir():
+        raise PolicyFileError(f"{d}: no such policy directory (expected {POLICY_JSON} and {WEIGHTS} in it)")
+    for f in (jpath, wpath):
+        if not f.is_file():
+            raise PolicyFileError(f"{f}: missing; a policy directory holds {POLICY_JSON} and {WEIGHTS}")
+    try:
+        meta = json.loads(jpath.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise PolicyFileError(f"{jpath}:{exc.lineno}: not valid JSON ({exc.msg})") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise PolicyFileError(f"{jpath}: cannot be read ({exc})") from None
+    arrays = _read_weights(wpath)
+    layers = _validate(meta, arrays, str(jpath), str(wpath))
+    _check_env(meta, env, str(jpath))
+    net = meta["network"]
+    return MLPPolicy(layers, net["activation"], net["action_transform"], layout=meta["observation"]["layout"],
+                     scenario=meta["scenario"], training=meta.get("training", {}), source=str(d))
+
+
+def _read_weights(wpath: Path) -> dict:
+    try:
+        with np.load(wpath, allow_pickle=False) as f:
+            out = {}
+            for k in f.files:
+                try:
+                    out[k] = f[k]
+                except ValueError as exc:  # object arrays need pickle: refused
+                    raise PolicyFileError(f"{wpath}: array {k!r} cannot be read without unpickling ({exc}); "
+                                          "policy weights are plain numbers") from None
+            return out
+    except PolicyFileError:
+        raise
+    except Exception as exc:
+        raise PolicyFileError(f"{wpath}: not a readable .npz archive ({type(exc).__name__}: {exc})") from None
+
+
+def _get(d, key, typ, where):
+    if not isinstance(d, dict) or key not in d:
+        raise PolicyFileError(f"{where}: missing key {key!r}")
+    v = d[key]
+    ok = isinstance(v, typ) and not (isinstance(v, bool) and typ is not bool)
+    if not ok:
+        raise PolicyFileError(f"{where}: key {key!r} must be {typ.__name__ if isinstance(typ, type) else typ}, "
+                              f"got {type(v).__name__} {v!r}")
+    return v
+
+
+def _validate(meta, arrays: dict, jname: str, wname: str) -> list:
+    """Check a policy description and its weights; return ``[(W, b), ...]`` float64."""
+    if not isinstance(meta, dict):
+        raise PolicyFileError(f"{jname}: the top level must be a JSON object")
+    fmt = meta.get("format")
+    if fmt != FORMAT:
+        raise PolicyFileError(f"{jname}: key 'format' is {fmt!r}; expected {FORMAT!r}")
+    ver = _get(meta, "version", int, jname)
+    if ver != VERSION:
+        raise PolicyFileError(f"{jname}: key 'version' is {ver}; this tin_swarm_env reads version {VERSION}")
+    net = _get(meta, "network", dict, jname)
+    if _get(net, "type", str, f"{jname} [network]") != "mlp":
+        raise PolicyFileError(f"{jname}: key 'network.type' is {net['type']!r}; expected 'mlp'")
+    sizes = _get(net, "layer_sizes", list, f"{jname} [network]")
+    if len(sizes) < 2 or not all(isinstance(s, int) and not isinstance(s, bool) and s >= 1 for s in sizes):
+        raise PolicyFileError(f"{jname}: key 'network.layer_sizes' must be 2 or more positive integers, got {sizes}")
+    act = _get(net, "activation", str, f"{jname} [network]")
+    if act not in ACTIVATIONS:
+        raise PolicyFileError(f"{jname}: key 'network.activation' is {act!r}; known: {sorted(ACTIVATIONS)}")
+    tr = _get(net, "action_transform", str, f"{jname} [network]")
+    if tr not in ACTION_TRANSFORMS:
+        raise PolicyFileError(f"{jname}: key 'network.action_transform' is {tr!r}; known: {list(ACTION_TRANSFORMS)}")
+    obs = _get(meta, "observation", dict, jname)
+    if _get(obs, "size", int, f"{jname} [observation]") != sizes[0]:
+        raise PolicyFileError(f"{jname}: key 'observation.size' ({obs['size']}) differs from the first layer "
+                              f"size ({sizes[0]})")
+    _get(obs, "layout", dict, f"{jname} [observation]")
+    action = _get(meta, "action", dict, jname)
+    if _get(action, "size", int, f"{jname} [action]") != ACTION_SIZE or sizes[-1] != ACTION_SIZE:
+        raise PolicyFileError(f"{jname}: the action size must be {ACTION_SIZE} (key 'action.size' = {action['size']}, "
+                              f"last layer size {sizes[-1]})")
+    _get(meta, "scenario", str, jname)
+    if "training" in meta:
+        _get(meta, "training", dict, jname)
+    return _check_weights(arrays, sizes, wname)
+
+
+def _check_weights(arrays: dict, sizes: list, wname: str) -> list:
+    expected = [f"{k}{i}" for i in range(len(sizes) - 1) for k in ("W", "b")]
+    missing = [k for k in expected if k not in arrays]
+    extra = sorted(set(arrays) - set(expected))
+    if missing or extra:
+        raise PolicyFileError(f"{wname}: arrays {sorted(arrays)} do not match the layer sizes {sizes} "
+                              f"(missing {missing}, unexpected {extra})")
+    layers = []
+    for i in range(len(sizes) - 1):
+        pair = []
+        for k, shape in (("W", (sizes[i + 1], sizes[i])), ("b", (sizes[i + 1],))):
+            a = np.asarray(arrays[f"{k}{i}"])
+            if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
+                raise PolicyFileError(f"{wname}: array '{k}{i}' holds {a.dtype} values; expected real numbers")
+            if a.shape != shape:
+                raise PolicyFileError(f"{wname}: array '{k}{i}' has shape {a.shape}; layer sizes {sizes} need {shape}")
+            a = a.astype(np.float64)
+            if not np.all(np.isfinite(a)):
+                raise PolicyFileError(f"{wname}: array '{k}{i}' holds NaN or infinite values")
+            pair.append(a)
+        layers.append(tuple(pair))
+    return layers
+
+
+def _check_env(meta: dict, env, jname: str) -> None:
+    from .apf import _unwrap
+
+    e = _unwrap(env)
+    mine = _layout_dict(e.layout)
+    theirs = meta["observation"]["layout"]
+    if theirs != mine:
+        raise PolicyFileError(f"{jname}: key 'observation.layout' {_brief(theirs, mine)} differs from the "
+                              f"environment's layout {_brief(mine, theirs)}; the policy was trained on other "
+                              "observations")
+    if meta["observation"]["size"] != e.layout.size:
+        raise PolicyFileError(f"{jname}: key 'observation.size' is {meta['observation']['size']} but the "
+                              f"environment's observations have {e.layout.size} elements")
+
+
+def _brief(lay, other) -> str:
+    """A layout in a message: its K counts, and the first element name that differs."""
+    if not isinstance(lay, dict):
+        return repr(lay)
+    ks = {k: lay.get(k) for k in ("k_robots", "k_targets", "k_breaks")}
+    names, onames = lay.get("names"), other.get("names") if isinstance(other, dict) else None
+    if isinstance(names, list) and isinstance(onames, list) and names != onames:
+        i = next((i for i, (a, b) in enumerate(zip(names, onames)) if a != b), min(len(names), len(onames)))
+        ks["names"] = f"{len(names)} elements, element {i} = {names[i] if i < len(names) else None!r}"
+    return str(ks)
