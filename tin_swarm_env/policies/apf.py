@@ -29,7 +29,7 @@ from ..world.fields import (
     target_field,
 )
 
-__all__ = ["APFPolicy", "RandomPolicy", "apf_forces", "decode", "BugMemory", "bug_update", "keep_clear"]
+__all__ = ["APFPolicy", "RandomPolicy", "apf_forces", "decode", "BugMemory", "bug_update", "keep_clear", "into_view"]
 
 
 def _unwrap(env):
@@ -234,25 +234,43 @@ def bug_update(mem: BugMemory, rows, d: dict, pull, params: FieldParams, crowd_m
     return np.where(side != 0, kf, -1)
 
 
-def keep_clear(action, r_rel, r_valid, gap_m: float, step_m: float, passes: int = 2):
-    """Cut body-frame ``action (n, 2)`` (fractions of top speed) so that each robot closes on
-    each robot it sees (``r_rel (n, K, 2)`` m, ``r_valid (n, K)``) by at most half the free gap
-    ``d - gap_m`` in one step of ``step_m`` at full speed: ``a . u <= max(d - gap, 0) / (2 step)``
-    with ``u`` the unit vector toward the other robot. Two robots that see each other then never
-    come closer than ``gap_m``. Only the part of the action toward a robot is removed (a
-    projection onto each half-plane, ``passes`` sweeps over the slots), so the cut never adds
-    motion toward anything. Returns the new action ``(n, 2)``."""
+def keep_clear(action, rel, valid, gap_m: float, step_m: float, share: float = 2.0, passes: int = 2):
+    """Cut body-frame ``action (n, 2)`` (fractions of top speed) so that no robot closes on what
+    it sees at ``rel (n, K, 2)`` m (``valid (n, K)``) by more than ``1 / share`` of the free gap
+    ``d - gap_m`` in one step of ``step_m`` at full speed: ``a . u <= max(d - gap, 0) / (share
+    step)``, ``u`` the unit vector toward it. For robots (``share`` 2, both move) two robots
+    that see each other never come closer than ``gap_m``; for the closest points of dangerous
+    breaks (``share`` 1, they stand still) the robot never comes within ``gap_m`` of them (the
+    distance to a segment after a move ``delta`` is at least ``d - delta . u``). Only the part
+    of the action toward each is removed (a projection onto each half-plane, ``passes`` sweeps
+    over the slots), so the cut never adds motion toward anything. Returns ``(n, 2)``."""
     a = np.array(action, dtype=np.float64)
-    d = np.sqrt(np.sum(r_rel * r_rel, axis=-1))
-    ok = (r_valid > 0.5) & (d > 1e-9)
-    u = r_rel / np.maximum(d, 1e-9)[..., None]
-    limit = np.maximum(d - gap_m, 0.0) / (2 * step_m)
+    d = np.sqrt(np.sum(rel * rel, axis=-1))
+    ok = (np.asarray(valid) > 0.5) & (d > 1e-9)
+    u = rel / np.maximum(d, 1e-9)[..., None]
+    limit = np.maximum(d - gap_m, 0.0) / (share * step_m)
     for _ in range(passes):
-        for j in range(r_rel.shape[1]):
+        for j in range(rel.shape[1]):
             excess = np.sum(a * u[:, j], axis=-1) - limit[:, j]
             cut = np.where(ok[:, j] & (excess > 0), excess, 0.0)
             a -= cut[:, None] * u[:, j]
     return a
+
+
+def into_view(action, fov_deg: float):
+    """Body-frame ``action (n, 2)`` turned out of the robot's blind sector: a command whose
+    bearing lies beyond ``fov_deg / 2`` (where the robot sees no robot) is projected onto the
+    nearer edge of its field of view, so robots do not back into robots they cannot see (the
+    heading turns toward the motion, so the next step sees further round). Returns ``(n, 2)``."""
+    a = np.array(action, dtype=np.float64)
+    half = np.radians(min(fov_deg, 360.0)) / 2
+    if half >= np.pi:
+        return a
+    bearing = np.arctan2(a[:, 1], a[:, 0])
+    blind = np.abs(bearing) > half
+    edge = np.stack([np.full(len(a), np.cos(half)), np.where(a[:, 1] >= 0, 1.0, -1.0) * np.sin(half)], axis=-1)
+    along = np.maximum(np.sum(a * edge, axis=-1), 0.0)
+    return np.where(blind[:, None], along[:, None] * edge, a)
 
 
 class APFPolicy:
@@ -274,8 +292,12 @@ class APFPolicy:
     is robot ``i``; ``act`` maps each agent name to a row the first time it sees it. The memory
     grows lazily to the number of rows; :meth:`reset` clears it (call it after each env reset).
 
-    **Crowding**: the summed command is cut by :func:`keep_clear` so that robots that see each
-    other never come within 1.5 body diameters; the robot field spreads them.
+    **Crowding and edges**: the summed command is cut by :func:`keep_clear` so that robots that
+    see each other never come within 1.5 body diameters (the robot field spreads them; a
+    command into the blind sector behind the robot is first turned to the edge of its field of
+    view, :func:`into_view`), and,
+    with the break field on, so that no robot comes within one body diameter of a dangerous
+    break it sees, however long its step.
     """
 
     def __init__(self, env, fields=FIELDS, params: FieldParams | None = None):
@@ -284,6 +306,8 @@ class APFPolicy:
         self.range_m = cfg.world.sensor.range_m
         self.standoff_m = cfg.targets.standoff_m if cfg.task == "containment" else 0.0
         self.gap_m = 3.0 * cfg.world.robot.radius_m
+        self.edge_m = 2.0 * cfg.world.robot.radius_m
+        self.fov_deg = cfg.world.sensor.fov_deg
         self.step_m = cfg.world.robot.max_speed_mps * cfg.world.dt_s
         if params is None:
             params = FieldParams()
@@ -322,7 +346,11 @@ class APFPolicy:
         mag = np.sqrt(np.sum(f * f, axis=-1, keepdims=True))
         a = f / np.maximum(mag, self.params.speed_saturation)
         d = decode(obs, self.layout, self.range_m)
-        return keep_clear(a, d["r_rel"], d["r_valid"], self.gap_m, self.step_m).astype(np.float32)
+        a = keep_clear(into_view(a, self.fov_deg), d["r_rel"], d["r_valid"], self.gap_m, self.step_m)
+        if self.params.on("break"):
+            facing = d["b_danger"] & (np.sum(d["b_rel"] * d["b_normal"], axis=-1) <= 1e-9)
+            a = keep_clear(a, d["b_rel"], facing, self.edge_m, self.step_m, share=1.0)
+        return a.astype(np.float32)
 
     def act(self, obs: dict) -> dict:
         if not obs:
