@@ -1,8 +1,14 @@
 """The APF baseline on the thesis scenarios (a reduced seed/robot budget; bench/apf.py runs the
 full 20-seed table)."""
 
+import math
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import tin_swarm_env as tse
 from tin_swarm_env.policies import APFPolicy, RandomPolicy
@@ -86,3 +92,137 @@ def test_fields_subset_and_random_policy():
         APFPolicy(env, fields=("robot", "gravity"))
     r1, r2 = RandomPolicy(env, seed=1).act(obs), RandomPolicy(env, seed=1).act(obs)
     assert all(np.array_equal(r1[k], r2[k]) and env.action_space(k).contains(r1[k]) for k in obs)
+
+
+# -- issue 11: the way round on either side, crowding --------------------------------------------
+
+sys.path.insert(0, str(Path(__file__).parent))
+from canyons import VARIANTS, canyon_config  # noqa: E402
+
+from tin_swarm_env.env.observation import ObsLayout  # noqa: E402
+from tin_swarm_env.apps.rollout import rollout  # noqa: E402
+from tin_swarm_env.world.state import Reason  # noqa: E402
+from tin_swarm_env.policies.apf import BugMemory, bug_update, decode, keep_clear  # noqa: E402
+from tin_swarm_env.world.fields import FieldParams as FP  # noqa: E402
+from tin_swarm_env.world.fields import follow_field  # noqa: E402
+
+
+@pytest.mark.parametrize("side,travel", VARIANTS)
+def test_apf_finds_the_pass_on_either_side_of_an_unseen_canyon(side, travel):
+    # a cliff across the whole terrain, one pass at one end: half the robots first walk the
+    # wrong way, meet the border in the corner and turn back
+    env = tse.parallel_env(scenario=canyon_config(side, travel, robots=10))
+    pol = APFPolicy(env)
+    arrived = fell = 0
+    for sd in (0, 1):
+        out = rollout(env, pol, sd)
+        arrived += out.count(Reason.ARRIVED)
+        fell += out.count(Reason.FELL)
+    assert fell == 0 and arrived >= 19, (side, travel, arrived, fell)
+
+
+def _obs(layout, R, target_xy, breaks=(), robots=(), speed=1.0):
+    """One hand-built observation row (body frame): target at ``target_xy`` m; breaks as
+    (closest x, y, normal x, y, drop_m); robots as (x, y)."""
+    o = np.zeros(layout.size)
+    own = layout.own
+    d = np.hypot(*target_xy)
+    o[own["speed"]] = speed
+    o[own["target_valid"]] = 1
+    o[own["target_dir"]] = np.asarray(target_xy) / d
+    o[own["target_dist"]] = d / (d + R)
+    b = layout.breaks.start
+    for k, (x, y, nx, ny, drop) in enumerate(breaks):
+        o[b + 8 * k: b + 8 * k + 8] = [1, x / R, y / R, nx, ny, drop / (abs(drop) + 10), np.hypot(x, y) / R, 1]
+    r = layout.robots.start
+    for k, (x, y) in enumerate(robots):
+        o[r + 4 * k: r + 4 * k + 4] = [1, x / R, y / R, np.hypot(x, y) / R]
+    return o[None]
+
+
+def _step(mem, obs, layout, R, params=FP()):
+    d = decode(obs, layout, R)
+    pull = d["rel_t"] / np.hypot(*d["rel_t"][0])
+    return bug_update(mem, np.arange(len(obs)), d, pull, params, 8.0)
+
+
+def test_bug_memory_chooses_the_side_toward_the_target_either_way():
+    layout, R = ObsLayout(), 60.0
+    cliff = (5.0, 0.0, -1.0, 0.0, 50.0)  # a cliff edge 5 m ahead, running across
+    for ty, want in ((30.0, 1), (-30.0, -1)):  # target ahead-left: follow it on the right (turn left)
+        mem = BugMemory.empty(1)
+        slot = _step(mem, _obs(layout, R, (100.0, ty), [cliff]), layout, R)
+        assert mem.side[0] == want and slot[0] == 0
+    # the pull away from the cliff: not blocked, nothing to follow
+    mem = BugMemory.empty(1)
+    assert _step(mem, _obs(layout, R, (-100.0, 10.0), [cliff]), layout, R)[0] == -1 and mem.side[0] == 0
+
+
+def test_bug_memory_turns_back_at_the_border_and_when_stalled():
+    layout, R = ObsLayout(), 60.0
+    cliff = (5.0, 0.0, -1.0, 0.0, 50.0)
+    mem = BugMemory.empty(1)
+    _step(mem, _obs(layout, R, (100.0, 30.0), [cliff]), layout, R)
+    assert mem.side[0] == 1  # heading along +y with the cliff on its right
+    # the border (zero drop) lies ahead along the cliff, 6 m away: turn back
+    border = (0.0, 6.0, 0.0, -1.0, 0.0)
+    _step(mem, _obs(layout, R, (100.0, 30.0), [cliff, border]), layout, R)
+    assert mem.side[0] == -1
+    # a cliff (not the border) ahead is a corner to follow round: no turn
+    mem = BugMemory.empty(1)
+    _step(mem, _obs(layout, R, (100.0, 30.0), [cliff]), layout, R)
+    _step(mem, _obs(layout, R, (100.0, 30.0), [cliff, (0.0, 6.0, 0.0, -1.0, 40.0)]), layout, R)
+    assert mem.side[0] == 1
+    # standing still while following, no robot near, for stall_steps steps: turn back
+    p = FP(stall_steps=5)
+    mem = BugMemory.empty(1)
+    for _ in range(5):
+        _step(mem, _obs(layout, R, (100.0, 30.0), [cliff], speed=0.0), layout, R, p)
+    assert mem.side[0] == -1
+    # ... but not when a robot stands next to it (a queue, not a dead end)
+    mem = BugMemory.empty(1)
+    for _ in range(10):
+        _step(mem, _obs(layout, R, (100.0, 30.0), [cliff], robots=[(0.0, 2.0)], speed=0.0), layout, R, p)
+    assert mem.side[0] == 1
+
+
+def test_follow_field_hand_values():
+    # break 5 m east (normal west), hold 5 m, step 0 -> straight along it: north for side +1
+    rel, n, pull = np.array([[5.0, 0.0]]), np.array([[-1.0, 0.0]]), np.array([[1.0, 0.0]])
+    np.testing.assert_allclose(pull + follow_field(pull, rel, n, np.array([1]), 5.0, 0.0), [[0.0, 1.0]], atol=1e-12)
+    np.testing.assert_allclose(pull + follow_field(pull, rel, n, np.array([-1]), 5.0, 0.0), [[0.0, -1.0]],
+                               atol=1e-12)
+    np.testing.assert_allclose(follow_field(pull, rel, n, np.array([0]), 5.0, 0.0), [[0.0, 0.0]])
+    # 10 m away: turned toward the break by 1 rad; a 2 m step at 10 m adds asin(0.1)
+    b = 1 + math.asin(0.1)
+    np.testing.assert_allclose(pull + follow_field(pull, 2 * rel, n, np.array([1]), 5.0, 2.0),
+                               [[math.sin(b), math.cos(b)]], atol=1e-12)
+
+
+def _keep_clear_reference(a, rel, valid, gap, step, share):
+    """Slow obvious check: after the move the robot is no nearer than allowed to any slot."""
+    for j in range(rel.shape[0]):
+        if valid[j] and np.hypot(*rel[j]) > 1e-9:
+            u = rel[j] / np.hypot(*rel[j])
+            assert a @ u <= max(np.hypot(*rel[j]) - gap, 0) / (share * step) + 1e-9
+
+
+@given(st.lists(st.tuples(st.floats(-20, 20), st.floats(-20, 20), st.booleans()), min_size=1, max_size=4),
+       st.floats(-1, 1), st.floats(-1, 1), st.floats(0.5, 5))
+@settings(max_examples=200, deadline=None)
+def test_keep_clear_never_closes_a_gap_too_fast_nor_adds_motion(slots, ax, ay, step):
+    rel = np.array([[s[0], s[1]] for s in slots])[None]
+    valid = np.array([[s[2] for s in slots]], dtype=float)
+    a0 = np.array([[ax, ay]])
+    a = keep_clear(a0, rel, valid, 1.5, step, passes=50)[0]
+    _keep_clear_reference(a, rel[0], valid[0], 1.5, step, 2.0)
+    assert np.hypot(*a) <= np.hypot(ax, ay) + 1e-9  # only removes
+
+
+def test_crowding_resolves_robots_do_not_push_into_each_other():
+    # ramp, seed 0: 20 robots funnel round the plateau to one target; contacts were 1.1 per robot
+    # before keep_clear and into_view (main at f0edd29), 0.5 after
+    env = tse.parallel_env(scenario="ramp", n_robots=20)
+    pol = APFPolicy(env)
+    out = rollout(env, pol, 0)
+    assert out.collisions.sum() / env.n <= 0.55

@@ -3,26 +3,32 @@
 The observation (see :class:`~tin_swarm_env.env.observation.ObsLayout`) is egocentric, so the
 four fields of :mod:`tin_swarm_env.world.fields` are evaluated in the body frame and their sum is
 the commanded body-frame velocity, full speed once the force reaches ``speed_saturation``:
-``action = F / max(|F|, speed_saturation)``.
-What the policy takes from the environment is static: the observation layout, the sensor range
-and the task's standoff distance, never the world state.
+``action = F / max(|F|, speed_saturation)``. Where a dangerous break blocks the way, the
+attraction is replaced by wall-following (:func:`~tin_swarm_env.world.fields.follow_field`) on a
+side kept in a small per-robot memory (:class:`BugMemory`); last, the command is cut so that no
+robot closes on a robot it sees by more than half the gap in one step (:func:`keep_clear`).
+What the policy takes from the environment is static: the observation layout, the sensor range,
+the task's standoff distance, the robot's radius, top speed and time step, never the world state.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..world.fields import (
     FIELDS,
     FieldParams,
+    away_from,
     break_field,
+    follow_field,
     height_field,
     robot_field,
-    slide_field,
     target_field,
 )
 
-__all__ = ["APFPolicy", "RandomPolicy", "apf_forces"]
+__all__ = ["APFPolicy", "RandomPolicy", "apf_forces", "decode", "BugMemory", "bug_update", "keep_clear", "into_view"]
 
 
 def _unwrap(env):
@@ -36,37 +42,231 @@ def _unwrap(env):
     raise TypeError("the policy needs a tin_swarm_env environment (or a wrapper of one)")
 
 
-def apf_forces(obs, layout, range_m, standoff_m, params: FieldParams):
-    """Per-field body-frame forces for observations ``obs (n, d)``: a dict name -> ``(n, 2)``
-    (``robot``, ``target``, ``break``, ``slide``, ``height``; fields switched off are zeros)."""
+def decode(obs, layout, range_m) -> dict:
+    """Observations ``(n, d)`` -> physical quantities in the body frame (metres):
+    ``has_t (n,)``, ``dist (n,)`` and ``rel_t (n, 2)`` to the assigned target, ``dz (n,)`` its
+    height above the robot, ``grad_z (n, 2)``, ``speed (n,)`` (fraction of top speed), robot slots
+    ``r_rel (n, K_r, 2)``, ``r_valid (n, K_r)``, break slots ``b_rel``, ``b_normal (n, K_b, 2)``,
+    ``b_danger (n, K_b)`` (valid and dangerous) and ``b_border (n, K_b)``. The observation does not
+    name the border; its sensed proxy is a dangerous break with zero drop (border edges have no
+    triangle beyond them, so their drop is 0; a cliff edge's drop is not)."""
     obs = np.asarray(obs, dtype=np.float64)
-    n = obs.shape[0]
     R = range_m
+    dist = layout.target_distance_m(obs, R)
+    slope = np.radians(layout.field(obs, "own", "slope")[:, 0] * 90.0)
+    out = {"has_t": layout.field(obs, "own", "target_valid")[:, 0] > 0.5, "dist": dist,
+           "rel_t": layout.field(obs, "own", "target_dir") * dist[:, None], "dz": layout.target_dz_m(obs),
+           "grad_z": np.tan(slope)[:, None] * layout.field(obs, "own", "uphill"),
+           "speed": layout.field(obs, "own", "speed")[:, 0]}
+    out["r_rel"], out["r_valid"] = layout.vectors(obs, "robots") * R, layout.field(obs, "robots", "valid")
+    out["b_rel"], out["b_normal"] = layout.vectors(obs, "breaks") * R, layout.vectors(obs, "breaks", "nx", "ny")
+    out["b_danger"] = (layout.field(obs, "breaks", "valid") * layout.field(obs, "breaks", "danger")) > 0.5
+    out["b_border"] = out["b_danger"] & (layout.field(obs, "breaks", "drop") == 0.0)
+    return out
+
+
+def apf_forces(obs, layout, range_m, standoff_m, params: FieldParams, follow=None, step_m=1.0):
+    """Per-field body-frame forces for observations ``obs (n, d)``: a dict name -> ``(n, 2)``
+    (``robot``, ``target``, ``break``, ``slide``, ``height``; fields switched off are zeros).
+    ``follow = (side (n,), slot (n,))``: each robot's wall-following side (+1 the break on its
+    right, -1 on its left, 0 none) and the break slot it follows (-1 none), from
+    :func:`bug_update`; ``slide`` is then the wall-following term
+    (:func:`~tin_swarm_env.world.fields.follow_field`, ``step_m`` the distance covered in one
+    step at full speed); without ``follow`` it is zero."""
+    d = decode(obs, layout, range_m)
+    n = len(d["dist"])
     zero = np.zeros((n, 2))
     out = {k: zero for k in ("robot", "target", "break", "slide", "height")}
-    has_t = layout.field(obs, "own", "target_valid")[:, 0] > 0.5
-    rel_t = layout.field(obs, "own", "target_dir") * layout.target_distance_m(obs, R)[:, None]
+    has_t = d["has_t"][:, None]
     if params.on("target"):
-        f, _ = target_field(rel_t, standoff_m, params.target_gain, params.target_range_m)
-        out["target"] = np.where(has_t[:, None], f, 0.0)
+        f, _ = target_field(d["rel_t"], standoff_m, params.target_gain, params.target_range_m)
+        out["target"] = np.where(has_t, f, 0.0)
     if params.on("height"):
-        dz = layout.target_dz_m(obs)
-        slope = np.radians(layout.field(obs, "own", "slope")[:, 0] * 90.0)
-        grad_z = np.tan(slope)[:, None] * layout.field(obs, "own", "uphill")
-        f, _ = height_field(grad_z, dz, params.height_gain)
-        out["height"] = np.where(has_t[:, None], f, 0.0)
+        f, _ = height_field(d["grad_z"], d["dz"], params.height_gain)
+        out["height"] = np.where(has_t, f, 0.0)
     if params.on("robot") and layout.k_robots:
-        out["robot"], _ = robot_field(layout.vectors(obs, "robots") * R, layout.field(obs, "robots", "valid"),
-                                      params.robot_gain, params.robot_range_m)
+        out["robot"], _ = robot_field(d["r_rel"], d["r_valid"], params.robot_gain, params.robot_range_m)
     if params.on("break") and layout.k_breaks:
-        rel, nrm = layout.vectors(obs, "breaks") * R, layout.vectors(obs, "breaks", "nx", "ny")
-        danger = layout.field(obs, "breaks", "valid") * layout.field(obs, "breaks", "danger")
+        rel, nrm, danger = d["b_rel"], d["b_normal"], d["b_danger"]
         out["break"], _ = break_field(rel, nrm, danger, params.break_gain, params.break_range_m,
                                       params.break_decay_m)
-        pull = out["target"] + out["height"]
-        out["slide"] = slide_field(pull, rel, nrm, danger, params.break_range_m, params.slide_decay_m,
-                                   params.slide_full_m)
+        if follow is not None:
+            side, slot = follow
+            k = np.maximum(slot, 0)[:, None, None]
+            side = np.where(slot >= 0, side, 0)
+            out["slide"] = follow_field(out["target"] + out["height"], np.take_along_axis(rel, k, axis=1)[:, 0],
+                                        np.take_along_axis(nrm, k, axis=1)[:, 0], side, params.follow_hold_m, step_m)
     return out
+
+
+@dataclass
+class BugMemory:
+    """What each robot remembers between steps (arrays over robot rows):
+
+    side      (n,) int8   0: heading for the target; +1: following a dangerous break with it on
+                          the robot's right; -1: on its left
+    turn      (n,)  rad   while following, the direction of travel (the followed break's
+                          tangent) relative to the target's bearing, unwrapped: it counts the
+                          turns made round the break (the Pledge algorithm's counter)
+    stall     (n,) int    steps it has been following without moving, no robot near
+    on_border (n,) bool   the break it followed last step was the terrain's border
+    wall      (n,)  rad   direction from the followed break to the robot relative to the target's
+                          bearing, last step: the robot keeps to the same break (it goes round
+                          the end of a wall in a corridor instead of crossing to the other one)
+    """
+
+    side: np.ndarray
+    turn: np.ndarray
+    stall: np.ndarray
+    on_border: np.ndarray
+    wall: np.ndarray
+
+    _KEYS = ("side", "turn", "stall", "on_border", "wall")
+
+    @classmethod
+    def empty(cls, n: int) -> BugMemory:
+        return cls(np.zeros(n, dtype=np.int8), np.zeros(n), np.zeros(n, dtype=np.int64), np.zeros(n, dtype=bool),
+                   np.zeros(n))
+
+    def grow(self, n: int) -> BugMemory:
+        if n <= len(self.side):
+            return self
+        e = BugMemory.empty(n - len(self.side))
+        return BugMemory(*(np.concatenate([getattr(self, k), getattr(e, k)]) for k in self._KEYS))
+
+
+def _wrap(a):
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+def _angle_to(v, ref):
+    """Angle (rad, in [-pi, pi)) from ``ref (n, 2)`` to ``v (n, 2)``, counter-clockwise."""
+    return _wrap(np.arctan2(v[:, 1], v[:, 0]) - np.arctan2(ref[:, 1], ref[:, 0]))
+
+
+def _followed(seen, dist_b, ang, following, last_ang, hold_m):
+    """The break slot each robot follows (-1 none): among the dangerous breaks it sees from
+    their safe side (``seen (n, K)``), the nearest whose direction to the robot ``ang (n, K)``
+    (relative to the target's bearing) lies within 120 degrees of last step's ``last_ang (n,)``
+    for a robot already following; the nearest of all when none does, or when one is closer
+    than ``hold_m / 2``."""
+    cont = seen & (np.abs(_wrap(ang - last_ang[:, None])) < 2 * np.pi / 3) & following[:, None]
+    close = seen & (dist_b < hold_m / 2)
+    pick = np.where((cont.any(axis=-1) & ~close.any(axis=-1))[:, None], cont, seen)
+    k = np.argmin(np.where(pick, dist_b, np.inf), axis=-1)
+    return np.where(seen.any(axis=-1), k, -1)
+
+
+def bug_update(mem: BugMemory, rows, d: dict, pull, params: FieldParams, crowd_m: float) -> np.ndarray:
+    """One step of the bug rules for the robots in ``rows`` (their decoded observations ``d``
+    and attraction ``pull (m, 2)``); updates ``mem`` in place and returns the break slot each
+    robot follows ``(m,)`` (-1 none).
+
+    * *blocked*: the pull points into a dangerous break seen from its safe side within
+      ``follow_engage_m`` (``pull . e < 0``, ``e`` from :func:`~tin_swarm_env.world.fields.away_from`).
+    * start: a free robot that is blocked follows the nearest blocking break on the side whose
+      tangent points more toward the pull (the target's bearing); when the break lies square
+      across it (|cos| < 0.05), on the side its heading already leans to.
+    * follow: the followed break is the one seen within ``break_range_m`` that continues last
+      step's (:func:`_followed`); ``turn`` adds up how the direction of travel along it turns
+      relative to the target's bearing.
+    * leave (Pledge's rule): a following robot that is not blocked and whose counted ``turn``
+      is back within 90 degrees of the target's bearing: it has come round the break, not merely
+      turned away from it (at the head of a cut in a plateau the counter reads about 180 degrees).
+    * turn back (side -> -side, ``turn`` restarts from the new direction): when the followed
+      break becomes the border (it cannot be gone round) after one that was not, or the border
+      lies ahead along the followed break within ``follow_engage_m``; or after ``stall_steps``
+      steps following without moving (speed under 5%) with no robot within ``crowd_m`` (a dead
+      end, a corner)."""
+    side, turn, stall = mem.side[rows], mem.turn[rows], mem.stall[rows]
+    was_border, last_wall = mem.on_border[rows], mem.wall[rows]
+    rel = d["b_rel"]
+    n = len(rel)
+    rows_i = np.arange(n)
+    dist_b = np.sqrt(np.sum(rel * rel, axis=-1))
+    facing = d["b_danger"] & (np.sum(rel * d["b_normal"], axis=-1) <= 1e-9)
+    e = away_from(rel, d["b_normal"])
+    into = facing & (dist_b < params.follow_engage_m) & (np.einsum("nj,nkj->nk", pull, e) < 0)
+    blocked = into.any(axis=-1) & d["has_t"]
+    ref = np.where(d["dist"][:, None] > 0, d["rel_t"], 1.0)
+    ang = _wrap(np.arctan2(e[..., 1], e[..., 0]) - np.arctan2(ref[:, 1], ref[:, 0])[:, None])
+    # start: follow the nearest blocking break on the side whose tangent points more toward the pull
+    new = (side == 0) & blocked
+    kb = np.argmin(np.where(into, dist_b, np.inf), axis=-1)
+    eb = e[rows_i, kb]
+    tb = np.stack([eb[:, 1], -eb[:, 0]], axis=-1)
+    pn = pull / np.maximum(np.sqrt(np.sum(pull * pull, axis=-1)), 1e-12)[:, None]
+    score = np.sum(tb * pn, axis=-1)
+    score = np.where(np.abs(score) < 0.05, tb[:, 0], score)
+    side = np.where(new, np.where(score >= 0, 1, -1), side).astype(np.int8)
+    last_wall = np.where(new, ang[rows_i, kb], last_wall)
+    # the followed break and the direction of travel along it
+    seen = facing & (dist_b < params.break_range_m)
+    kf = _followed(seen, dist_b, ang, side != 0, last_wall, params.follow_hold_m)
+    has_wall = kf >= 0
+    kc = np.maximum(kf, 0)
+    ef = e[rows_i, kc]
+    t_left = np.stack([ef[:, 1], -ef[:, 0]], axis=-1)  # tangent with the break on the right
+    theta = _angle_to(side[:, None] * t_left, ref)
+    turn = np.where(new, theta, turn)
+    go = (side != 0) & ~new & has_wall
+    turn = np.where(go, turn + _wrap(theta - _wrap(turn)), turn)
+    # leave when clear and heading within 90 degrees of the target again, counted
+    side = np.where((side != 0) & ~blocked & (np.abs(turn) < np.pi / 2), 0, side).astype(np.int8)
+    # turn back at the border or when stuck
+    on_border = has_wall & d["b_border"][rows_i, kc]
+    ahead = np.einsum("nj,nkj->nk", side[:, None] * t_left, -e) > 0.3
+    border_ahead = (d["b_border"] & facing & ahead & (dist_b < params.follow_engage_m)).any(axis=-1)
+    r_d = np.sqrt(np.sum(d["r_rel"] ** 2, axis=-1))
+    crowded = ((d["r_valid"] > 0.5) & (r_d < crowd_m)).any(axis=-1)
+    stall = np.where((side != 0) & (d["speed"] < 0.05) & ~crowded, stall + 1, 0)
+    back = (side != 0) & ~new & (border_ahead | (on_border & ~was_border) | (stall >= params.stall_steps))
+    side = np.where(back, -side, side).astype(np.int8)
+    turn = np.where(back, _angle_to(side[:, None] * t_left, ref), turn)
+    stall = np.where(back, 0, stall)
+    mem.side[rows], mem.turn[rows], mem.stall[rows] = side, turn, stall
+    mem.on_border[rows] = on_border
+    mem.wall[rows] = np.where(has_wall, ang[rows_i, kc], last_wall)
+    return np.where(side != 0, kf, -1)
+
+
+def keep_clear(action, rel, valid, gap_m: float, step_m: float, share: float = 2.0, passes: int = 2):
+    """Cut body-frame ``action (n, 2)`` (fractions of top speed) so that no robot closes on what
+    it sees at ``rel (n, K, 2)`` m (``valid (n, K)``) by more than ``1 / share`` of the free gap
+    ``d - gap_m`` in one step of ``step_m`` at full speed: ``a . u <= max(d - gap, 0) / (share
+    step)``, ``u`` the unit vector toward it. For robots (``share`` 2, both move) two robots
+    that see each other never come closer than ``gap_m``; for the closest points of dangerous
+    breaks (``share`` 1, they stand still) the robot never comes within ``gap_m`` of them (the
+    distance to a segment after a move ``delta`` is at least ``d - delta . u``). Only the part
+    of the action toward each is removed (a projection onto each half-plane, ``passes`` sweeps
+    over the slots), so the cut never adds motion toward anything. Returns ``(n, 2)``."""
+    a = np.array(action, dtype=np.float64)
+    d = np.sqrt(np.sum(rel * rel, axis=-1))
+    ok = (np.asarray(valid) > 0.5) & (d > 1e-9)
+    u = rel / np.maximum(d, 1e-9)[..., None]
+    limit = np.maximum(d - gap_m, 0.0) / (share * step_m)
+    for _ in range(passes):
+        for j in range(rel.shape[1]):
+            excess = np.sum(a * u[:, j], axis=-1) - limit[:, j]
+            cut = np.where(ok[:, j] & (excess > 0), excess, 0.0)
+            a -= cut[:, None] * u[:, j]
+    return a
+
+
+def into_view(action, fov_deg: float):
+    """Body-frame ``action (n, 2)`` turned out of the robot's blind sector: a command whose
+    bearing lies beyond ``fov_deg / 2`` (where the robot sees no robot) is projected onto the
+    nearer edge of its field of view, so robots do not back into robots they cannot see (the
+    heading turns toward the motion, so the next step sees further round). Returns ``(n, 2)``."""
+    a = np.array(action, dtype=np.float64)
+    half = np.radians(min(fov_deg, 360.0)) / 2
+    if half >= np.pi:
+        return a
+    bearing = np.arctan2(a[:, 1], a[:, 0])
+    blind = np.abs(bearing) > half
+    edge = np.stack([np.full(len(a), np.cos(half)), np.where(a[:, 1] >= 0, 1.0, -1.0) * np.sin(half)], axis=-1)
+    along = np.maximum(np.sum(a * edge, axis=-1), 0.0)
+    return np.where(blind[:, None], along[:, None] * edge, a)
 
 
 class APFPolicy:
@@ -78,6 +278,22 @@ class APFPolicy:
     Without ``params``, the containment task widens the robot field's range to 1.1 times the
     arc between robots evenly spread on the standoff ring (from the scenario's robot and threat
     counts), so that robots spread around each threat instead of bunching where they arrive.
+
+    **Memory** (with the break field on): per robot, its wall-following side, how far its
+    direction of travel has turned while following, a stall counter and whether it followed
+    the border (:class:`BugMemory`; the rules are :func:`bug_update`'s: follow a blocking
+    dangerous break on the side whose tangent points more toward the target, keep that side
+    until clear of it and heading toward the target again by the turn count, turn back at the
+    border or when stuck). Rows are robots: ``act_batch`` row ``i``
+    is robot ``i``; ``act`` maps each agent name to a row the first time it sees it. The memory
+    grows lazily to the number of rows; :meth:`reset` clears it (call it after each env reset).
+
+    **Crowding and edges**: the summed command is cut by :func:`keep_clear` so that robots that
+    see each other never come within 1.5 body diameters (the robot field spreads them; a
+    command into the blind sector behind the robot is first turned to the edge of its field of
+    view, :func:`into_view`), and,
+    with the break field on, so that no robot comes within one body diameter of a dangerous
+    break it sees, however long its step.
     """
 
     def __init__(self, env, fields=FIELDS, params: FieldParams | None = None):
@@ -85,6 +301,10 @@ class APFPolicy:
         cfg = base.config
         self.range_m = cfg.world.sensor.range_m
         self.standoff_m = cfg.targets.standoff_m if cfg.task == "containment" else 0.0
+        self.gap_m = 3.0 * cfg.world.robot.radius_m
+        self.edge_m = 2.0 * cfg.world.robot.radius_m
+        self.fov_deg = cfg.world.sensor.fov_deg
+        self.step_m = cfg.world.robot.max_speed_mps * cfg.world.dt_s
         if params is None:
             params = FieldParams()
             n_threats = len(cfg.targets.positions)
@@ -95,20 +315,45 @@ class APFPolicy:
                 params = FieldParams(robot_range_m=max(params.robot_range_m, 1.1 * spacing))
         self.params = FieldParams(**{**params.__dict__, "fields": tuple(fields)})
         self.layout = base.layout
+        self.reset()
 
-    def forces(self, obs):
-        return apf_forces(obs, self.layout, self.range_m, self.standoff_m, self.params)
+    def reset(self):
+        """Forget every robot's memory (call after each environment reset)."""
+        self.memory = BugMemory.empty(0)
+        self._rows: dict = {}
 
-    def act_batch(self, obs) -> np.ndarray:
-        f = sum(self.forces(obs).values())
+    def forces(self, obs, rows=None):
+        """Per-field forces (:func:`apf_forces`) for observations ``obs (n, d)`` of the robots in
+        ``rows`` (default ``0..n-1``); advances their memory by one step."""
+        obs = np.asarray(obs, dtype=np.float64)
+        rows = np.arange(len(obs)) if rows is None else np.asarray(rows, dtype=np.int64)
+        if not self.params.on("break"):
+            return apf_forces(obs, self.layout, self.range_m, self.standoff_m, self.params)
+        self.memory = self.memory.grow(int(rows.max(initial=-1)) + 1)
+        f = apf_forces(obs, self.layout, self.range_m, self.standoff_m, self.params)
+        d = decode(obs, self.layout, self.range_m)
+        slot = bug_update(self.memory, rows, d, f["target"] + f["height"], self.params, 2 * self.params.robot_range_m)
+        return apf_forces(obs, self.layout, self.range_m, self.standoff_m, self.params,
+                          follow=(self.memory.side[rows], slot), step_m=self.step_m)
+
+    def act_batch(self, obs, rows=None) -> np.ndarray:
+        obs = np.asarray(obs, dtype=np.float64)
+        f = sum(self.forces(obs, rows).values())
         mag = np.sqrt(np.sum(f * f, axis=-1, keepdims=True))
-        return (f / np.maximum(mag, self.params.speed_saturation)).astype(np.float32)
+        a = f / np.maximum(mag, self.params.speed_saturation)
+        d = decode(obs, self.layout, self.range_m)
+        a = keep_clear(into_view(a, self.fov_deg), d["r_rel"], d["r_valid"], self.gap_m, self.step_m)
+        if self.params.on("break"):
+            facing = d["b_danger"] & (np.sum(d["b_rel"] * d["b_normal"], axis=-1) <= 1e-9)
+            a = keep_clear(a, d["b_rel"], facing, self.edge_m, self.step_m, share=1.0)
+        return a.astype(np.float32)
 
     def act(self, obs: dict) -> dict:
         if not obs:
             return {}
         keys = list(obs)
-        a = self.act_batch(np.stack([obs[k] for k in keys]))
+        rows = [self._rows.setdefault(k, len(self._rows)) for k in keys]
+        a = self.act_batch(np.stack([obs[k] for k in keys]), rows)
         return {k: a[i] for i, k in enumerate(keys)}
 
 

@@ -78,7 +78,28 @@ def ridge(width=200.0, height=100.0, cell=2.0, ridge_m=10.0, half_width_m=20.0) 
     return Dem(z, x, y, source="procedural:ridge")
 
 
-RECIPES = {"ramp": ramp, "cliff_goal": cliff_goal, "hills": hills, "rolling": rolling, "ridge": ridge}
+def canyon(width=400.0, height=400.0, cell=2.0, plateau_m=50.0, cliff_x=200.0, pass_y=(330.0, 350.0),
+           ramp_in_m=110.0, ramp_out_m=0.0, travel="east") -> Dem:
+    """A plateau (``plateau_m`` high, west of ``cliff_x``) ending in a near-vertical north-south
+    cliff across the whole terrain; the low floor lies east of it. The one way down is a pass
+    across the band ``pass_y`` (y0, y1): a straight ramp from the plateau ``ramp_in_m`` west of the
+    cliff down to the floor ``ramp_out_m`` east of it. With ``ramp_out_m = 0`` it is a cut in the
+    plateau; otherwise a trench cut into the plateau that leads onto a causeway standing above the
+    floor, cliffs on both sides. ``travel = "west"`` mirrors the terrain east-west."""
+    if travel not in ("east", "west"):
+        raise ValueError(f"canyon: travel must be 'east' or 'west', got {travel!r}")
+    x, y, X, Y = _grid(width, height, cell)
+    if travel == "west":
+        X = width - X
+    x0, x1 = cliff_x - ramp_in_m, cliff_x + ramp_out_m
+    z = np.where(X <= cliff_x, plateau_m, 0.0)
+    band = (Y >= pass_y[0]) & (Y <= pass_y[1]) & (X >= x0) & (X <= x1)
+    z[band] = plateau_m * np.clip((x1 - X[band]) / (x1 - x0), 0, 1)
+    return Dem(z, x, y, source="procedural:canyon")
+
+
+RECIPES = {"ramp": ramp, "cliff_goal": cliff_goal, "hills": hills, "rolling": rolling, "ridge": ridge,
+           "canyon": canyon}
 
 
 def make_dem(recipe: str, params: dict, where: str = "") -> Dem:

@@ -23,12 +23,13 @@ height     pulls along the local slope toward the target's height: ``U = gain * 
            ``dz = z_t - z``: uphill when the target is higher, downhill when lower, 0 on level ground.
 =========  ==========================================================================================
 
-Not a potential: the break field's *slide* term (:func:`slide_field`). Near a dangerous break
-that the attraction points into, the attraction is turned along the break, always to the left
-(``t = (n_y, -n_x)``, the break on the robot's right), the more the closer. Pure potential fields
-stop at the edge of a cliff that lies between a robot and its goal (a local minimum: with the
-break field off the thesis's "poor ending" is a fall, with it on a robot would stand at the edge
-for ever); the slide turns the minimum into wall-following, which gets around the cliff.
+Not potentials: the break field's *wall-following* term (:func:`follow_field`) and its older,
+memoryless form, the *slide* (:func:`slide_field`). Pure potential fields stop at the edge of a
+cliff that lies between a robot and its goal (a local minimum: with the break field off the
+thesis's "poor ending" is a fall, with it on a robot would stand at the edge for ever). A robot
+that follows the edge on a chosen side (the policy chooses it, from what it senses, and keeps it
+in a small memory: :class:`~tin_swarm_env.policies.APFPolicy`) turns the minimum into the bug
+algorithms' wall-following, which gets around the cliff on either side.
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ import numpy as np
 from ..errors import ParameterError
 
 __all__ = ["FIELDS", "FieldParams", "robot_field", "target_field", "break_field", "height_field", "slide_field",
-           "fields_at", "HEIGHT_SCALE_M"]
+           "follow_field", "away_from", "fields_at", "HEIGHT_SCALE_M"]
 
 FIELDS = ("robot", "target", "break", "height")
 HEIGHT_SCALE_M = 10.0
@@ -61,13 +62,17 @@ class FieldParams:
     slide_decay_m: float = 10.0
     speed_saturation: float = 0.3
     height_gain: float = 0.5
+    follow_engage_m: float = 8.0
+    follow_hold_m: float = 5.0
+    stall_steps: int = 20
     fields: tuple[str, ...] = FIELDS
 
     def __post_init__(self):
         unknown = set(self.fields) - set(FIELDS)
         if unknown:
             raise ParameterError(f"unknown field(s) {sorted(unknown)}; the fields are {', '.join(FIELDS)}")
-        for k in ("robot_range_m", "target_range_m", "break_range_m", "break_decay_m", "slide_decay_m"):
+        for k in ("robot_range_m", "target_range_m", "break_range_m", "break_decay_m", "slide_decay_m",
+                  "follow_engage_m", "follow_hold_m", "stall_steps"):
             if not getattr(self, k) > 0:
                 raise ParameterError(f"FieldParams.{k} must be > 0, got {getattr(self, k)}")
 
@@ -119,12 +124,14 @@ def break_field(rel, normal, valid, gain, range_m, decay_m):
     return (mag[..., None] * normal).sum(axis=-2), pot.sum(axis=-1)
 
 
-def slide_field(pull, rel, normal, valid, range_m, decay_m, full_m=0.0):
-    """The break field's slide term (not a potential). ``pull (..., 2)``: the attraction (target
-    and height fields). Near a dangerous break that the pull points into, the pull is turned
-    along the break: with ``s = exp(-max(d - full, 0) / decay)`` for the nearest such break and ``t`` its
-    tangent with the break on the robot's right, the term is ``s * (|pull| t - pull)``, so the
-    pull becomes ``(1 - s) pull + s |pull| t``. Returns ``force (..., 2)``."""
+def slide_field(pull, rel, normal, valid, range_m, decay_m, full_m=0.0, side=1.0):
+    """The memoryless slide (not a potential). ``pull (..., 2)``: the attraction (target and
+    height fields). Near a dangerous break that the pull points into, the pull is turned along
+    the break: with ``s = exp(-max(d - full, 0) / decay)`` for the nearest such break and ``t``
+    its tangent, ``t = side (n_y, -n_x)`` (``side`` +1: the break on the robot's right, it turns
+    left; -1: the other way; ``side`` broadcasts against ``pull[..., 0]``), the term is
+    ``s * (|pull| t - pull)``, so the pull becomes ``(1 - s) pull + s |pull| t``. Returns
+    ``force (..., 2)``."""
     d = _norm(rel)
     into = np.sum(pull[..., None, :] * normal, axis=-1) < 0
     ok = _facing(rel, normal, valid) & (d < range_m) & into
@@ -132,9 +139,40 @@ def slide_field(pull, rel, normal, valid, range_m, decay_m, full_m=0.0):
     k = np.argmax(s, axis=-1)
     s_max = np.take_along_axis(s, k[..., None], axis=-1)[..., 0]
     n_k = np.take_along_axis(normal, k[..., None, None], axis=-2)[..., 0, :]
-    tangent = np.stack([n_k[..., 1], -n_k[..., 0]], axis=-1)
+    tangent = np.asarray(side, dtype=np.float64)[..., None] * np.stack([n_k[..., 1], -n_k[..., 0]], axis=-1)
     mag = _norm(pull)
     return s_max[..., None] * (mag[..., None] * tangent - pull)
+
+
+def away_from(rel, normal):
+    """Unit vectors ``(..., 2)`` from the closest point of each break to the robot: ``-rel / d``,
+    the break's normal where the robot stands on it (``d`` ~ 0). Along a break's middle this is
+    its normal; past its end it turns round the end point."""
+    d = _norm(rel)
+    return np.where((d > 1e-6)[..., None], -rel / np.maximum(d, 1e-6)[..., None], normal)
+
+
+def follow_field(pull, rel, normal, side, hold_m, step_m):
+    """The wall-following term (not a potential) of robots following a dangerous break.
+
+    ``rel (..., 2)``: from the robot to the closest point of the followed break; ``normal
+    (..., 2)``: its normal toward the safe side; ``side (...)``: +1 follows with the break on the
+    robot's right (it turns left), -1 on its left, 0 not following; ``step_m``: the distance a
+    robot covers in one step at full speed. With ``e`` the unit vector from the closest point to
+    the robot (:func:`away_from`) at distance ``d`` and ``t = side (e_y, -e_x)`` the tangent, the
+    direction of travel is ``t`` turned toward the break by
+    ``beta = asin(min(step / 2d, 1)) + clip((d - hold) / hold, -1, 1)`` rad: the first part keeps
+    the robot at its distance while it rounds a break's end (a step along a circle's tangent
+    leaves the circle), the second draws it back to ``hold_m``. The attraction ``pull (..., 2)``
+    is replaced by ``|pull|`` times that direction; returns ``force (..., 2)``:
+    ``|pull| (cos(beta) t - sin(beta) e) - pull`` where ``side != 0``, else 0."""
+    d = _norm(rel)
+    e = away_from(rel, normal)
+    side = np.asarray(side, dtype=np.float64)
+    t = side[..., None] * np.stack([e[..., 1], -e[..., 0]], axis=-1)
+    beta = np.arcsin(np.minimum(step_m / np.maximum(2 * d, 1e-9), 1.0)) + np.clip((d - hold_m) / hold_m, -1.0, 1.0)
+    f = _norm(pull)[..., None] * (np.cos(beta)[..., None] * t - np.sin(beta)[..., None] * e) - pull
+    return np.where((side != 0)[..., None], f, 0.0)
 
 
 def height_field(grad_z, dz, gain, scale_m=HEIGHT_SCALE_M):
@@ -153,7 +191,7 @@ def fields_at(points, params: FieldParams, *, robots=None, target=None, standoff
     ``"total"``. Sources: ``robots (M, 2)``, ``target (2,)`` with ``standoff_m``, ``breaks`` a
     :class:`~tin_swarm_env.terrain.Breaks` (dangerous ones push: cliff edges and border),
     and ``tin`` with ``z_target`` for the height field. The slide term is left out (it depends
-    on the robot's motion, not on its position alone)."""
+    on the robot's motion and memory, not on its position alone)."""
     from ..terrain import ANGLE
     from ..terrain.breaks import closest_on_segments
 
