@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["locate_brute", "line_of_sight_brute", "line_of_sight_dense", "height_brute", "single_surface_brute"]
+__all__ = ["locate_brute", "line_of_sight_brute", "line_of_sight_dense", "height_brute", "single_surface_brute",
+           "on_passable_brute", "cost_to_go_graph_brute", "cost_to_go_grid"]
 
 
 def _bary(tin, pts):
@@ -117,3 +118,88 @@ def single_surface_brute(vertices, triangles) -> np.ndarray:
     out = np.zeros((len(tri), len(tri)), dtype=np.int64)
     out[a, b] = np.where(shared == 2, 0, pair_status(v, tri, a, b, on_line_tolerance(v)))
     return out
+
+
+# -- cost-to-go -------------------------------------------------------------------------------
+
+
+def on_passable_brute(tin, xy, passable, tol: float | None = None) -> np.ndarray:
+    """``(n,)`` bool: whether each point lies on the closed union of the passable triangles
+    (every triangle tested, a point on an edge counts for both sides)."""
+    pts = np.atleast_2d(np.asarray(xy, dtype=np.float64))
+    if tol is None:
+        tol = tin._tol[0]
+    out = np.zeros(len(pts), dtype=bool)
+    for s in range(0, len(pts), 256):
+        o1, o2, o3 = _bary(tin, pts[s:s + 256])
+        inside = (o1 >= -tol) & (o2 >= -tol) & (o3 >= -tol) & passable[None, :]
+        out[s:s + 256] = inside.any(axis=1)
+    return out
+
+
+def cost_to_go_graph_brute(ctg) -> np.ndarray:
+    """The plain Steiner-graph distances of a :class:`~.cost_to_go.CostToGo` (its nodes,
+    ``any_angle=False``), from an explicit edge list (every node pair on every passable
+    triangle, the goal as an extra node) and ``scipy.sparse.csgraph.dijkstra``. ``(N,)`` m."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    xy = ctg.node_xy
+    N = len(xy)
+    tn = ctg._tri_nodes[ctg.passable]  # (Tp, S)
+    S = tn.shape[1]
+    i, j = np.triu_indices(S, 1)
+    a, b = tn[:, i].ravel(), tn[:, j].ravel()
+    g = np.flatnonzero(ctg.goal_triangles)
+    ga = np.unique(ctg._tri_nodes[g].ravel()) if len(g) else np.zeros(0, dtype=np.int64)
+    a = np.r_[a, ga]
+    b = np.r_[b, np.full(len(ga), N)]
+    pairs = np.unique(np.column_stack([np.minimum(a, b), np.maximum(a, b)]), axis=0)  # coo sums duplicates
+    a, b = pairs[:, 0], pairs[:, 1]
+    pts = np.vstack([xy, ctg.goal_xy[None]])
+    w = np.hypot(*(pts[a] - pts[b]).T) + 1e-300  # csgraph drops explicit zeros
+    m = coo_matrix((w, (a, b)), shape=(N + 1, N + 1)).tocsr()
+    return dijkstra(m, directed=False, indices=N)[:N]
+
+
+_GRID_MOVES = np.array([(a, b) for a in range(-3, 4) for b in range(-3, 4)
+                        if (a, b) != (0, 0) and np.gcd(a, b) == 1])  # 32 moves, 16 directions per half-turn
+
+
+def cost_to_go_grid(tin, goal_xy, passable, cell_m: float):
+    """Dijkstra on a dense grid sampling of the TIN: cells whose centre lies on passable
+    ground, 32 moves ``(a, b)`` with ``|a|, |b| <= 3`` coprime (worst direction error
+    ``1/cos(9.2 deg) - 1 = 1.3 %``), a move allowed when its end cells and 4 samples per cell
+    along it lie on passable ground. ``goal_xy`` should be a cell centre.
+
+    Returns ``(xs (nx,), ys (ny,), dist (ny, nx))`` m, ``inf`` off passable ground/unreached.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    xmin, ymin, xmax, ymax = tin.bounds
+    xs = np.arange(xmin + cell_m / 2, xmax, cell_m)
+    ys = np.arange(ymin + cell_m / 2, ymax, cell_m)
+    X, Y = np.meshgrid(xs, ys)
+    ok = on_passable_brute(tin, np.column_stack([X.ravel(), Y.ravel()]), passable).reshape(X.shape)
+    ny, nx = ok.shape
+    idx = np.arange(nx * ny).reshape(ny, nx)
+    rows, cols, ws = [], [], []
+    for a, b in _GRID_MOVES:
+        r0, r1 = max(0, -b), min(ny, ny - b)
+        c0, c1 = max(0, -a), min(nx, nx - a)
+        good = ok[r0:r1, c0:c1] & ok[r0 + b:r1 + b, c0 + a:c1 + a]
+        n_s = 4 * max(abs(a), abs(b))
+        for k in range(1, n_s):
+            f = k / n_s
+            pts = np.column_stack([(X[r0:r1, c0:c1] + f * a * cell_m)[good], (Y[r0:r1, c0:c1] + f * b * cell_m)[good]])
+            sub = np.zeros_like(good)
+            sub[good] = on_passable_brute(tin, pts, passable)
+            good &= sub
+        rows.append(idx[r0:r1, c0:c1][good])
+        cols.append(idx[r0 + b:r1 + b, c0 + a:c1 + a][good])
+        ws.append(np.full(int(good.sum()), cell_m * np.hypot(a, b)))
+    m = coo_matrix((np.concatenate(ws), (np.concatenate(rows), np.concatenate(cols))), shape=(nx * ny, nx * ny))
+    gi = int(np.argmin(np.abs(ys - goal_xy[1]))) * nx + int(np.argmin(np.abs(xs - goal_xy[0])))
+    dist = dijkstra(m.tocsr(), directed=True, indices=gi).reshape(ny, nx)
+    return xs, ys, np.where(ok, dist, np.inf)

@@ -1,0 +1,321 @@
+"""Cost-to-go (terrain/cost_to_go.py): exact answers on hand-built TINs, properties on random
+TINs, the compiled kernels against their plain references and a dense-grid Dijkstra."""
+
+import math
+
+import numpy as np
+import pytest
+from conftest import random_tin
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+import tin_swarm_env as tse
+from tin_swarm_env.terrain import Tin, cost_to_go, reference
+from tin_swarm_env.terrain import _ctg_kernels as K
+
+
+def grid_tin(nx=10, ny=10, step=10.0):
+    """A flat TIN over an (nx x ny)-square grid, two triangles per square; returns the TIN and
+    each triangle's square (col, row)."""
+    xs, ys = np.meshgrid(np.arange(nx + 1) * step, np.arange(ny + 1) * step)
+    v = np.column_stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)])
+    idx = np.arange((nx + 1) * (ny + 1)).reshape(ny + 1, nx + 1)
+    tris, cells = [], []
+    for r in range(ny):
+        for c in range(nx):
+            a, b, d, e = idx[r, c], idx[r, c + 1], idx[r + 1, c + 1], idx[r + 1, c]
+            tris += [[a, b, d], [a, d, e]]
+            cells += [(c, r), (c, r)]
+    tin = Tin(v, tris)
+    return tin, np.array(cells)
+
+
+def disc_obstacles(tin, rng, n_discs):
+    """Impassable: triangles touching one of ``n_discs`` random discs (radius 60-180 m)."""
+    c = rng.uniform(150, 850, (n_discs, 2))
+    r = rng.uniform(60, 180, n_discs)
+    pts = tin.vertices[tin.triangles, :2]  # (T, 3, 2)
+    cen = pts.mean(axis=1, keepdims=True)
+    probe = np.concatenate([pts, cen], axis=1)  # (T, 4, 2)
+    d = np.linalg.norm(probe[:, :, None, :] - c[None, None], axis=-1)  # (T, 4, n)
+    return ~(d < r).any(axis=(1, 2))
+
+
+def has_pinch(tin, passable):
+    """Whether passable ground is pinched at a vertex (two passable fans touching only there)."""
+    for v in range(tin.n_vertices):
+        fan = np.flatnonzero((tin.triangles == v).any(axis=1) & passable)
+        if len(fan) < 2:
+            continue
+        comp = {int(t): int(t) for t in fan}
+
+        def root(x):
+            while comp[x] != x:
+                x = comp[x]
+            return x
+        for t in fan:
+            for k in range(3):
+                nb = int(tin.neighbors[t, k])
+                if nb in comp and tin.triangles[t, k] != v:  # the edge opposite k holds v
+                    comp[root(int(t))] = root(nb)
+        if len({root(int(t)) for t in fan}) > 1:
+            return True
+    return False
+
+
+# -- exact answers ------------------------------------------------------------------------
+
+
+def test_wall_with_one_gap_goes_round_the_gap_end():
+    tin, cells = grid_tin(10, 10, 10.0)
+    wall = (cells[:, 1] == 4) & (cells[:, 0] < 7)  # y in [40, 50], x in [0, 70]; gap x in [70, 100]
+    ctg = cost_to_go(tin, [20.0, 80.0], passable=~wall)
+    p = np.array([[20.0, 10.0]])
+    exact = math.hypot(50, 30) + 10.0 + math.hypot(50, 30)  # to (70, 40), along the wall end, to the goal
+    assert ctg.distance_at(p)[0] == pytest.approx(exact, rel=1e-9)
+    # the first leg heads for the wall end
+    np.testing.assert_allclose(ctg.direction_at(p)[0], np.array([50.0, 30.0]) / math.hypot(50, 30), atol=1e-9)
+    # in the gap, and straight above the wall: straight-line distance
+    q = np.array([[85.0, 45.0], [60.0, 60.0]])
+    np.testing.assert_allclose(ctg.distance_at(q), np.hypot(*(q - [20.0, 80.0]).T), rtol=1e-12)
+    # on the wall: inf, direction zero
+    assert ctg.distance_at([[30.0, 45.0]])[0] == np.inf
+    assert np.all(ctg.direction_at([[30.0, 45.0]]) == 0)
+    # the wall face itself (edge between wall and passable ground) is drivable
+    assert ctg.distance_at([[30.0, 40.0]])[0] == pytest.approx(40.0 + 10.0 + math.hypot(50, 30), rel=1e-9)
+
+
+def test_enclosed_mesa_is_unreachable():
+    tin, cells = grid_tin(10, 10, 10.0)
+    ring = (np.isin(cells[:, 0], [3, 6]) & (cells[:, 1] >= 3) & (cells[:, 1] <= 6)) | (
+        np.isin(cells[:, 1], [3, 6]) & (cells[:, 0] >= 3) & (cells[:, 0] <= 6))
+    ctg = cost_to_go(tin, [50.0, 50.0], passable=~ring)
+    assert ctg.reachable
+    out = np.array([[5.0, 5.0], [95.0, 50.0], [50.0, 99.0]])
+    assert np.all(ctg.distance_at(out) == np.inf)
+    assert np.all(ctg.direction_at(out) == 0)
+    inside = np.array([[45.0, 45.0], [55.0, 42.0]])
+    np.testing.assert_allclose(ctg.distance_at(inside), np.hypot(*(inside - 50.0).T), rtol=1e-12)
+    # the reverse: goal outside, robot on the mesa
+    ctg2 = cost_to_go(tin, [5.0, 5.0], passable=~ring)
+    assert ctg2.distance_at([[50.0, 50.0]])[0] == np.inf
+    assert not ctg2.triangle_reachable()[tin.locate([[50.0, 50.0]])[0]]
+
+
+def test_goal_on_impassable_ground_is_unreachable_everywhere():
+    tin, cells = grid_tin(4, 4, 10.0)
+    ctg = cost_to_go(tin, [15.0, 15.0], passable=~((cells[:, 0] == 1) & (cells[:, 1] == 1)))
+    assert not ctg.reachable
+    assert np.all(ctg.distance_at([[1.0, 1.0], [35.0, 35.0]]) == np.inf)
+
+
+@given(st.integers(0, 10_000))
+def test_goal_and_point_on_one_triangle_is_the_straight_line(seed):
+    tin = random_tin(seed, 30)
+    rng = np.random.default_rng(seed)
+    passable = rng.random(tin.n_triangles) < 0.6
+    t = int(rng.choice(np.flatnonzero(passable))) if passable.any() else 0
+    passable[t] = True
+    w = rng.dirichlet(np.ones(3), 2)  # two points inside triangle t
+    pts = w @ tin.vertices[tin.triangles[t], :2]
+    ctg = cost_to_go(tin, pts[0], passable)
+    d = ctg.distance_at(pts[1:], tri_idx=[t])[0]
+    assert d == pytest.approx(np.hypot(*(pts[1] - pts[0])), rel=1e-12, abs=1e-12)
+
+
+@given(st.integers(0, 10_000), st.integers(3, 150))
+def test_flat_plane_is_the_straight_line_everywhere(seed, n):
+    tin = random_tin(seed, n, zscale=0.0)
+    rng = np.random.default_rng(seed)
+    g = rng.uniform(0, 1000, 2)
+    ctg = cost_to_go(tin, g)
+    q = rng.uniform(0, 1000, (500, 2))
+    np.testing.assert_allclose(ctg.distance_at(q), np.hypot(*(q - g).T), rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(ctg.node_distance, np.hypot(*(ctg.node_xy - g).T), rtol=1e-12, atol=1e-9)
+    dirs = ctg.direction_at(q)
+    far = np.hypot(*(q - g).T) > 1e-3
+    # (a leg through a node that lies on the straight line within rounding may aim at that node)
+    np.testing.assert_allclose(dirs[far], (g - q[far]) / np.hypot(*(g - q[far]).T)[:, None], atol=1e-4)
+
+
+def test_outside_points_and_bad_arguments():
+    tin, _ = grid_tin(3, 3, 10.0)
+    ctg = cost_to_go(tin, [15.0, 15.0])
+    assert np.all(ctg.distance_at([[-1.0, 5.0], [5.0, 31.0]]) == np.inf)
+    assert np.all(ctg.direction_at([[15.0, 15.0]]) == 0)  # at the goal
+    with pytest.raises(ValueError, match="goal_xy.*outside"):
+        cost_to_go(tin, [50.0, 5.0])
+    with pytest.raises(ValueError, match="goal_xy"):
+        cost_to_go(tin, [np.nan, 5.0])
+    with pytest.raises(ValueError, match="passable must have shape"):
+        cost_to_go(tin, [5.0, 5.0], passable=np.ones(3, dtype=bool))
+    with pytest.raises(ValueError, match="bool"):
+        cost_to_go(tin, [5.0, 5.0], passable=np.ones(tin.n_triangles))
+    with pytest.raises(ValueError, match="tri_idx"):
+        ctg.distance_at([[1.0, 1.0]], tri_idx=[tin.n_triangles])
+
+
+# -- properties on random TINs with obstacles ---------------------------------------------
+
+
+def obstacle_case(seed, n=40, n_discs=3):
+    tin = random_tin(seed, n)
+    rng = np.random.default_rng(seed)
+    passable = disc_obstacles(tin, rng, n_discs)
+    ok = np.flatnonzero(passable)
+    t = int(rng.choice(ok)) if len(ok) else 0
+    goal = rng.dirichlet(np.ones(3)) @ tin.vertices[tin.triangles[t], :2]
+    return tin, passable, goal, rng
+
+
+@given(st.integers(0, 10_000))
+def test_never_below_straight_line_and_triangle_inequality(seed):
+    tin, passable, goal, rng = obstacle_case(seed)
+    ctg = cost_to_go(tin, goal, passable)
+    q = rng.uniform(0, 1000, (400, 2))
+    d = ctg.distance_at(q)
+    assert np.all(d >= np.hypot(*(q - goal).T) * (1 - 1e-12))
+    # q2 on the same passable triangle as q: d(q) <= |q - q2| + d(q2), exact for the plain
+    # candidates; a shortcut drivable from q2 but not from q may break it by the method's error
+    t = tin.locate(q)
+    on = (t >= 0) & passable[np.maximum(t, 0)]
+    w = rng.dirichlet(np.ones(3), int(on.sum()))
+    q2 = np.einsum("nk,nkd->nd", w, tin.vertices[tin.triangles[t[on]], :2])
+    d2 = ctg.distance_at(q2, tri_idx=t[on])
+    assert np.all(d[on] <= (np.hypot(*(q[on] - q2).T) + d2) * 1.03 + 1e-9)
+    assert np.array_equal(np.isfinite(d[on]), np.isfinite(d2))
+
+
+@given(st.integers(0, 10_000))
+def test_every_path_link_is_drivable_and_sums_up(seed):
+    """Any-angle values are lengths of real paths: each node's parent link is a segment on
+    passable ground (checked by dense sampling against every triangle) and its length adds up."""
+    tin, passable, goal, _ = obstacle_case(seed, n=25)
+    ctg = cost_to_go(tin, goal, passable, steiner_per_edge=1)
+    D, par, xy = ctg.node_distance, ctg._parent, ctg.node_xy
+    r = np.flatnonzero(np.isfinite(D))
+    end = np.where(par[r, None] == K.GOAL, goal[None], xy[np.maximum(par[r], 0)])
+    dend = np.where(par[r] == K.GOAL, 0.0, D[np.maximum(par[r], 0)])
+    np.testing.assert_allclose(D[r], dend + np.hypot(*(xy[r] - end).T), rtol=1e-12, atol=1e-9)
+    s = np.linspace(0, 1, 41)[None, :, None]
+    pts = xy[r, None] + s * (end - xy[r])[:, None]
+    assert reference.on_passable_brute(tin, pts.reshape(-1, 2), passable, tol=1e-6).all()
+
+
+@settings(max_examples=8)
+@given(st.integers(0, 10_000))
+def test_agrees_with_a_dense_grid_dijkstra(seed):
+    """Tolerance: the grid's 32 move directions overestimate a straight leg by <= 1.3 %, and a
+    grid path keeps cell centres on passable ground, so it bends up to about one cell wide of
+    each obstacle corner (absolute slack 3 cells); ours overestimates by Theta*'s rare detours.
+    Compared at cells 2 cells clear of impassable ground, where both are finite; the passable
+    region must not be pinched at a vertex (a path the grid cannot follow)."""
+    tin, passable, goal, rng = obstacle_case(seed, n=40, n_discs=3)
+    assume(not has_pinch(tin, passable))
+    cell = 10.0
+    xs, ys, dg = reference.cost_to_go_grid(tin, goal, passable, cell)
+    goal = np.array([xs[np.argmin(np.abs(xs - goal[0]))], ys[np.argmin(np.abs(ys - goal[1]))]])
+    assume(reference.on_passable_brute(tin, goal[None], passable)[0])
+    ctg = cost_to_go(tin, goal, passable)
+    X, Y = np.meshgrid(xs, ys)
+    d = ctg.distance_at(np.column_stack([X.ravel(), Y.ravel()])).reshape(X.shape)
+    ok = np.isfinite(dg)
+    clear = ok.copy()
+    for a in range(-2, 3):
+        for b in range(-2, 3):
+            clear[2:-2, 2:-2] &= ok[2 + b:ok.shape[0] - 2 + b, 2 + a:ok.shape[1] - 2 + a]
+    clear[:2] = clear[-2:] = False
+    clear[:, :2] = clear[:, -2:] = False
+    both = clear & np.isfinite(d)
+    assume(both.sum() > 50)
+    assert np.all(d[both] <= dg[both] * 1.03 + 3 * cell)
+    assert np.all(d[both] >= dg[both] / 1.03 - 3 * cell)
+    far = both & (dg > 300)
+    if far.any():
+        assert np.all(np.abs(d[far] / dg[far] - 1) <= 0.03 + 3 * cell / dg[far])
+
+
+@given(st.integers(0, 10_000))
+def test_a_step_along_direction_lowers_distance_by_the_step(seed):
+    tin, passable, goal, rng = obstacle_case(seed)
+    ctg = cost_to_go(tin, goal, passable)
+    q = rng.uniform(0, 1000, (400, 2))
+    d, u = ctg.query(q)
+    fin = np.isfinite(d) & (np.abs(u).sum(axis=1) > 0)
+    assume(fin.sum() > 10)
+    np.testing.assert_allclose(np.hypot(*u[fin].T), 1.0, rtol=1e-12)
+    h = 1e-3
+    q2 = q[fin] + h * u[fin]
+    same = tin.locate(q2) == tin.locate(q[fin])
+    d2 = ctg.distance_at(q2)
+    assert np.all(d2[same] <= d[fin][same] - h + 1e-8)  # the same first leg is still drivable
+    assert np.mean(np.abs(d2[same] - (d[fin][same] - h)) < 1e-8) > 0.9
+    assert np.mean(same) > 0.9
+
+
+# -- compiled kernels against their plain references --------------------------------------
+
+
+@given(st.integers(0, 10_000))
+def test_plain_graph_matches_scipy_dijkstra(seed):
+    tin, passable, goal, _ = obstacle_case(seed, n=25)
+    ctg = cost_to_go(tin, goal, passable, steiner_per_edge=2, any_angle=False)
+    ref = reference.cost_to_go_graph_brute(ctg)
+    np.testing.assert_allclose(ctg.node_distance, ref, rtol=1e-12, atol=1e-9)
+
+
+@settings(max_examples=10)
+@given(st.integers(0, 10_000), st.booleans())
+def test_compiled_kernels_match_py_func(seed, any_angle):
+    tin, passable, goal, rng = obstacle_case(seed, n=20)
+    ctg = cost_to_go(tin, goal, passable, steiner_per_edge=1, any_angle=any_angle)
+    seeds = np.unique(ctg._tri_nodes[ctg.goal_triangles].ravel())
+    sd = np.hypot(*(ctg.node_xy[seeds] - goal).T)
+    args = (ctg._nx, ctg._ny, tin._vx, tin._vy, tin.triangles, tin.neighbors, ctg.passable, ctg._tri_nodes,
+            ctg._start, ctg._node_tris, seeds, sd, goal[0], goal[1], any_angle, tin._tol[0])
+    for a, b in zip(K.dijkstra(*args), K.dijkstra.py_func(*args)):
+        np.testing.assert_array_equal(a, b)
+    q = rng.uniform(-10, 1010, (200, 2))
+    t = tin.locate(q)
+    qargs = (ctg._nx, ctg._ny, ctg.node_distance, ctg._parent, ctg._tri_nodes, ctg.passable, ctg.goal_triangles,
+             goal[0], goal[1], tin._vx, tin._vy, tin.triangles, tin.neighbors, q[:, 0].copy(), q[:, 1].copy(), t,
+             tin._tol[0], 1e-6, any_angle)
+    for a, b in zip(K.query(*qargs), K.query.py_func(*qargs)):
+        np.testing.assert_array_equal(a, b)
+    # the query against a brute-force search of the triangle's candidates: the answer is the
+    # plain minimum or a cheaper shortcut to a parent whose segment is drivable (dense samples)
+    d = ctg.distance_at(q)
+    tb = reference.locate_brute(tin, q)
+    s = np.linspace(0, 1, 41)[:, None]
+    for i in np.flatnonzero((tb >= 0)):
+        if not passable[tb[i]]:
+            continue
+        nodes = ctg._tri_nodes[tb[i]]
+        direct = np.hypot(*(goal - q[i])) if ctg.goal_triangles[tb[i]] else np.inf
+        plain = min(np.min(np.hypot(*(ctg.node_xy[nodes] - q[i]).T) + ctg.node_distance[nodes]), direct)
+        if not any_angle or plain == np.inf:
+            assert d[i] == pytest.approx(plain, rel=1e-12, abs=1e-9)
+            continue
+        assert d[i] <= plain * (1 + 1e-12)
+        if d[i] < plain * (1 - 1e-12):
+            src = ctg._parent[nodes]
+            pts = np.where((src == K.GOAL)[:, None], goal[None], ctg.node_xy[np.maximum(src, 0)])
+            ds = np.where(src == K.GOAL, 0.0, ctg.node_distance[np.maximum(src, 0)])
+            c = np.hypot(*(pts - q[i]).T) + ds
+            k = int(np.argmin(np.abs(c - d[i])))
+            assert c[k] == pytest.approx(d[i], rel=1e-12)
+            seg = q[i] + s * (pts[k] - q[i])
+            assert reference.on_passable_brute(tin, seg, passable, tol=1e-6).all()
+
+
+def test_jacksboro_field_is_finite_on_most_passable_ground(jacksboro):
+    tin = tse.terrain.build_tin(jacksboro, method="greedy", max_vertices=2000)
+    passable = tin.slope_deg <= 30
+    g = tin.vertices[np.argmin(np.abs(tin.vertices[:, :2] - tin.vertices[:, :2].mean(0)).sum(1)), :2]
+    ctg = tse.terrain.cost_to_go(tin, g, passable=passable)
+    reach = ctg.triangle_reachable()
+    assert reach.sum() > 0.9 * passable.sum()
+    c = tin.vertices[tin.triangles, :2].mean(axis=1)
+    d = ctg.distance_at(c)
+    assert np.array_equal(np.isfinite(d), reach)
+    assert np.all(d[reach] >= np.hypot(*(c[reach] - g).T) * (1 - 1e-12))

@@ -1,0 +1,215 @@
+"""Cost-to-go: the length of the shortest drivable path to a goal, over a TIN.
+
+>>> ctg = cost_to_go(tin, goal_xy, passable=tin.slope_deg <= 30)      # doctest: +SKIP
+>>> ctg.distance_at(xy)        # (n,) m, inf where the goal cannot be reached
+>>> ctg.direction_at(xy)       # (n, 2) unit vector of the first leg (zeros where inf / at goal)
+
+Definition. Passable ground is the *closed* union of the triangles with ``passable[t]``: a
+path may run along an edge (or through a vertex) that a passable triangle shares with an
+impassable one. ``distance_at(p)`` is the length of the shortest path from ``p`` to the goal
+that stays on passable ground, ``inf`` where there is none, outside the TIN and on
+impassable triangles. Lengths are **planar** (x, y) metres: the reward and the robots' speed
+limits work in the plane, and a planar metric keeps the field a true distance (triangle
+inequality, at least the straight-line distance). A slope-aware 3D length is not offered.
+
+Method: any-angle Dijkstra (Theta*) over a Steiner graph (Lanthier, Maheshwari and Sack
+1997; Nash, Koenig and Tovey 2010). Nodes are the TIN vertices plus ``steiner_per_edge``
+points spaced evenly along every edge; two nodes are neighbours when they lie on the boundary
+of a common passable triangle (a triangle is convex, so the segment between them is on it).
+The goal is joined to the nodes of every passable triangle it lies on. Each node keeps a
+*parent*, the point its straight last leg starts from (the goal or another node); a node is
+offered the straight segment from its neighbour's parent, checked by a triangle walk when
+it is popped, and falls back to its best settled neighbour when that segment crosses
+impassable ground (:func:`._ctg_kernels.dijkstra`). A query point ``p`` in triangle ``t`` takes
+the cheapest of ``|p - node_j| + D[node_j]`` over ``t``'s boundary nodes, ``|p - goal|`` when the
+goal is on ``t``, and ``|p - parent_j| + D[parent_j]`` where the segment ``p -> parent_j`` is
+drivable (walked). Every value is the length of a real drivable path, so never below the
+true distance. Why this and not the alternatives:
+
+* triangle-centroid hops measure a path around a cliff end 5-20 % long and cannot run
+  along a cliff edge; here every vertex of the passable boundary is a node, so a path bends
+  at a cliff end where the true shortest path does (shortest paths in a polygonal domain bend
+  only at its reflex vertices): the wall-with-a-gap test is exact to 1e-9;
+* the plain Steiner graph (``any_angle=False``, 5x faster to build) must kink at every edge a
+  straight leg crosses: on flat random Delaunay TINs it measures 2-8 % too long (p50-p90,
+  3 points per edge), while the any-angle field is exact there (error 1e-14, bench);
+* fast marching on a triangulation needs non-obtuse triangles (greedy and VIP TINs are full of
+  obtuse ones); an exact visibility graph costs O(n^2) visibility tests per goal.
+
+Measured (``bench/cost_to_go.py``, jacksboro greedy, one core shared): build 78 ms / 0.66 s /
+9 s at 5k / 20k / 80k triangles (the target 50 ms at 20k is NOT met: the triangle walks that
+check the straight segments dominate; ``steiner_per_edge=1`` builds 20k in ~0.18 s), queries
+1.4e5-3.6e5 points/s (the target 1e6 is NOT met: one walk per query for the shortcut;
+``any_angle=False`` queries run at ~1e7/s). Agreement with a dense-grid Dijkstra within 3 % in
+the tests.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _ctg_kernels as K
+from .tin import Tin, _as_xy
+
+__all__ = ["CostToGo", "cost_to_go", "DEFAULT_STEINER_PER_EDGE"]
+
+DEFAULT_STEINER_PER_EDGE = 3
+
+
+class CostToGo:
+    """The shortest-drivable-path field of one goal over one TIN (build with :func:`cost_to_go`).
+
+    Attributes
+    ----------
+    tin : Tin
+    goal_xy : (2,) float64 m
+    passable : (T,) bool, read-only
+    steiner_per_edge : int
+    node_xy : (N, 2) float64 m        graph nodes: the V vertices first, then the Steiner points
+    node_distance : (N,) float64 m    shortest drivable path from each node to the goal (inf: none)
+    goal_triangles : (T,) bool        passable triangles the goal lies on (none: nothing reachable)
+    """
+
+    def __init__(self, tin: Tin, goal_xy, passable, steiner_per_edge: int = DEFAULT_STEINER_PER_EDGE,
+                 any_angle: bool = True):
+        if not isinstance(tin, Tin):
+            raise TypeError(f"cost_to_go needs a Tin, got {type(tin).__name__}")
+        self.tin = tin
+        self.goal_xy = _goal(goal_xy)
+        self.passable = _passable(passable, tin.n_triangles)
+        m = int(steiner_per_edge)
+        if m != steiner_per_edge or m < 0:
+            raise ValueError(f"steiner_per_edge must be a non-negative integer, got {steiner_per_edge!r}")
+        self.steiner_per_edge = m
+        self.any_angle = bool(any_angle)
+        te, n_edges = K.triangle_edges(tin.triangles, tin.neighbors)
+        nx, ny, self._tri_nodes, start, node_tris = K.build_nodes(
+            tin._vx, tin._vy, tin.triangles, te, n_edges, m, self.passable)
+        self._nx, self._ny = nx, ny
+        self.goal_triangles = self._goal_triangles()
+        seeds = np.unique(self._tri_nodes[self.goal_triangles].ravel())
+        seed_dist = np.hypot(nx[seeds] - self.goal_xy[0], ny[seeds] - self.goal_xy[1])
+        self._start, self._node_tris = start, node_tris
+        self.node_distance, self._parent = K.dijkstra(
+            nx, ny, tin._vx, tin._vy, tin.triangles, tin.neighbors, self.passable, self._tri_nodes, start,
+            node_tris, seeds, seed_dist, self.goal_xy[0], self.goal_xy[1], self.any_angle, tin._tol[0])
+        self.node_distance.setflags(write=False)
+        self.goal_triangles.setflags(write=False)
+
+    def _goal_triangles(self) -> np.ndarray:
+        """Passable triangles holding the goal: the one located and, when the goal lies on an
+        edge or a vertex, every triangle around that vertex/edge that holds it too."""
+        tin, g = self.tin, self.goal_xy
+        t0 = int(tin.locate(g[None])[0])
+        if t0 < 0:
+            raise ValueError(f"goal_xy {g.tolist()} lies outside the TIN (bounds {tin.bounds})")
+        near = np.isin(tin.triangles, tin.triangles[t0]).any(axis=1)  # triangles sharing a vertex
+        cand = np.flatnonzero(near & self.passable)
+        v = tin.vertices[tin.triangles[cand], :2]  # (c, 3, 2) CCW
+        tol = tin._tol[0]
+        inside = np.ones(len(cand), dtype=bool)
+        for k in range(3):
+            a, b = v[:, k], v[:, (k + 1) % 3]
+            inside &= (b[:, 0] - a[:, 0]) * (g[1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (g[0] - a[:, 0]) >= -tol
+        out = np.zeros(tin.n_triangles, dtype=bool)
+        out[cand[inside]] = True
+        return out
+
+    # -- derived ---------------------------------------------------------------------------
+    @property
+    def node_xy(self) -> np.ndarray:
+        return np.column_stack([self._nx, self._ny])
+
+    @property
+    def vertex_distance(self) -> np.ndarray:
+        """``(V,)`` m: the field at the TIN's vertices (a view of :attr:`node_distance`)."""
+        return self.node_distance[: self.tin.n_vertices]
+
+    @property
+    def reachable(self) -> bool:
+        """Whether the goal lies on passable ground (else every distance is ``inf``)."""
+        return bool(self.goal_triangles.any())
+
+    def triangle_reachable(self) -> np.ndarray:
+        """``(T,)`` bool: passable triangles from which the goal can be reached (all of a
+        triangle's points, or none, can)."""
+        d = self.node_distance[self._tri_nodes[:, :3]]
+        return self.passable & np.isfinite(d).any(axis=1)
+
+    # -- queries ---------------------------------------------------------------------------
+    def distance_at(self, xy, tri_idx=None) -> np.ndarray:
+        """``(n,)`` m: length of the shortest drivable path from each point to the goal.
+
+        ``xy`` ``(n, 2)`` m. ``tri_idx`` ``(n,)``: the triangles holding the points when the caller
+        knows them (-1 outside); skips point location. ``inf`` where no path exists, outside the
+        TIN and on impassable triangles."""
+        return self.query(xy, tri_idx)[0]
+
+    def direction_at(self, xy, tri_idx=None) -> np.ndarray:
+        """``(n, 2)``: unit vector along the first leg of that path (toward the graph node or
+        the goal the path leaves by); zeros where the distance is ``inf`` and at the goal.
+        Moving a small step ``h`` along it lowers :meth:`distance_at` by ``h``."""
+        return self.query(xy, tri_idx)[1]
+
+    def query(self, xy, tri_idx=None) -> tuple[np.ndarray, np.ndarray]:
+        """Both at once: ``(distance (n,) m, direction (n, 2))``."""
+        pts = _as_xy(xy, "xy")
+        px = np.ascontiguousarray(pts[:, 0])
+        py = np.ascontiguousarray(pts[:, 1])
+        tin = self.tin
+        if tri_idx is None:
+            t = tin._bucket_locate(px, py)
+        else:
+            t = np.asarray(tri_idx, dtype=np.int64).reshape(-1)
+            if t.shape[0] != px.shape[0]:
+                raise ValueError(f"tri_idx has {t.shape[0]} entries for {px.shape[0]} points")
+            if t.size and (t.min() < -1 or t.max() >= tin.n_triangles):
+                raise ValueError(f"tri_idx must lie in -1..{tin.n_triangles - 1}")
+        return K.query(self._nx, self._ny, self.node_distance, self._parent, self._tri_nodes,
+                       self.passable, self.goal_triangles, self.goal_xy[0], self.goal_xy[1],
+                       tin._vx, tin._vy, tin.triangles, tin.neighbors, px, py, t,
+                       tin._tol[0], self._eps_m, self.any_angle)
+
+    @property
+    def _eps_m(self) -> float:
+        xmin, ymin, xmax, ymax = self.tin.bounds
+        return 1e-9 * max(xmax - xmin, ymax - ymin, 1.0)
+
+    def __repr__(self) -> str:
+        return (f"CostToGo(goal={self.goal_xy.tolist()}, {int(self.passable.sum())}/{len(self.passable)} "
+                f"passable triangles, {len(self._nx)} nodes)")
+
+
+def cost_to_go(tin: Tin, goal_xy, passable=None, *, steiner_per_edge: int = DEFAULT_STEINER_PER_EDGE,
+               any_angle: bool = True) -> CostToGo:
+    """Shortest drivable path field to ``goal_xy`` (2,) m over ``tin``.
+
+    ``passable`` ``(T,)`` bool marks the triangles a robot may drive on (e.g.
+    ``tin.slope_deg <= max_slope_deg``); ``None`` means all. ``steiner_per_edge`` points per edge
+    trade build time for accuracy (see the module docstring). Raises ValueError when the goal
+    lies outside the TIN or ``passable`` has the wrong shape. A goal on impassable ground gives
+    a field that is ``inf`` everywhere (check :attr:`CostToGo.reachable`).
+    """
+    if passable is None:
+        passable = np.ones(tin.n_triangles, dtype=bool)
+    return CostToGo(tin, goal_xy, passable, steiner_per_edge, any_angle)
+
+
+def _goal(goal_xy) -> np.ndarray:
+    g = np.asarray(goal_xy, dtype=np.float64).reshape(-1)
+    if g.shape != (2,) or not np.all(np.isfinite(g)):
+        raise ValueError(f"goal_xy must be 2 finite numbers (x, y) m, got {goal_xy!r}")
+    g = g.copy()
+    g.setflags(write=False)
+    return g
+
+
+def _passable(passable, n_triangles) -> np.ndarray:
+    p = np.asarray(passable)
+    if p.shape != (n_triangles,):
+        raise ValueError(f"passable must have shape ({n_triangles},) (one flag per triangle), got {p.shape}")
+    if p.dtype != np.bool_:
+        raise ValueError(f"passable must be a bool array, got dtype {p.dtype}")
+    p = np.ascontiguousarray(p).copy()
+    p.setflags(write=False)
+    return p
