@@ -39,34 +39,28 @@ class Args:
 
 
 def build_config(args: Args):
-    from ray.rllib.algorithms.ppo import PPOConfig
-    from ray.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
-    from ray.rllib.core.rl_module.rl_module import RLModuleSpec
-    from ray.tune.registry import register_env
+    from tin_swarm_env.adapters.rllib import ppo_config
 
-    from tin_swarm_env.adapters.rllib import ENV_NAME, rllib_env_creator
-
-    register_env(ENV_NAME, rllib_env_creator)
-    env_config = {"scenario": args.scenario, "n_robots": args.n_robots}
+    env_kwargs = {"n_robots": args.n_robots}
     if args.max_cycles:
-        env_config["max_cycles"] = args.max_cycles
-    return (PPOConfig()
-            .environment(ENV_NAME, env_config=env_config)
-            .multi_agent(policies={"shared"}, policy_mapping_fn=lambda agent_id, *a, **k: "shared")
-            .rl_module(rl_module_spec=MultiRLModuleSpec(rl_module_specs={"shared": RLModuleSpec()}))
-            .env_runners(num_env_runners=args.env_runners)
-            .learners(num_learners=0)
+        env_kwargs["max_cycles"] = args.max_cycles
+    return (ppo_config(args.scenario, env_runners=args.env_runners, seed=args.seed, **env_kwargs)
             .training(train_batch_size_per_learner=args.train_batch_size, minibatch_size=args.minibatch_size,
-                      num_epochs=args.num_epochs, lr=args.lr, gamma=args.gamma)
-            .debugging(seed=args.seed))
+                      num_epochs=args.num_epochs, lr=args.lr, gamma=args.gamma))
 
 
 def main(args: Args):
     import ray
 
+    from tin_swarm_env.adapters.rllib import NODE_METRIC
+
     address = os.environ.get("RAY_ADDRESS")
     if address:
         ray.init(address=address)  # an existing cluster
+        for node in ray.nodes():
+            if node["Alive"]:
+                print(f"Ray node {node['NodeID'][:12]} at {node['NodeManagerAddress']}: "
+                      f"{node['Resources'].get('CPU', 0):g} CPU", flush=True)
     else:
         ray.init(num_cpus=args.num_cpus or None, include_dashboard=False, log_to_driver=False)
     algo = build_config(args).build_algo()
@@ -83,6 +77,9 @@ def main(args: Args):
         rows.append(row)
         print(f"iteration {it}: env steps {row['env_steps']}, episode return (all robots) "
               f"{row['episode_return_mean']:.1f}, {row['seconds']:.0f} s", flush=True)
+        by_node = er.get(NODE_METRIC, {})
+        print(f"iteration {it}: env steps by Ray node: "
+              + ", ".join(f"{node[:12]} {int(steps)}" for node, steps in sorted(by_node.items())), flush=True)
     ckpt = algo.save(str(out.resolve() / "checkpoint"))
     with open(out / "progress.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))

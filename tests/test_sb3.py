@@ -64,21 +64,99 @@ def test_fall_is_done_without_time_limit_and_dead_robots_are_frozen():
         assert np.any(obs[1] != 0)
 
 
-def test_frozen_robots_end_once_more_when_their_copy_resets():
+def test_frozen_slot_continues_into_the_next_episode_without_a_second_done():
     v = vec(scenario="ramp", n_robots=2, n_envs=1, max_cycles=12)
     v.reset()
     v.envs[0].reset_arrays(seed=0, options={"robot_positions": [[217.0, 120.0], [30.0, 120.0]],
                                             "headings": [0.0, 0.0]})
     act = np.array([[1.0, 0.0], [0.0, 0.0]], np.float32)
-    ends = []
+    dones = []
     for t in range(12):
         obs, rew, done, info = v.step(act)
-        ends.append((t, done.copy(), info))
-    t_last, done, info = ends[-1]
-    assert done.all()  # the copy's episode ended (time limit)
-    assert info[0] == {"terminal_observation": info[0]["terminal_observation"], "TimeLimit.truncated": False}
-    assert np.all(info[0]["terminal_observation"] == 0)
-    assert info[1]["TimeLimit.truncated"] is True
+        dones.append(done.copy())
+    assert sum(d[0] for d in dones) == 1  # robot 0 fell: its one done, long before the copy ended
+    assert not dones[-1][0] and info[0] == {}  # the copy reset: no second done for the frozen slot
+    assert dones[-1][1] and info[1]["TimeLimit.truncated"] is True
+    assert v.envs[0].steps == 0 and np.any(obs[0] != 0)  # slot 0 continues with the new episode
+
+
+def toward_target(obs):  # (n, d) -> (n, 2): drive at the assigned target (cliff_goal: over the cliff)
+    return np.asarray(obs, np.float32)[..., 7:9].copy()
+
+
+class TowardTarget:
+    """A stand-in SB3 model for evaluate_policy."""
+
+    def predict(self, obs, state=None, episode_start=None, deterministic=True):
+        return toward_target(obs), None
+
+
+def reference_robot_episodes(n_robots, n_envs, seed, max_cycles, copy_episodes):
+    """From plain PettingZoo envs (no adapter): per slot c * n_robots + i, the list of
+    (return, live steps, global step at which the robot-episode ended) of robot i of copy c."""
+    out = [[] for _ in range(n_envs * n_robots)]
+    for c in range(n_envs):
+        env = tse.parallel_env(scenario="cliff_goal", n_robots=n_robots, max_cycles=max_cycles)
+        t = 0
+        for e in range(copy_episodes):
+            obs, _ = env.reset(seed=seed + c if e == 0 else None)
+            ret = dict.fromkeys(env.possible_agents, 0.0)
+            live = dict.fromkeys(env.possible_agents, 0)
+            end = {}
+            while env.agents:
+                obs, rew, term, trunc, _ = env.step({a: toward_target(obs[a]) for a in env.agents})
+                t += 1
+                for a in rew:
+                    ret[a] += float(np.float32(rew[a]))
+                    live[a] += 1
+                    if term[a] or trunc[a]:
+                        end[a] = t
+            for i, a in enumerate(env.possible_agents):
+                out[c * n_robots + i].append((ret[a], live[a], end[a]))
+    return out
+
+
+def test_vecmonitor_counts_one_episode_per_robot_episode_with_falls():
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    n_robots, n_envs, steps = 4, 2, 200
+    ref = reference_robot_episodes(n_robots, n_envs, seed=0, max_cycles=90, copy_episodes=4)
+    expected = [[e for e in slot if e[2] <= steps] for slot in ref]
+    falls = sum(length < 90 for slot in expected for _, length, _ in slot)
+    assert falls >= 4  # robots fell before their copy's episode ended: frozen stretches happened
+    m = VecMonitor(vec(n_robots=n_robots, n_envs=n_envs, max_cycles=90))
+    obs = m.reset()
+    seen = [[] for _ in range(m.num_envs)]
+    for _ in range(steps):
+        obs, rew, done, info = m.step(toward_target(obs))
+        for j in np.flatnonzero(done):
+            seen[j].append((info[j]["episode"]["r"], info[j]["episode"]["l"]))
+    assert m.episode_count == sum(len(s) for s in expected) == sum(len(s) for s in seen)
+    for j, (got, want) in enumerate(zip(seen, expected)):
+        # returns exact; VecMonitor's length runs from the slot's previous done, frozen stretch included
+        assert [r for r, _ in got] == pytest.approx([r for r, _, _ in want], rel=1e-5, abs=1e-4), j
+        assert [length for _, length in got] == np.diff([0] + [end for _, _, end in want]).tolist(), j
+
+
+@pytest.mark.parametrize("monitor", [False, True])
+def test_evaluate_policy_n_eval_episodes_counts_robot_episodes(monitor):
+    from stable_baselines3.common.evaluation import evaluate_policy
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    n_robots, n_envs = 4, 2
+    v = vec(n_robots=n_robots, n_envs=n_envs, max_cycles=90)
+    v = VecMonitor(v) if monitor else v
+    rets, lens = evaluate_policy(TowardTarget(), v, n_eval_episodes=2 * v.num_envs, return_episode_rewards=True,
+                                 warn=False)
+    ref = reference_robot_episodes(n_robots, n_envs, seed=0, max_cycles=90, copy_episodes=2)
+    # each slot's first two robot-episodes; lengths run from the slot's previous done (frozen stretch included)
+    want = sorted((r, int(length)) for slot in ref
+                  for r, length in zip([e[0] for e in slot], np.diff([0] + [e[2] for e in slot])))
+    got = sorted((float(r), int(n)) for r, n in zip(rets, lens))
+    assert len(got) == 16
+    assert [r for r, _ in got] == pytest.approx([r for r, _ in want], rel=1e-5, abs=1e-4)
+    assert [n for _, n in got] == [n for _, n in want]
+    assert sum(length < 90 for slot in ref for _, length, _ in slot) >= 2  # falls among them
 
 
 def rollout(v, steps, seed):

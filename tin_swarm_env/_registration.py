@@ -86,6 +86,8 @@ class _PostImportLoader(importlib.abc.Loader):
 
 
 def _register_pettingzoo(pettingzoo) -> None:
+    if not hasattr(pettingzoo, "register"):  # pettingzoo < 1.27 has no environment registry
+        return
     for kind, entry in (("parallel", "tin_swarm_env.tin_swarm_v0:parallel_env"),
                         ("aec", "tin_swarm_env.tin_swarm_v0:env")):
         registry = pettingzoo.parallel_registry if kind == "parallel" else pettingzoo.aec_registry

@@ -1,11 +1,11 @@
-"""Layer 2: training adapters (SB3 VecEnv, RLlib env, Gymnasium single-robot and centralised
-views). Heavy dependencies load lazily; a
-missing one raises an error naming the extra to install."""
+"""Layer 2: training adapters (SB3 VecEnv, RLlib env and PPO config, TorchRL env, BenchMARL task,
+Gymnasium single-robot and centralised views). Heavy dependencies load lazily; a missing one
+raises an error naming the extra to install."""
 
 from .sb3 import make_sb3_vec_env
 
-__all__ = ["make_sb3_vec_env", "TinSwarmVecEnv", "RLlibTinSwarmEnv", "rllib_env_creator",
-           "TinSwarmSingleEnv", "TinSwarmCentralEnv", "register_gymnasium"]
+__all__ = ["make_sb3_vec_env", "TinSwarmVecEnv", "RLlibTinSwarmEnv", "rllib_env_creator", "ppo_config",
+           "make_torchrl_env", "TinSwarmSingleEnv", "TinSwarmCentralEnv", "register_gymnasium"]
 
 
 def __getattr__(name):
@@ -13,10 +13,14 @@ def __getattr__(name):
         from .sb3 import _vec_class
 
         return _vec_class()
-    if name in ("RLlibTinSwarmEnv", "rllib_env_creator"):
+    if name in ("RLlibTinSwarmEnv", "rllib_env_creator", "ppo_config"):
         from . import rllib
 
         return getattr(rllib, name)
+    if name == "make_torchrl_env":
+        from .torchrl import make_torchrl_env
+
+        return make_torchrl_env
     if name in ("TinSwarmSingleEnv", "TinSwarmCentralEnv", "register_gymnasium"):
         from . import gym_views
 

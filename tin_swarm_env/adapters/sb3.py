@@ -9,12 +9,21 @@ Contract (what SB3 expects of a ``VecEnv``, and how robots map onto it):
   ``info["TimeLimit.truncated"] = False``) or when its copy reaches ``max_cycles``
   (``done`` with ``TimeLimit.truncated = True``); ``info["terminal_observation"]`` holds its last
   observation and ``info["episode"] = {"r", "l"}`` its return and length (SB3's ep_rew_mean).
-* Dead robots are frozen: from the step after their end until their copy's episode ends they
-  observe zeros and get reward 0 (their actions are ignored); when the copy resets they get
-  ``done`` once more (``TimeLimit.truncated = False``, a zero terminal observation, no
-  ``episode`` entry), so that a frozen stretch is an episode of its own that bootstraps from
-  nothing. (SuperSuit's black-death wrapper does the same, but ends episodes a step late and
-  never sets ``TimeLimit.truncated``.)
+* One robot-episode, one ``done``: a sub-environment reports ``done`` exactly once per
+  robot-episode, at the step the robot ends, so ``VecMonitor`` counts, and ``evaluate_policy``'s
+  ``n_eval_episodes`` means, robot-episodes (``n_eval_episodes = k * num_envs`` evaluates each
+  robot slot ``k`` times).
+* The frozen stretch: a robot that ended before its copy's episode is over is frozen from the
+  next step until its copy resets: it observes zeros, gets reward 0, its actions are ignored, and
+  it reports no ``done``. At the copy reset its slot simply continues with the new episode's
+  observation (no ``done``, empty info). For SB3 the frozen stretch is therefore a zero-reward
+  lead-in to the slot's *next* episode, not an episode of its own. What it costs: (a) the
+  frozen steps are in every rollout batch (they carry no policy-gradient signal in expectation,
+  as actions change nothing, but add variance, and the value net learns the all-zero
+  observation as "waiting for the next episode"); (b) lengths counted by the caller
+  (``VecMonitor``'s ``l``, ``evaluate_policy``'s episode lengths) include the frozen stretch
+  before that episode, while returns are exact (frozen rewards are 0). This adapter's own
+  ``info["episode"]["l"]`` counts live steps only (``VecMonitor`` overwrites it).
 * A copy resets automatically when none of its robots is live; the observations returned for
   its robots at that step are the new episode's.
 * Seeding: ``seed(s)`` (or the constructor's ``seed``) gives copy ``c`` the seed ``s + c`` at the
@@ -73,7 +82,6 @@ def _vec_class():
             self._obs = None
             self._ep_ret = np.zeros(self.num_envs)
             self._ep_len = np.zeros(self.num_envs, dtype=np.int64)
-            self._frozen = np.zeros(self.num_envs, dtype=bool)
 
         # -- VecEnv interface ----------------------------------------------------------------
         def seed(self, seed=None):
@@ -88,7 +96,6 @@ def _vec_class():
             self._seeds = [None] * self.n_copies
             self._ep_ret[:] = 0
             self._ep_len[:] = 0
-            self._frozen[:] = False
             self._obs = obs
             self.reset_infos = [{} for _ in range(self.num_envs)]
             return obs.copy()
@@ -116,22 +123,12 @@ def _vec_class():
                     infos[j] = {"terminal_observation": o[k].copy(), "TimeLimit.truncated": bool(trunc[k]),
                                 "episode": {"r": float(self._ep_ret[j]), "l": int(self._ep_len[j])},
                                 "reason": Reason(int(reasons[k])).label}
-                dones[idx] = True
+                dones[idx] = True  # the only done of each robot-episode (frozen slots get none)
                 o = np.where(ended[:, None], 0.0, o)
-                self._frozen[idx] = True
-                if not env.live_mask.any():  # the copy's episode is over: reset it
-                    was_frozen = self._frozen[sl] & ~ended
-                    for j in np.flatnonzero(was_frozen) + c * n:
-                        infos[j] = {"terminal_observation": np.zeros(d, dtype=np.float32),
-                                    "TimeLimit.truncated": False}
-                    dones[sl] = True
+                self._ep_ret[idx] = 0
+                self._ep_len[idx] = 0
+                if not env.live_mask.any():  # the copy's episode is over: reset it; frozen slots continue
                     o = env.reset_arrays()
-                    self._frozen[sl] = False
-                    self._ep_ret[sl] = 0
-                    self._ep_len[sl] = 0
-                else:
-                    self._ep_ret[idx] = 0
-                    self._ep_len[idx] = 0
                 obs[sl] = o
             self._obs = obs
             return obs.copy(), rewards, dones, infos
@@ -220,12 +217,6 @@ def export_sb3_policy(model, path, env_or_layout, scenario: str | None = None, e
         pass
     meta.update(extra or {})
     return save_policy(path, layers, activation, layout=layout, scenario=scenario, extra=meta)
-
-
-def _reason(code):
-    from ..env.reward import REASONS
-
-    return REASONS.get(int(code), "")
 
 
 def __getattr__(name):
