@@ -116,7 +116,9 @@ def exit_edge(vx, vy, tris, t, ax, ay, dx, dy):
         if si < 0.0 and sj >= 0.0:
             exx = vx[vj] - vx[vi]
             eyy = vy[vj] - vy[vi]
-            den = sj - si  # = dx * eyy - dy * exx, and > 0 exactly (no division by zero)
+            den = dx * eyy - dy * exx  # = sj - si > 0 in exact arithmetic
+            if den <= 0.0:  # rounding on a near-degenerate crossing: the exactly positive form
+                den = sj - si
             s = ((vx[vi] - ax) * eyy - (vy[vi] - ay) * exx) / den
             return k, s, -si / den
     return -1, 0.0, 0.0
