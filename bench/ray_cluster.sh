@@ -4,11 +4,12 @@
 #
 #     PYTHON=.venv/bin/python bash bench/ray_cluster.sh
 #
-# * Loopback addresses only are given: --node-ip-address=127.0.0.1 on both nodes, RAY_ADDRESS=
-#   127.0.0.1:PORT for the driver. Ray 2.60 on Linux replaces a loopback address by this machine's
-#   routable one (ray._private.services.resolve_ip_for_localhost), so the nodes advertise that
-#   address (the log shows it); the only switch that keeps 127.0.0.1
-#   (RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0) refuses a second node. The token guards every connection.
+# * Loopback only: the script re-runs itself in a private network namespace (`unshare --net`, as
+#   root) whose only interface is lo, so every Ray process binds, advertises and connects on
+#   127.0.0.1 (Ray 2.60 on Linux replaces a loopback address by the machine's routable one when
+#   it has one: ray._private.services.resolve_ip_for_localhost; here there is none). The nodes are
+#   started with --node-ip-address=127.0.0.1 and the driver gets RAY_ADDRESS=127.0.0.1:PORT.
+#   NO_NETNS=1 skips the namespace (then Ray advertises the machine's address).
 # * Token authentication (Ray 2.60's `ray start --head` turns it on): RAY_AUTH_MODE=token and one
 #   cluster token in RAY_AUTH_TOKEN, exported to the head, the second node and the driver. On real
 #   machines: `ray get-auth-token --generate` on the head, then copy ~/.ray/auth_token to every node
@@ -22,6 +23,11 @@
 #   would stop every Ray instance on the machine.
 # * Bounded: the training run is killed after TIMEOUT_S (default 600) seconds.
 set -euo pipefail
+
+if [ -z "${TIN_SWARM_NETNS:-}" ] && [ "${NO_NETNS:-0}" != 1 ]; then
+    exec unshare --net -- env TIN_SWARM_NETNS=1 bash -c 'ip link set lo up && exec bash "$0" "$@"' \
+        "${BASH_SOURCE[0]}" "$@"
+fi
 
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 PYTHON="${PYTHON:-python3}"
