@@ -131,7 +131,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         self.layout = ObsLayout.from_spec(cfg.observation)
         self._obs_space = spaces.Box(-1.0, 1.0, (self.layout.size,), np.float32)
         self._act_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
-        n_targets = len(cfg.targets.positions)
+        n_targets = cfg.targets.n
         self.state_space = spaces.Box(-1.0, 1.0, (6 * self.n + 2 * n_targets,), np.float32)
         self._sensor_cones = sensor_cones
         self._render_width = render_width

@@ -307,7 +307,7 @@ class APFPolicy:
         self.step_m = cfg.world.robot.max_speed_mps * cfg.world.dt_s
         if params is None:
             params = FieldParams()
-            n_threats = len(cfg.targets.positions)
+            n_threats = cfg.targets.n
             if cfg.task == "containment" and n_threats and self.standoff_m > 0:
                 # spread around the ring: robots repel out to the arc spacing of an even ring
                 per_ring = -(-cfg.robots.count // n_threats)
