@@ -49,10 +49,19 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     breaks              8·K_b  valid, closest point x/R, y/R, normal to safety (x, y),
                                drop / (|drop| + 10 m), d/R, danger (cliff edge or border: 1;
                                a bend between traversable planes: 0) of the nearest breaks
+    assets              4·K_a  valid, x/R, y/R, d/R of the K_a nearest visible assets
     ==================  =====  =================================================================
 
-    Defaults K_r = 4, K_t = 2, K_b = 3 (d = 59). Empty slots and robots no longer in
-    ``agents`` read all zeros.
+    Defaults K_r = 4, K_t = 2, K_b = 3, and K_a = 2 when the scenario has assets, else 0 (so
+    d = 59 without assets; ``[observation] k_assets`` sets it). Empty slots and robots no longer
+    in ``agents`` read all zeros.
+
+    **Assets** (``[assets]``: positions, or a count drawn by the reset seed like targets): what
+    the swarm protects. Robots sense them like threats (range, field of view, line of sight) in
+    the ``assets`` part of the observation; the APF's asset field
+    (:func:`~tin_swarm_env.world.fields.asset_field`) draws each robot that sees an asset to the
+    guard ring of radius ``[assets] standoff_m`` around the nearest one, so with threats the
+    swarm stays near and between the assets and the threats. The rewards do not count assets.
 
     **Action**: ``Box(-1, 1, (2,), float32)``: commanded velocity in the body frame as a
     fraction of max speed. Out-of-range values are clipped (then to norm 1); NaN/inf raise
@@ -128,7 +137,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         self.n = cfg.robots.count
         self.possible_agents = [f"robot_{i}" for i in range(self.n)]
         self.agent_name_mapping = {a: i for i, a in enumerate(self.possible_agents)}
-        self.layout = ObsLayout.from_spec(cfg.observation)
+        self.layout = ObsLayout.from_spec(cfg.observation, n_assets=cfg.assets.n)
         self._obs_space = spaces.Box(-1.0, 1.0, (self.layout.size,), np.float32)
         self._act_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         n_targets = cfg.targets.n

@@ -45,7 +45,7 @@ Layout of a scenario file (every table and key optional except ``terrain.source`
     standoff_m = 0.0              # the guard ring's radius (the APF's asset field)
 
     [rewards]    # RewardWeights fields
-    [observation]  # k_robots, k_targets, k_breaks
+    [observation]  # k_robots, k_targets, k_breaks, k_assets
 """
 
 from __future__ import annotations
@@ -146,6 +146,7 @@ class ObservationSpec:
     k_robots: int = 4
     k_targets: int = 2
     k_breaks: int = 3
+    k_assets: int | None = None  # None: 2 when the scenario has assets, else 0 (ObsLayout.from_spec)
 
 
 @dataclass(frozen=True)
