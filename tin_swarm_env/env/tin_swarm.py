@@ -92,6 +92,8 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     render_mode     None, "human" (matplotlib window) or "rgb_array" (HxWx3 uint8)
     sensor_cones    draw each robot's field of view when rendering [False]
     render_width    width of rendered frames in pixels [640]
+    render_decorations  a title strip (scenario, step, arrived/fell counts), a legend and a scale
+                    bar on rendered frames [True]; False for bare frames (training videos)
     ==============  ==========================================================================
 
     ``state()`` (for centralised critics): per robot x, y (scaled to the terrain's bounds), cos
@@ -114,9 +116,10 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
 
     def __init__(self, scenario: str | ScenarioConfig = "cliff_goal", n_robots: int | None = None,
                  max_cycles: int | None = None, render_mode: str | None = None, sensor_cones: bool = False,
-                 render_width: int = 640):
+                 render_width: int = 640, render_decorations: bool = True):
         EzPickle.__init__(self, scenario=scenario, n_robots=n_robots, max_cycles=max_cycles,
-                          render_mode=render_mode, sensor_cones=sensor_cones, render_width=render_width)
+                          render_mode=render_mode, sensor_cones=sensor_cones, render_width=render_width,
+                          render_decorations=render_decorations)
         cfg = scenario if isinstance(scenario, ScenarioConfig) else load_scenario(scenario)
         if n_robots is not None:
             if int(n_robots) != n_robots or n_robots < 1:
@@ -144,6 +147,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         self.state_space = spaces.Box(-1.0, 1.0, (6 * self.n + 2 * n_targets,), np.float32)
         self._sensor_cones = sensor_cones
         self._render_width = render_width
+        self._render_decorations = bool(render_decorations)
         self._viewer = None
         self._np_random = None
         self.agents: list[str] = []
@@ -317,7 +321,8 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         if self._viewer is None:
             from .viewer import Viewer
 
-            self._viewer = Viewer(self._world, width_px=self._render_width, sensor_cones=self._sensor_cones)
+            self._viewer = Viewer(self._world, width_px=self._render_width, sensor_cones=self._sensor_cones,
+                                  decorations=self._render_decorations, name=self.config.name)
         img = self._viewer.frame(self._wstate)
         if self.render_mode == "rgb_array":
             return img
