@@ -133,9 +133,10 @@ def place_entities(world: World, spec, rng: np.random.Generator, *, spawn_region
         return spawn_positions(world.tin, blocked, spec.count, rng, region=spec.region,
                                min_separation_m=spec.min_separation_m)
     except (PlacementError, ArgumentError) as exc:
-        raise PlacementError(f"{label}: cannot place count = {spec.count} in region "
-                             f"{list(spec.region) if spec.region else 'the whole terrain'} on traversable ground "
-                             f"reachable from the robots' spawn region, {spec.min_separation_m} m apart ({exc})") from None
+        where = list(spec.region) if spec.region else "the whole terrain"
+        raise PlacementError(f"{label}: cannot place count = {spec.count} in region {where} on traversable "
+                             f"ground reachable from the robots' spawn region, {spec.min_separation_m} m apart "
+                             f"({exc})") from None
 
 
 def _positions(spec) -> np.ndarray:
