@@ -8,7 +8,7 @@ from conftest import random_tin
 from hypothesis import given
 from hypothesis import strategies as st
 
-from tin_swarm_env.errors import TinStructureError
+from tin_swarm_env.errors import ArgumentError, TinStructureError
 from tin_swarm_env.terrain import Dem, Tin, build_tin
 
 SQUARE = np.array([[0, 0, 0], [10, 0, 0], [10, 10, 5], [0, 10, 5]], dtype=float)
@@ -158,3 +158,21 @@ def test_equality_ignores_order():
     assert t1 == t2
     t3 = Tin(SQUARE, [[0, 1, 3], [1, 2, 3]])
     assert t1 != t3
+
+
+def test_greedy_delaunay_option_is_delaunay_on_jacksboro(jacksboro):
+    """Greedy's own triangles fail thesis 2.2's test; delaunay=True re-triangulates the same vertices."""
+    from tin_swarm_env.terrain import vertical_error
+
+    g = build_tin(jacksboro, method="greedy", max_vertices=5000)
+    d = build_tin(jacksboro, method="greedy", max_vertices=5000, delaunay=True)
+    assert opposite_angle_violations(g) > 0
+    assert opposite_angle_violations(d) == 0
+    np.testing.assert_array_equal(np.unique(g.vertices, axis=0), np.unique(d.vertices, axis=0))
+    ed = vertical_error(d, jacksboro)[0]
+    assert ed.n_outside == 0 and np.isfinite(ed.max_m) and ed.rms_m > 0.0
+
+
+def test_delaunay_option_applies_to_greedy_only(jacksboro):
+    with pytest.raises(ArgumentError, match="greedy"):
+        build_tin(jacksboro.crop(slice(0, 20), slice(0, 20)), method="vip", max_vertices=50, delaunay=True)

@@ -3,7 +3,7 @@
     tin-swarm run SCENARIO [--robots N] [--policy apf|random|PATH] [--episodes K] [--seed S]
                   [--gif OUT.gif] [--mp4 OUT.mp4] [--fields robot,target,break,height] [--summary OUT.md]
     tin-swarm scenarios
-    tin-swarm explore SCENARIO [--png OUT.png] [--robot I|all] [--fields ...] [--steps K]
+    tin-swarm explore SCENARIO [--png OUT.png] [--robot I|all] [--fields ...] [--steps K] [--cost-to-go]
     tin-swarm train SCENARIO --timesteps N [any field of apps.train.Args: --n-robots 8 ...]
     tin-swarm eval SCENARIO... [--seeds K] [--model PATH]... [--out OUT]
     tin-swarm build-tin DEM -o OUT.tin [--method vip|greedy|delaunay] [--max-vertices N]
@@ -161,7 +161,8 @@ def _cmd_explore(args) -> int:
 
     fields = _fields(args.fields, FIELDS)
     robot = None if args.robot == "all" else int(args.robot)
-    ex = FieldExplorer(args.scenario, robot=robot, fields=fields, n_robots=args.robots, seed=args.seed)
+    ex = FieldExplorer(args.scenario, robot=robot, fields=fields, n_robots=args.robots, seed=args.seed,
+                       cost_to_go=args.cost_to_go)
     if robot is not None and not 0 <= robot < ex.env.n:
         raise ArgumentError(f"--robot {robot}: the scenario has robots 0..{ex.env.n - 1}")
     for _ in range(args.steps):
@@ -218,6 +219,8 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("--robots", type=int, default=None)
     x.add_argument("--steps", type=int, default=0, help="APF steps to take before drawing")
     x.add_argument("--seed", type=int, default=0)
+    x.add_argument("--cost-to-go", action="store_true",
+                   help="overlay contours of the selected robot's target's cost-to-go (m of drivable path)")
     x.set_defaults(func=_cmd_explore)
     t = sub.add_parser("train", help="train PPO (apps/train.py, = agents/train_sb3.py; needs the [train] extra)")
     t.add_argument("scenario")

@@ -22,7 +22,12 @@ breaks               8 K_b  per slot: valid, closest point x / R, y / R, unit no
                             safe side (nx, ny), drop / (|drop| + 10 m), d / R, danger (1 for a
                             cliff edge or the terrain's border, 0 for a bend between two
                             traversable planes), of the K_b nearest terrain breaks in range
+assets               4 K_a  valid, x / R, y / R, d / R of the K_a nearest visible assets
 ===================  =====  ==================================================================
+
+``K_a`` (the assets part, last so the other offsets never move): the scenario's
+``[observation] k_assets`` when given, else :data:`DEFAULT_K_ASSETS` when the scenario has assets
+and 0 when it has none, so a scenario without assets keeps the default size 59.
 
 The 10 m is :data:`DZ_SCALE_M` (the height field's scale, ``world.fields.HEIGHT_SCALE_M``: one
 constant). Empty slots are all zero. Robots no longer in ``agents`` get an all-zero vector.
@@ -41,14 +46,15 @@ from ..scenario.config import ObservationSpec
 from ..terrain import ANGLE
 from ..world.fields import HEIGHT_SCALE_M as DZ_SCALE_M
 
-__all__ = ["ObsLayout", "build_observations", "OWN_FIELDS", "SLOT_FIELDS", "DZ_SCALE_M"]
+__all__ = ["ObsLayout", "build_observations", "OWN_FIELDS", "SLOT_FIELDS", "DZ_SCALE_M", "DEFAULT_K_ASSETS"]
 
 OWN_FIELDS = (("battery", 1), ("speed", 1), ("tilt", 1), ("slope", 1), ("uphill", 2), ("target_valid", 1),
               ("target_dir", 2), ("target_dist", 1), ("target_dz", 1))
 SLOT_FIELDS = {"robots": ("valid", "x", "y", "d"), "targets": ("valid", "x", "y", "d"),
-               "breaks": ("valid", "x", "y", "nx", "ny", "drop", "d", "danger")}
+               "breaks": ("valid", "x", "y", "nx", "ny", "drop", "d", "danger"), "assets": ("valid", "x", "y", "d")}
 PARTS = tuple(SLOT_FIELDS)
-_COUNT = {"robots": "k_robots", "targets": "k_targets", "breaks": "k_breaks"}
+_COUNT = {"robots": "k_robots", "targets": "k_targets", "breaks": "k_breaks", "assets": "k_assets"}
+DEFAULT_K_ASSETS = 2  # asset slots of a scenario that has assets and does not set k_assets
 
 # offsets handed to the compiled encoder (named, so the kernel never indexes by number)
 OwnOffsets = namedtuple("OwnOffsets", [name for name, _ in OWN_FIELDS])
@@ -80,6 +86,7 @@ class ObsLayout:
     k_robots: int = _DEFAULT.k_robots
     k_targets: int = _DEFAULT.k_targets
     k_breaks: int = _DEFAULT.k_breaks
+    k_assets: int = 0
 
     def __post_init__(self):
         for f in fields(self):
@@ -88,9 +95,11 @@ class ObsLayout:
                 raise ObservationLayoutError(f"ObsLayout.{f.name} must be an integer >= 0, got {v!r}")
 
     @classmethod
-    def from_spec(cls, spec: ObservationSpec) -> ObsLayout:
-        """The layout of a scenario's ``[observation]`` table."""
-        return cls(spec.k_robots, spec.k_targets, spec.k_breaks)
+    def from_spec(cls, spec: ObservationSpec, n_assets: int = 0) -> ObsLayout:
+        """The layout of a scenario's ``[observation]`` table; ``n_assets``, the scenario's asset
+        count, decides ``k_assets`` when the table does not (see the module docstring)."""
+        k_a = spec.k_assets if spec.k_assets is not None else (DEFAULT_K_ASSETS if n_assets else 0)
+        return cls(spec.k_robots, spec.k_targets, spec.k_breaks, k_a)
 
     # -- slices ------------------------------------------------------------------------------
     @property
@@ -133,12 +142,16 @@ class ObsLayout:
         return self._part_slice("breaks")
 
     @property
+    def assets(self) -> slice:
+        return self._part_slice("assets")
+
+    @property
     def size(self) -> int:
-        return self.breaks.stop
+        return self._part_slice(PARTS[-1]).stop
 
     # -- reading -----------------------------------------------------------------------------
     def slots(self, obs: np.ndarray, part: str) -> np.ndarray:
-        """``obs[..., part]`` reshaped to ``(..., K, per_slot)`` for part robots/targets/breaks."""
+        """``obs[..., part]`` reshaped to ``(..., K, per_slot)`` for part robots/targets/breaks/assets."""
         sl = self._part_slice(part)
         return obs[..., sl].reshape(*obs.shape[:-1], self.count(part), len(SLOT_FIELDS[part]))
 
@@ -189,10 +202,13 @@ class ObsLayout:
     # -- saving ------------------------------------------------------------------------------
     def to_dict(self) -> dict:
         """JSON-able description (counts, field names, scale constants, size): a saved policy
-        records it; two layouts read the same vectors exactly when their dicts are equal."""
-        return {"k_robots": self.k_robots, "k_targets": self.k_targets, "k_breaks": self.k_breaks,
+        records it; two layouts read the same vectors exactly when their dicts are equal. Without
+        asset slots the dict is the one layouts had before the assets part existed."""
+        parts = [p for p in PARTS if p != "assets" or self.k_assets]
+        extra = {"k_assets": self.k_assets} if self.k_assets else {}
+        return {"k_robots": self.k_robots, "k_targets": self.k_targets, "k_breaks": self.k_breaks, **extra,
                 "own": [[name, n] for name, n in OWN_FIELDS],
-                "slots": {p: list(SLOT_FIELDS[p]) for p in PARTS},
+                "slots": {p: list(SLOT_FIELDS[p]) for p in parts},
                 "scales": {"distance": "sensor range_m", "target_dist": "d / (d + range_m)",
                            "dz_scale_m": DZ_SCALE_M},
                 "size": self.size, "names": self.names()}
@@ -202,7 +218,7 @@ class ObsLayout:
         """The layout :meth:`to_dict` described; raises :class:`~tin_swarm_env.errors.ObservationLayoutError`
         naming the first key that this version's layout does not share."""
         try:
-            out = cls(int(d["k_robots"]), int(d["k_targets"]), int(d["k_breaks"]))
+            out = cls(int(d["k_robots"]), int(d["k_targets"]), int(d["k_breaks"]), int(d.get("k_assets", 0)))
         except (KeyError, TypeError, ValueError) as exc:
             raise ObservationLayoutError(f"observation layout {d!r}: needs integer k_robots, k_targets, "
                                          f"k_breaks ({exc})") from None
@@ -215,14 +231,15 @@ class ObsLayout:
 
     # -- the compiled encoder's offsets -----------------------------------------------------------
     def kernel_offsets(self):
-        """``(own, robots, targets, breaks)`` named offsets for :func:`_fill`."""
+        """``(own, robots, targets, breaks, assets)`` named offsets for :func:`_fill`."""
         own = OwnOffsets(*(sl.start for sl in self.own.values()))
 
         def slot(cls, part):
             names = SLOT_FIELDS[part]
             return cls(self._part_slice(part).start, len(names), *range(len(names)))
 
-        return own, slot(PointSlot, "robots"), slot(PointSlot, "targets"), slot(BreakSlot, "breaks")
+        return (own, slot(PointSlot, "robots"), slot(PointSlot, "targets"), slot(BreakSlot, "breaks"),
+                slot(PointSlot, "assets"))
 
 
 def _jsonish(v):
@@ -303,11 +320,11 @@ def _own(obs, i, o, c, s, own_n, grad, target_idx, tpos, tz, pos, heights, R, dz
 
 @njit(cache=True)
 def _fill(obs, offsets, pos, head, heights, own_n, grad, live, target_idx, tpos, tz, robots, targets, breaks,
-          R, dz_scale):
+          apos, assets, R, dz_scale):
     """Write every live robot's row of ``obs``; ``offsets`` from :meth:`ObsLayout.kernel_offsets`;
-    ``robots``/``targets`` ``(idx, dist)`` and ``breaks`` ``(idx, dist, closest, normals, drops,
-    danger)`` from the sensor readings and the break set."""
-    o, o_rob, o_tgt, o_brk = offsets
+    ``robots``/``targets``/``assets`` ``(idx, dist)`` and ``breaks`` ``(idx, dist, closest,
+    normals, drops, danger)`` from the sensor readings and the break set; ``apos (k, 2)``."""
+    o, o_rob, o_tgt, o_brk, o_ast = offsets
     for i in range(pos.shape[0]):
         if not live[i]:
             continue
@@ -318,6 +335,7 @@ def _fill(obs, offsets, pos, head, heights, own_n, grad, live, target_idx, tpos,
         _point_slots(obs, i, o_tgt, targets[0], targets[1], tpos, pos, c, s, R)
         _break_slots(obs, i, o_brk, breaks[0], breaks[1], breaks[2], breaks[3], breaks[4], breaks[5], pos, c, s,
                      R, dz_scale)
+        _point_slots(obs, i, o_ast, assets[0], assets[1], apos, pos, c, s, R)
         for m in range(obs.shape[1]):
             obs[i, m] = min(max(obs[i, m], -1.0), 1.0)
 
@@ -331,6 +349,7 @@ def build_observations(world, state, readings, target_idx, live, layout: ObsLayo
     ri, rd, _ = readings.robots.nearest(n, layout.k_robots)
     ti, td, _ = readings.targets.nearest(n, layout.k_targets)
     bi, bd, bc = readings.breaks.nearest(n, layout.k_breaks)
+    ai, ad, _ = readings.assets.nearest(n, layout.k_assets)
     tg = state.targets
     tz = world.tin.height_in(tg.positions, tg.tri_idx) if len(tg) else np.zeros(0)
     br = world.breaks
@@ -341,5 +360,5 @@ def build_observations(world, state, readings, target_idx, live, layout: ObsLayo
     obs = np.zeros((n, layout.size), dtype=np.float32)
     _fill(obs, layout.kernel_offsets(), state.positions, state.headings, state.heights, own_n,
           world.tin.planes[state.tri_idx, :2], live, target_idx, tg.positions.reshape(-1, 2), tz, (ri, rd),
-          (ti, td), breaks, float(P.sensor.range_m), DZ_SCALE_M)
+          (ti, td), breaks, state.assets.positions.reshape(-1, 2), (ai, ad), float(P.sensor.range_m), DZ_SCALE_M)
     return obs

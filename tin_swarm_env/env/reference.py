@@ -91,6 +91,8 @@ def build_observations_reference(world, state, readings, target_idx, live, layou
         _points(obs, layout, "targets", readings.targets, state.targets.positions, state, R)
     if layout.k_breaks:
         _breaks(obs, world, state, readings, layout, R)
+    if layout.k_assets:
+        _points(obs, layout, "assets", readings.assets, state.assets.positions, state, R)
     obs[~live] = 0.0
     np.clip(obs, -1.0, 1.0, out=obs)
     return obs.astype(np.float32)

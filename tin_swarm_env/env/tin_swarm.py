@@ -49,10 +49,19 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     breaks              8·K_b  valid, closest point x/R, y/R, normal to safety (x, y),
                                drop / (|drop| + 10 m), d/R, danger (cliff edge or border: 1;
                                a bend between traversable planes: 0) of the nearest breaks
+    assets              4·K_a  valid, x/R, y/R, d/R of the K_a nearest visible assets
     ==================  =====  =================================================================
 
-    Defaults K_r = 4, K_t = 2, K_b = 3 (d = 59). Empty slots and robots no longer in
-    ``agents`` read all zeros.
+    Defaults K_r = 4, K_t = 2, K_b = 3, and K_a = 2 when the scenario has assets, else 0 (so
+    d = 59 without assets; ``[observation] k_assets`` sets it). Empty slots and robots no longer
+    in ``agents`` read all zeros.
+
+    **Assets** (``[assets]``: positions, or a count drawn by the reset seed like targets): what
+    the swarm protects. Robots sense them like threats (range, field of view, line of sight) in
+    the ``assets`` part of the observation; the APF's asset field
+    (:func:`~tin_swarm_env.world.fields.asset_field`) draws each robot that sees an asset to the
+    guard ring of radius ``[assets] standoff_m`` around the nearest one, so with threats the
+    swarm stays near and between the assets and the threats. The rewards do not count assets.
 
     **Action**: ``Box(-1, 1, (2,), float32)``: commanded velocity in the body frame as a
     fraction of max speed. Out-of-range values are clipped (then to norm 1); NaN/inf raise
@@ -83,6 +92,8 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     render_mode     None, "human" (matplotlib window) or "rgb_array" (HxWx3 uint8)
     sensor_cones    draw each robot's field of view when rendering [False]
     render_width    width of rendered frames in pixels [640]
+    render_decorations  a title strip (scenario, step, arrived/fell counts), a legend and a scale
+                    bar on rendered frames [True]; False for bare frames (training videos)
     ==============  ==========================================================================
 
     ``state()`` (for centralised critics): per robot x, y (scaled to the terrain's bounds), cos
@@ -105,9 +116,10 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
 
     def __init__(self, scenario: str | ScenarioConfig = "cliff_goal", n_robots: int | None = None,
                  max_cycles: int | None = None, render_mode: str | None = None, sensor_cones: bool = False,
-                 render_width: int = 640):
+                 render_width: int = 640, render_decorations: bool = True):
         EzPickle.__init__(self, scenario=scenario, n_robots=n_robots, max_cycles=max_cycles,
-                          render_mode=render_mode, sensor_cones=sensor_cones, render_width=render_width)
+                          render_mode=render_mode, sensor_cones=sensor_cones, render_width=render_width,
+                          render_decorations=render_decorations)
         cfg = scenario if isinstance(scenario, ScenarioConfig) else load_scenario(scenario)
         if n_robots is not None:
             if int(n_robots) != n_robots or n_robots < 1:
@@ -128,13 +140,14 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         self.n = cfg.robots.count
         self.possible_agents = [f"robot_{i}" for i in range(self.n)]
         self.agent_name_mapping = {a: i for i, a in enumerate(self.possible_agents)}
-        self.layout = ObsLayout.from_spec(cfg.observation)
+        self.layout = ObsLayout.from_spec(cfg.observation, n_assets=cfg.assets.n)
         self._obs_space = spaces.Box(-1.0, 1.0, (self.layout.size,), np.float32)
         self._act_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
-        n_targets = len(cfg.targets.positions)
+        n_targets = cfg.targets.n
         self.state_space = spaces.Box(-1.0, 1.0, (6 * self.n + 2 * n_targets,), np.float32)
         self._sensor_cones = sensor_cones
         self._render_width = render_width
+        self._render_decorations = bool(render_decorations)
         self._viewer = None
         self._np_random = None
         self.agents: list[str] = []
@@ -308,7 +321,8 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         if self._viewer is None:
             from .viewer import Viewer
 
-            self._viewer = Viewer(self._world, width_px=self._render_width, sensor_cones=self._sensor_cones)
+            self._viewer = Viewer(self._world, width_px=self._render_width, sensor_cones=self._sensor_cones,
+                                  decorations=self._render_decorations, name=self.config.name)
         img = self._viewer.frame(self._wstate)
         if self.render_mode == "rgb_array":
             return img

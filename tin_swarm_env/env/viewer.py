@@ -6,6 +6,12 @@ each frame copies that image and stamps targets (red), assets (blue) and robots 
 orange, out of battery grey, fallen black; robots that arrived have left) with a heading
 tick, and optionally the edges of each robot's sensor cone, with numpy indexing: the cost
 per frame grows with the robots, not with the terrain, and stays far below a world step.
+
+Decorations (``decorations=True``, the env's ``render_decorations``): a legend (too-steep
+ground, cliff edges, other breaks, robots by status, targets, assets, sensor cones when drawn)
+and a scale bar drawn once into the background, and a title strip above the terrain, redrawn
+only when its text changes: the scenario's name, the step, and how many robots arrived, fell
+and ran out of battery. Off, a frame is the bare terrain (for training videos).
 """
 
 from __future__ import annotations
@@ -30,7 +36,8 @@ def _disc(r):
 
 
 class Viewer:
-    def __init__(self, world, width_px: int = 640, sensor_cones: bool = False):
+    def __init__(self, world, width_px: int = 640, sensor_cones: bool = False, decorations: bool = True,
+                 name: str = ""):
         from matplotlib import colormaps
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.collections import LineCollection, PolyCollection
@@ -67,12 +74,25 @@ class Viewer:
             seg = br.segments[br.kinds == kind][:, :, :2]
             if len(seg):
                 ax.add_collection(LineCollection(seg, colors=[color], linewidths=lw))
+        if decorations:
+            _legend(ax, world.params.robot.max_slope_deg, sensor_cones)
+            _scale_bar(ax, x1 - x0, y1 - y0)
         canvas = FigureCanvasAgg(fig)
         canvas.draw()
         self.background = np.asarray(canvas.buffer_rgba())[..., :3].copy()
         self._disc3 = _disc(3)
         self._disc5 = _disc(5)
         self._fig = None
+        self.name = name
+        self._title = _TitleStrip(W) if decorations else None
+
+    def title(self, state) -> str:
+        """The title strip's text for ``state``."""
+        from ..world import DONE, EMPTY, FELL
+
+        st = state.status
+        return (f"{self.name}   step {state.step}   robots {len(st)}: arrived {int((st == DONE).sum())}, "
+                f"fell {int((st == FELL).sum())}, battery {int((st == EMPTY).sum())}")
 
     def to_px(self, xy):
         x0, y0, x1, y1 = self.bounds
@@ -130,6 +150,8 @@ class Viewer:
         px_m = (x1 - x0) / self.size[1]
         tick = 7 * px_m * np.column_stack([np.cos(h), np.sin(h)])
         self._lines(img, pos, pos + tick, BLACK, n=8)
+        if self._title is not None:
+            img = np.concatenate([self._title.render(self.title(state)), img], axis=0)
         return img
 
     def show(self, img):
@@ -152,3 +174,58 @@ class Viewer:
 
             plt.close(self._fig)
             self._fig = None
+
+
+def _legend(ax, max_slope_deg, sensor_cones):
+    """What each colour means, in the terrain's top right corner."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    def dot(color, label, marker="o"):
+        return Line2D([], [], ls="none", marker=marker, ms=5, mfc=color, mec=color, label=label)
+
+    h = [Patch(fc=(0.92, 0.92, 0.92), ec="0.5", lw=0.5, label=f"too steep (> {max_slope_deg:.0f} deg)"),
+         Line2D([], [], color=(0.85, 0.1, 0.1), lw=1.2, label="cliff edge / steep break"),
+         Line2D([], [], color=(0.45, 0.3, 0.15), lw=0.8, label="slope break"),
+         dot(ORANGE / 255, "robot"), dot(GREY / 255, "robot, battery empty"), dot(BLACK / 255, "robot, fell"),
+         dot(RED / 255, "target / threat"), dot(BLUE / 255, "asset")]
+    if sensor_cones:
+        h.append(Line2D([], [], color=CONE / 255, lw=1.0, label="sensor cone"))
+    ax.legend(handles=h, loc="upper right", fontsize=6, framealpha=0.8, borderpad=0.4, labelspacing=0.3,
+              handlelength=1.4)
+
+
+def _scale_bar(ax, width_m, height_m):
+    """A bar of a round length (1, 2 or 5 times a power of ten, at most a fifth of the width)."""
+    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+
+    top = 0.2 * width_m
+    p = 10.0 ** np.floor(np.log10(top))
+    length = max(m * p for m in (1, 2, 5) if m * p <= top)
+    bar = AnchoredSizeBar(ax.transData, length, f"{length:g} m", loc="lower left", pad=0.4, sep=3,
+                          size_vertical=0.008 * height_m, color="black", frameon=True, fontproperties={"size": 7})
+    bar.patch.set_alpha(0.8)
+    ax.add_artist(bar)
+
+
+class _TitleStrip:
+    """A white strip of text, ``W`` pixels wide, rendered by Agg when its text changes."""
+
+    HEIGHT_PX = 20
+
+    def __init__(self, width_px: int):
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        self._fig = Figure(figsize=(width_px / 100, self.HEIGHT_PX / 100), dpi=100, facecolor="white")
+        self._text = self._fig.text(0.01, 0.5, "", va="center", ha="left", fontsize=8)
+        self._canvas = FigureCanvasAgg(self._fig)
+        self._last = (None, None)
+
+    def render(self, text: str) -> np.ndarray:
+        """``(HEIGHT_PX, W, 3)`` uint8."""
+        if self._last[0] != text:
+            self._text.set_text(text)
+            self._canvas.draw()
+            self._last = (text, np.asarray(self._canvas.buffer_rgba())[..., :3].copy())
+        return self._last[1]

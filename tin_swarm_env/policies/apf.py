@@ -20,6 +20,7 @@ import numpy as np
 from ..world.fields import (
     FIELDS,
     FieldParams,
+    asset_field,
     away_from,
     break_field,
     follow_field,
@@ -47,7 +48,8 @@ def decode(obs, layout, range_m) -> dict:
     ``has_t (n,)``, ``dist (n,)`` and ``rel_t (n, 2)`` to the assigned target, ``dz (n,)`` its
     height above the robot, ``grad_z (n, 2)``, ``speed (n,)`` (fraction of top speed), robot slots
     ``r_rel (n, K_r, 2)``, ``r_valid (n, K_r)``, break slots ``b_rel``, ``b_normal (n, K_b, 2)``,
-    ``b_danger (n, K_b)`` (valid and dangerous) and ``b_border (n, K_b)``. The observation does not
+    ``b_danger (n, K_b)`` (valid and dangerous), ``b_border (n, K_b)`` and asset slots ``a_rel
+    (n, K_a, 2)``, ``a_valid (n, K_a)`` (K_a may be 0). The observation does not
     name the border; its sensed proxy is a dangerous break with zero drop (border edges have no
     triangle beyond them, so their drop is 0; a cliff edge's drop is not)."""
     obs = np.asarray(obs, dtype=np.float64)
@@ -62,12 +64,14 @@ def decode(obs, layout, range_m) -> dict:
     out["b_rel"], out["b_normal"] = layout.vectors(obs, "breaks") * R, layout.vectors(obs, "breaks", "nx", "ny")
     out["b_danger"] = (layout.field(obs, "breaks", "valid") * layout.field(obs, "breaks", "danger")) > 0.5
     out["b_border"] = out["b_danger"] & (layout.field(obs, "breaks", "drop") == 0.0)
+    out["a_rel"], out["a_valid"] = layout.vectors(obs, "assets") * R, layout.field(obs, "assets", "valid")
     return out
 
 
-def apf_forces(obs, layout, range_m, standoff_m, params: FieldParams, follow=None, step_m=1.0):
+def apf_forces(obs, layout, range_m, standoff_m, params: FieldParams, follow=None, step_m=1.0, guard_m=0.0):
     """Per-field body-frame forces for observations ``obs (n, d)``: a dict name -> ``(n, 2)``
-    (``robot``, ``target``, ``break``, ``slide``, ``height``; fields switched off are zeros).
+    (``robot``, ``target``, ``break``, ``slide``, ``height``, ``asset``; fields switched off are
+    zeros; the asset field reads the layout's asset slots, guard ring radius ``guard_m``).
     ``follow = (side (n,), slot (n,))``: each robot's wall-following side (+1 the break on its
     right, -1 on its left, 0 none) and the break slot it follows (-1 none), from
     :func:`bug_update`; ``slide`` is then the wall-following term
@@ -76,7 +80,9 @@ def apf_forces(obs, layout, range_m, standoff_m, params: FieldParams, follow=Non
     d = decode(obs, layout, range_m)
     n = len(d["dist"])
     zero = np.zeros((n, 2))
-    out = {k: zero for k in ("robot", "target", "break", "slide", "height")}
+    out = {k: zero for k in ("robot", "target", "break", "slide", "height", "asset")}
+    if params.on("asset") and layout.k_assets:
+        out["asset"], _ = asset_field(d["a_rel"], d["a_valid"], guard_m, params.asset_gain, params.asset_range_m)
     has_t = d["has_t"][:, None]
     if params.on("target"):
         f, _ = target_field(d["rel_t"], standoff_m, params.target_gain, params.target_range_m)
@@ -273,7 +279,8 @@ class APFPolicy:
     """The thesis's potential-field controller as a policy: ``act(obs_dict) -> action_dict``
     and ``act_batch(obs (n, d)) -> actions (n, 2)``.
 
-    ``fields``: any subset of ``("robot", "target", "break", "height")``; ``params``: gains and
+    ``fields``: any subset of ``("robot", "target", "break", "height", "asset")`` (the asset field
+    acts only where the observation has asset slots: a scenario with assets); ``params``: gains and
     ranges (:class:`~tin_swarm_env.world.fields.FieldParams`), ``fields`` overriding its own.
     Without ``params``, the containment task widens the robot field's range to 1.1 times the
     arc between robots evenly spread on the standoff ring (from the scenario's robot and threat
@@ -301,13 +308,14 @@ class APFPolicy:
         cfg = base.config
         self.range_m = cfg.world.sensor.range_m
         self.standoff_m = cfg.targets.standoff_m if cfg.task == "containment" else 0.0
+        self.guard_m = cfg.assets.standoff_m
         self.gap_m = 3.0 * cfg.world.robot.radius_m
         self.edge_m = 2.0 * cfg.world.robot.radius_m
         self.fov_deg = cfg.world.sensor.fov_deg
         self.step_m = cfg.world.robot.max_speed_mps * cfg.world.dt_s
         if params is None:
             params = FieldParams()
-            n_threats = len(cfg.targets.positions)
+            n_threats = cfg.targets.n
             if cfg.task == "containment" and n_threats and self.standoff_m > 0:
                 # spread around the ring: robots repel out to the arc spacing of an even ring
                 per_ring = -(-cfg.robots.count // n_threats)
@@ -328,13 +336,13 @@ class APFPolicy:
         obs = np.asarray(obs, dtype=np.float64)
         rows = np.arange(len(obs)) if rows is None else np.asarray(rows, dtype=np.int64)
         if not self.params.on("break"):
-            return apf_forces(obs, self.layout, self.range_m, self.standoff_m, self.params)
+            return apf_forces(obs, self.layout, self.range_m, self.standoff_m, self.params, guard_m=self.guard_m)
         self.memory = self.memory.grow(int(rows.max(initial=-1)) + 1)
-        f = apf_forces(obs, self.layout, self.range_m, self.standoff_m, self.params)
+        f = apf_forces(obs, self.layout, self.range_m, self.standoff_m, self.params, guard_m=self.guard_m)
         d = decode(obs, self.layout, self.range_m)
         slot = bug_update(self.memory, rows, d, f["target"] + f["height"], self.params, 2 * self.params.robot_range_m)
         return apf_forces(obs, self.layout, self.range_m, self.standoff_m, self.params,
-                          follow=(self.memory.side[rows], slot), step_m=self.step_m)
+                          follow=(self.memory.side[rows], slot), step_m=self.step_m, guard_m=self.guard_m)
 
     def act_batch(self, obs, rows=None) -> np.ndarray:
         obs = np.asarray(obs, dtype=np.float64)

@@ -30,18 +30,22 @@ Layout of a scenario file (every table and key optional except ``terrain.source`
     [battery]    # BatteryParams fields
     [world]      # dt_s, entity_height_m, entity_speed_mps, entity_turn_sd_deg, break_angle_deg
 
-    [targets]    # threats/targets
+    [targets]    # threats/targets: positions, or count (+ region) drawn by the reset seed
     positions = [[x, y], ...]
+    count = 0                     # N > 0: N targets drawn from reset(seed) (not with positions)
+    region = [x0, y0, x1, y1]     # m, where counted ones are drawn; default: the whole terrain
+    min_separation_m = 10.0       # between counted ones
     mobile = false
     standoff_m = 0.0              # containment: ring radius; goal: 0
     arrival_radius_m = 5.0
 
-    [assets]
+    [assets]     # things the swarm guards (positions or count/region/min_separation_m, as targets)
     positions = [[x, y], ...]
     mobile = false
+    standoff_m = 0.0              # the guard ring's radius (the APF's asset field)
 
     [rewards]    # RewardWeights fields
-    [observation]  # k_robots, k_targets, k_breaks
+    [observation]  # k_robots, k_targets, k_breaks, k_assets
 """
 
 from __future__ import annotations
@@ -88,10 +92,33 @@ class RobotsSpec:
 
 @dataclass(frozen=True)
 class EntitiesSpec:
+    """Threats/targets or assets: fixed ``positions``, or ``count`` of them drawn at every reset
+    from the reset seed inside ``region`` (m; default the whole terrain) on traversable ground,
+    at least ``min_separation_m`` apart and reachable from the robots' spawn region
+    (:func:`tin_swarm_env.scenario.build.place_entities`). Not both."""
+
     positions: tuple[tuple[float, float], ...] = ()
+    count: int = 0
+    region: tuple[float, float, float, float] | None = None
+    min_separation_m: float = 10.0
     mobile: bool = False
     standoff_m: float = 0.0
     arrival_radius_m: float = 5.0
+
+    def __post_init__(self):
+        if self.count < 0:
+            raise ValueError(f"'count' must be >= 0, got {self.count}")
+        if self.count and self.positions:
+            raise ValueError("give 'positions' or 'count', not both")
+        if self.region is not None and not (self.region[2] > self.region[0] and self.region[3] > self.region[1]):
+            raise ValueError(f"'region' must be [x0, y0, x1, y1] with x1 > x0 and y1 > y0, got {list(self.region)}")
+        if self.min_separation_m < 0:
+            raise ValueError(f"'min_separation_m' must be >= 0, got {self.min_separation_m}")
+
+    @property
+    def n(self) -> int:
+        """How many there are: ``count`` or the number of ``positions``."""
+        return self.count or len(self.positions)
 
 
 @dataclass(frozen=True)
@@ -119,6 +146,7 @@ class ObservationSpec:
     k_robots: int = 4
     k_targets: int = 2
     k_breaks: int = 3
+    k_assets: int | None = None  # None: 2 when the scenario has assets, else 0 (ObsLayout.from_spec)
 
 
 @dataclass(frozen=True)
@@ -145,8 +173,8 @@ class ScenarioConfig:
                 f"scenario {self.name!r}: max_cycles must be a positive integer, got {self.max_cycles!r}")
         if self.robots.count < 1:
             raise ScenarioError(f"scenario {self.name!r}: robots.count must be >= 1, got {self.robots.count}")
-        if self.task == "goal" and len(self.targets.positions) == 0:
-            raise ScenarioError(f"scenario {self.name!r}: the goal task needs at least one target position")
+        if self.task == "goal" and self.targets.n == 0:
+            raise ScenarioError(f"scenario {self.name!r}: the goal task needs at least one target (positions or count)")
 
     def replace(self, **kw) -> ScenarioConfig:
         return dataclasses.replace(self, **kw)
@@ -235,7 +263,8 @@ def scenario_from_dict(d: dict, source: str = "<dict>", base_dir: str = ".") -> 
     world = _build(WorldParams, d.get("world", {}), f"{source} [world]", allowed=_WORLD_KEYS,
                    robot=robot, sensor=sensor, battery=battery, flat_size_m=terrain.size_m)
     targets = _build(EntitiesSpec, d.get("targets", {}), f"{source} [targets]")
-    assets = _build(EntitiesSpec, d.get("assets", {}), f"{source} [assets]", allowed={"positions", "mobile"})
+    assets = _build(EntitiesSpec, d.get("assets", {}), f"{source} [assets]",
+                    allowed={"positions", "count", "region", "min_separation_m", "mobile", "standoff_m"})
     rewards = _build(RewardWeights, d.get("rewards", {}), f"{source} [rewards]")
     obs = _build(ObservationSpec, d.get("observation", {}), f"{source} [observation]")
     hints = typing.get_type_hints(ScenarioConfig)

@@ -15,7 +15,7 @@ METHODS = ("vip", "greedy", "delaunay")
 
 def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices: int | None = None,
               min_significance_m: float | None = None, max_error_m: float | None = None,
-              border: str = "line", backbone: float = 0.5) -> Tin:
+              border: str = "line", backbone: float = 0.5, delaunay: bool = False) -> Tin:
     """Reduce and triangulate elevation data into a :class:`Tin`.
 
     ========== ================================================================================
@@ -25,11 +25,19 @@ def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices:
                ``min_significance_m``; ``border`` and ``backbone`` as documented there), then
                Delaunay in x, y. The default for a :class:`Dem`.
     "greedy"   Garland-Heckbert greedy insertion via pydelatin (:func:`~.greedy.greedy_mesh`),
-               until ``max_error_m`` and/or ``max_vertices``; its own triangles are kept.
+               until ``max_error_m`` and/or ``max_vertices``; its own triangles are kept, or
+               with ``delaunay=True`` its vertices are re-triangulated as Delaunay in x, y
+               (thesis 2.2's empty-circle condition; the vertical error grows, see
+               :func:`~.metrics.vertical_error` and the README's comparison table).
     "delaunay" every point, Delaunay in x, y. The default (and only choice) for a
                :class:`PointCloud`; ``max_vertices`` smaller than the cloud is an error.
     ========== ================================================================================
+
+    ``delaunay`` applies to method "greedy" only (VIP and "delaunay" are Delaunay already).
     """
+    if delaunay and method != "greedy":
+        raise ArgumentError(f"delaunay=True applies to method='greedy' only, not {method!r} (vip and delaunay "
+                            "triangulations are Delaunay already)")
     if method is None:
         method = "delaunay" if isinstance(dem, PointCloud) else "vip"
     if method not in METHODS:
@@ -61,6 +69,8 @@ def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices:
         if min_significance_m is not None:
             raise ArgumentError("min_significance_m applies to method='vip'")
         v, t = greedy_mesh(dem, max_error_m=max_error_m, max_vertices=max_vertices)
+        if delaunay:
+            return Tin.from_points(v, source=f"{dem.source} (greedy, Delaunay)")
         return Tin(v, t, source=f"{dem.source} (greedy)")
     if np.isnan(dem.z).any():
         from ..errors import DemFormatError

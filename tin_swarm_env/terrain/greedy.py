@@ -3,9 +3,11 @@
 ``pydelatin`` wraps Michael Fogleman's ``hmm`` (MIT): starting from two triangles over the
 grid it repeatedly inserts the cell of largest vertical error and re-triangulates locally,
 until the maximum error is at most ``max_error`` or ``max_points`` vertices are placed.
-Its triangles are kept as they are (re-running Delaunay on its vertices raises jacksboro's
-maximum error from 28.5 m to 130 m). It works in cell-index space with row 0 at the *top*;
-vertices are mapped back to our metres (row 0 south) here.
+Its triangles are kept as they are by default (re-running Delaunay on its vertices raises
+jacksboro's maximum error from 28.5 m to 130 m); ``build_tin(..., method="greedy",
+delaunay=True)`` does that re-triangulation for callers that need thesis 2.2's Delaunay TIN.
+It works in cell-index space with row 0 at the *top*; vertices are mapped back to our metres
+(row 0 south) here.
 """
 
 from __future__ import annotations

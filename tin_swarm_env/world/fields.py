@@ -21,6 +21,10 @@ break      purely repulsive, perpendicular to the break segment, strong at its c
 height     pulls along the local slope toward the target's height: ``U = gain * f(z - z_t)`` with
            ``f(x) = |x| - s ln(1 + |x|/s)`` (``s`` = 10 m), so ``F = gain * dz/(|dz| + s) * grad z``,
            ``dz = z_t - z``: uphill when the target is higher, downhill when lower, 0 on level ground.
+asset      the assets' role (a protection task, thesis 4.3): the target field's shape toward the
+           guard ring (radius ``guard``, the scenario's ``[assets] standoff_m``) around the nearest
+           asset the robot sees, with its own gain and range: robots that see an asset close on
+           it and hold the ring (spread along it by the robot field); 0 when none is seen.
 =========  ==========================================================================================
 
 Not potentials: the break field's *wall-following* term (:func:`follow_field`) and its older,
@@ -41,15 +45,15 @@ import numpy as np
 from ..errors import ParameterError
 
 __all__ = ["FIELDS", "FieldParams", "robot_field", "target_field", "break_field", "height_field", "slide_field",
-           "follow_field", "away_from", "fields_at", "HEIGHT_SCALE_M"]
+           "follow_field", "away_from", "asset_field", "fields_at", "HEIGHT_SCALE_M"]
 
-FIELDS = ("robot", "target", "break", "height")
+FIELDS = ("robot", "target", "break", "height", "asset")
 HEIGHT_SCALE_M = 10.0
 
 
 @dataclass(frozen=True)
 class FieldParams:
-    """Gains and ranges of the four fields, and which are on."""
+    """Gains and ranges of the fields, and which are on."""
 
     robot_gain: float = 1.0
     robot_range_m: float = 4.0
@@ -65,6 +69,8 @@ class FieldParams:
     follow_engage_m: float = 8.0
     follow_hold_m: float = 5.0
     stall_steps: int = 20
+    asset_gain: float = 0.5
+    asset_range_m: float = 10.0
     fields: tuple[str, ...] = FIELDS
 
     def __post_init__(self):
@@ -72,7 +78,7 @@ class FieldParams:
         if unknown:
             raise ParameterError(f"unknown field(s) {sorted(unknown)}; the fields are {', '.join(FIELDS)}")
         for k in ("robot_range_m", "target_range_m", "break_range_m", "break_decay_m", "slide_decay_m",
-                  "follow_engage_m", "follow_hold_m", "stall_steps"):
+                  "follow_engage_m", "follow_hold_m", "stall_steps", "asset_range_m"):
             if not getattr(self, k) > 0:
                 raise ParameterError(f"FieldParams.{k} must be > 0, got {getattr(self, k)}")
 
@@ -184,14 +190,28 @@ def height_field(grad_z, dz, gain, scale_m=HEIGHT_SCALE_M):
     return (gain * dz / (x + scale_m))[..., None] * grad_z, pot
 
 
+def asset_field(rel, valid, guard_m, gain, range_m):
+    """The asset field: ``rel (..., K, 2)`` from the robot to each asset slot, ``valid (..., K)``.
+    The target field (:func:`target_field`, standoff ``guard_m``) toward the nearest valid one
+    (``K >= 1``).
+    Returns ``(force (..., 2), potential (...))``, zero where no slot is valid."""
+    d = np.where(np.asarray(valid) > 0.5, _norm(rel), np.inf)  # (..., K), K >= 1
+    k = np.argmin(d, axis=-1)
+    seen = np.isfinite(d).any(axis=-1)
+    near = np.take_along_axis(rel, k[..., None, None], axis=-2)[..., 0, :]
+    f, u = target_field(near, guard_m, gain, range_m)
+    return np.where(seen[..., None], f, 0.0), np.where(seen, u, 0.0)
+
+
 def fields_at(points, params: FieldParams, *, robots=None, target=None, standoff_m=0.0, breaks=None,
-              tin=None, z_target=None):
+              tin=None, z_target=None, assets=None, guard_m=0.0):
     """The fields felt at world points ``(P, 2)`` (a grid around a robot, for plots): a dict
     name -> ``(force (P, 2), potential (P,))`` for each field that is on and has sources, plus
     ``"total"``. Sources: ``robots (M, 2)``, ``target (2,)`` with ``standoff_m``, ``breaks`` a
     :class:`~tin_swarm_env.terrain.Breaks` (dangerous ones push: cliff edges and border),
-    and ``tin`` with ``z_target`` for the height field. The slide term is left out (it depends
-    on the robot's motion and memory, not on its position alone)."""
+    ``tin`` with ``z_target`` for the height field, ``assets (A, 2)`` with ``guard_m`` for the
+    asset field (the nearest asset to each point). The slide term is left out (it depends on
+    the robot's motion and memory, not on its position alone)."""
     from ..terrain import ANGLE
     from ..terrain.breaks import closest_on_segments
 
@@ -220,6 +240,9 @@ def fields_at(points, params: FieldParams, *, robots=None, target=None, standoff
         dz[inside] = z_target - tin.height_in(p[inside], t[inside])
         f, u = height_field(g, dz, params.height_gain)
         out["height"] = (f, np.where(inside, u, 0.0))
+    if params.on("asset") and assets is not None and len(assets):
+        rel = np.asarray(assets, dtype=np.float64)[None, :, :] - p[:, None, :]
+        out["asset"] = asset_field(rel, np.ones(rel.shape[:2]), guard_m, params.asset_gain, params.asset_range_m)
     total_f = sum((v[0] for v in out.values()), np.zeros((P, 2)))
     total_u = sum((v[1] for v in out.values()), np.zeros(P))
     out["total"] = (total_f, total_u)

@@ -1,0 +1,110 @@
+"""Threats/targets and assets by count: seeded placement, never on steep ground, always reachable."""
+
+import numpy as np
+import pytest
+
+import tin_swarm_env as tse
+from tin_swarm_env.errors import ScenarioError
+from tin_swarm_env.scenario import load_scenario, scenario_from_dict
+from tin_swarm_env.terrain import Dem, build_tin, save_tin
+
+COUNTED = """
+name = "counted"
+task = "goal"
+[terrain]
+source = "procedural"
+recipe = "cliff_goal"
+[robots]
+count = 6
+spawn_region = [20.0, 20.0, 80.0, 80.0]
+[targets]
+count = 3
+min_separation_m = 20.0
+[assets]
+count = 2
+"""
+
+
+@pytest.fixture(scope="module")
+def counted(tmp_path_factory):
+    p = tmp_path_factory.mktemp("scn") / "counted.toml"
+    p.write_text(COUNTED)
+    return p
+
+
+def _placed(env, seed):
+    env.reset(seed=seed)
+    s = env.world_state
+    return s.targets.positions.copy(), s.assets.positions.copy()
+
+
+def test_same_seed_same_placement_different_seeds_differ(counted):
+    env = tse.parallel_env(scenario=str(counted))
+    a, b, c = _placed(env, 7), _placed(env, 7), _placed(env, 8)
+    assert a[0].shape == (3, 2) and a[1].shape == (2, 2)
+    np.testing.assert_array_equal(a[0], b[0])
+    np.testing.assert_array_equal(a[1], b[1])
+    assert not np.allclose(a[0], c[0]) and not np.allclose(a[1], c[1])
+    assert env.state_space.shape == (6 * 6 + 2 * 3,)
+    assert set(env.target_assignment) == {0, 1, 2}
+
+
+def test_counted_targets_never_on_steep_ground_and_apart(counted):
+    env = tse.parallel_env(scenario=str(counted))
+    w = env.world
+    assert w.steep.any()  # cliff_goal has a cliff to avoid
+    for seed in range(20):
+        tg, at = _placed(env, seed)
+        for pts in (tg, at):
+            tri = w.tin.locate(pts)
+            assert np.all(tri >= 0) and not w.steep[tri].any()
+        d = np.hypot(*(tg[:, None] - tg[None]).T)[~np.eye(3, dtype=bool)]
+        assert d.min() >= 20.0
+
+
+def _mesa_scenario(tmp_path, **targets):
+    """A 300 m square with a mesa (walls ~80 deg) in the middle: its top cannot be reached."""
+    x = y = 5.0 * np.arange(61)
+    X, Y = np.meshgrid(x, y)
+    z = np.where((np.abs(X - 150) < 60) & (np.abs(Y - 150) < 60), 30.0, 0.0)
+    save_tin(build_tin(Dem(z, x, y), method="delaunay"), tmp_path / "mesa.tin")
+    d = {"name": "mesa", "task": "goal", "terrain": {"source": "tin", "path": "mesa.tin"},
+         "robots": {"count": 4, "spawn_region": [0.0, 0.0, 60.0, 60.0]}, "targets": targets}
+    return scenario_from_dict(d, source=str(tmp_path / "mesa.toml"), base_dir=str(tmp_path))
+
+
+def test_counted_targets_are_reachable_from_the_spawn_region(tmp_path):
+    cfg = _mesa_scenario(tmp_path, count=4, min_separation_m=5.0)
+    env = tse.parallel_env(scenario=cfg)
+    w = env.world
+    on_top = []
+    for seed in range(15):
+        env.reset(seed=seed)
+        tg = env.world_state.targets.positions
+        on_top.append((np.abs(tg - 150) < 65).all(axis=1))
+        for g in tg:  # solvable: a drivable path from the spawn region's corner to every target
+            ctg = tse.terrain.cost_to_go(w.tin, g, ~w.steep)
+            assert np.isfinite(ctg.distance_at(np.array([[5.0, 5.0]])))[0]
+    assert not np.any(on_top)
+    # the mesa top is traversable (flat), only unreachable: a region there has no room
+    cfg = _mesa_scenario(tmp_path, count=1, region=[110.0, 110.0, 190.0, 190.0])
+    with pytest.raises(ScenarioError, match=r"mesa\.toml \[targets\].*count = 1.*reachable"):
+        tse.parallel_env(scenario=cfg)
+
+
+def test_count_and_positions_together_is_an_error_naming_the_file(tmp_path):
+    p = tmp_path / "both.toml"
+    p.write_text(COUNTED.replace("count = 3", "count = 3\npositions = [[300.0, 150.0]]"))
+    with pytest.raises(ScenarioError, match=r"both\.toml \[targets\].*'positions' or 'count', not both"):
+        load_scenario(p)
+    p.write_text(COUNTED.replace("count = 2", "count = -1"))
+    with pytest.raises(ScenarioError, match=r"\[assets\].*'count' must be >= 0"):
+        load_scenario(p)
+
+
+def test_position_lists_still_work_and_draw_nothing():
+    a = tse.parallel_env(scenario="cliff_goal", n_robots=4)
+    a.reset(seed=3)
+    cfg = a.config
+    assert cfg.targets.count == 0 and cfg.targets.n == len(cfg.targets.positions)
+    np.testing.assert_array_equal(a.world_state.targets.positions, np.asarray(cfg.targets.positions))
