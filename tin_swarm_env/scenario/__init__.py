@@ -1,6 +1,15 @@
 """Scenarios: TOML files -> typed config -> world and initial state (the generators)."""
 
-from .build import assignments, build_tin_for, build_world, initial_state
+from .build import (
+    Stage,
+    assignments,
+    build_stage,
+    build_tin_for,
+    build_world,
+    initial_state,
+    reaches_region,
+    target_field,
+)
 from .config import (
     SCENARIO_DIR,
     EntitiesSpec,
@@ -17,6 +26,6 @@ from .config import (
 
 __all__ = [
     "SCENARIO_DIR", "EntitiesSpec", "ObservationSpec", "RewardWeights", "RobotsSpec", "ScenarioConfig",
-    "ScenarioError", "TerrainSpec", "assignments", "build_tin_for", "build_world", "initial_state",
-    "list_scenarios", "load_scenario", "scenario_from_dict",
+    "ScenarioError", "Stage", "TerrainSpec", "assignments", "build_stage", "build_tin_for", "build_world",
+    "initial_state", "list_scenarios", "load_scenario", "reaches_region", "scenario_from_dict", "target_field",
 ]
