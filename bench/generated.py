@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 
 import numpy as np
@@ -46,7 +47,7 @@ def reset_times(repeats: int):
         t4 = time.perf_counter()
         for k, dt in zip(parts, (t1 - t0, t2 - t1, t3 - t2, t4 - t3), strict=True):
             parts[k].append(1000 * dt)
-    cfg = cfg.replace(terrain=cfg.terrain.__class__(**{**cfg.terrain.__dict__, "ranges": ranges}))
+    cfg = cfg.replace(terrain=dataclasses.replace(cfg.terrain, ranges=ranges))
     env = tse.parallel_env(scenario=cfg, n_robots=20)
     whole = []
     for seed in range(repeats):

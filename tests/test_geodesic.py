@@ -7,7 +7,7 @@ import tin_swarm_env as tse
 from tin_swarm_env.errors import PlacementError, ScenarioError
 from tin_swarm_env.policies import APFPolicy
 from tin_swarm_env.scenario import RewardWeights, load_scenario, scenario_from_dict
-from tin_swarm_env.world import Reason, spawn_positions
+from tin_swarm_env.world import spawn_positions
 
 
 def _pit_asc(path, pit_xy=(60.0, 50.0), pit_r=15.0, depth=20.0):
@@ -40,7 +40,8 @@ positions = [[100.0, 20.0], {list(target)}]
 
 def test_target_in_an_enclosed_pit_fails_at_load_naming_file_and_target(tmp_path):
     p = _pit_toml(tmp_path, (60.0, 50.0), (5.0, 5.0, 30.0, 95.0))
-    with pytest.raises(ScenarioError, match=r"pit\.toml \[targets\] positions\[1\] \[60\.0, 50\.0\]: cannot be reached"):
+    msg = r"pit\.toml \[targets\] positions\[1\] \[60\.0, 50\.0\]: cannot be reached"
+    with pytest.raises(ScenarioError, match=msg):
         tse.parallel_env(scenario=str(p))
 
 
