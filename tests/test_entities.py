@@ -81,7 +81,7 @@ def test_counted_targets_are_reachable_from_the_spawn_region(tmp_path):
     for seed in range(15):
         env.reset(seed=seed)
         tg = env.world_state.targets.positions
-        on_top.append((np.abs(tg - 150) < 65).all(axis=1))
+        on_top.append((np.abs(tg - 150) < 55).all(axis=1))  # the top (walls from 55 to 60 m out)
         for g in tg:  # solvable: a drivable path from the spawn region's corner to every target
             ctg = tse.terrain.cost_to_go(w.tin, g, ~w.steep)
             assert np.isfinite(ctg.distance_at(np.array([[5.0, 5.0]])))[0]

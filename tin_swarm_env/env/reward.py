@@ -1,12 +1,23 @@
 """Rewards and terminations, per robot, from one world step.
 
-Goal task: progress is the decrease of the horizontal distance to the robot's assigned target;
-reaching it (within ``arrival_radius_m``) pays ``arrival`` and terminates with reason
-"arrived". Containment: progress is the decrease of ``|distance - standoff|`` to the assigned
-threat, plus ``on_ring_per_step`` while within ``ring_tolerance_m`` of the ring; no arrival.
-Both: ``fall`` and termination "fell" when the robot drives into a cliff triangle;
-``battery_empty`` and termination "battery" when its charge runs out; ``collision`` per robot
-touched this step; ``energy_per_kj`` per kJ drawn.
+Progress is measured by a *distance to go* ``d`` (n,) m, to each robot's assigned target:
+with ``[rewards] progress = "geodesic"`` (the default) the length of the shortest drivable path
+(the target's :class:`~tin_swarm_env.terrain.CostToGo` field, over triangles no steeper than the
+robots' ``max_slope_deg``), with ``"euclidean"`` the straight line. The geodesic reward is
+potential-based shaping (the potential is ``-d``; it does not change which policy is optimal) and
+it does not pay a robot to walk to a cliff edge above the target. ``d`` is ``inf`` where the
+target cannot be reached (a robot on a too-steep triangle, or cut off); the progress of a step
+where either distance is ``inf`` is 0, so rewards stay finite. **Mobile targets** use the
+straight line whatever ``progress`` says (a field is built for a target's start position only:
+rebuilding it as the target wanders would cost a field build every few steps); the env warns at
+construction when that applies.
+
+Goal task: progress is the decrease of ``d``; reaching the target (straight-line distance within
+``arrival_radius_m``) pays ``arrival`` and terminates with reason "arrived". Containment:
+progress is the decrease of ``|d - standoff|``, plus ``on_ring_per_step`` while within
+``ring_tolerance_m`` of the ring; no arrival. Both: ``fall`` and termination "fell" when the
+robot drives into a cliff triangle; ``battery_empty`` and termination "battery" when its charge
+runs out; ``collision`` per robot touched this step; ``energy_per_kj`` per kJ drawn.
 """
 
 from __future__ import annotations
@@ -15,7 +26,7 @@ import numpy as np
 
 from ..world import Reason
 
-__all__ = ["Reason", "target_distance", "compute_rewards"]
+__all__ = ["Reason", "target_distance", "distance_to_go", "compute_rewards"]
 
 
 def target_distance(state, target_idx) -> np.ndarray:
@@ -28,22 +39,41 @@ def target_distance(state, target_idx) -> np.ndarray:
     return d
 
 
-def compute_rewards(cfg, prev_state, state, events, target_idx, live):
+def distance_to_go(state, target_idx, fields) -> np.ndarray:
+    """``(n,)`` m: each robot's distance to go to its assigned target. ``fields``: one entry per
+    target, a :class:`~tin_swarm_env.terrain.CostToGo` (geodesic, queried with the robots' known
+    triangles) or None (straight line). ``inf`` where no target is assigned or it cannot be reached."""
+    d = target_distance(state, target_idx)
+    d[target_idx < 0] = np.inf
+    for k, f in enumerate(fields):  # a loop over targets; each query is batched over their robots
+        rows = np.flatnonzero(target_idx == k)
+        if f is not None and len(rows):
+            d[rows] = f.distance_at(state.positions[rows], state.tri_idx[rows])
+    return d
+
+
+def _gain(before, after) -> np.ndarray:
+    """``before - after``, 0 where either is inf."""
+    ok = np.isfinite(before) & np.isfinite(after)
+    return np.where(ok, before, 0.0) - np.where(ok, after, 0.0)
+
+
+def compute_rewards(cfg, dist_before, dist_after, state, events, target_idx, live):
     """``(rewards (n,), terminated (n,) bool, reasons (n,) int8)`` for robots in ``live``;
-    reasons are :class:`~tin_swarm_env.world.Reason` codes (NONE, ARRIVED, FELL or BATTERY)."""
+    reasons are :class:`~tin_swarm_env.world.Reason` codes (NONE, ARRIVED, FELL or BATTERY).
+    ``dist_before``/``dist_after`` ``(n,)`` m: :func:`distance_to_go` before and after the step;
+    ``state`` the state after it (arrival is judged on the straight line to the target)."""
     w = cfg.rewards
-    d0 = target_distance(prev_state, target_idx)
-    d1 = target_distance(state, target_idx)
     has = target_idx >= 0
     r = np.zeros(state.n_robots)
     if cfg.task == "containment":
         s = cfg.targets.standoff_m
-        e0, e1 = np.abs(d0 - s), np.abs(d1 - s)
-        r += np.where(has, w.progress_per_m * (e0 - e1) + w.on_ring_per_step * (e1 <= w.ring_tolerance_m), 0.0)
+        e0, e1 = np.abs(dist_before - s), np.abs(dist_after - s)
+        r += np.where(has, w.progress_per_m * _gain(e0, e1) + w.on_ring_per_step * (e1 <= w.ring_tolerance_m), 0.0)
         arrived = np.zeros(state.n_robots, dtype=bool)
     else:
-        r += np.where(has, w.progress_per_m * (d0 - d1), 0.0)
-        arrived = has & (d1 <= cfg.targets.arrival_radius_m) & ~events.fell
+        r += np.where(has, w.progress_per_m * _gain(dist_before, dist_after), 0.0)
+        arrived = has & (target_distance(state, target_idx) <= cfg.targets.arrival_radius_m) & ~events.fell
     r += w.energy_per_kj * events.energy_j / 1000.0
     r += w.collision * events.collisions
     r += w.fall * events.fell

@@ -8,10 +8,19 @@ from gymnasium.utils import EzPickle
 from pettingzoo import ParallelEnv
 
 from ..errors import ArgumentError
-from ..scenario import ScenarioConfig, assignments, build_world, initial_state, load_scenario
+from ..scenario import (
+    ScenarioConfig,
+    Stage,
+    assignments,
+    build_stage,
+    initial_state,
+    load_scenario,
+    place_entities,
+    target_field,
+)
 from ..world import Reason, World
 from .observation import ObsLayout, build_observations
-from .reward import compute_rewards
+from .reward import compute_rewards, distance_to_go
 
 __all__ = ["TinSwarmEnv", "parallel_env", "raw_env", "env"]
 
@@ -73,7 +82,24 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     ``arrival`` [10] on reaching it; containment: ``progress_per_m`` per metre gained toward
     the standoff ring around the assigned threat and ``on_ring_per_step`` [0.1] while on it;
     both: ``fall`` [-100], ``battery_empty`` [-5], ``collision`` [-1] per robot touched,
-    ``energy_per_kj`` [-1] per kJ drawn.
+    ``energy_per_kj`` [-1] per kJ drawn. Metres are measured along the shortest drivable path
+    (``progress`` ["geodesic"]: the target's cost-to-go field over triangles no steeper than
+    ``max_slope_deg``, so a detour around a cliff pays) or the straight line (``"euclidean"``);
+    mobile targets always use the straight line (see :mod:`~tin_swarm_env.env.reward`). A step
+    from or to a point with no drivable path (``inf``) gains 0. ``infos[agent]["distance_to_go_m"]``
+    is that distance (geodesic or straight, as the reward uses it) for every live agent at
+    reset and after every step; :meth:`distance_to_go` gives it for all robots as an array.
+
+    **Solvability**: a target that cannot be reached from any point of the spawn region is a
+    ScenarioError at construction (naming the file and the target); robots are spawned only where
+    their assigned target can be reached.
+
+    **Generated terrains** (``[terrain] source = "generated"``, e.g. ``scenario="generated"``):
+    each :meth:`reset` with ``resample = "reset"`` draws a new solvable task (terrain, spawn
+    region, one target) from the episode's generator, so the same seed gives the same terrain bit
+    for bit; ``resample = "once"`` draws one at construction from the scenario's seed. The world
+    (``tin``, ``world``) is replaced on resample; the spaces (and ``state_space``) never change.
+    ``task`` is the current :class:`~tin_swarm_env.scenario.generators.GeneratedTask`.
 
     **Termination**: "arrived" (goal task, within ``arrival_radius_m``; the robot then leaves
     the terrain: it is no longer seen and does not block the robots behind it), "fell" (drove down
@@ -103,8 +129,10 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     ``n`` robots (``obs (n, d)``, ``actions (n, 2)``), without per-agent dicts; the dict API is
     a thin layer over them.
 
-    **Read-only views** (for apps and plots; policies read observations only): ``tin``,
-    ``world``, ``world_state``, ``live_mask``, ``target_assignment``, ``steps``, ``sensed()``.
+    **Read-only views** (for apps and plots; policies read observations only): ``tin`` (the
+    current :class:`~tin_swarm_env.terrain.Tin`; it changes on reset with a generated terrain),
+    ``world``, ``task``, ``world_state``, ``live_mask``, ``target_assignment``,
+    ``target_fields``, ``steps``, ``sensed()``, ``distance_to_go()``.
     Reset options place robots and targets: ``robot_positions (n, 2)``, ``headings (n,)``,
     ``target_positions (m, 2)``.
 
@@ -136,14 +164,20 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         self.config = cfg
         self.max_cycles = cfg.max_cycles
         self.render_mode = render_mode
-        self._world: World = build_world(cfg)
+        self._stage: Stage = build_stage(cfg)
+        self._world: World = self._stage.world
+        if cfg.rewards.progress == "geodesic" and cfg.targets.mobile and len(self._stage.targets):
+            import warnings
+
+            warnings.warn(f"{cfg.source}: mobile targets: progress and distance_to_go_m use the straight-line "
+                          "distance (a cost-to-go field is built for static targets only)", stacklevel=2)
         self.n = cfg.robots.count
         self.possible_agents = [f"robot_{i}" for i in range(self.n)]
         self.agent_name_mapping = {a: i for i, a in enumerate(self.possible_agents)}
         self.layout = ObsLayout.from_spec(cfg.observation, n_assets=cfg.assets.n)
         self._obs_space = spaces.Box(-1.0, 1.0, (self.layout.size,), np.float32)
         self._act_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
-        n_targets = cfg.targets.n
+        n_targets = max(cfg.targets.n, len(self._stage.targets))  # a generated task always has 1
         self.state_space = spaces.Box(-1.0, 1.0, (6 * self.n + 2 * n_targets,), np.float32)
         self._sensor_cones = sensor_cones
         self._render_width = render_width
@@ -156,6 +190,8 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         self._target_idx = np.full(self.n, -1, dtype=np.int64)
         self._readings = None
         self._steps = 0
+        self._fields: tuple = ()  # one CostToGo per target of the episode
+        self._dist = np.full(self.n, np.inf)  # (n,) m, distance to go after the last reset/step
 
     # -- read-only views for apps, policies' tests and plots ------------------------------------
     @property
@@ -165,8 +201,26 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
 
     @property
     def tin(self):
-        """The current :class:`~tin_swarm_env.terrain.Tin`."""
+        """The current :class:`~tin_swarm_env.terrain.Tin` (a generated terrain's changes on reset)."""
         return self._world.tin
+
+    @property
+    def task(self):
+        """The current generated task (:class:`~tin_swarm_env.scenario.generators.GeneratedTask`;
+        None unless ``[terrain] source = "generated"``)."""
+        return self._stage.task
+
+    @property
+    def target_fields(self) -> tuple:
+        """One :class:`~tin_swarm_env.terrain.CostToGo` per target of this episode (at its
+        start position); empty before reset."""
+        return self._fields
+
+    def distance_to_go(self) -> np.ndarray:
+        """``(n,)`` m, a copy: each robot's distance to go to its assigned target as the reward
+        measures it (geodesic or straight-line, see the class docstring) at its current position;
+        ``inf`` where it cannot be reached or no target is assigned."""
+        return self._dist.copy()
 
     @property
     def world_state(self):
@@ -220,14 +274,47 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
                           stacklevel=3)
         if "headings" in options and "robot_positions" not in options:
             raise ArgumentError("options['headings'] needs options['robot_positions']")
-        self._wstate = initial_state(self._world, self.config, self._np_random, self.n,
-                                     **{k: options[k] for k in known if k in options})
+        cfg = self.config
+        if cfg.terrain.source == "generated" and cfg.terrain.resample == "reset":
+            self._set_stage(build_stage(cfg, self._np_random))
+        targets = self._stage.targets
+        if "target_positions" in options:
+            targets, _ = self._world.check_placement(np.asarray(options["target_positions"], float).reshape(-1, 2),
+                                                     "target {i}")
+        elif cfg.targets.count:  # drawn by this reset's generator, before the robots (they spawn where theirs is reachable)
+            targets = place_entities(self._world, cfg.targets, self._np_random, spawn_region=self._stage.spawn_region,
+                                     label=f"{cfg.source} [targets]")
+        self._fields = tuple(self._field(t) for t in targets)
+        reach = np.array([f.triangle_reachable() for f in self._fields]) if len(self._fields) else None
+        self._wstate = initial_state(self._world, cfg, self._np_random, self.n, target_positions=targets,
+                                     spawn_region=self._stage.spawn_region, reachable=reach,
+                                     **{k: options[k] for k in ("robot_positions", "headings") if k in options})
         self._target_idx = assignments(self.n, len(self._wstate.targets))
+        self._dist = self._measure(self._wstate)
         self._live = np.ones(self.n, dtype=bool)
         self._steps = 0
         self._readings = self._world.sense(self._wstate)
         return build_observations(self._world, self._wstate, self._readings, self._target_idx, self._live,
                                   self.layout)
+
+    def _set_stage(self, stage: Stage) -> None:
+        """Play on a new stage (a resampled generated terrain); the viewer is made anew."""
+        self._stage, self._world = stage, stage.world
+        if self._viewer is not None:
+            self._viewer.close()
+            self._viewer = None
+
+    def _field(self, xy):
+        """The cost-to-go field of a target standing at ``xy``: the stage's own, else the cache."""
+        for t, f in zip(self._stage.targets, self._stage.fields, strict=True):
+            if t[0] == xy[0] and t[1] == xy[1]:
+                return f
+        return target_field(self._world, xy)
+
+    def _measure(self, state) -> np.ndarray:
+        """Distance to go ``(n,)`` m of every robot in ``state`` (the reward's metric)."""
+        geodesic = self.config.rewards.progress == "geodesic" and not self.config.targets.mobile
+        return distance_to_go(state, self._target_idx, self._fields if geodesic else (None,) * len(self._fields))
 
     def step_arrays(self, actions) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """One step for all robots: ``actions (n, 2)`` (rows of robots no longer live are
@@ -248,7 +335,10 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         prev = self._wstate
         new, events = self._world.step(prev, a)
         live = self._live
-        rewards, terminated, reasons = compute_rewards(self.config, prev, new, events, self._target_idx, live)
+        dist = self._measure(new)
+        rewards, terminated, reasons = compute_rewards(self.config, self._dist, dist, new, events, self._target_idx,
+                                                       live)
+        self._dist = dist
         self._steps += 1
         truncated = live & ~terminated & (self._steps >= self.max_cycles)
         reasons[truncated] = Reason.TIMEOUT
@@ -265,7 +355,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     def reset(self, seed: int | None = None, options: dict | None = None):
         obs = self.reset_arrays(seed, options)
         self.agents = self.possible_agents[:]
-        infos = {a: {} for a in self.agents}
+        infos = {a: {"distance_to_go_m": float(self._dist[i])} for i, a in enumerate(self.agents)}
         return {a: obs[i] for i, a in enumerate(self.possible_agents)}, infos
 
     def step(self, actions: dict):
@@ -291,7 +381,8 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         rewards = {names[i]: float(rew[i]) for i in live_before}
         terminations = {names[i]: bool(term[i]) for i in live_before}
         truncations = {names[i]: bool(trunc[i]) for i in live_before}
-        infos = {names[i]: ({"reason": Reason(int(reasons[i])).label} if reasons[i] else {}) for i in live_before}
+        infos = {names[i]: {"distance_to_go_m": float(self._dist[i]),
+                            **({"reason": Reason(int(reasons[i])).label} if reasons[i] else {})} for i in live_before}
         self.agents = [names[i] for i in np.flatnonzero(self._live)]
         if self.render_mode == "human":
             self.render()

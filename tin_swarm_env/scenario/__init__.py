@@ -1,6 +1,17 @@
 """Scenarios: TOML files -> typed config -> world and initial state (the generators)."""
 
-from .build import assignments, build_tin_for, build_world, initial_state
+from .build import (
+    Stage,
+    assignments,
+    build_stage,
+    build_tin_for,
+    build_world,
+    initial_state,
+    place_entities,
+    reaches_region,
+    spawn_reachable,
+    target_field,
+)
 from .config import (
     SCENARIO_DIR,
     EntitiesSpec,
@@ -17,6 +28,6 @@ from .config import (
 
 __all__ = [
     "SCENARIO_DIR", "EntitiesSpec", "ObservationSpec", "RewardWeights", "RobotsSpec", "ScenarioConfig",
-    "ScenarioError", "TerrainSpec", "assignments", "build_tin_for", "build_world", "initial_state",
-    "list_scenarios", "load_scenario", "scenario_from_dict",
+    "ScenarioError", "Stage", "TerrainSpec", "assignments", "build_stage", "build_tin_for", "build_world",
+    "initial_state", "list_scenarios", "place_entities", "spawn_reachable", "load_scenario", "reaches_region", "scenario_from_dict", "target_field",
 ]

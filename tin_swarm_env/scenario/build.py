@@ -1,21 +1,38 @@
-"""Scenario config -> terrain, :class:`~tin_swarm_env.world.World` and initial states."""
+"""Scenario config -> terrain, :class:`~tin_swarm_env.world.World` and initial states.
+
+A :class:`Stage` is what one episode is played on: the world, the targets, the spawn region and
+one cost-to-go field per target (:func:`~tin_swarm_env.terrain.cost_to_go` over the triangles
+no steeper than the robots' ``max_slope_deg``). :func:`build_stage` makes it from a scenario: for
+a file-given terrain the TIN comes from a per-process cache and the fields from
+:func:`target_field`'s; for ``[terrain] source = "generated"`` it draws a task from the
+generators (:mod:`.generators`), meshes it once and keeps the draw only when every target can be
+reached from the spawn region (the generator draws again otherwise).
+
+Solvability: a target that cannot be reached from any point of the spawn region is a
+ScenarioError at load naming the file and the target. "Any point of the region" is checked on
+the triangles that meet it: those with a vertex inside and those holding one of a 33 x 33 grid of
+sample points (a sliver triangle missed by both does not count).
+"""
 
 from __future__ import annotations
 
+import collections
 import functools
 import json
 import weakref
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .. import terrain as T
-from ..world import World, WorldState, spawn_positions
 from ..errors import ArgumentError, PlacementError, ScenarioError
+from ..world import World, WorldState, spawn_positions
 from .config import ScenarioConfig
 from .terrains import make_dem
 
-__all__ = ["build_tin_for", "build_world", "initial_state", "assignments", "place_entities", "spawn_reachable"]
+__all__ = ["Stage", "build_tin_for", "build_world", "build_stage", "target_field", "reaches_region",
+           "initial_state", "assignments", "place_entities", "spawn_reachable"]
 
 
 @functools.lru_cache(maxsize=16)
@@ -46,12 +63,17 @@ def _cached_tin(key: str):
         dem = T.load_dem(p)
         if isinstance(dem, T.Dem) and dem.n_nodata:
             dem = dem.fill_nodata()
+    return _mesh(dem, spec["method"], spec["max_vertices"], spec["max_error_m"])
+
+
+def _mesh(dem, method: str, max_vertices: int, max_error_m: float):
+    """The TIN of a DEM as a scenario's ``[terrain]`` asks for it (the one place these keys are read)."""
     kw = {}
-    if spec["max_vertices"]:
-        kw["max_vertices"] = spec["max_vertices"]
-    if spec["method"] == "greedy" and spec["max_error_m"]:
-        kw["max_error_m"] = spec["max_error_m"]
-    return T.build_tin(dem, method=spec["method"], **kw)
+    if max_vertices:
+        kw["max_vertices"] = max_vertices
+    if method == "greedy" and max_error_m:
+        kw["max_error_m"] = max_error_m
+    return T.build_tin(dem, method=method, **kw)
 
 
 def _file_stamp(path: Path) -> list[int] | None:
@@ -75,10 +97,77 @@ def build_tin_for(cfg: ScenarioConfig):
     return _cached_tin(key)
 
 
-def build_world(cfg: ScenarioConfig) -> World:
-    """The scenario's world; its targets and assets are checked to stand on traversable ground
-    (a ScenarioError names the file, the table and the position's index), and counted ones to
-    have room in their region (one trial draw)."""
+@dataclass(frozen=True, eq=False)
+class Stage:
+    """What an episode is played on.
+
+    world          the :class:`~tin_swarm_env.world.World` (terrain, breaks, break index)
+    targets        (m, 2) m, the targets' start positions
+    spawn_region   (x0, y0, x1, y1) m or None (the whole terrain)
+    fields         one :class:`~tin_swarm_env.terrain.CostToGo` per target (its start position)
+    task           the :class:`~.generators.GeneratedTask` drawn (None for a file-given terrain)
+    """
+
+    world: World
+    targets: np.ndarray
+    spawn_region: tuple[float, float, float, float] | None
+    fields: tuple
+    task: object = None
+
+
+_FIELDS: collections.OrderedDict = collections.OrderedDict()  # (id(tin), max_slope_deg, x, y) -> CostToGo
+_FIELDS_MAX = 64
+
+
+def target_field(world: World, goal_xy):
+    """The cost-to-go field of ``goal_xy`` (2,) m over ``world``'s passable triangles
+    (``~world.steep``), from a small per-process cache (the last 64 fields; a hit must be for the
+    very same TIN object), so scenarios whose TIN is cached build each field once per process."""
+    g = np.asarray(goal_xy, dtype=np.float64).reshape(2)
+    key = (id(world.tin), float(world.params.robot.max_slope_deg), float(g[0]), float(g[1]))
+    f = _FIELDS.get(key)
+    if f is None or f.tin is not world.tin:
+        f = T.cost_to_go(world.tin, g, ~world.steep)
+        _FIELDS[key] = f
+        if len(_FIELDS) > _FIELDS_MAX:
+            _FIELDS.popitem(last=False)
+    else:
+        _FIELDS.move_to_end(key)
+    return f
+
+
+def _region_triangles(tin, region) -> np.ndarray:
+    """Indices of the triangles that meet the rectangle ``region`` (see the module docstring)."""
+    x0, y0, x1, y1 = tin.bounds if region is None else region
+    v = tin.vertices
+    inside = (v[:, 0] >= x0) & (v[:, 0] <= x1) & (v[:, 1] >= y0) & (v[:, 1] <= y1)
+    by_vertex = np.flatnonzero(inside[tin.triangles].any(axis=1))
+    gx, gy = np.meshgrid(np.linspace(x0, x1, 33), np.linspace(y0, y1, 33))
+    by_sample = tin.locate(np.column_stack([gx.ravel(), gy.ravel()]))
+    return np.union1d(by_vertex, by_sample[by_sample >= 0])
+
+
+def reaches_region(field, region) -> bool:
+    """Whether ``field``'s goal can be reached from some point of ``region`` (x0, y0, x1, y1) m
+    (None: anywhere on the TIN)."""
+    return bool(field.triangle_reachable()[_region_triangles(field.tin, region)].any())
+
+
+def _check_solvable(stage: Stage, where: str, max_slope_deg: float) -> None:
+    for k, f in enumerate(stage.fields):
+        if not reaches_region(f, stage.spawn_region):
+            region = "the whole terrain" if stage.spawn_region is None else f"spawn_region {list(stage.spawn_region)}"
+            raise ScenarioError(f"{where} [targets] positions[{k}] {stage.targets[k].tolist()}: cannot be reached "
+                                f"from any point of {region} over ground no steeper than {max_slope_deg} deg")
+
+
+def build_stage(cfg: ScenarioConfig, rng: np.random.Generator | None = None) -> Stage:
+    """The scenario's :class:`Stage`. Targets and assets must stand on traversable ground and
+    every target must be reachable from the spawn region (a ScenarioError names the file, the
+    table and the position's index). A generated terrain is drawn from ``rng`` (default: from the
+    scenario's seed, 0 when it has none)."""
+    if cfg.terrain.source == "generated":
+        return _generated_stage(cfg, np.random.default_rng(cfg.seed or 0) if rng is None else rng)
     world = World(build_tin_for(cfg), cfg.world)
     for what, spec in (("targets", cfg.targets), ("assets", cfg.assets)):
         try:
@@ -87,7 +176,38 @@ def build_world(cfg: ScenarioConfig) -> World:
                            label=f"{cfg.source} [{what}]")
         except PlacementError as exc:
             raise ScenarioError(str(exc)) from None
-    return world
+    targets = _positions(cfg.targets)
+    stage = Stage(world, targets, cfg.robots.spawn_region, tuple(target_field(world, t) for t in targets))
+    _check_solvable(stage, cfg.source, cfg.world.robot.max_slope_deg)
+    return stage
+
+
+def _generated_stage(cfg: ScenarioConfig, rng: np.random.Generator) -> Stage:
+    """Draw a solvable generated task; the TIN and fields made by the check are the ones kept."""
+    from .generators import PARAMS, generate
+
+    t = cfg.terrain
+    max_slope = cfg.world.robot.max_slope_deg
+    made = {}
+
+    def solvable(task) -> bool:
+        tin = _mesh(task.dem, t.method, t.max_vertices, t.max_error_m)
+        passable = ~(tin.slope_deg > max_slope)  # World.steep's definition
+        fields = tuple(T.cost_to_go(tin, g, passable) for g in task.targets)
+        made["task"], made["tin"], made["fields"] = task, tin, fields
+        return all(reaches_region(f, task.spawn_region) for f in fields)
+
+    task = generate(rng, t.families or tuple(PARAMS), t.ranges, max_slope_deg=max_slope, solvable=solvable,
+                    where=f"{cfg.source} [terrain]")
+    assert made["task"] is task  # generate returns the draw the check accepted last
+    tin, fields = made["tin"], made["fields"]
+    return Stage(World(tin, cfg.world), np.asarray(task.targets, dtype=float).reshape(-1, 2), task.spawn_region,
+                 fields, task)
+
+
+def build_world(cfg: ScenarioConfig) -> World:
+    """The scenario's world (:func:`build_stage`'s, with the same checks)."""
+    return build_stage(cfg).world
 
 
 _REACHABLE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # world -> {spawn region: (T,) bool}
@@ -145,18 +265,26 @@ def _positions(spec) -> np.ndarray:
 
 
 def initial_state(world: World, cfg: ScenarioConfig, rng: np.random.Generator, n_robots: int, *,
-                  robot_positions=None, headings=None, target_positions=None) -> WorldState:
+                  robot_positions=None, headings=None, target_positions=None, spawn_region=None,
+                  reachable=None) -> WorldState:
     """The generator: robots spawned uniformly (from ``rng``) in the spawn region on traversable
     ground, then targets and assets where the scenario puts them or, for a ``count``, drawn
     from ``rng`` (:func:`place_entities`). ``robot_positions (n, 2)`` (with
     optional ``headings (n,)``) and ``target_positions (m, 2)`` replace the spawned robots and
     the scenario's targets (the env's reset options); a position off traversable ground raises
-    a PlacementError naming it."""
+    a PlacementError naming it. ``spawn_region`` replaces the scenario's (a generated task's);
+    ``reachable (m, T)`` bool, per target the triangles it can be reached from: robot ``i``
+    spawns only where its assigned target (:func:`assignments`) can be reached."""
     if robot_positions is None:
         if headings is not None:
             raise ArgumentError("headings need robot_positions")
-        pos = spawn_positions(world.tin, world.steep, n_robots, rng, region=cfg.robots.spawn_region,
-                              min_separation_m=cfg.robots.min_separation_m)
+        groups = None
+        if reachable is not None and len(reachable):
+            groups = assignments(n_robots, len(reachable))
+        pos = spawn_positions(world.tin, world.steep, n_robots, rng,
+                              region=cfg.robots.spawn_region if spawn_region is None else spawn_region,
+                              min_separation_m=cfg.robots.min_separation_m,
+                              allowed=reachable if groups is not None else None, groups=groups)
     else:
         pos = np.asarray(robot_positions, dtype=np.float64)
         if pos.shape != (n_robots, 2):

@@ -11,7 +11,7 @@ Layout of a scenario file (every table and key optional except ``terrain.source`
     seed = 0
 
     [terrain]
-    source = "procedural"         # "procedural" | "sample" | "dem" | "tin" | "flat"
+    source = "procedural"         # "procedural" | "sample" | "dem" | "tin" | "flat" | "generated"
     recipe = "cliff_goal"         # procedural recipe name (see scenario/terrains.py)
     path = ""                     # DEM/TIN file (relative to the scenario file) or sample name
     method = "greedy"             # reduction for a DEM: "vip" | "greedy" | "delaunay"
@@ -19,6 +19,10 @@ Layout of a scenario file (every table and key optional except ``terrain.source`
     max_error_m = 0.5
     size_m = [500.0, 500.0]       # flat plane / procedural extent
     params = {}                   # recipe parameters
+    # source = "generated" (seeded task generators, scenario/generators.py):
+    families = ["canyon", "mesa", "hills"]   # or {canyon = 2, mesa = 1}: weights; default all
+    ranges = {}                   # per-family parameter ranges, e.g. {canyon = {cliff_m = [8, 12]}}
+    resample = "reset"            # "reset": a new terrain on every reset(seed); "once": one, from seed
 
     [robots]
     count = 20
@@ -44,7 +48,7 @@ Layout of a scenario file (every table and key optional except ``terrain.source`
     mobile = false
     standoff_m = 0.0              # the guard ring's radius (the APF's asset field)
 
-    [rewards]    # RewardWeights fields
+    [rewards]    # RewardWeights fields; progress = "geodesic" | "euclidean"
     [observation]  # k_robots, k_targets, k_breaks, k_assets
 """
 
@@ -81,6 +85,9 @@ class TerrainSpec:
     max_error_m: float = 0.5
     size_m: tuple[float, float] = (500.0, 500.0)
     params: dict = field(default_factory=dict)
+    families: tuple[str, ...] | dict = ()  # generated: family names or {name: weight}; () = all
+    ranges: dict = field(default_factory=dict)  # generated: {family: {parameter: [lo, hi] | choices}}
+    resample: str = "reset"  # generated: "reset" (new terrain every reset(seed)) or "once"
 
 
 @dataclass(frozen=True)
@@ -126,8 +133,14 @@ class RewardWeights:
     """Per-robot reward = progress_per_m * (metres gained toward the goal or standoff ring)
     + arrival (once, goal task) + on_ring_per_step (containment, within ring_tolerance_m)
     + fall (once) + battery_empty (once) + collision * (robots touched this step)
-    + energy_per_kj * (kJ drawn this step)."""
+    + energy_per_kj * (kJ drawn this step).
 
+    ``progress`` says how the metres are measured: "geodesic" (default) by the length of the
+    shortest drivable path (:func:`~tin_swarm_env.terrain.cost_to_go` over the triangles no
+    steeper than the robots' ``max_slope_deg``), "euclidean" by the straight line (see
+    :mod:`tin_swarm_env.env.reward`)."""
+
+    progress: str = "geodesic"
     progress_per_m: float = 1.0
     arrival: float = 10.0
     on_ring_per_step: float = 0.1
@@ -136,6 +149,10 @@ class RewardWeights:
     battery_empty: float = -5.0
     collision: float = -1.0
     energy_per_kj: float = -1.0
+
+    def __post_init__(self):
+        if self.progress not in ("geodesic", "euclidean"):
+            raise ValueError(f"'progress' must be 'geodesic' or 'euclidean', got {self.progress!r}")
 
 
 @dataclass(frozen=True)
@@ -173,7 +190,7 @@ class ScenarioConfig:
                 f"scenario {self.name!r}: max_cycles must be a positive integer, got {self.max_cycles!r}")
         if self.robots.count < 1:
             raise ScenarioError(f"scenario {self.name!r}: robots.count must be >= 1, got {self.robots.count}")
-        if self.task == "goal" and self.targets.n == 0:
+        if self.task == "goal" and self.targets.n == 0 and self.terrain.source != "generated":
             raise ScenarioError(f"scenario {self.name!r}: the goal task needs at least one target (positions or count)")
 
     def replace(self, **kw) -> ScenarioConfig:
@@ -256,10 +273,13 @@ def scenario_from_dict(d: dict, source: str = "<dict>", base_dir: str = ".") -> 
     rspec = _build(RobotsSpec, robots_t, f"{source} [robots]", allowed=_RSPEC_KEYS)
     sensor = _build(SensorParams, d.get("sensor", {}), f"{source} [sensor]")
     battery = _build(BatteryParams, d.get("battery", {}), f"{source} [battery]")
-    terrain = _build(TerrainSpec, d.get("terrain", {}), f"{source} [terrain]")
-    if terrain.source not in ("procedural", "sample", "dem", "tin", "flat"):
-        raise ScenarioError(f"{source} [terrain]: 'source' must be procedural, sample, dem, tin or flat, "
-                            f"got {terrain.source!r}")
+    terrain_t, families = d.get("terrain", {}), ()
+    if isinstance(terrain_t, dict) and "families" in terrain_t:  # a list or a table: checked by _families
+        terrain_t = dict(terrain_t)
+        families = _families(terrain_t.pop("families"), f"{source} [terrain]")
+    terrain = _build(TerrainSpec, terrain_t, f"{source} [terrain]", families=families)
+    if terrain.source not in _SOURCES:
+        raise ScenarioError(f"{source} [terrain]: 'source' must be {', '.join(_SOURCES)}, got {terrain.source!r}")
     world = _build(WorldParams, d.get("world", {}), f"{source} [world]", allowed=_WORLD_KEYS,
                    robot=robot, sensor=sensor, battery=battery, flat_size_m=terrain.size_m)
     targets = _build(EntitiesSpec, d.get("targets", {}), f"{source} [targets]")
@@ -267,6 +287,8 @@ def scenario_from_dict(d: dict, source: str = "<dict>", base_dir: str = ".") -> 
                     allowed={"positions", "count", "region", "min_separation_m", "mobile", "standoff_m"})
     rewards = _build(RewardWeights, d.get("rewards", {}), f"{source} [rewards]")
     obs = _build(ObservationSpec, d.get("observation", {}), f"{source} [observation]")
+    if terrain.source == "generated":
+        _check_generated(terrain, rspec, targets, d.get("task", "goal"), source)
     hints = typing.get_type_hints(ScenarioConfig)
     top = {k: _typed(source, k, d[k], hints[k]) for k in ("name", "task", "max_cycles", "seed") if k in d}
     try:
@@ -274,6 +296,38 @@ def scenario_from_dict(d: dict, source: str = "<dict>", base_dir: str = ".") -> 
                               rewards=rewards, observation=obs, base_dir=base_dir, source=source, **top)
     except ScenarioError as exc:
         raise ScenarioError(f"{source}: {exc}") from None
+
+
+_SOURCES = ("procedural", "sample", "dem", "tin", "flat", "generated")
+
+
+def _families(value, where):
+    """``[terrain] families``: a list of names (a tuple) or a table of weights (a dict)."""
+    if isinstance(value, list) and all(isinstance(v, str) for v in value):
+        return tuple(value)
+    if isinstance(value, dict):
+        return dict(value)
+    raise ScenarioError(f"{where}: 'families' must be a list of family names or a table of weights, got {value!r}")
+
+
+def _check_generated(terrain: TerrainSpec, robots: RobotsSpec, targets: EntitiesSpec, task, source):
+    """A generated terrain brings its own target and spawn region; its families, ranges and
+    ``resample`` are checked here, at load, so that errors name the file."""
+    from .generators import PARAMS, _weights, validate_ranges
+
+    where = f"{source} [terrain]"
+    names, _ = _weights(terrain.families or tuple(PARAMS), where)
+    validate_ranges(terrain.ranges, names, f"{where} ranges")
+    if terrain.resample not in ("reset", "once"):
+        raise ScenarioError(f"{where}: 'resample' must be 'reset' or 'once', got {terrain.resample!r}")
+    if task != "goal":
+        raise ScenarioError(f"{where}: a generated terrain is a goal task; 'task' must be 'goal', got {task!r}")
+    if targets.positions:
+        raise ScenarioError(f"{source} [targets]: 'positions' must be empty with a generated terrain "
+                            "(the generator places the target)")
+    if robots.spawn_region is not None:
+        raise ScenarioError(f"{source} [robots]: 'spawn_region' must not be set with a generated terrain "
+                            "(the generator draws it)")
 
 
 def list_scenarios() -> dict[str, str]:
