@@ -86,13 +86,25 @@ class CostToGo:
         nx, ny, self._tri_nodes, start, node_tris = K.build_nodes(
             tin._vx, tin._vy, tin.triangles, te, n_edges, m, self.passable)
         self._nx, self._ny = nx, ny
-        self.goal_triangles = self._goal_triangles()
-        seeds = np.unique(self._tri_nodes[self.goal_triangles].ravel())
-        seed_dist = np.hypot(nx[seeds] - self.goal_xy[0], ny[seeds] - self.goal_xy[1])
         self._start, self._node_tris = start, node_tris
-        self.node_distance, self._parent = K.dijkstra(
-            nx, ny, tin._vx, tin._vy, tin.triangles, tin.neighbors, self.passable, self._tri_nodes, start,
-            node_tris, seeds, seed_dist, self.goal_xy[0], self.goal_xy[1], self.any_angle, tin._tol[0])
+        self.goal_triangles = self._goal_triangles()
+        gt = np.flatnonzero(self.goal_triangles)
+        if self.any_angle:
+            corner = K.corners(tin._vx, tin._vy, tin.triangles, tin.neighbors, self.passable)
+            ea = K.edge_starts(tin.triangles, te, n_edges)
+            self.node_distance, self._parent, wf, wi = K.windows(
+                nx, ny, tin._vx, tin._vy, tin.triangles, tin.neighbors, te, ea, self.passable, self._tri_nodes,
+                start, node_tris, corner, gt, self.goal_xy[0], self.goal_xy[1], m)
+            self._wstart, self._wgeo, self._wroot = K.tri_windows(wf, wi, tin._vx, tin._vy, tin.triangles,
+                                                                  tin.n_triangles)
+        else:
+            seeds = np.unique(self._tri_nodes[gt].ravel())
+            seed_dist = np.hypot(nx[seeds] - self.goal_xy[0], ny[seeds] - self.goal_xy[1])
+            self.node_distance, self._parent = K.dijkstra(nx, ny, self._tri_nodes, start, node_tris, seeds,
+                                                          seed_dist)
+            self._wstart = np.zeros(tin.n_triangles + 1, dtype=np.int64)
+            self._wgeo = np.zeros((0, 7))
+            self._wroot = np.zeros(0, dtype=np.int64)
         self.node_distance.setflags(write=False)
         self.goal_triangles.setflags(write=False)
 
@@ -165,10 +177,13 @@ class CostToGo:
                 raise ValueError(f"tri_idx has {t.shape[0]} entries for {px.shape[0]} points")
             if t.size and (t.min() < -1 or t.max() >= tin.n_triangles):
                 raise ValueError(f"tri_idx must lie in -1..{tin.n_triangles - 1}")
-        return K.query(self._nx, self._ny, self.node_distance, self._parent, self._tri_nodes,
-                       self.passable, self.goal_triangles, self.goal_xy[0], self.goal_xy[1],
-                       tin._vx, tin._vy, tin.triangles, tin.neighbors, px, py, t,
-                       tin._tol[0], self._eps_m, self.any_angle)
+        return self._query(px, py, t)[:2]
+
+    def _query(self, px, py, t):
+        tin = self.tin
+        return K.query(self._nx, self._ny, self.node_distance, self._parent, self._tri_nodes, self.passable,
+                       self.goal_triangles, self.goal_xy[0], self.goal_xy[1], tin._vx, tin._vy, tin.triangles,
+                       tin.neighbors, self._wstart, self._wgeo, self._wroot, px, py, t, tin._tol[0], self._eps_m)
 
     @property
     def _eps_m(self) -> float:
