@@ -270,8 +270,9 @@ def _seg_dist(rx, ry, ax, ay, bx, by):
 
 
 @njit(cache=True)
-def _push(st, wf, wi, heap, t, k, u0, u1, rx, ry, rd, root, key):
-    """Append a record and queue it; grows the arrays (returned) when full. st = [n, heap size]."""
+def _push(st, wf, wi, links, heap, t, k, u0, u1, rx, ry, rd, root, key):
+    """Append a record and queue it; grows the arrays (returned) when full. st = [n, heap
+    size]; heap (cap, 2) float64 rows [key, record] (keys contiguous with their ids)."""
     n = st[0]
     if n == wf.shape[0]:
         cap = 2 * n
@@ -279,9 +280,11 @@ def _push(st, wf, wi, heap, t, k, u0, u1, rx, ry, rd, root, key):
         wf2[:n] = wf
         wi2 = np.empty((cap, 4), dtype=np.int64)
         wi2[:n] = wi
-        heap2 = np.empty(cap, dtype=np.int64)
+        links2 = np.full((cap, 2), -1, dtype=np.int64)
+        links2[:n] = links[:n]
+        heap2 = np.empty((cap, 2))
         heap2[:st[1]] = heap[:st[1]]
-        wf, wi, heap = wf2, wi2, heap2
+        wf, wi, links, heap = wf2, wi2, links2, heap2
     wf[n, 0] = u0
     wf[n, 1] = u1
     wf[n, 2] = rx
@@ -297,36 +300,40 @@ def _push(st, wf, wi, heap, t, k, u0, u1, rx, ry, rd, root, key):
     i = st[1]
     while i > 0:
         p = (i - 1) >> 1
-        if wf[heap[p], 5] <= key:
+        if heap[p, 0] <= key:
             break
-        heap[i] = heap[p]
+        heap[i, 0] = heap[p, 0]
+        heap[i, 1] = heap[p, 1]
         i = p
-    heap[i] = n
+    heap[i, 0] = key
+    heap[i, 1] = n
     st[0] = n + 1
     st[1] += 1
-    return wf, wi, heap
+    return wf, wi, links, heap
 
 
 @njit(cache=True)
-def _pop(st, wf, heap):
-    top = heap[0]
+def _pop(st, heap):
+    top = int(heap[0, 1])
     size = st[1] - 1
     st[1] = size
     if size > 0:
-        u = heap[size]
-        ku = wf[u, 5]
+        ku = heap[size, 0]
+        iu = heap[size, 1]
         i = 0
         while True:
             c = 2 * i + 1
             if c >= size:
                 break
-            if c + 1 < size and wf[heap[c + 1], 5] < wf[heap[c], 5]:
+            if c + 1 < size and heap[c + 1, 0] < heap[c, 0]:
                 c += 1
-            if ku <= wf[heap[c], 5]:
+            if ku <= heap[c, 0]:
                 break
-            heap[i] = heap[c]
+            heap[i, 0] = heap[c, 0]
+            heap[i, 1] = heap[c, 1]
             i = c
-        heap[i] = u
+        heap[i, 0] = ku
+        heap[i, 1] = iu
     return top
 
 
@@ -358,7 +365,7 @@ def _cover(e, c0, c1, rx, ry, rd, root, ea_v, eb_v, m, V, nx, ny, dist, parent, 
 
 
 @njit(cache=True)
-def _edge_best(e, c, x, y, root, ea_v, eb_v, m, V, nx, ny, dist, parent, ehead, wnext, wf, wi):
+def _edge_best(e, c, x, y, root, ea_v, eb_v, m, V, nx, ny, dist, parent, ehead, links, wf, wi):
     """The best known distance at point (x, y) (canonical parameter c) of edge e by a path not
     leaving straight for ``root``: via the two nodes bracketing it along the edge, or straight
     to the root of an accepted window on e covering it (values of ``root`` itself are left out:
@@ -376,7 +383,7 @@ def _edge_best(e, c, x, y, root, ea_v, eb_v, m, V, nx, ny, dist, parent, ehead, 
     while w >= 0:
         if wi[w, 2] != root and wf[w, 6] - _UEPS <= c <= wf[w, 7] + _UEPS:
             best = min(best, wf[w, 4] + _hyp(x - wf[w, 2], y - wf[w, 3]))
-        w = wnext[w]
+        w = links[w, 0]
     return best
 
 
@@ -393,7 +400,7 @@ def _ray_hit(rx, ry, px, py, ux, uy, wx, wy):
 
 @njit(cache=True)
 def _spawn(rx, ry, rd, root, t, vx, vy, tris, nbrs, passable, tri_nodes, nx, ny, dist, parent, corner, spawned,
-           pend, stack, st, wf, wi, heap):
+           pend, stack, st, wf, wi, links, heap, phead):
     """Root r lies on passable triangle t: offer t's nodes their straight segment to r and
     open a full-edge window on each edge of t that r does not lie on, into the neighbour."""
     V = vx.shape[0]
@@ -413,12 +420,12 @@ def _spawn(rx, ry, rd, root, t, vx, vy, tris, nbrs, passable, tri_nodes, nx, ny,
         while nbrs[nb, kk] != t:
             kk += 1
         key = rd + _seg_dist(rx, ry, vx[a], vy[a], vx[b], vy[b])
-        wf, wi, heap = _push(st, wf, wi, heap, nb, kk, 0.0, 1.0, rx, ry, rd, root, key)
-    return wf, wi, heap
+        wf, wi, links, heap = _push(st, wf, wi, links, heap, nb, kk, 0.0, 1.0, rx, ry, rd, root, key)
+    return wf, wi, links, heap
 
 
 @njit(cache=True)
-def _keep(w, e, ea_v, eb_v, flip, ax, ay, bx, by, m, V, nx, ny, dist, parent, ehead, wnext, wf, wi):
+def _keep(w, e, ea_v, eb_v, flip, ax, ay, bx, by, m, V, nx, ny, dist, parent, ehead, links, wf, wi):
     """Whether window w beats every other root at some test point of its interval: its ends,
     its midpoint and the nodes inside it (values are compared, not whole functions, so a window
     better only between test points may be dropped: an approximation, never an error)."""
@@ -434,7 +441,7 @@ def _keep(w, e, ea_v, eb_v, flip, ax, ay, bx, by, m, V, nx, ny, dist, parent, eh
         y = ay + u * (by - ay)
         c = 1.0 - u if flip else u
         val = rd + _hyp(x - rx, y - ry)
-        if val < _edge_best(e, c, x, y, root, ea_v, eb_v, m, V, nx, ny, dist, parent, ehead, wnext, wf, wi) * (
+        if val < _edge_best(e, c, x, y, root, ea_v, eb_v, m, V, nx, ny, dist, parent, ehead, links, wf, wi) * (
                 1.0 - _REL):
             return True
     c0 = 1.0 - u1 if flip else u0
@@ -446,6 +453,38 @@ def _keep(w, e, ea_v, eb_v, flip, ax, ay, bx, by, m, V, nx, ny, dist, parent, eh
             if parent[u] != root and rd + _hyp(nx[u] - rx, ny[u] - ry) < dist[u] * (1.0 - _REL):
                 return True
     return False
+
+
+@njit(cache=True)
+def _merge(w, e, wf, wi, links, phead):
+    """Absorb into window w the queued windows on edge e of the same root into the same
+    triangle that continue its interval (pieces split by a vertex's ray join again one triangle
+    later: merging keeps the window count near one per edge and root)."""
+    t = wi[w, 0]
+    root = wi[w, 2]
+    changed = True
+    while changed:
+        changed = False
+        prev = -1
+        x = phead[e]
+        while x >= 0:
+            nxt = links[x, 1]
+            drop = wi[x, 3] != 0
+            if not drop and wi[x, 0] == t and wi[x, 2] == root and (
+                    abs(wf[x, 0] - wf[w, 1]) <= 1e-9 or abs(wf[x, 1] - wf[w, 0]) <= 1e-9):
+                wf[w, 0] = min(wf[w, 0], wf[x, 0])
+                wf[w, 1] = max(wf[w, 1], wf[x, 1])
+                wi[x, 3] = 3
+                drop = True
+                changed = True
+            if drop:
+                if prev < 0:
+                    phead[e] = nxt
+                else:
+                    links[prev, 1] = nxt
+            else:
+                prev = x
+            x = nxt
 
 
 @njit(cache=True)
@@ -469,71 +508,71 @@ def windows(nx, ny, vx, vy, tris, nbrs, te, ea, passable, tri_nodes, start, node
     parent = np.full(N, NONE, dtype=np.int64)
     cap = 2 * E + 16
     wf = np.empty((cap, 8))
-    wi = np.empty((cap, 4), dtype=np.int64)
-    heap = np.empty(cap, dtype=np.int64)
-    wnext = np.full(cap, -1, dtype=np.int64)  # grown with wf below
+    wi = np.empty((cap, 4), dtype=np.int64)  # state wi[:, 3]: 0 queued, 1 accepted, 2 done, 3 merged away
+    links = np.full((cap, 2), -1, dtype=np.int64)  # next accepted / next queued window on the same edge
+    heap = np.empty((cap, 2))
     ehead = np.full(E, -1, dtype=np.int64)
+    phead = np.full(E, -1, dtype=np.int64)
     spawned = np.zeros(V, dtype=np.bool_)
     pend = np.zeros(V, dtype=np.bool_)
     stack = np.empty(V, dtype=np.int64)
     st = np.zeros(3, dtype=np.int64)  # records, heap size, stacked corners
     for i in range(goal_tris.shape[0]):
-        wf, wi, heap = _spawn(gx, gy, 0.0, GOAL, goal_tris[i], vx, vy, tris, nbrs, passable, tri_nodes, nx, ny,
-                              dist, parent, corner, spawned, pend, stack, st, wf, wi, heap)
+        wf, wi, links, heap = _spawn(gx, gy, 0.0, GOAL, goal_tris[i], vx, vy, tris, nbrs, passable, tri_nodes,
+                                     nx, ny, dist, parent, corner, spawned, pend, stack, st, wf, wi, links, heap,
+                                     phead)
     while True:
         for i in range(st[2]):  # improved corners: queue their spawn at their new distance
             v = stack[i]
             pend[v] = False
-            wf, wi, heap = _push(st, wf, wi, heap, -1, 0, 0.0, 0.0, 0.0, 0.0, 0.0, v, dist[v])
+            wf, wi, links, heap = _push(st, wf, wi, links, heap, -1, 0, 0.0, 0.0, 0.0, 0.0, 0.0, v, dist[v])
         st[2] = 0
         if st[1] == 0:
             break
-        w = _pop(st, wf, heap)
-        if wnext.shape[0] < wf.shape[0]:
-            wn = np.full(wf.shape[0], -1, dtype=np.int64)
-            wn[:wnext.shape[0]] = wnext
-            wnext = wn
+        w = _pop(st, heap)
         t = wi[w, 0]
+        if wi[w, 3] == 3:
+            continue
+        wi[w, 3] = 2
         if t < 0:
             v = wi[w, 2]
             if spawned[v] or wf[w, 5] > dist[v]:
                 continue
             spawned[v] = True
             for a in range(start[v], start[v + 1]):
-                wf, wi, heap = _spawn(vx[v], vy[v], dist[v], v, node_tris[a], vx, vy, tris, nbrs, passable,
-                                      tri_nodes, nx, ny, dist, parent, corner, spawned, pend, stack, st, wf, wi, heap)
+                wf, wi, links, heap = _spawn(vx[v], vy[v], dist[v], v, node_tris[a], vx, vy, tris, nbrs, passable,
+                                             tri_nodes, nx, ny, dist, parent, corner, spawned, pend, stack, st, wf,
+                                             wi, links, heap, phead)
             continue
         k = wi[w, 1]
         e = te[t, k]
+        _merge(w, e, wf, wi, links, phead)
         A = tris[t, (k + 1) % 3]
         B = tris[t, (k + 2) % 3]
         flip = ea[e] != A
         eb_v = A if flip else B
-        if not _keep(w, e, ea[e], eb_v, flip, vx[A], vy[A], vx[B], vy[B], m, V, nx, ny, dist, parent, ehead, wnext, wf,
-                     wi):
+        if not _keep(w, e, ea[e], eb_v, flip, vx[A], vy[A], vx[B], vy[B], m, V, nx, ny, dist, parent, ehead, links,
+                     wf, wi):
             continue
-        u0 = wf[w, 0]
-        u1 = wf[w, 1]
         rx = wf[w, 2]
         ry = wf[w, 3]
         rd = wf[w, 4]
-        root = wi[w, 2]
         wi[w, 3] = 1
-        wf[w, 6] = 1.0 - u1 if flip else u0
-        wf[w, 7] = 1.0 - u0 if flip else u1
-        wnext[w] = ehead[e]
+        wf[w, 6] = 1.0 - wf[w, 1] if flip else wf[w, 0]
+        wf[w, 7] = 1.0 - wf[w, 0] if flip else wf[w, 1]
+        links[w, 0] = ehead[e]
         ehead[e] = w
-        _cover(e, wf[w, 6], wf[w, 7], rx, ry, rd, root, ea[e], eb_v, m, V, nx, ny, dist, parent, corner, spawned,
+        _cover(e, wf[w, 6], wf[w, 7], rx, ry, rd, wi[w, 2], ea[e], eb_v, m, V, nx, ny, dist, parent, corner, spawned,
                pend, stack, st)
-        wf, wi, heap = _children(w, t, k, vx, vy, tris, nbrs, te, ea, passable, m, V, nx, ny, dist, parent, corner,
-                                 spawned, pend, stack, st, wf, wi, heap)
+        wf, wi, links, heap = _children(w, t, k, vx, vy, tris, nbrs, te, ea, passable, m, V, nx, ny, dist, parent,
+                                        corner, spawned, pend, stack, st, wf, wi, links, heap, phead)
     n = st[0]
     return dist, parent, wf[:n].copy(), wi[:n].copy()
 
 
 @njit(cache=True)
 def _children(w, t, k, vx, vy, tris, nbrs, te, ea, passable, m, V, nx, ny, dist, parent, corner, spawned, pend,
-              stack, st, wf, wi, heap):
+              stack, st, wf, wi, links, heap, phead):
     """Push window w (on edge k of t) through t: clip its wedge to t's other two edges."""
     C = tris[t, k]
     A = tris[t, (k + 1) % 3]
@@ -593,8 +632,11 @@ def _children(w, t, k, vx, vy, tris, nbrs, te, ea, passable, m, V, nx, ny, dist,
         qx1 = vx[a2] + hi * (vx[b2] - vx[a2])
         qy1 = vy[a2] + hi * (vy[b2] - vy[a2])
         key = rd + _seg_dist(rx, ry, qx0, qy0, qx1, qy1)
-        wf, wi, heap = _push(st, wf, wi, heap, nb, kk, 1.0 - hi, 1.0 - lo, rx, ry, rd, root, key)
-    return wf, wi, heap
+        wf, wi, links, heap = _push(st, wf, wi, links, heap, nb, kk, 1.0 - hi, 1.0 - lo, rx, ry, rd, root, key)
+        e2 = te[nb, kk]
+        links[st[0] - 1, 1] = phead[e2]  # pending on e2, to be merged with its contiguous pieces
+        phead[e2] = st[0] - 1
+    return wf, wi, links, heap
 
 
 @njit(cache=True)
@@ -604,7 +646,7 @@ def tri_windows(wf, wi, vx, vy, tris, T):
     sees the root of such a window iff p lies in its wedge (between rays r->p0 and r->p1)."""
     start = np.zeros(T + 1, dtype=np.int64)
     for w in range(wi.shape[0]):
-        if wi[w, 0] >= 0 and wi[w, 3]:
+        if wi[w, 0] >= 0 and wi[w, 3] == 1:
             start[wi[w, 0] + 1] += 1
     for t in range(T):
         start[t + 1] += start[t]
@@ -613,7 +655,7 @@ def tri_windows(wf, wi, vx, vy, tris, T):
     root = np.empty(start[T], dtype=np.int64)
     for w in range(wi.shape[0]):
         t = wi[w, 0]
-        if t < 0 or not wi[w, 3]:
+        if t < 0 or wi[w, 3] != 1:
             continue
         k = wi[w, 1]
         A = tris[t, (k + 1) % 3]
