@@ -235,6 +235,35 @@ def test_agrees_with_a_dense_grid_dijkstra(seed):
         assert np.all(np.abs(d[far] / dg[far] - 1) <= 0.03 + 3 * cell / dg[far])
 
 
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 10_000), st.integers(0, 3))
+def test_agrees_with_the_exact_visibility_graph(seed, m):
+    """Against the exact field (visibility graph over every vertex, brute force): the window
+    propagation is exact but for windows dropped between test points; allow 0.5 %."""
+    tin, passable, goal, rng = obstacle_case(seed, n=20, n_discs=3)
+    ctg = cost_to_go(tin, goal, passable, steiner_per_edge=m)
+    q = rng.uniform(0, 1000, (150, 2))
+    d = ctg.distance_at(q)
+    ref = reference.cost_to_go_visibility_brute(tin, goal, passable, q)
+    assert np.array_equal(np.isfinite(d), np.isfinite(ref))
+    f = np.isfinite(d)
+    assert np.all(d[f] >= ref[f] * (1 - 1e-9) - 1e-6)  # every value is a real path
+    assert np.all(d[f] <= ref[f] * 1.005 + 1e-6)
+    assert np.mean(np.abs(d[f] - ref[f]) <= 1e-6 * ref[f] + 1e-6) > 0.95  # and nearly all exact
+
+
+def test_corners_are_reflex_or_pinched_boundary_vertices():
+    tin, cells = grid_tin(4, 4, 10.0)
+    one = (cells[:, 0] == 1) & (cells[:, 1] == 1)  # one impassable square: its 4 corners are reflex
+    c = K.corners(tin._vx, tin._vy, tin.triangles, tin.neighbors, ~one)
+    assert set(np.flatnonzero(c)) == {6, 7, 11, 12}
+    assert not K.corners(tin._vx, tin._vy, tin.triangles, tin.neighbors, np.ones(tin.n_triangles, bool)).any()
+    # two squares touching at vertex 12 only (a pinch): 12 is a corner though each side turns < 180 deg
+    two = ((cells[:, 0] == 1) & (cells[:, 1] == 1)) | ((cells[:, 0] == 2) & (cells[:, 1] == 2))
+    c = K.corners(tin._vx, tin._vy, tin.triangles, tin.neighbors, two)
+    assert c[12] and not c[6] and c.sum() == 1
+
+
 @given(st.integers(0, 10_000))
 def test_a_step_along_direction_lowers_distance_by_the_step(seed):
     tin, passable, goal, rng = obstacle_case(seed)

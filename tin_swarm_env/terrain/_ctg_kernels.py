@@ -249,6 +249,7 @@ def _snap(vx, vy, tris, nbrs, passable, t, x, y, tol):
 # [t, k, root, accepted]; t == -1 marks a *spawn* event of vertex ``root`` instead.
 
 _REL = 1e-14  # a window must improve some test value by this relative amount to be kept
+_NTEST = 4  # a window is compared with the others at _NTEST + 1 evenly spaced points and at the nodes
 _UEPS = 1e-12  # interval parameters this close to 0/1 reach the edge's end vertex
 
 
@@ -365,20 +366,11 @@ def _cover(e, c0, c1, rx, ry, rd, root, ea_v, eb_v, m, V, nx, ny, dist, parent, 
 
 
 @njit(cache=True)
-def _edge_best(e, c, x, y, root, ea_v, eb_v, m, V, nx, ny, dist, parent, ehead, links, wf, wi):
-    """The best known distance at point (x, y) (canonical parameter c) of edge e by a path not
-    leaving straight for ``root``: via the two nodes bracketing it along the edge, or straight
-    to the root of an accepted window on e covering it (values of ``root`` itself are left out:
-    they cannot rule out a window of that root)."""
-    j = int(np.floor(c * (m + 1.0)))
-    j = min(max(j, 0), m)
-    lo = ea_v if j == 0 else V + e * m + j - 1
-    hi = eb_v if j == m else V + e * m + j
+def _edge_best(e, c, x, y, root, ehead, links, wf, wi):
+    """The best distance at point (x, y) (canonical parameter c) of edge e straight to the
+    root of an accepted window on e covering it, ``root``'s own windows left out (they cannot
+    rule out a window of that root); ``inf`` when none covers it."""
     best = np.inf
-    if parent[lo] != root:
-        best = dist[lo] + _hyp(x - nx[lo], y - ny[lo])
-    if parent[hi] != root:
-        best = min(best, dist[hi] + _hyp(x - nx[hi], y - ny[hi]))
     w = ehead[e]
     while w >= 0:
         if wi[w, 2] != root and wf[w, 6] - _UEPS <= c <= wf[w, 7] + _UEPS:
@@ -426,23 +418,28 @@ def _spawn(rx, ry, rd, root, t, vx, vy, tris, nbrs, passable, tri_nodes, nx, ny,
 
 @njit(cache=True)
 def _keep(w, e, ea_v, eb_v, flip, ax, ay, bx, by, m, V, nx, ny, dist, parent, ehead, links, wf, wi):
-    """Whether window w beats every other root at some test point of its interval: its ends,
-    its midpoint and the nodes inside it (values are compared, not whole functions, so a window
-    better only between test points may be dropped: an approximation, never an error)."""
+    """Whether window w beats every other root at some test point of its interval: _NTEST + 1
+    evenly spaced points and the nodes inside it, each compared with the accepted windows of
+    other roots covering it (values are compared, not whole functions, so a window better only
+    between test points may be dropped: an approximation, never an error)."""
     u0 = wf[w, 0]
     u1 = wf[w, 1]
     rx = wf[w, 2]
     ry = wf[w, 3]
     rd = wf[w, 4]
     root = wi[w, 2]
-    for q in range(3):
-        u = u0 if q == 0 else (u1 if q == 1 else 0.5 * (u0 + u1))
+    for q in range(_NTEST + 1):
+        u = u0 + (u1 - u0) * q / _NTEST
         x = ax + u * (bx - ax)
         y = ay + u * (by - ay)
         c = 1.0 - u if flip else u
         val = rd + _hyp(x - rx, y - ry)
-        if val < _edge_best(e, c, x, y, root, ea_v, eb_v, m, V, nx, ny, dist, parent, ehead, links, wf, wi) * (
-                1.0 - _REL):
+        best = _edge_best(e, c, x, y, root, ehead, links, wf, wi)
+        if c <= 0.0 and parent[ea_v] != root:
+            best = min(best, dist[ea_v])
+        if c >= 1.0 and parent[eb_v] != root:
+            best = min(best, dist[eb_v])
+        if val < best * (1.0 - _REL):
             return True
     c0 = 1.0 - u1 if flip else u0
     c1 = 1.0 - u0 if flip else u1

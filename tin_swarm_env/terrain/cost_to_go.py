@@ -53,7 +53,7 @@ from .tin import Tin, _as_xy
 
 __all__ = ["CostToGo", "cost_to_go", "DEFAULT_STEINER_PER_EDGE"]
 
-DEFAULT_STEINER_PER_EDGE = 3
+DEFAULT_STEINER_PER_EDGE = 1
 
 
 class CostToGo:
