@@ -17,8 +17,6 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._kernels import exit_edge
-
 GOAL = -2  # parent of a node reached straight from the goal / query answered straight to the goal
 NONE = -1  # no node
 
@@ -93,6 +91,50 @@ def build_nodes(vx, vy, tris, te, n_edges, m, passable):
     return nx, ny, tri_nodes, start, node_tris
 
 
+@njit(cache=True)
+def edge_starts(tris, te, n_edges):
+    """``(E,)`` int64: each edge's first vertex in the frame of the first triangle holding it
+    (the frame :func:`build_nodes` spaces its Steiner points in: canonical parameter 0 there)."""
+    ea = np.full(n_edges, -1, dtype=np.int64)
+    for t in range(tris.shape[0]):
+        for k in range(3):
+            e = te[t, k]
+            if ea[e] < 0:
+                ea[e] = tris[t, (k + 1) % 3]
+    return ea
+
+
+@njit(cache=True)
+def corners(vx, vy, tris, nbrs, passable):
+    """``(V,)`` bool: vertices where a shortest path may bend: on the boundary of passable
+    ground (an edge with passable ground on one side only, the TIN border counting as
+    impassable) where passable ground turns by more than 180 deg (reflex) or meets itself at
+    a pinch (two or more passable arcs). Shortest paths in a polygonal domain bend only there."""
+    V = vx.shape[0]
+    ang = np.zeros(V)
+    bcount = np.zeros(V, dtype=np.int64)
+    for t in range(tris.shape[0]):
+        if not passable[t]:
+            continue
+        for k in range(3):
+            a = tris[t, k]
+            b = tris[t, (k + 1) % 3]
+            c = tris[t, (k + 2) % 3]
+            ux = vx[b] - vx[a]
+            uy = vy[b] - vy[a]
+            wx = vx[c] - vx[a]
+            wy = vy[c] - vy[a]
+            ang[a] += np.arctan2(abs(ux * wy - uy * wx), ux * wx + uy * wy)
+            nb = nbrs[t, k]  # across the edge b-c
+            if nb < 0 or not passable[nb]:
+                bcount[b] += 1
+                bcount[c] += 1
+    out = np.zeros(V, dtype=np.bool_)
+    for v in range(V):
+        out[v] = bcount[v] >= 4 or (bcount[v] == 2 and ang[v] > np.pi + 1e-9)
+    return out
+
+
 @njit(cache=True, inline="always")
 def _sift_up(heap, pos, key, i):
     u = heap[i]
@@ -130,84 +172,19 @@ def _sift_down(heap, pos, key, i, size):
 
 
 @njit(cache=True)
-def visible(vx, vy, tris, nbrs, passable, t, ax, ay, bx, by, max_steps):
-    """Whether the segment a -> b stays on passable triangles, walking from triangle ``t``
-    (which holds ``a`` and which the segment enters first). Exact up to the symbolic
-    perturbation of :func:`._kernels.exit_edge`; a segment running exactly along an edge or
-    through a vertex may be reported hidden (never the reverse), which only costs accuracy."""
-    dx = bx - ax
-    dy = by - ay
-    for _ in range(max_steps):
-        k, s, _u = exit_edge(vx, vy, tris, t, ax, ay, dx, dy)
-        if k < 0:
-            return False
-        if s >= 1.0 - 1e-12:
-            return True
-        nb = nbrs[t, k]
-        if nb < 0 or not passable[nb]:
-            return False
-        t = nb
-    return False
-
-
-@njit(cache=True)
-def _enters(vx, vy, tris, t, ax, ay, dx, dy, tol):
-    """Whether the direction ``d`` from ``a`` (a point on triangle ``t``) points into ``t``."""
-    L = np.sqrt(dx * dx + dy * dy)
-    if L == 0.0:
-        return True
-    for k in range(3):
-        p = tris[t, k]
-        q = tris[t, (k + 1) % 3]
-        ex = vx[q] - vx[p]
-        ey = vy[q] - vy[p]
-        # a on the edge line (within tol) and d pointing out of t: no
-        if abs(ex * (ay - vy[p]) - ey * (ax - vx[p])) <= tol and ex * dy - ey * dx < -1e-12 * L * np.sqrt(ex * ex + ey * ey):
-            return False
-    return True
-
-
-@njit(cache=True)
-def _node_sees(nx, ny, vx, vy, tris, nbrs, passable, start, node_tris, u, bx, by, tol, max_steps):
-    """Whether the segment from node ``u`` to point b stays on passable ground."""
-    ax = nx[u]
-    ay = ny[u]
-    for a in range(start[u], start[u + 1]):
-        t = node_tris[a]
-        if _enters(vx, vy, tris, t, ax, ay, bx - ax, by - ay, tol):
-            return visible(vx, vy, tris, nbrs, passable, t, ax, ay, bx, by, max_steps)
-    return False
-
-
-@njit(cache=True)
-def dijkstra(nx, ny, vx, vy, tris, nbrs, passable, tri_nodes, start, node_tris, seeds, seed_dist,
-             gx, gy, any_angle, tol):
-    """Shortest paths to the goal over the implicit Steiner graph (indexed binary heap).
-
-    ``seeds (s,)``: the nodes of the goal's triangles, at ``seed_dist (s,)`` (their straight
-    distance to the goal), parent :data:`GOAL`. Plain mode (``any_angle=False``): Dijkstra on the
-    graph. Any-angle mode: Lazy Theta* (Nash, Koenig and Tovey 2010) on the same graph: a node
-    is offered the straight segment from its neighbour's parent (``dist[parent] + |w - parent|``);
-    when it is popped that segment is checked with :func:`visible`, and if it crosses
-    impassable ground the node falls back to its best settled neighbour and is queued again at
-    that value (unlike plain Lazy Theta*, which settles it at once: that let a wrong optimistic
-    key settle nodes early with values 20 % too long). Every settled value is
-    the length of a chain of visible segments (``parent`` links) ending at the goal.
-    Returns ``(dist (N,), parent (N,))``; ``inf``/:data:`NONE` unreached.
-    """
+def dijkstra(nx, ny, tri_nodes, start, node_tris, seeds, seed_dist):
+    """Plain Dijkstra over the implicit Steiner graph (indexed binary heap): ``seeds (s,)`` are
+    the nodes of the goal's triangles at ``seed_dist (s,)`` (their straight distance to the
+    goal, parent :data:`GOAL`). Returns ``(dist (N,), parent (N,))``; ``inf``/:data:`NONE` unreached."""
     N = nx.shape[0]
     S = tri_nodes.shape[1]
-    max_steps = tris.shape[0] + 3
     dist = np.full(N, np.inf)
-    to_goal = np.full(N, np.inf)  # straight distance to the goal for the seeds
     parent = np.full(N, NONE, dtype=np.int64)
     pos = np.full(N, -1, dtype=np.int64)  # -1 never queued, -2 settled, else heap index
     heap = np.empty(N, dtype=np.int64)
-    sure = np.zeros(N, dtype=np.bool_)  # parent link known drivable (a fallback to a neighbour)
     size = 0
     for i in range(seeds.shape[0]):
         u = seeds[i]
-        to_goal[u] = seed_dist[i]
         if seed_dist[i] < dist[u]:
             dist[u] = seed_dist[i]
             parent[u] = GOAL
@@ -224,59 +201,16 @@ def dijkstra(nx, ny, vx, vy, tris, nbrs, passable, tri_nodes, start, node_tris, 
             heap[0] = heap[size]
             pos[heap[0]] = 0
             _sift_down(heap, pos, dist, 0, size)
-        ux = nx[u]
-        uy = ny[u]
-        if any_angle and not sure[u] and not (parent[u] == GOAL and to_goal[u] < np.inf):
-            p = parent[u]
-            if p == GOAL:
-                ok = _node_sees(nx, ny, vx, vy, tris, nbrs, passable, start, node_tris, u, gx, gy, tol, max_steps)
-            else:
-                ok = _node_sees(nx, ny, vx, vy, tris, nbrs, passable, start, node_tris, u, nx[p], ny[p], tol,
-                                max_steps)
-            if not ok:  # fall back to the best settled neighbour (or the goal for a seed)
-                best = to_goal[u]
-                bp = GOAL
-                for a in range(start[u], start[u + 1]):
-                    t = node_tris[a]
-                    for s in range(S):
-                        w = tri_nodes[t, s]
-                        if pos[w] == -2 and w != u:
-                            c = dist[w] + np.sqrt((nx[w] - ux) ** 2 + (ny[w] - uy) ** 2)
-                            if c < best:
-                                best = c
-                                bp = w
-                dist[u] = best
-                parent[u] = bp
-                sure[u] = True
-                if best < np.inf:  # queue again at its true value (plain Lazy Theta* settles it here)
-                    heap[size] = u
-                    pos[u] = size
-                    size += 1
-                    _sift_up(heap, pos, dist, size - 1)
-                    continue
-        # offer the neighbours a straight segment from u's parent (any-angle) or from u
-        src = u
-        if any_angle:
-            src = parent[u]
-        if src == GOAL:
-            sx = gx
-            sy = gy
-            sd = 0.0
-        else:
-            sx = nx[src]
-            sy = ny[src]
-            sd = dist[src]
         for a in range(start[u], start[u + 1]):
             t = node_tris[a]
             for s in range(S):
                 w = tri_nodes[t, s]
                 if pos[w] == -2:
                     continue
-                nd = sd + np.sqrt((nx[w] - sx) ** 2 + (ny[w] - sy) ** 2)
+                nd = dist[u] + np.sqrt((nx[w] - nx[u]) ** 2 + (ny[w] - ny[u]) ** 2)
                 if nd < dist[w]:
                     dist[w] = nd
-                    parent[w] = src
-                    sure[w] = not any_angle
+                    parent[w] = u
                     if pos[w] == -1:
                         heap[size] = w
                         pos[w] = size
@@ -304,60 +238,455 @@ def _snap(vx, vy, tris, nbrs, passable, t, x, y, tol):
     return t
 
 
+# -- exact any-angle field: window propagation ------------------------------------------------
+#
+# A *window* is an interval [u0, u1] of the edge ``k`` of triangle ``t`` (parameter u from
+# A = tris[t, (k+1)%3] to B = tris[t, (k+2)%3], t's counter-clockwise frame) every point of which
+# sees its *root* r (the goal or a corner vertex, at distance rd) along a straight segment on
+# passable ground, the segment arriving from outside t: the wedge of rays from r through the
+# interval continues into t. Window records: wf (cap, 8) float64 [u0, u1, rx, ry, rd, key, c0, c1]
+# (c0, c1: the interval in the edge's canonical parameter, set once accepted), wi (cap, 4) int64
+# [t, k, root, accepted]; t == -1 marks a *spawn* event of vertex ``root`` instead.
+
+_REL = 1e-14  # a window must improve some test value by this relative amount to be kept
+_NTEST = 4  # a window is compared with the others at _NTEST + 1 evenly spaced points and at the nodes
+_UEPS = 1e-12  # interval parameters this close to 0/1 reach the edge's end vertex
+
+
+@njit(cache=True, inline="always")
+def _hyp(x, y):
+    return np.sqrt(x * x + y * y)
+
+
 @njit(cache=True)
-def _shortcut(nx, ny, dist, parent, tri_nodes, passable, gx, gy, vx, vy, tris, nbrs, t, x, y, best, arg,
-              max_steps):
-    """Any-angle query: node ``j``'s parent ``s`` (where its straight last leg starts) offers
-    ``|p - s| + dist[s]`` (never more than ``|p - j| + dist[j]``), taken when the segment
-    ``p -> s`` is drivable (:func:`visible`). Shortcuts are tried cheapest first, only while
-    they beat ``best``; the first drivable one wins. Returns ``(best, arg)``."""
-    S = tri_nodes.shape[1]
-    tried = 0
-    for _ in range(S):
-        rb = best
-        rs = -1
-        for s in range(S):
-            if tried & (1 << s):
-                continue
-            u = tri_nodes[t, s]
-            p = parent[u]
-            if dist[u] == np.inf or p == NONE:
-                continue
-            if p == GOAL:
-                c = np.sqrt((gx - x) ** 2 + (gy - y) ** 2)
-            else:
-                c = np.sqrt((nx[p] - x) ** 2 + (ny[p] - y) ** 2) + dist[p]
-            if c < rb * (1.0 - 1e-12):
-                rb = c
-                rs = s
-        if rs < 0:
+def _seg_dist(rx, ry, ax, ay, bx, by):
+    """Distance from r to the segment a-b."""
+    dx = bx - ax
+    dy = by - ay
+    L2 = dx * dx + dy * dy
+    s = 0.0
+    if L2 > 0.0:
+        s = min(1.0, max(0.0, ((rx - ax) * dx + (ry - ay) * dy) / L2))
+    return _hyp(ax + s * dx - rx, ay + s * dy - ry)
+
+
+@njit(cache=True)
+def _push(st, wf, wi, links, heap, t, k, u0, u1, rx, ry, rd, root, key):
+    """Append a record and queue it; grows the arrays (returned) when full. st = [n, heap
+    size]; heap (cap, 2) float64 rows [key, record] (keys contiguous with their ids)."""
+    n = st[0]
+    if n == wf.shape[0]:
+        cap = 2 * n
+        wf2 = np.empty((cap, 8))
+        wf2[:n] = wf
+        wi2 = np.empty((cap, 4), dtype=np.int64)
+        wi2[:n] = wi
+        links2 = np.full((cap, 2), -1, dtype=np.int64)
+        links2[:n] = links[:n]
+        heap2 = np.empty((cap, 2))
+        heap2[:st[1]] = heap[:st[1]]
+        wf, wi, links, heap = wf2, wi2, links2, heap2
+    wf[n, 0] = u0
+    wf[n, 1] = u1
+    wf[n, 2] = rx
+    wf[n, 3] = ry
+    wf[n, 4] = rd
+    wf[n, 5] = key
+    wf[n, 6] = 0.0
+    wf[n, 7] = 0.0
+    wi[n, 0] = t
+    wi[n, 1] = k
+    wi[n, 2] = root
+    wi[n, 3] = 0
+    i = st[1]
+    while i > 0:
+        p = (i - 1) >> 1
+        if heap[p, 0] <= key:
             break
-        tried |= 1 << rs
-        p = parent[tri_nodes[t, rs]]
-        if p == GOAL:
-            ok = visible(vx, vy, tris, nbrs, passable, t, x, y, gx, gy, max_steps)
-        else:
-            ok = visible(vx, vy, tris, nbrs, passable, t, x, y, nx[p], ny[p], max_steps)
-        if ok:
-            return rb, p
-    return best, arg
+        heap[i, 0] = heap[p, 0]
+        heap[i, 1] = heap[p, 1]
+        i = p
+    heap[i, 0] = key
+    heap[i, 1] = n
+    st[0] = n + 1
+    st[1] += 1
+    return wf, wi, links, heap
 
 
 @njit(cache=True)
-def query(nx, ny, dist, parent, tri_nodes, passable, goal_tri, gx, gy, vx, vy, tris, nbrs,
-          px, py, tidx, tol, eps_m, any_angle):
-    """Distance ``(n,)`` and first-leg unit direction ``(n, 2)`` at each point.
+def _pop(st, heap):
+    top = int(heap[0, 1])
+    size = st[1] - 1
+    st[1] = size
+    if size > 0:
+        ku = heap[size, 0]
+        iu = heap[size, 1]
+        i = 0
+        while True:
+            c = 2 * i + 1
+            if c >= size:
+                break
+            if c + 1 < size and heap[c + 1, 0] < heap[c, 0]:
+                c += 1
+            if ku <= heap[c, 0]:
+                break
+            heap[i, 0] = heap[c, 0]
+            heap[i, 1] = heap[c, 1]
+            i = c
+        heap[i, 0] = ku
+        heap[i, 1] = iu
+    return top
 
-    ``tidx[i]`` is the triangle holding point i (-1 outside). Candidates are the boundary
-    nodes ``j`` of that triangle, ``|p - node_j| + dist[j]``, and ``|p - goal|`` when the goal
-    lies on it; any-angle mode adds the shortcuts of :func:`_shortcut`. Direction: toward the
-    minimising candidate, or up its parent chain past points within ``eps_m`` of ``p``.
+
+@njit(cache=True)
+def _set(u, val, root, dist, parent, corner, spawned, pend, stack, st, V):
+    """Offer node u the value val (a drivable path via root); corners improved are stacked
+    for a spawn event."""
+    if val < dist[u]:
+        dist[u] = val
+        parent[u] = root
+        if u < V and corner[u] and not spawned[u] and not pend[u]:
+            pend[u] = True
+            stack[st[2]] = u
+            st[2] += 1
+
+
+@njit(cache=True)
+def _cover(e, c0, c1, rx, ry, rd, root, ea_v, eb_v, m, V, nx, ny, dist, parent, corner, spawned, pend, stack, st):
+    """Offer the nodes of edge e in the canonical interval [c0, c1] their straight path to root."""
+    if c0 <= _UEPS:
+        _set(ea_v, rd + _hyp(nx[ea_v] - rx, ny[ea_v] - ry), root, dist, parent, corner, spawned, pend, stack, st, V)
+    if c1 >= 1.0 - _UEPS:
+        _set(eb_v, rd + _hyp(nx[eb_v] - rx, ny[eb_v] - ry), root, dist, parent, corner, spawned, pend, stack, st, V)
+    for i in range(m):
+        f = (i + 1.0) / (m + 1.0)
+        if c0 - _UEPS <= f <= c1 + _UEPS:
+            u = V + e * m + i
+            _set(u, rd + _hyp(nx[u] - rx, ny[u] - ry), root, dist, parent, corner, spawned, pend, stack, st, V)
+
+
+@njit(cache=True)
+def _edge_best(e, c, x, y, root, ehead, links, wf, wi):
+    """The best distance at point (x, y) (canonical parameter c) of edge e straight to the
+    root of an accepted window on e covering it, ``root``'s own windows left out (they cannot
+    rule out a window of that root); ``inf`` when none covers it."""
+    best = np.inf
+    w = ehead[e]
+    while w >= 0:
+        if wi[w, 2] != root and wf[w, 6] - _UEPS <= c <= wf[w, 7] + _UEPS:
+            best = min(best, wf[w, 4] + _hyp(x - wf[w, 2], y - wf[w, 3]))
+        w = links[w, 0]
+    return best
+
+
+@njit(cache=True, inline="always")
+def _ray_hit(rx, ry, px, py, ux, uy, wx, wy):
+    """Parameter along segment u->w where the line r->p crosses it (nan when parallel)."""
+    ou = _orient(rx, ry, px, py, ux, uy)
+    ow = _orient(rx, ry, px, py, wx, wy)
+    den = ou - ow
+    if den == 0.0:
+        return np.nan
+    return min(1.0, max(0.0, ou / den))
+
+
+@njit(cache=True)
+def _spawn(rx, ry, rd, root, t, vx, vy, tris, nbrs, passable, tri_nodes, nx, ny, dist, parent, corner, spawned,
+           pend, stack, st, wf, wi, links, heap, phead):
+    """Root r lies on passable triangle t: offer t's nodes their straight segment to r and
+    open a full-edge window on each edge of t that r does not lie on, into the neighbour."""
+    V = vx.shape[0]
+    for s in range(tri_nodes.shape[1]):
+        u = tri_nodes[t, s]
+        _set(u, rd + _hyp(nx[u] - rx, ny[u] - ry), root, dist, parent, corner, spawned, pend, stack, st, V)
+    for k in range(3):
+        a = tris[t, (k + 1) % 3]
+        b = tris[t, (k + 2) % 3]
+        L2 = (vx[b] - vx[a]) ** 2 + (vy[b] - vy[a]) ** 2
+        if _orient(vx[a], vy[a], vx[b], vy[b], rx, ry) <= 1e-14 * L2:
+            continue  # r on this edge (a vertex root's own edges)
+        nb = nbrs[t, k]
+        if nb < 0 or not passable[nb]:
+            continue  # its nodes are t's, offered above
+        kk = 0
+        while nbrs[nb, kk] != t:
+            kk += 1
+        key = rd + _seg_dist(rx, ry, vx[a], vy[a], vx[b], vy[b])
+        wf, wi, links, heap = _push(st, wf, wi, links, heap, nb, kk, 0.0, 1.0, rx, ry, rd, root, key)
+    return wf, wi, links, heap
+
+
+@njit(cache=True)
+def _keep(w, e, ea_v, eb_v, flip, ax, ay, bx, by, m, V, nx, ny, dist, parent, ehead, links, wf, wi):
+    """Whether window w beats every other root at some test point of its interval: _NTEST + 1
+    evenly spaced points and the nodes inside it, each compared with the accepted windows of
+    other roots covering it (values are compared, not whole functions, so a window better only
+    between test points may be dropped: an approximation, never an error)."""
+    u0 = wf[w, 0]
+    u1 = wf[w, 1]
+    rx = wf[w, 2]
+    ry = wf[w, 3]
+    rd = wf[w, 4]
+    root = wi[w, 2]
+    for q in range(_NTEST + 1):
+        u = u0 + (u1 - u0) * q / _NTEST
+        x = ax + u * (bx - ax)
+        y = ay + u * (by - ay)
+        c = 1.0 - u if flip else u
+        val = rd + _hyp(x - rx, y - ry)
+        best = _edge_best(e, c, x, y, root, ehead, links, wf, wi)
+        if c <= 0.0 and parent[ea_v] != root:
+            best = min(best, dist[ea_v])
+        if c >= 1.0 and parent[eb_v] != root:
+            best = min(best, dist[eb_v])
+        if val < best * (1.0 - _REL):
+            return True
+    c0 = 1.0 - u1 if flip else u0
+    c1 = 1.0 - u0 if flip else u1
+    for i in range(m):
+        f = (i + 1.0) / (m + 1.0)
+        if c0 <= f <= c1:
+            u = V + e * m + i
+            if parent[u] != root and rd + _hyp(nx[u] - rx, ny[u] - ry) < dist[u] * (1.0 - _REL):
+                return True
+    return False
+
+
+@njit(cache=True)
+def _merge(w, e, wf, wi, links, phead):
+    """Absorb into window w the queued windows on edge e of the same root into the same
+    triangle that continue its interval (pieces split by a vertex's ray join again one triangle
+    later: merging keeps the window count near one per edge and root)."""
+    t = wi[w, 0]
+    root = wi[w, 2]
+    changed = True
+    while changed:
+        changed = False
+        prev = -1
+        x = phead[e]
+        while x >= 0:
+            nxt = links[x, 1]
+            drop = wi[x, 3] != 0
+            if not drop and wi[x, 0] == t and wi[x, 2] == root and (
+                    abs(wf[x, 0] - wf[w, 1]) <= 1e-9 or abs(wf[x, 1] - wf[w, 0]) <= 1e-9):
+                wf[w, 0] = min(wf[w, 0], wf[x, 0])
+                wf[w, 1] = max(wf[w, 1], wf[x, 1])
+                wi[x, 3] = 3
+                drop = True
+                changed = True
+            if drop:
+                if prev < 0:
+                    phead[e] = nxt
+                else:
+                    links[prev, 1] = nxt
+            else:
+                prev = x
+            x = nxt
+
+
+@njit(cache=True)
+def windows(nx, ny, vx, vy, tris, nbrs, te, ea, passable, tri_nodes, start, node_tris, corner, goal_tris, gx, gy, m):
+    """Exact-visibility shortest paths to the goal by window propagation (a continuous
+    Dijkstra restricted to passable triangles, in the plane).
+
+    The goal and every corner vertex (:func:`corners`) act as *roots*; a root sends a window
+    over each edge of its triangles; a window is pushed through the next triangle, its wedge of
+    rays clipped to the triangle's two other edges (one or two child windows, same root); on
+    an edge of impassable ground it stops. Windows are processed in order of their smallest
+    distance, so a corner's distance is final when it spawns. A window is kept only if it
+    improves some test point (:func:`_keep`). Every node gets the best straight segment to a
+    root whose window covers it. Returns ``(dist (N,), parent (N,), wf, wi)`` (root per node:
+    a vertex, :data:`GOAL` or :data:`NONE`; the accepted windows are those with ``wi[:, 3]``).
+    """
+    N = nx.shape[0]
+    V = vx.shape[0]
+    E = ea.shape[0]
+    dist = np.full(N, np.inf)
+    parent = np.full(N, NONE, dtype=np.int64)
+    cap = 2 * E + 16
+    wf = np.empty((cap, 8))
+    wi = np.empty((cap, 4), dtype=np.int64)  # state wi[:, 3]: 0 queued, 1 accepted, 2 done, 3 merged away
+    links = np.full((cap, 2), -1, dtype=np.int64)  # next accepted / next queued window on the same edge
+    heap = np.empty((cap, 2))
+    ehead = np.full(E, -1, dtype=np.int64)
+    phead = np.full(E, -1, dtype=np.int64)
+    spawned = np.zeros(V, dtype=np.bool_)
+    pend = np.zeros(V, dtype=np.bool_)
+    stack = np.empty(V, dtype=np.int64)
+    st = np.zeros(3, dtype=np.int64)  # records, heap size, stacked corners
+    for i in range(goal_tris.shape[0]):
+        wf, wi, links, heap = _spawn(gx, gy, 0.0, GOAL, goal_tris[i], vx, vy, tris, nbrs, passable, tri_nodes,
+                                     nx, ny, dist, parent, corner, spawned, pend, stack, st, wf, wi, links, heap,
+                                     phead)
+    while True:
+        for i in range(st[2]):  # improved corners: queue their spawn at their new distance
+            v = stack[i]
+            pend[v] = False
+            wf, wi, links, heap = _push(st, wf, wi, links, heap, -1, 0, 0.0, 0.0, 0.0, 0.0, 0.0, v, dist[v])
+        st[2] = 0
+        if st[1] == 0:
+            break
+        w = _pop(st, heap)
+        t = wi[w, 0]
+        if wi[w, 3] == 3:
+            continue
+        wi[w, 3] = 2
+        if t < 0:
+            v = wi[w, 2]
+            if spawned[v] or wf[w, 5] > dist[v]:
+                continue
+            spawned[v] = True
+            for a in range(start[v], start[v + 1]):
+                wf, wi, links, heap = _spawn(vx[v], vy[v], dist[v], v, node_tris[a], vx, vy, tris, nbrs, passable,
+                                             tri_nodes, nx, ny, dist, parent, corner, spawned, pend, stack, st, wf,
+                                             wi, links, heap, phead)
+            continue
+        k = wi[w, 1]
+        e = te[t, k]
+        _merge(w, e, wf, wi, links, phead)
+        A = tris[t, (k + 1) % 3]
+        B = tris[t, (k + 2) % 3]
+        flip = ea[e] != A
+        eb_v = A if flip else B
+        if not _keep(w, e, ea[e], eb_v, flip, vx[A], vy[A], vx[B], vy[B], m, V, nx, ny, dist, parent, ehead, links,
+                     wf, wi):
+            continue
+        rx = wf[w, 2]
+        ry = wf[w, 3]
+        rd = wf[w, 4]
+        wi[w, 3] = 1
+        wf[w, 6] = 1.0 - wf[w, 1] if flip else wf[w, 0]
+        wf[w, 7] = 1.0 - wf[w, 0] if flip else wf[w, 1]
+        links[w, 0] = ehead[e]
+        ehead[e] = w
+        _cover(e, wf[w, 6], wf[w, 7], rx, ry, rd, wi[w, 2], ea[e], eb_v, m, V, nx, ny, dist, parent, corner, spawned,
+               pend, stack, st)
+        wf, wi, links, heap = _children(w, t, k, vx, vy, tris, nbrs, te, ea, passable, m, V, nx, ny, dist, parent,
+                                        corner, spawned, pend, stack, st, wf, wi, links, heap, phead)
+    n = st[0]
+    return dist, parent, wf[:n].copy(), wi[:n].copy()
+
+
+@njit(cache=True)
+def _children(w, t, k, vx, vy, tris, nbrs, te, ea, passable, m, V, nx, ny, dist, parent, corner, spawned, pend,
+              stack, st, wf, wi, links, heap, phead):
+    """Push window w (on edge k of t) through t: clip its wedge to t's other two edges."""
+    C = tris[t, k]
+    A = tris[t, (k + 1) % 3]
+    B = tris[t, (k + 2) % 3]
+    u0 = wf[w, 0]
+    u1 = wf[w, 1]
+    rx = wf[w, 2]
+    ry = wf[w, 3]
+    rd = wf[w, 4]
+    root = wi[w, 2]
+    ax, ay, bx, by, cx, cy = vx[A], vy[A], vx[B], vy[B], vx[C], vy[C]
+    p0x = ax + u0 * (bx - ax)
+    p0y = ay + u0 * (by - ay)
+    p1x = ax + u1 * (bx - ax)
+    p1y = ay + u1 * (by - ay)
+    s0 = _orient(rx, ry, p0x, p0y, cx, cy)
+    s1 = _orient(rx, ry, p1x, p1y, cx, cy)
+    # child intervals: on edge C->A (t's edge (k+2)%3) and on edge B->C (edge (k+1)%3)
+    ca_lo = ca_hi = bc_lo = bc_hi = np.nan
+    if s0 <= 0.0 and s1 >= 0.0:  # C sees r: both children end at C
+        lam = _ray_hit(rx, ry, p0x, p0y, cx, cy, ax, ay)
+        if np.isnan(lam) and u0 <= _UEPS:
+            lam = 1.0
+        ca_lo, ca_hi = 0.0, lam
+        mu = _ray_hit(rx, ry, p1x, p1y, bx, by, cx, cy)
+        if np.isnan(mu) and u1 >= 1.0 - _UEPS:
+            mu = 0.0
+        bc_lo, bc_hi = mu, 1.0
+    elif s0 > 0.0:  # the whole wedge leaves through B-C
+        m0 = _ray_hit(rx, ry, p0x, p0y, bx, by, cx, cy)
+        m1 = _ray_hit(rx, ry, p1x, p1y, bx, by, cx, cy)
+        bc_lo, bc_hi = min(m0, m1), max(m0, m1)
+    else:  # through C-A
+        l0 = _ray_hit(rx, ry, p0x, p0y, cx, cy, ax, ay)
+        l1 = _ray_hit(rx, ry, p1x, p1y, cx, cy, ax, ay)
+        ca_lo, ca_hi = min(l0, l1), max(l0, l1)
+    for side in range(2):
+        kc = (k + 2) % 3 if side == 0 else (k + 1) % 3
+        lo = ca_lo if side == 0 else bc_lo
+        hi = ca_hi if side == 0 else bc_hi
+        if not (hi - lo > 1e-13):  # empty, a point or nan
+            continue
+        e2 = te[t, kc]
+        a2 = tris[t, (kc + 1) % 3]
+        b2 = tris[t, (kc + 2) % 3]
+        nb = nbrs[t, kc]
+        if nb < 0 or not passable[nb]:  # impassable beyond: the edge's nodes are reached, nothing more
+            flip = ea[e2] != a2
+            _cover(e2, 1.0 - hi if flip else lo, 1.0 - lo if flip else hi, rx, ry, rd, root, ea[e2],
+                   a2 if flip else b2, m, V, nx, ny, dist, parent, corner, spawned, pend, stack, st)
+            continue
+        kk = 0
+        while nbrs[nb, kk] != t:
+            kk += 1
+        qx0 = vx[a2] + lo * (vx[b2] - vx[a2])
+        qy0 = vy[a2] + lo * (vy[b2] - vy[a2])
+        qx1 = vx[a2] + hi * (vx[b2] - vx[a2])
+        qy1 = vy[a2] + hi * (vy[b2] - vy[a2])
+        key = rd + _seg_dist(rx, ry, qx0, qy0, qx1, qy1)
+        wf, wi, links, heap = _push(st, wf, wi, links, heap, nb, kk, 1.0 - hi, 1.0 - lo, rx, ry, rd, root, key)
+        e2 = te[nb, kk]
+        links[st[0] - 1, 1] = phead[e2]  # pending on e2, to be merged with its contiguous pieces
+        phead[e2] = st[0] - 1
+    return wf, wi, links, heap
+
+
+@njit(cache=True)
+def tri_windows(wf, wi, vx, vy, tris, T):
+    """The accepted windows grouped by the triangle they open into, for queries: ``(start
+    (T+1,), geo (n, 7) [rx, ry, rd, p0x, p0y, p1x, p1y], root (n,))``; a point p of triangle t
+    sees the root of such a window iff p lies in its wedge (between rays r->p0 and r->p1)."""
+    start = np.zeros(T + 1, dtype=np.int64)
+    for w in range(wi.shape[0]):
+        if wi[w, 0] >= 0 and wi[w, 3] == 1:
+            start[wi[w, 0] + 1] += 1
+    for t in range(T):
+        start[t + 1] += start[t]
+    fill = start[:-1].copy()
+    geo = np.empty((start[T], 7))
+    root = np.empty(start[T], dtype=np.int64)
+    for w in range(wi.shape[0]):
+        t = wi[w, 0]
+        if t < 0 or wi[w, 3] != 1:
+            continue
+        k = wi[w, 1]
+        A = tris[t, (k + 1) % 3]
+        B = tris[t, (k + 2) % 3]
+        i = fill[t]
+        fill[t] += 1
+        geo[i, 0] = wf[w, 2]
+        geo[i, 1] = wf[w, 3]
+        geo[i, 2] = wf[w, 4]
+        geo[i, 3] = vx[A] + wf[w, 0] * (vx[B] - vx[A])
+        geo[i, 4] = vy[A] + wf[w, 0] * (vy[B] - vy[A])
+        geo[i, 5] = vx[A] + wf[w, 1] * (vx[B] - vx[A])
+        geo[i, 6] = vy[A] + wf[w, 1] * (vy[B] - vy[A])
+        root[i] = wi[w, 2]
+    return start, geo, root
+
+
+@njit(cache=True)
+def query(nx, ny, dist, parent, tri_nodes, passable, goal_tri, gx, gy, vx, vy, tris, nbrs, wstart, wgeo, wroot,
+          px, py, tidx, tol, eps_m):
+    """Distance ``(n,)``, first-leg unit direction ``(n, 2)`` and source ``(n,)`` at each point.
+
+    ``tidx[i]`` is the triangle holding point i (-1 outside). Candidates, all lengths of
+    drivable paths: ``|p - node_j| + dist[j]`` over the triangle's boundary nodes (the triangle
+    is convex), ``|p - goal|`` when the goal lies on it, and ``|p - r| + rd`` for each window
+    into it (:func:`tri_windows`) whose wedge holds p. ``src[i]``: where the straight first leg
+    ends (a node, :data:`GOAL`, or :data:`NONE` where ``inf``). Direction: toward that point,
+    or up its parent chain past points within ``eps_m`` of ``p``.
     """
     n = px.shape[0]
     out = np.full(n, np.inf)
     dirs = np.zeros((n, 2))
+    src = np.full(n, NONE, dtype=np.int64)
     S = tri_nodes.shape[1]
-    max_steps = tris.shape[0] + 3
     for i in range(n):
         t = tidx[i]
         if t < 0:
@@ -378,9 +707,18 @@ def query(nx, ny, dist, parent, tri_nodes, passable, goal_tri, gx, gy, vx, vy, t
                 if c < best:
                     best = c
                     arg = u
-            if any_angle and best < np.inf:
-                best, arg = _shortcut(nx, ny, dist, parent, tri_nodes, passable, gx, gy, vx, vy, tris, nbrs,
-                                      t, x, y, best, arg, max_steps)
+            for a in range(wstart[t], wstart[t + 1]):
+                rx = wgeo[a, 0]
+                ry = wgeo[a, 1]
+                L = np.sqrt((rx - x) ** 2 + (ry - y) ** 2)
+                c = wgeo[a, 2] + L
+                if c < best:
+                    lim0 = 1e-12 * L * np.sqrt((wgeo[a, 3] - rx) ** 2 + (wgeo[a, 4] - ry) ** 2)
+                    lim1 = 1e-12 * L * np.sqrt((wgeo[a, 5] - rx) ** 2 + (wgeo[a, 6] - ry) ** 2)
+                    if (_orient(rx, ry, wgeo[a, 3], wgeo[a, 4], x, y) <= lim0
+                            and _orient(rx, ry, wgeo[a, 5], wgeo[a, 6], x, y) >= -lim1):
+                        best = c
+                        arg = wroot[a]
         else:  # on a vertex of an impassable triangle that passable ground touches
             for k in range(3):
                 u = tris[t, k]
@@ -390,6 +728,7 @@ def query(nx, ny, dist, parent, tri_nodes, passable, goal_tri, gx, gy, vx, vy, t
         out[i] = best
         if best == np.inf:
             continue
+        src[i] = arg
         while arg >= 0 and (nx[arg] - x) ** 2 + (ny[arg] - y) ** 2 <= eps_m * eps_m:
             arg = parent[arg]
         if arg == GOAL:
@@ -402,4 +741,4 @@ def query(nx, ny, dist, parent, tri_nodes, passable, goal_tri, gx, gy, vx, vy, t
         if L > eps_m:
             dirs[i, 0] = dx / L
             dirs[i, 1] = dy / L
-    return out, dirs
+    return out, dirs, src

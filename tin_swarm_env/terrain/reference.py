@@ -8,7 +8,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["locate_brute", "line_of_sight_brute", "line_of_sight_dense", "height_brute", "single_surface_brute",
-           "on_passable_brute", "cost_to_go_graph_brute", "cost_to_go_grid"]
+           "on_passable_brute", "cost_to_go_graph_brute", "cost_to_go_grid",
+           "cost_to_go_visibility_brute"]
 
 
 def _bary(tin, pts):
@@ -160,6 +161,40 @@ def cost_to_go_graph_brute(ctg) -> np.ndarray:
     w = np.hypot(*(pts[a] - pts[b]).T) + 1e-300  # csgraph drops explicit zeros
     m = coo_matrix((w, (a, b)), shape=(N + 1, N + 1)).tocsr()
     return dijkstra(m, directed=False, indices=N)[:N]
+
+
+def cost_to_go_visibility_brute(tin, goal_xy, passable, xy, n_samples: int = 200) -> np.ndarray:
+    """The exact shortest drivable path lengths ``(n,)`` m from points ``xy`` ``(n, 2)`` to the goal:
+    Dijkstra on the visibility graph of the goal and *every* TIN vertex (a shortest path in a
+    polygonal domain is straight between bends at vertices), a segment counting as visible when
+    ``n_samples`` points along it lie on passable ground (:func:`on_passable_brute`). Slow
+    (O(V^2) segments): for small TINs. ``inf`` where the goal cannot be reached."""
+    from scipy.sparse.csgraph import dijkstra
+
+    pts = np.vstack([np.asarray(goal_xy, dtype=np.float64)[None], tin.vertices[:, :2]])
+    s = np.linspace(0.0, 1.0, n_samples)[None, :, None]
+
+    def seen(a, b):  # (k, 2), (k, 2) -> (k,) bool
+        seg = a[:, None] + s * (b - a)[:, None]
+        return on_passable_brute(tin, seg.reshape(-1, 2), passable, tol=1e-9).reshape(len(a), -1).all(axis=1)
+
+    on = on_passable_brute(tin, pts, passable, tol=1e-9)
+    i, j = np.triu_indices(len(pts), 1)
+    keep = on[i] & on[j]
+    i, j = i[keep], j[keep]
+    vis = seen(pts[i], pts[j])
+    w = np.full((len(pts), len(pts)), np.inf)
+    w[i[vis], j[vis]] = w[j[vis], i[vis]] = np.hypot(*(pts[i[vis]] - pts[j[vis]]).T) + 1e-300
+    D = dijkstra(np.where(np.isfinite(w), w, 0.0), directed=False, indices=0)
+    q = np.atleast_2d(np.asarray(xy, dtype=np.float64))
+    out = np.full(len(q), np.inf)
+    qon = on_passable_brute(tin, q, passable, tol=1e-9)
+    for k in np.flatnonzero(qon):
+        fin = np.flatnonzero(np.isfinite(D))
+        v = seen(np.repeat(q[k][None], len(fin), axis=0), pts[fin])
+        if v.any():
+            out[k] = np.min(np.hypot(*(pts[fin[v]] - q[k]).T) + D[fin[v]])
+    return out
 
 
 _GRID_MOVES = np.array([(a, b) for a in range(-3, 4) for b in range(-3, 4)
