@@ -1,62 +1,127 @@
-"""The APF baseline over 20 seeds on the thesis scenarios. Run by hand:
+"""APF against its references, in one run: arrived / fell / timed out / contacts per robot. By hand:
 
-    python bench/apf.py [--seeds 20] [--robots 20]
+    python bench/apf.py [--seeds 5] [--robots N] [--jacksboro-seeds 5] [--generated 50] [--only cliff_goal,...]
 
-For ``ramp`` and ``cliff_goal``: arrivals, falls, battery deaths and time-outs, with all four
-fields, without the break field (the thesis's "poor ending" vs "better ending", figures 5.3
-and 5.5), and for random actions; then ``containment``: mean distance to the assigned threat
-against the standoff, and how evenly robots spread around each ring.
+Policies: the APF baseline with all four fields, the APF without the break field (the thesis's
+"poor ending": falls), :class:`~tin_swarm_env.policies.GeodesicPolicy` (knows the map: an upper
+bound, not a baseline) and uniform random actions. Terrains: every built-in goal scenario
+(``jacksboro`` with its 200 robots and 900 steps), the four canyon terrains of
+``tests/canyons.py`` (pass left or right, travelling east or west) and, with ``--generated K``,
+seeds 0..K-1 of the ``generated`` scenario (a new terrain per seed; the row is skipped with a
+note where that scenario does not exist yet). ``containment`` has no arrival: its rows give the
+mean distance to the assigned threat over the standoff (1.00 = on the ring) and contacts per robot.
+Every episode runs through :func:`~tin_swarm_env.apps.rollout.rollout`.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
 import tin_swarm_env as tse
 from tin_swarm_env.apps.rollout import rollout
-from tin_swarm_env.apps.run import run_episodes
+from tin_swarm_env.policies import APFPolicy, GeodesicPolicy, RandomPolicy
+from tin_swarm_env.world.state import Reason
 
-CONFIGS = [("apf, all fields", "apf", None), ("apf, no break field", "apf", ("robot", "target", "height")),
-           ("random", "random", None)]
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from canyons import VARIANTS, canyon_config  # noqa: E402
+
+POLICIES = {
+    "apf": lambda env: APFPolicy(env),
+    "apf, no break field": lambda env: APFPolicy(env, fields=("robot", "target", "height")),
+    "geodesic (knows the map)": lambda env: GeodesicPolicy(env),
+    "random": lambda env: RandomPolicy(env, seed=0),
+}
+GOAL_SCENARIOS = ("cliff_goal", "ramp", "hill", "flat", "jacksboro")
 
 
-def main(seeds: int, robots: int):
-    print(f"{seeds} seeds x {robots} robots per scenario\n")
-    print("| scenario | policy | arrived | fell | battery | timed out | steps (mean) |")
+def _envs(args):
+    """(label, env factory, seeds) for every goal-task row."""
+    out = []
+    for s in GOAL_SCENARIOS:
+        n = None if s == "jacksboro" else args.robots
+        seeds = range(args.jacksboro_seeds if s == "jacksboro" else args.seeds)
+        out.append((s, lambda s=s, n=n: tse.parallel_env(scenario=s, n_robots=n), seeds))
+    for side, travel in VARIANTS:
+        out.append((f"canyon, pass {side}, going {travel}",
+                    lambda a=side, b=travel: tse.parallel_env(scenario=canyon_config(a, b, robots=args.robots or 20)),
+                    range(args.seeds)))
+    if args.generated:
+        out.append((f"generated ({args.generated} seeds)",
+                    lambda: tse.parallel_env(scenario="generated", n_robots=args.robots), range(args.generated)))
+    return out
+
+
+def goal_rows(args):
+    print("| terrain | policy | arrived | fell | timed out | contacts / robot | s |")
     print("|---|---|---:|---:|---:|---:|---:|")
-    for scen in ("ramp", "cliff_goal"):
-        for label, pol, fields in CONFIGS:
+    for label, make, seeds in _envs(args):
+        if args.only and not any(label.startswith(o) for o in args.only):
+            continue
+        try:
+            env = make()
+        except Exception as e:  # noqa: BLE001 - the generated scenario may not exist yet
+            print(f"| {label} | (skipped: {type(e).__name__}: {e}) | | | | | |")
+            continue
+        for name, make_pol in POLICIES.items():
             t = time.perf_counter()
-            st, _ = run_episodes(scen, policy=pol, robots=robots, episodes=seeds, seed=0, fields=fields,
-                                 progress=False)
-            n = sum(s.robots for s in st)
-            a, f = sum(s.arrived for s in st), sum(s.fell for s in st)
-            b, to = sum(s.battery_dead for s in st), sum(s.timed_out for s in st)
-            print(f"| {scen} | {label} | {a / n:.1%} ({a}) | {f / n:.1%} ({f}) | {b} | {to} | "
-                  f"{np.mean([s.steps for s in st]):.0f} |  <!-- {time.perf_counter() - t:.0f} s -->")
-    print("\ncontainment (standoff ring): per seed and threat, mean distance / standoff, mean resultant "
-          "length of the robots' bearings (0 = evenly spread, 1 = bunched) and the largest gap")
-    worst_d, worst_r, worst_gap = 0.0, 0.0, 0.0
-    for sd in range(seeds):
-        env = tse.parallel_env(scenario="containment")
-        rollout(env, tse.policies.APFPolicy(env), sd)
-        s, so = env.world_state, env.config.targets.standoff_m
-        for k, T in enumerate(s.targets.positions):
-            v = s.positions[env.target_assignment == k] - T
-            ang = np.arctan2(v[:, 1], v[:, 0])
-            worst_d = max(worst_d, abs(np.hypot(v[:, 0], v[:, 1]).mean() / so - 1))
-            worst_r = max(worst_r, np.hypot(np.cos(ang).mean(), np.sin(ang).mean()))
-            worst_gap = max(worst_gap, np.degrees(np.diff(np.sort(np.r_[ang, ang.min() + 2 * np.pi])).max()))
-    print(f"worst over {seeds} seeds x 3 threats: mean distance off the standoff by {worst_d:.1%}, "
-          f"resultant {worst_r:.2f}, largest gap {worst_gap:.0f} deg")
+            pol = make_pol(env)
+            c = {r: 0 for r in (Reason.ARRIVED, Reason.FELL, Reason.TIMEOUT)}
+            n = contacts = 0
+            for sd in seeds:
+                out = rollout(env, pol, sd)
+                for r in c:
+                    c[r] += out.count(r)
+                n += out.n_robots
+                contacts += int(out.collisions.sum())
+            print(f"| {label} | {name} | {c[Reason.ARRIVED] / n:.1%} | {c[Reason.FELL] / n:.1%} | "
+                  f"{c[Reason.TIMEOUT] / n:.1%} | {contacts / n:.2f} | {time.perf_counter() - t:.0f} |", flush=True)
+
+
+def containment_rows(args):
+    print("\ncontainment: mean distance to the assigned threat / standoff (1.00 = on the ring), worst seed "
+          "and threat, and contacts per robot")
+    print("| policy | distance / standoff (mean) | worst | fell | contacts / robot |")
+    print("|---|---:|---:|---:|---:|")
+    env = tse.parallel_env(scenario="containment", n_robots=args.robots)
+    so = env.config.targets.standoff_m
+    for name, make_pol in POLICIES.items():
+        pol = make_pol(env)
+        ratios, fell, contacts, n = [], 0, 0, 0
+        for sd in range(args.seeds):
+            out = rollout(env, pol, sd)
+            s = env.world_state
+            for k, T in enumerate(s.targets.positions):
+                mine = (env.target_assignment == k) & (out.reasons != Reason.FELL)
+                v = s.positions[mine] - T
+                ratios.append(np.hypot(v[:, 0], v[:, 1]).mean() / so)
+            fell += out.count(Reason.FELL)
+            contacts += int(out.collisions.sum())
+            n += out.n_robots
+        worst = max(ratios, key=lambda r: abs(r - 1))
+        print(f"| {name} | {np.mean(ratios):.2f} | {worst:.2f} | {fell} | {contacts / n:.2f} |", flush=True)
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--seeds", type=int, default=5, help="episodes per row (not jacksboro, not generated)")
+    p.add_argument("--robots", type=int, default=None, help="robots per episode (default: the scenario's)")
+    p.add_argument("--jacksboro-seeds", type=int, default=5)
+    p.add_argument("--generated", type=int, default=50, metavar="K",
+                   help="seeds of the 'generated' scenario (0: none)")
+    p.add_argument("--only", type=lambda s: s.split(","), default=None,
+                   help="comma-separated row prefixes (e.g. jacksboro,canyon,containment)")
+    args = p.parse_args(argv)
+    print(f"{args.seeds} seeds per row ({args.jacksboro_seeds} on jacksboro), robots: "
+          f"{args.robots or 'the scenario default'}\n")
+    goal_rows(args)
+    if not args.only or "containment" in args.only:
+        containment_rows(args)
 
 
 if __name__ == "__main__":
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--seeds", type=int, default=20)
-    p.add_argument("--robots", type=int, default=20)
-    a = p.parse_args()
-    main(a.seeds, a.robots)
+    main()

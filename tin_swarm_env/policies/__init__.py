@@ -1,6 +1,8 @@
-"""Policies: observation -> action. They read observations, never world state."""
+"""Policies: observation -> action. They read observations, never world state, except
+:class:`GeodesicPolicy`, the map-knowing reference."""
 
 from .apf import APFPolicy, RandomPolicy, apf_forces
+from .geodesic import GeodesicPolicy
 from .learned import MLPPolicy, load_policy, save_policy
 
-__all__ = ["APFPolicy", "RandomPolicy", "apf_forces", "MLPPolicy", "load_policy", "save_policy"]
+__all__ = ["APFPolicy", "RandomPolicy", "GeodesicPolicy", "apf_forces", "MLPPolicy", "load_policy", "save_policy"]

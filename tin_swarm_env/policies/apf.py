@@ -29,10 +29,12 @@ from ..world.fields import (
     target_field,
 )
 
-__all__ = ["APFPolicy", "RandomPolicy", "apf_forces", "decode", "BugMemory", "bug_update", "keep_clear", "into_view"]
+__all__ = ["APFPolicy", "RandomPolicy", "apf_forces", "decode", "BugMemory", "bug_update", "keep_clear", "into_view",
+           "safety_cut", "unwrap_env"]
 
 
-def _unwrap(env):
+def unwrap_env(env):
+    """The :class:`~tin_swarm_env.env.TinSwarmEnv` under ``env`` (itself or a wrapper of one)."""
     e = env
     for _ in range(10):
         if hasattr(e, "layout") and hasattr(e, "config"):
@@ -275,6 +277,19 @@ def into_view(action, fov_deg: float):
     return np.where(blind[:, None], along[:, None] * edge, a)
 
 
+def safety_cut(action, d: dict, gap_m: float, edge_m: float | None, step_m: float, fov_deg: float):
+    """The cuts every built-in controller applies last to its body-frame ``action (n, 2)``, from
+    the decoded observation ``d`` (:func:`decode`): turned out of the blind sector
+    (:func:`into_view`), then cut so that robots that see each other never come within ``gap_m``
+    (:func:`keep_clear`, ``share`` 2) and, unless ``edge_m`` is None, so that no robot comes
+    within ``edge_m`` of a dangerous break it sees from its safe side (``share`` 1)."""
+    a = keep_clear(into_view(action, fov_deg), d["r_rel"], d["r_valid"], gap_m, step_m)
+    if edge_m is not None:
+        facing = d["b_danger"] & (np.sum(d["b_rel"] * d["b_normal"], axis=-1) <= 1e-9)
+        a = keep_clear(a, d["b_rel"], facing, edge_m, step_m, share=1.0)
+    return a
+
+
 class APFPolicy:
     """The thesis's potential-field controller as a policy: ``act(obs_dict) -> action_dict``
     and ``act_batch(obs (n, d)) -> actions (n, 2)``.
@@ -304,7 +319,7 @@ class APFPolicy:
     """
 
     def __init__(self, env, fields=FIELDS, params: FieldParams | None = None):
-        base = _unwrap(env)
+        base = unwrap_env(env)
         cfg = base.config
         self.range_m = cfg.world.sensor.range_m
         self.standoff_m = cfg.targets.standoff_m if cfg.task == "containment" else 0.0
@@ -350,11 +365,8 @@ class APFPolicy:
         mag = np.sqrt(np.sum(f * f, axis=-1, keepdims=True))
         a = f / np.maximum(mag, self.params.speed_saturation)
         d = decode(obs, self.layout, self.range_m)
-        a = keep_clear(into_view(a, self.fov_deg), d["r_rel"], d["r_valid"], self.gap_m, self.step_m)
-        if self.params.on("break"):
-            facing = d["b_danger"] & (np.sum(d["b_rel"] * d["b_normal"], axis=-1) <= 1e-9)
-            a = keep_clear(a, d["b_rel"], facing, self.edge_m, self.step_m, share=1.0)
-        return a.astype(np.float32)
+        return safety_cut(a, d, self.gap_m, self.edge_m if self.params.on("break") else None, self.step_m,
+                          self.fov_deg).astype(np.float32)
 
     def act(self, obs: dict) -> dict:
         if not obs:
