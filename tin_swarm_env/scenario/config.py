@@ -178,7 +178,7 @@ class ScenarioConfig:
             raise ScenarioError(
                 f"scenario {self.name!r}: max_cycles must be a positive integer, got {self.max_cycles!r}")
         if self.seed is not None:
-            check_range(f"scenario {self.name!r}", "seed", self.seed, 0, 2**63 - 1, integer=True, exc=ScenarioError)
+            check_range("ScenarioConfig", "seed", self.seed, 0, integer=True, exc=ScenarioError)
         cand, obs = self.world.sensor.max_candidates, self.observation
         if cand < max(obs.k_robots, obs.k_targets):
             raise ScenarioError(f"scenario {self.name!r}: sensor.max_candidates ({cand}) must be >= "
