@@ -46,8 +46,8 @@ def test_train_and_eval_run_from_a_plain_install_outside_the_repo(installed):
     assert r.returncode == 0, r.stderr[-2000:]
     assert (work / "run" / "model.zip").exists() and (work / "run" / "model.json").exists()
     r = subprocess.run([str(exe), "eval", "flat", "--seeds", "1", "--robots", "2", "--policies", "apf",
-                        "--model", "run/model.zip", "--trust-pickle", "--out", "ev"], capture_output=True, text=True, env=env,
-                       cwd=work, timeout=300)
+                        "--model", "run/model.zip", "--trust-pickle", "--out", "ev"], capture_output=True, text=True,
+                       env=env, cwd=work, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     md = (work / "ev.md").read_text()
     assert "| flat | apf |" in md and "| flat | ppo (run) |" in md

@@ -11,10 +11,10 @@
 
 ``run`` runs a swarm on a scenario (a built-in name or a TOML path) with the APF baseline (or
 random actions, or a saved policy), shows progress, prints a table per episode and writes a
-GIF (or, for a ``.png`` path, the last frame) of the first episode, frame by frame as it runs. ``build-tin``: ``DEM`` is a
-file :func:`~tin_swarm_env.terrain.load_dem` reads, or ``sample:jacksboro`` /
-``sample:topobathy``; it prints vertices, triangles, the max and RMS vertical error against
-every DEM cell, and the build time.
+GIF (or, for a ``.png`` path, the last frame) of the first episode, frame by frame as it runs.
+``build-tin``: ``DEM`` is a file :func:`~tin_swarm_env.terrain.load_dem` reads, or
+``sample:jacksboro`` / ``sample:topobathy``; it prints vertices, triangles, the max and RMS
+vertical error against every DEM cell, and the build time.
 
 Bad input never ends in a traceback: every option and output path is checked before the work
 starts, and any error (a :class:`~tin_swarm_env.errors.TinSwarmError`, an ``OSError`` such as a

@@ -28,7 +28,8 @@ import numpy as np
 from ..world.state import Reason
 from .rollout import Outcome, rollout
 
-__all__ = ["Args", "METRICS", "evaluate", "check_args", "default_out", "episode_metrics", "ci95", "markdown", "bar_plot"]
+__all__ = ["Args", "METRICS", "evaluate", "check_args", "default_out", "episode_metrics", "ci95", "markdown",
+           "bar_plot"]
 
 METRICS = [("arrived", "arrival rate", "{:.1%}"), ("fell", "falls", "{:.1%}"),
            ("collisions", "collisions/robot", "{:.2f}"), ("battery_used", "battery used", "{:.1%}"),

@@ -150,4 +150,7 @@ def make_dem(recipe: str, params: dict, where: str = "") -> Dem:
         raise ScenarioError(f"{where}: recipe 'ramp' needs ramp_end_x > ramp_start_x")
     if recipe == "canyon" and not full["ramp_in_m"] + full["ramp_out_m"] > 0:
         raise ScenarioError(f"{where}: recipe 'canyon' needs ramp_in_m + ramp_out_m > 0")
-    return fn(**kw)
+    try:
+        return fn(**kw)
+    except ValueError as exc:  # a recipe's own check (canyon's travel): name the file and recipe
+        raise ScenarioError(f"{where}: recipe {recipe!r}: {exc}") from None
