@@ -206,3 +206,35 @@ def test_human_render_without_a_display_warns(monkeypatch):
     with pytest.warns(UserWarning, match="no display"):
         env.render()
     env.close()
+
+
+def test_mp4_frames_are_streamed(tmp_path):
+    ffmpeg = pytest.importorskip("imageio_ffmpeg")
+
+    from tin_swarm_env.apps.media import FrameWriter
+
+    frames = [np.full((49, 65, 3), 40 * i, dtype=np.uint8) for i in range(5)]  # odd sizes: cropped to even
+    with FrameWriter(tmp_path / "v.mp4") as w:
+        for f in frames:
+            w.add(f)
+    assert os.listdir(tmp_path) == ["v.mp4"]
+    reader = ffmpeg.read_frames(str(tmp_path / "v.mp4"))
+    assert next(reader)["size"] == (64, 48)
+    means = [np.frombuffer(b, np.uint8).mean() for b in reader]
+    assert means == pytest.approx([0, 40, 80, 120, 160], abs=3)
+
+
+def test_recipe_parameters_are_checked_by_type_and_range():
+    from tin_swarm_env.errors import ScenarioError
+    from tin_swarm_env.scenario.terrains import make_dem
+
+    assert make_dem("ridge", {"width": 20, "height": 10.0, "cell": 2}).z.shape == (6, 11)
+    bad = [("hills", {"n_hills": 2.5}, "n_hills must be an integer"), ("hills", {"seed": -1}, "seed must be"),
+           ("cliff_goal", {"hill_xy": [1.0]}, "hill_xy must be a list of 2"),
+           ("cliff_goal", {"hill_sd_m": 0}, "hill_sd_m must be a finite number > 0"),
+           ("ridge", {"ridge_m": float("nan")}, "ridge_m must be a finite"), ("ridge", {"cell": True}, "cell"),
+           ("canyon", {"travel": 3}, "travel must be a string"), ("canyon", {"travel": "north"}, "east' or 'west"),
+           ("ramp", {"ramp_end_x": 10.0}, "ramp_end_x > ramp_start_x")]
+    for recipe, params, msg in bad:
+        with pytest.raises(ScenarioError, match=msg):
+            make_dem(recipe, params, "f.toml [terrain]")
