@@ -79,8 +79,9 @@ def check_outputs(outputs: dict, inputs=()) -> None:
             raise ArgumentError(f"{opt} {p}: directory {d} does not exist")
         if not os.access(d, os.W_OK | os.X_OK):
             raise ArgumentError(f"{opt} {p}: directory {d} is not writable")
-        for src in inputs:
-            if src is not None and (_same(p, Path(os.fspath(src))) or p.resolve() == Path(os.fspath(src)).resolve()):
+        for src in inputs:  # inputs that exist: the same file (also through a link) or the same path
+            s = Path(os.fspath(src)) if src is not None else None
+            if s is not None and s.exists() and (_same(p, s) or p.resolve() == s.resolve()):
                 raise ArgumentError(f"{opt} {p}: is the input {src}; write the output elsewhere")
         key = os.path.normcase(str(p.resolve()))
         if key in seen:
