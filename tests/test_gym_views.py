@@ -71,7 +71,9 @@ def test_gymnasium_and_sb3_env_checkers_pass_on_every_scenario(scenario, env_id)
         warnings.simplefilter("always")
         check_env(env.unwrapped, skip_render_check=False)  # also makes it with every render mode
         sb3_check_env(env.unwrapped, skip_render_check=False)
-    messages = [str(w.message) for w in caught if SB3_2D_OBS not in str(w.message)]
+    # render_mode="human" on this headless machine warns that no window will open (intended)
+    messages = [str(w.message) for w in caught if SB3_2D_OBS not in str(w.message)
+                and "there is no display" not in str(w.message)]
     assert messages == []  # the passive checker's findings (out-of-space obs, dtypes...) are warnings
     frame = env.unwrapped.render()
     assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3

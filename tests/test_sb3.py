@@ -203,7 +203,7 @@ def test_smoke_train_in_a_subprocess_then_evaluate_the_saved_model(tmp_path):
         assert (out / f).exists(), f
     ev = tmp_path / "ev"
     r = subprocess.run([sys.executable, "-m", "tin_swarm_env", "eval", "flat", "--seeds", "2", "--robots", "4",
-                        "--model", str(out / "model.zip"), "--out", str(ev)], capture_output=True, text=True,
+                        "--model", str(out / "model.zip"), "--trust-pickle", "--out", str(ev)], capture_output=True, text=True,
                        timeout=600)
     assert r.returncode == 0, r.stderr[-2000:]
     md = (tmp_path / "ev.md").read_text()

@@ -19,6 +19,8 @@ __all__ = [
     "ParameterError",
     "ArgumentError",
     "PolicyFileError",
+    "check_range",
+    "check_fields",
 ]
 
 
@@ -79,3 +81,32 @@ def require(module: str, extra: str, purpose: str):
             f"{purpose} needs the optional package '{module}', which is not installed; "
             f"install it with: pip install 'tin_swarm_env[{extra}]'"
         ) from exc
+
+
+def check_range(where: str, key: str, value, lo: float = -float("inf"), hi: float = float("inf"), *,
+                lo_open: bool = False, hi_open: bool = False, integer: bool = False, exc=None):
+    """Return ``value`` if it is a finite number (an ``int`` when ``integer``) in the range
+    ``lo .. hi`` (``lo_open``/``hi_open``: that end excluded); else raise ``exc`` (default
+    :class:`ParameterError`) saying ``"{where}.{key} must be ... got value"``. The one range check
+    behind every parameter and scenario number (NaN, inf, bool and strings are refused)."""
+    import math
+    import numbers
+
+    exc = exc or ParameterError
+    kind = "an integer" if integer else "a finite number"
+    ok = isinstance(value, numbers.Integral if integer else numbers.Real) and not isinstance(value, bool)
+    ok = ok and math.isfinite(value) and (value > lo if lo_open else value >= lo) and (
+        value < hi if hi_open else value <= hi)
+    if not ok:
+        lo_s = "" if lo == -float("inf") else f"{'>' if lo_open else '>='} {lo:g}"
+        hi_s = "" if hi == float("inf") else f"{'<' if hi_open else '<='} {hi:g}"
+        bounds = " and ".join(s for s in (lo_s, hi_s) if s)
+        raise exc(f"{where}.{key} must be {kind}{' ' + bounds if bounds else ''}, got {value!r}")
+    return value
+
+
+def check_fields(obj, limits: dict) -> None:
+    """:func:`check_range` on each named field of dataclass ``obj``: ``limits`` maps a field name
+    to the keyword arguments of :func:`check_range` (``{"lo": 0, "lo_open": True}``...)."""
+    for key, kw in limits.items():
+        check_range(type(obj).__name__, key, getattr(obj, key), **kw)

@@ -33,7 +33,7 @@ def add_dataclass_args(parser: argparse.ArgumentParser, cls, skip=()) -> None:
         conv = _bool if t is bool else t
         default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
         parser.add_argument("--" + f.name.replace("_", "-"), dest=f.name, type=conv, default=default,
-                            help=f.metadata.get("help", f"{t.__name__} (default: {default})"))
+                            help=f.metadata.get("help", t.__name__))
 
 
 def dataclass_from_namespace(cls, ns: argparse.Namespace, **override):
@@ -44,6 +44,6 @@ def dataclass_from_namespace(cls, ns: argparse.Namespace, **override):
 
 def parse_dataclass(cls, argv=None, description: str | None = None):
     """Parse ``argv`` (default ``sys.argv[1:]``) into an instance of dataclass ``cls``."""
-    p = argparse.ArgumentParser(description=description)
+    p = argparse.ArgumentParser(description=description, formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     add_dataclass_args(p, cls)
     return dataclass_from_namespace(cls, p.parse_args(argv))

@@ -1,13 +1,19 @@
-"""Evaluate policies on the same scenarios and seeds: random, APF and saved SB3 models.
+"""Evaluate policies on the same scenarios and seeds: random, APF and saved models.
 
-    tin-swarm eval cliff_goal ramp --seeds 20 --model runs/ppo_cliff_goal/model.zip
-    python agents/evaluate.py --scenarios cliff_goal,ramp --seeds 20 --models runs/ppo_cliff_goal/model.zip
+    tin-swarm eval cliff_goal ramp --seeds 20 --model runs/ppo_cliff_goal/policy
+    tin-swarm eval cliff_goal --model runs/ppo_cliff_goal/model.zip --trust-pickle   # an SB3 .zip (a pickle)
+    python agents/evaluate.py --scenarios cliff_goal,ramp --seeds 20 --models runs/ppo_cliff_goal/policy
+
+A model is a pickle-free policy directory (policy.json + weights.npz); an SB3 ``.zip`` is
+unpickled, which can run code, so it needs ``trust_pickle``. Every option is checked before the
+first episode (:func:`check_args`).
 
 A model is evaluated on every scenario it is given with (``models`` are matched to scenarios by
 the scenario recorded in their ``model.json`` when there is one, else used on all). Per
 (scenario, policy): arrival rate, fall rate, collisions per robot, battery used, steps to
 arrive, episode return per robot, each as a mean over seeds with a 95% confidence interval
-(Student t). Writes ``out``.md and .csv and a bar plot ``out``.png.
+(Student t). Writes ``out``.md and .csv and a bar plot ``out``.png (default ``out``:
+``runs/eval_<scenarios>``).
 """
 
 from __future__ import annotations
@@ -22,7 +28,8 @@ import numpy as np
 from ..world.state import Reason
 from .rollout import Outcome, rollout
 
-__all__ = ["Args", "METRICS", "evaluate", "episode_metrics", "ci95", "markdown", "bar_plot"]
+__all__ = ["Args", "METRICS", "evaluate", "check_args", "default_out", "episode_metrics", "ci95", "markdown",
+           "bar_plot"]
 
 METRICS = [("arrived", "arrival rate", "{:.1%}"), ("fell", "falls", "{:.1%}"),
            ("collisions", "collisions/robot", "{:.2f}"), ("battery_used", "battery used", "{:.1%}"),
@@ -34,10 +41,47 @@ class Args:
     scenarios: str = "cliff_goal,ramp"
     seeds: int = 20
     robots: int = 0  # 0: the scenario's count
-    models: str = ""  # comma-separated SB3 model paths
+    models: str = ""  # comma-separated policy directories (or SB3 .zip files with trust_pickle)
     policies: str = "random,apf"
-    out: str = "eval"
+    out: str = ""  # "": runs/eval_<scenarios>
     seed0: int = 1000  # evaluation seeds are seed0 .. seed0 + seeds - 1 (not the training seeds)
+    trust_pickle: bool = False  # allow SB3 .zip models (unpickled: they can run code)
+
+
+def default_out(scenarios) -> str:
+    """The default output stem of an evaluation: ``runs/eval_<scenario>_<scenario>...``."""
+    names = [Path(s).stem for s in scenarios]
+    return str(Path("runs") / ("eval_" + "_".join(names)))
+
+
+def check_args(args: Args) -> tuple[list, list, list, Path]:
+    """Everything an evaluation needs, checked before its first episode: returns ``(scenarios,
+    policies, models, out)``. ArgumentError names the option (no seeds, no scenario, an unknown
+    policy name, a model that is missing or a .zip without trust_pickle, an output that cannot
+    be written)."""
+    from .._atomic import check_outputs
+    from ..errors import ArgumentError, check_range
+    from .policy_factory import POLICY_NAMES, check_policy_spec
+
+    check_range("eval", "seeds", args.seeds, 1, integer=True, exc=ArgumentError)
+    check_range("eval", "robots", args.robots, 0, integer=True, exc=ArgumentError)
+    scens = [s for s in args.scenarios.split(",") if s]
+    if not scens:
+        raise ArgumentError("eval: give at least one scenario")
+    pols = [p.strip().lower() for p in args.policies.split(",") if p.strip()]
+    bad = [p for p in pols if p not in POLICY_NAMES]
+    if bad:
+        raise ArgumentError(f"--policies: unknown {bad}; choose from {','.join(POLICY_NAMES)} (models go in --model)")
+    models = [m for m in args.models.split(",") if m]
+    for m in models:
+        check_policy_spec(m, args.trust_pickle, option="--model")
+    if not pols and not models:
+        raise ArgumentError("eval: nothing to evaluate (no --policies and no --model)")
+    out = Path(args.out or default_out(scens))
+    if not args.out:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    check_outputs({f"--out ({ext})": out.with_suffix(ext) for ext in (".md", ".csv", ".png")}, inputs=models)
+    return scens, pols, models, out
 
 
 def episode_metrics(o: Outcome) -> dict:
@@ -82,22 +126,28 @@ def evaluate(args: Args) -> list[dict]:
     Markdown table, the CSV and the bar plot, returns the rows."""
     from ..env import parallel_env
     from .policy_factory import make_policy
+    from .run import progress_bar
 
-    models = [m for m in args.models.split(",") if m]
+    scenarios, policies, models, out = check_args(args)
     rows = []
-    for scen in [s for s in args.scenarios.split(",") if s]:
+    for scen in scenarios:
         env = parallel_env(scenario=scen, n_robots=args.robots or None)
-        for label, spec in _entries(scen, [p for p in args.policies.split(",") if p], models):
-            pol = make_policy(env, spec, seed=args.seed0)
-            eps = [episode_metrics(rollout(env, pol, args.seed0 + k)) for k in range(args.seeds)]
+        for label, spec in _entries(scen, policies, models):
+            pol = make_policy(env, spec, seed=args.seed0, trust_pickle=args.trust_pickle)
+            bar = progress_bar(args.seeds, f"{scen} {label}")
+            eps = []
+            for k in range(args.seeds):
+                eps.append(episode_metrics(rollout(env, pol, args.seed0 + k)))
+                if bar is not None:
+                    bar.update(1)
+            if bar is not None:
+                bar.close()
             row = {"scenario": scen, "policy": label, "seeds": args.seeds, "robots": env.n}
             for key, _, _ in METRICS:
                 row[key], row[key + "_ci95"] = ci95([e[key] for e in eps])
             rows.append(row)
             print(f"{scen:12s} {label:28s} arrived {row['arrived']:.1%} ± {row['arrived_ci95']:.1%}, "
                   f"fell {row['fell']:.1%}, return {row['return']:.1f} ± {row['return_ci95']:.1f}")
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
     md = markdown(rows)
     out.with_suffix(".md").write_text(md + "\n")
     with open(out.with_suffix(".csv"), "w", newline="") as fh:

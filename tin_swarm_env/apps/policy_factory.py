@@ -1,24 +1,59 @@
-"""Policies by name for the apps: ``"apf"``, ``"random"`` or a saved Stable-Baselines3 model."""
+"""Policies by name for the apps: ``"apf"``, ``"random"``, a pickle-free policy directory, or
+(only with ``trust_pickle``) a saved Stable-Baselines3 ``.zip``."""
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 
-from ..errors import MissingExtraError
+from ..errors import ArgumentError, MissingExtraError
 
-__all__ = ["make_policy", "SB3Policy"]
+__all__ = ["make_policy", "check_policy_spec", "SB3Policy", "POLICY_NAMES"]
+
+POLICY_NAMES = ("apf", "random")
+
+_PICKLE_WHY = ("an SB3 .zip is a pickle: loading it runs any code the file holds, so load only files you "
+               "made or trust")
 
 
-def make_policy(env, policy: str, fields=None, seed: int | None = None):
-    """``"apf"`` (with the APF ``fields``, default all), ``"random"`` (seeded) or a path to a
-    saved SB3 model (``.zip``): an object with ``act_batch(obs (n, d)) -> (n, 2)``."""
-    from ..policies import APFPolicy, RandomPolicy
+def check_policy_spec(spec: str, trust_pickle: bool = False, option: str = "--policy") -> str:
+    """Check a policy spec before any slow work starts; returns ``"apf"``, ``"random"``, ``"dir"``
+    (a pickle-free policy directory, or its policy.json) or ``"sb3"`` (a .zip, only when
+    ``trust_pickle``). Names are case-insensitive. Anything else raises :class:`ArgumentError`
+    naming ``option`` and listing what it accepts."""
+    s = str(spec).strip()
+    if s.lower() in POLICY_NAMES:
+        return s.lower()
+    p = Path(os.fspath(s))
+    if p.is_dir() or (p.name == "policy.json" and p.is_file()):
+        return "dir"
+    if p.is_file() and p.suffix.lower() == ".zip":
+        if not trust_pickle:
+            raise ArgumentError(f"{option} {s}: refusing to load an SB3 .zip without --trust-pickle ({_PICKLE_WHY}); "
+                                "or export it once to a pickle-free policy directory "
+                                "(tin_swarm_env.adapters.sb3.export_sb3_policy) and pass that")
+        return "sb3"
+    what = "is not a policy directory or an SB3 .zip" if p.exists() else "no such file or directory"
+    raise ArgumentError(f"{option} {s!r}: {what}; give {', '.join(POLICY_NAMES)} (any case), a policy directory "
+                        "(policy.json + weights.npz), or an SB3 .zip with --trust-pickle")
+
+
+def make_policy(env, policy: str, fields=None, seed: int | None = None, trust_pickle: bool = False):
+    """``"apf"`` (with the APF ``fields``, default all), ``"random"`` (seeded), a pickle-free
+    policy directory (:func:`~tin_swarm_env.policies.load_policy`) or, with ``trust_pickle``, a
+    saved SB3 model ``.zip``: an object with ``act_batch(obs (n, d)) -> (n, 2)``."""
+    from ..policies import APFPolicy, RandomPolicy, load_policy
     from ..world.fields import FIELDS
 
-    if policy == "apf":
+    kind = check_policy_spec(policy, trust_pickle)
+    if kind == "apf":
         return APFPolicy(env, fields=tuple(fields) if fields else FIELDS)
-    if policy == "random":
+    if kind == "random":
         return RandomPolicy(env, seed=seed)
+    if kind == "dir":
+        return load_policy(policy, env)
     return SB3Policy.load(policy)
 
 
@@ -30,6 +65,7 @@ class SB3Policy:
 
     @classmethod
     def load(cls, path) -> SB3Policy:
+        """Load a trusted SB3 ``.zip`` (it is unpickled: it can run code)."""
         try:
             from stable_baselines3 import PPO
         except ImportError as exc:

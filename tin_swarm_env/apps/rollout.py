@@ -63,11 +63,12 @@ class Outcome:
         return float(self.steps[got].mean()) if got.any() else float("nan")
 
 
-def rollout(env, policy, seed: int | None, *, on_step=None, frames_every: int = 0) -> Outcome:
+def rollout(env, policy, seed: int | None, *, on_step=None, frames_every: int = 0, on_frame=None) -> Outcome:
     """Run one episode of ``env`` (a :class:`~tin_swarm_env.TinSwarmEnv`) from ``reset(seed)``
     until no robot is left. ``on_step(env, reasons (n,))`` is called after every step with the
     reasons so far; ``frames_every > 0`` keeps ``env.render()`` every that many steps and at
-    the end (the env needs ``render_mode="rgb_array"``)."""
+    the end (the env needs ``render_mode="rgb_array"``); with ``on_frame`` each such frame is
+    handed to ``on_frame(frame)`` (e.g. written to disk) instead of kept in ``Outcome.frames``."""
     t0 = time.perf_counter()
     obs = env.reset_arrays(seed=seed)
     if hasattr(policy, "reset"):
@@ -77,10 +78,11 @@ def rollout(env, policy, seed: int | None, *, on_step=None, frames_every: int = 
     steps = np.zeros(n, dtype=np.int64)
     returns = np.zeros(n)
     frames = []
+    keep = on_frame if on_frame is not None else frames.append
     live = env.live_mask
     while live.any():
         if frames_every and env.steps % frames_every == 0:
-            frames.append(env.render())
+            keep(env.render())
         obs, rew, term, trunc, why = env.step_arrays(policy.act_batch(obs))
         returns += np.where(live, rew, 0.0)
         ended = term | trunc
@@ -90,7 +92,7 @@ def rollout(env, policy, seed: int | None, *, on_step=None, frames_every: int = 
         if on_step is not None:
             on_step(env, reasons)
     if frames_every:
-        frames.append(env.render())
+        keep(env.render())
     s = env.world_state
     return Outcome(seed=seed, reasons=reasons, steps=steps, returns=returns, collisions=s.collisions.copy(),
                    battery_left=s.battery_j / env.config.world.battery.capacity_j, n_steps=env.steps,

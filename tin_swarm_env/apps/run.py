@@ -7,7 +7,6 @@ Per episode it counts robots that arrived, fell, ran out of battery or were cut 
 
 from __future__ import annotations
 
-import sys
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -44,47 +43,47 @@ class EpisodeStats:
                    episode_return=float(o.returns.mean()), seconds=o.seconds)
 
 
-class _Progress:
-    """A one-line progress bar on stderr (plain lines when stderr is not a terminal); an
-    ``on_step`` callback for :func:`~.rollout.rollout`."""
+def progress_bar(total: int, desc: str, enabled: bool = True):
+    """A tqdm bar on stderr (rate and ETA) counting ``total`` steps, or None when disabled or
+    tqdm is not installed (then nothing is shown). Also used by ``tin-swarm eval``."""
+    if not enabled:
+        return None
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:  # pragma: no cover - tqdm is a core dependency
+        return None
+    # disable=None: no bar when stderr is not a terminal (logs, CI)
+    return tqdm(total=total, desc=desc, unit="step", leave=False, dynamic_ncols=True, disable=None)
 
-    def __init__(self, total, label):
-        self.total, self.label, self.tty = total, label, sys.stderr.isatty()
-        self.last = -1
 
-    def __call__(self, env, reasons):
+def _on_step(bar):
+    """A :func:`~.rollout.rollout` ``on_step`` callback advancing ``bar`` with the arrivals/falls."""
+    def on_step(env, reasons):
+        bar.update(1)
         if env.steps % 10 == 0 or not env.live_mask.any():
-            self.update(env.steps, f"arrived {np.sum(reasons == Reason.ARRIVED)} "
-                                   f"fell {np.sum(reasons == Reason.FELL)}")
-
-    def update(self, k, extra=""):
-        pct = int(100 * k / max(self.total, 1))
-        if self.tty:
-            bar = "#" * (pct // 4)
-            sys.stderr.write(f"\r{self.label} [{bar:<25s}] {k}/{self.total} {extra}")
-            sys.stderr.flush()
-        elif pct // 25 != self.last // 25 or k == self.total:
-            sys.stderr.write(f"{self.label} {k}/{self.total} {extra}\n")
-        self.last = pct
-
-    def close(self):
-        if self.tty:
-            sys.stderr.write("\n")
+            bar.set_postfix(arrived=int(np.sum(reasons == Reason.ARRIVED)), fell=int(np.sum(reasons == Reason.FELL)),
+                            refresh=False)
+    return on_step
 
 
 def run_episodes(scenario, policy="apf", robots=None, episodes=1, seed=0, fields=None, frames_every=0,
-                 max_cycles=None, progress=True, render_width=640):
+                 max_cycles=None, progress=True, render_width=640, on_frame=None, trust_pickle=False):
     """Run ``episodes`` episodes (seeds ``seed``, ``seed+1``...). Returns ``(stats list, frames)``;
-    frames (the first episode's, every ``frames_every`` steps) only when ``frames_every > 0``."""
+    frames (the first episode's, every ``frames_every`` steps) only when ``frames_every > 0``;
+    with ``on_frame`` each frame goes to ``on_frame(frame)`` as it is drawn instead (the list is
+    then empty: nothing accumulates in memory). ``policy``: see :func:`~.policy_factory.make_policy`."""
     env = parallel_env(scenario=scenario, n_robots=robots, max_cycles=max_cycles,
                        render_mode="rgb_array" if frames_every else None, render_width=render_width)
-    pol = make_policy(env, policy, fields, seed)
+    pol = make_policy(env, policy, fields, seed, trust_pickle=trust_pickle)
     out, frames = [], []
     for ep in range(episodes):
-        bar = _Progress(env.max_cycles, f"episode {ep + 1}/{episodes}") if progress else None
-        o = rollout(env, pol, seed + ep, on_step=bar, frames_every=frames_every if ep == 0 else 0)
-        if bar:
-            bar.close()
+        bar = progress_bar(env.max_cycles, f"episode {ep + 1}/{episodes}", progress)
+        try:
+            o = rollout(env, pol, seed + ep, on_step=_on_step(bar) if bar is not None else None,
+                        frames_every=frames_every if ep == 0 else 0, on_frame=on_frame)
+        finally:
+            if bar is not None:
+                bar.close()
         frames = frames or o.frames
         out.append(EpisodeStats.from_outcome(ep + 1, o))
     env.close()

@@ -7,7 +7,7 @@ from gymnasium import spaces
 from gymnasium.utils import EzPickle
 from pettingzoo import ParallelEnv
 
-from ..errors import ArgumentError
+from ..errors import ArgumentError, check_range
 from ..scenario import (
     ScenarioConfig,
     Stage,
@@ -18,11 +18,24 @@ from ..scenario import (
     place_entities,
     target_field,
 )
+from ..scenario.config import MAX_ROBOTS
 from ..world import Reason, World
 from .observation import ObsLayout, build_observations
 from .reward import compute_rewards, distance_to_go
 
 __all__ = ["TinSwarmEnv", "parallel_env", "raw_env", "env"]
+
+
+RENDER_WIDTH_PX = (64, 4096)  # the frame widths render() draws
+
+
+def _check_args(n_robots, max_cycles, render_width) -> None:
+    """The constructor's numbers: ArgumentError naming the argument (an integer in range)."""
+    if n_robots is not None:
+        check_range("TinSwarmEnv", "n_robots", n_robots, 1, MAX_ROBOTS, integer=True, exc=ArgumentError)
+    if max_cycles is not None:
+        check_range("TinSwarmEnv", "max_cycles", max_cycles, 1, integer=True, exc=ArgumentError)
+    check_range("TinSwarmEnv", "render_width", render_width, *RENDER_WIDTH_PX, integer=True, exc=ArgumentError)
 
 
 class TinSwarmEnv(ParallelEnv, EzPickle):
@@ -149,14 +162,11 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
                           render_mode=render_mode, sensor_cones=sensor_cones, render_width=render_width,
                           render_decorations=render_decorations)
         cfg = scenario if isinstance(scenario, ScenarioConfig) else load_scenario(scenario)
+        _check_args(n_robots, max_cycles, render_width)
         if n_robots is not None:
-            if int(n_robots) != n_robots or n_robots < 1:
-                raise ArgumentError(f"n_robots must be a positive integer, got {n_robots!r}")
             cfg = cfg.replace(robots=type(cfg.robots)(count=int(n_robots), spawn_region=cfg.robots.spawn_region,
                                                       min_separation_m=cfg.robots.min_separation_m))
         if max_cycles is not None:
-            if int(max_cycles) != max_cycles or max_cycles < 1:
-                raise ArgumentError(f"max_cycles must be a positive integer, got {max_cycles!r}")
             cfg = cfg.replace(max_cycles=int(max_cycles))
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ArgumentError(
@@ -414,6 +424,8 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
 
             self._viewer = Viewer(self._world, width_px=self._render_width, sensor_cones=self._sensor_cones,
                                   decorations=self._render_decorations, name=self.config.name)
+            if self.render_mode == "human":
+                _warn_if_no_display()  # once per viewer
         img = self._viewer.frame(self._wstate)
         if self.render_mode == "rgb_array":
             return img
@@ -426,9 +438,31 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
             self._viewer = None
 
 
-def parallel_env(**kwargs) -> TinSwarmEnv:
+def _warn_if_no_display() -> None:
+    """render_mode="human" draws into a matplotlib window; without a display (no DISPLAY or
+    WAYLAND_DISPLAY on Linux, or a non-interactive backend such as Agg) nothing would appear:
+    say so (a one-line gymnasium warning)."""
+    import os
+    import sys
+
+    import matplotlib
+
+    backend = matplotlib.get_backend().lower()
+    headless = sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    if headless or backend in ("agg", "pdf", "ps", "svg", "cairo", "template"):
+        import gymnasium
+
+        gymnasium.logger.warn(f"render_mode='human' but there is no display (matplotlib backend {backend!r}"
+                              f"{', no DISPLAY' if headless else ''}): no window will open; use "
+                              "render_mode='rgb_array' and save the frames instead")
+
+
+def parallel_env(scenario: str | ScenarioConfig = "cliff_goal", n_robots: int | None = None,
+                 max_cycles: int | None = None, render_mode: str | None = None, sensor_cones: bool = False,
+                 render_width: int = 640) -> TinSwarmEnv:
     """The parallel environment (see :class:`TinSwarmEnv` for the arguments)."""
-    return TinSwarmEnv(**kwargs)
+    return TinSwarmEnv(scenario=scenario, n_robots=n_robots, max_cycles=max_cycles, render_mode=render_mode,
+                       sensor_cones=sensor_cones, render_width=render_width)
 
 
 def raw_env(**kwargs):

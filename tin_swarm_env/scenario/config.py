@@ -66,13 +66,20 @@ try:
 except ModuleNotFoundError:  # Python 3.10: the same parser from PyPI
     import tomli as tomllib
 
-from ..errors import ScenarioError
+from ..errors import ParameterError, ScenarioError, check_fields, check_range
 from ..world import BatteryParams, RobotParams, SensorParams, WorldParams
 
 __all__ = ["ScenarioError", "TerrainSpec", "RobotsSpec", "EntitiesSpec", "RewardWeights", "ObservationSpec",
-           "ScenarioConfig", "load_scenario", "scenario_from_dict", "SCENARIO_DIR", "list_scenarios"]
+           "ScenarioConfig", "load_scenario", "scenario_from_dict", "SCENARIO_DIR", "list_scenarios",
+           "MAX_ROBOTS", "scenario_file"]
 
 SCENARIO_DIR = Path(__file__).with_name("builtin")
+
+MAX_ROBOTS = 100_000  # robots.count and n_robots: beyond this the per-robot arrays and names exhaust memory
+MAX_SLOTS = 256  # k_robots, k_targets, k_breaks: observation slots per kind
+_POS = {"lo": 0, "lo_open": True}  # check_range limits: a finite number > 0
+_NONNEG = {"lo": 0}  # >= 0
+_FINITE: dict = {}  # any finite number
 
 
 @dataclass(frozen=True)
@@ -89,12 +96,25 @@ class TerrainSpec:
     ranges: dict = field(default_factory=dict)  # generated: {family: {parameter: [lo, hi] | choices}}
     resample: str = "reset"  # generated: "reset" (new terrain every reset(seed)) or "once"
 
+    def __post_init__(self):  # validation only (see _check_terrain)
+        _check_terrain(self)
+
 
 @dataclass(frozen=True)
 class RobotsSpec:
     count: int = 10
     spawn_region: tuple[float, float, float, float] | None = None
     min_separation_m: float = 2.0
+
+    def __post_init__(self):
+        check_fields(self, {"count": {"lo": 1, "hi": MAX_ROBOTS, "integer": True}, "min_separation_m": _NONNEG})
+        if self.spawn_region is not None:
+            for i, v in enumerate(self.spawn_region):
+                check_range("RobotsSpec", f"spawn_region[{i}]", v)
+            x0, y0, x1, y1 = self.spawn_region
+            if not (x0 < x1 and y0 < y1):
+                raise ParameterError(f"RobotsSpec.spawn_region must be [x0, y0, x1, y1] with x0 < x1 and y0 < y1, "
+                                     f"got {list(self.spawn_region)}")
 
 
 @dataclass(frozen=True)
@@ -113,8 +133,12 @@ class EntitiesSpec:
     arrival_radius_m: float = 5.0
 
     def __post_init__(self):
-        if self.count < 0:
-            raise ValueError(f"'count' must be >= 0, got {self.count}")
+        check_fields(self, {"standoff_m": _NONNEG, "arrival_radius_m": _POS})
+        for i, xy in enumerate(self.positions):
+            for j, v in enumerate(xy):
+                check_range("EntitiesSpec", f"positions[{i}][{j}]", v)
+        if not 0 <= self.count <= 10_000:
+            raise ValueError(f"'count' must be >= 0 and at most 10000, got {self.count}")
         if self.count and self.positions:
             raise ValueError("give 'positions' or 'count', not both")
         if self.region is not None and not (self.region[2] > self.region[0] and self.region[3] > self.region[1]):
@@ -153,6 +177,8 @@ class RewardWeights:
     def __post_init__(self):
         if self.progress not in ("geodesic", "euclidean"):
             raise ValueError(f"'progress' must be 'geodesic' or 'euclidean', got {self.progress!r}")
+        check_fields(self, {f.name: (_NONNEG if f.name.endswith("_m") else _FINITE)
+                            for f in dataclasses.fields(self) if f.type in (float, "float")})
 
 
 @dataclass(frozen=True)
@@ -164,6 +190,10 @@ class ObservationSpec:
     k_targets: int = 2
     k_breaks: int = 3
     k_assets: int | None = None  # None: 2 when the scenario has assets, else 0 (ObsLayout.from_spec)
+
+    def __post_init__(self):
+        check_fields(self, {k: {"lo": 0, "hi": MAX_SLOTS, "integer": True} for k in ("k_robots", "k_targets",
+                                                                                    "k_breaks")})
 
 
 @dataclass(frozen=True)
@@ -188,6 +218,12 @@ class ScenarioConfig:
         if not (isinstance(self.max_cycles, int) and self.max_cycles > 0):
             raise ScenarioError(
                 f"scenario {self.name!r}: max_cycles must be a positive integer, got {self.max_cycles!r}")
+        if self.seed is not None:
+            check_range("ScenarioConfig", "seed", self.seed, 0, integer=True, exc=ScenarioError)
+        cand, obs = self.world.sensor.max_candidates, self.observation
+        if cand < max(obs.k_robots, obs.k_targets):
+            raise ScenarioError(f"scenario {self.name!r}: sensor.max_candidates ({cand}) must be >= "
+                                f"observation.k_robots ({obs.k_robots}) and k_targets ({obs.k_targets})")
         if self.robots.count < 1:
             raise ScenarioError(f"scenario {self.name!r}: robots.count must be >= 1, got {self.robots.count}")
         if self.task == "goal" and self.targets.n == 0 and self.terrain.source != "generated":
@@ -195,6 +231,15 @@ class ScenarioConfig:
 
     def replace(self, **kw) -> ScenarioConfig:
         return dataclasses.replace(self, **kw)
+
+
+def _check_terrain(t: TerrainSpec) -> None:
+    """The numbers of a [terrain] table (recipe parameters are checked by make_dem)."""
+    check_fields(t, {"max_vertices": {"lo": 0, "integer": True}, "max_error_m": _NONNEG})
+    if len(t.size_m) != 2:
+        raise ParameterError(f"TerrainSpec.size_m must be (width, height), got {t.size_m!r}")
+    for i, v in enumerate(t.size_m):
+        check_range("TerrainSpec", f"size_m[{i}]", v, 0, lo_open=True)
 
 
 # -- parsing ------------------------------------------------------------------------------------
@@ -339,15 +384,21 @@ def list_scenarios() -> dict[str, str]:
     return out
 
 
+def scenario_file(name: str) -> Path:
+    """The TOML file of the built-in scenario ``name`` (ScenarioError listing the names if none)."""
+    p = SCENARIO_DIR / f"{name}.toml"
+    if os.sep in name or "/" in name or not p.is_file():
+        raise ScenarioError(f"unknown scenario {name!r}; built-in: {', '.join(sorted(list_scenarios()))}, "
+                            "or give a path to a .toml file")
+    return p
+
+
 def load_scenario(name_or_path) -> ScenarioConfig:
     """A built-in scenario by name (``"cliff_goal"``) or a TOML file by path."""
     s = os.fspath(name_or_path)
     p = Path(s)
     if not (s.endswith(".toml") or os.sep in s or p.exists()):
-        p = SCENARIO_DIR / f"{s}.toml"
-        if not p.exists():
-            raise ScenarioError(f"unknown scenario {s!r}; built-in: {', '.join(sorted(list_scenarios()))}, "
-                                "or give a path to a .toml file")
+        p = scenario_file(s)
     if not p.exists():
         raise ScenarioError(f"{p}: no such scenario file")
     try:

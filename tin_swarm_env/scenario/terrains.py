@@ -102,16 +102,55 @@ RECIPES = {"ramp": ramp, "cliff_goal": cliff_goal, "hills": hills, "rolling": ro
            "canyon": canyon}
 
 
+# recipe parameters that must be > 0 (sizes, cell, widths, spreads), and the largest grid a recipe builds
+_POSITIVE = {"width", "height", "cell", "hill_sd_m", "sd_m", "wavelength_m", "half_width_m", "pass_len_m", "side_m"}
+MAX_CELLS = 25_000_000
+
+
+def _check_param(where: str, recipe: str, key: str, value, default):
+    """``value`` of recipe parameter ``key`` has the type of its ``default`` (a number, an integer,
+    a string, a list of as many numbers) and is finite; sizes and spreads are > 0."""
+    from ..errors import ScenarioError, check_range
+
+    name = f"{where} params" if where else f"recipe {recipe!r}"
+    if isinstance(default, tuple):
+        if not isinstance(value, (list, tuple)) or len(value) != len(default):
+            raise ScenarioError(f"{name}.{key} must be a list of {len(default)} numbers, got {value!r}")
+        return tuple(float(check_range(name, f"{key}[{i}]", v, exc=ScenarioError)) for i, v in enumerate(value))
+    if isinstance(default, str):
+        if not isinstance(value, str):
+            raise ScenarioError(f"{name}.{key} must be a string, got {value!r}")
+        return value
+    lo = {"lo": 0, "lo_open": True} if key in _POSITIVE else ({"lo": 0} if isinstance(default, int) else {})
+    return check_range(name, key, value, integer=isinstance(default, int), exc=ScenarioError, **lo)
+
+
 def make_dem(recipe: str, params: dict, where: str = "") -> Dem:
-    """Run a recipe with parameters; errors name the recipe and the parameter."""
+    """Run a recipe with parameters; errors name the recipe and the parameter: an unknown one,
+    one of the wrong type (each has its default's type), a non-finite number, a size, cell or
+    spread <= 0, or a grid of more than :data:`MAX_CELLS` cells."""
     from ..errors import ScenarioError
 
     if recipe not in RECIPES:
         raise ScenarioError(f"{where}: unknown terrain recipe {recipe!r}; known: {', '.join(sorted(RECIPES))}")
     fn = RECIPES[recipe]
     sig = inspect.signature(fn)
-    for k in params:
+    kw = {}
+    for k, v in params.items():
         if k not in sig.parameters:
             raise ScenarioError(f"{where}: recipe {recipe!r} has no parameter '{k}' "
                                 f"(known: {', '.join(sig.parameters)})")
-    return fn(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in params.items()})
+        kw[k] = _check_param(where, recipe, k, v, sig.parameters[k].default)
+    full = {k: p.default for k, p in sig.parameters.items()} | kw
+    cells = (full["width"] / full["cell"] + 1) * (full["height"] / full["cell"] + 1)
+    if cells > MAX_CELLS:
+        raise ScenarioError(f"{where}: recipe {recipe!r} would build {cells:.3g} grid cells (width/cell x "
+                            f"height/cell); at most {MAX_CELLS:,}: raise 'cell' or shrink the terrain")
+    if recipe == "ramp" and not full["ramp_end_x"] > full["ramp_start_x"]:
+        raise ScenarioError(f"{where}: recipe 'ramp' needs ramp_end_x > ramp_start_x")
+    if recipe == "canyon" and not full["ramp_in_m"] + full["ramp_out_m"] > 0:
+        raise ScenarioError(f"{where}: recipe 'canyon' needs ramp_in_m + ramp_out_m > 0")
+    try:
+        return fn(**kw)
+    except ValueError as exc:  # a recipe's own check (canyon's travel): name the file and recipe
+        raise ScenarioError(f"{where}: recipe {recipe!r}: {exc}") from None

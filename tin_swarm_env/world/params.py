@@ -10,24 +10,24 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..errors import ParameterError
+from ..errors import ParameterError, check_range
 from ..terrain.breaks import BREAK_ANGLE_DEG, MAX_SLOPE_DEG
 
-__all__ = ["RobotParams", "SensorParams", "BatteryParams", "WorldParams"]
+__all__ = ["RobotParams", "SensorParams", "BatteryParams", "WorldParams", "MAX_SPEED_MPS"]
 
 
 def _positive(obj, *names):
     for n in names:
-        v = getattr(obj, n)
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise ParameterError(f"{type(obj).__name__}.{n} must be a finite number > 0, got {v!r}")
+        check_range(type(obj).__name__, n, getattr(obj, n), 0, lo_open=True)
 
 
 def _non_negative(obj, *names):
     for n in names:
-        v = getattr(obj, n)
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-            raise ParameterError(f"{type(obj).__name__}.{n} must be a finite number >= 0, got {v!r}")
+        check_range(type(obj).__name__, n, getattr(obj, n), 0)
+
+
+# speeds above this make positions overflow or robots skip whole triangles in one step
+MAX_SPEED_MPS = 1000.0
 
 
 @dataclass(frozen=True)
@@ -51,6 +51,7 @@ class RobotParams:
 
     def __post_init__(self):
         _positive(self, "radius_m", "max_speed_mps", "turn_rate_dps", "max_slope_deg", "max_climb_deg")
+        check_range("RobotParams", "max_speed_mps", self.max_speed_mps, hi=MAX_SPEED_MPS)
         if self.max_slope_deg >= 90:
             raise ParameterError(f"RobotParams.max_slope_deg must be < 90, got {self.max_slope_deg}")
         if self.max_climb_deg < self.max_slope_deg:
@@ -83,9 +84,7 @@ class SensorParams:
     def __post_init__(self):
         _positive(self, "range_m", "fov_deg")
         _non_negative(self, "height_m")
-        if isinstance(self.max_candidates, bool) or not isinstance(self.max_candidates, int) \
-                or self.max_candidates < 1:
-            raise ValueError(f"SensorParams.max_candidates must be an integer >= 1, got {self.max_candidates!r}")
+        check_range("SensorParams", "max_candidates", self.max_candidates, 1, 4096, integer=True)
         if self.fov_deg > 360:
             raise ParameterError(f"SensorParams.fov_deg must be in (0, 360], got {self.fov_deg}")
 
@@ -137,7 +136,9 @@ class WorldParams:
     def __post_init__(self):
         _positive(self, "dt_s")
         _non_negative(self, "entity_height_m", "entity_speed_mps", "entity_turn_sd_deg")
-        if len(self.flat_size_m) != 2 or min(self.flat_size_m) <= 0:
+        check_range("WorldParams", "entity_speed_mps", self.entity_speed_mps, hi=MAX_SPEED_MPS)
+        if len(self.flat_size_m) != 2:
             raise ParameterError(f"WorldParams.flat_size_m must be (width, height) > 0, got {self.flat_size_m}")
-        if not 0 <= self.break_angle_deg <= 180:
-            raise ParameterError(f"WorldParams.break_angle_deg must be in [0, 180], got {self.break_angle_deg}")
+        for v in self.flat_size_m:
+            check_range("WorldParams", "flat_size_m", v, 0, lo_open=True)
+        check_range("WorldParams", "break_angle_deg", self.break_angle_deg, 0, 180)
