@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from ..errors import MissingExtraError
@@ -10,8 +12,9 @@ __all__ = ["make_policy", "SB3Policy"]
 
 
 def make_policy(env, policy: str, fields=None, seed: int | None = None):
-    """``"apf"`` (with the APF ``fields``, default all), ``"random"`` (seeded) or a path to a
-    saved SB3 model (``.zip``): an object with ``act_batch(obs (n, d)) -> (n, 2)``."""
+    """``"apf"`` (with the APF ``fields``, default all), ``"random"`` (seeded), a pickle-free
+    policy directory (:func:`~tin_swarm_env.policies.load_policy`) or a path to a saved SB3 model
+    (``.zip``): an object with ``act_batch(obs (n, d)) -> (n, 2)``."""
     from ..policies import APFPolicy, RandomPolicy
     from ..world.fields import FIELDS
 
@@ -19,6 +22,10 @@ def make_policy(env, policy: str, fields=None, seed: int | None = None):
         return APFPolicy(env, fields=tuple(fields) if fields else FIELDS)
     if policy == "random":
         return RandomPolicy(env, seed=seed)
+    if Path(policy).is_dir() or Path(policy).name == "policy.json":  # a pickle-free policy file
+        from ..policies import load_policy
+
+        return load_policy(policy, env)
     return SB3Policy.load(policy)
 
 
