@@ -207,3 +207,14 @@ def test_evaluation_table_has_the_columns_and_uses_held_out_seeds(tmp_path):
         assert f" {col} |" in md
     # apf on flat: every robot-episode's outcome counted once (arrived + fell + timed out + battery = 1)
     assert rows[1]["arrived"] + rows[1]["fell"] + rows[1]["timed_out"] <= 1.0 + 1e-12
+
+
+def test_recurrent_training_runs_and_saves_only_the_zip(tmp_path, capsys):
+    pytest.importorskip("sb3_contrib")
+    from tin_swarm_env.apps.train import train
+
+    path = train(Args(scenario="flat", n_robots=2, n_envs=1, max_cycles=10, total_timesteps=32, n_steps=16,
+                      batch_size=32, n_epochs=1, net_arch="16", recurrent=True, eval_every=0, eval_episodes=1,
+                      out_dir=str(tmp_path / "r"), progress_bar=False))
+    assert path.exists() and not (tmp_path / "r" / "policy").exists()
+    assert "no pickle-free policy for a recurrent model" in capsys.readouterr().out
