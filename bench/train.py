@@ -1,20 +1,28 @@
-"""PPO training throughput: environment steps per second while learning (collection plus
-gradient updates), for 1 and 4 environment copies of 8 robots each. Run by hand:
+"""Training figures, run by hand (never part of the tests):
 
-    python bench/train.py [--timesteps 40000] [--scenario cliff_goal]
+    python bench/train.py [--cap-minutes 20] [--eval-every 20000] [--throughput-timesteps 40000]
 
-Each configuration learns for the same number of timesteps with the same PPO settings
-(rollouts of 256 steps per sub-environment, batch 1024, 5 epochs, a 128x128 MLP, 2 torch
-threads); the ratio between them is the figure to compare across machines.
+1. **Time to solve**: wall-clock minutes on this machine until the policy first reaches 90%
+   arrival on cliff_goal (8 robots, evaluated every ``--eval-every`` timesteps on the same 3
+   held-out seeds from 10**6), for PPO from scratch and for BC+DAgger-then-PPO (the clock starts
+   before the imitation's APF rollouts, so they are counted; evaluation time is counted too).
+   Each is capped at ``--cap-minutes``; a run that does not get there prints "not solved within".
+   The reward is the scenario's: once the geodesic progress reward is the goal task's default
+   (``[rewards] progress = "geodesic"``) this measures PPO with it.
+2. **Throughput** in the same run: environment steps per second while PPO learns (collection plus
+   gradient updates) for 1 and 4 copies of 8 robots, and each time-to-solve run's own average.
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
+import tempfile
 import time
+from pathlib import Path
 
 
-def run(scenario, n_envs, n_robots, timesteps):
+def throughput(scenario, n_envs, n_robots, timesteps):
     import torch
     from stable_baselines3 import PPO
 
@@ -27,34 +35,54 @@ def run(scenario, n_envs, n_robots, timesteps):
     model.learn(total_timesteps=2 * 256 * vec.num_envs)  # warm-up: compilation, first allocations
     t = time.perf_counter()
     model.learn(total_timesteps=timesteps, reset_num_timesteps=False)
-    dt = time.perf_counter() - t
-    steps = model.num_timesteps - 2 * 256 * vec.num_envs
-    # collection alone, for the split
-    obs = vec.reset()
-    t = time.perf_counter()
-    n = 0
-    while n < timesteps:
-        a, _ = model.predict(obs, deterministic=False)
-        obs, *_ = vec.step(a)
-        n += vec.num_envs
-    dc = time.perf_counter() - t
-    return steps / dt, n / dc
+    return (model.num_timesteps - 2 * 256 * vec.num_envs) / (time.perf_counter() - t)
 
 
-def main(scenario, timesteps):
-    print(f"PPO on {scenario}, 8 robots per copy; environment steps per second (one step = one robot)\n")
-    print(f"{'copies':>7s} {'sub-envs':>9s} {'learning':>12s} {'collection only':>16s}")
-    res = {}
-    for copies in (1, 4):
-        learn, collect = run(scenario, copies, 8, timesteps)
-        res[copies] = learn
-        print(f"{copies:7d} {8 * copies:9d} {learn:12.0f} {collect:16.0f}")
-    print(f"\n4 copies / 1 copy: {res[4] / res[1]:.2f}x")
+def time_to_solve(label, cap_minutes, eval_every, target=0.9, **imitation):
+    """Train on cliff_goal until an evaluation reaches ``target`` arrival or ``cap_minutes``
+    pass; returns ``(minutes to solve or None, timesteps then, env steps/s of PPO, last row)``."""
+    from tin_swarm_env.apps.train import Args, train
+
+    with tempfile.TemporaryDirectory() as tmp:
+        args = Args(scenario="cliff_goal", n_robots=8, n_envs=4, n_steps=256, batch_size=1024, n_epochs=5,
+                    net_arch="256,256", ent_coef=0.005, gamma=0.995, total_timesteps=50_000_000,
+                    max_minutes=cap_minutes, eval_every=eval_every, eval_episodes=3, stop_at_arrival=target,
+                    checkpoint_every=10**9, out_dir=str(Path(tmp) / label), progress_bar=False, **imitation)
+        t0 = time.perf_counter()
+        train(args)
+        wall = time.perf_counter() - t0
+        with open(Path(tmp) / label / "eval.csv") as fh:
+            rows = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(fh)]
+    hit = next((r for r in rows if r["arrived"] >= target), None)
+    steps = rows[-1]["timesteps"]
+    return (hit["minutes"] if hit else None, hit["timesteps"] if hit else steps, steps / wall, rows[-1])
+
+
+def main(a):
+    print("environment steps per second while PPO learns (one step = one robot), cliff_goal, 8 robots per copy")
+    res = {c: throughput("cliff_goal", c, 8, a.throughput_timesteps) for c in (1, 4)}
+    for c, v in res.items():
+        print(f"  {c} copies ({8 * c:3d} sub-envs): {v:8.0f} steps/s")
+    print(f"  4 copies / 1 copy: {res[4] / res[1]:.2f}x\n")
+    print(f"time to solve cliff_goal (>= 90% arrived on 3 held-out seeds, evaluated every {a.eval_every} "
+          f"timesteps; cap {a.cap_minutes:g} min each)")
+    runs = [("PPO from scratch", {}),
+            ("BC+DAgger then PPO", {"bc_episodes": a.bc_episodes, "dagger_rounds": 2, "dagger_episodes":
+                                    max(a.bc_episodes // 2, 1)})]
+    for label, kw in runs:
+        mins, steps, sps, last = time_to_solve(label.replace(" ", "_"), a.cap_minutes, a.eval_every, **kw)
+        if mins is None:
+            print(f"  {label:20s} not solved within {a.cap_minutes:g} min ({steps:.0f} timesteps; last eval "
+                  f"arrived {last['arrived']:.0%}, fell {last['fell']:.0%}); {sps:.0f} PPO steps per wall-clock s")
+        else:
+            print(f"  {label:20s} solved in {mins:.1f} min ({steps:.0f} PPO timesteps); {sps:.0f} env steps/s "
+                  "overall")
 
 
 if __name__ == "__main__":
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--timesteps", type=int, default=40_000)
-    p.add_argument("--scenario", default="cliff_goal")
-    a = p.parse_args()
-    main(a.scenario, a.timesteps)
+    p.add_argument("--cap-minutes", type=float, default=20.0)
+    p.add_argument("--eval-every", type=int, default=20_000)
+    p.add_argument("--bc-episodes", type=int, default=10)
+    p.add_argument("--throughput-timesteps", type=int, default=40_000)
+    main(p.parse_args())

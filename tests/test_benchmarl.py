@@ -18,7 +18,9 @@ def test_one_member_per_builtin_scenario_and_specs():
     assert task.max_steps(env) == 7 and task.group_map(env) == {"robot": ["robot_0", "robot_1", "robot_2"]}
     assert task.observation_spec(env)["robot", "observation"].shape == (3, 59)
     assert task.action_spec(env)["robot", "action"].shape == (3, 2)
-    assert task.info_spec(env) is None and task.state_spec(env) is None and task.action_mask_spec(env) is None
+    info = task.info_spec(env)  # numbers only: the distance to go and the Reason code
+    assert set(info["robot", "info"].keys()) == {"distance_to_go_m", "reason"}
+    assert task.state_spec(env) is None and task.action_mask_spec(env) is None
     with pytest.raises(ValueError, match="continuous"):
         task.get_env_fun(num_envs=1, continuous_actions=False, seed=0, device="cpu")
 

@@ -191,25 +191,38 @@ def test_ppo_accepts_the_adapter_with_a_seed():
     assert a.shape == (8, 2)
 
 
-def test_smoke_train_in_a_subprocess_then_evaluate_the_saved_model(tmp_path):
-    out = tmp_path / "ppo"
-    r = subprocess.run([sys.executable, "-m", "tin_swarm_env", "train", "flat", "--timesteps", "512",
-                        "--n-robots", "4", "--n-envs", "1", "--n-steps", "64", "--batch-size", "64",
-                        "--eval-every", "256", "--eval-episodes", "1", "--max-cycles", "40",
+def test_smoke_train_with_imitation_in_a_subprocess_then_load_and_evaluate_the_policy(tmp_path):
+    """`tin-swarm train` on the imitation path (BC, one DAgger round, a little PPO), then the
+    exported pickle-free policy: loaded with load_policy it acts as the SB3 model it came from,
+    and `tin-swarm eval --model DIR` runs it beside random and APF."""
+    from tin_swarm_env.apps.policy_factory import SB3Policy
+    from tin_swarm_env.policies import load_policy
+
+    out = tmp_path / "run"
+    r = subprocess.run([sys.executable, "-m", "tin_swarm_env", "train", "flat", "--timesteps", "128",
+                        "--bc-episodes", "1", "--dagger-rounds", "1", "--bc-robots", "3", "--bc-epochs", "2",
+                        "--n-robots", "4", "--n-envs", "1", "--n-steps", "32", "--batch-size", "64",
+                        "--eval-every", "256", "--eval-episodes", "1", "--max-cycles", "30",
                         "--out-dir", str(out), "--progress-bar", "false"],
                        capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr[-2000:]
-    for f in ("model.zip", "model.json", "eval.csv", "curve.png"):
+    assert "BC: 90 samples" in r.stdout and "DAgger round 1" in r.stdout and str(out / "policy") in r.stdout
+    for f in ("model.zip", "model.json", "eval.csv", "curve.png", "policy/policy.json", "policy/weights.npz"):
         assert (out / f).exists(), f
+    env = tse.parallel_env(scenario="flat", n_robots=4, max_cycles=30)
+    pol = load_policy(out / "policy", env)
+    obs = env.reset_arrays(seed=1)
+    sb3 = SB3Policy.load(out / "model.zip")  # our own file: trusted
+    assert np.allclose(pol.act_batch(obs), sb3.act_batch(obs), atol=1e-5)
     ev = tmp_path / "ev"
     r = subprocess.run([sys.executable, "-m", "tin_swarm_env", "eval", "flat", "--seeds", "2", "--robots", "4",
-                        "--model", str(out / "model.zip"), "--trust-pickle", "--out", str(ev)], capture_output=True, text=True,
+                        "--model", str(out / "policy"), "--out", str(ev)], capture_output=True, text=True,
                        timeout=600)
     assert r.returncode == 0, r.stderr[-2000:]
     md = (tmp_path / "ev.md").read_text()
-    assert "| flat | random |" in md and "| flat | apf |" in md and "| flat | ppo (ppo) |" in md
+    assert "| flat | random |" in md and "| flat | apf |" in md and "| flat | run |" in md
     assert (tmp_path / "ev.csv").exists() and (tmp_path / "ev.png").stat().st_size > 5000
-    assert math.isfinite(float(md.split("| flat | ppo (ppo) |")[1].split("|")[-2].split("±")[0]))
+    assert math.isfinite(float(md.split("| flat | run |")[1].split("|")[-2].split("±")[0]))
 
 
 def test_missing_sb3_names_the_extra(monkeypatch):

@@ -103,6 +103,7 @@ class TinSwarmTask(Task):
     CLIFF_GOAL = None
     CONTAINMENT = None
     FLAT = None
+    GENERATED = None
     HILL = None
     JACKSBORO = None
     RAMP = None

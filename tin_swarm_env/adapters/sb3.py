@@ -47,7 +47,9 @@ def _vecenv_base():
 
 def make_sb3_vec_env(scenario="cliff_goal", n_robots=None, n_envs=1, seed=0, **env_kwargs):
     """An SB3 ``VecEnv`` of ``n_envs`` copies of ``tin_swarm_v0`` (see the module docstring);
-    ``env_kwargs`` (``max_cycles``, ``render_mode``...) pass through to each copy."""
+    ``env_kwargs`` (``max_cycles``, ``render_mode``...) pass through to each copy. ``scenario``
+    may be a list (a mix): copy ``c`` runs ``scenario[c % len(scenario)]``; the copies must then
+    share the robot count (pass ``n_robots``) and the observation size."""
     cls = _vec_class()
     return cls(scenario=scenario, n_robots=n_robots, n_envs=n_envs, seed=seed, **env_kwargs)
 
@@ -71,8 +73,15 @@ def _vec_class():
 
             if n_envs < 1:
                 raise ArgumentError(f"n_envs must be >= 1, got {n_envs}")
-            self.envs = [parallel_env(scenario=scenario, n_robots=n_robots, **env_kwargs) for _ in range(n_envs)]
+            mix = [scenario] if isinstance(scenario, str) or not hasattr(scenario, "__len__") else list(scenario)
+            self.envs = [parallel_env(scenario=mix[c % len(mix)], n_robots=n_robots, **env_kwargs)
+                         for c in range(n_envs)]
             e0 = self.envs[0]
+            for e in self.envs[1:]:
+                if e.n != e0.n or e.layout.size != e0.layout.size:
+                    raise ArgumentError(f"a scenario mix needs one robot count and observation size: "
+                                        f"{e0.config.name!r} has {e0.n} robots, {e0.layout.size} observations; "
+                                        f"{e.config.name!r} {e.n}, {e.layout.size} (pass n_robots)")
             self.n_robots = e0.n
             self.n_copies = n_envs
             super().__init__(n_envs * e0.n, e0.observation_space("robot_0"), e0.action_space("robot_0"))

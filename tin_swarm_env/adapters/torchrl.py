@@ -19,8 +19,10 @@ which is exactly::
 * Grouping: torchrl's default group map puts every ``robot_<i>`` in one group ``"robot"`` (one
   shared policy over the ``(n_robots, d)`` observation). The env is parallel, so the wrapper
   steps it with its parallel API.
-* ``infos[agent]["reason"]`` (a string) is not carried into the tensordict: the env's reset
-  infos are empty, so the wrapper builds no info spec and copies no infos.
+* Infos: torchrl writes every info value into a tensor, so the env is wrapped to give numbers only:
+  ``td[..., "robot", "info", "distance_to_go_m"]`` (m, ``inf`` when unreachable) and
+  ``td[..., "robot", "info", "reason"]``, the :class:`~tin_swarm_env.Reason` code (0 while the
+  robot runs; ``Reason(code).label`` is the env's string).
 
 Needs the ``[torchrl]`` extra (torchrl >= 0.11; tested with torchrl 0.11.1, tensordict 0.11.0,
 torch 2.13).
@@ -47,5 +49,33 @@ def make_torchrl_env(scenario: str = "cliff_goal", *, seed: int | None = None, d
 
     from ..env import parallel_env
 
-    env = parallel_env(scenario=scenario, **env_kwargs)
+    env = _numeric_infos(parallel_env(scenario=scenario, **env_kwargs))
     return PettingZooWrapper(env=env, seed=seed, device=device, return_state=return_state, **TORCHRL_FLAGS)
+
+
+def _numeric_infos(env):
+    """``env`` with every agent's info as ``{"distance_to_go_m": float, "reason": int}`` (the
+    :class:`~tin_swarm_env.Reason` code), the same keys at reset and at every step."""
+    from pettingzoo.utils.wrappers import BaseParallelWrapper
+
+    from ..world.state import Reason
+
+    codes = {r.label: int(r) for r in Reason}
+
+    def numeric(infos):
+        return {a: {"distance_to_go_m": float(i.get("distance_to_go_m", float("inf"))),
+                    "reason": codes.get(i.get("reason", ""), 0)} for a, i in infos.items()}
+
+    class NumericInfos(BaseParallelWrapper):
+        def reset(self, seed=None, options=None):
+            obs, infos = self.env.reset(seed=seed, options=options)
+            return obs, numeric(infos)
+
+        def step(self, actions):
+            obs, rew, term, trunc, infos = self.env.step(actions)
+            return obs, rew, term, trunc, numeric(infos)
+
+        def state(self):
+            return self.env.state()
+
+    return NumericInfos(env)

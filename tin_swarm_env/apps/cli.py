@@ -181,7 +181,7 @@ def _cmd_eval(args) -> int:
 
     evaluate(Args(scenarios=",".join(args.scenarios), seeds=args.seeds, robots=args.robots,
                   models=",".join(args.model), policies=args.policies, out=args.out or "",
-                  trust_pickle=args.trust_pickle))
+                  trust_pickle=args.trust_pickle, seed_offset=args.seed_offset))
     return 0
 
 
@@ -346,7 +346,10 @@ def _add_train_eval_build(sub) -> None:
                    help="a pickle-free policy directory, or an SB3 .zip with --trust-pickle (repeatable)")
     e.add_argument("--trust-pickle", action="store_true",
                    help="allow SB3 .zip models: they are pickles and loading one runs any code it holds")
-    e.add_argument("--policies", default="random,apf", help="built-in policies to evaluate as well")
+    e.add_argument("--policies", default="random,apf",
+                   help="built-in policies to evaluate as well (random, apf, geodesic: the map-knowing reference)")
+    e.add_argument("--seed-offset", type=_NONNEG, default=1_000_000,
+                   help="evaluation seeds are SEED_OFFSET .. SEED_OFFSET + SEEDS - 1 (training uses seeds below 10**6)")
     e.add_argument("--out", default=None, help="writes OUT.md, OUT.csv and OUT.png (default: runs/eval_<scenarios>)")
     e.set_defaults(func=_cmd_eval)
     b = sub.add_parser("build-tin", help="reduce a DEM to a TIN and write it (.tin or .npz)",

@@ -1,39 +1,46 @@
-"""Evaluate policies on the same scenarios and seeds: random, APF and saved models.
+"""Evaluate policies on the same scenarios and seeds: random, APF, GeodesicPolicy (the
+map-knowing reference, when installed) and learned policies (pickle-free directories or SB3 .zip).
 
-    tin-swarm eval cliff_goal ramp --seeds 20 --model runs/ppo_cliff_goal/policy
-    tin-swarm eval cliff_goal --model runs/ppo_cliff_goal/model.zip --trust-pickle   # an SB3 .zip (a pickle)
-    python agents/evaluate.py --scenarios cliff_goal,ramp --seeds 20 --models runs/ppo_cliff_goal/policy
+    tin-swarm eval cliff_goal ramp --seeds 20 --model runs/bc_ppo_cliff_goal_s0/policy
+    python agents/evaluate.py --scenarios cliff_goal,ramp,hill,generated --seeds 20 \
+        --models "bc+dagger=runs/bc_cliff_goal+ramp_s0/policy,ppo=runs/ppo_cliff_goal_s0/model.zip" --trust-pickle true
 
-A model is a pickle-free policy directory (policy.json + weights.npz); an SB3 ``.zip`` is
-unpickled, which can run code, so it needs ``trust_pickle``. Every option is checked before the
-first episode (:func:`check_args`).
+Rows: ``policies`` (``random``, ``apf``, ``geodesic``) then every entry of ``models``
+(``label=path`` or ``path``; a path is a policy directory, loaded without pickle, or an SB3
+``.zip``, which unpickles and so needs ``trust_pickle``). Every model runs on every scenario (held-out
+ones included). Columns (:data:`METRICS`): arrived, fell, timed out, steps to arrive, contacts per
+robot, return per robot, each a mean with a 95% confidence half-width (Student t) over the
+robot-episodes (``seeds`` x robots; steps to arrive over the robots that arrived; robots of one
+episode are not independent, so the interval is somewhat narrow).
 
-A model is evaluated on every scenario it is given with (``models`` are matched to scenarios by
-the scenario recorded in their ``model.json`` when there is one, else used on all). Per
-(scenario, policy): arrival rate, fall rate, collisions per robot, battery used, steps to
-arrive, episode return per robot, each as a mean over seeds with a 95% confidence interval
-(Student t). Writes ``out``.md and .csv and a bar plot ``out``.png (default ``out``:
+**Seed split.** Evaluation seeds are ``seed_offset .. seed_offset + seeds - 1``, with
+``seed_offset`` at least :data:`EVAL_SEED0` (10**6) by default; training (``apps/train.py``) uses
+seeds below it. On ``"generated"`` (a new terrain drawn from each reset seed) the evaluation
+terrains are therefore never seen in training. Every option is checked before the first episode
+(:func:`check_args`). Writes ``out``.md and .csv and a bar plot ``out``.png (default ``out``:
 ``runs/eval_<scenarios>``).
 """
 
 from __future__ import annotations
 
 import csv
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from ..errors import ArgumentError
 from ..world.state import Reason
 from .rollout import Outcome, rollout
 
-__all__ = ["Args", "METRICS", "evaluate", "check_args", "default_out", "episode_metrics", "ci95", "markdown",
-           "bar_plot"]
+__all__ = ["Args", "METRICS", "EVAL_SEED0", "evaluate", "check_args", "default_out", "episode_metrics", "ci95",
+           "markdown", "bar_plot", "parse_models", "policy_rows"]
 
-METRICS = [("arrived", "arrival rate", "{:.1%}"), ("fell", "falls", "{:.1%}"),
-           ("collisions", "collisions/robot", "{:.2f}"), ("battery_used", "battery used", "{:.1%}"),
-           ("steps_to_arrive", "steps to arrive", "{:.0f}"), ("return", "return/robot", "{:.1f}")]
+EVAL_SEED0 = 1_000_000  # evaluation seeds start here; training seeds stay below
+
+METRICS = [("arrived", "arrived", "{:.1%}"), ("fell", "fell", "{:.1%}"), ("timed_out", "timed out", "{:.1%}"),
+           ("steps_to_arrive", "steps to arrive", "{:.0f}"), ("contacts", "contacts/robot", "{:.2f}"),
+           ("return", "return/robot", "{:.1f}")]
 
 
 @dataclass
@@ -41,61 +48,29 @@ class Args:
     scenarios: str = "cliff_goal,ramp"
     seeds: int = 20
     robots: int = 0  # 0: the scenario's count
-    models: str = ""  # comma-separated policy directories (or SB3 .zip files with trust_pickle)
-    policies: str = "random,apf"
+    models: str = ""  # comma-separated [label=]path: policy directories, or SB3 .zip with trust_pickle
+    policies: str = "random,apf,geodesic"
     out: str = ""  # "": runs/eval_<scenarios>
-    seed0: int = 1000  # evaluation seeds are seed0 .. seed0 + seeds - 1 (not the training seeds)
-    trust_pickle: bool = False  # allow SB3 .zip models (unpickled: they can run code)
-
-
-def default_out(scenarios) -> str:
-    """The default output stem of an evaluation: ``runs/eval_<scenario>_<scenario>...``."""
-    names = [Path(s).stem for s in scenarios]
-    return str(Path("runs") / ("eval_" + "_".join(names)))
-
-
-def check_args(args: Args) -> tuple[list, list, list, Path]:
-    """Everything an evaluation needs, checked before its first episode: returns ``(scenarios,
-    policies, models, out)``. ArgumentError names the option (no seeds, no scenario, an unknown
-    policy name, a model that is missing or a .zip without trust_pickle, an output that cannot
-    be written)."""
-    from .._atomic import check_outputs
-    from ..errors import ArgumentError, check_range
-    from .policy_factory import POLICY_NAMES, check_policy_spec
-
-    check_range("eval", "seeds", args.seeds, 1, integer=True, exc=ArgumentError)
-    check_range("eval", "robots", args.robots, 0, integer=True, exc=ArgumentError)
-    scens = [s for s in args.scenarios.split(",") if s]
-    if not scens:
-        raise ArgumentError("eval: give at least one scenario")
-    pols = [p.strip().lower() for p in args.policies.split(",") if p.strip()]
-    bad = [p for p in pols if p not in POLICY_NAMES]
-    if bad:
-        raise ArgumentError(f"--policies: unknown {bad}; choose from {','.join(POLICY_NAMES)} (models go in --model)")
-    models = [m for m in args.models.split(",") if m]
-    for m in models:
-        check_policy_spec(m, args.trust_pickle, option="--model")
-    if not pols and not models:
-        raise ArgumentError("eval: nothing to evaluate (no --policies and no --model)")
-    out = Path(args.out or default_out(scens))
-    if not args.out:
-        out.parent.mkdir(parents=True, exist_ok=True)
-    check_outputs({f"--out ({ext})": out.with_suffix(ext) for ext in (".md", ".csv", ".png")}, inputs=models)
-    return scens, pols, models, out
+    seed_offset: int = EVAL_SEED0  # evaluation seeds: seed_offset .. seed_offset + seeds - 1
+    trust_pickle: bool = False  # allow SB3 .zip models (loading one runs code from the file)
 
 
 def episode_metrics(o: Outcome) -> dict:
-    """The :data:`METRICS` of one episode (means over its robots)."""
-    return {"arrived": o.share(Reason.ARRIVED), "fell": o.share(Reason.FELL), "collisions": o.collisions.mean(),
-            "battery_used": 1 - o.battery_left.mean(), "steps_to_arrive": o.steps_to_arrive(),
-            "return": o.returns.mean()}
+    """Per-robot values of one episode: ``{key: (n,) array}`` for the :data:`METRICS` (steps to
+    arrive NaN for the robots that did not arrive)."""
+    arrived = o.reasons == Reason.ARRIVED
+    return {"arrived": arrived.astype(float), "fell": (o.reasons == Reason.FELL).astype(float),
+            "timed_out": (o.reasons == Reason.TIMEOUT).astype(float),
+            "steps_to_arrive": np.where(arrived, o.steps, np.nan), "contacts": o.collisions.astype(float),
+            "return": np.asarray(o.returns, dtype=float)}
 
 
 def ci95(x):
     """``(mean, 95% half-width)`` of the non-NaN values of ``x`` (Student t)."""
     from scipy import stats
 
-    x = np.asarray([v for v in x if not np.isnan(v)], dtype=float)
+    x = np.asarray(x, dtype=float).ravel()
+    x = x[~np.isnan(x)]
     if len(x) == 0:
         return np.nan, np.nan
     if len(x) == 1:
@@ -104,50 +79,95 @@ def ci95(x):
     return float(x.mean()), float(h)
 
 
-def model_scenario(path):
-    """The scenario a saved model was trained on (its ``model.json``), or None."""
-    meta = Path(path).with_name("model.json")
-    if meta.exists():
-        return json.loads(meta.read_text())["args"]["scenario"]
-    return None
-
-
-def _entries(scen, policies, models):
-    out = [(p, p) for p in policies]
-    for m in models:
-        ms = model_scenario(m)
-        if ms is None or ms == scen:
-            out.append((f"ppo ({Path(m).parent.name or Path(m).stem})", m))
+def parse_models(spec: str) -> list[tuple[str, str]]:
+    """``"a=path1,path2"`` -> ``[("a", "path1"), ("<name>", "path2")]``; an unlabelled path is
+    named after its run directory (``runs/x/policy`` -> ``x``, ``runs/x/model.zip`` -> ``x (zip)``)."""
+    out = []
+    for item in [m.strip() for m in spec.split(",") if m.strip()]:
+        label, _, path = item.rpartition("=")
+        if not label:
+            p = Path(path)
+            run = p.parent.name if p.name in ("policy", "model.zip", "policy.json") else p.stem
+            label = (run or p.name) + (" (zip)" if p.suffix == ".zip" else "")
+        out.append((label, path))
     return out
 
 
+def policy_rows(names: str) -> list[str]:
+    """The built-in rows of ``names`` (comma-separated, any case): ``random``, ``apf``,
+    ``geodesic`` (:data:`~tin_swarm_env.apps.policy_factory.POLICY_NAMES`)."""
+    from .policy_factory import POLICY_NAMES
+
+    rows = [p.strip().lower() for p in names.split(",") if p.strip()]
+    bad = [p for p in rows if p not in POLICY_NAMES]
+    if bad:
+        raise ArgumentError(f"--policies: unknown {bad}; choose from {','.join(POLICY_NAMES)} (models go in --model)")
+    return rows
+
+
+def default_out(scenarios) -> str:
+    """The default output stem of an evaluation: ``runs/eval_<scenario>_<scenario>...``."""
+    return str(Path("runs") / ("eval_" + "_".join(Path(s).stem for s in scenarios)))
+
+
+def check_args(args: Args) -> tuple[list, list, Path]:
+    """Everything an evaluation needs, checked before its first episode: returns ``(scenarios,
+    entries, out)`` with ``entries`` the rows ``(label, spec, path or None)``. ArgumentError names
+    the option (no seeds, no scenario, an unknown policy name, a model that is missing or a .zip
+    without trust_pickle, an output that cannot be written)."""
+    from .._atomic import check_outputs
+    from ..errors import check_range
+    from .policy_factory import check_policy_spec
+
+    check_range("eval", "seeds", args.seeds, 1, integer=True, exc=ArgumentError)
+    check_range("eval", "robots", args.robots, 0, integer=True, exc=ArgumentError)
+    check_range("eval", "seed_offset", args.seed_offset, 0, integer=True, exc=ArgumentError)
+    scens = [s.strip() for s in args.scenarios.split(",") if s.strip()]
+    if not scens:
+        raise ArgumentError("eval: give at least one scenario")
+    entries = [(p, p, None) for p in policy_rows(args.policies)]
+    for label, path in parse_models(args.models):
+        check_policy_spec(path, args.trust_pickle, option="--model")
+        entries.append((label, label, path))
+    if not entries:
+        raise ArgumentError("eval: nothing to evaluate (no --policies and no --model)")
+    out = Path(args.out or default_out(scens))
+    if not args.out:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    check_outputs({f"--out ({ext})": out.with_suffix(ext) for ext in (".md", ".csv", ".png")},
+                  inputs=[m for _, _, m in entries if m])
+    return scens, entries, out
+
+
 def evaluate(args: Args) -> list[dict]:
-    """Every (scenario, policy) over ``args.seeds`` seeds; prints a line each, writes the
+    """Every (scenario, row) over ``args.seeds`` seeds; prints a line each, writes the
     Markdown table, the CSV and the bar plot, returns the rows."""
     from ..env import parallel_env
     from .policy_factory import make_policy
     from .run import progress_bar
 
-    scenarios, policies, models, out = check_args(args)
+    scenarios, entries, out = check_args(args)
     rows = []
     for scen in scenarios:
         env = parallel_env(scenario=scen, n_robots=args.robots or None)
-        for label, spec in _entries(scen, policies, models):
-            pol = make_policy(env, spec, seed=args.seed0, trust_pickle=args.trust_pickle)
+        for label, spec, path in entries:
+            pol = make_policy(env, spec if path is None else path, seed=args.seed_offset,
+                              trust_pickle=args.trust_pickle)
             bar = progress_bar(args.seeds, f"{scen} {label}")
             eps = []
             for k in range(args.seeds):
-                eps.append(episode_metrics(rollout(env, pol, args.seed0 + k)))
+                eps.append(episode_metrics(rollout(env, pol, args.seed_offset + k)))
                 if bar is not None:
                     bar.update(1)
             if bar is not None:
                 bar.close()
-            row = {"scenario": scen, "policy": label, "seeds": args.seeds, "robots": env.n}
+            row = {"scenario": scen, "policy": label, "seeds": args.seeds, "robots": env.n,
+                   "seed_offset": args.seed_offset}
             for key, _, _ in METRICS:
-                row[key], row[key + "_ci95"] = ci95([e[key] for e in eps])
+                row[key], row[key + "_ci95"] = ci95(np.concatenate([e[key] for e in eps]))
             rows.append(row)
             print(f"{scen:12s} {label:28s} arrived {row['arrived']:.1%} ± {row['arrived_ci95']:.1%}, "
-                  f"fell {row['fell']:.1%}, return {row['return']:.1f} ± {row['return_ci95']:.1f}")
+                  f"fell {row['fell']:.1%}, timed out {row['timed_out']:.1%}, return {row['return']:.1f}", flush=True)
     md = markdown(rows)
     out.with_suffix(".md").write_text(md + "\n")
     with open(out.with_suffix(".csv"), "w", newline="") as fh:
@@ -168,7 +188,9 @@ def markdown(rows) -> str:
             m, h = r[key], r[key + "_ci95"]
             cells.append("–" if np.isnan(m) else f"{fmt.format(m)} ± {fmt.format(h)}")
         lines.append(f"| {r['scenario']} | {r['policy']} | " + " | ".join(cells) + " |")
-    return "\n".join(lines) + f"\n\n{rows[0]['seeds']} seeds each, mean ± 95% confidence half-width (Student t)."
+    r0 = rows[0]
+    return "\n".join(lines) + (f"\n\n{r0['seeds']} seeds each (from {r0['seed_offset']}), mean ± 95% confidence "
+                               "half-width (Student t) over robot-episodes.")
 
 
 def bar_plot(rows, path):

@@ -1,4 +1,5 @@
-"""Policies by name for the apps: ``"apf"``, ``"random"``, a pickle-free policy directory, or
+"""Policies by name for the apps: ``"apf"``, ``"random"``, ``"geodesic"`` (the map-knowing
+reference), a pickle-free policy directory, or
 (only with ``trust_pickle``) a saved Stable-Baselines3 ``.zip``."""
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from ..errors import ArgumentError, MissingExtraError
 
 __all__ = ["make_policy", "check_policy_spec", "SB3Policy", "POLICY_NAMES"]
 
-POLICY_NAMES = ("apf", "random")
+POLICY_NAMES = ("apf", "random", "geodesic")
 
 _PICKLE_WHY = ("an SB3 .zip is a pickle: loading it runs any code the file holds, so load only files you "
                "made or trust")
@@ -52,6 +53,10 @@ def make_policy(env, policy: str, fields=None, seed: int | None = None, trust_pi
         return APFPolicy(env, fields=tuple(fields) if fields else FIELDS)
     if kind == "random":
         return RandomPolicy(env, seed=seed)
+    if kind == "geodesic":  # the map-knowing reference
+        from ..policies import GeodesicPolicy
+
+        return GeodesicPolicy(env)
     if kind == "dir":
         return load_policy(policy, env)
     return SB3Policy.load(policy)

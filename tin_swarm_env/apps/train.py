@@ -1,12 +1,35 @@
-"""PPO (Stable-Baselines3) on a tin_swarm scenario, one shared policy for all robots.
+"""PPO (Stable-Baselines3) on tin_swarm scenarios, one shared policy for all robots, with an
+optional warm start by imitation of APF (behaviour cloning, then DAgger).
 
     tin-swarm train cliff_goal --timesteps 200000
     python agents/train_sb3.py --scenario cliff_goal --total-timesteps 200000   # the same
+    python agents/train_sb3.py --scenario cliff_goal,ramp --n-robots 8 --bc-episodes 10 --dagger-rounds 2 \
+        --total-timesteps 0                                                      # imitation only
 
-Read top to bottom: arguments, environment, evaluation, training, saving. Writes into
-``out_dir``: ``model.zip`` (final), ``model.json`` (the scenario file's text and these
-arguments), ``checkpoints/``, ``eval.csv`` (periodic evaluation), ``curve.png`` (the training
-curve) and TensorBoard logs when tensorboard is installed. Needs the ``[train]`` extra.
+Read top to bottom: arguments, environment, imitation, evaluation, training, saving.
+
+* ``--scenario``: a built-in name, a TOML path, or several separated by commas (a mix: the
+  VecEnv holds ``n_envs`` copies of each; imitation episodes cycle over them). ``"generated"``
+  (a new seeded terrain at every reset) is just another name.
+* ``--bc-episodes N``: N episodes driven by :class:`~tin_swarm_env.policies.APFPolicy`, every live
+  robot-step labelled with its action; the actor's mean is fitted by MSE
+  (:mod:`tin_swarm_env.apps.imitation`). ``--dagger-rounds K``: K rounds in which the learner drives
+  ``--dagger-episodes`` episodes while APF runs alongside on the same observations (its per-robot
+  memory stays consistent) and labels them; the actor is refitted on everything so far. Then the
+  critic is warmed up on the rollouts' discounted returns (``--value-epochs``) and the policy's
+  exploration std set to ``--bc-std`` before PPO fine-tuning.
+* ``--total-timesteps`` of PPO afterwards; 0 is refused without imitation (it would save an
+  untrained model). ``--recurrent``: sb3-contrib's RecurrentPPO (MlpLstmPolicy); no imitation and
+  no pickle-free export for it (the policy file format is an MLP).
+* Seeds: training uses seeds below :data:`~tin_swarm_env.apps.evaluate.EVAL_SEED0` (10**6): the
+  VecEnv's copies ``seed + c``, imitation episodes ``seed * 1000 + k``; evaluation (here and in
+  ``tin-swarm eval``) starts at 10**6, so on ``"generated"`` it is on terrains never trained on.
+
+Writes into ``out_dir`` (default ``runs/<algo>_<scenarios>_s<seed>``): ``model.zip`` (SB3, a
+pickle: load only your own), ``policy/`` (the pickle-free policy directory, ``load_policy``),
+``model.json`` (scenario files' text and these arguments), ``checkpoints/``, ``eval.csv``
+(periodic evaluation), ``curve.png`` and TensorBoard logs when tensorboard is installed. Needs the
+``[train]`` extra (and sb3-contrib for ``--recurrent``).
 """
 
 from __future__ import annotations
@@ -20,21 +43,22 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import require
+from ..errors import ArgumentError, require
 from ..world.state import Reason
+from .evaluate import EVAL_SEED0
 from .policy_factory import SB3Policy
 from .rollout import rollout
 
-__all__ = ["Args", "train", "evaluate_model", "plot_curve"]
+__all__ = ["Args", "train", "evaluate_model", "plot_curve", "scenarios_of", "run_dir", "RecurrentSB3Policy"]
 
 
 @dataclass
 class Args:
-    scenario: str = "cliff_goal"  # built-in name or TOML path
+    scenario: str = "cliff_goal"  # built-in name or TOML path; several, comma-separated: a mix
     n_robots: int = 8  # robots per environment copy (parameter sharing: each is one sub-env)
-    n_envs: int = 2  # environment copies in the VecEnv
+    n_envs: int = 2  # environment copies in the VecEnv (per scenario of a mix)
     max_cycles: int = 0  # 0: the scenario's
-    total_timesteps: int = 200_000
+    total_timesteps: int = 200_000  # PPO timesteps after imitation (0 only with imitation)
     max_minutes: float = 0.0  # stop early after this much wall-clock time (0: no limit)
     seed: int = 0
     learning_rate: float = 3e-4
@@ -46,43 +70,122 @@ class Args:
     ent_coef: float = 0.0
     clip_range: float = 0.2
     net_arch: str = "64,64"
+    recurrent: bool = False  # sb3-contrib RecurrentPPO (MlpLstmPolicy)
+    bc_episodes: int = 0  # behaviour cloning: APF-driven episodes (0: no imitation)
+    dagger_rounds: int = 0  # DAgger rounds after BC (the learner drives, APF labels)
+    dagger_episodes: int = 0  # episodes per DAgger round (0: as many as bc_episodes)
+    bc_robots: int = 0  # robots per imitation episode (0: the scenario's count)
+    bc_epochs: int = 30  # passes over the data per fit
+    bc_lr: float = 1e-3
+    bc_batch_size: int = 4096
+    bc_std: float = 0.3  # the Gaussian std PPO starts from after imitation
+    value_epochs: int = 10  # critic warm-up on the imitation rollouts' returns (0: none)
     eval_every: int = 20_000  # timesteps between evaluations (0: none)
     eval_episodes: int = 3
+    stop_at_arrival: float = 0.0  # stop once an evaluation reaches this arrival share (0: never)
     checkpoint_every: int = 50_000
-    out_dir: str = "runs/ppo"
+    out_dir: str = ""  # "": runs/<algo>_<scenarios>_s<seed>
     progress_bar: bool = True
     torch_threads: int = 2
 
 
-def evaluate_model(model, args: Args, episodes: int, seed: int) -> tuple[float, float, float]:
+def scenarios_of(args: Args) -> list[str]:
+    """The scenario names/paths of ``args.scenario`` (comma-separated)."""
+    out = [s.strip() for s in args.scenario.split(",") if s.strip()]
+    if not out:
+        raise ArgumentError("--scenario: give at least one scenario name or path")
+    return out
+
+
+def _imitating(args: Args) -> bool:
+    return args.bc_episodes > 0
+
+
+def run_dir(args: Args) -> Path:
+    """``args.out_dir``, or ``runs/<algo>_<scenarios>_s<seed>`` (a path's stem for a TOML file)."""
+    if args.out_dir:
+        return Path(args.out_dir)
+    algo = "rppo" if args.recurrent else ("bc_ppo" if _imitating(args) and args.total_timesteps else
+                                          "bc" if _imitating(args) else "ppo")
+    return Path("runs") / f"{algo}_{'+'.join(Path(s).stem for s in scenarios_of(args))}_s{args.seed}"
+
+
+def check_args(args: Args) -> None:
+    """Refuse arguments that would train nothing or cannot be combined (naming the option)."""
+    for name in ("bc_episodes", "dagger_rounds", "dagger_episodes", "total_timesteps", "bc_robots"):
+        if getattr(args, name) < 0:
+            raise ArgumentError(f"--{name.replace('_', '-')} must be >= 0, got {getattr(args, name)}")
+    if args.total_timesteps == 0 and not _imitating(args):
+        raise ArgumentError("--timesteps 0 without imitation would save an untrained model; give a positive "
+                            "--timesteps, or --bc-episodes N to train by imitation only")
+    if args.dagger_rounds and not _imitating(args):
+        raise ArgumentError("--dagger-rounds needs --bc-episodes (DAgger starts from a cloned policy)")
+    if args.recurrent and _imitating(args):
+        raise ArgumentError("--recurrent cannot be combined with --bc-episodes (imitation fits an MLP actor)")
+    if args.seed < 0 or args.seed * 1000 + 1000 >= EVAL_SEED0:
+        raise ArgumentError(f"--seed must be in [0, {EVAL_SEED0 // 1000 - 1}] (seeds from {EVAL_SEED0} are "
+                            "evaluation seeds)")
+
+
+class RecurrentSB3Policy:
+    """A recurrent SB3 model (RecurrentPPO) as a deterministic policy with ``reset()``: the
+    LSTM state is carried between steps and cleared at each episode start."""
+
+    def __init__(self, model):
+        self.model = model
+        self.reset()
+
+    def reset(self):
+        self.state, self.start = None, True
+
+    def act_batch(self, obs):
+        starts = np.full(len(obs), self.start)
+        a, self.state = self.model.predict(obs, state=self.state, episode_start=starts, deterministic=True)
+        self.start = False
+        return np.asarray(a, dtype=np.float32)
+
+
+def evaluate_model(model, args: Args, episodes: int, seed: int = EVAL_SEED0) -> tuple[float, float, float]:
     """``(mean per-robot return, arrival share, fall share)`` of the deterministic policy over
-    ``episodes`` episodes (seeds ``seed``, ``seed + 1``...)."""
+    ``episodes`` episodes per scenario of ``args`` (seeds ``seed``, ``seed + 1``...)."""
     from ..env import parallel_env
 
-    env = parallel_env(scenario=args.scenario, n_robots=args.n_robots, max_cycles=args.max_cycles or None)
-    outs = [rollout(env, SB3Policy(model), seed + ep) for ep in range(episodes)]
+    outs = []
+    for scen in scenarios_of(args):
+        env = parallel_env(scenario=scen, n_robots=args.n_robots, max_cycles=args.max_cycles or None)
+        pol = RecurrentSB3Policy(model) if args.recurrent else SB3Policy(model)
+        outs += [rollout(env, pol, seed + ep) for ep in range(episodes)]
     return (float(np.mean([o.returns.mean() for o in outs])), float(np.mean([o.share(Reason.ARRIVED) for o in outs])),
             float(np.mean([o.share(Reason.FELL) for o in outs])))
 
 
+def _eval_row(model, args, rows, t0, timesteps, logger=None) -> dict:
+    ret, arr, fell = evaluate_model(model, args, args.eval_episodes)
+    row = {"timesteps": timesteps, "minutes": (time.perf_counter() - t0) / 60, "return": ret, "arrived": arr,
+           "fell": fell}
+    rows.append(row)
+    if logger is not None:
+        for k in ("return", "arrived", "fell"):
+            logger.record(f"eval/{k}", row[k])
+    return row
+
+
 def _callbacks(args: Args, out: Path, rows: list, t0: float, num_envs: int):
-    """Periodic evaluation (appending to ``rows``), the wall-clock limit and checkpoints."""
+    """Periodic evaluation (appending to ``rows``), the wall-clock limit, the arrival target and
+    checkpoints."""
     from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback
 
     class EvalAndClock(BaseCallback):
         def __init__(self):
             super().__init__()
-            self.next_eval = 0
+            self.next_eval = args.eval_every if rows else 0  # imitation already evaluated at 0
 
         def _on_step(self) -> bool:
             if args.eval_every and self.num_timesteps >= self.next_eval:
-                ret, arr, fell = evaluate_model(self.model, args, args.eval_episodes, seed=10_000)
-                rows.append({"timesteps": self.num_timesteps, "minutes": (time.perf_counter() - t0) / 60,
-                             "return": ret, "arrived": arr, "fell": fell})
-                self.logger.record("eval/return", ret)
-                self.logger.record("eval/arrived", arr)
-                self.logger.record("eval/fell", fell)
+                row = _eval_row(self.model, args, rows, t0, self.num_timesteps, self.logger)
                 self.next_eval += args.eval_every
+                if args.stop_at_arrival and row["arrived"] >= args.stop_at_arrival:
+                    return False
             return not (args.max_minutes and time.perf_counter() - t0 > 60 * args.max_minutes)
 
     return CallbackList([EvalAndClock(), CheckpointCallback(
@@ -90,13 +193,17 @@ def _callbacks(args: Args, out: Path, rows: list, t0: float, num_envs: int):
 
 
 def _model(args: Args, vec, tb):
+    arch = [int(x) for x in args.net_arch.split(",") if x]
+    kw = dict(learning_rate=args.learning_rate, n_steps=args.n_steps, batch_size=args.batch_size,
+              n_epochs=args.n_epochs, gamma=args.gamma, gae_lambda=args.gae_lambda, ent_coef=args.ent_coef,
+              clip_range=args.clip_range, policy_kwargs={"net_arch": arch}, seed=args.seed, device="cpu",
+              tensorboard_log=tb, verbose=0)
+    if args.recurrent:
+        RecurrentPPO = require("sb3_contrib", "train", "--recurrent (RecurrentPPO from sb3-contrib)").RecurrentPPO
+        return RecurrentPPO("MlpLstmPolicy", vec, **kw)
     from stable_baselines3 import PPO
 
-    arch = [int(x) for x in args.net_arch.split(",") if x]
-    return PPO("MlpPolicy", vec, learning_rate=args.learning_rate, n_steps=args.n_steps,
-               batch_size=args.batch_size, n_epochs=args.n_epochs, gamma=args.gamma, gae_lambda=args.gae_lambda,
-               ent_coef=args.ent_coef, clip_range=args.clip_range, policy_kwargs={"net_arch": arch},
-               seed=args.seed, device="cpu", tensorboard_log=tb, verbose=0)
+    return PPO("MlpPolicy", vec, **kw)
 
 
 def _has(*modules) -> bool:
@@ -105,44 +212,105 @@ def _has(*modules) -> bool:
     return all(importlib.util.find_spec(m) is not None for m in modules)
 
 
+def imitate(model, args: Args, log=print) -> dict:
+    """Behaviour cloning then DAgger into ``model.policy`` (see the module docstring), then the
+    critic warm-up and the exploration std. Returns a summary (samples, MSEs, the driving
+    policies' arrival per round)."""
+    from .imitation import TorchActor, collect, fit_actor, fit_value
+
+    scen, n_rob = scenarios_of(args), args.bc_robots or None
+    kw = {"n_robots": n_rob, "max_cycles": args.max_cycles or None, "gamma": args.gamma}
+    fit = {"epochs": args.bc_epochs, "batch_size": args.bc_batch_size, "lr": args.bc_lr, "std": args.bc_std}
+    base = args.seed * 1000
+    demos = collect(scen, args.bc_episodes, base, **kw)
+    mse = fit_actor(model.policy, demos.obs, demos.actions, seed=args.seed, **fit)
+    info = {"bc_samples": len(demos), "apf_arrived": demos.arrived, "rounds": [{"mse": mse}]}
+    log(f"BC: {len(demos)} samples from {demos.episodes} APF episodes (APF arrived {demos.arrived:.0%}, fell "
+        f"{demos.fell:.0%}); actor MSE {mse:.4f}")
+    n_dag = args.dagger_episodes or args.bc_episodes
+    for r in range(args.dagger_rounds):
+        new = collect(scen, n_dag, base + args.bc_episodes + r * n_dag, learner=TorchActor(model.policy), **kw)
+        demos = demos + new
+        mse = fit_actor(model.policy, demos.obs, demos.actions, seed=args.seed + r + 1, **fit)
+        info["rounds"].append({"learner_arrived": new.arrived, "learner_fell": new.fell, "mse": mse})
+        log(f"DAgger round {r + 1}: the learner drove {n_dag} episodes (arrived {new.arrived:.0%}, fell "
+            f"{new.fell:.0%}); {len(demos)} samples; actor MSE {mse:.4f}")
+    if args.value_epochs:
+        info["value_mse"] = fit_value(model.policy, demos.obs, demos.returns, epochs=args.value_epochs,
+                                      batch_size=args.bc_batch_size, lr=args.bc_lr, seed=args.seed)
+        log(f"value warm-up on {len(demos)} returns: MSE {info['value_mse']:.3f}")
+    return info
+
+
 def train(args: Args) -> Path:
-    """Train, evaluate, save (see the module docstring); returns the path of ``model.zip``."""
+    """Imitate (optional), train, evaluate, save and export (see the module docstring); returns
+    the path of ``model.zip`` (the pickle-free policy is its sibling ``policy/``)."""
+    check_args(args)
     torch = require("torch", "train", "Training with Stable-Baselines3")
     require("stable_baselines3", "train", "Training with Stable-Baselines3")
-    from .. import __version__
     from ..adapters import make_sb3_vec_env
-    from ..scenario import load_scenario
 
     torch.set_num_threads(args.torch_threads)
-    out = Path(args.out_dir)
+    out = run_dir(args)
     out.mkdir(parents=True, exist_ok=True)
-    # every robot of every copy is one SB3 sub-environment
+    scen = scenarios_of(args)
+    # every robot of every copy is one SB3 sub-environment; a mix holds n_envs copies of each scenario
     kw = {"max_cycles": args.max_cycles} if args.max_cycles else {}
-    vec = make_sb3_vec_env(args.scenario, n_robots=args.n_robots, n_envs=args.n_envs, seed=args.seed, **kw)
+    vec = make_sb3_vec_env(scen if len(scen) > 1 else scen[0], n_robots=args.n_robots,
+                           n_envs=args.n_envs * len(scen), seed=args.seed, **kw)
     rows, t0 = [], time.perf_counter()
     model = _model(args, vec, str(out / "tb") if _has("tensorboard") else None)
-    model.learn(total_timesteps=args.total_timesteps, callback=_callbacks(args, out, rows, t0, vec.num_envs),
-                progress_bar=args.progress_bar and _has("rich", "tqdm"))
-    ret, arr, fell = evaluate_model(model, args, args.eval_episodes, seed=10_000)
-    rows.append({"timesteps": model.num_timesteps, "minutes": (time.perf_counter() - t0) / 60,
-                 "return": ret, "arrived": arr, "fell": fell})
-    # save: the model, the scenario and arguments, the curve
+    imitation = imitate(model, args) if _imitating(args) else None
+    if imitation is not None and args.eval_every:
+        row = _eval_row(model, args, rows, t0, 0)
+        print(f"after imitation: arrived {row['arrived']:.0%}, fell {row['fell']:.0%} ({row['minutes']:.1f} min)")
+    solved = bool(rows) and args.stop_at_arrival and rows[-1]["arrived"] >= args.stop_at_arrival
+    if args.total_timesteps and not solved:
+        model.learn(total_timesteps=args.total_timesteps, callback=_callbacks(args, out, rows, t0, vec.num_envs),
+                    progress_bar=args.progress_bar and _has("rich", "tqdm"))
+    if not rows or rows[-1]["timesteps"] != model.num_timesteps:
+        _eval_row(model, args, rows, t0, model.num_timesteps)
+    _save(model, args, out, rows, t0, vec, imitation)
+    vec.close()
+    return out / "model.zip"
+
+
+def _save(model, args: Args, out: Path, rows: list, t0: float, vec, imitation) -> None:
+    """``model.zip``, ``policy/`` (pickle-free; not for a recurrent model), ``model.json``,
+    ``eval.csv``, ``curve.png``; prints where."""
+    from .. import __version__
+    from ..scenario import load_scenario
+
     model.save(out / "model.zip")
-    cfg = load_scenario(args.scenario)
-    scen_text = Path(cfg.source).read_text() if Path(cfg.source).exists() else ""
-    meta = {"args": dataclasses.asdict(args), "scenario_file": cfg.source, "scenario_toml": scen_text,
-            "timesteps": int(model.num_timesteps), "minutes": (time.perf_counter() - t0) / 60,
-            "final_eval": rows[-1], "tin_swarm_env": __version__}
+    files = {}
+    for s in scenarios_of(args):
+        try:
+            cfg = load_scenario(s)
+            files[s] = {"file": cfg.source, "toml": Path(cfg.source).read_text() if Path(cfg.source).exists() else ""}
+        except Exception:  # noqa: BLE001 (a scenario the env builds that has no file: recorded by name)
+            files[s] = {"file": "", "toml": ""}
+    first = files[scenarios_of(args)[0]]
+    meta = {"args": dataclasses.asdict(args), "scenario_file": first["file"], "scenario_toml": first["toml"],
+            "scenarios": files, "timesteps": int(model.num_timesteps), "minutes": (time.perf_counter() - t0) / 60,
+            "imitation": imitation, "final_eval": rows[-1], "eval_seed0": EVAL_SEED0, "tin_swarm_env": __version__}
     (out / "model.json").write_text(json.dumps(meta, indent=2))
     with open(out / "eval.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    plot_curve(rows, out / "curve.png", title=f"PPO on {args.scenario}")
+    plot_curve(rows, out / "curve.png", title=f"{run_dir(args).name if not args.out_dir else 'PPO'} on "
+                                               f"{args.scenario}")
+    r = rows[-1]
     print(f"trained {model.num_timesteps} timesteps in {meta['minutes']:.1f} min; final eval: return "
-          f"{ret:.1f}, arrived {arr:.0%}, fell {fell:.0%}; saved {out / 'model.zip'}")
-    vec.close()
-    return out / "model.zip"
+          f"{r['return']:.1f}, arrived {r['arrived']:.0%}, fell {r['fell']:.0%}; saved {out / 'model.zip'}")
+    if args.recurrent:
+        print("no pickle-free policy for a recurrent model (the policy file format is an MLP); use model.zip")
+        return
+    from ..adapters.sb3 import export_sb3_policy
+
+    export_sb3_policy(model, out / "policy", vec, scenario=args.scenario,
+                      extra={"imitation": imitation, "args": dataclasses.asdict(args)})
+    print(f"exported the pickle-free policy {out / 'policy'} (load_policy / --model {out / 'policy'})")
 
 
 def plot_curve(rows, path, title=""):

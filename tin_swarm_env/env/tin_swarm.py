@@ -459,10 +459,10 @@ def _warn_if_no_display() -> None:
 
 def parallel_env(scenario: str | ScenarioConfig = "cliff_goal", n_robots: int | None = None,
                  max_cycles: int | None = None, render_mode: str | None = None, sensor_cones: bool = False,
-                 render_width: int = 640) -> TinSwarmEnv:
+                 render_width: int = 640, render_decorations: bool = True) -> TinSwarmEnv:
     """The parallel environment (see :class:`TinSwarmEnv` for the arguments)."""
     return TinSwarmEnv(scenario=scenario, n_robots=n_robots, max_cycles=max_cycles, render_mode=render_mode,
-                       sensor_cones=sensor_cones, render_width=render_width)
+                       sensor_cones=sensor_cones, render_width=render_width, render_decorations=render_decorations)
 
 
 def raw_env(**kwargs):

@@ -281,9 +281,9 @@ def _check_weights(arrays: dict, sizes: list, wname: str) -> list:
 
 
 def _check_env(meta: dict, env, jname: str) -> None:
-    from .apf import _unwrap
+    from .apf import unwrap_env
 
-    e = _unwrap(env)
+    e = unwrap_env(env)
     mine = _layout_dict(e.layout)
     theirs = meta["observation"]["layout"]
     if theirs != mine:

@@ -1,0 +1,219 @@
+"""Imitation of the APF controller: behaviour cloning (BC) and DAgger into an SB3 actor-critic.
+
+    demos = collect(["cliff_goal", "ramp"], episodes=10, seed=0)                 # APF drives
+    fit_actor(model.policy, demos.obs, demos.actions)                             # BC
+    demos += collect(..., learner=TorchActor(model.policy))                      # DAgger: the learner drives
+    fit_actor(model.policy, demos.obs, demos.actions); fit_value(model.policy, demos.obs, demos.returns)
+
+**Labels.** Every step, :class:`~tin_swarm_env.policies.APFPolicy` (the teacher) is called on the
+observations of *all* robots of the episode, whoever drives, and its action for each live robot is
+the label of that robot's observation. APF has per-robot memory (its wall-following side, the
+Pledge turn counter, a stall counter: :class:`~tin_swarm_env.policies.apf.BugMemory`), so it must
+see the same observation stream as the robots, every step, in order: that is why the teacher runs
+*alongside* the learner instead of being asked about isolated observations. Under DAgger the
+learner's actions move the robots and the teacher's memory follows the learner's trajectory; the
+label is "what APF would do now, having seen what this robot has seen". (A label is therefore
+not always what APF would have done on its own trajectory: a robot the learner led into a dead
+end gets APF's turn-back rule, which is the correction DAgger wants.)
+
+**Returns.** Each sample also carries its discounted return-to-go (``gamma``) under the policy that
+drove, for a short value warm-up (:func:`fit_value`) so that PPO fine-tuning starts from a critic
+that is not random: a random critic's advantages would undo the cloned actor in the first updates.
+
+**Seeds.** Episode ``k`` of a collection runs ``scenarios[k % len(scenarios)]`` from
+``reset(seed + k)``; training code keeps these below :data:`~tin_swarm_env.apps.evaluate.EVAL_SEED0`
+(evaluation seeds start there).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ArgumentError
+
+__all__ = ["Demos", "collect", "fit_actor", "fit_value", "TorchActor", "actor_mean"]
+
+
+@dataclass
+class Demos:
+    """Labelled samples of live robots.
+
+    obs      (N, d) float32  observations
+    actions  (N, 2) float32  the teacher's (APF's) action for each
+    returns  (N,)   float32  discounted return-to-go from that step under the policy that drove
+    arrived, fell: shares of the collected robot-episodes (the driving policy's), episodes: count
+    """
+
+    obs: np.ndarray
+    actions: np.ndarray
+    returns: np.ndarray
+    arrived: float = 0.0
+    fell: float = 0.0
+    episodes: int = 0
+
+    def __add__(self, other: Demos) -> Demos:
+        n = self.episodes + other.episodes
+        w = self.episodes / max(n, 1)
+        return Demos(np.concatenate([self.obs, other.obs]), np.concatenate([self.actions, other.actions]),
+                     np.concatenate([self.returns, other.returns]), w * self.arrived + (1 - w) * other.arrived,
+                     w * self.fell + (1 - w) * other.fell, n)
+
+    def __len__(self) -> int:
+        return len(self.obs)
+
+
+def _discounted(rewards, live, gamma):
+    """Returns-to-go ``(T, n)`` of per-step ``rewards (T, n)`` over the steps each robot was
+    ``live (T, n)`` (rewards after a robot ended are 0, so the backward sum stops there)."""
+    out = np.zeros_like(rewards)
+    acc = np.zeros(rewards.shape[1])
+    for t in range(len(rewards) - 1, -1, -1):
+        acc = np.where(live[t], rewards[t] + gamma * acc, 0.0)
+        out[t] = acc
+    return out
+
+
+def _episode(env, teacher, learner, seed, gamma):
+    """One episode: ``(obs (N, d), labels (N, 2), returns (N,), reasons (n,))`` over live robot-steps."""
+    from ..world.state import Reason
+
+    obs = env.reset_arrays(seed=seed)
+    teacher.reset()
+    if learner is not None and hasattr(learner, "reset"):
+        learner.reset()
+    n = env.n
+    reasons = np.full(n, int(Reason.NONE), dtype=np.int8)
+    O, A, R, L = [], [], [], []
+    live = env.live_mask
+    while live.any():
+        label = teacher.act_batch(obs)  # every row, every step: the teacher's memory sees the whole stream
+        act = label if learner is None else learner.act_batch(obs)
+        O.append(obs[live])
+        A.append(label[live])
+        obs, rew, term, trunc, why = env.step_arrays(act)
+        R.append(np.where(live, rew, 0.0))
+        L.append(live)
+        ended = term | trunc
+        reasons[ended] = why[ended]
+        live = env.live_mask
+    ret = _discounted(np.asarray(R), np.asarray(L), gamma)[np.asarray(L)]  # row-major: step by step, robot order
+    return np.concatenate(O), np.concatenate(A), ret.astype(np.float32), reasons
+
+
+def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=None, learner=None,
+            gamma: float = 0.99, env_kwargs: dict | None = None) -> Demos:
+    """Run ``episodes`` episodes (cycling over ``scenarios``; see the module docstring), driven by
+    APF (``learner=None``: behaviour cloning data) or by ``learner`` (an object with
+    ``act_batch(obs (n, d)) -> (n, 2)``: DAgger data), every live robot-step labelled with APF's
+    action. ``n_robots``/``max_cycles`` None: the scenario's."""
+    from ..env import parallel_env
+    from ..policies import APFPolicy
+    from ..world.state import Reason
+
+    if episodes < 1:
+        raise ArgumentError(f"episodes must be >= 1, got {episodes}")
+    scenarios = [scenarios] if isinstance(scenarios, str) else list(scenarios)
+    kw = dict(env_kwargs or {})
+    if max_cycles:
+        kw["max_cycles"] = max_cycles
+    envs = {s: parallel_env(scenario=s, n_robots=n_robots or None, **kw) for s in scenarios}
+    teachers = {s: APFPolicy(e) for s, e in envs.items()}
+    parts, reasons = [], []
+    for k in range(episodes):
+        s = scenarios[k % len(scenarios)]
+        o, a, r, why = _episode(envs[s], teachers[s], learner, seed + k, gamma)
+        parts.append((o, a, r))
+        reasons.append(why)
+    why = np.concatenate(reasons)
+    return Demos(np.concatenate([p[0] for p in parts]).astype(np.float32),
+                 np.concatenate([p[1] for p in parts]).astype(np.float32), np.concatenate([p[2] for p in parts]),
+                 float(np.mean(why == Reason.ARRIVED)), float(np.mean(why == Reason.FELL)), episodes)
+
+
+# -- fitting an SB3 ActorCriticPolicy (torch) -------------------------------------------------
+
+
+def actor_mean(policy, obs_t):
+    """The Gaussian mean of SB3 ``ActorCriticPolicy`` ``policy`` for a torch batch ``(B, d)``."""
+    features = policy.extract_features(obs_t, policy.pi_features_extractor)
+    return policy.action_net(policy.mlp_extractor.forward_actor(features))
+
+
+def _value(policy, obs_t):
+    features = policy.extract_features(obs_t, policy.vf_features_extractor)
+    return policy.value_net(policy.mlp_extractor.forward_critic(features))[:, 0]
+
+
+def _fit(params, loss_of, n: int, epochs: int, batch_size: int, lr: float, seed: int) -> float:
+    """Adam over ``params`` minimising ``loss_of(idx)`` on shuffled minibatches; the last epoch's mean loss."""
+    import torch
+
+    opt = torch.optim.Adam(params, lr=lr)
+    gen = torch.Generator().manual_seed(seed)
+    last = float("nan")
+    for _ in range(max(epochs, 0)):
+        perm = torch.randperm(n, generator=gen)
+        tot = 0.0
+        for i in range(0, n, batch_size):
+            idx = perm[i:i + batch_size]
+            loss = loss_of(idx)
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            tot += loss.item() * len(idx)
+        last = tot / max(n, 1)
+    return last
+
+
+def fit_actor(policy, obs, actions, *, epochs: int = 20, batch_size: int = 4096, lr: float = 1e-3, seed: int = 0,
+              std: float | None = 0.3) -> float:
+    """Behaviour cloning: fit the actor's mean (``policy.mlp_extractor``'s actor branch and
+    ``policy.action_net``) to ``actions (N, 2)`` by mean squared error (the maximum-likelihood
+    mean of a fixed-variance Gaussian), in batches; then set the policy's log-std to ``log(std)``
+    (the exploration PPO starts from; None: leave it). Returns the final epoch's MSE."""
+    import torch
+
+    x = torch.as_tensor(np.asarray(obs, np.float32))
+    y = torch.as_tensor(np.clip(np.asarray(actions, np.float32), -1, 1))
+    params = list(policy.mlp_extractor.policy_net.parameters()) + list(policy.action_net.parameters())
+    policy.set_training_mode(True)
+    mse = _fit(params, lambda i: torch.mean((actor_mean(policy, x[i]) - y[i]) ** 2), len(x), epochs, batch_size,
+               lr, seed)
+    if std is not None and hasattr(policy, "log_std"):
+        with torch.no_grad():
+            policy.log_std.fill_(float(np.log(std)))
+    policy.set_training_mode(False)
+    return mse
+
+
+def fit_value(policy, obs, returns, *, epochs: int = 10, batch_size: int = 4096, lr: float = 1e-3,
+              seed: int = 0) -> float:
+    """Value warm-up: regress the critic (``policy.mlp_extractor``'s value branch and
+    ``policy.value_net``) on discounted returns-to-go ``(N,)``. Returns the final epoch's MSE."""
+    import torch
+
+    x = torch.as_tensor(np.asarray(obs, np.float32))
+    y = torch.as_tensor(np.asarray(returns, np.float32))
+    params = list(policy.mlp_extractor.value_net.parameters()) + list(policy.value_net.parameters())
+    policy.set_training_mode(True)
+    mse = _fit(params, lambda i: torch.mean((_value(policy, x[i]) - y[i]) ** 2), len(x), epochs, batch_size, lr,
+               seed)
+    policy.set_training_mode(False)
+    return mse
+
+
+class TorchActor:
+    """An SB3 ``ActorCriticPolicy``'s deterministic action (its mean, clipped to [-1, 1]) as
+    ``act_batch(obs (n, d)) -> (n, 2)``: the learner during DAgger collection."""
+
+    def __init__(self, policy):
+        self.policy = policy
+
+    def act_batch(self, obs) -> np.ndarray:
+        import torch
+
+        with torch.no_grad():
+            m = actor_mean(self.policy, torch.as_tensor(np.asarray(obs, np.float32)))
+        return np.clip(m.numpy(), -1.0, 1.0).astype(np.float32)
