@@ -7,9 +7,10 @@ Policies: the APF baseline with all four fields, the APF without the break field
 bound, not a baseline) and uniform random actions. Terrains: every built-in goal scenario
 (``jacksboro`` with its 200 robots and 900 steps), the four canyon terrains of
 ``tests/canyons.py`` (pass left or right, travelling east or west) and, with ``--generated K``,
-seeds 0..K-1 of the ``generated`` scenario (a new terrain per seed; the row is skipped with a
-note where that scenario does not exist yet). ``containment`` has no arrival: its rows give the
-mean distance to the assigned threat over the standoff (1.00 = on the ring) and contacts per robot.
+seeds 0..K-1 of the ``generated`` scenario (a new terrain per seed; default K = 50, 0 leaves it
+out). A terrain whose env cannot be built is reported as a skipped row with the error.
+``containment`` has no arrival: its rows give the mean distance to the assigned threat over the
+standoff (1.00 = on the ring) and contacts per robot.
 Every episode runs through :func:`~tin_swarm_env.apps.rollout.rollout`.
 """
 
@@ -64,7 +65,7 @@ def goal_rows(args):
             continue
         try:
             env = make()
-        except Exception as e:  # noqa: BLE001 - the generated scenario may not exist yet
+        except Exception as e:  # noqa: BLE001 - report the row as skipped, run the rest
             print(f"| {label} | (skipped: {type(e).__name__}: {e}) | | | | | |")
             continue
         for name, make_pol in POLICIES.items():
