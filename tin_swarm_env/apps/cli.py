@@ -288,8 +288,8 @@ def _add_run(sub) -> None:
                        description="Run a policy on a scenario; a table per episode, optionally a GIF/MP4.")
     r.add_argument("scenario", help="built-in scenario name (tin-swarm scenarios) or a .toml path")
     r.add_argument("--robots", type=_POS, default=None, help="number of robots (default: the scenario's)")
-    r.add_argument("--policy", default="apf", help="apf, random (any case), a pickle-free policy directory, or an "
-                                                   "SB3 .zip with --trust-pickle")
+    r.add_argument("--policy", default="apf", help="apf, random, geodesic (the map-knowing reference; any case), "
+                   "a pickle-free policy directory, or an SB3 .zip with --trust-pickle")
     r.add_argument("--trust-pickle", action="store_true",
                    help="allow --policy MODEL.zip: SB3 files are pickles and loading one runs any code it holds")
     r.add_argument("--episodes", type=_POS, default=1, help="episodes to run (seeds SEED, SEED+1, ...)")
@@ -346,7 +346,7 @@ def _add_train_eval_build(sub) -> None:
                    help="a pickle-free policy directory, or an SB3 .zip with --trust-pickle (repeatable)")
     e.add_argument("--trust-pickle", action="store_true",
                    help="allow SB3 .zip models: they are pickles and loading one runs any code it holds")
-    e.add_argument("--policies", default="random,apf",
+    e.add_argument("--policies", default="random,apf,geodesic",
                    help="built-in policies to evaluate as well (random, apf, geodesic: the map-knowing reference)")
     e.add_argument("--seed-offset", type=_NONNEG, default=1_000_000,
                    help="evaluation seeds are SEED_OFFSET .. SEED_OFFSET + SEEDS - 1 (training uses seeds below 10**6)")

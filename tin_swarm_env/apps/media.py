@@ -88,6 +88,7 @@ class FrameWriter:
         self.path, self.fps, self.n_frames = path, fps, 0
         self.kind = next((k for k in ("png", "mp4") if str(path).lower().endswith("." + k)), "gif")
         if self.kind == "mp4":
+            require("imageio", "video", "Writing MP4 video")
             self._iio = require("imageio.v2", "video", "Writing MP4 video")
             require("imageio_ffmpeg", "video", "Writing MP4 video")
         self._stack = ExitStack()
