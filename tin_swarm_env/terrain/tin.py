@@ -120,6 +120,13 @@ class Tin:
         zscale = max(float(np.ptp(self.vertices[:, 2])), 1.0)
         return 1e-12 * scale * scale, 1e-9 * (zscale + float(np.abs(self.vertices[:, 2]).max()))
 
+    @property
+    def tolerances(self) -> tuple[float, float]:
+        """``(area tolerance m^2, height tolerance m)`` of the geometric predicates: a point is
+        inside a triangle when every edge orientation is >= -area tolerance (``1e-12`` of the
+        squared extent); heights within the second (``1e-9`` of the z range plus largest |z|) tie."""
+        return self._tol
+
     @cached_property
     def edges(self) -> np.ndarray:
         """Unique edges ``(E, 2)`` int64 vertex pairs (lower index first)."""
