@@ -19,9 +19,9 @@ from tin_swarm_env.adapters.gym_views import (
     register_gymnasium,
 )
 from tin_swarm_env.env import TinSwarmEnv
-from tin_swarm_env.world.state import Reason
 from tin_swarm_env.policies import APFPolicy
 from tin_swarm_env.scenario import list_scenarios
+from tin_swarm_env.world.state import Reason
 
 register_gymnasium()
 
