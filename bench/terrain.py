@@ -192,7 +192,7 @@ def main(args: Args):
 
     # -- query speed ---------------------------------------------------------------------
     tin = build_tin(dem, method="greedy", max_vertices=10_100)
-    bucket_bytes = sum(v.nbytes for v in tin._bucket.values() if hasattr(v, "nbytes"))
+    bucket_bytes = tin.index_nbytes
     print(f"queries on {tin!r}; bucket index {bucket_bytes / tin.n_triangles:.0f} B/tri")
     n = args.queries
     x0, y0, x1, y1 = tin.bounds

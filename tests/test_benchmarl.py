@@ -15,7 +15,8 @@ def test_one_member_per_builtin_scenario_and_specs():
     env = task.get_env_fun(num_envs=1, continuous_actions=True, seed=0, device="cpu")()
     assert env.done_on_any is False and env.use_mask is True
     assert task._env_kwargs() == {"scenario": "ramp", "n_robots": 3, "max_cycles": 7}
-    assert task.max_steps(env) == 7 and task.group_map(env) == {"robot": ["robot_0", "robot_1", "robot_2"]}
+    assert task.max_steps(env) == 7 and task.has_render(env) is False
+    assert task.group_map(env) == {"robot": ["robot_0", "robot_1", "robot_2"]}
     assert task.observation_spec(env)["robot", "observation"].shape == (3, 59)
     assert task.action_spec(env)["robot", "action"].shape == (3, 2)
     info = task.info_spec(env)  # numbers only: the distance to go and the Reason code

@@ -98,7 +98,7 @@ def test_count_and_positions_together_is_an_error_naming_the_file(tmp_path):
     with pytest.raises(ScenarioError, match=r"both\.toml \[targets\].*'positions' or 'count', not both"):
         load_scenario(p)
     p.write_text(COUNTED.replace("count = 2", "count = -1"))
-    with pytest.raises(ScenarioError, match=r"\[assets\].*'count' must be >= 0"):
+    with pytest.raises(ScenarioError, match=r"\[assets\].*EntitiesSpec\.count must be an integer >= 0"):
         load_scenario(p)
 
 
@@ -108,3 +108,24 @@ def test_position_lists_still_work_and_draw_nothing():
     cfg = a.config
     assert cfg.targets.count == 0 and cfg.targets.n == len(cfg.targets.positions)
     np.testing.assert_array_equal(a.world_state.targets.positions, np.asarray(cfg.targets.positions))
+
+
+def test_entity_and_reward_specs_name_the_field_through_the_shared_checks():
+    from tin_swarm_env.errors import ParameterError
+    from tin_swarm_env.scenario.config import EntitiesSpec, RewardWeights
+
+    with pytest.raises(ParameterError, match=r"EntitiesSpec\.count must be an integer >= 0 and <= 10000, got 10001"):
+        EntitiesSpec(count=10_001)
+    with pytest.raises(ParameterError, match=r"EntitiesSpec\.count must be an integer.*got 2\.5"):
+        EntitiesSpec(count=2.5)
+    with pytest.raises(ParameterError, match=r"EntitiesSpec\.min_separation_m must be a finite number >= 0"):
+        EntitiesSpec(min_separation_m=-1.0)
+    with pytest.raises(ParameterError, match=r"EntitiesSpec\.region must be \[x0, y0, x1, y1\] with x0 < x1"):
+        EntitiesSpec(count=1, region=(10.0, 0.0, 5.0, 8.0))
+    with pytest.raises(ParameterError, match=r"EntitiesSpec\.region\[2\] must be a finite number"):
+        EntitiesSpec(count=1, region=(0.0, 0.0, float("nan"), 8.0))
+    with pytest.raises(ParameterError, match=r"EntitiesSpec: give 'positions' or 'count', not both"):
+        EntitiesSpec(count=1, positions=((1.0, 2.0),))
+    with pytest.raises(ParameterError, match=r"RewardWeights\.progress must be 'geodesic' or 'euclidean'"):
+        RewardWeights(progress="manhattan")
+    assert EntitiesSpec(count=2, region=(0.0, 0.0, 5.0, 8.0)).n == 2  # a good one passes

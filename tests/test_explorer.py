@@ -227,6 +227,10 @@ def test_cost_to_go_check_box_overlays_the_selected_robots_target(ex):
     assert np.all(C[ok] >= straight[ok] - 1e-6)  # never below the straight line
     ctg = tse.terrain.cost_to_go(ex.env.tin, g, ~ex.env.world.steep)
     np.testing.assert_allclose(C, ctg.distance_at(np.column_stack([X.ravel(), Y.ravel()])).reshape(X.shape))
+    # the overlay is the env's own field (the reward's metric), not a second build
+    k = 0 if ex.robot is None else int(ex.env.target_assignment[ex.robot])
+    env_field = ex.env.target_fields[k].distance_at(np.column_stack([X.ravel(), Y.ravel()])).reshape(X.shape)
+    assert np.array_equal(C, env_field)
     assert "cost-to-go" in ex.ax_heat.get_title()
     ex.run_check.set_active(labels.index("cost-to-go"))
     assert ex.cost_values is None
@@ -236,3 +240,10 @@ def test_explore_cli_cost_to_go_png(tmp_path):
     out = tmp_path / "ctg.png"
     assert main(["explore", "cliff_goal", "--png", str(out), "--robots", "4", "--cost-to-go"]) == 0
     assert out.stat().st_size > 10_000
+
+
+def test_selecting_a_robot_that_does_not_exist_names_it(ex):
+    from tin_swarm_env.errors import ArgumentError
+
+    with pytest.raises(ArgumentError, match=rf"robot {ex.env.n}: the episode has robots 0\.\.{ex.env.n - 1}"):
+        ex.select(ex.env.n)

@@ -149,7 +149,7 @@ def test_reward_stays_finite_after_a_fall_onto_impassable_ground():
 
 
 def test_progress_setting_is_checked_with_the_file_named():
-    with pytest.raises(ScenarioError, match=r"my\.toml \[rewards\].*'progress' must be 'geodesic' or 'euclidean'"):
+    with pytest.raises(ScenarioError, match=r"my\.toml \[rewards\].*RewardWeights\.progress must be 'geodesic' or"):
         scenario_from_dict({"terrain": {"source": "flat"}, "targets": {"positions": [[1.0, 1.0]]},
                             "rewards": {"progress": "manhattan"}}, source="my.toml")
     assert RewardWeights().progress == "geodesic"

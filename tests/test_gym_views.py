@@ -21,6 +21,7 @@ from tin_swarm_env.adapters.gym_views import (
 from tin_swarm_env.env import TinSwarmEnv
 from tin_swarm_env.policies import APFPolicy
 from tin_swarm_env.scenario import list_scenarios
+from tin_swarm_env.world.state import Reason
 
 register_gymnasium()
 
@@ -83,6 +84,12 @@ def test_gymnasium_and_sb3_env_checkers_pass_on_every_scenario(scenario, env_id)
 def test_reason_labels_map_codes_and_truncation():
     labels = reason_labels([0, 1, 2, 3, 0], [False, False, False, False, True])
     assert labels.tolist() == ["", "arrived", "fell", "battery", "max_cycles"]
+    # the lookup table against the enum, one code at a time (every Reason, 2-D input flattened)
+    codes = np.array([[int(r) for r in Reason]] * 2)
+    want = [Reason(int(c)).label for c in codes.ravel()]
+    assert reason_labels(codes, np.zeros(codes.size, bool)).tolist() == want
+    assert reason_labels(codes, np.ones(codes.size, bool)).tolist() == ["max_cycles"] * codes.size
+    assert reason_labels(np.zeros(0, np.int8), np.zeros(0, bool)).shape == (0,)
 
 
 def test_bad_arguments_are_named():

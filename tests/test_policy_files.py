@@ -253,3 +253,17 @@ def test_layout_dict_names_every_element():
     lay = env().layout
     d = _layout_dict(lay)
     assert len(d["names"]) == lay.size and d["k_robots"] == lay.k_robots
+
+
+def test_export_of_a_model_without_an_mlp_actor_names_the_model():
+    pytest.importorskip("torch")
+    from types import SimpleNamespace
+
+    from tin_swarm_env.adapters.sb3 import export_sb3_policy
+    from tin_swarm_env.errors import ArgumentError
+
+    class SAC:  # stands for any model whose policy has no mlp_extractor
+        policy = SimpleNamespace(action_net=None)
+
+    with pytest.raises(ArgumentError, match=r"model SAC\.policy has no mlp_extractor: only SB3 MlpPolicy"):
+        export_sb3_policy(SAC(), None, "unused.npz")

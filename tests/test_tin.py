@@ -176,3 +176,12 @@ def test_greedy_delaunay_option_is_delaunay_on_jacksboro(jacksboro):
 def test_delaunay_option_applies_to_greedy_only(jacksboro):
     with pytest.raises(ArgumentError, match="greedy"):
         build_tin(jacksboro.crop(slice(0, 20), slice(0, 20)), method="vip", max_vertices=50, delaunay=True)
+
+
+def test_index_nbytes_counts_the_point_location_grid_apart_from_nbytes():
+    small = Tin.from_points(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 1]], dtype=float))
+    xy = np.random.default_rng(0).uniform(0, 100, (2000, 2))
+    big = Tin.from_points(np.column_stack([xy, np.zeros(len(xy))]))
+    assert isinstance(small.index_nbytes, int) and 0 < small.index_nbytes < big.index_nbytes
+    assert big.nbytes == sum(a.nbytes for a in (big.vertices, big.triangles, big.neighbors, big.planes, big.normals,
+                                                big.slope_deg, big.aspect_deg, big.areas)) + big.n_triangles * 16

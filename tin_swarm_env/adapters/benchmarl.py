@@ -22,7 +22,7 @@ Needs the ``[benchmarl]`` extra (benchmarl 1.5.2, which pins torchrl < 0.12).
 
 from __future__ import annotations
 
-from ..errors import require
+from ..errors import ArgumentError, require
 
 require("benchmarl", "benchmarl", "The BenchMARL task")
 
@@ -44,7 +44,8 @@ class TinSwarmTaskClass(TaskClass):
 
     def get_env_fun(self, num_envs, continuous_actions, seed, device):
         if not continuous_actions:
-            raise ValueError("tin_swarm tasks have continuous actions only (Box [-1, 1]^2)")
+            raise ArgumentError("continuous_actions must be True: tin_swarm tasks have continuous actions only"
+                                " (Box [-1, 1]^2)")
         kwargs = self._env_kwargs()
         return lambda: make_torchrl_env(seed=seed, device=device, **kwargs)
 
@@ -55,10 +56,10 @@ class TinSwarmTaskClass(TaskClass):
         return False
 
     def max_steps(self, env) -> int:
-        return int(env._env.config.max_cycles)
+        return int(env.max_cycles)  # torchrl and PettingZoo wrappers forward public attributes
 
     def has_render(self, env) -> bool:
-        return env._env.render_mode == "rgb_array"
+        return env.render_mode == "rgb_array"
 
     def group_map(self, env):
         return env.group_map

@@ -34,6 +34,7 @@ from gymnasium import spaces
 
 from .._registration import CENTRAL_ID, SINGLE_ID, register_gymnasium
 from ..env.tin_swarm import TinSwarmEnv
+from ..errors import ArgumentError
 from ..world.state import Reason
 
 __all__ = ["SINGLE_ID", "CENTRAL_ID", "TinSwarmSingleEnv", "TinSwarmCentralEnv", "register_gymnasium",
@@ -42,6 +43,7 @@ __all__ = ["SINGLE_ID", "CENTRAL_ID", "TinSwarmSingleEnv", "TinSwarmCentralEnv",
 TIMEOUT_LABEL = Reason.TIMEOUT.label
 END_LABELS = tuple(r.label for r in Reason if r != Reason.NONE)  # every way a robot's episode ends
 _LABEL_DTYPE = "<U16"  # fixed width so that vectorised infos never truncate a label
+_REASON_LABELS = np.array([Reason(c).label for c in range(max(Reason) + 1)], dtype=_LABEL_DTYPE)  # code -> label
 
 
 def reason_labels(codes, truncated) -> np.ndarray:
@@ -49,8 +51,7 @@ def reason_labels(codes, truncated) -> np.ndarray:
     ``truncated (n,)``: "arrived", "fell", "battery", "max_cycles" when truncated, "" otherwise.
 
     The one place reason codes become strings in this module."""
-    codes = np.asarray(codes).reshape(-1)
-    out = np.array([Reason(int(c)).label for c in codes], dtype=_LABEL_DTYPE)
+    out = _REASON_LABELS[np.asarray(codes, dtype=np.intp).reshape(-1)]
     out[np.asarray(truncated, dtype=bool).reshape(-1)] = TIMEOUT_LABEL
     return out
 
@@ -108,9 +109,9 @@ def _others_policy(others, penv):
             return APFPolicy(penv)
         if others in ("random", "still"):
             return others
-        raise ValueError(f"others must be 'apf', 'random', 'still' or a policy with act_batch, got {others!r}")
+        raise ArgumentError(f"others must be 'apf', 'random', 'still' or a policy with act_batch, got {others!r}")
     if not callable(getattr(others, "act_batch", None)):
-        raise ValueError(f"others must be 'apf', 'random', 'still' or a policy with act_batch(obs), got {others!r}")
+        raise ArgumentError(f"others must be 'apf', 'random', 'still' or a policy with act_batch(obs), got {others!r}")
     return others
 
 
@@ -167,7 +168,7 @@ class TinSwarmSingleEnv(_SwarmView):
             return self._random_others.uniform(-1, 1, (self.n, 2))
         acts = np.array(self.others.act_batch(self._obs), dtype=np.float64)
         if acts.shape != (self.n, 2):
-            raise ValueError(f"others.act_batch must return shape ({self.n}, 2), got {acts.shape}")
+            raise ArgumentError(f"others.act_batch must return shape ({self.n}, 2), got {acts.shape}")
         return acts
 
     def step(self, action):
@@ -175,7 +176,7 @@ class TinSwarmSingleEnv(_SwarmView):
             raise RuntimeError("call reset() before step() (robot 0's episode is over or not started)")
         a = np.asarray(action, dtype=np.float64)
         if a.shape != (2,):
-            raise ValueError(f"action must have shape (2,), got {a.shape}")
+            raise ArgumentError(f"action must have shape (2,), got {a.shape}")
         actions = self._others_actions()
         actions[0] = a
         obs, rewards, terminated, truncated, labels = self._step_swarm(actions)
@@ -212,7 +213,7 @@ class TinSwarmCentralEnv(_SwarmView):
 
     def __init__(self, reward: str = "sum", render_mode: str | None = None, **env_kwargs):
         if reward not in ("sum", "mean"):
-            raise ValueError(f"reward must be 'sum' or 'mean', got {reward!r}")
+            raise ArgumentError(f"reward must be 'sum' or 'mean', got {reward!r}")
         super().__init__(render_mode, env_kwargs)
         penv = self.parallel_env
         a0 = penv.possible_agents[0]
@@ -241,12 +242,12 @@ class TinSwarmCentralEnv(_SwarmView):
             raise RuntimeError("call reset() before step() (every robot's episode is over or not started)")
         a = np.asarray(action, dtype=np.float64)
         if a.shape != (self.n, 2):
-            raise ValueError(f"action must have shape ({self.n}, 2), got {a.shape}")
+            raise ArgumentError(f"action must have shape ({self.n}, 2), got {a.shape}")
         live_before = self._live.copy()
         a = np.where(live_before[:, None], a, 0.0)  # done robots' actions are ignored, even NaN
         obs, rewards, terminated, truncated, labels = self._step_swarm(a)
         ended_now = live_before & ~self._live
-        self._ended[ended_now] = [str(x) for x in labels[ended_now]]
+        self._ended[ended_now] = labels[ended_now].astype(object)
         total = float(np.sum(rewards, dtype=np.float64))
         reward = total if self.reward_mode == "sum" else total / self.n
         all_done = not self._live.any()

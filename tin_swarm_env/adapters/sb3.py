@@ -189,15 +189,16 @@ def export_sb3_policy(model, path, env_or_layout, scenario: str | None = None, e
     from ..policies.learned import save_policy
 
     pol = model.policy
-    where = f"{type(model).__name__}.policy"
+    where = f"model {type(model).__name__}.policy"
     for attr in ("mlp_extractor", "action_net"):
         if not hasattr(pol, attr):
-            raise TypeError(f"{where} has no {attr}: only SB3 MlpPolicy actors (PPO, A2C) can be exported")
+            raise ArgumentError(f"{where} has no {attr}: only SB3 MlpPolicy actors (PPO, A2C) can be exported")
     fx = getattr(pol, "pi_features_extractor", getattr(pol, "features_extractor", None))
     if fx is not None and type(fx).__name__ != "FlattenExtractor":
-        raise TypeError(f"{where}: features extractor {type(fx).__name__} is not exportable (FlattenExtractor only)")
+        raise ArgumentError(f"{where}: features extractor {type(fx).__name__} is not exportable "
+                            "(FlattenExtractor only)")
     if getattr(pol, "squash_output", False) or type(pol.action_dist).__name__ != "DiagGaussianDistribution":
-        raise TypeError(f"{where}: only an unsquashed diagonal Gaussian actor can be exported")
+        raise ArgumentError(f"{where}: only an unsquashed diagonal Gaussian actor can be exported")
     layers, acts = [], set()
     for m in list(pol.mlp_extractor.policy_net) + [pol.action_net]:
         name = type(m).__name__
@@ -206,9 +207,9 @@ def export_sb3_policy(model, path, env_or_layout, scenario: str | None = None, e
         elif name in _TORCH_ACTIVATIONS:
             acts.add(_TORCH_ACTIVATIONS[name])
         else:
-            raise TypeError(f"{where}: layer {name} of the actor is not exportable")
+            raise ArgumentError(f"{where}: layer {name} of the actor is not exportable")
     if len(acts) > 1:
-        raise TypeError(f"{where}: mixed activations {sorted(acts)} are not exportable")
+        raise ArgumentError(f"{where}: mixed activations {sorted(acts)} are not exportable")
     act_fn = pol.activation_fn.__name__ if hasattr(pol, "activation_fn") else "Tanh"
     activation = acts.pop() if acts else _TORCH_ACTIVATIONS.get(act_fn, "tanh")
     src = env_or_layout.envs[0] if hasattr(env_or_layout, "envs") else env_or_layout  # our VecEnv: a copy

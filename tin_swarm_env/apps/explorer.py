@@ -48,9 +48,8 @@ import dataclasses
 import numpy as np
 
 from ..env import parallel_env
-from ..errors import PlacementError
+from ..errors import ArgumentError, PlacementError
 from ..policies import APFPolicy
-from ..terrain import cost_to_go
 from ..world.fields import FIELDS, fields_at
 
 __all__ = ["FieldExplorer"]
@@ -78,7 +77,6 @@ class FieldExplorer:
         self.field_values = None  # (grid, grid) potential of the last drawing
         self.field_forces = None  # (grid, grid, 2)
         self.cost_values = None  # (grid, grid) m, the cost-to-go overlay of the last drawing (None: off)
-        self._ctg = {}  # (goal x, y) -> CostToGo, for the current TIN
         self._drag = None  # (kind, index, press xy) while a mouse button is held on a robot/target
         self._armed = None  # "robot": the next left click adds a robot
         self.fig = plt.figure(figsize=figsize)
@@ -139,7 +137,7 @@ class FieldExplorer:
     def select(self, robot: int | None):
         """Show the field felt by ``robot`` (None: every robot over the whole terrain)."""
         if robot is not None and not 0 <= robot < self.env.n:
-            raise IndexError(f"robot {robot}: the episode has robots 0..{self.env.n - 1}")
+            raise ArgumentError(f"robot {robot}: the episode has robots 0..{self.env.n - 1}")
         self.robot = robot
         self._say("showing all robots" if robot is None else f"selected robot_{robot}")
         self.redraw()
@@ -198,7 +196,7 @@ class FieldExplorer:
         if sel is not None:
             sel = len(pos) - 1 if sel == -1 else (int(new_index[sel]) if keep[sel] else 0)
         restarted = env is not self.env
-        self.env, self.obs, self.robot, self._ctg = env, obs, sel, {}
+        self.env, self.obs, self.robot = env, obs, sel
         self.policy = APFPolicy(env, fields=tuple(self.fields))
         how = (f"a new env with {env.n} robots (an env's agent set is fixed), reset from the current positions"
                if restarted else "the episode restarted from the current positions")
@@ -342,24 +340,27 @@ class FieldExplorer:
         f, u = out["total"]
         return X, Y, u.reshape(X.shape), f.reshape(*X.shape, 2)
 
+    def _target_index(self) -> int:
+        """The selected robot's assigned target (target 0 for ``robot=None``; -1: none)."""
+        if not len(self.env.world_state.targets):
+            return -1
+        return 0 if self.robot is None else int(self.env.target_assignment[self.robot])
+
     def target_of_selected(self):
         """``(2,)`` the selected robot's assigned target (the first target for ``robot=None``), or None."""
-        s = self.env.world_state
-        if not len(s.targets):
-            return None
-        k = 0 if self.robot is None else int(self.env.target_assignment[self.robot])
-        return None if k < 0 else s.targets.positions[k]
+        k = self._target_index()
+        return None if k < 0 else self.env.world_state.targets.positions[k]
 
     def compute_cost_to_go(self, X, Y):
         """``(grid, grid)`` m: the drivable-path distance to the selected robot's target over the
-        grid (``inf`` where it cannot be reached), or None without a target."""
-        g = self.target_of_selected()
-        if g is None:
+        grid (``inf`` where it cannot be reached), or None without a target. It is the env's own
+        field (:attr:`~tin_swarm_env.env.TinSwarmEnv.target_fields`, the reward's metric), built
+        at the target's position at reset: a mobile target has moved on since."""
+        k = self._target_index()
+        if k < 0:
             return None
-        key = tuple(np.round(g, 9))
-        if key not in self._ctg:
-            self._ctg = {key: cost_to_go(self.env.tin, g, ~self.env.world.steep)}
-        return self._ctg[key].distance_at(np.column_stack([X.ravel(), Y.ravel()])).reshape(X.shape)
+        field = self.env.target_fields[k]
+        return field.distance_at(np.column_stack([X.ravel(), Y.ravel()])).reshape(X.shape)
 
     # -- drawing ----------------------------------------------------------------------------
     def _draw_tin(self):

@@ -120,7 +120,8 @@ class ObsLayout:
             raise ObservationLayoutError(f"unknown observation part {part!r}; parts are {', '.join(PARTS)}")
         return getattr(self, _COUNT[part])
 
-    def _part_slice(self, part: str) -> slice:
+    def part_slice(self, part: str) -> slice:
+        """The columns of ``part`` ("robots", "targets", "breaks", "assets") in an observation row."""
         a = self.own_size
         for p in PARTS:
             b = a + len(SLOT_FIELDS[p]) * self.count(p)
@@ -131,28 +132,28 @@ class ObsLayout:
 
     @property
     def robots(self) -> slice:
-        return self._part_slice("robots")
+        return self.part_slice("robots")
 
     @property
     def targets(self) -> slice:
-        return self._part_slice("targets")
+        return self.part_slice("targets")
 
     @property
     def breaks(self) -> slice:
-        return self._part_slice("breaks")
+        return self.part_slice("breaks")
 
     @property
     def assets(self) -> slice:
-        return self._part_slice("assets")
+        return self.part_slice("assets")
 
     @property
     def size(self) -> int:
-        return self._part_slice(PARTS[-1]).stop
+        return self.part_slice(PARTS[-1]).stop
 
     # -- reading -----------------------------------------------------------------------------
     def slots(self, obs: np.ndarray, part: str) -> np.ndarray:
         """``obs[..., part]`` reshaped to ``(..., K, per_slot)`` for part robots/targets/breaks/assets."""
-        sl = self._part_slice(part)
+        sl = self.part_slice(part)
         return obs[..., sl].reshape(*obs.shape[:-1], self.count(part), len(SLOT_FIELDS[part]))
 
     def slot_index(self, part: str, name: str) -> int:
@@ -236,7 +237,7 @@ class ObsLayout:
 
         def slot(cls, part):
             names = SLOT_FIELDS[part]
-            return cls(self._part_slice(part).start, len(names), *range(len(names)))
+            return cls(self.part_slice(part).start, len(names), *range(len(names)))
 
         return (own, slot(PointSlot, "robots"), slot(PointSlot, "targets"), slot(BreakSlot, "breaks"),
                 slot(PointSlot, "assets"))

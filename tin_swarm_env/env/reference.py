@@ -18,7 +18,7 @@ def _to_body(vx, vy, heading):
 def _write_slots(obs, layout, part, values, ok):
     """Stack ``values`` (name -> ``(n, K)``) in the layout's slot order into ``obs[:, part]``."""
     slot = np.stack([values[f] for f in SLOT_FIELDS[part]], axis=-1) * ok[..., None]
-    obs[:, layout._part_slice(part)] = slot.reshape(len(obs), -1)
+    obs[:, layout.part_slice(part)] = slot.reshape(len(obs), -1)
 
 
 def _own(obs, world, state, readings, target_idx, layout):

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import PolicyFileError
+from ..errors import ArgumentError, PolicyFileError
 
 __all__ = ["MLPPolicy", "save_policy", "load_policy", "FORMAT", "VERSION", "ACTIVATIONS"]
 
@@ -80,7 +80,7 @@ class MLPPolicy:
     def act_batch(self, obs) -> np.ndarray:
         x = np.asarray(obs, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != self.obs_size:
-            raise ValueError(f"{self.source}: observations must have shape (n, {self.obs_size}), got {x.shape}")
+            raise ArgumentError(f"{self.source}: obs must have shape (n, {self.obs_size}), got {x.shape}")
         f = ACTIVATIONS[self.activation]
         for i, (W, b) in enumerate(self.layers):
             x = x @ W.T + b

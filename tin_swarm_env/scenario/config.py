@@ -77,9 +77,23 @@ SCENARIO_DIR = Path(__file__).with_name("builtin")
 
 MAX_ROBOTS = 100_000  # robots.count and n_robots: beyond this the per-robot arrays and names exhaust memory
 MAX_SLOTS = 256  # k_robots, k_targets, k_breaks: observation slots per kind
+MAX_ENTITIES = 10_000  # targets/assets count drawn per reset
 _POS = {"lo": 0, "lo_open": True}  # check_range limits: a finite number > 0
 _NONNEG = {"lo": 0}  # >= 0
 _FINITE: dict = {}  # any finite number
+
+
+def _check_region(spec, key: str) -> None:
+    """Raise :class:`ParameterError` unless ``spec.<key>`` is None or ``[x0, y0, x1, y1]`` (m), finite,
+    with x0 < x1 and y0 < y1 (the one check behind every region of a scenario)."""
+    region = getattr(spec, key)
+    if region is None:
+        return
+    where = type(spec).__name__
+    for i, v in enumerate(region):
+        check_range(where, f"{key}[{i}]", v)
+    if len(region) != 4 or not (region[0] < region[2] and region[1] < region[3]):
+        raise ParameterError(f"{where}.{key} must be [x0, y0, x1, y1] with x0 < x1 and y0 < y1, got {list(region)}")
 
 
 @dataclass(frozen=True)
@@ -108,13 +122,7 @@ class RobotsSpec:
 
     def __post_init__(self):
         check_fields(self, {"count": {"lo": 1, "hi": MAX_ROBOTS, "integer": True}, "min_separation_m": _NONNEG})
-        if self.spawn_region is not None:
-            for i, v in enumerate(self.spawn_region):
-                check_range("RobotsSpec", f"spawn_region[{i}]", v)
-            x0, y0, x1, y1 = self.spawn_region
-            if not (x0 < x1 and y0 < y1):
-                raise ParameterError(f"RobotsSpec.spawn_region must be [x0, y0, x1, y1] with x0 < x1 and y0 < y1, "
-                                     f"got {list(self.spawn_region)}")
+        _check_region(self, "spawn_region")
 
 
 @dataclass(frozen=True)
@@ -133,18 +141,14 @@ class EntitiesSpec:
     arrival_radius_m: float = 5.0
 
     def __post_init__(self):
-        check_fields(self, {"standoff_m": _NONNEG, "arrival_radius_m": _POS})
+        check_fields(self, {"count": {"lo": 0, "hi": MAX_ENTITIES, "integer": True}, "standoff_m": _NONNEG,
+                            "arrival_radius_m": _POS, "min_separation_m": _NONNEG})
         for i, xy in enumerate(self.positions):
             for j, v in enumerate(xy):
                 check_range("EntitiesSpec", f"positions[{i}][{j}]", v)
-        if not 0 <= self.count <= 10_000:
-            raise ValueError(f"'count' must be >= 0 and at most 10000, got {self.count}")
         if self.count and self.positions:
-            raise ValueError("give 'positions' or 'count', not both")
-        if self.region is not None and not (self.region[2] > self.region[0] and self.region[3] > self.region[1]):
-            raise ValueError(f"'region' must be [x0, y0, x1, y1] with x1 > x0 and y1 > y0, got {list(self.region)}")
-        if self.min_separation_m < 0:
-            raise ValueError(f"'min_separation_m' must be >= 0, got {self.min_separation_m}")
+            raise ParameterError("EntitiesSpec: give 'positions' or 'count', not both")
+        _check_region(self, "region")
 
     @property
     def n(self) -> int:
@@ -176,7 +180,7 @@ class RewardWeights:
 
     def __post_init__(self):
         if self.progress not in ("geodesic", "euclidean"):
-            raise ValueError(f"'progress' must be 'geodesic' or 'euclidean', got {self.progress!r}")
+            raise ParameterError(f"RewardWeights.progress must be 'geodesic' or 'euclidean', got {self.progress!r}")
         check_fields(self, {f.name: (_NONNEG if f.name.endswith("_m") else _FINITE)
                             for f in dataclasses.fields(self) if f.type in (float, "float")})
 

@@ -10,6 +10,7 @@ import inspect
 
 import numpy as np
 
+from ..errors import ArgumentError
 from ..terrain import Dem
 
 __all__ = ["RECIPES", "make_dem"]
@@ -87,7 +88,7 @@ def canyon(width=400.0, height=400.0, cell=2.0, plateau_m=50.0, cliff_x=200.0, p
     plateau; otherwise a trench cut into the plateau that leads onto a causeway standing above the
     floor, cliffs on both sides. ``travel = "west"`` mirrors the terrain east-west."""
     if travel not in ("east", "west"):
-        raise ValueError(f"canyon: travel must be 'east' or 'west', got {travel!r}")
+        raise ArgumentError(f"canyon: travel must be 'east' or 'west', got {travel!r}")
     x, y, X, Y = _grid(width, height, cell)
     if travel == "west":
         X = width - X

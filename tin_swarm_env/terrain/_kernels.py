@@ -22,7 +22,9 @@ GAVE_UP = -2  # the walk made no progress (degenerate geometry or a step limit):
 
 
 @njit(cache=True, inline="always")
-def _orient(ax, ay, bx, by, cx, cy):
+def orient(ax, ay, bx, by, cx, cy):
+    """Twice the signed area of triangle abc in plan (m^2): > 0 when c lies left of a->b.
+    The one orientation predicate of the numba kernels (``_ctg_kernels`` should import it)."""
     return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
 
@@ -48,7 +50,7 @@ def walk_locate(vx, vy, tris, nbrs, px, py, hints, max_steps, tol):
                 k = (kk + step) % 3
                 a = tris[t, (k + 1) % 3]
                 b = tris[t, (k + 2) % 3]
-                if _orient(vx[a], vy[a], vx[b], vy[b], x, y) < -tol:
+                if orient(vx[a], vy[a], vx[b], vy[b], x, y) < -tol:
                     nb = nbrs[t, k]
                     if nb < 0:
                         res = OUTSIDE
@@ -92,9 +94,9 @@ def bucket_locate(vx, vy, tris, cell_start, cell_tris, gx0, gy0, inv_cs, gnx, gn
             a = tris[t, 0]
             b = tris[t, 1]
             d = tris[t, 2]
-            if (_orient(vx[a], vy[a], vx[b], vy[b], x, y) >= -tol
-                    and _orient(vx[b], vy[b], vx[d], vy[d], x, y) >= -tol
-                    and _orient(vx[d], vy[d], vx[a], vy[a], x, y) >= -tol):
+            if (orient(vx[a], vy[a], vx[b], vy[b], x, y) >= -tol
+                    and orient(vx[b], vy[b], vx[d], vy[d], x, y) >= -tol
+                    and orient(vx[d], vy[d], vx[a], vy[a], x, y) >= -tol):
                 out[i] = t
                 break
     return out

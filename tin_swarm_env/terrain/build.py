@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ArgumentError
+from ..errors import ArgumentError, DemFormatError
 from .dem import Dem, PointCloud
 from .tin import Tin
 
@@ -43,37 +43,50 @@ def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices:
     if method not in METHODS:
         raise ArgumentError(f"unknown method {method!r}; expected one of {METHODS}")
     if isinstance(dem, PointCloud):
-        if method != "delaunay":
-            raise ArgumentError(f"{dem.source}: method {method!r} needs a regular grid; scattered points "
-                             "are triangulated whole with method='delaunay'")
-        if max_vertices is not None and max_vertices < len(dem.points):
-            raise ArgumentError(f"{dem.source}: {len(dem.points)} scattered points exceed max_vertices="
-                             f"{max_vertices}; reduction needs a regular grid")
-        return Tin.from_points(dem.points, source=dem.source)
+        return _cloud_tin(dem, method, max_vertices)
     if not isinstance(dem, Dem):
-        raise TypeError(f"build_tin needs a Dem or PointCloud, got {type(dem).__name__}")
+        raise ArgumentError(f"dem: build_tin needs a Dem or PointCloud, got {type(dem).__name__}")
     if method == "vip":
-        from .vip import vip_select
-
         if max_error_m is not None:
             raise ArgumentError("max_error_m applies to method='greedy'; VIP takes max_vertices or min_significance_m")
-        if max_vertices is None and min_significance_m is None:
-            raise ArgumentError("method='vip' needs max_vertices or min_significance_m")
-        keep = vip_select(dem, max_vertices, min_significance_m, border=border, backbone=backbone)
-        r, c = np.nonzero(keep)
-        pts = np.column_stack([dem.x[c], dem.y[r], dem.z[r, c]])
-        return Tin.from_points(pts, source=f"{dem.source} (vip)")
+        return _vip_tin(dem, max_vertices, min_significance_m, border, backbone)
     if method == "greedy":
-        from .greedy import greedy_mesh
-
         if min_significance_m is not None:
             raise ArgumentError("min_significance_m applies to method='vip'")
-        v, t = greedy_mesh(dem, max_error_m=max_error_m, max_vertices=max_vertices)
-        if delaunay:
-            return Tin.from_points(v, source=f"{dem.source} (greedy, Delaunay)")
-        return Tin(v, t, source=f"{dem.source} (greedy)")
+        return _greedy_tin(dem, max_vertices, max_error_m, delaunay)
     if np.isnan(dem.z).any():
-        from ..errors import DemFormatError
-
         raise DemFormatError(f"{dem.source}: {dem.n_nodata} NODATA cells; fill or crop them first")
     return Tin.from_points(dem.points(), source=f"{dem.source} (delaunay)")
+
+
+def _cloud_tin(cloud: PointCloud, method: str, max_vertices: int | None) -> Tin:
+    """Every point of a scattered cloud, Delaunay in x, y (the only method without a grid)."""
+    if method != "delaunay":
+        raise ArgumentError(f"{cloud.source}: method {method!r} needs a regular grid; scattered points "
+                            "are triangulated whole with method='delaunay'")
+    if max_vertices is not None and max_vertices < len(cloud.points):
+        raise ArgumentError(f"{cloud.source}: {len(cloud.points)} scattered points exceed max_vertices="
+                            f"{max_vertices}; reduction needs a regular grid")
+    return Tin.from_points(cloud.points, source=cloud.source)
+
+
+def _vip_tin(dem: Dem, max_vertices, min_significance_m, border: str, backbone: float) -> Tin:
+    """VIP-selected grid points, Delaunay in x, y."""
+    from .vip import vip_select
+
+    if max_vertices is None and min_significance_m is None:
+        raise ArgumentError("method='vip' needs max_vertices or min_significance_m")
+    keep = vip_select(dem, max_vertices, min_significance_m, border=border, backbone=backbone)
+    r, c = np.nonzero(keep)
+    pts = np.column_stack([dem.x[c], dem.y[r], dem.z[r, c]])
+    return Tin.from_points(pts, source=f"{dem.source} (vip)")
+
+
+def _greedy_tin(dem: Dem, max_vertices, max_error_m, delaunay: bool) -> Tin:
+    """pydelatin's greedy mesh, its own triangles or (``delaunay``) re-triangulated as Delaunay."""
+    from .greedy import greedy_mesh
+
+    v, t = greedy_mesh(dem, max_error_m=max_error_m, max_vertices=max_vertices)
+    if delaunay:
+        return Tin.from_points(v, source=f"{dem.source} (greedy, Delaunay)")
+    return Tin(v, t, source=f"{dem.source} (greedy)")

@@ -12,7 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DemFormatError, require
+from ..errors import ArgumentError, DemFormatError, require
+from ._text import numeric_rows
 from .dem import Dem, PointCloud, geographic_to_metres
 
 __all__ = ["load_dem", "sample_dem", "SAMPLES"]
@@ -69,25 +70,15 @@ def load_dem(path, *, geographic: bool | None = None) -> Dem | PointCloud:
 
 
 def _read_xyz(p: Path, geographic: bool) -> Dem | PointCloud:
-    rows: list[tuple[float, float, float]] = []
+    rows: list[list[float]] = []
     line_no: list[int] = []
-    with open(p, encoding="utf-8", errors="replace") as fh:
-        for i, line in enumerate(fh, start=1):
-            s = line.split("#", 1)[0].replace(",", " ").split()
-            if not s:
-                continue
-            if len(s) != 3:
-                raise DemFormatError(f"{p}:{i}: expected 3 numbers 'x y z', found {len(s)}: {line.strip()!r}")
-            try:
-                vals = tuple(float(t) for t in s)
-            except ValueError:
-                raise DemFormatError(f"{p}:{i}: not a number in {line.strip()!r}") from None
-            if not all(np.isfinite(vals[:2])):
-                raise DemFormatError(f"{p}:{i}: x and y must be finite, got {line.strip()!r}")
-            if np.isinf(vals[2]):
-                raise DemFormatError(f"{p}:{i}: infinite elevation in {line.strip()!r}")
-            rows.append(vals)
-            line_no.append(i)
+    for i, vals, line in numeric_rows(p, "x y z", DemFormatError):
+        if not all(np.isfinite(vals[:2])):
+            raise DemFormatError(f"{p}:{i}: x and y must be finite, got {line.strip()!r}")
+        if np.isinf(vals[2]):
+            raise DemFormatError(f"{p}:{i}: infinite elevation in {line.strip()!r}")
+        rows.append(vals)
+        line_no.append(i)
     if not rows:
         raise DemFormatError(f"{p}: empty DEM file (no 'x y z' lines)")
     pts = np.asarray(rows, dtype=np.float64)
@@ -158,12 +149,27 @@ _ASC_KEYS = {"ncols", "nrows", "xllcorner", "xllcenter", "yllcorner", "yllcenter
 
 
 def _read_asc(p: Path, geographic: bool) -> Dem:
-    header: dict[str, float] = {}
-    header_line: dict[str, int] = {}
     with open(p, encoding="utf-8", errors="replace") as fh:
         text_lines = fh.readlines()
     if not any(t.strip() for t in text_lines):
         raise DemFormatError(f"{p}: empty DEM file")
+    header, header_line, first = _asc_header(p, text_lines)
+    ncols, nrows, x0, y0, dx, dy = _asc_geometry(p, header, header_line)
+    z = _asc_values(p, text_lines, first, nrows, ncols)
+    if "nodata_value" in header:
+        z[z == header["nodata_value"]] = np.nan
+    z = z[::-1]  # ESRI rows run north to south; ours run south to north
+    x = x0 + dx * np.arange(ncols)
+    y = y0 + dy * np.arange(nrows)
+    if geographic:
+        x, y, _ = geographic_to_metres(x, y)
+    return Dem(z, x, y, source=str(p))
+
+
+def _asc_header(p: Path, text_lines: list[str]) -> tuple[dict[str, float], dict[str, int], int]:
+    """The ``key value`` header: ``({key: value}, {key: 1-based line}, index of the first data line)``."""
+    header: dict[str, float] = {}
+    header_line: dict[str, int] = {}
     i = 0
     while i < len(text_lines):
         parts = text_lines[i].split()
@@ -185,13 +191,18 @@ def _read_asc(p: Path, geographic: bool) -> Dem:
             raise DemFormatError(f"{p}:{i + 1}: header {parts[0]} has a non-numeric value {parts[1]!r}") from None
         header_line[key] = i + 1
         i += 1
+    return header, header_line, i
+
+
+def _asc_geometry(p: Path, header: dict, header_line: dict) -> tuple[int, int, float, float, float, float]:
+    """``(ncols, nrows, x0, y0, dx, dy)`` from the header; x0, y0 (m or deg) are the centre of
+    the south-west cell."""
     for k in ("ncols", "nrows"):
         if k not in header:
             raise DemFormatError(f"{p}: ESRI ASCII header lacks {k}")
         n = header[k]
         if not (np.isfinite(n) and n == int(n) and n >= 1):
             raise DemFormatError(f"{p}:{header_line[k]}: header {k} must be a positive whole number, got {n!r}")
-    ncols, nrows = int(header["ncols"]), int(header["nrows"])
     if "cellsize" in header:
         dx = dy = header["cellsize"]
     elif "dx" in header and "dy" in header:
@@ -200,21 +211,25 @@ def _read_asc(p: Path, geographic: bool) -> Dem:
         raise DemFormatError(f"{p}: ESRI ASCII header lacks cellsize (or dx and dy)")
     if not (dx > 0 and dy > 0):
         raise DemFormatError(f"{p}: cell size must be positive, got dx={dx}, dy={dy}")
-    if "xllcenter" in header:
-        x0 = header["xllcenter"]
-    elif "xllcorner" in header:
-        x0 = header["xllcorner"] + dx / 2
-    else:
-        raise DemFormatError(f"{p}: ESRI ASCII header lacks xllcorner/xllcenter")
-    if "yllcenter" in header:
-        y0 = header["yllcenter"]
-    elif "yllcorner" in header:
-        y0 = header["yllcorner"] + dy / 2
-    else:
-        raise DemFormatError(f"{p}: ESRI ASCII header lacks yllcorner/yllcenter")
+    x0 = _asc_origin(p, header, "x", dx)
+    y0 = _asc_origin(p, header, "y", dy)
+    return int(header["ncols"]), int(header["nrows"]), x0, y0, dx, dy
+
+
+def _asc_origin(p: Path, header: dict, axis: str, cell: float) -> float:
+    """The centre of the first cell along ``axis`` ("x" or "y"): ``{axis}llcenter``, or
+    ``{axis}llcorner`` plus half a cell."""
+    if f"{axis}llcenter" in header:
+        return header[f"{axis}llcenter"]
+    if f"{axis}llcorner" in header:
+        return header[f"{axis}llcorner"] + cell / 2
+    raise DemFormatError(f"{p}: ESRI ASCII header lacks {axis}llcorner/{axis}llcenter")
+
+
+def _asc_values(p: Path, text_lines: list[str], first: int, nrows: int, ncols: int) -> np.ndarray:
+    """The ``(nrows, ncols)`` float64 grid read from ``text_lines[first:]``, in file order (north row first)."""
     values: list[float] = []
-    first_data_line = i + 1
-    for j in range(i, len(text_lines)):
+    for j in range(first, len(text_lines)):
         for tok in text_lines[j].split():
             try:
                 values.append(float(tok))
@@ -223,17 +238,9 @@ def _read_asc(p: Path, geographic: bool) -> Dem:
     if len(values) != nrows * ncols:
         raise DemFormatError(
             f"{p}: header says {nrows} rows x {ncols} cols = {nrows * ncols} values, "
-            f"found {len(values)} from line {first_data_line} on"
+            f"found {len(values)} from line {first + 1} on"
         )
-    z = np.asarray(values, dtype=np.float64).reshape(nrows, ncols)
-    if "nodata_value" in header:
-        z[z == header["nodata_value"]] = np.nan
-    z = z[::-1]  # ESRI rows run north to south; ours run south to north
-    x = x0 + dx * np.arange(ncols)
-    y = y0 + dy * np.arange(nrows)
-    if geographic:
-        x, y, _ = geographic_to_metres(x, y)
-    return Dem(z, x, y, source=str(p))
+    return np.asarray(values, dtype=np.float64).reshape(nrows, ncols)
 
 
 # -- numpy ---------------------------------------------------------------------------------
@@ -392,7 +399,7 @@ def sample_dem(name: str = "jacksboro") -> Dem:
     74.5 m east-west by 92.5 m north-south.
     """
     if name not in SAMPLES:
-        raise ValueError(f"unknown sample DEM {name!r}; known: {sorted(SAMPLES)}")
+        raise ArgumentError(f"name: unknown sample DEM {name!r}; known: {sorted(SAMPLES)}")
     from matplotlib import cbook
 
     path = cbook.get_sample_data(SAMPLES[name], asfileobj=False)

@@ -26,7 +26,7 @@ def vertical_error(tin, dem: Dem) -> tuple[ErrorStats, np.ndarray]:
     t = tin.locate(xy)
     err = np.full(len(xy), np.nan)
     ok = t >= 0
-    err[ok] = tin._height_in(xy[ok], t[ok]) - dem.z.ravel()[ok]
+    err[ok] = tin.height_in(xy[ok], t[ok]) - dem.z.ravel()[ok]
     valid = ~np.isnan(err)
     e = err[valid]
     stats = ErrorStats(max_m=float(np.abs(e).max()) if e.size else float("nan"),

@@ -26,7 +26,7 @@ def locate_brute(tin, xy, tol: float | None = None) -> np.ndarray:
     """Every triangle tested: the lowest-index triangle containing each point (-1 if none)."""
     pts = np.atleast_2d(np.asarray(xy, dtype=np.float64))
     if tol is None:
-        tol = tin._tol[0]
+        tol = tin.tolerances[0]
     out = np.full(len(pts), -1, dtype=np.int64)
     for s in range(0, len(pts), 256):
         o1, o2, o3 = _bary(tin, pts[s:s + 256])
@@ -59,7 +59,7 @@ def line_of_sight_brute(tin, a_xyz, b_xyz, ztol: float | None = None) -> np.ndar
     a = np.atleast_2d(np.asarray(a_xyz, dtype=np.float64))
     b = np.atleast_2d(np.asarray(b_xyz, dtype=np.float64))
     if ztol is None:
-        ztol = tin._tol[1]
+        ztol = tin.tolerances[1]
     za = height_brute(tin, a[:, :2])
     zb = height_brute(tin, b[:, :2])
     ok = (a[:, 2] >= za - ztol) & (b[:, 2] >= zb - ztol)  # NaN -> False
@@ -102,7 +102,7 @@ def _height_fast(tin, xy):
     t = tin.locate(xy)
     z = np.full(len(xy), np.nan)
     ok = t >= 0
-    z[ok] = tin._height_in(xy[ok], t[ok])
+    z[ok] = tin.height_in(xy[ok], t[ok])
     return z
 
 
@@ -129,7 +129,7 @@ def on_passable_brute(tin, xy, passable, tol: float | None = None) -> np.ndarray
     (every triangle tested, a point on an edge counts for both sides)."""
     pts = np.atleast_2d(np.asarray(xy, dtype=np.float64))
     if tol is None:
-        tol = tin._tol[0]
+        tol = tin.tolerances[0]
     out = np.zeros(len(pts), dtype=bool)
     for s in range(0, len(pts), 256):
         o1, o2, o3 = _bary(tin, pts[s:s + 256])

@@ -54,54 +54,9 @@ class Tin:
     """
 
     def __init__(self, vertices, triangles, *, source: str = "<array>"):
-        v = np.array(vertices)
-        if not (np.issubdtype(v.dtype, np.integer) or np.issubdtype(v.dtype, np.floating)):
-            raise TinStructureError(f"{source}: vertices must be real numbers, got {v.dtype}")
-        v = v.astype(np.float64)
-        tri = np.array(triangles)
-        if v.ndim != 2 or v.shape[1] != 3:
-            raise TinStructureError(f"{source}: vertices must have shape (V, 3), got {v.shape}")
-        if tri.ndim != 2 or tri.shape[1] != 3:
-            raise TinStructureError(f"{source}: triangles must have shape (T, 3), got {tri.shape}")
-        if not np.all(np.isfinite(v)):
-            raise TinStructureError(f"{source}: vertices contain NaN or infinite coordinates")
-        if np.any(np.abs(v) > MAX_ABS_COORD_M):
-            i = int(np.flatnonzero(np.any(np.abs(v) > MAX_ABS_COORD_M, axis=1))[0])
-            raise TinStructureError(f"{source}: vertex {i} {v[i].tolist()} has a coordinate beyond "
-                                    f"{MAX_ABS_COORD_M:g} m (planes and slopes would overflow); check the units")
-        if tri.size and not np.issubdtype(tri.dtype, np.integer):
-            raise TinStructureError(f"{source}: triangles must be integer vertex indices")
-        tri = tri.astype(np.int64)
-        if tri.size and (tri.min() < 0 or tri.max() >= len(v)):
-            raise TinStructureError(f"{source}: triangle vertex index out of range 0..{len(v) - 1}")
-        if len(tri) == 0:
-            raise TinStructureError(f"{source}: no triangles")
-        if np.any((tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2]) | (tri[:, 0] == tri[:, 2])):
-            bad = int(np.flatnonzero((tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2]) | (tri[:, 0] == tri[:, 2]))[0])
-            raise TinStructureError(f"{source}: triangle {bad} repeats a vertex: {tri[bad].tolist()}")
-
-        # orientation and degenerate triangles
-        p0, p1, p2 = v[tri[:, 0], :2], v[tri[:, 1], :2], v[tri[:, 2], :2]
-        cross = (p1[:, 0] - p0[:, 0]) * (p2[:, 1] - p0[:, 1]) - (p1[:, 1] - p0[:, 1]) * (p2[:, 0] - p0[:, 0])
-        ext = np.ptp(v[:, :2], axis=0)
-        scale2 = float(max(ext[0], ext[1], 1e-300)) ** 2
-        degenerate = np.abs(cross) <= 1e-12 * scale2
-        self.n_degenerate_removed = int(degenerate.sum())
-        tri = tri[~degenerate]
-        cross = cross[~degenerate]
-        if len(tri) == 0:
-            raise TinStructureError(f"{source}: every triangle has zero area (all points collinear?)")
-        cw = cross < 0
-        tri[cw] = tri[cw][:, [0, 2, 1]]
-
-        # drop unused vertices
-        used = np.zeros(len(v), dtype=bool)
-        used[tri.ravel()] = True
-        if not used.all():
-            remap = np.cumsum(used) - 1
-            v = v[used]
-            tri = remap[tri]
-
+        v, tri = _checked_arrays(vertices, triangles, source)
+        v, tri, self.n_degenerate_removed = _orient_ccw(v, tri, source)
+        v, tri = _drop_unused_vertices(v, tri)
         self.source = source
         self.vertices = v
         self.triangles = tri
@@ -165,6 +120,13 @@ class Tin:
         zscale = max(float(np.ptp(self.vertices[:, 2])), 1.0)
         return 1e-12 * scale * scale, 1e-9 * (zscale + float(np.abs(self.vertices[:, 2]).max()))
 
+    @property
+    def tolerances(self) -> tuple[float, float]:
+        """``(area tolerance m^2, height tolerance m)`` of the geometric predicates: a point is
+        inside a triangle when every edge orientation is >= -area tolerance (``1e-12`` of the
+        squared extent); heights within the second (``1e-9`` of the z range plus largest |z|) tie."""
+        return self._tol
+
     @cached_property
     def edges(self) -> np.ndarray:
         """Unique edges ``(E, 2)`` int64 vertex pairs (lower index first)."""
@@ -196,6 +158,11 @@ class Tin:
         arrs = (self.vertices, self.triangles, self.neighbors, self.planes, self.normals,
                 self.slope_deg, self.aspect_deg, self.areas, self._grad)
         return int(sum(a.nbytes for a in arrs))
+
+    @property
+    def index_nbytes(self) -> int:
+        """Bytes held by the point-location grid (built with the TIN), not counted in :attr:`nbytes`."""
+        return int(sum(a.nbytes for a in self._bucket.values() if hasattr(a, "nbytes")))
 
     def __repr__(self) -> str:
         return f"Tin({self.source!r}, {self.n_vertices} vertices, {self.n_triangles} triangles)"
@@ -448,6 +415,65 @@ def _neighbors(tri: np.ndarray, v: np.ndarray, source: str) -> np.ndarray:
     nb[i] = t_idx[j]
     nb[j] = t_idx[i]
     return nb.reshape(T, 3)
+
+
+def _checked_arrays(vertices, triangles, source: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(V, 3)`` float64 vertices and ``(T, 3)`` int64 triangles from the user's arrays, or
+    :class:`TinStructureError` naming ``source`` and the first bad vertex/triangle."""
+    v = np.array(vertices)
+    if not (np.issubdtype(v.dtype, np.integer) or np.issubdtype(v.dtype, np.floating)):
+        raise TinStructureError(f"{source}: vertices must be real numbers, got {v.dtype}")
+    v = v.astype(np.float64)
+    tri = np.array(triangles)
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise TinStructureError(f"{source}: vertices must have shape (V, 3), got {v.shape}")
+    if tri.ndim != 2 or tri.shape[1] != 3:
+        raise TinStructureError(f"{source}: triangles must have shape (T, 3), got {tri.shape}")
+    if not np.all(np.isfinite(v)):
+        raise TinStructureError(f"{source}: vertices contain NaN or infinite coordinates")
+    if np.any(np.abs(v) > MAX_ABS_COORD_M):
+        i = int(np.flatnonzero(np.any(np.abs(v) > MAX_ABS_COORD_M, axis=1))[0])
+        raise TinStructureError(f"{source}: vertex {i} {v[i].tolist()} has a coordinate beyond "
+                                f"{MAX_ABS_COORD_M:g} m (planes and slopes would overflow); check the units")
+    if tri.size and not np.issubdtype(tri.dtype, np.integer):
+        raise TinStructureError(f"{source}: triangles must be integer vertex indices")
+    tri = tri.astype(np.int64)
+    if tri.size and (tri.min() < 0 or tri.max() >= len(v)):
+        raise TinStructureError(f"{source}: triangle vertex index out of range 0..{len(v) - 1}")
+    if len(tri) == 0:
+        raise TinStructureError(f"{source}: no triangles")
+    repeats = (tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2]) | (tri[:, 0] == tri[:, 2])
+    if np.any(repeats):
+        bad = int(np.flatnonzero(repeats)[0])
+        raise TinStructureError(f"{source}: triangle {bad} repeats a vertex: {tri[bad].tolist()}")
+    return v, tri
+
+
+def _orient_ccw(v: np.ndarray, tri: np.ndarray, source: str) -> tuple[np.ndarray, np.ndarray, int]:
+    """Drop zero-area triangles (area below ``1e-12`` of the squared extent) and flip clockwise
+    ones to counter-clockwise: ``(v, tri (T', 3), number dropped)``."""
+    p0, p1, p2 = v[tri[:, 0], :2], v[tri[:, 1], :2], v[tri[:, 2], :2]
+    cross = (p1[:, 0] - p0[:, 0]) * (p2[:, 1] - p0[:, 1]) - (p1[:, 1] - p0[:, 1]) * (p2[:, 0] - p0[:, 0])
+    ext = np.ptp(v[:, :2], axis=0)
+    scale2 = float(max(ext[0], ext[1], 1e-300)) ** 2
+    degenerate = np.abs(cross) <= 1e-12 * scale2
+    tri = tri[~degenerate]
+    cross = cross[~degenerate]
+    if len(tri) == 0:
+        raise TinStructureError(f"{source}: every triangle has zero area (all points collinear?)")
+    cw = cross < 0
+    tri[cw] = tri[cw][:, [0, 2, 1]]
+    return v, tri, int(degenerate.sum())
+
+
+def _drop_unused_vertices(v: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Remove the vertices no triangle uses, renumbering ``tri``."""
+    used = np.zeros(len(v), dtype=bool)
+    used[tri.ravel()] = True
+    if used.all():
+        return v, tri
+    remap = np.cumsum(used) - 1
+    return v[used], remap[tri]
 
 
 def _build_bucket(v: np.ndarray, tri: np.ndarray, per_cell: float = 2.0) -> dict:

@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from .._atomic import atomic_path
-from ..errors import TinFormatError, TinStructureError
+from ..errors import ArgumentError, TinFormatError, TinStructureError
+from ._text import numeric_rows
 from .tin import Tin
 
 __all__ = ["save_tin", "load_tin"]
@@ -33,7 +34,7 @@ def save_tin(tin: Tin, path) -> Path:
     p = Path(os.fspath(path))
     suffix = p.suffix.lower()
     if suffix not in (".tin", ".npz", ".txt"):
-        raise ValueError(f"{p}: unknown TIN suffix {suffix!r}; expected .tin (thesis text) or .npz")
+        raise ArgumentError(f"path {p}: unknown TIN suffix {suffix!r}; expected .tin (thesis text) or .npz")
     with atomic_path(p) as tmp, open(tmp, "wb") as fh:
         if suffix == ".npz":
             np.savez(fh, vertices=tin.vertices, triangles=tin.triangles, format=np.array(NPZ_FORMAT))
@@ -74,22 +75,10 @@ def _load_npz(p: Path) -> Tin:
 
 def _load_text(p: Path) -> Tin:
     rows = []
-    with open(p, encoding="utf-8", errors="replace") as fh:
-        for i, line in enumerate(fh, start=1):
-            s = line.split("#", 1)[0].replace(",", " ").split()
-            if not s:
-                continue
-            if len(s) != 9:
-                raise TinFormatError(
-                    f"{p}:{i}: expected 9 numbers 'x1 y1 z1 x2 y2 z2 x3 y3 z3', found {len(s)}"
-                )
-            try:
-                vals = [float(x) for x in s]
-            except ValueError:
-                raise TinFormatError(f"{p}:{i}: not a number in {line.strip()!r}") from None
-            if not np.all(np.isfinite(vals)):
-                raise TinFormatError(f"{p}:{i}: NaN or infinite coordinate in {line.strip()!r}")
-            rows.append(vals)
+    for i, vals, line in numeric_rows(p, "x1 y1 z1 x2 y2 z2 x3 y3 z3", TinFormatError):
+        if not np.all(np.isfinite(vals)):
+            raise TinFormatError(f"{p}:{i}: NaN or infinite coordinate in {line.strip()!r}")
+        rows.append(vals)
     if not rows:
         raise TinFormatError(f"{p}: empty TIN file (no triangle lines)")
     corners = np.asarray(rows, dtype=np.float64).reshape(-1, 3)  # (3T, 3)
