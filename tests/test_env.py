@@ -246,6 +246,18 @@ def test_arriving_and_running_dry_in_one_step_is_an_arrival_a_fall_beats_both():
     np.testing.assert_allclose(r, np.float32([w.arrival, w.battery_empty, w.fall]), rtol=1e-6)
 
 
+def test_state_keeps_its_space_when_a_reset_changes_the_target_count():
+    env = make()  # cliff_goal: one target, one slot
+    assert env.state_space.shape == (6 * 6 + 2,)
+    env.reset(seed=0, options={"target_positions": np.zeros((0, 2))})
+    st = env.state()
+    assert env.state_space.contains(st) and np.all(st[-2:] == 0)  # the empty slot is 0
+    g = env.config.targets.positions[0]
+    env.reset(seed=0, options={"target_positions": [g, g]})
+    with pytest.raises(tse.TinSwarmError, match="2 targets .* state_space holds 1"):
+        env.state()
+
+
 def test_batched_path_matches_the_dict_api():
     a, b = make(), make()
     oa, _ = a.reset(seed=9)
