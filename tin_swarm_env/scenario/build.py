@@ -289,14 +289,15 @@ def initial_state(world: World, cfg: ScenarioConfig, rng: np.random.Generator, n
         pos = np.asarray(robot_positions, dtype=np.float64)
         if pos.shape != (n_robots, 2):
             raise ArgumentError(f"robot_positions must have shape ({n_robots}, 2), got {pos.shape}")
-    tg, at = _entity_positions(world, cfg, rng, target_positions)
+    region = cfg.robots.spawn_region if spawn_region is None else spawn_region
+    tg, at = _entity_positions(world, cfg, rng, region, target_positions)
     return world.reset(rng, pos, headings, targets=tg, targets_mobile=cfg.targets.mobile, assets=at,
                        assets_mobile=cfg.assets.mobile)
 
 
-def _entity_positions(world, cfg, rng, target_positions=None):
-    """``(targets (m, 2), assets (k, 2))`` for a reset: ``target_positions`` when given."""
-    region = cfg.robots.spawn_region
+def _entity_positions(world, cfg, rng, region, target_positions=None):
+    """``(targets (m, 2), assets (k, 2))`` for a reset: ``target_positions`` when given; counted
+    ones reachable from the spawn ``region`` the robots use (a generated task's own)."""
     if target_positions is None:
         tg = place_entities(world, cfg.targets, rng, spawn_region=region, label=f"{cfg.source} [targets]")
     else:
