@@ -80,8 +80,8 @@ class GeodesicPolicy:
     ``~env.world.steep`` and over its :func:`eroded` part) and cached by target index within an
     episode: a static target's field is rebuilt whenever its position differs, a mobile target's
     once it has moved more than ``rebuild_m``; :meth:`reset` (call it after each env reset) drops
-    them all, and so does a change of ``env.tin`` (generated terrains make a new one per reset). ``fields``: ``("robot",)`` (default) or
-    ``()`` to switch the robot field off.
+    them all, and so does a change of ``env.tin`` (generated terrains make a new one per reset).
+    ``fields``: ``("robot",)`` (default) or ``()`` to switch the robot field off.
     """
 
     def __init__(self, env, fields=("robot",), params: FieldParams | None = None, clear_m: float | None = None,

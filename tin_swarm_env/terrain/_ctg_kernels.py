@@ -627,8 +627,8 @@ def windows(nx, ny, vx, vy, tris, nbrs, te, ea, vorig, passable, tri_nodes, star
         ehead[e] = w
         _cover(e, wf[w, 6], wf[w, 7], rx, ry, rd, wi[w, 2], ea_v, eb_v, m, V, nx, ny, dist, parent, corner, spawned,
                pend, stack, st)
-        wf, wi, links, heap = _children(w, t, k, vx, vy, tris, nbrs, te, ea, vorig, passable, m, V, nx, ny, dist, parent,
-                                        corner, spawned, pend, stack, st, wf, wi, links, heap, phead)
+        wf, wi, links, heap = _children(w, t, k, vx, vy, tris, nbrs, te, ea, vorig, passable, m, V, nx, ny, dist,
+                                        parent, corner, spawned, pend, stack, st, wf, wi, links, heap, phead)
     n = st[0]
     return dist, parent, wf[:n].copy(), wi[:n].copy()
 
