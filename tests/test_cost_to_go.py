@@ -43,24 +43,7 @@ def disc_obstacles(tin, rng, n_discs):
 
 def has_pinch(tin, passable):
     """Whether passable ground is pinched at a vertex (two passable fans touching only there)."""
-    for v in range(tin.n_vertices):
-        fan = np.flatnonzero((tin.triangles == v).any(axis=1) & passable)
-        if len(fan) < 2:
-            continue
-        comp = {int(t): int(t) for t in fan}
-
-        def root(x):
-            while comp[x] != x:
-                x = comp[x]
-            return x
-        for t in fan:
-            for k in range(3):
-                nb = int(tin.neighbors[t, k])
-                if nb in comp and tin.triangles[t, k] != v:  # the edge opposite k holds v
-                    comp[root(int(t))] = root(nb)
-        if len({root(int(t)) for t in fan}) > 1:
-            return True
-    return False
+    return len(reference.pinch_vertices_brute(tin, passable)) > 0
 
 
 # -- exact answers ------------------------------------------------------------------------
@@ -319,6 +302,24 @@ def test_a_step_along_direction_lowers_distance_by_the_step(seed):
 
 
 # -- compiled kernels against their plain references --------------------------------------
+
+
+@given(st.integers(0, 10_000), st.integers(1, 6))
+def test_split_fans_matches_the_connected_components_reference(seed, n_discs):
+    """split_fans against scipy's connected components of the corners: the same pinch vertices,
+    and two passable corners share a vertex id after the split iff they share a fan."""
+    tin, passable, _, _ = obstacle_case(seed, n=25, n_discs=n_discs)
+    tris2, vorig = K.split_fans(tin.triangles, tin.neighbors, passable, tin.n_vertices)
+    np.testing.assert_array_equal(tse.terrain.pinch_vertices(tin, passable),
+                                  reference.pinch_vertices_brute(tin, passable))
+    np.testing.assert_array_equal(vorig[tris2], tin.triangles)  # every corner keeps its place
+    lab = reference.fan_labels_brute(tin, passable)
+    ok = lab >= 0
+    pairs_kernel = np.unique(np.stack([tin.triangles[ok], tris2[ok]], axis=1), axis=0)
+    pairs_ref = np.unique(np.stack([tin.triangles[ok], lab[ok]], axis=1), axis=0)
+    assert len(pairs_kernel) == len(pairs_ref)  # as many (vertex, fan) pairs
+    both = np.unique(np.stack([tris2[ok], lab[ok]], axis=1), axis=0)
+    assert len(both) == len(pairs_ref)  # and the same grouping
 
 
 @given(st.integers(0, 10_000))

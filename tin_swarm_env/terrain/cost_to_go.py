@@ -48,8 +48,9 @@ Why not the alternatives:
   obtuse ones); an exact visibility graph costs O(n^2) visibility tests per goal.
 
 Measured (``nice -n 10 python bench/cost_to_go.py``, jacksboro greedy, median of 5, CPU time
-of the process on a shared 2-core machine; wall time under load about twice): build 10 ms /
-46 ms / 0.30 s at 5k / 20k / 80k triangles (target 50 ms at 20k: met in CPU time), about 1 window
+of the process on a shared 2-core machine; wall time under load about twice): build 9 ms /
+52 ms / 0.30 s at 5k / 20k / 80k triangles (splitting the pinches, 98 at 80k, is within the
+noise; target 50 ms at 20k: about met in CPU time), about 1 window
 per edge; queries 1.0e7 points/s with known triangles at 20k (4.6e6 with point location), 4e6
 at 80k (target 1e6: met). Flat TIN: error 2e-14 %.
 """

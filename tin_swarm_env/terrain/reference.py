@@ -9,7 +9,7 @@ import numpy as np
 
 __all__ = ["locate_brute", "line_of_sight_brute", "line_of_sight_dense", "height_brute", "single_surface_brute",
            "on_passable_brute", "cost_to_go_graph_brute", "cost_to_go_grid",
-           "cost_to_go_visibility_brute", "fan_labels_brute"]
+           "cost_to_go_visibility_brute", "fan_labels_brute", "pinch_vertices_brute"]
 
 
 def _bary(tin, pts):
@@ -187,6 +187,14 @@ def fan_labels_brute(tin, passable) -> np.ndarray:
     r, c = np.concatenate(rows), np.concatenate(cols)
     _, lab = connected_components(coo_matrix((np.ones(len(r)), (r, c)), shape=(3 * T, 3 * T)), directed=False)
     return np.where(passable[:, None], lab.reshape(T, 3), -1)
+
+
+def pinch_vertices_brute(tin, passable) -> np.ndarray:
+    """``(P,)`` int, sorted: vertices with two or more fans (:func:`fan_labels_brute`)."""
+    lab = fan_labels_brute(tin, passable)
+    vf = np.unique(np.stack([tin.triangles[lab >= 0], lab[lab >= 0]], axis=1), axis=0)
+    v, cnt = np.unique(vf[:, 0], return_counts=True)
+    return v[cnt > 1]
 
 
 def _in_fan(tin, lab, v, f, d) -> np.ndarray:
