@@ -43,24 +43,7 @@ def disc_obstacles(tin, rng, n_discs):
 
 def has_pinch(tin, passable):
     """Whether passable ground is pinched at a vertex (two passable fans touching only there)."""
-    for v in range(tin.n_vertices):
-        fan = np.flatnonzero((tin.triangles == v).any(axis=1) & passable)
-        if len(fan) < 2:
-            continue
-        comp = {int(t): int(t) for t in fan}
-
-        def root(x):
-            while comp[x] != x:
-                x = comp[x]
-            return x
-        for t in fan:
-            for k in range(3):
-                nb = int(tin.neighbors[t, k])
-                if nb in comp and tin.triangles[t, k] != v:  # the edge opposite k holds v
-                    comp[root(int(t))] = root(nb)
-        if len({root(int(t)) for t in fan}) > 1:
-            return True
-    return False
+    return len(reference.pinch_vertices_brute(tin, passable)) > 0
 
 
 # -- exact answers ------------------------------------------------------------------------
@@ -100,6 +83,35 @@ def test_enclosed_mesa_is_unreachable():
     ctg2 = cost_to_go(tin, [5.0, 5.0], passable=~ring)
     assert ctg2.distance_at([[50.0, 50.0]])[0] == np.inf
     assert not ctg2.triangle_reachable()[tin.locate([[50.0, 50.0]])[0]]
+
+
+def test_no_path_passes_a_pinch_vertex():
+    """Squares (1, 1) and (2, 2) steep: squares (1, 2) and (2, 1) touch only at vertex (20, 20), a
+    pinch. The straight line (14.1 m) through it is not drivable; the detour round either steep
+    square is 2 * 50**0.5 + 20 m. With (2, 2) passable too there is no pinch: straight again."""
+    tin, cells = grid_tin(4, 4, 10.0)
+    steep = ((cells[:, 0] == 1) & (cells[:, 1] == 1)) | ((cells[:, 0] == 2) & (cells[:, 1] == 2))
+    p, g = np.array([[15.0, 25.0]]), np.array([25.0, 15.0])
+    detour = 20.0 + 2 * math.sqrt(50.0)
+    for m, any_angle in ((1, True), (0, True), (3, True)):
+        ctg = cost_to_go(tin, g, ~steep, steiner_per_edge=m, any_angle=any_angle)
+        assert ctg.pinch_vertices.tolist() == [12]
+        assert ctg.distance_at(p)[0] == pytest.approx(detour, rel=1e-9)
+        # near the pinch on either side: round the steep square, never through the point
+        q = np.array([[19.0, 21.0], [21.0, 19.0]])
+        d = ctg.distance_at(q)
+        assert d[1] == pytest.approx(math.hypot(4.0, 4.0), rel=1e-9)  # same side as the goal
+        assert d[0] == pytest.approx(math.hypot(9.0, 1.0) + 20.0 + math.sqrt(50.0), rel=1e-9)
+    plain = cost_to_go(tin, g, ~steep, steiner_per_edge=1, any_angle=False).distance_at(p)[0]
+    assert plain >= detour - 1e-9 and np.isfinite(plain)
+    # the pinch's two fans separated from the rest: nothing joins them, inf
+    only = (cells[:, 0] == 1) & (cells[:, 1] == 2) | (cells[:, 0] == 2) & (cells[:, 1] == 1)
+    for any_angle in (True, False):
+        assert cost_to_go(tin, g, only, any_angle=any_angle).distance_at(p)[0] == np.inf
+    one = (cells[:, 0] == 1) & (cells[:, 1] == 1)
+    ctg = cost_to_go(tin, g, ~one)
+    assert len(ctg.pinch_vertices) == 0
+    assert ctg.distance_at(p)[0] == pytest.approx(math.hypot(10.0, 10.0), rel=1e-9)
 
 
 def test_goal_on_impassable_ground_is_unreachable_everywhere():
@@ -258,10 +270,17 @@ def test_corners_are_reflex_or_pinched_boundary_vertices():
     c = K.corners(tin._vx, tin._vy, tin.triangles, tin.neighbors, ~one)
     assert set(np.flatnonzero(c)) == {6, 7, 11, 12}
     assert not K.corners(tin._vx, tin._vy, tin.triangles, tin.neighbors, np.ones(tin.n_triangles, bool)).any()
-    # two squares touching at vertex 12 only (a pinch): 12 is a corner though each side turns < 180 deg
+    # two squares touching at vertex 12 only (a pinch): split into one vertex per fan (12 and a
+    # copy 25 at the same place), neither a corner (each side turns < 180 deg)
     two = ((cells[:, 0] == 1) & (cells[:, 1] == 1)) | ((cells[:, 0] == 2) & (cells[:, 1] == 2))
-    c = K.corners(tin._vx, tin._vy, tin.triangles, tin.neighbors, two)
-    assert c[12] and not c[6] and c.sum() == 1
+    tris2, vorig = K.split_fans(tin.triangles, tin.neighbors, two, tin.n_vertices)
+    np.testing.assert_array_equal(vorig, np.r_[np.arange(25), 12])
+    np.testing.assert_array_equal(tris2[~two], tin.triangles[~two])
+    fan2 = two & (cells[:, 0] == 2)
+    assert (tris2[fan2] == 25).sum() == 2 and not (tris2[~fan2] == 25).any()
+    assert not K.corners(tin._vx[vorig], tin._vy[vorig], tris2, tin.neighbors, two).any()
+    assert tse.terrain.pinch_vertices(tin, two).tolist() == [12]
+    assert len(tse.terrain.pinch_vertices(tin, ~one)) == 0
 
 
 @given(st.integers(0, 10_000))
@@ -285,6 +304,24 @@ def test_a_step_along_direction_lowers_distance_by_the_step(seed):
 # -- compiled kernels against their plain references --------------------------------------
 
 
+@given(st.integers(0, 10_000), st.integers(1, 6))
+def test_split_fans_matches_the_connected_components_reference(seed, n_discs):
+    """split_fans against scipy's connected components of the corners: the same pinch vertices,
+    and two passable corners share a vertex id after the split iff they share a fan."""
+    tin, passable, _, _ = obstacle_case(seed, n=25, n_discs=n_discs)
+    tris2, vorig = K.split_fans(tin.triangles, tin.neighbors, passable, tin.n_vertices)
+    np.testing.assert_array_equal(tse.terrain.pinch_vertices(tin, passable),
+                                  reference.pinch_vertices_brute(tin, passable))
+    np.testing.assert_array_equal(vorig[tris2], tin.triangles)  # every corner keeps its place
+    lab = reference.fan_labels_brute(tin, passable)
+    ok = lab >= 0
+    pairs_kernel = np.unique(np.stack([tin.triangles[ok], tris2[ok]], axis=1), axis=0)
+    pairs_ref = np.unique(np.stack([tin.triangles[ok], lab[ok]], axis=1), axis=0)
+    assert len(pairs_kernel) == len(pairs_ref)  # as many (vertex, fan) pairs
+    both = np.unique(np.stack([tris2[ok], lab[ok]], axis=1), axis=0)
+    assert len(both) == len(pairs_ref)  # and the same grouping
+
+
 @given(st.integers(0, 10_000))
 def test_plain_graph_matches_scipy_dijkstra(seed):
     tin, passable, goal, _ = obstacle_case(seed, n=25)
@@ -301,12 +338,15 @@ def test_compiled_kernels_match_py_func(seed, any_angle):
     gt = np.flatnonzero(ctg.goal_triangles)
     if any_angle:
         te, n_edges = K.triangle_edges(tin.triangles, tin.neighbors)
-        corner = K.corners(tin._vx, tin._vy, tin.triangles, tin.neighbors, passable)
-        np.testing.assert_array_equal(corner, K.corners.py_func(tin._vx, tin._vy, tin.triangles, tin.neighbors,
+        for a, b in zip(K.split_fans(tin.triangles, tin.neighbors, passable, tin.n_vertices),
+                        K.split_fans.py_func(tin.triangles, tin.neighbors, passable, tin.n_vertices)):
+            np.testing.assert_array_equal(a, b)
+        corner = K.corners(ctg._vx, ctg._vy, ctg._tris, tin.neighbors, passable)
+        np.testing.assert_array_equal(corner, K.corners.py_func(ctg._vx, ctg._vy, ctg._tris, tin.neighbors,
                                                                 passable))
-        args = (ctg._nx, ctg._ny, tin._vx, tin._vy, tin.triangles, tin.neighbors, te,
-                K.edge_starts(tin.triangles, te, n_edges), ctg.passable, ctg._tri_nodes, ctg._start, ctg._node_tris,
-                corner, gt, goal[0], goal[1], 1)
+        args = (ctg._nx, ctg._ny, ctg._vx, ctg._vy, ctg._tris, tin.neighbors, te,
+                K.edge_starts(tin.triangles, te, n_edges), ctg._vorig, ctg.passable, ctg._tri_nodes, ctg._start,
+                ctg._node_tris, corner, gt, goal[0], goal[1], 1)
         fn = K.windows
     else:
         seeds = np.unique(ctg._tri_nodes[gt].ravel())
@@ -318,7 +358,7 @@ def test_compiled_kernels_match_py_func(seed, any_angle):
     q = rng.uniform(-10, 1010, (200, 2))
     t = tin.locate(q)
     qargs = (ctg._nx, ctg._ny, ctg.node_distance, ctg._parent, ctg._tri_nodes, ctg.passable, ctg.goal_triangles,
-             goal[0], goal[1], tin._vx, tin._vy, tin.triangles, tin.neighbors, ctg._wstart, ctg._wgeo, ctg._wroot,
+             goal[0], goal[1], ctg._vx, ctg._vy, ctg._tris, tin.neighbors, ctg._wstart, ctg._wgeo, ctg._wroot,
              q[:, 0].copy(), q[:, 1].copy(), t, tin._tol[0], 1e-6)
     for a, b in zip(K.query(*qargs), K.query.py_func(*qargs)):
         np.testing.assert_array_equal(a, b)

@@ -129,3 +129,33 @@ def test_entity_and_reward_specs_name_the_field_through_the_shared_checks():
     with pytest.raises(ParameterError, match=r"RewardWeights\.progress must be 'geodesic' or 'euclidean'"):
         RewardWeights(progress="manhattan")
     assert EntitiesSpec(count=2, region=(0.0, 0.0, 5.0, 8.0)).n == 2  # a good one passes
+
+
+def test_spawn_reachable_and_reaches_region_sample_the_region_alike():
+    """Steep everywhere but one 10 m island square [30, 40]^2 and a passable strip along y < 10:
+    "from some point of the whole terrain" must mean the same for both checks (a 5 x 5 lattice
+    would miss the island, which lies between its points)."""
+    from tin_swarm_env.scenario.build import reaches_region, spawn_reachable
+    from tin_swarm_env.world import World
+
+    xs, ys = np.meshgrid(np.arange(11) * 10.0, np.arange(11) * 10.0)
+    v = np.column_stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)])
+    tris, cells = [], []
+    for r in range(10):
+        for c in range(10):
+            a, b, d, e = 11 * r + c, 11 * r + c + 1, 11 * (r + 1) + c + 1, 11 * (r + 1) + c
+            tris += [[a, b, d], [a, d, e]]
+            cells += [(c, r)] * 2
+    cells = np.array(cells)
+    world = World(tse.terrain.Tin(v, tris))
+    island = (cells[:, 0] == 3) & (cells[:, 1] == 3)
+    world.steep = ~(island | (cells[:, 1] == 0))
+    for region in (None, (0.0, 0.0, 100.0, 100.0), (31.0, 31.0, 32.0, 32.0), (50.0, 50.0, 90.0, 90.0)):
+        reach = spawn_reachable(world, region)
+        for t in np.flatnonzero(~world.steep):
+            f = tse.terrain.cost_to_go(world.tin, world.tin.vertices[world.tin.triangles[t], :2].mean(axis=0),
+                                       ~world.steep)
+            assert reach[t] == reaches_region(f, region), (region, t)
+    assert spawn_reachable(world, None)[island].all()
+    assert not spawn_reachable(world, (31.0, 31.0, 32.0, 32.0))[cells[:, 1] == 0].any()
+    assert not spawn_reachable(world, (50.0, 50.0, 90.0, 90.0)).any()

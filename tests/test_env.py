@@ -226,6 +226,38 @@ def test_arrival_terminates_with_reason_arrived():
     assert info["robot_0"]["reason"] == "arrived" and r["robot_0"] > env.config.rewards.arrival
 
 
+def test_arriving_and_running_dry_in_one_step_is_an_arrival_a_fall_beats_both():
+    """compute_rewards by hand: robot 0 arrives and empties its battery (ARRIVED, +arrival, no
+    battery penalty), robot 1 only empties it (BATTERY), robot 2 arrives but fell (FELL)."""
+    from types import SimpleNamespace
+
+    from tin_swarm_env.env.reward import compute_rewards
+
+    cfg = tse.parallel_env(scenario="flat", n_robots=1).config
+    w = cfg.rewards
+    tg = np.array([[0.0, 0.0]])
+    state = SimpleNamespace(n_robots=3, positions=np.array([[1.0, 0.0], [500.0, 0.0], [0.0, 1.0]]),
+                            targets=SimpleNamespace(positions=tg))
+    ev = SimpleNamespace(energy_j=np.zeros(3), collisions=np.zeros(3), fell=np.array([False, False, True]),
+                         emptied=np.array([True, True, False]))
+    d = np.full(3, 10.0)
+    r, term, why = compute_rewards(cfg, d, d, state, ev, np.zeros(3, dtype=np.int64), np.ones(3, dtype=bool))
+    assert why.tolist() == [tse.Reason.ARRIVED, tse.Reason.BATTERY, tse.Reason.FELL] and term.all()
+    np.testing.assert_allclose(r, np.float32([w.arrival, w.battery_empty, w.fall]), rtol=1e-6)
+
+
+def test_state_keeps_its_space_when_a_reset_changes_the_target_count():
+    env = make()  # cliff_goal: one target, one slot
+    assert env.state_space.shape == (6 * 6 + 2,)
+    env.reset(seed=0, options={"target_positions": np.zeros((0, 2))})
+    st = env.state()
+    assert env.state_space.contains(st) and np.all(st[-2:] == 0)  # the empty slot is 0
+    g = env.config.targets.positions[0]
+    env.reset(seed=0, options={"target_positions": [g, g]})
+    with pytest.raises(tse.TinSwarmError, match="2 targets .* state_space holds 1"):
+        env.state()
+
+
 def test_batched_path_matches_the_dict_api():
     a, b = make(), make()
     oa, _ = a.reset(seed=9)

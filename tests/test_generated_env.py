@@ -26,10 +26,23 @@ def test_seeds_draw_terrains_and_the_same_seed_the_same_terrain_bit_for_bit():
         b.reset(seed=seed)
         for x, y in zip(seen[seed], _terrain(b), strict=True):  # vertices, triangles, robots
             np.testing.assert_array_equal(x, y)
-    assert not np.array_equal(seen[0][0], seen[1][0]) or not np.array_equal(seen[0][1], seen[1][1])
+    assert not np.array_equal(seen[0][0], seen[1][0]) and not np.array_equal(seen[0][1], seen[1][1])
     assert not np.array_equal(seen[1][0], seen[2][0])
     a.reset()  # no seed: the stream goes on, a new terrain
     assert not any(np.array_equal(a.tin.vertices, v) for v, *_ in seen)
+
+
+def _edge_pieces(tin, passable):
+    """``(T,)`` int: connected piece of each passable triangle over shared edges (-1: steep)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    t = np.repeat(np.arange(tin.n_triangles), 3)
+    nb = tin.neighbors.ravel()
+    ok = (nb >= 0) & passable[t] & passable[np.maximum(nb, 0)]
+    g = coo_matrix((np.ones(ok.sum()), (t[ok], nb[ok])), shape=(tin.n_triangles,) * 2)
+    lab = connected_components(g, directed=False)[1]
+    return np.where(passable, lab, -1)
 
 
 def test_spaces_never_change_and_every_task_is_solvable():
@@ -50,6 +63,11 @@ def test_spaces_never_change_and_every_task_is_solvable():
         d = np.array([infos[a]["distance_to_go_m"] for a in env.possible_agents])
         straight = np.hypot(*(env.task.targets[0] - p).T)
         assert np.all(np.isfinite(d)) and np.all(d >= straight - 1e-9)
+        # solvable by an independent test: every robot's triangle and the target's are in one
+        # piece of passable triangles joined by shared edges (never through a pinch vertex)
+        piece = _edge_pieces(env.tin, ~env.world.steep)
+        t_goal = env.tin.locate(env.task.targets)[0]
+        assert np.all(piece[env.world_state.tri_idx] == piece[t_goal]) and piece[t_goal] >= 0
         assert all(obs_space.contains(o) for o in obs.values())
     assert families == {"canyon", "mesa", "hills"}
 
@@ -82,6 +100,7 @@ def test_resample_once_keeps_one_terrain(tmp_path):
     ({"resample": "always"}, {}, r"g\.toml \[terrain\].*'resample' must be 'reset' or 'once'"),
     ({"families": "canyon"}, {}, r"g\.toml \[terrain\].*'families' must be a list"),
     ({}, {"targets": {"positions": [[1.0, 1.0]]}}, r"g\.toml \[targets\].*must be empty"),
+    ({}, {"targets": {"count": 2}}, r"g\.toml \[targets\].*'count' must be empty"),
     ({}, {"robots": {"spawn_region": [0.0, 0.0, 9.0, 9.0]}}, r"g\.toml \[robots\].*spawn_region"),
     ({}, {"task": "containment"}, r"g\.toml \[terrain\].*goal task"),
 ])
@@ -89,6 +108,21 @@ def test_generated_settings_are_checked_at_load_with_the_file_named(terrain, ext
     d = {"terrain": {"source": "generated", **terrain}, **extra}
     with pytest.raises(ScenarioError, match=match):
         scenario_from_dict(d, source="g.toml")
+
+
+def test_counted_assets_are_placed_reachable_from_the_generated_spawn_region(tmp_path, monkeypatch):
+    from tin_swarm_env.scenario import build
+
+    p = tmp_path / "assets.toml"
+    p.write_text('[terrain]\nsource = "generated"\n[robots]\ncount = 3\n[assets]\ncount = 2\n')
+    env = tse.parallel_env(scenario=str(p))
+    seen = []
+    real = build.place_entities
+    monkeypatch.setattr(build, "place_entities", lambda *a, **k: seen.append(k["spawn_region"]) or real(*a, **k))
+    env.reset(seed=3)
+    assert seen and seen[-1] == env.task.spawn_region  # not the scenario's (None) region
+    reach = build.spawn_reachable(env.world, env.task.spawn_region)
+    assert len(env.world_state.assets) == 2 and reach[env.world_state.assets.tri_idx].all()
 
 
 def test_builtin_generated_scenario():

@@ -263,6 +263,17 @@ def test_solvable_redraws_from_the_same_stream_and_gives_up_after_max_tries():
         generate(np.random.default_rng(5), solvable=lambda t: False, max_tries=4)
 
 
+def test_a_draw_that_does_not_fit_its_map_is_drawn_again_and_counts_toward_max_tries():
+    """User ranges pass validate_ranges one key at a time; a canyon 30 m high on a 5 deg ramp
+    fits only a map of about 375 m or more, so most draws of size 100-400 m misfit."""
+    r = {"canyon": {"size_m": [100.0, 400.0], "cliff_m": [30.0, 30.0], "ramp_slope_deg": [5.0, 5.0]}}
+    t = generate(np.random.default_rng(2), families=("canyon",), ranges=r)  # seed 2: the 2nd draw fits
+    assert t.params["size_m"] > 375.0
+    assert same(replay(t), t)
+    with pytest.raises(ScenarioError, match="no solvable task in 1 draws .*last misfit: canyon: a pass"):
+        generate(np.random.default_rng(2), families=("canyon",), ranges=r, max_tries=1)
+
+
 def tin_route(task, tin):
     """Side ("left"/"right") of the shortest route over passable triangles from the spawn centre to
     the target (triangle adjacency, centroid hops), read where the route is halfway down; None when

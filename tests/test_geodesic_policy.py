@@ -1,4 +1,4 @@
-"""GeodesicPolicy, the map-knowing reference (issue 11): pinch splitting and erosion on hand-built
+"""GeodesicPolicy, the map-knowing reference (issue 11): no path through a pinch, erosion on hand-built
 TINs with exact answers, the wall clearance by hand, arrival with 0 falls and the pass side on the
 canyon terrains (a reduced budget; bench/apf.py runs the full table)."""
 
@@ -11,8 +11,8 @@ import pytest
 import tin_swarm_env as tse
 from tin_swarm_env.apps.rollout import rollout
 from tin_swarm_env.policies import GeodesicPolicy
-from tin_swarm_env.policies.geodesic import clear_of_breaks, eroded, pinch_vertices, split_pinches
-from tin_swarm_env.terrain import Tin, cost_to_go
+from tin_swarm_env.policies.geodesic import clear_of_breaks, eroded
+from tin_swarm_env.terrain import Tin, cost_to_go, pinch_vertices
 from tin_swarm_env.world import World
 from tin_swarm_env.world.state import Reason
 
@@ -40,23 +40,14 @@ def _squares(tin, which):
     return ok
 
 
-def test_a_pinch_is_found_and_split_so_no_path_runs_through_it():
+def test_the_plain_field_never_runs_through_a_pinch():
     tin = _grid_tin()
     ok = _squares(tin, [(0, 0), (1, 1)])  # SW and NE squares touch only at the centre (10, 10)
     assert pinch_vertices(tin, ok).tolist() == [4]
-    before = cost_to_go(tin, (15.0, 15.0), ok).distance_at([[5.0, 5.0]])[0]
-    assert before == pytest.approx(np.hypot(10, 10))  # straight through the vertex
-    split = split_pinches(tin, ok)
-    assert split.n_triangles == tin.n_triangles and split.n_vertices == tin.n_vertices + 2
-    np.testing.assert_array_equal(split.triangles[~ok], tin.triangles[~ok])  # steep ones keep the vertex
-    assert np.isinf(cost_to_go(split, (15.0, 15.0), ok).distance_at([[5.0, 5.0]])[0])
-    # the copies sit a hair inside their own fans
-    new = split.vertices[tin.n_vertices:, :2]
-    assert np.all(np.hypot(*(new - 10.0).T) < 1e-3)
-    assert sorted(np.sign(new - 10.0).sum(axis=1).tolist()) == [-2.0, 2.0]
-    # an L of three squares round one steep square: one fan at the centre, nothing to split
+    assert np.isinf(cost_to_go(tin, (15.0, 15.0), ok).distance_at([[5.0, 5.0]])[0])
+    # an L of three squares round one steep square: one fan at the centre, the straight line
     ok3 = _squares(tin, [(0, 0), (1, 0), (1, 1)])
-    assert len(pinch_vertices(tin, ok3)) == 0 and split_pinches(tin, ok3) is tin
+    assert len(pinch_vertices(tin, ok3)) == 0
     assert cost_to_go(tin, (15.0, 15.0), ok3).distance_at([[5.0, 5.0]])[0] == pytest.approx(np.hypot(10, 10))
 
 
@@ -115,16 +106,32 @@ def test_geodesic_arrives_through_an_unseen_canyon_pass_on_the_right():
     assert out.count(Reason.FELL) == 0 and out.count(Reason.ARRIVED) == 10, out.counts()
 
 
-def test_fields_are_dropped_when_the_terrain_changes():
+def test_fields_are_dropped_on_reset_and_when_the_terrain_changes():
     env = tse.parallel_env(scenario="cliff_goal", n_robots=3)
     env.reset_arrays(seed=0)
     pol = GeodesicPolicy(env)
     pol.directions(np.arange(3))
     assert set(pol._fields) == {0}
     full = pol._fields[0][0]
+    pol.directions(np.arange(3))
+    assert pol._fields[0][0] is full  # same target, same place: kept
     pol.reset()
-    assert pol._fields[0][0] is full  # same terrain: kept
+    assert pol._fields == {}  # a reset may place the targets anew: dropped
+    pol.directions(np.arange(3))
     other = tse.parallel_env(scenario="ramp").world.tin
     env._world = World(other, env.world.params)  # a new terrain, as a generated scenario's reset makes
-    pol.reset()
+    pol._sync()
     assert pol._fields == {} and pol._tin is other
+
+
+def test_a_static_target_moved_a_little_gets_a_new_field_a_mobile_one_within_rebuild_m_does_not():
+    env = tse.parallel_env(scenario="cliff_goal", n_robots=3)
+    env.reset_arrays(seed=0)
+    pol = GeodesicPolicy(env)
+    g = env.world_state.targets.positions[0]
+    a = pol.field(0, g)
+    assert pol.field(0, g) is a
+    b = pol.field(0, g + [1.0, 0.0])  # static: 1 m is a different target
+    assert b is not a and np.allclose(b[0].goal_xy, g + [1.0, 0.0])
+    assert pol.field(0, g + [2.0, 0.0], mobile=True) is b  # mobile: within rebuild_m (5 m)
+    assert pol.field(0, g + [7.0, 0.0], mobile=True) is not b

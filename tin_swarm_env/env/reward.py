@@ -3,17 +3,22 @@
 Progress is measured by a *distance to go* ``d`` (n,) m, to each robot's assigned target:
 with ``[rewards] progress = "geodesic"`` (the default) the length of the shortest drivable path
 (the target's :class:`~tin_swarm_env.terrain.CostToGo` field, over triangles no steeper than the
-robots' ``max_slope_deg``), with ``"euclidean"`` the straight line. The geodesic reward is
-potential-based shaping (the potential is ``-d``; it does not change which policy is optimal) and
-it does not pay a robot to walk to a cliff edge above the target. ``d`` is ``inf`` where the
-target cannot be reached (a robot on a too-steep triangle, or cut off); the progress of a step
-where either distance is ``inf`` is 0, so rewards stay finite. **Mobile targets** use the
+robots' ``max_slope_deg``), with ``"euclidean"`` the straight line. The geodesic reward does
+not pay a robot to walk to a cliff edge above the target. The progress term ``d - d'`` is
+potential-based shaping (Ng, Harada and Russell 1999: ``F = gamma * Phi(s') - Phi(s)`` with
+``Phi = -d``, which leaves the optimal policy unchanged) only for ``gamma = 1``; with a learner's
+``gamma < 1`` it differs from that ``F`` by ``(1 - gamma) * d'`` per step, a small bias toward
+being near the target. ``d`` is ``inf`` where the target cannot be reached (a robot on a
+too-steep triangle, or cut off); the progress of a step where either distance is ``inf`` is 0, so
+rewards stay finite, which also breaks the shaping property on such steps. **Mobile targets** use the
 straight line whatever ``progress`` says (a field is built for a target's start position only:
 rebuilding it as the target wanders would cost a field build every few steps); the env warns at
 construction when that applies.
 
 Goal task: progress is the decrease of ``d``; reaching the target (straight-line distance within
-``arrival_radius_m``) pays ``arrival`` and terminates with reason "arrived". Containment:
+``arrival_radius_m``) pays ``arrival`` and terminates with reason "arrived"; arriving takes
+precedence over an empty battery in the same step (no ``battery_empty``, reason "arrived"), a fall
+over both (the fall happened on the way). Containment:
 progress is the decrease of ``|d - standoff|``, plus ``on_ring_per_step`` while within
 ``ring_tolerance_m`` of the ring; no arrival. Both: ``fall`` and termination "fell" when the
 robot drives into a cliff triangle; ``battery_empty`` and termination "battery" when its charge
@@ -60,7 +65,8 @@ def _gain(before, after) -> np.ndarray:
 
 def compute_rewards(cfg, dist_before, dist_after, state, events, target_idx, live):
     """``(rewards (n,), terminated (n,) bool, reasons (n,) int8)`` for robots in ``live``;
-    reasons are :class:`~tin_swarm_env.world.Reason` codes (NONE, ARRIVED, FELL or BATTERY).
+    reasons are :class:`~tin_swarm_env.world.Reason` codes (NONE, ARRIVED, FELL or BATTERY;
+    precedence FELL > ARRIVED > BATTERY, and the battery penalty is not paid on arrival).
     ``dist_before``/``dist_after`` ``(n,)`` m: :func:`distance_to_go` before and after the step;
     ``state`` the state after it (arrival is judged on the straight line to the target)."""
     w = cfg.rewards
@@ -77,11 +83,12 @@ def compute_rewards(cfg, dist_before, dist_after, state, events, target_idx, liv
     r += w.energy_per_kj * events.energy_j / 1000.0
     r += w.collision * events.collisions
     r += w.fall * events.fell
-    r += w.battery_empty * events.emptied
+    emptied = events.emptied & ~arrived  # arriving wins over running dry in the same step
+    r += w.battery_empty * emptied
     r += w.arrival * arrived
     reasons = np.full(state.n_robots, Reason.NONE, dtype=np.int8)
+    reasons[emptied] = Reason.BATTERY
     reasons[arrived] = Reason.ARRIVED
-    reasons[events.emptied] = Reason.BATTERY
     reasons[events.fell] = Reason.FELL
     terminated = (reasons != Reason.NONE) & live
     r = np.where(live, r, 0.0)

@@ -187,8 +187,8 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         self.layout = ObsLayout.from_spec(cfg.observation, n_assets=cfg.assets.n)
         self._obs_space = spaces.Box(-1.0, 1.0, (self.layout.size,), np.float32)
         self._act_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
-        n_targets = max(cfg.targets.n, len(self._stage.targets))  # a generated task always has 1
-        self.state_space = spaces.Box(-1.0, 1.0, (6 * self.n + 2 * n_targets,), np.float32)
+        self._target_slots = max(cfg.targets.n, len(self._stage.targets))  # a generated task always has 1
+        self.state_space = spaces.Box(-1.0, 1.0, (6 * self.n + 2 * self._target_slots,), np.float32)
         self._sensor_cones = sensor_cones
         self._render_width = render_width
         self._render_decorations = bool(render_decorations)
@@ -400,15 +400,23 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
 
     # -- state, rendering -------------------------------------------------------------------
     def state(self) -> np.ndarray:
+        """``state_space`` vector: per robot (x, y) scaled to the terrain's bounds, cos/sin of the
+        heading, battery fraction, active flag; then per target slot its scaled (x, y). The slots
+        are the scenario's target count; a reset with fewer ``target_positions`` leaves the rest
+        0, one with more raises an ArgumentError (the space is fixed at construction)."""
         s = self._wstate
         if s is None:
             raise RuntimeError("call reset() before state()")
+        if len(s.targets) > self._target_slots:
+            raise ArgumentError(f"state(): this episode has {len(s.targets)} targets (reset option "
+                                f"'target_positions'), but state_space holds {self._target_slots}")
         x0, y0, x1, y1 = self.tin.bounds
         span = np.array([x1 - x0, y1 - y0])
         p = (s.positions - [x0, y0]) / span
         robots = np.column_stack([p, np.cos(s.headings), np.sin(s.headings),
                                   s.battery_j / self.config.world.battery.capacity_j, s.active])
-        t = (s.targets.positions - [x0, y0]) / span if len(s.targets) else np.zeros((0, 2))
+        t = np.zeros((self._target_slots, 2))
+        t[:len(s.targets)] = (s.targets.positions - [x0, y0]) / span
         return np.clip(np.concatenate([robots.ravel(), t.ravel()]), -1, 1).astype(np.float32)
 
     def render(self):

@@ -11,102 +11,18 @@ leg, the robot field of :mod:`tin_swarm_env.world.fields` spreads them, and the 
 the APF baseline (:func:`~tin_swarm_env.policies.apf.safety_cut`) keep robots that see each other
 apart and every robot off the dangerous breaks it senses.
 
-*Pinches.* The cost-to-go treats passable ground as the closed union of passable triangles, so
-a path may go through a vertex where two steep triangles meet and two passable fans touch only
-at that point. A robot cannot pass there (it would have to hit the vertex exactly). The field is
-therefore built on a copy of the TIN in which each such vertex is split into one copy per fan,
-each moved a hair (``1e-6`` of the terrain's extent) into its fan (:func:`split_pinches`): the
-triangle indices are unchanged, only the point contact is cut.
+*Pinches* (vertices where two passable areas touch only at one point) are handled by the
+cost-to-go itself: no field passes through one (:func:`~tin_swarm_env.terrain.pinch_vertices`).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-
-from ..errors import TinStructureError
 from ..terrain import Tin, cost_to_go
 from ..world.fields import FieldParams, away_from, robot_field
 from .apf import decode, safety_cut, unwrap_env
 
-__all__ = ["GeodesicPolicy", "split_pinches", "pinch_vertices"]
-
-
-def _fans(tin: Tin, passable):
-    """Corners ``(t, k)`` of passable triangles grouped into fans: two corners at the same
-    vertex are in one fan when their triangles share an edge through that vertex (both passable),
-    or are linked through a chain of such triangles. Returns ``(labels (T, 3) int, -1 on
-    impassable triangles; n_fans)``."""
-    tri, nb = tin.triangles, tin.neighbors
-    T = len(tri)
-    ids = np.arange(3 * T).reshape(T, 3)
-    rows, cols = [], []
-    for j in range(3):  # edge opposite corner j joins corners (j+1)%3 and (j+2)%3 of t to u
-        u = nb[:, j]
-        ok = (u >= 0) & passable & passable[np.maximum(u, 0)]
-        t_ok, u_ok = np.flatnonzero(ok), u[ok]
-        for c in ((j + 1) % 3, (j + 2) % 3):
-            v = tri[t_ok, c]
-            k_u = np.argmax(tri[u_ok] == v[:, None], axis=1)
-            rows.append(ids[t_ok, c])
-            cols.append(ids[u_ok, k_u])
-    r, c = np.concatenate(rows), np.concatenate(cols)
-    g = coo_matrix((np.ones(len(r)), (r, c)), shape=(3 * T, 3 * T))
-    _, lab = connected_components(g, directed=False)
-    lab = lab.reshape(T, 3)
-    return np.where(passable[:, None], lab, -1)
-
-
-def pinch_vertices(tin: Tin, passable) -> np.ndarray:
-    """``(P,)`` int: vertices whose passable triangles form more than one fan (two passable
-    regions touching only at that vertex)."""
-    lab = _fans(tin, np.asarray(passable, dtype=bool))
-    ok = lab >= 0
-    pairs = np.unique(np.stack([tin.triangles[ok], lab[ok]], axis=1), axis=0)
-    v, count = np.unique(pairs[:, 0], return_counts=True)
-    return v[count > 1]
-
-
-def split_pinches(tin: Tin, passable, eps_frac: float = 1e-6) -> Tin:
-    """A copy of ``tin`` in which every pinch vertex (:func:`pinch_vertices`) is replaced, in
-    the passable triangles around it, by one new vertex per fan, moved ``eps_frac`` of the
-    terrain's extent from the old one along the bisector of the fan's wedge (so each fan shrinks
-    a hair and the fans no longer touch); impassable triangles keep the old vertex. Triangle
-    indices and order are unchanged. Returns ``tin`` itself when there is no pinch."""
-    passable = np.asarray(passable, dtype=bool)
-    lab = _fans(tin, passable)
-    ok = lab >= 0
-    tri = tin.triangles
-    pairs = np.unique(np.stack([tri[ok], lab[ok]], axis=1), axis=0)
-    v_of, count = np.unique(pairs[:, 0], return_counts=True)
-    pinch = v_of[count > 1]
-    if len(pinch) == 0:
-        return tin
-    xy = tin.vertices[:, :2]
-    eps = eps_frac * max(tin.bounds[2] - tin.bounds[0], tin.bounds[3] - tin.bounds[1])
-    new_tri = tri.copy()
-    new_v = [tin.vertices]
-    n_v = len(tin.vertices)
-    is_pinch = np.isin(tri, pinch) & ok
-    for fan in np.unique(lab[is_pinch]):
-        ts, ks = np.nonzero(is_pinch & (lab == fan))
-        v = tri[ts[0], ks[0]]
-        # the fan's wedge: corner (t, k) spans CCW from (next vertex - v) to (previous vertex - v)
-        a = np.arctan2(*(xy[tri[ts, (ks + 1) % 3]] - xy[v])[:, ::-1].T)
-        b = np.arctan2(*(xy[tri[ts, (ks + 2) % 3]] - xy[v])[:, ::-1].T)
-        starts = set(np.round(a, 12)) - set(np.round(b, 12))  # a start ray no corner of the fan ends on
-        a0 = a[np.isin(np.round(a, 12), list(starts))][0] if starts else a[0]
-        span = np.sum((b - a) % (2 * np.pi))
-        h = a0 + span / 2
-        new_v.append(np.array([[xy[v, 0] + eps * np.cos(h), xy[v, 1] + eps * np.sin(h), tin.vertices[v, 2]]]))
-        new_tri[ts, ks] = n_v
-        n_v += 1
-    try:
-        out = Tin(np.concatenate(new_v), new_tri, source=f"{tin.source} (pinches split)")
-    except TinStructureError:
-        return tin  # a degenerate neighbourhood: keep the point contacts rather than fail
-    return out if out.n_triangles == tin.n_triangles else tin
+__all__ = ["GeodesicPolicy", "eroded"]
 
 
 def eroded(tin: Tin, passable, rings: int = 1) -> np.ndarray:
@@ -161,11 +77,11 @@ class GeodesicPolicy:
     drivable path), the robot heads straight for it.
 
     **Fields** are built per target (:func:`~tin_swarm_env.terrain.cost_to_go` over
-    ``~env.world.steep`` and over its :func:`eroded` part, on :func:`split_pinches`'s copy of the
-    TIN) and cached by target index and position; a field is rebuilt when its target has moved more than ``rebuild_m`` (mobile
-    targets) and all are dropped when ``env.tin`` is a different object (generated terrains make a
-    new one per reset); :meth:`reset` checks that too. ``fields``: ``("robot",)`` (default) or
-    ``()`` to switch the robot field off.
+    ``~env.world.steep`` and over its :func:`eroded` part) and cached by target index within an
+    episode: a static target's field is rebuilt whenever its position differs, a mobile target's
+    once it has moved more than ``rebuild_m``; :meth:`reset` (call it after each env reset) drops
+    them all, and so does a change of ``env.tin`` (generated terrains make a new one per reset).
+    ``fields``: ``("robot",)`` (default) or ``()`` to switch the robot field off.
     """
 
     def __init__(self, env, fields=("robot",), params: FieldParams | None = None, clear_m: float | None = None,
@@ -186,34 +102,35 @@ class GeodesicPolicy:
         self.layout = base.layout
         self.clear_rings = int(clear_rings)
         self._tin = None
-        self._split = self._clear = None
+        self._clear = None
         self._fields: dict = {}
         self.reset()
 
     def reset(self):
-        """Drop the cached fields if the environment's terrain changed (call after env reset)."""
-        self._sync()
+        """Drop every cached field (call after each env reset: targets may be placed anew)."""
+        self._tin, self._clear, self._fields = self.env.tin, None, {}
 
     def _sync(self):
-        tin = self.env.tin
-        if tin is not self._tin:
-            self._tin, self._split, self._fields = tin, None, {}
+        if self.env.tin is not self._tin:
+            self.reset()
 
-    def field(self, k: int, goal_xy):
+    def field(self, k: int, goal_xy, mobile: bool = False):
         """The cached fields toward target ``k`` at ``goal_xy``: ``(full, clear)``, two
         :class:`~tin_swarm_env.terrain.CostToGo` over all passable ground and over its
-        :func:`eroded` part (None when nothing is left of it)."""
+        :func:`eroded` part (None when nothing is left of it). A cached field is reused when
+        built for the same position, or, for a ``mobile`` target, within ``rebuild_m``."""
         self._sync()
         goal_xy = np.asarray(goal_xy, dtype=np.float64)
         hit = self._fields.get(k)
-        if hit is not None and np.hypot(*(hit[0].goal_xy - goal_xy)) <= self.rebuild_m:
-            return hit
+        if hit is not None:
+            moved = np.hypot(*(hit[0].goal_xy - goal_xy))
+            if moved == 0.0 or (mobile and moved <= self.rebuild_m):
+                return hit
         passable = ~np.asarray(self.env.world.steep)
-        if self._split is None:
-            self._split = split_pinches(self._tin, passable)
+        if self._clear is None:
             self._clear = eroded(self._tin, passable, self.clear_rings)
-        full = cost_to_go(self._split, goal_xy, passable)
-        clear = cost_to_go(self._split, goal_xy, self._clear) if self._clear.any() else None
+        full = cost_to_go(self._tin, goal_xy, passable)
+        clear = cost_to_go(self._tin, goal_xy, self._clear) if self._clear.any() else None
         self._fields[k] = (full, clear)
         return self._fields[k]
 
@@ -229,7 +146,7 @@ class GeodesicPolicy:
         for k in np.unique(tgt[tgt >= 0]):  # one batched query per target
             sel = np.flatnonzero(tgt == k)
             goal = s.targets.positions[k]
-            full, clear = self.field(int(k), goal)
+            full, clear = self.field(int(k), goal, bool(s.targets.mobile[k]))
             d0, u0 = full.query(pos[sel], tri[sel])
             if clear is not None:  # off the walls where the eroded ground reaches the target
                 dc, uc = clear.query(pos[sel], tri[sel])

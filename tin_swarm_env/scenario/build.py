@@ -137,7 +137,9 @@ def target_field(world: World, goal_xy):
 
 
 def _region_triangles(tin, region) -> np.ndarray:
-    """Indices of the triangles that meet the rectangle ``region`` (see the module docstring)."""
+    """Indices of the triangles that meet the rectangle ``region`` (see the module docstring):
+    the one sampling of "a point of the region" that :func:`reaches_region` and
+    :func:`spawn_reachable` share."""
     x0, y0, x1, y1 = tin.bounds if region is None else region
     v = tin.vertices
     inside = (v[:, 0] >= x0) & (v[:, 0] <= x1) & (v[:, 1] >= y0) & (v[:, 1] <= y1)
@@ -191,18 +193,16 @@ def _generated_stage(cfg: ScenarioConfig, rng: np.random.Generator) -> Stage:
     made = {}
 
     def solvable(task) -> bool:
-        tin = _mesh(task.dem, t.method, t.max_vertices, t.max_error_m)
-        passable = ~(tin.slope_deg > max_slope)  # World.steep's definition
-        fields = tuple(T.cost_to_go(tin, g, passable) for g in task.targets)
-        made["task"], made["tin"], made["fields"] = task, tin, fields
+        world = World(_mesh(task.dem, t.method, t.max_vertices, t.max_error_m), cfg.world)
+        fields = tuple(T.cost_to_go(world.tin, g, ~world.steep) for g in task.targets)
+        made["task"], made["world"], made["fields"] = task, world, fields
         return all(reaches_region(f, task.spawn_region) for f in fields)
 
     task = generate(rng, t.families or tuple(PARAMS), t.ranges, max_slope_deg=max_slope, solvable=solvable,
                     where=f"{cfg.source} [terrain]")
     assert made["task"] is task  # generate returns the draw the check accepted last
-    tin, fields = made["tin"], made["fields"]
-    return Stage(World(tin, cfg.world), np.asarray(task.targets, dtype=float).reshape(-1, 2), task.spawn_region,
-                 fields, task)
+    return Stage(made["world"], np.asarray(task.targets, dtype=float).reshape(-1, 2), task.spawn_region,
+                 made["fields"], task)
 
 
 def build_world(cfg: ScenarioConfig) -> World:
@@ -218,22 +218,18 @@ def spawn_reachable(world: World, spawn_region=None) -> np.ndarray:
     None: the whole terrain) can be reached by a drivable path. Drivable connection is
     symmetric, so these are the triangles a target may stand on and be reached from there:
     the union of :meth:`~tin_swarm_env.terrain.CostToGo.triangle_reachable` from the traversable
-    points of a 5 x 5 lattice over the region (one field per connected piece it touches;
-    cached per world and region)."""
+    triangles that meet the region (:func:`_region_triangles`, the sampling :func:`reaches_region`
+    uses; one field per connected piece they touch; cached per world and region)."""
     cache = _REACHABLE.setdefault(world, {})
     key = None if spawn_region is None else tuple(float(v) for v in spawn_region)
     if key in cache:
         return cache[key]
     tin, passable = world.tin, ~world.steep
-    x0, y0, x1, y1 = tin.bounds if key is None else key
-    gx, gy = np.meshgrid(np.linspace(x0, x1, 5), np.linspace(y0, y1, 5))
-    pts = np.column_stack([gx.ravel(), gy.ravel()])
-    pts = pts + 1e-6 * np.sign(np.array([(x0 + x1) / 2, (y0 + y1) / 2]) - pts)  # just inside the border
-    tri = tin.locate(pts)
+    centroids = tin.vertices[tin.triangles, :2].mean(axis=1)  # (T, 2): a point of each triangle
     out = np.zeros(tin.n_triangles, dtype=bool)
-    for p, t in zip(pts, tri):
-        if t >= 0 and passable[t] and not out[t]:
-            out |= T.cost_to_go(tin, p, passable, steiner_per_edge=0, any_angle=False).triangle_reachable()
+    for t in _region_triangles(tin, key):
+        if passable[t] and not out[t]:  # all of a triangle's points reach the same places
+            out |= T.cost_to_go(tin, centroids[t], passable, steiner_per_edge=0, any_angle=False).triangle_reachable()
     cache[key] = out
     return out
 
@@ -289,14 +285,15 @@ def initial_state(world: World, cfg: ScenarioConfig, rng: np.random.Generator, n
         pos = np.asarray(robot_positions, dtype=np.float64)
         if pos.shape != (n_robots, 2):
             raise ArgumentError(f"robot_positions must have shape ({n_robots}, 2), got {pos.shape}")
-    tg, at = _entity_positions(world, cfg, rng, target_positions)
+    region = cfg.robots.spawn_region if spawn_region is None else spawn_region
+    tg, at = _entity_positions(world, cfg, rng, region, target_positions)
     return world.reset(rng, pos, headings, targets=tg, targets_mobile=cfg.targets.mobile, assets=at,
                        assets_mobile=cfg.assets.mobile)
 
 
-def _entity_positions(world, cfg, rng, target_positions=None):
-    """``(targets (m, 2), assets (k, 2))`` for a reset: ``target_positions`` when given."""
-    region = cfg.robots.spawn_region
+def _entity_positions(world, cfg, rng, region, target_positions=None):
+    """``(targets (m, 2), assets (k, 2))`` for a reset: ``target_positions`` when given; counted
+    ones reachable from the spawn ``region`` the robots use (a generated task's own)."""
     if target_positions is None:
         tg = place_entities(world, cfg.targets, rng, spawn_region=region, label=f"{cfg.source} [targets]")
     else:

@@ -371,8 +371,8 @@ def _check_generated(terrain: TerrainSpec, robots: RobotsSpec, targets: Entities
         raise ScenarioError(f"{where}: 'resample' must be 'reset' or 'once', got {terrain.resample!r}")
     if task != "goal":
         raise ScenarioError(f"{where}: a generated terrain is a goal task; 'task' must be 'goal', got {task!r}")
-    if targets.positions:
-        raise ScenarioError(f"{source} [targets]: 'positions' must be empty with a generated terrain "
+    if targets.positions or targets.count:
+        raise ScenarioError(f"{source} [targets]: 'positions' and 'count' must be empty with a generated terrain "
                             "(the generator places the target)")
     if robots.spawn_region is not None:
         raise ScenarioError(f"{source} [robots]: 'spawn_region' must not be set with a generated terrain "

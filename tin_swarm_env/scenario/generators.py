@@ -79,10 +79,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..terrain import Dem
+from ..terrain.breaks import MAX_SLOPE_DEG
 from .config import ScenarioError
 
 __all__ = ["GeneratedTask", "PARAMS", "DEFAULT_RANGES", "FAMILIES", "HEADINGS", "generate", "validate_ranges",
-           "draw_params", "replay", "canyon", "mesa", "hills"]
+           "draw_params", "replay", "canyon", "mesa", "hills", "NoFitError"]
 
 HEADINGS = {"north": (0.0, 1.0), "east": (1.0, 0.0), "south": (0.0, -1.0), "west": (-1.0, 0.0)}
 SIDES = ("left", "right", "both")
@@ -232,7 +233,7 @@ def draw_params(rng: np.random.Generator, family: str, ranges: Mapping[str, tupl
 
 def _resolve(family: str, params: dict) -> dict:
     """Fill missing parameters with the middle of their default range; check the given ones."""
-    out = {"max_slope_deg": 30.0}
+    out = {"max_slope_deg": MAX_SLOPE_DEG}
     for key, p in PARAMS[family].items():
         out[key] = p.default[0] if p.kind == "choice" else (p.default[0] + p.default[1]) / 2
         if p.kind == "int":
@@ -351,9 +352,13 @@ def _task(family, p, x, z, spawn_centre, target, passes, rng_noise):
                          targets, family, p, side, passes)
 
 
+class NoFitError(ScenarioError):
+    """A family's drawn parameters do not fit its map (:func:`generate` draws again)."""
+
+
 def _fit(ok: bool, family: str, what: str, p: dict):
     if not ok:
-        raise ScenarioError(f"{family}: {what} does not fit a {p['size_m']:.0f} m map with these parameters: "
+        raise NoFitError(f"{family}: {what} does not fit a {p['size_m']:.0f} m map with these parameters: "
                             + ", ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in p.items()))
 
 
@@ -509,28 +514,35 @@ def _weights(families, where):
 
 
 def generate(rng: np.random.Generator, families: Sequence[str] | Mapping[str, float] = tuple(PARAMS),
-             ranges: Mapping | None = None, *, max_slope_deg: float = 30.0,
+             ranges: Mapping | None = None, *, max_slope_deg: float = MAX_SLOPE_DEG,
              solvable: Callable[[GeneratedTask], bool] | None = None, max_tries: int = 20,
              where: str = "generated terrain") -> GeneratedTask:
     """Draw a task: a family (uniformly, or by the weights of a ``{family: weight}`` mapping), its
     parameters uniformly from ``ranges`` laid over :data:`DEFAULT_RANGES` (see
     :func:`validate_ranges`), then the family's own generator seed; all from ``rng``, so the same
-    state gives the same task bit for bit. With ``solvable``, draws again from the same stream
-    until ``solvable(task)`` is true, at most ``max_tries`` times, then raises ScenarioError.
+    state gives the same task bit for bit. A draw whose parameters do not fit the family's map
+    (:class:`NoFitError`, possible for user ``ranges``) or, with ``solvable``, one for which
+    ``solvable(task)`` is false is drawn again from the same stream, at most ``max_tries`` draws
+    in all, then a ScenarioError names the last misfit.
     ``where`` (the scenario file) prefixes error messages."""
     names, weights = _weights(families, where)
     checked = validate_ranges(ranges, names, where)
     if max_tries < 1:
         raise ScenarioError(f"{where}: max_tries must be >= 1, got {max_tries}")
+    misfit = ""
     for _ in range(max_tries):
         fam = names[int(rng.choice(len(names), p=weights))]
         params = draw_params(rng, fam, checked[fam])
         seed = int(rng.integers(2 ** 63))
-        task = FAMILIES[fam](np.random.default_rng(seed), max_slope_deg=max_slope_deg, **params)
+        try:
+            task = FAMILIES[fam](np.random.default_rng(seed), max_slope_deg=max_slope_deg, **params)
+        except NoFitError as exc:
+            misfit = f" (last misfit: {exc})"
+            continue
         task = dataclasses.replace(task, seed=seed)
         if solvable is None or solvable(task):
             return task
-    raise ScenarioError(f"{where}: no solvable task in {max_tries} draws from families {names}")
+    raise ScenarioError(f"{where}: no solvable task in {max_tries} draws from families {names}{misfit}")
 
 
 def replay(task: GeneratedTask) -> GeneratedTask:

@@ -94,7 +94,8 @@ def build_nodes(vx, vy, tris, te, n_edges, m, passable):
 @njit(cache=True)
 def edge_starts(tris, te, n_edges):
     """``(E,)`` int64: each edge's first vertex in the frame of the first triangle holding it
-    (the frame :func:`build_nodes` spaces its Steiner points in: canonical parameter 0 there)."""
+    (the frame :func:`build_nodes` spaces its Steiner points in: canonical parameter 0 there).
+    Pass the original triangles: windows compare it with ``vorig`` of their own vertex."""
     ea = np.full(n_edges, -1, dtype=np.int64)
     for t in range(tris.shape[0]):
         for k in range(3):
@@ -105,11 +106,73 @@ def edge_starts(tris, te, n_edges):
 
 
 @njit(cache=True)
+def _find(up, i):
+    while up[i] != i:
+        up[i] = up[up[i]]
+        i = up[i]
+    return i
+
+
+@njit(cache=True)
+def split_fans(tris, nbrs, passable, V):
+    """Pinch vertices split into one vertex per passable *fan*: the single definition of a pinch.
+
+    The corners ``(t, k)`` of passable triangles at one vertex form a fan when linked through
+    passable triangles sharing an edge through that vertex; a vertex with two or more fans is a
+    *pinch* (passable areas touching only at that point: no robot can drive through it). Returns
+    ``(tris2 (T, 3), vorig (V2,))``: ``tris`` with the corners of every fan but a vertex's first
+    (in triangle order) renumbered to a new vertex ``V, V+1, ...`` at the same place, and the
+    original vertex of each of the ``V2`` vertices. Impassable triangles keep the old vertex.
+    Shortest paths over ``tris2`` (same neighbours) cannot pass from one fan to another."""
+    T = tris.shape[0]
+    up = np.arange(3 * T)
+    for t in range(T):
+        if not passable[t]:
+            continue
+        for k in range(3):  # the edge opposite k joins corners (k+1)%3, (k+2)%3 of t to nb's
+            nb = nbrs[t, k]
+            if nb < 0 or not passable[nb]:
+                continue
+            for j in range(1, 3):
+                v = tris[t, (k + j) % 3]
+                kk = 0
+                while tris[nb, kk] != v:
+                    kk += 1
+                a = _find(up, 3 * t + (k + j) % 3)
+                b = _find(up, 3 * nb + kk)
+                if a != b:
+                    up[max(a, b)] = min(a, b)
+    tris2 = tris.copy()
+    newid = np.full(3 * T, -1, dtype=np.int64)
+    claimed = np.zeros(V, dtype=np.bool_)
+    vorig = np.empty(V + 3 * T, dtype=np.int64)
+    vorig[:V] = np.arange(V)
+    n = V
+    for t in range(T):
+        if not passable[t]:
+            continue
+        for k in range(3):
+            v = tris[t, k]
+            r = _find(up, 3 * t + k)
+            if newid[r] < 0:
+                if not claimed[v]:
+                    claimed[v] = True
+                    newid[r] = v
+                else:
+                    newid[r] = n
+                    vorig[n] = v
+                    n += 1
+            tris2[t, k] = newid[r]
+    return tris2, vorig[:n].copy()
+
+
+@njit(cache=True)
 def corners(vx, vy, tris, nbrs, passable):
     """``(V,)`` bool: vertices where a shortest path may bend: on the boundary of passable
     ground (an edge with passable ground on one side only, the TIN border counting as
-    impassable) where passable ground turns by more than 180 deg (reflex) or meets itself at
-    a pinch (two or more passable arcs). Shortest paths in a polygonal domain bend only there."""
+    impassable) where passable ground turns by more than 180 deg (reflex). Shortest paths in a
+    polygonal domain bend only there. ``tris`` has its pinches split (:func:`split_fans`): a
+    vertex with two passable arcs would be a pinch, which no path passes."""
     V = vx.shape[0]
     ang = np.zeros(V)
     bcount = np.zeros(V, dtype=np.int64)
@@ -131,7 +194,7 @@ def corners(vx, vy, tris, nbrs, passable):
                 bcount[c] += 1
     out = np.zeros(V, dtype=np.bool_)
     for v in range(V):
-        out[v] = bcount[v] >= 4 or (bcount[v] == 2 and ang[v] > np.pi + 1e-9)
+        out[v] = bcount[v] == 2 and ang[v] > np.pi + 1e-9
     return out
 
 
@@ -485,7 +548,8 @@ def _merge(w, e, wf, wi, links, phead):
 
 
 @njit(cache=True)
-def windows(nx, ny, vx, vy, tris, nbrs, te, ea, passable, tri_nodes, start, node_tris, corner, goal_tris, gx, gy, m):
+def windows(nx, ny, vx, vy, tris, nbrs, te, ea, vorig, passable, tri_nodes, start, node_tris, corner, goal_tris,
+            gx, gy, m):
     """Exact-visibility shortest paths to the goal by window propagation (a continuous
     Dijkstra restricted to passable triangles, in the plane).
 
@@ -494,7 +558,8 @@ def windows(nx, ny, vx, vy, tris, nbrs, te, ea, passable, tri_nodes, start, node
     rays clipped to the triangle's two other edges (one or two child windows, same root); on
     an edge of impassable ground it stops. Windows are processed in order of their smallest
     distance, so a corner's distance is final when it spawns. A window is kept only if it
-    improves some test point (:func:`_keep`). Every node gets the best straight segment to a
+    improves some test point (:func:`_keep`). ``tris``/``vx``/``vy`` have their pinches split
+    (:func:`split_fans`; ``vorig`` maps back, ``ea`` is in original ids). Every node gets the best straight segment to a
     root whose window covers it. Returns ``(dist (N,), parent (N,), wf, wi)`` (root per node:
     a vertex, :data:`GOAL` or :data:`NONE`; the accepted windows are those with ``wi[:, 3]``).
     """
@@ -546,9 +611,10 @@ def windows(nx, ny, vx, vy, tris, nbrs, te, ea, passable, tri_nodes, start, node
         _merge(w, e, wf, wi, links, phead)
         A = tris[t, (k + 1) % 3]
         B = tris[t, (k + 2) % 3]
-        flip = ea[e] != A
+        flip = ea[e] != vorig[A]
+        ea_v = B if flip else A
         eb_v = A if flip else B
-        if not _keep(w, e, ea[e], eb_v, flip, vx[A], vy[A], vx[B], vy[B], m, V, nx, ny, dist, parent, ehead, links,
+        if not _keep(w, e, ea_v, eb_v, flip, vx[A], vy[A], vx[B], vy[B], m, V, nx, ny, dist, parent, ehead, links,
                      wf, wi):
             continue
         rx = wf[w, 2]
@@ -559,16 +625,16 @@ def windows(nx, ny, vx, vy, tris, nbrs, te, ea, passable, tri_nodes, start, node
         wf[w, 7] = 1.0 - wf[w, 0] if flip else wf[w, 1]
         links[w, 0] = ehead[e]
         ehead[e] = w
-        _cover(e, wf[w, 6], wf[w, 7], rx, ry, rd, wi[w, 2], ea[e], eb_v, m, V, nx, ny, dist, parent, corner, spawned,
+        _cover(e, wf[w, 6], wf[w, 7], rx, ry, rd, wi[w, 2], ea_v, eb_v, m, V, nx, ny, dist, parent, corner, spawned,
                pend, stack, st)
-        wf, wi, links, heap = _children(w, t, k, vx, vy, tris, nbrs, te, ea, passable, m, V, nx, ny, dist, parent,
-                                        corner, spawned, pend, stack, st, wf, wi, links, heap, phead)
+        wf, wi, links, heap = _children(w, t, k, vx, vy, tris, nbrs, te, ea, vorig, passable, m, V, nx, ny, dist,
+                                        parent, corner, spawned, pend, stack, st, wf, wi, links, heap, phead)
     n = st[0]
     return dist, parent, wf[:n].copy(), wi[:n].copy()
 
 
 @njit(cache=True)
-def _children(w, t, k, vx, vy, tris, nbrs, te, ea, passable, m, V, nx, ny, dist, parent, corner, spawned, pend,
+def _children(w, t, k, vx, vy, tris, nbrs, te, ea, vorig, passable, m, V, nx, ny, dist, parent, corner, spawned, pend,
               stack, st, wf, wi, links, heap, phead):
     """Push window w (on edge k of t) through t: clip its wedge to t's other two edges."""
     C = tris[t, k]
@@ -617,8 +683,8 @@ def _children(w, t, k, vx, vy, tris, nbrs, te, ea, passable, m, V, nx, ny, dist,
         b2 = tris[t, (kc + 2) % 3]
         nb = nbrs[t, kc]
         if nb < 0 or not passable[nb]:  # impassable beyond: the edge's nodes are reached, nothing more
-            flip = ea[e2] != a2
-            _cover(e2, 1.0 - hi if flip else lo, 1.0 - lo if flip else hi, rx, ry, rd, root, ea[e2],
+            flip = ea[e2] != vorig[a2]
+            _cover(e2, 1.0 - hi if flip else lo, 1.0 - lo if flip else hi, rx, ry, rd, root, b2 if flip else a2,
                    a2 if flip else b2, m, V, nx, ny, dist, parent, corner, spawned, pend, stack, st)
             continue
         kk = 0

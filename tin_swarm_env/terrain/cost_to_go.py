@@ -6,9 +6,12 @@
 
 Definition. Passable ground is the *closed* union of the triangles with ``passable[t]``: a
 path may run along an edge (or through a vertex) that a passable triangle shares with an
-impassable one. ``distance_at(p)`` is the length of the shortest path from ``p`` to the goal
-that stays on passable ground, ``inf`` where there is none, outside the TIN and on
-impassable triangles. Lengths are **planar** (x, y) metres: the reward and the robots' speed
+impassable one, but never through a *pinch*, a vertex where two passable fans touch only at
+that point (no robot can hit the point exactly): each pinch vertex is split into one node per
+fan (:func:`pinch_vertices`, :func:`._ctg_kernels.split_fans`), so paths and windows reaching
+it continue only into triangles of the same fan. ``distance_at(p)`` is the length of the
+shortest path from ``p`` to the goal that stays on passable ground, ``inf`` where there is
+none, outside the TIN and on impassable triangles. Lengths are **planar** (x, y) metres: the reward and the robots' speed
 limits work in the plane, and a planar metric keeps the field a true distance (triangle
 inequality, at least the straight-line distance). A slope-aware 3D length is not offered.
 
@@ -16,7 +19,7 @@ Method (default, ``any_angle=True``): window propagation, a continuous Dijkstra 
 passable triangles (Mitchell, Mount and Papadimitriou 1987 in the plane; the search nodes of
 Polyanya, Cui, Harabor and Grastien 2017). A shortest path in a polygonal domain is straight
 between bends at *corners*: vertices of the passable boundary where passable ground turns by
-more than 180 deg, or is pinched (:func:`._ctg_kernels.corners`). The goal and each corner are
+more than 180 deg (:func:`._ctg_kernels.corners`). The goal and each corner are
 *roots*; a *window* is an interval of a triangle edge every point of which sees a root straight
 across passable triangles. A root opens a window on each edge of its triangles; a window is
 pushed through the next triangle (its wedge of rays clipped to the two other edges, one or two
@@ -45,8 +48,9 @@ Why not the alternatives:
   obtuse ones); an exact visibility graph costs O(n^2) visibility tests per goal.
 
 Measured (``nice -n 10 python bench/cost_to_go.py``, jacksboro greedy, median of 5, CPU time
-of the process on a shared 2-core machine; wall time under load about twice): build 10 ms /
-46 ms / 0.30 s at 5k / 20k / 80k triangles (target 50 ms at 20k: met in CPU time), about 1 window
+of the process on a shared 2-core machine; wall time under load about twice): build 9 ms /
+52 ms / 0.30 s at 5k / 20k / 80k triangles (splitting the pinches, 98 at 80k, is within the
+noise; target 50 ms at 20k: about met in CPU time), about 1 window
 per edge; queries 1.0e7 points/s with known triangles at 20k (4.6e6 with point location), 4e6
 at 80k (target 1e6: met). Flat TIN: error 2e-14 %.
 """
@@ -58,7 +62,7 @@ import numpy as np
 from . import _ctg_kernels as K
 from .tin import Tin, _as_xy
 
-__all__ = ["CostToGo", "cost_to_go", "DEFAULT_STEINER_PER_EDGE"]
+__all__ = ["CostToGo", "cost_to_go", "pinch_vertices", "DEFAULT_STEINER_PER_EDGE"]
 
 DEFAULT_STEINER_PER_EDGE = 1
 
@@ -72,7 +76,8 @@ class CostToGo:
     goal_xy : (2,) float64 m
     passable : (T,) bool, read-only
     steiner_per_edge : int
-    node_xy : (N, 2) float64 m        nodes: the V vertices first, then the Steiner points
+    node_xy : (N, 2) float64 m        nodes: the V vertices first, then one copy per extra fan of
+                                      each pinch vertex (:func:`pinch_vertices`), then the Steiner points
     node_distance : (N,) float64 m    shortest drivable path from each node to the goal (inf: none)
     goal_triangles : (T,) bool        passable triangles the goal lies on (none: nothing reachable)
     """
@@ -90,20 +95,21 @@ class CostToGo:
         self.steiner_per_edge = m
         self.any_angle = bool(any_angle)
         te, n_edges = K.triangle_edges(tin.triangles, tin.neighbors)
-        nx, ny, self._tri_nodes, start, node_tris = K.build_nodes(
-            tin._vx, tin._vy, tin.triangles, te, n_edges, m, self.passable)
+        tris, vorig = K.split_fans(tin.triangles, tin.neighbors, self.passable, tin.n_vertices)
+        vx, vy = tin._vx[vorig], tin._vy[vorig]
+        self._tris, self._vx, self._vy, self._vorig = tris, vx, vy, vorig
+        nx, ny, self._tri_nodes, start, node_tris = K.build_nodes(vx, vy, tris, te, n_edges, m, self.passable)
         self._nx, self._ny = nx, ny
         self._start, self._node_tris = start, node_tris
         self.goal_triangles = self._goal_triangles()
         gt = np.flatnonzero(self.goal_triangles)
         if self.any_angle:
-            corner = K.corners(tin._vx, tin._vy, tin.triangles, tin.neighbors, self.passable)
+            corner = K.corners(vx, vy, tris, tin.neighbors, self.passable)
             ea = K.edge_starts(tin.triangles, te, n_edges)
             self.node_distance, self._parent, wf, wi = K.windows(
-                nx, ny, tin._vx, tin._vy, tin.triangles, tin.neighbors, te, ea, self.passable, self._tri_nodes,
+                nx, ny, vx, vy, tris, tin.neighbors, te, ea, vorig, self.passable, self._tri_nodes,
                 start, node_tris, corner, gt, self.goal_xy[0], self.goal_xy[1], m)
-            self._wstart, self._wgeo, self._wroot = K.tri_windows(wf, wi, tin._vx, tin._vy, tin.triangles,
-                                                                  tin.n_triangles)
+            self._wstart, self._wgeo, self._wroot = K.tri_windows(wf, wi, vx, vy, tris, tin.n_triangles)
         else:
             seeds = np.unique(self._tri_nodes[gt].ravel())
             seed_dist = np.hypot(nx[seeds] - self.goal_xy[0], ny[seeds] - self.goal_xy[1])
@@ -140,8 +146,14 @@ class CostToGo:
         return np.column_stack([self._nx, self._ny])
 
     @property
+    def pinch_vertices(self) -> np.ndarray:
+        """``(P,)`` int: the TIN vertices where passable fans touch only at the vertex (sorted)."""
+        return np.unique(self._vorig[self.tin.n_vertices:])
+
+    @property
     def vertex_distance(self) -> np.ndarray:
-        """``(V,)`` m: the field at the TIN's vertices (a view of :attr:`node_distance`)."""
+        """``(V,)`` m: the field at the TIN's vertices (a view of :attr:`node_distance`; at a
+        pinch vertex, the value of its first fan)."""
         return self.node_distance[: self.tin.n_vertices]
 
     @property
@@ -189,7 +201,7 @@ class CostToGo:
     def _query(self, px, py, t):
         tin = self.tin
         return K.query(self._nx, self._ny, self.node_distance, self._parent, self._tri_nodes, self.passable,
-                       self.goal_triangles, self.goal_xy[0], self.goal_xy[1], tin._vx, tin._vy, tin.triangles,
+                       self.goal_triangles, self.goal_xy[0], self.goal_xy[1], self._vx, self._vy, self._tris,
                        tin.neighbors, self._wstart, self._wgeo, self._wroot, px, py, t, tin._tol[0], self._eps_m)
 
     @property
@@ -216,6 +228,15 @@ def cost_to_go(tin: Tin, goal_xy, passable=None, *, steiner_per_edge: int = DEFA
     if passable is None:
         passable = np.ones(tin.n_triangles, dtype=bool)
     return CostToGo(tin, goal_xy, passable, steiner_per_edge, any_angle)
+
+
+def pinch_vertices(tin: Tin, passable) -> np.ndarray:
+    """``(P,)`` int, sorted: vertices of ``tin`` whose passable triangles (``passable`` ``(T,)``
+    bool) form two or more fans (passable areas touching only at that point; no drivable path
+    passes there). The definition is :func:`._ctg_kernels.split_fans`."""
+    p = _passable(passable, tin.n_triangles)
+    _, vorig = K.split_fans(tin.triangles, tin.neighbors, p, tin.n_vertices)
+    return np.unique(vorig[tin.n_vertices:])
 
 
 def _goal(goal_xy) -> np.ndarray:

@@ -9,7 +9,7 @@ import numpy as np
 
 __all__ = ["locate_brute", "line_of_sight_brute", "line_of_sight_dense", "height_brute", "single_surface_brute",
            "on_passable_brute", "cost_to_go_graph_brute", "cost_to_go_grid",
-           "cost_to_go_visibility_brute"]
+           "cost_to_go_visibility_brute", "fan_labels_brute", "pinch_vertices_brute"]
 
 
 def _bary(tin, pts):
@@ -163,35 +163,133 @@ def cost_to_go_graph_brute(ctg) -> np.ndarray:
     return dijkstra(m, directed=False, indices=N)[:N]
 
 
+def fan_labels_brute(tin, passable) -> np.ndarray:
+    """``(T, 3)`` int: the fan of each corner of a passable triangle (-1 on impassable ones):
+    two corners at one vertex share a fan when their triangles share an edge through that vertex
+    (both passable), or are linked through a chain of such triangles. scipy connected components:
+    the reference of :func:`~._ctg_kernels.split_fans`."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    passable = np.asarray(passable, dtype=bool)
+    tri, nb = tin.triangles, tin.neighbors
+    T = len(tri)
+    ids = np.arange(3 * T).reshape(T, 3)
+    rows, cols = [ids[:, 0]], [ids[:, 0]]
+    for j in range(3):  # edge opposite corner j joins corners (j+1)%3 and (j+2)%3 of t to u
+        u = nb[:, j]
+        ok = (u >= 0) & passable & passable[np.maximum(u, 0)]
+        t_ok, u_ok = np.flatnonzero(ok), u[ok]
+        for c in ((j + 1) % 3, (j + 2) % 3):
+            v = tri[t_ok, c]
+            rows.append(ids[t_ok, c])
+            cols.append(ids[u_ok, np.argmax(tri[u_ok] == v[:, None], axis=1)])
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    _, lab = connected_components(coo_matrix((np.ones(len(r)), (r, c)), shape=(3 * T, 3 * T)), directed=False)
+    return np.where(passable[:, None], lab.reshape(T, 3), -1)
+
+
+def pinch_vertices_brute(tin, passable) -> np.ndarray:
+    """``(P,)`` int, sorted: vertices with two or more fans (:func:`fan_labels_brute`)."""
+    lab = fan_labels_brute(tin, passable)
+    vf = np.unique(np.stack([tin.triangles[lab >= 0], lab[lab >= 0]], axis=1), axis=0)
+    v, cnt = np.unique(vf[:, 0], return_counts=True)
+    return v[cnt > 1]
+
+
+def _in_fan(tin, lab, v, f, d) -> np.ndarray:
+    """``(k,)`` bool: whether directions ``d`` ``(k, 2)`` from vertex ``v`` point into (or along
+    the sides of) a corner of fan ``f``."""
+    xy = tin.vertices[:, :2]
+    ts, ks = np.nonzero((tin.triangles == v) & (lab == f))
+    d = d / np.maximum(np.hypot(*d.T), 1e-300)[:, None]
+    out = np.zeros(len(d), dtype=bool)
+    for t, k in zip(ts, ks):
+        a = xy[tin.triangles[t, (k + 1) % 3]] - xy[v]
+        b = xy[tin.triangles[t, (k + 2) % 3]] - xy[v]
+        a, b = a / np.hypot(*a), b / np.hypot(*b)
+        out |= (a[0] * d[:, 1] - a[1] * d[:, 0] >= -1e-9) & (d[:, 0] * b[1] - d[:, 1] * b[0] >= -1e-9)
+    return out
+
+
+def _passable_of(lab) -> np.ndarray:
+    return (lab >= 0).any(axis=1)
+
+
+def _pinch_ok(tin, lab, pinches, a, b, fa, fb, va, vb) -> np.ndarray:
+    """``(k,)`` bool: segments ``a -> b`` ``(k, 2)`` obey the pinch rule: an end at pinch vertex
+    ``va``/``vb`` (-1: not a vertex) leaves it into its fan ``fa``/``fb``, and a pinch vertex
+    strictly inside a segment is passed within one fan (both sides in the same fan)."""
+    ok = np.ones(len(a), dtype=bool)
+    for p in pinches:
+        for v, f, s, e in ((va, fa, a, b), (vb, fb, b, a)):
+            at = v == p
+            for ff in np.unique(f[at]):
+                sel = at & (f == ff)
+                ok[sel] &= _in_fan(tin, lab, p, ff, e[sel] - s[sel])
+        xy = tin.vertices[p, :2]
+        d = b - a
+        L2 = np.maximum(np.sum(d * d, axis=1), 1e-300)
+        u = np.sum((xy - a) * d, axis=1) / L2
+        off = np.abs(d[:, 0] * (xy[1] - a[:, 1]) - d[:, 1] * (xy[0] - a[:, 0])) / np.sqrt(L2)
+        inside = (va != p) & (vb != p) & (u > 1e-9) & (u < 1 - 1e-9)
+        inner = inside & (off <= 1e-9 * max(1.0, np.sqrt(L2.max())))
+        near = np.flatnonzero(inside & ~inner & (off < 0.05 * np.sqrt(L2)))  # sampling alone may step past
+        if len(near):  # the steep wedges by p: dense samples round the closest point
+            t = np.linspace(-20.0, 20.0, 81)[None, :] * off[near, None] / np.sqrt(L2[near, None])
+            uu = np.clip(u[near, None] + t, 0.0, 1.0)
+            pts = a[near, None] + uu[..., None] * d[near, None]
+            ok[near] &= on_passable_brute(tin, pts.reshape(-1, 2), _passable_of(lab), tol=1e-9).reshape(
+                len(near), -1).all(axis=1)
+        for i in np.flatnonzero(inner):
+            fans = np.unique(lab[(tin.triangles == p) & (lab >= 0)])
+            ok[i] &= any(_in_fan(tin, lab, p, f, np.stack([d[i], -d[i]])).all() for f in fans)
+    return ok
+
+
 def cost_to_go_visibility_brute(tin, goal_xy, passable, xy, n_samples: int = 200) -> np.ndarray:
     """The exact shortest drivable path lengths ``(n,)`` m from points ``xy`` ``(n, 2)`` to the goal:
-    Dijkstra on the visibility graph of the goal and *every* TIN vertex (a shortest path in a
-    polygonal domain is straight between bends at vertices), a segment counting as visible when
-    ``n_samples`` points along it lie on passable ground (:func:`on_passable_brute`). Slow
-    (O(V^2) segments): for small TINs. ``inf`` where the goal cannot be reached."""
+    Dijkstra on the visibility graph of the goal and *every* TIN vertex, one node per passable fan
+    (a shortest path in a polygonal domain is straight between bends at vertices), a segment
+    counting as visible when ``n_samples`` points along it lie on passable ground
+    (:func:`on_passable_brute`) and it obeys the pinch rule (it never passes from one fan of a
+    vertex to another: :func:`_pinch_ok`). Slow (O(V^2) segments): for small TINs. ``inf``
+    where the goal cannot be reached."""
     from scipy.sparse.csgraph import dijkstra
 
-    pts = np.vstack([np.asarray(goal_xy, dtype=np.float64)[None], tin.vertices[:, :2]])
+    passable = np.asarray(passable, dtype=bool)
+    lab = fan_labels_brute(tin, passable)
+    vf = np.unique(np.stack([tin.triangles[lab >= 0], lab[lab >= 0]], axis=1), axis=0)  # (vertex, fan) nodes
+    vs, cnt = np.unique(vf[:, 0], return_counts=True)
+    pinches = vs[cnt > 1]
+    pts = np.vstack([np.asarray(goal_xy, dtype=np.float64)[None], tin.vertices[vf[:, 0], :2]])
+    nv = np.r_[-1, vf[:, 0]]
+    nf = np.r_[-1, vf[:, 1]]
     s = np.linspace(0.0, 1.0, n_samples)[None, :, None]
 
-    def seen(a, b):  # (k, 2), (k, 2) -> (k,) bool
+    def seen(a, b, ia, ib):  # (k, 2), (k, 2), node ids (k,) (-1: a query point) -> (k,) bool
         seg = a[:, None] + s * (b - a)[:, None]
-        return on_passable_brute(tin, seg.reshape(-1, 2), passable, tol=1e-9).reshape(len(a), -1).all(axis=1)
+        on = on_passable_brute(tin, seg.reshape(-1, 2), passable, tol=1e-9).reshape(len(a), -1).all(axis=1)
+        va = np.where(ia >= 0, nv[np.maximum(ia, 0)], -1)
+        vb = np.where(ib >= 0, nv[np.maximum(ib, 0)], -1)
+        return on & _pinch_ok(tin, lab, pinches, a, b, nf[np.maximum(ia, 0)], nf[np.maximum(ib, 0)], va, vb)
 
-    on = on_passable_brute(tin, pts, passable, tol=1e-9)
     i, j = np.triu_indices(len(pts), 1)
-    keep = on[i] & on[j]
+    keep = np.hypot(*(pts[i] - pts[j]).T) > 0
     i, j = i[keep], j[keep]
-    vis = seen(pts[i], pts[j])
+    vis = seen(pts[i], pts[j], i, j)
     w = np.full((len(pts), len(pts)), np.inf)
     w[i[vis], j[vis]] = w[j[vis], i[vis]] = np.hypot(*(pts[i[vis]] - pts[j[vis]]).T) + 1e-300
+    if len(pts) > 1 and not on_passable_brute(tin, pts[:1], passable, tol=1e-9)[0]:
+        w[0] = w[:, 0] = np.inf
     D = dijkstra(np.where(np.isfinite(w), w, 0.0), directed=False, indices=0)
     q = np.atleast_2d(np.asarray(xy, dtype=np.float64))
     out = np.full(len(q), np.inf)
     qon = on_passable_brute(tin, q, passable, tol=1e-9)
+    fin = np.flatnonzero(np.isfinite(D))
     for k in np.flatnonzero(qon):
-        fin = np.flatnonzero(np.isfinite(D))
-        v = seen(np.repeat(q[k][None], len(fin), axis=0), pts[fin])
+        none = np.full(len(fin), -1)
+        v = seen(np.repeat(q[k][None], len(fin), axis=0), pts[fin], none, fin)
         if v.any():
             out[k] = np.min(np.hypot(*(pts[fin[v]] - q[k]).T) + D[fin[v]])
     return out
