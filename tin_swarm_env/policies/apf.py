@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import ArgumentError
+
 from ..world.fields import (
     FIELDS,
     FieldParams,
@@ -42,7 +44,7 @@ def unwrap_env(env):
         e = getattr(e, "env", None) or getattr(e, "unwrapped", None)
         if e is None:
             break
-    raise TypeError("the policy needs a tin_swarm_env environment (or a wrapper of one)")
+    raise ArgumentError("the policy needs a tin_swarm_env environment (or a wrapper of one)")
 
 
 def decode(obs, layout, range_m) -> dict:

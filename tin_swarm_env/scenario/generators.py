@@ -78,6 +78,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import ArgumentError
+
 from ..terrain import Dem
 from ..terrain.breaks import MAX_SLOPE_DEG
 from .config import ScenarioError
@@ -548,6 +550,6 @@ def generate(rng: np.random.Generator, families: Sequence[str] | Mapping[str, fl
 def replay(task: GeneratedTask) -> GeneratedTask:
     """Rebuild a task made by :func:`generate` from its family, parameters and seed (bit for bit)."""
     if task.seed is None:
-        raise ValueError("replay needs a task made by generate() (its seed is None)")
+        raise ArgumentError("replay needs a task made by generate() (its seed is None)")
     out = FAMILIES[task.family](np.random.default_rng(task.seed), **task.params)
     return dataclasses.replace(out, seed=task.seed)

@@ -17,6 +17,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ._kernels import orient as _orient
+
 GOAL = -2  # parent of a node reached straight from the goal / query answered straight to the goal
 NONE = -1  # no node
 
@@ -280,11 +282,6 @@ def dijkstra(nx, ny, tri_nodes, start, node_tris, seeds, seed_dist):
                         size += 1
                     _sift_up(heap, pos, dist, pos[w])
     return dist, parent
-
-
-@njit(cache=True, inline="always")
-def _orient(ax, ay, bx, by, cx, cy):
-    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
 
 @njit(cache=True)

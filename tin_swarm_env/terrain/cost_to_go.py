@@ -59,6 +59,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import ArgumentError
 from . import _ctg_kernels as K
 from .tin import Tin, _as_xy
 
@@ -85,18 +86,19 @@ class CostToGo:
     def __init__(self, tin: Tin, goal_xy, passable, steiner_per_edge: int = DEFAULT_STEINER_PER_EDGE,
                  any_angle: bool = True):
         if not isinstance(tin, Tin):
-            raise TypeError(f"cost_to_go needs a Tin, got {type(tin).__name__}")
+            raise ArgumentError(f"cost_to_go needs a Tin, got {type(tin).__name__}")
         self.tin = tin
         self.goal_xy = _goal(goal_xy)
         self.passable = _passable(passable, tin.n_triangles)
         m = int(steiner_per_edge)
         if m != steiner_per_edge or m < 0:
-            raise ValueError(f"steiner_per_edge must be a non-negative integer, got {steiner_per_edge!r}")
+            raise ArgumentError(f"steiner_per_edge must be a non-negative integer, got {steiner_per_edge!r}")
         self.steiner_per_edge = m
         self.any_angle = bool(any_angle)
         te, n_edges = K.triangle_edges(tin.triangles, tin.neighbors)
         tris, vorig = K.split_fans(tin.triangles, tin.neighbors, self.passable, tin.n_vertices)
-        vx, vy = tin._vx[vorig], tin._vy[vorig]
+        xs, ys = tin.xy_columns
+        vx, vy = xs[vorig], ys[vorig]
         self._tris, self._vx, self._vy, self._vorig = tris, vx, vy, vorig
         nx, ny, self._tri_nodes, start, node_tris = K.build_nodes(vx, vy, tris, te, n_edges, m, self.passable)
         self._nx, self._ny = nx, ny
@@ -127,11 +129,11 @@ class CostToGo:
         tin, g = self.tin, self.goal_xy
         t0 = int(tin.locate(g[None])[0])
         if t0 < 0:
-            raise ValueError(f"goal_xy {g.tolist()} lies outside the TIN (bounds {tin.bounds})")
+            raise ArgumentError(f"goal_xy {g.tolist()} lies outside the TIN (bounds {tin.bounds})")
         near = np.isin(tin.triangles, tin.triangles[t0]).any(axis=1)  # triangles sharing a vertex
         cand = np.flatnonzero(near & self.passable)
         v = tin.vertices[tin.triangles[cand], :2]  # (c, 3, 2) CCW
-        tol = tin._tol[0]
+        tol = tin.tolerances[0]
         inside = np.ones(len(cand), dtype=bool)
         for k in range(3):
             a, b = v[:, k], v[:, (k + 1) % 3]
@@ -193,16 +195,16 @@ class CostToGo:
         else:
             t = np.asarray(tri_idx, dtype=np.int64).reshape(-1)
             if t.shape[0] != px.shape[0]:
-                raise ValueError(f"tri_idx has {t.shape[0]} entries for {px.shape[0]} points")
+                raise ArgumentError(f"tri_idx has {t.shape[0]} entries for {px.shape[0]} points")
             if t.size and (t.min() < -1 or t.max() >= tin.n_triangles):
-                raise ValueError(f"tri_idx must lie in -1..{tin.n_triangles - 1}")
+                raise ArgumentError(f"tri_idx must lie in -1..{tin.n_triangles - 1}")
         return self._query(px, py, t)[:2]
 
     def _query(self, px, py, t):
         tin = self.tin
         return K.query(self._nx, self._ny, self.node_distance, self._parent, self._tri_nodes, self.passable,
                        self.goal_triangles, self.goal_xy[0], self.goal_xy[1], self._vx, self._vy, self._tris,
-                       tin.neighbors, self._wstart, self._wgeo, self._wroot, px, py, t, tin._tol[0], self._eps_m)
+                       tin.neighbors, self._wstart, self._wgeo, self._wroot, px, py, t, tin.tolerances[0], self._eps_m)
 
     @property
     def _eps_m(self) -> float:
@@ -242,7 +244,7 @@ def pinch_vertices(tin: Tin, passable) -> np.ndarray:
 def _goal(goal_xy) -> np.ndarray:
     g = np.asarray(goal_xy, dtype=np.float64).reshape(-1)
     if g.shape != (2,) or not np.all(np.isfinite(g)):
-        raise ValueError(f"goal_xy must be 2 finite numbers (x, y) m, got {goal_xy!r}")
+        raise ArgumentError(f"goal_xy must be 2 finite numbers (x, y) m, got {goal_xy!r}")
     g = g.copy()
     g.setflags(write=False)
     return g
@@ -251,9 +253,9 @@ def _goal(goal_xy) -> np.ndarray:
 def _passable(passable, n_triangles) -> np.ndarray:
     p = np.asarray(passable)
     if p.shape != (n_triangles,):
-        raise ValueError(f"passable must have shape ({n_triangles},) (one flag per triangle), got {p.shape}")
+        raise ArgumentError(f"passable must have shape ({n_triangles},) (one flag per triangle), got {p.shape}")
     if p.dtype != np.bool_:
-        raise ValueError(f"passable must be a bool array, got dtype {p.dtype}")
+        raise ArgumentError(f"passable must be a bool array, got dtype {p.dtype}")
     p = np.ascontiguousarray(p).copy()
     p.setflags(write=False)
     return p
