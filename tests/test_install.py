@@ -45,12 +45,13 @@ def test_train_and_eval_run_from_a_plain_install_outside_the_repo(installed):
                        capture_output=True, text=True, env=env, cwd=work, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     assert (work / "run" / "model.zip").exists() and (work / "run" / "model.json").exists()
+    assert (work / "run" / "policy" / "policy.json").exists()  # the pickle-free export beside the .zip
     r = subprocess.run([str(exe), "eval", "flat", "--seeds", "1", "--robots", "2", "--policies", "apf",
-                        "--model", "run/model.zip", "--trust-pickle", "--out", "ev"], capture_output=True, text=True,
-                       env=env, cwd=work, timeout=300)
+                        "--model", "run/policy", "--model", "run/model.zip", "--trust-pickle", "--out", "ev"],
+                       capture_output=True, text=True, env=env, cwd=work, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     md = (work / "ev.md").read_text()
-    assert "| flat | apf |" in md and "| flat | ppo (run) |" in md
+    assert "| flat | apf |" in md and "| flat | run |" in md and "| flat | run (zip) |" in md
 
 
 def test_a_wheel_user_copies_a_scenario_and_runs_it(installed):

@@ -189,7 +189,8 @@ def markdown(rows) -> str:
             cells.append("–" if np.isnan(m) else f"{fmt.format(m)} ± {fmt.format(h)}")
         lines.append(f"| {r['scenario']} | {r['policy']} | " + " | ".join(cells) + " |")
     r0 = rows[0]
-    return "\n".join(lines) + (f"\n\n{r0['seeds']} seeds each (from {r0['seed_offset']}), mean ± 95% confidence "
+    seeds = f"{r0['seeds']} seed{'s' if r0['seeds'] != 1 else ''}"
+    return "\n".join(lines) + (f"\n\n{seeds} each (from {r0['seed_offset']}), mean ± 95% confidence "
                                "half-width (Student t) over robot-episodes.")
 
 
