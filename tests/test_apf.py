@@ -87,7 +87,7 @@ def test_fields_subset_and_random_policy():
     obs, _ = env.reset(seed=0)
     pol = APFPolicy(env, fields=("robot", "target", "height"))
     f = pol.forces(np.stack(list(obs.values())))
-    assert not np.any(f["break"]) and not np.any(f["slide"])
+    assert not np.any(f["break"]) and not np.any(f["follow"])
     with pytest.raises(ValueError, match="unknown field"):
         APFPolicy(env, fields=("robot", "gravity"))
     r1, r2 = RandomPolicy(env, seed=1).act(obs), RandomPolicy(env, seed=1).act(obs)

@@ -23,6 +23,7 @@ from ..world.fields import (
     asset_field,
     away_from,
     break_field,
+    facing,
     follow_field,
     height_field,
     robot_field,
@@ -30,7 +31,7 @@ from ..world.fields import (
 )
 
 __all__ = ["APFPolicy", "RandomPolicy", "apf_forces", "decode", "BugMemory", "bug_update", "keep_clear", "into_view",
-           "safety_cut", "unwrap_env"]
+           "safety_cut", "unwrap_env", "Controller"]
 
 
 def unwrap_env(env):
@@ -70,19 +71,31 @@ def decode(obs, layout, range_m) -> dict:
     return out
 
 
+FORCES = ("robot", "target", "break", "follow", "height", "asset")
+
+
 def apf_forces(obs, layout, range_m, standoff_m, params: FieldParams, follow=None, step_m=1.0, guard_m=0.0):
     """Per-field body-frame forces for observations ``obs (n, d)``: a dict name -> ``(n, 2)``
-    (``robot``, ``target``, ``break``, ``slide``, ``height``, ``asset``; fields switched off are
-    zeros; the asset field reads the layout's asset slots, guard ring radius ``guard_m``).
-    ``follow = (side (n,), slot (n,))``: each robot's wall-following side (+1 the break on its
-    right, -1 on its left, 0 none) and the break slot it follows (-1 none), from
-    :func:`bug_update`; ``slide`` is then the wall-following term
+    (:data:`FORCES`: ``robot``, ``target``, ``break``, ``follow``, ``height``, ``asset``; fields
+    switched off are zeros; the asset field reads the layout's asset slots, guard ring radius
+    ``guard_m``). ``follow = (side (n,), slot (n,))``: each robot's wall-following side (+1 the
+    break on its right, -1 on its left, 0 none) and the break slot it follows (-1 none), from
+    :func:`bug_update`; ``follow`` is then the wall-following term
     (:func:`~tin_swarm_env.world.fields.follow_field`, ``step_m`` the distance covered in one
-    step at full speed); without ``follow`` it is zero."""
+    step at full speed); without it, zero."""
     d = decode(obs, layout, range_m)
+    out = field_forces(d, layout, standoff_m, params, guard_m)
+    if follow is not None and params.on("break") and layout.k_breaks:
+        out["follow"] = follow_term(d, out["target"] + out["height"], *follow, params, step_m)
+    return out
+
+
+def field_forces(d: dict, layout, standoff_m, params: FieldParams, guard_m=0.0) -> dict:
+    """:func:`apf_forces` from the decoded observation ``d`` (:func:`decode`), without the
+    wall-following term (``follow`` is zeros)."""
     n = len(d["dist"])
     zero = np.zeros((n, 2))
-    out = {k: zero for k in ("robot", "target", "break", "slide", "height", "asset")}
+    out = dict.fromkeys(FORCES, zero)
     if params.on("asset") and layout.k_assets:
         out["asset"], _ = asset_field(d["a_rel"], d["a_valid"], guard_m, params.asset_gain, params.asset_range_m)
     has_t = d["has_t"][:, None]
@@ -95,16 +108,19 @@ def apf_forces(obs, layout, range_m, standoff_m, params: FieldParams, follow=Non
     if params.on("robot") and layout.k_robots:
         out["robot"], _ = robot_field(d["r_rel"], d["r_valid"], params.robot_gain, params.robot_range_m)
     if params.on("break") and layout.k_breaks:
-        rel, nrm, danger = d["b_rel"], d["b_normal"], d["b_danger"]
-        out["break"], _ = break_field(rel, nrm, danger, params.break_gain, params.break_range_m,
-                                      params.break_decay_m)
-        if follow is not None:
-            side, slot = follow
-            k = np.maximum(slot, 0)[:, None, None]
-            side = np.where(slot >= 0, side, 0)
-            out["slide"] = follow_field(out["target"] + out["height"], np.take_along_axis(rel, k, axis=1)[:, 0],
-                                        np.take_along_axis(nrm, k, axis=1)[:, 0], side, params.follow_hold_m, step_m)
+        out["break"], _ = break_field(d["b_rel"], d["b_normal"], d["b_danger"], params.break_gain,
+                                      params.break_range_m, params.break_decay_m)
     return out
+
+
+def follow_term(d: dict, pull, side, slot, params: FieldParams, step_m: float):
+    """The wall-following term ``(n, 2)`` of robots following break ``slot (n,)`` (-1 none) on
+    ``side (n,)`` with attraction ``pull (n, 2)`` (:func:`~tin_swarm_env.world.fields.follow_field`)."""
+    k = np.maximum(slot, 0)[:, None, None]
+    side = np.where(slot >= 0, side, 0)
+    rel = np.take_along_axis(d["b_rel"], k, axis=1)[:, 0]
+    nrm = np.take_along_axis(d["b_normal"], k, axis=1)[:, 0]
+    return follow_field(pull, rel, nrm, side, params.follow_hold_m, step_m)
 
 
 @dataclass
@@ -285,12 +301,35 @@ def safety_cut(action, d: dict, gap_m: float, edge_m: float | None, step_m: floa
     within ``edge_m`` of a dangerous break it sees from its safe side (``share`` 1)."""
     a = keep_clear(into_view(action, fov_deg), d["r_rel"], d["r_valid"], gap_m, step_m)
     if edge_m is not None:
-        facing = d["b_danger"] & (np.sum(d["b_rel"] * d["b_normal"], axis=-1) <= 1e-9)
-        a = keep_clear(a, d["b_rel"], facing, edge_m, step_m, share=1.0)
+        a = keep_clear(a, d["b_rel"], facing(d["b_rel"], d["b_normal"], d["b_danger"]), edge_m, step_m, share=1.0)
     return a
 
 
-class APFPolicy:
+class Controller:
+    """What every built-in controller reads from the environment, in one place: static
+    quantities only (never the world state). :meth:`_read_constants` sets ``range_m`` (sensor
+    range), ``standoff_m`` (the containment ring's radius, 0 for a goal task), ``guard_m`` (the
+    assets' guard ring), ``gap_m`` (3 robot radii: 1.5 body diameters kept between robots that
+    see each other), ``edge_m`` (2 radii: one body diameter kept off a dangerous break),
+    ``fov_deg`` and ``step_m`` (the distance covered in one step at full speed); :meth:`_cut`
+    applies :func:`safety_cut` with them."""
+
+    def _read_constants(self, cfg):
+        self.range_m = cfg.world.sensor.range_m
+        self.standoff_m = cfg.targets.standoff_m if cfg.task == "containment" else 0.0
+        self.guard_m = cfg.assets.standoff_m
+        self.gap_m = 3.0 * cfg.world.robot.radius_m
+        self.edge_m = 2.0 * cfg.world.robot.radius_m
+        self.fov_deg = cfg.world.sensor.fov_deg
+        self.step_m = cfg.world.robot.max_speed_mps * cfg.world.dt_s
+
+    def _cut(self, action, d: dict, edges: bool = True) -> np.ndarray:
+        """:func:`safety_cut` of ``action (n, 2)`` (the break cut only when ``edges``), float32."""
+        return safety_cut(action, d, self.gap_m, self.edge_m if edges else None, self.step_m,
+                          self.fov_deg).astype(np.float32)
+
+
+class APFPolicy(Controller):
     """The thesis's potential-field controller as a policy: ``act(obs_dict) -> action_dict``
     and ``act_batch(obs (n, d)) -> actions (n, 2)``.
 
@@ -321,13 +360,7 @@ class APFPolicy:
     def __init__(self, env, fields=FIELDS, params: FieldParams | None = None):
         base = unwrap_env(env)
         cfg = base.config
-        self.range_m = cfg.world.sensor.range_m
-        self.standoff_m = cfg.targets.standoff_m if cfg.task == "containment" else 0.0
-        self.guard_m = cfg.assets.standoff_m
-        self.gap_m = 3.0 * cfg.world.robot.radius_m
-        self.edge_m = 2.0 * cfg.world.robot.radius_m
-        self.fov_deg = cfg.world.sensor.fov_deg
-        self.step_m = cfg.world.robot.max_speed_mps * cfg.world.dt_s
+        self._read_constants(cfg)
         if params is None:
             params = FieldParams()
             n_threats = cfg.targets.n
@@ -345,28 +378,27 @@ class APFPolicy:
         self.memory = BugMemory.empty(0)
         self._rows: dict = {}
 
-    def forces(self, obs, rows=None):
+    def forces(self, obs, rows=None) -> dict:
         """Per-field forces (:func:`apf_forces`) for observations ``obs (n, d)`` of the robots in
         ``rows`` (default ``0..n-1``); advances their memory by one step."""
-        obs = np.asarray(obs, dtype=np.float64)
-        rows = np.arange(len(obs)) if rows is None else np.asarray(rows, dtype=np.int64)
-        if not self.params.on("break"):
-            return apf_forces(obs, self.layout, self.range_m, self.standoff_m, self.params, guard_m=self.guard_m)
+        return self._forces(decode(obs, self.layout, self.range_m), rows)
+
+    def _forces(self, d: dict, rows=None) -> dict:
+        f = field_forces(d, self.layout, self.standoff_m, self.params, self.guard_m)
+        if not (self.params.on("break") and self.layout.k_breaks):
+            return f
+        rows = np.arange(len(d["dist"])) if rows is None else np.asarray(rows, dtype=np.int64)
         self.memory = self.memory.grow(int(rows.max(initial=-1)) + 1)
-        f = apf_forces(obs, self.layout, self.range_m, self.standoff_m, self.params, guard_m=self.guard_m)
-        d = decode(obs, self.layout, self.range_m)
-        slot = bug_update(self.memory, rows, d, f["target"] + f["height"], self.params, 2 * self.params.robot_range_m)
-        return apf_forces(obs, self.layout, self.range_m, self.standoff_m, self.params,
-                          follow=(self.memory.side[rows], slot), step_m=self.step_m, guard_m=self.guard_m)
+        pull = f["target"] + f["height"]
+        slot = bug_update(self.memory, rows, d, pull, self.params, 2 * self.params.robot_range_m)
+        f["follow"] = follow_term(d, pull, self.memory.side[rows], slot, self.params, self.step_m)
+        return f
 
     def act_batch(self, obs, rows=None) -> np.ndarray:
-        obs = np.asarray(obs, dtype=np.float64)
-        f = sum(self.forces(obs, rows).values())
-        mag = np.sqrt(np.sum(f * f, axis=-1, keepdims=True))
-        a = f / np.maximum(mag, self.params.speed_saturation)
         d = decode(obs, self.layout, self.range_m)
-        return safety_cut(a, d, self.gap_m, self.edge_m if self.params.on("break") else None, self.step_m,
-                          self.fov_deg).astype(np.float32)
+        f = sum(self._forces(d, rows).values())
+        mag = np.sqrt(np.sum(f * f, axis=-1, keepdims=True))
+        return self._cut(f / np.maximum(mag, self.params.speed_saturation), d, edges=self.params.on("break"))
 
     def act(self, obs: dict) -> dict:
         if not obs:
