@@ -137,6 +137,9 @@ class BugMemory:
     wall      (n,)  rad   direction from the followed break to the robot relative to the target's
                           bearing, last step: the robot keeps to the same break (it goes round
                           the end of a wall in a corridor instead of crossing to the other one)
+    start_m   (n,)  m     distance to the target when it started following (its progress mark)
+    kept      (n,) bool   it has turned back from a dead end since it started following: it
+                          keeps that side (no second dead-end turn) until it leaves the break
     """
 
     side: np.ndarray
@@ -144,13 +147,15 @@ class BugMemory:
     stall: np.ndarray
     on_border: np.ndarray
     wall: np.ndarray
+    start_m: np.ndarray
+    kept: np.ndarray
 
-    _KEYS = ("side", "turn", "stall", "on_border", "wall")
+    _KEYS = ("side", "turn", "stall", "on_border", "wall", "start_m", "kept")
 
     @classmethod
     def empty(cls, n: int) -> BugMemory:
         return cls(np.zeros(n, dtype=np.int8), np.zeros(n), np.zeros(n, dtype=np.int64), np.zeros(n, dtype=bool),
-                   np.zeros(n))
+                   np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool))
 
     def grow(self, n: int) -> BugMemory:
         if n <= len(self.side):
@@ -181,6 +186,37 @@ def _followed(seen, dist_b, ang, following, last_ang, hold_m):
     return np.where(seen.any(axis=-1), k, -1)
 
 
+def _sensed(d: dict, pull, params: FieldParams) -> dict:
+    """What :func:`bug_update` reads from the decoded observation, per break slot ``(m, K)``:
+    ``dist`` (m), ``e`` (unit vector from the break to the robot, ``(m, K, 2)``), ``facing``
+    (dangerous, seen from the safe side), ``into`` (facing, within ``follow_engage_m`` and the
+    pull points into it), ``ang`` (``e``'s direction relative to the target's bearing, rad);
+    per robot: ``blocked (m,)`` and ``ref (m, 2)`` (the target's bearing)."""
+    rel = d["b_rel"]
+    dist = np.sqrt(np.sum(rel * rel, axis=-1))
+    face = facing(rel, d["b_normal"], d["b_danger"])
+    e = away_from(rel, d["b_normal"])
+    into = face & (dist < params.follow_engage_m) & (np.einsum("nj,nkj->nk", pull, e) < 0)
+    ref = np.where(d["dist"][:, None] > 0, d["rel_t"], 1.0)
+    ang = _wrap(np.arctan2(e[..., 1], e[..., 0]) - np.arctan2(ref[:, 1], ref[:, 0])[:, None])
+    return {"dist": dist, "e": e, "facing": face, "into": into, "ang": ang, "ref": ref,
+            "blocked": into.any(axis=-1) & d["has_t"]}
+
+
+def _start_side(s: dict, pull) -> tuple[np.ndarray, np.ndarray]:
+    """For each robot, the nearest blocking break slot ``(m,)`` and the side ``(m,)`` (+1 / -1)
+    whose tangent points more toward the pull; when the break lies square across it (|cos| <
+    0.05), the side its heading (body x) already leans to."""
+    rows_i = np.arange(len(pull))
+    kb = np.argmin(np.where(s["into"], s["dist"], np.inf), axis=-1)
+    eb = s["e"][rows_i, kb]
+    tb = np.stack([eb[:, 1], -eb[:, 0]], axis=-1)
+    pn = pull / np.maximum(np.sqrt(np.sum(pull * pull, axis=-1)), 1e-12)[:, None]
+    score = np.sum(tb * pn, axis=-1)
+    score = np.where(np.abs(score) < 0.05, tb[:, 0], score)
+    return kb, np.where(score >= 0, 1, -1)
+
+
 def bug_update(mem: BugMemory, rows, d: dict, pull, params: FieldParams, crowd_m: float) -> np.ndarray:
     """One step of the bug rules for the robots in ``rows`` (their decoded observations ``d``
     and attraction ``pull (m, 2)``); updates ``mem`` in place and returns the break slot each
@@ -189,69 +225,71 @@ def bug_update(mem: BugMemory, rows, d: dict, pull, params: FieldParams, crowd_m
     * *blocked*: the pull points into a dangerous break seen from its safe side within
       ``follow_engage_m`` (``pull . e < 0``, ``e`` from :func:`~tin_swarm_env.world.fields.away_from`).
     * start: a free robot that is blocked follows the nearest blocking break on the side whose
-      tangent points more toward the pull (the target's bearing); when the break lies square
-      across it (|cos| < 0.05), on the side its heading already leans to.
+      tangent points more toward the pull (:func:`_start_side`); it marks its distance to the
+      target (``start_m``).
     * follow: the followed break is the one seen within ``break_range_m`` that continues last
       step's (:func:`_followed`); ``turn`` adds up how the direction of travel along it turns
       relative to the target's bearing.
     * leave (Pledge's rule): a following robot that is not blocked and whose counted ``turn``
       is back within 90 degrees of the target's bearing: it has come round the break, not merely
       turned away from it (at the head of a cut in a plateau the counter reads about 180 degrees).
-    * turn back (side -> -side, ``turn`` restarts from the new direction): when the followed
-      break becomes the border (it cannot be gone round) after one that was not, or the border
-      lies ahead along the followed break within ``follow_engage_m``; or after ``stall_steps``
-      steps following without moving (speed under 5%) with no robot within ``crowd_m`` (a dead
-      end, a corner)."""
-    side, turn, stall = mem.side[rows], mem.turn[rows], mem.stall[rows]
-    was_border, last_wall = mem.on_border[rows], mem.wall[rows]
-    rel = d["b_rel"]
-    n = len(rel)
+    * turn back (side -> -side, ``turn`` restarts from the new direction), :func:`_turn_back`:
+      at the border, when stalled, or at a dead end (the counted turn exceeds
+      ``dead_end_turn_deg`` while the robot is no nearer the target than where it started
+      following: it went into a pocket or round a tongue; once per following, ``kept``)."""
+    side, turn = mem.side[rows], mem.turn[rows]
+    s = _sensed(d, pull, params)
+    n = len(pull)
     rows_i = np.arange(n)
-    dist_b = np.sqrt(np.sum(rel * rel, axis=-1))
-    facing = d["b_danger"] & (np.sum(rel * d["b_normal"], axis=-1) <= 1e-9)
-    e = away_from(rel, d["b_normal"])
-    into = facing & (dist_b < params.follow_engage_m) & (np.einsum("nj,nkj->nk", pull, e) < 0)
-    blocked = into.any(axis=-1) & d["has_t"]
-    ref = np.where(d["dist"][:, None] > 0, d["rel_t"], 1.0)
-    ang = _wrap(np.arctan2(e[..., 1], e[..., 0]) - np.arctan2(ref[:, 1], ref[:, 0])[:, None])
-    # start: follow the nearest blocking break on the side whose tangent points more toward the pull
-    new = (side == 0) & blocked
-    kb = np.argmin(np.where(into, dist_b, np.inf), axis=-1)
-    eb = e[rows_i, kb]
-    tb = np.stack([eb[:, 1], -eb[:, 0]], axis=-1)
-    pn = pull / np.maximum(np.sqrt(np.sum(pull * pull, axis=-1)), 1e-12)[:, None]
-    score = np.sum(tb * pn, axis=-1)
-    score = np.where(np.abs(score) < 0.05, tb[:, 0], score)
-    side = np.where(new, np.where(score >= 0, 1, -1), side).astype(np.int8)
-    last_wall = np.where(new, ang[rows_i, kb], last_wall)
+    new = (side == 0) & s["blocked"]
+    kb, start = _start_side(s, pull)
+    side = np.where(new, start, side).astype(np.int8)
+    last_wall = np.where(new, s["ang"][rows_i, kb], mem.wall[rows])
+    mem.start_m[rows] = np.where(new, d["dist"], mem.start_m[rows])
+    mem.kept[rows] &= ~new
     # the followed break and the direction of travel along it
-    seen = facing & (dist_b < params.break_range_m)
-    kf = _followed(seen, dist_b, ang, side != 0, last_wall, params.follow_hold_m)
+    seen = s["facing"] & (s["dist"] < params.break_range_m)
+    kf = _followed(seen, s["dist"], s["ang"], side != 0, last_wall, params.follow_hold_m)
     has_wall = kf >= 0
     kc = np.maximum(kf, 0)
-    ef = e[rows_i, kc]
+    ef = s["e"][rows_i, kc]
     t_left = np.stack([ef[:, 1], -ef[:, 0]], axis=-1)  # tangent with the break on the right
-    theta = _angle_to(side[:, None] * t_left, ref)
+    theta = _angle_to(side[:, None] * t_left, s["ref"])
     turn = np.where(new, theta, turn)
-    go = (side != 0) & ~new & has_wall
-    turn = np.where(go, turn + _wrap(theta - _wrap(turn)), turn)
+    turn = np.where((side != 0) & ~new & has_wall, turn + _wrap(theta - _wrap(turn)), turn)
     # leave when clear and heading within 90 degrees of the target again, counted
-    side = np.where((side != 0) & ~blocked & (np.abs(turn) < np.pi / 2), 0, side).astype(np.int8)
-    # turn back at the border or when stuck
+    side = np.where((side != 0) & ~s["blocked"] & (np.abs(turn) < np.pi / 2), 0, side).astype(np.int8)
     on_border = has_wall & d["b_border"][rows_i, kc]
-    ahead = np.einsum("nj,nkj->nk", side[:, None] * t_left, -e) > 0.3
-    border_ahead = (d["b_border"] & facing & ahead & (dist_b < params.follow_engage_m)).any(axis=-1)
+    back = _turn_back(mem, rows, d, s, side, turn, t_left, on_border, params, crowd_m) & ~new
+    side = np.where(back, -side, side).astype(np.int8)
+    mem.side[rows] = side
+    mem.turn[rows] = np.where(back, _angle_to(side[:, None] * t_left, s["ref"]), turn)
+    mem.stall[rows] = np.where(back, 0, mem.stall[rows])
+    mem.kept[rows] &= side != 0
+    mem.on_border[rows] = on_border
+    mem.wall[rows] = np.where(has_wall, s["ang"][rows_i, kc], last_wall)
+    return np.where(side != 0, kf, -1)
+
+
+def _turn_back(mem: BugMemory, rows, d: dict, s: dict, side, turn, t_left, on_border, params: FieldParams,
+               crowd_m: float) -> np.ndarray:
+    """Which following robots turn back ``(m,)``: the followed break becomes the border (it
+    cannot be gone round) after one that was not, or the border lies ahead along the followed
+    break within ``follow_engage_m``; ``stall_steps`` steps following without moving (speed
+    under 5%) with no robot within ``crowd_m`` (a corner); or a dead end (``|turn| >
+    dead_end_turn_deg`` and the distance to the target at least ``start_m``, unless ``kept``;
+    sets ``kept``). Advances ``mem.stall``."""
+    following = side != 0
+    ahead = np.einsum("nj,nkj->nk", side[:, None] * t_left, -s["e"]) > 0.3
+    border_ahead = (d["b_border"] & s["facing"] & ahead & (s["dist"] < params.follow_engage_m)).any(axis=-1)
     r_d = np.sqrt(np.sum(d["r_rel"] ** 2, axis=-1))
     crowded = ((d["r_valid"] > 0.5) & (r_d < crowd_m)).any(axis=-1)
-    stall = np.where((side != 0) & (d["speed"] < 0.05) & ~crowded, stall + 1, 0)
-    back = (side != 0) & ~new & (border_ahead | (on_border & ~was_border) | (stall >= params.stall_steps))
-    side = np.where(back, -side, side).astype(np.int8)
-    turn = np.where(back, _angle_to(side[:, None] * t_left, ref), turn)
-    stall = np.where(back, 0, stall)
-    mem.side[rows], mem.turn[rows], mem.stall[rows] = side, turn, stall
-    mem.on_border[rows] = on_border
-    mem.wall[rows] = np.where(has_wall, ang[rows_i, kc], last_wall)
-    return np.where(side != 0, kf, -1)
+    stall = np.where(following & (d["speed"] < 0.05) & ~crowded, mem.stall[rows] + 1, 0)
+    mem.stall[rows] = stall
+    dead_end = (following & ~mem.kept[rows] & (np.abs(turn) > np.radians(params.dead_end_turn_deg))
+                & (d["dist"] >= mem.start_m[rows]))
+    mem.kept[rows] |= dead_end
+    return following & (border_ahead | (on_border & ~mem.on_border[rows]) | (stall >= params.stall_steps) | dead_end)
 
 
 def keep_clear(action, rel, valid, gap_m: float, step_m: float, share: float = 2.0, passes: int = 2):
@@ -341,11 +379,13 @@ class APFPolicy(Controller):
     counts), so that robots spread around each threat instead of bunching where they arrive.
 
     **Memory** (with the break field on): per robot, its wall-following side, how far its
-    direction of travel has turned while following, a stall counter and whether it followed
-    the border (:class:`BugMemory`; the rules are :func:`bug_update`'s: follow a blocking
-    dangerous break on the side whose tangent points more toward the target, keep that side
-    until clear of it and heading toward the target again by the turn count, turn back at the
-    border or when stuck). Rows are robots: ``act_batch`` row ``i``
+    direction of travel has turned while following, a stall counter, whether it followed the
+    border, its distance to the target when it started following and whether it has turned
+    back from a dead end since (:class:`BugMemory`; the rules are :func:`bug_update`'s: follow
+    a blocking dangerous break on the side whose tangent points more toward the target, keep
+    that side until clear of it and heading toward the target again by the turn count, turn
+    back at the border, when stuck, or once at a dead end: the counted turn passes
+    ``dead_end_turn_deg`` with the robot no nearer the target than where it started). Rows are robots: ``act_batch`` row ``i``
     is robot ``i``; ``act`` maps each agent name to a row the first time it sees it. The memory
     grows lazily to the number of rows; :meth:`reset` clears it (call it after each env reset).
 
