@@ -27,9 +27,10 @@ asset      the assets' role (a protection task, thesis 4.3): the target field's 
            it and hold the ring (spread along it by the robot field); 0 when none is seen.
 =========  ==========================================================================================
 
-Not a potential: the break field's *wall-following* term (:func:`follow_field`). Pure potential fields stop at the edge of a
-cliff that lies between a robot and its goal (a local minimum: with the break field off the
-thesis's "poor ending" is a fall, with it on a robot would stand at the edge for ever). A robot
+Not a potential: the break field's *wall-following* term (:func:`follow_field`). Pure potential
+fields stop at the edge of a cliff that lies between a robot and its goal (a local minimum: with
+the break field off the thesis's "poor ending" is a fall, with it on a robot would stand at the
+edge for ever). A robot
 that follows the edge on a chosen side (the policy chooses it, from what it senses, and keeps it
 in a small memory: :class:`~tin_swarm_env.policies.APFPolicy`) turns the minimum into the bug
 algorithms' wall-following, which gets around the cliff on either side.
