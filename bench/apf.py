@@ -1,6 +1,7 @@
 """APF against its references, in one run: arrived / fell / timed out / contacts per robot. By hand:
 
     python bench/apf.py [--seeds 5] [--robots N] [--jacksboro-seeds 5] [--generated 50] [--only cliff_goal,...]
+                        [--horizon]
 
 Policies: the APF baseline with all four fields, the APF without the break field (the thesis's
 "poor ending": falls), :class:`~tin_swarm_env.policies.GeodesicPolicy` (knows the map: an upper
@@ -107,6 +108,45 @@ def containment_rows(args):
         print(f"| {name} | {np.mean(ratios):.2f} | {worst:.2f} | {fell} | {contacts / n:.2f} |", flush=True)
 
 
+def horizon_rows(args):
+    """Why APF times out on jacksboro: for each robot that timed out, the step at which it
+    first followed a break plus the steps the shortest drivable path from there to its target
+    takes at top speed (GeodesicPolicy's cost-to-go field). Above ``max_cycles``, no policy
+    that first walks straight at the target (as APF must, seeing 150 m) could have arrived."""
+    env = tse.parallel_env(scenario="jacksboro")
+    cfg = env.config
+    step_m = cfg.world.robot.max_speed_mps * cfg.world.dt_s
+    print("\njacksboro, APF robots that timed out: first break contact + shortest path at top speed (steps)")
+    print("| seed | timed out | needed: min | median | max | share within max_cycles |")
+    print("|---:|---:|---:|---:|---:|---:|")
+    for sd in range(args.jacksboro_seeds):
+        pol = APFPolicy(env)
+        first_t = np.full(env.n, -1)
+        first_xy = np.zeros((env.n, 2))
+        clock = [0]
+
+        def on_step(e, reasons, pol=pol, first_t=first_t, first_xy=first_xy, clock=clock):
+            clock[0] += 1
+            side = np.zeros(e.n, dtype=np.int8)
+            side[: len(pol.memory.side)] = pol.memory.side[: e.n]
+            new = (side != 0) & (first_t < 0)
+            first_t[new] = clock[0]
+            first_xy[new] = e.world_state.positions[new]
+
+        out = rollout(env, pol, sd, on_step=on_step)
+        late = np.nonzero((out.reasons == Reason.TIMEOUT) & (first_t >= 0))[0]
+        if not len(late):
+            print(f"| {sd} | 0 | | | | |")
+            continue
+        geo, targets = GeodesicPolicy(env), env.world_state.targets.positions
+        need = np.empty(len(late))
+        for k in np.unique(env.target_assignment[late]):
+            mine = env.target_assignment[late] == k
+            need[mine] = first_t[late[mine]] + geo.field(k, targets[k])[0].distance_at(first_xy[late[mine]]) / step_m
+        print(f"| {sd} | {len(late)} | {need.min():.0f} | {np.median(need):.0f} | {need.max():.0f} | "
+              f"{np.mean(need <= cfg.max_cycles):.0%} |", flush=True)
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--seeds", type=int, default=5, help="episodes per row (not jacksboro, not generated)")
@@ -116,12 +156,16 @@ def main(argv=None):
                    help="seeds of the 'generated' scenario (0: none)")
     p.add_argument("--only", type=lambda s: s.split(","), default=None,
                    help="comma-separated row prefixes (e.g. jacksboro,canyon,containment)")
+    p.add_argument("--horizon", action="store_true",
+                   help="also: for jacksboro's timed-out APF robots, first contact + shortest path at top speed")
     args = p.parse_args(argv)
     print(f"{args.seeds} seeds per row ({args.jacksboro_seeds} on jacksboro), robots: "
           f"{args.robots or 'the scenario default'}\n")
     goal_rows(args)
     if not args.only or "containment" in args.only:
         containment_rows(args)
+    if args.horizon:
+        horizon_rows(args)
 
 
 if __name__ == "__main__":

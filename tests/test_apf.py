@@ -87,7 +87,7 @@ def test_fields_subset_and_random_policy():
     obs, _ = env.reset(seed=0)
     pol = APFPolicy(env, fields=("robot", "target", "height"))
     f = pol.forces(np.stack(list(obs.values())))
-    assert not np.any(f["break"]) and not np.any(f["slide"])
+    assert not np.any(f["break"]) and not np.any(f["follow"])
     with pytest.raises(ValueError, match="unknown field"):
         APFPolicy(env, fields=("robot", "gravity"))
     r1, r2 = RandomPolicy(env, seed=1).act(obs), RandomPolicy(env, seed=1).act(obs)
@@ -226,3 +226,36 @@ def test_crowding_resolves_robots_do_not_push_into_each_other():
     pol = APFPolicy(env)
     out = rollout(env, pol, 0)
     assert out.collisions.sum() / env.n <= 0.55
+
+
+def _round(phi_deg, dist_m=5.0):
+    """A cliff edge seen at ``dist_m`` in direction ``phi_deg`` (body frame), its safe side toward the robot."""
+    c, s = math.cos(math.radians(phi_deg)), math.sin(math.radians(phi_deg))
+    return (dist_m * c, dist_m * s, -c, -s, 50.0)
+
+
+def test_bug_memory_turns_back_once_at_a_dead_end():
+    # the followed edge wraps round the robot (a pocket): the direction of travel along it
+    # (edge direction + 90 deg for side +1) turns counter-clockwise in 30 deg steps while the
+    # target (bearing 16.7 deg) comes no nearer; once the counted turn exceeds
+    # dead_end_turn_deg the robot turns back, and keeps that side (no second dead-end turn)
+    layout, R = ObsLayout(), 60.0
+    p = FP(dead_end_turn_deg=270.0)
+    bearing = math.degrees(math.atan2(30.0, 100.0))
+    mem = BugMemory.empty(1)
+    flips = []
+    for k in range(20):
+        phi = 30.0 * k
+        _step(mem, _obs(layout, R, (100.0, 30.0), [_round(phi)]), layout, R, p)
+        if k == 0:
+            assert mem.side[0] == 1 and not mem.kept[0]
+        if mem.side[0] != 1 and not flips:
+            flips.append(phi)
+            assert mem.side[0] == -1 and mem.kept[0]
+    want = next(30.0 * k for k in range(20) if 30.0 * k + 90.0 - bearing > 270.0)
+    assert flips == [want]
+    # the same turn while the robot gets nearer the target is progress: no turn back
+    mem = BugMemory.empty(1)
+    for k in range(12):
+        _step(mem, _obs(layout, R, (100.0 - 5 * k, 30.0), [_round(30.0 * k)]), layout, R, p)
+        assert mem.side[0] == 1 and not mem.kept[0]

@@ -11,8 +11,8 @@ from tin_swarm_env.world.fields import (
     FieldParams,
     break_field,
     height_field,
+    facing,
     robot_field,
-    slide_field,
     target_field,
 )
 
@@ -135,20 +135,13 @@ def test_height_force_is_minus_the_gradient(z_t, gx, gy, gain):
     np.testing.assert_allclose(f, -fd_grad(U, p), atol=1e-5)
 
 
-def test_slide_turns_the_pull_along_the_break_to_the_left():
-    # cliff edge 1 m east (safe side west), goal due east: the pull (1, 0) is turned north
-    rel = np.array([[[1.0, 0.0]]])
-    n = np.array([[[-1.0, 0.0]]])
-    pull = np.array([[1.0, 0.0]])
-    s = slide_field(pull, rel, n, np.ones((1, 1)), 15.0, 10.0, full_m=8.0)
-    np.testing.assert_allclose(pull + s, [[0.0, 1.0]], atol=1e-12)
-    # a pull away from the break is left alone
-    s = slide_field(-pull, rel, n, np.ones((1, 1)), 15.0, 10.0, full_m=8.0)
-    np.testing.assert_allclose(s, [[0.0, 0.0]])
-    # beyond full_m the turn fades: halfway blend at full + decay * ln 2
-    rel = np.array([[[8.0 + 10 * math.log(2), 0.0]]])
-    s = slide_field(pull, rel, n, np.ones((1, 1)), 30.0, 10.0, full_m=8.0)
-    np.testing.assert_allclose(pull + s, [[0.5, 0.5]], atol=1e-12)
+def test_facing_hand_values():
+    # a break 2 m east whose safe side is west (normal (-1, 0)): the robot is on its safe side;
+    # the same break with the normal east is seen from behind; an invalid slot never faces
+    rel = np.array([[[2.0, 0.0], [2.0, 0.0], [2.0, 0.0], [0.0, 0.0]]])
+    nrm = np.array([[[-1.0, 0.0], [1.0, 0.0], [-1.0, 0.0], [0.0, 1.0]]])
+    valid = np.array([[1.0, 1.0, 0.0, 1.0]])
+    np.testing.assert_array_equal(facing(rel, nrm, valid), [[True, False, False, True]])  # on the break: faces
 
 
 def test_field_params_validate():

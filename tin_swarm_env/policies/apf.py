@@ -25,6 +25,7 @@ from ..world.fields import (
     asset_field,
     away_from,
     break_field,
+    facing,
     follow_field,
     height_field,
     robot_field,
@@ -32,7 +33,7 @@ from ..world.fields import (
 )
 
 __all__ = ["APFPolicy", "RandomPolicy", "apf_forces", "decode", "BugMemory", "bug_update", "keep_clear", "into_view",
-           "safety_cut", "unwrap_env"]
+           "safety_cut", "unwrap_env", "Controller"]
 
 
 def unwrap_env(env):
@@ -72,19 +73,31 @@ def decode(obs, layout, range_m) -> dict:
     return out
 
 
+FORCES = ("robot", "target", "break", "follow", "height", "asset")
+
+
 def apf_forces(obs, layout, range_m, standoff_m, params: FieldParams, follow=None, step_m=1.0, guard_m=0.0):
     """Per-field body-frame forces for observations ``obs (n, d)``: a dict name -> ``(n, 2)``
-    (``robot``, ``target``, ``break``, ``slide``, ``height``, ``asset``; fields switched off are
-    zeros; the asset field reads the layout's asset slots, guard ring radius ``guard_m``).
-    ``follow = (side (n,), slot (n,))``: each robot's wall-following side (+1 the break on its
-    right, -1 on its left, 0 none) and the break slot it follows (-1 none), from
-    :func:`bug_update`; ``slide`` is then the wall-following term
+    (:data:`FORCES`: ``robot``, ``target``, ``break``, ``follow``, ``height``, ``asset``; fields
+    switched off are zeros; the asset field reads the layout's asset slots, guard ring radius
+    ``guard_m``). ``follow = (side (n,), slot (n,))``: each robot's wall-following side (+1 the
+    break on its right, -1 on its left, 0 none) and the break slot it follows (-1 none), from
+    :func:`bug_update`; ``follow`` is then the wall-following term
     (:func:`~tin_swarm_env.world.fields.follow_field`, ``step_m`` the distance covered in one
-    step at full speed); without ``follow`` it is zero."""
+    step at full speed); without it, zero."""
     d = decode(obs, layout, range_m)
+    out = field_forces(d, layout, standoff_m, params, guard_m)
+    if follow is not None and params.on("break") and layout.k_breaks:
+        out["follow"] = follow_term(d, out["target"] + out["height"], *follow, params, step_m)
+    return out
+
+
+def field_forces(d: dict, layout, standoff_m, params: FieldParams, guard_m=0.0) -> dict:
+    """:func:`apf_forces` from the decoded observation ``d`` (:func:`decode`), without the
+    wall-following term (``follow`` is zeros)."""
     n = len(d["dist"])
     zero = np.zeros((n, 2))
-    out = {k: zero for k in ("robot", "target", "break", "slide", "height", "asset")}
+    out = dict.fromkeys(FORCES, zero)
     if params.on("asset") and layout.k_assets:
         out["asset"], _ = asset_field(d["a_rel"], d["a_valid"], guard_m, params.asset_gain, params.asset_range_m)
     has_t = d["has_t"][:, None]
@@ -97,16 +110,19 @@ def apf_forces(obs, layout, range_m, standoff_m, params: FieldParams, follow=Non
     if params.on("robot") and layout.k_robots:
         out["robot"], _ = robot_field(d["r_rel"], d["r_valid"], params.robot_gain, params.robot_range_m)
     if params.on("break") and layout.k_breaks:
-        rel, nrm, danger = d["b_rel"], d["b_normal"], d["b_danger"]
-        out["break"], _ = break_field(rel, nrm, danger, params.break_gain, params.break_range_m,
-                                      params.break_decay_m)
-        if follow is not None:
-            side, slot = follow
-            k = np.maximum(slot, 0)[:, None, None]
-            side = np.where(slot >= 0, side, 0)
-            out["slide"] = follow_field(out["target"] + out["height"], np.take_along_axis(rel, k, axis=1)[:, 0],
-                                        np.take_along_axis(nrm, k, axis=1)[:, 0], side, params.follow_hold_m, step_m)
+        out["break"], _ = break_field(d["b_rel"], d["b_normal"], d["b_danger"], params.break_gain,
+                                      params.break_range_m, params.break_decay_m)
     return out
+
+
+def follow_term(d: dict, pull, side, slot, params: FieldParams, step_m: float):
+    """The wall-following term ``(n, 2)`` of robots following break ``slot (n,)`` (-1 none) on
+    ``side (n,)`` with attraction ``pull (n, 2)`` (:func:`~tin_swarm_env.world.fields.follow_field`)."""
+    k = np.maximum(slot, 0)[:, None, None]
+    side = np.where(slot >= 0, side, 0)
+    rel = np.take_along_axis(d["b_rel"], k, axis=1)[:, 0]
+    nrm = np.take_along_axis(d["b_normal"], k, axis=1)[:, 0]
+    return follow_field(pull, rel, nrm, side, params.follow_hold_m, step_m)
 
 
 @dataclass
@@ -123,6 +139,9 @@ class BugMemory:
     wall      (n,)  rad   direction from the followed break to the robot relative to the target's
                           bearing, last step: the robot keeps to the same break (it goes round
                           the end of a wall in a corridor instead of crossing to the other one)
+    start_m   (n,)  m     distance to the target when it started following (its progress mark)
+    kept      (n,) bool   it has turned back from a dead end since it started following: it
+                          keeps that side (no second dead-end turn) until it leaves the break
     """
 
     side: np.ndarray
@@ -130,13 +149,15 @@ class BugMemory:
     stall: np.ndarray
     on_border: np.ndarray
     wall: np.ndarray
+    start_m: np.ndarray
+    kept: np.ndarray
 
-    _KEYS = ("side", "turn", "stall", "on_border", "wall")
+    _KEYS = ("side", "turn", "stall", "on_border", "wall", "start_m", "kept")
 
     @classmethod
     def empty(cls, n: int) -> BugMemory:
         return cls(np.zeros(n, dtype=np.int8), np.zeros(n), np.zeros(n, dtype=np.int64), np.zeros(n, dtype=bool),
-                   np.zeros(n))
+                   np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool))
 
     def grow(self, n: int) -> BugMemory:
         if n <= len(self.side):
@@ -167,6 +188,37 @@ def _followed(seen, dist_b, ang, following, last_ang, hold_m):
     return np.where(seen.any(axis=-1), k, -1)
 
 
+def _sensed(d: dict, pull, params: FieldParams) -> dict:
+    """What :func:`bug_update` reads from the decoded observation, per break slot ``(m, K)``:
+    ``dist`` (m), ``e`` (unit vector from the break to the robot, ``(m, K, 2)``), ``facing``
+    (dangerous, seen from the safe side), ``into`` (facing, within ``follow_engage_m`` and the
+    pull points into it), ``ang`` (``e``'s direction relative to the target's bearing, rad);
+    per robot: ``blocked (m,)`` and ``ref (m, 2)`` (the target's bearing)."""
+    rel = d["b_rel"]
+    dist = np.sqrt(np.sum(rel * rel, axis=-1))
+    face = facing(rel, d["b_normal"], d["b_danger"])
+    e = away_from(rel, d["b_normal"])
+    into = face & (dist < params.follow_engage_m) & (np.einsum("nj,nkj->nk", pull, e) < 0)
+    ref = np.where(d["dist"][:, None] > 0, d["rel_t"], 1.0)
+    ang = _wrap(np.arctan2(e[..., 1], e[..., 0]) - np.arctan2(ref[:, 1], ref[:, 0])[:, None])
+    return {"dist": dist, "e": e, "facing": face, "into": into, "ang": ang, "ref": ref,
+            "blocked": into.any(axis=-1) & d["has_t"]}
+
+
+def _start_side(s: dict, pull) -> tuple[np.ndarray, np.ndarray]:
+    """For each robot, the nearest blocking break slot ``(m,)`` and the side ``(m,)`` (+1 / -1)
+    whose tangent points more toward the pull; when the break lies square across it (|cos| <
+    0.05), the side its heading (body x) already leans to."""
+    rows_i = np.arange(len(pull))
+    kb = np.argmin(np.where(s["into"], s["dist"], np.inf), axis=-1)
+    eb = s["e"][rows_i, kb]
+    tb = np.stack([eb[:, 1], -eb[:, 0]], axis=-1)
+    pn = pull / np.maximum(np.sqrt(np.sum(pull * pull, axis=-1)), 1e-12)[:, None]
+    score = np.sum(tb * pn, axis=-1)
+    score = np.where(np.abs(score) < 0.05, tb[:, 0], score)
+    return kb, np.where(score >= 0, 1, -1)
+
+
 def bug_update(mem: BugMemory, rows, d: dict, pull, params: FieldParams, crowd_m: float) -> np.ndarray:
     """One step of the bug rules for the robots in ``rows`` (their decoded observations ``d``
     and attraction ``pull (m, 2)``); updates ``mem`` in place and returns the break slot each
@@ -175,69 +227,71 @@ def bug_update(mem: BugMemory, rows, d: dict, pull, params: FieldParams, crowd_m
     * *blocked*: the pull points into a dangerous break seen from its safe side within
       ``follow_engage_m`` (``pull . e < 0``, ``e`` from :func:`~tin_swarm_env.world.fields.away_from`).
     * start: a free robot that is blocked follows the nearest blocking break on the side whose
-      tangent points more toward the pull (the target's bearing); when the break lies square
-      across it (|cos| < 0.05), on the side its heading already leans to.
+      tangent points more toward the pull (:func:`_start_side`); it marks its distance to the
+      target (``start_m``).
     * follow: the followed break is the one seen within ``break_range_m`` that continues last
       step's (:func:`_followed`); ``turn`` adds up how the direction of travel along it turns
       relative to the target's bearing.
     * leave (Pledge's rule): a following robot that is not blocked and whose counted ``turn``
       is back within 90 degrees of the target's bearing: it has come round the break, not merely
       turned away from it (at the head of a cut in a plateau the counter reads about 180 degrees).
-    * turn back (side -> -side, ``turn`` restarts from the new direction): when the followed
-      break becomes the border (it cannot be gone round) after one that was not, or the border
-      lies ahead along the followed break within ``follow_engage_m``; or after ``stall_steps``
-      steps following without moving (speed under 5%) with no robot within ``crowd_m`` (a dead
-      end, a corner)."""
-    side, turn, stall = mem.side[rows], mem.turn[rows], mem.stall[rows]
-    was_border, last_wall = mem.on_border[rows], mem.wall[rows]
-    rel = d["b_rel"]
-    n = len(rel)
+    * turn back (side -> -side, ``turn`` restarts from the new direction), :func:`_turn_back`:
+      at the border, when stalled, or at a dead end (the counted turn exceeds
+      ``dead_end_turn_deg`` while the robot is no nearer the target than where it started
+      following: it went into a pocket or round a tongue; once per following, ``kept``)."""
+    side, turn = mem.side[rows], mem.turn[rows]
+    s = _sensed(d, pull, params)
+    n = len(pull)
     rows_i = np.arange(n)
-    dist_b = np.sqrt(np.sum(rel * rel, axis=-1))
-    facing = d["b_danger"] & (np.sum(rel * d["b_normal"], axis=-1) <= 1e-9)
-    e = away_from(rel, d["b_normal"])
-    into = facing & (dist_b < params.follow_engage_m) & (np.einsum("nj,nkj->nk", pull, e) < 0)
-    blocked = into.any(axis=-1) & d["has_t"]
-    ref = np.where(d["dist"][:, None] > 0, d["rel_t"], 1.0)
-    ang = _wrap(np.arctan2(e[..., 1], e[..., 0]) - np.arctan2(ref[:, 1], ref[:, 0])[:, None])
-    # start: follow the nearest blocking break on the side whose tangent points more toward the pull
-    new = (side == 0) & blocked
-    kb = np.argmin(np.where(into, dist_b, np.inf), axis=-1)
-    eb = e[rows_i, kb]
-    tb = np.stack([eb[:, 1], -eb[:, 0]], axis=-1)
-    pn = pull / np.maximum(np.sqrt(np.sum(pull * pull, axis=-1)), 1e-12)[:, None]
-    score = np.sum(tb * pn, axis=-1)
-    score = np.where(np.abs(score) < 0.05, tb[:, 0], score)
-    side = np.where(new, np.where(score >= 0, 1, -1), side).astype(np.int8)
-    last_wall = np.where(new, ang[rows_i, kb], last_wall)
+    new = (side == 0) & s["blocked"]
+    kb, start = _start_side(s, pull)
+    side = np.where(new, start, side).astype(np.int8)
+    last_wall = np.where(new, s["ang"][rows_i, kb], mem.wall[rows])
+    mem.start_m[rows] = np.where(new, d["dist"], mem.start_m[rows])
+    mem.kept[rows] &= ~new
     # the followed break and the direction of travel along it
-    seen = facing & (dist_b < params.break_range_m)
-    kf = _followed(seen, dist_b, ang, side != 0, last_wall, params.follow_hold_m)
+    seen = s["facing"] & (s["dist"] < params.break_range_m)
+    kf = _followed(seen, s["dist"], s["ang"], side != 0, last_wall, params.follow_hold_m)
     has_wall = kf >= 0
     kc = np.maximum(kf, 0)
-    ef = e[rows_i, kc]
+    ef = s["e"][rows_i, kc]
     t_left = np.stack([ef[:, 1], -ef[:, 0]], axis=-1)  # tangent with the break on the right
-    theta = _angle_to(side[:, None] * t_left, ref)
+    theta = _angle_to(side[:, None] * t_left, s["ref"])
     turn = np.where(new, theta, turn)
-    go = (side != 0) & ~new & has_wall
-    turn = np.where(go, turn + _wrap(theta - _wrap(turn)), turn)
+    turn = np.where((side != 0) & ~new & has_wall, turn + _wrap(theta - _wrap(turn)), turn)
     # leave when clear and heading within 90 degrees of the target again, counted
-    side = np.where((side != 0) & ~blocked & (np.abs(turn) < np.pi / 2), 0, side).astype(np.int8)
-    # turn back at the border or when stuck
+    side = np.where((side != 0) & ~s["blocked"] & (np.abs(turn) < np.pi / 2), 0, side).astype(np.int8)
     on_border = has_wall & d["b_border"][rows_i, kc]
-    ahead = np.einsum("nj,nkj->nk", side[:, None] * t_left, -e) > 0.3
-    border_ahead = (d["b_border"] & facing & ahead & (dist_b < params.follow_engage_m)).any(axis=-1)
+    back = _turn_back(mem, rows, d, s, side, turn, t_left, on_border, params, crowd_m) & ~new
+    side = np.where(back, -side, side).astype(np.int8)
+    mem.side[rows] = side
+    mem.turn[rows] = np.where(back, _angle_to(side[:, None] * t_left, s["ref"]), turn)
+    mem.stall[rows] = np.where(back, 0, mem.stall[rows])
+    mem.kept[rows] &= side != 0
+    mem.on_border[rows] = on_border
+    mem.wall[rows] = np.where(has_wall, s["ang"][rows_i, kc], last_wall)
+    return np.where(side != 0, kf, -1)
+
+
+def _turn_back(mem: BugMemory, rows, d: dict, s: dict, side, turn, t_left, on_border, params: FieldParams,
+               crowd_m: float) -> np.ndarray:
+    """Which following robots turn back ``(m,)``: the followed break becomes the border (it
+    cannot be gone round) after one that was not, or the border lies ahead along the followed
+    break within ``follow_engage_m``; ``stall_steps`` steps following without moving (speed
+    under 5%) with no robot within ``crowd_m`` (a corner); or a dead end (``|turn| >
+    dead_end_turn_deg`` and the distance to the target at least ``start_m``, unless ``kept``;
+    sets ``kept``). Advances ``mem.stall``."""
+    following = side != 0
+    ahead = np.einsum("nj,nkj->nk", side[:, None] * t_left, -s["e"]) > 0.3
+    border_ahead = (d["b_border"] & s["facing"] & ahead & (s["dist"] < params.follow_engage_m)).any(axis=-1)
     r_d = np.sqrt(np.sum(d["r_rel"] ** 2, axis=-1))
     crowded = ((d["r_valid"] > 0.5) & (r_d < crowd_m)).any(axis=-1)
-    stall = np.where((side != 0) & (d["speed"] < 0.05) & ~crowded, stall + 1, 0)
-    back = (side != 0) & ~new & (border_ahead | (on_border & ~was_border) | (stall >= params.stall_steps))
-    side = np.where(back, -side, side).astype(np.int8)
-    turn = np.where(back, _angle_to(side[:, None] * t_left, ref), turn)
-    stall = np.where(back, 0, stall)
-    mem.side[rows], mem.turn[rows], mem.stall[rows] = side, turn, stall
-    mem.on_border[rows] = on_border
-    mem.wall[rows] = np.where(has_wall, ang[rows_i, kc], last_wall)
-    return np.where(side != 0, kf, -1)
+    stall = np.where(following & (d["speed"] < 0.05) & ~crowded, mem.stall[rows] + 1, 0)
+    mem.stall[rows] = stall
+    dead_end = (following & ~mem.kept[rows] & (np.abs(turn) > np.radians(params.dead_end_turn_deg))
+                & (d["dist"] >= mem.start_m[rows]))
+    mem.kept[rows] |= dead_end
+    return following & (border_ahead | (on_border & ~mem.on_border[rows]) | (stall >= params.stall_steps) | dead_end)
 
 
 def keep_clear(action, rel, valid, gap_m: float, step_m: float, share: float = 2.0, passes: int = 2):
@@ -287,12 +341,35 @@ def safety_cut(action, d: dict, gap_m: float, edge_m: float | None, step_m: floa
     within ``edge_m`` of a dangerous break it sees from its safe side (``share`` 1)."""
     a = keep_clear(into_view(action, fov_deg), d["r_rel"], d["r_valid"], gap_m, step_m)
     if edge_m is not None:
-        facing = d["b_danger"] & (np.sum(d["b_rel"] * d["b_normal"], axis=-1) <= 1e-9)
-        a = keep_clear(a, d["b_rel"], facing, edge_m, step_m, share=1.0)
+        a = keep_clear(a, d["b_rel"], facing(d["b_rel"], d["b_normal"], d["b_danger"]), edge_m, step_m, share=1.0)
     return a
 
 
-class APFPolicy:
+class Controller:
+    """What every built-in controller reads from the environment, in one place: static
+    quantities only (never the world state). :meth:`_read_constants` sets ``range_m`` (sensor
+    range), ``standoff_m`` (the containment ring's radius, 0 for a goal task), ``guard_m`` (the
+    assets' guard ring), ``gap_m`` (3 robot radii: 1.5 body diameters kept between robots that
+    see each other), ``edge_m`` (2 radii: one body diameter kept off a dangerous break),
+    ``fov_deg`` and ``step_m`` (the distance covered in one step at full speed); :meth:`_cut`
+    applies :func:`safety_cut` with them."""
+
+    def _read_constants(self, cfg):
+        self.range_m = cfg.world.sensor.range_m
+        self.standoff_m = cfg.targets.standoff_m if cfg.task == "containment" else 0.0
+        self.guard_m = cfg.assets.standoff_m
+        self.gap_m = 3.0 * cfg.world.robot.radius_m
+        self.edge_m = 2.0 * cfg.world.robot.radius_m
+        self.fov_deg = cfg.world.sensor.fov_deg
+        self.step_m = cfg.world.robot.max_speed_mps * cfg.world.dt_s
+
+    def _cut(self, action, d: dict, edges: bool = True) -> np.ndarray:
+        """:func:`safety_cut` of ``action (n, 2)`` (the break cut only when ``edges``), float32."""
+        return safety_cut(action, d, self.gap_m, self.edge_m if edges else None, self.step_m,
+                          self.fov_deg).astype(np.float32)
+
+
+class APFPolicy(Controller):
     """The thesis's potential-field controller as a policy: ``act(obs_dict) -> action_dict``
     and ``act_batch(obs (n, d)) -> actions (n, 2)``.
 
@@ -304,12 +381,14 @@ class APFPolicy:
     counts), so that robots spread around each threat instead of bunching where they arrive.
 
     **Memory** (with the break field on): per robot, its wall-following side, how far its
-    direction of travel has turned while following, a stall counter and whether it followed
-    the border (:class:`BugMemory`; the rules are :func:`bug_update`'s: follow a blocking
-    dangerous break on the side whose tangent points more toward the target, keep that side
-    until clear of it and heading toward the target again by the turn count, turn back at the
-    border or when stuck). Rows are robots: ``act_batch`` row ``i``
-    is robot ``i``; ``act`` maps each agent name to a row the first time it sees it. The memory
+    direction of travel has turned while following, a stall counter, whether it followed the
+    border, its distance to the target when it started following and whether it has turned
+    back from a dead end since (:class:`BugMemory`; the rules are :func:`bug_update`'s: follow
+    a blocking dangerous break on the side whose tangent points more toward the target, keep
+    that side until clear of it and heading toward the target again by the turn count, turn
+    back at the border, when stuck, or once at a dead end: the counted turn passes
+    ``dead_end_turn_deg`` with the robot no nearer the target than where it started).
+    Rows are robots: ``act_batch`` row ``i`` is robot ``i``; ``act`` maps each agent name to a row the first time it sees it. The memory
     grows lazily to the number of rows; :meth:`reset` clears it (call it after each env reset).
 
     **Crowding and edges**: the summed command is cut by :func:`keep_clear` so that robots that
@@ -323,13 +402,7 @@ class APFPolicy:
     def __init__(self, env, fields=FIELDS, params: FieldParams | None = None):
         base = unwrap_env(env)
         cfg = base.config
-        self.range_m = cfg.world.sensor.range_m
-        self.standoff_m = cfg.targets.standoff_m if cfg.task == "containment" else 0.0
-        self.guard_m = cfg.assets.standoff_m
-        self.gap_m = 3.0 * cfg.world.robot.radius_m
-        self.edge_m = 2.0 * cfg.world.robot.radius_m
-        self.fov_deg = cfg.world.sensor.fov_deg
-        self.step_m = cfg.world.robot.max_speed_mps * cfg.world.dt_s
+        self._read_constants(cfg)
         if params is None:
             params = FieldParams()
             n_threats = cfg.targets.n
@@ -347,28 +420,27 @@ class APFPolicy:
         self.memory = BugMemory.empty(0)
         self._rows: dict = {}
 
-    def forces(self, obs, rows=None):
+    def forces(self, obs, rows=None) -> dict:
         """Per-field forces (:func:`apf_forces`) for observations ``obs (n, d)`` of the robots in
         ``rows`` (default ``0..n-1``); advances their memory by one step."""
-        obs = np.asarray(obs, dtype=np.float64)
-        rows = np.arange(len(obs)) if rows is None else np.asarray(rows, dtype=np.int64)
-        if not self.params.on("break"):
-            return apf_forces(obs, self.layout, self.range_m, self.standoff_m, self.params, guard_m=self.guard_m)
+        return self._forces(decode(obs, self.layout, self.range_m), rows)
+
+    def _forces(self, d: dict, rows=None) -> dict:
+        f = field_forces(d, self.layout, self.standoff_m, self.params, self.guard_m)
+        if not (self.params.on("break") and self.layout.k_breaks):
+            return f
+        rows = np.arange(len(d["dist"])) if rows is None else np.asarray(rows, dtype=np.int64)
         self.memory = self.memory.grow(int(rows.max(initial=-1)) + 1)
-        f = apf_forces(obs, self.layout, self.range_m, self.standoff_m, self.params, guard_m=self.guard_m)
-        d = decode(obs, self.layout, self.range_m)
-        slot = bug_update(self.memory, rows, d, f["target"] + f["height"], self.params, 2 * self.params.robot_range_m)
-        return apf_forces(obs, self.layout, self.range_m, self.standoff_m, self.params,
-                          follow=(self.memory.side[rows], slot), step_m=self.step_m, guard_m=self.guard_m)
+        pull = f["target"] + f["height"]
+        slot = bug_update(self.memory, rows, d, pull, self.params, 2 * self.params.robot_range_m)
+        f["follow"] = follow_term(d, pull, self.memory.side[rows], slot, self.params, self.step_m)
+        return f
 
     def act_batch(self, obs, rows=None) -> np.ndarray:
-        obs = np.asarray(obs, dtype=np.float64)
-        f = sum(self.forces(obs, rows).values())
-        mag = np.sqrt(np.sum(f * f, axis=-1, keepdims=True))
-        a = f / np.maximum(mag, self.params.speed_saturation)
         d = decode(obs, self.layout, self.range_m)
-        return safety_cut(a, d, self.gap_m, self.edge_m if self.params.on("break") else None, self.step_m,
-                          self.fov_deg).astype(np.float32)
+        f = sum(self._forces(d, rows).values())
+        mag = np.sqrt(np.sum(f * f, axis=-1, keepdims=True))
+        return self._cut(f / np.maximum(mag, self.params.speed_saturation), d, edges=self.params.on("break"))
 
     def act(self, obs: dict) -> dict:
         if not obs:

@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 from ..terrain import Tin, cost_to_go
-from ..world.fields import FieldParams, away_from, robot_field
-from .apf import decode, safety_cut, unwrap_env
+from ..world.fields import FieldParams, away_from, facing, robot_field
+from .apf import Controller, decode, unwrap_env
 
 __all__ = ["GeodesicPolicy", "eroded"]
 
@@ -45,7 +45,7 @@ def clear_of_breaks(u, d: dict, clear_m: float):
     rel, nrm = d["b_rel"], d["b_normal"]
     dist = np.sqrt(np.sum(rel * rel, axis=-1))
     e = away_from(rel, nrm)
-    near = d["b_danger"] & (np.sum(rel * nrm, axis=-1) <= 1e-9) & (dist < clear_m)
+    near = facing(rel, nrm, d["b_danger"]) & (dist < clear_m)
     out = np.array(u, dtype=np.float64)
     for j in range(rel.shape[1]):
         ej = e[:, j]
@@ -55,7 +55,7 @@ def clear_of_breaks(u, d: dict, clear_m: float):
     return out
 
 
-class GeodesicPolicy:
+class GeodesicPolicy(Controller):
     """Map-knowing reference: each robot follows the shortest drivable path to its assigned
     target. ``act_batch(obs (n, d), rows=None) -> actions (n, 2)`` and ``act(obs_dict)``.
 
@@ -89,12 +89,7 @@ class GeodesicPolicy:
         base = unwrap_env(env)
         cfg = base.config
         self.env = base
-        self.range_m = cfg.world.sensor.range_m
-        self.standoff_m = cfg.targets.standoff_m if cfg.task == "containment" else 0.0
-        self.gap_m = 3.0 * cfg.world.robot.radius_m
-        self.edge_m = 2.0 * cfg.world.robot.radius_m
-        self.fov_deg = cfg.world.sensor.fov_deg
-        self.step_m = cfg.world.robot.max_speed_mps * cfg.world.dt_s
+        self._read_constants(cfg)
         self.params = params or FieldParams()
         self.clear_m = 5.0 * cfg.world.robot.radius_m if clear_m is None else float(clear_m)
         self.rebuild_m = float(rebuild_m)
@@ -183,7 +178,7 @@ class GeodesicPolicy:
         if self.robot_field_on and self.layout.k_robots:
             f = f + robot_field(d["r_rel"], d["r_valid"], p.robot_gain, p.robot_range_m)[0]
         a = f / np.maximum(np.sqrt(np.sum(f * f, axis=-1, keepdims=True)), p.speed_saturation)
-        return safety_cut(a, d, self.gap_m, self.edge_m, self.step_m, self.fov_deg).astype(np.float32)
+        return self._cut(a, d)
 
     def act(self, obs: dict) -> dict:
         if not obs:

@@ -27,10 +27,10 @@ asset      the assets' role (a protection task, thesis 4.3): the target field's 
            it and hold the ring (spread along it by the robot field); 0 when none is seen.
 =========  ==========================================================================================
 
-Not potentials: the break field's *wall-following* term (:func:`follow_field`) and its older,
-memoryless form, the *slide* (:func:`slide_field`). Pure potential fields stop at the edge of a
-cliff that lies between a robot and its goal (a local minimum: with the break field off the
-thesis's "poor ending" is a fall, with it on a robot would stand at the edge for ever). A robot
+Not a potential: the break field's *wall-following* term (:func:`follow_field`). Pure potential
+fields stop at the edge of a cliff that lies between a robot and its goal (a local minimum: with
+the break field off the thesis's "poor ending" is a fall, with it on a robot would stand at the
+edge for ever). A robot
 that follows the edge on a chosen side (the policy chooses it, from what it senses, and keeps it
 in a small memory: :class:`~tin_swarm_env.policies.APFPolicy`) turns the minimum into the bug
 algorithms' wall-following, which gets around the cliff on either side.
@@ -44,8 +44,8 @@ import numpy as np
 
 from ..errors import ParameterError
 
-__all__ = ["FIELDS", "FieldParams", "robot_field", "target_field", "break_field", "height_field", "slide_field",
-           "follow_field", "away_from", "asset_field", "fields_at", "HEIGHT_SCALE_M"]
+__all__ = ["FIELDS", "FieldParams", "robot_field", "target_field", "break_field", "height_field",
+           "follow_field", "away_from", "facing", "asset_field", "fields_at", "HEIGHT_SCALE_M"]
 
 FIELDS = ("robot", "target", "break", "height", "asset")
 HEIGHT_SCALE_M = 10.0
@@ -62,13 +62,12 @@ class FieldParams:
     break_gain: float = 4.0
     break_range_m: float = 15.0
     break_decay_m: float = 2.5
-    slide_full_m: float = 8.0
-    slide_decay_m: float = 10.0
     speed_saturation: float = 0.3
     height_gain: float = 0.5
     follow_engage_m: float = 8.0
     follow_hold_m: float = 5.0
     stall_steps: int = 20
+    dead_end_turn_deg: float = 450.0
     asset_gain: float = 0.5
     asset_range_m: float = 10.0
     fields: tuple[str, ...] = FIELDS
@@ -77,8 +76,8 @@ class FieldParams:
         unknown = set(self.fields) - set(FIELDS)
         if unknown:
             raise ParameterError(f"unknown field(s) {sorted(unknown)}; the fields are {', '.join(FIELDS)}")
-        for k in ("robot_range_m", "target_range_m", "break_range_m", "break_decay_m", "slide_decay_m",
-                  "follow_engage_m", "follow_hold_m", "stall_steps", "asset_range_m"):
+        for k in ("robot_range_m", "target_range_m", "break_range_m", "break_decay_m", "follow_engage_m",
+                  "follow_hold_m", "stall_steps", "dead_end_turn_deg", "asset_range_m"):
             if not getattr(self, k) > 0:
                 raise ParameterError(f"FieldParams.{k} must be > 0, got {getattr(self, k)}")
 
@@ -90,9 +89,11 @@ def _norm(v):
     return np.sqrt(np.sum(v * v, axis=-1))
 
 
-def _facing(rel, normal, valid):
-    """Breaks whose safe side the robot is on (the normal points from the break toward it);
-    a break seen from its unsafe side lies behind another one and does not push."""
+def facing(rel, normal, valid):
+    """Breaks ``(..., K)`` whose safe side the robot is on: ``valid`` and the normal points from
+    the break toward the robot (``rel . normal <= 0``, ``rel`` from the robot to the break's
+    closest point). A break seen from its unsafe side lies behind another one and does not push;
+    every controller reads "the dangerous breaks it must keep off" through this one test."""
     return valid.astype(bool) & (np.sum(rel * normal, axis=-1) <= 1e-9)
 
 
@@ -124,30 +125,10 @@ def break_field(rel, normal, valid, gain, range_m, decay_m):
     point of each break; ``normal (..., K, 2)``: unit normal toward the safe side; ``valid``
     selects dangerous breaks. Returns ``(force (..., 2), potential (...))``."""
     d = _norm(rel)
-    inside = _facing(rel, normal, valid) & (d < range_m)
+    inside = facing(rel, normal, valid) & (d < range_m)
     mag = np.where(inside, gain * np.exp(-d / decay_m), 0.0)
     pot = np.where(inside, gain * decay_m * (np.exp(-d / decay_m) - np.exp(-range_m / decay_m)), 0.0)
     return (mag[..., None] * normal).sum(axis=-2), pot.sum(axis=-1)
-
-
-def slide_field(pull, rel, normal, valid, range_m, decay_m, full_m=0.0, side=1.0):
-    """The memoryless slide (not a potential). ``pull (..., 2)``: the attraction (target and
-    height fields). Near a dangerous break that the pull points into, the pull is turned along
-    the break: with ``s = exp(-max(d - full, 0) / decay)`` for the nearest such break and ``t``
-    its tangent, ``t = side (n_y, -n_x)`` (``side`` +1: the break on the robot's right, it turns
-    left; -1: the other way; ``side`` broadcasts against ``pull[..., 0]``), the term is
-    ``s * (|pull| t - pull)``, so the pull becomes ``(1 - s) pull + s |pull| t``. Returns
-    ``force (..., 2)``."""
-    d = _norm(rel)
-    into = np.sum(pull[..., None, :] * normal, axis=-1) < 0
-    ok = _facing(rel, normal, valid) & (d < range_m) & into
-    s = np.where(ok, np.exp(-np.maximum(d - full_m, 0.0) / decay_m), 0.0)
-    k = np.argmax(s, axis=-1)
-    s_max = np.take_along_axis(s, k[..., None], axis=-1)[..., 0]
-    n_k = np.take_along_axis(normal, k[..., None, None], axis=-2)[..., 0, :]
-    tangent = np.asarray(side, dtype=np.float64)[..., None] * np.stack([n_k[..., 1], -n_k[..., 0]], axis=-1)
-    mag = _norm(pull)
-    return s_max[..., None] * (mag[..., None] * tangent - pull)
 
 
 def away_from(rel, normal):
@@ -210,8 +191,8 @@ def fields_at(points, params: FieldParams, *, robots=None, target=None, standoff
     ``"total"``. Sources: ``robots (M, 2)``, ``target (2,)`` with ``standoff_m``, ``breaks`` a
     :class:`~tin_swarm_env.terrain.Breaks` (dangerous ones push: cliff edges and border),
     ``tin`` with ``z_target`` for the height field, ``assets (A, 2)`` with ``guard_m`` for the
-    asset field (the nearest asset to each point). The slide term is left out (it depends on
-    the robot's motion and memory, not on its position alone)."""
+    asset field (the nearest asset to each point). The wall-following term is left out (it
+    depends on the robot's memory, not on its position alone)."""
     from ..terrain import ANGLE
     from ..terrain.breaks import closest_on_segments
 
