@@ -71,6 +71,42 @@ def test_dagger_teacher_memory_follows_the_learners_stream():
     assert not np.allclose(fresh, demos.actions)
 
 
+class Still:
+    """A learner that never moves (every robot stalls from the first step)."""
+
+    def act_batch(self, obs):
+        return np.zeros((len(obs), 2), np.float32)
+
+
+def test_dagger_beta_one_lets_the_teacher_drive_and_zero_the_learner():
+    kw = {"n_robots": 4, "max_cycles": 40}
+    bc = collect("cliff_goal", 1, seed=7, **kw)
+    teacher_drove = collect("cliff_goal", 1, seed=7, learner=Still(), beta=1.0, **kw)
+    assert np.array_equal(teacher_drove.obs, bc.obs) and np.array_equal(teacher_drove.actions, bc.actions)
+    still = collect("cliff_goal", 1, seed=7, learner=Still(), beta=0.0, **kw)
+    assert len(still) == 4 * 40 and still.arrived == 0.0  # nobody moved, nobody ended
+    half = collect("cliff_goal", 1, seed=7, learner=Still(), beta=0.5, **kw)
+    assert not np.array_equal(half.obs, bc.obs) and not np.array_equal(half.obs, still.obs)
+    with pytest.raises(ArgumentError, match="beta"):
+        collect("cliff_goal", 1, seed=7, learner=Still(), beta=1.5, **kw)
+
+
+def test_stall_steps_drops_a_stuck_robots_later_samples():
+    """A learner that stands still never gets closer: with ``stall_steps=S`` each robot keeps
+    exactly its first S samples (steps 0 .. S-1); APF, which moves, keeps more than S per robot."""
+    kw = {"n_robots": 4, "max_cycles": 40}
+    for s in (1, 5, 12):
+        d = collect("cliff_goal", 1, seed=7, learner=Still(), stall_steps=s, **kw)
+        assert len(d) == 4 * s and len(d.returns) == len(d)
+    full = collect("cliff_goal", 1, seed=7, **kw)
+    apf = collect("cliff_goal", 1, seed=7, stall_steps=5, **kw)
+    assert 4 * 5 < len(apf) <= len(full)
+    # returns of the kept samples are the same returns-to-go as without the cut (a prefix per robot)
+    still = collect("cliff_goal", 1, seed=7, learner=Still(), **kw)
+    cut = collect("cliff_goal", 1, seed=7, learner=Still(), stall_steps=3, **kw)
+    assert np.array_equal(cut.returns, still.returns[:12]) and np.array_equal(cut.obs, still.obs[:12])
+
+
 def test_discounted_returns_stop_where_a_robot_ended():
     rewards = np.array([[1.0, 2.0], [1.0, 5.0], [1.0, 0.0]])
     live = np.array([[True, True], [True, True], [True, False]])
@@ -117,6 +153,8 @@ def test_timesteps_zero_without_imitation_is_refused():
         check_args(Args(dagger_rounds=1))
     with pytest.raises(ArgumentError, match="recurrent"):
         check_args(Args(recurrent=True, bc_episodes=2))
+    with pytest.raises(ArgumentError, match="dagger-beta"):
+        check_args(Args(bc_episodes=1, dagger_beta=1.0))
     with pytest.raises(ArgumentError, match="seed"):
         check_args(Args(seed=EVAL_SEED0))
 

@@ -75,8 +75,16 @@ def _discounted(rewards, live, gamma):
     return out
 
 
-def _episode(env, teacher, learner, seed, gamma):
-    """One episode: ``(obs (N, d), labels (N, 2), returns (N,), reasons (n,))`` over live robot-steps."""
+STALL_EPS_M = 0.25  # a robot "makes progress" when its distance to go drops this much below its best
+
+
+def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=None):
+    """One episode: ``(obs (N, d), labels (N, 2), returns (N,), reasons (n,))`` over the kept
+    live robot-steps. ``beta``: each live robot's action is the teacher's with this probability
+    (per robot and step, drawn from ``rng``), else the learner's. ``stall_steps`` > 0: a robot's
+    samples stop being kept once its distance to go (``env.distance_to_go()``) has not dropped
+    :data:`STALL_EPS_M` below its best for that many steps (it is stuck; its steps would flood
+    the data); it keeps driving and the teacher keeps seeing it."""
     from ..world.state import Reason
 
     obs = env.reset_arrays(seed=seed)
@@ -85,35 +93,49 @@ def _episode(env, teacher, learner, seed, gamma):
         learner.reset()
     n = env.n
     reasons = np.full(n, int(Reason.NONE), dtype=np.int8)
-    O, A, R, L = [], [], [], []
+    best, since = env.distance_to_go(), np.zeros(n, dtype=np.int64)
+    O, A, R, L, K = [], [], [], [], []
     live = env.live_mask
     while live.any():
         label = teacher.act_batch(obs)  # every row, every step: the teacher's memory sees the whole stream
         act = label if learner is None else learner.act_batch(obs)
-        O.append(obs[live])
-        A.append(label[live])
+        if learner is not None and beta > 0:
+            act = np.where((rng.random(n) < beta)[:, None], label, act)
+        keep = live & ((since < stall_steps) if stall_steps > 0 else True)
+        O.append(obs[keep])
+        A.append(label[keep])
         obs, rew, term, trunc, why = env.step_arrays(act)
         R.append(np.where(live, rew, 0.0))
         L.append(live)
+        K.append(keep)
         ended = term | trunc
         reasons[ended] = why[ended]
+        d = env.distance_to_go()
+        better = d < best - STALL_EPS_M
+        best = np.where(better, d, best)
+        since = np.where(better, 0, since + 1)
         live = env.live_mask
-    ret = _discounted(np.asarray(R), np.asarray(L), gamma)[np.asarray(L)]  # row-major: step by step, robot order
+    ret = _discounted(np.asarray(R), np.asarray(L), gamma)[np.asarray(K)]  # row-major: step by step, robot order
     return np.concatenate(O), np.concatenate(A), ret.astype(np.float32), reasons
 
 
 def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=None, learner=None,
-            gamma: float = 0.99, env_kwargs: dict | None = None) -> Demos:
+            gamma: float = 0.99, env_kwargs: dict | None = None, beta: float = 0.0, stall_steps: int = 0) -> Demos:
     """Run ``episodes`` episodes (cycling over ``scenarios``; see the module docstring), driven by
     APF (``learner=None``: behaviour cloning data) or by ``learner`` (an object with
     ``act_batch(obs (n, d)) -> (n, 2)``: DAgger data), every live robot-step labelled with APF's
-    action. ``n_robots``/``max_cycles`` None: the scenario's."""
+    action. ``n_robots``/``max_cycles`` None: the scenario's. ``beta`` (DAgger's mixing: the teacher
+    drives each robot-step with this probability; the draws come from ``default_rng(seed)``) and
+    ``stall_steps`` (drop a stuck robot's later samples): see :func:`_episode`."""
     from ..env import parallel_env
     from ..policies import APFPolicy
     from ..world.state import Reason
 
     if episodes < 1:
         raise ArgumentError(f"episodes must be >= 1, got {episodes}")
+    if not 0.0 <= beta <= 1.0:
+        raise ArgumentError(f"beta must be in [0, 1], got {beta}")
+    rng = np.random.default_rng(seed)
     scenarios = [scenarios] if isinstance(scenarios, str) else list(scenarios)
     kw = dict(env_kwargs or {})
     if max_cycles:
@@ -123,7 +145,7 @@ def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=No
     parts, reasons = [], []
     for k in range(episodes):
         s = scenarios[k % len(scenarios)]
-        o, a, r, why = _episode(envs[s], teachers[s], learner, seed + k, gamma)
+        o, a, r, why = _episode(envs[s], teachers[s], learner, seed + k, gamma, beta, stall_steps, rng)
         parts.append((o, a, r))
         reasons.append(why)
     why = np.concatenate(reasons)

@@ -15,7 +15,10 @@ Read top to bottom: arguments, environment, imitation, evaluation, training, sav
   robot-step labelled with its action; the actor's mean is fitted by MSE
   (:mod:`tin_swarm_env.apps.imitation`). ``--dagger-rounds K``: K rounds in which the learner drives
   ``--dagger-episodes`` episodes while APF runs alongside on the same observations (its per-robot
-  memory stays consistent) and labels them; the actor is refitted on everything so far. Then the
+  memory stays consistent) and labels them; the actor is refitted on everything so far.
+  ``--dagger-beta b``: in round r (from 0) APF drives each robot-step with probability b**(r+1)
+  (DAgger's mixture, so early rounds stay near the teacher's states). ``--stall-steps S``: a robot
+  whose distance to go has not improved for S steps contributes no more samples that episode. Then the
   critic is warmed up on the rollouts' discounted returns (``--value-epochs``) and the policy's
   exploration std set to ``--bc-std`` before PPO fine-tuning.
 * ``--total-timesteps`` of PPO afterwards; 0 is refused without imitation (it would save an
@@ -74,6 +77,8 @@ class Args:
     bc_episodes: int = 0  # behaviour cloning: APF-driven episodes (0: no imitation)
     dagger_rounds: int = 0  # DAgger rounds after BC (the learner drives, APF labels)
     dagger_episodes: int = 0  # episodes per DAgger round (0: as many as bc_episodes)
+    dagger_beta: float = 0.0  # round r (from 0): APF drives each robot-step with probability beta**(r+1)
+    stall_steps: int = 0  # imitation keeps no samples of a robot stuck this many steps (0: keep all)
     bc_robots: int = 0  # robots per imitation episode (0: the scenario's count)
     bc_epochs: int = 30  # passes over the data per fit
     bc_lr: float = 1e-3
@@ -120,6 +125,8 @@ def check_args(args: Args) -> None:
                             "--timesteps, or --bc-episodes N to train by imitation only")
     if args.dagger_rounds and not _imitating(args):
         raise ArgumentError("--dagger-rounds needs --bc-episodes (DAgger starts from a cloned policy)")
+    if not 0.0 <= args.dagger_beta < 1.0:
+        raise ArgumentError(f"--dagger-beta must be in [0, 1), got {args.dagger_beta}")
     if args.recurrent and _imitating(args):
         raise ArgumentError("--recurrent cannot be combined with --bc-episodes (imitation fits an MLP actor)")
     if args.seed < 0 or args.seed * 1000 + 1000 >= EVAL_SEED0:
@@ -219,7 +226,8 @@ def imitate(model, args: Args, log=print) -> dict:
     from .imitation import TorchActor, collect, fit_actor, fit_value
 
     scen, n_rob = scenarios_of(args), args.bc_robots or None
-    kw = {"n_robots": n_rob, "max_cycles": args.max_cycles or None, "gamma": args.gamma}
+    kw = {"n_robots": n_rob, "max_cycles": args.max_cycles or None, "gamma": args.gamma,
+          "stall_steps": args.stall_steps}
     fit = {"epochs": args.bc_epochs, "batch_size": args.bc_batch_size, "lr": args.bc_lr, "std": args.bc_std}
     base = args.seed * 1000
     demos = collect(scen, args.bc_episodes, base, **kw)
@@ -229,11 +237,13 @@ def imitate(model, args: Args, log=print) -> dict:
         f"{demos.fell:.0%}); actor MSE {mse:.4f}")
     n_dag = args.dagger_episodes or args.bc_episodes
     for r in range(args.dagger_rounds):
-        new = collect(scen, n_dag, base + args.bc_episodes + r * n_dag, learner=TorchActor(model.policy), **kw)
+        beta = args.dagger_beta ** (r + 1) if args.dagger_beta > 0 else 0.0
+        new = collect(scen, n_dag, base + args.bc_episodes + r * n_dag, learner=TorchActor(model.policy), beta=beta,
+                      **kw)
         demos = demos + new
         mse = fit_actor(model.policy, demos.obs, demos.actions, seed=args.seed + r + 1, **fit)
         info["rounds"].append({"learner_arrived": new.arrived, "learner_fell": new.fell, "mse": mse})
-        log(f"DAgger round {r + 1}: the learner drove {n_dag} episodes (arrived {new.arrived:.0%}, fell "
+        log(f"DAgger round {r + 1} (beta {beta:.2f}): the learner drove {n_dag} episodes (arrived {new.arrived:.0%}, fell "
             f"{new.fell:.0%}); {len(demos)} samples; actor MSE {mse:.4f}")
     if args.value_epochs:
         info["value_mse"] = fit_value(model.policy, demos.obs, demos.returns, epochs=args.value_epochs,
