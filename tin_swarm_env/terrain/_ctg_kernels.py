@@ -548,7 +548,9 @@ def _merge(w, e, wf, wi, links, phead):
 def windows(nx, ny, vx, vy, tris, nbrs, te, ea, vorig, passable, tri_nodes, start, node_tris, corner, goal_tris,
             gx, gy, m):
     """Exact-visibility shortest paths to the goal by window propagation (a continuous
-    Dijkstra restricted to passable triangles, in the plane).
+    Dijkstra restricted to passable triangles, in the plane). Long (~80 lines) on purpose: one
+    compiled loop whose heap, window arrays and node state would otherwise travel through many
+    more kernel arguments.
 
     The goal and every corner vertex (:func:`corners`) act as *roots*; a root sends a window
     over each edge of its triangles; a window is pushed through the next triangle, its wedge of
@@ -633,7 +635,8 @@ def windows(nx, ny, vx, vy, tris, nbrs, te, ea, vorig, passable, tri_nodes, star
 @njit(cache=True)
 def _children(w, t, k, vx, vy, tris, nbrs, te, ea, vorig, passable, m, V, nx, ny, dist, parent, corner, spawned, pend,
               stack, st, wf, wi, links, heap, phead):
-    """Push window w (on edge k of t) through t: clip its wedge to t's other two edges."""
+    """Push window w (on edge k of t) through t: clip its wedge to t's other two edges. Long
+    (~65 lines) on purpose: both child edges are clipped in one pass over the shared geometry."""
     C = tris[t, k]
     A = tris[t, (k + 1) % 3]
     B = tris[t, (k + 2) % 3]
@@ -737,6 +740,8 @@ def tri_windows(wf, wi, vx, vy, tris, T):
 def query(nx, ny, dist, parent, tri_nodes, passable, goal_tri, gx, gy, vx, vy, tris, nbrs, wstart, wgeo, wroot,
           px, py, tidx, tol, eps_m):
     """Distance ``(n,)``, first-leg unit direction ``(n, 2)`` and source ``(n,)`` at each point.
+    Long (~70 lines) on purpose: the three candidate kinds (windows, nodes, the goal) are taken in
+    one compiled pass per point, with no per-candidate function call.
 
     ``tidx[i]`` is the triangle holding point i (-1 outside). Candidates, all lengths of
     drivable paths: ``|p - node_j| + dist[j]`` over the triangle's boundary nodes (the triangle
