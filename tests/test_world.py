@@ -262,19 +262,19 @@ def test_bad_input_is_named():
 # -- batched vs per-robot reference -------------------------------------------------------------
 
 
-@settings(max_examples=25)
-@given(st.integers(0, 10_000), st.integers(1, 40), st.floats(20, 400), st.floats(30, 360),
-       st.booleans())
-def test_batched_sensing_equals_a_per_robot_loop(seed, n, range_m, fov, los):
+def _sense_against_reference(seed, n, sensor, n_entities):
+    """A random world (some robots fallen or empty), its batched sensing and the per-robot
+    reference's sets, the robot/target/asset contacts already checked equal; None when the
+    random TIN has no traversable triangle."""
     rng = np.random.default_rng(seed)
-    tin = random_tin(seed, 40, zscale=60)
-    w = World(tin, params(sensor={"range_m": range_m, "fov_deg": fov, "check_los": los},
-                          robot={"max_slope_deg": 25.0, "max_climb_deg": 40.0}, break_angle_deg=10.0))
+    w = World(random_tin(seed, 40, zscale=60), params(sensor=sensor, robot={"max_slope_deg": 25.0,
+                                                                              "max_climb_deg": 40.0},
+                                                      break_angle_deg=10.0))
     if (~w.steep).sum() == 0:
-        return
+        return None
     pos = spawn_positions(w.tin, w.steep, n, rng)
-    ents = spawn_positions(w.tin, w.steep, 6, rng)
-    s = w.reset(rng, pos, targets=ents[:3], assets=ents[3:])
+    ents = spawn_positions(w.tin, w.steep, 2 * n_entities, rng)
+    s = w.reset(rng, pos, targets=ents[:n_entities], assets=ents[n_entities:])
     s.status[rng.random(n) < 0.2] = FELL
     s.status[rng.random(n) < 0.2] = EMPTY
     got = w.sense(s)
@@ -282,6 +282,17 @@ def test_batched_sensing_equals_a_per_robot_loop(seed, n, range_m, fov, los):
     assert got.robots.as_set() == ref[0]
     assert got.targets.as_set() == ref[1]
     assert got.assets.as_set() == ref[2]
+    return w, s, got, ref
+
+
+@settings(max_examples=25)
+@given(st.integers(0, 10_000), st.integers(1, 40), st.floats(20, 400), st.floats(30, 360),
+       st.booleans())
+def test_batched_sensing_equals_a_per_robot_loop(seed, n, range_m, fov, los):
+    out = _sense_against_reference(seed, n, {"range_m": range_m, "fov_deg": fov, "check_los": los}, 3)
+    if out is None:
+        return
+    w, s, got, ref = out
     assert got.breaks.as_set() == ref[3]
     # K-nearest slots are the nearest of those sets, nearest first
     idx, dist, _ = got.robots.nearest(n, 3)
@@ -399,19 +410,8 @@ def test_max_candidates_must_be_a_positive_integer():
 @given(st.integers(0, 10_000), st.integers(2, 40), st.floats(50, 400), st.floats(30, 360), st.booleans(),
        st.integers(1, 6))
 def test_batched_sensing_with_few_candidates_equals_the_per_robot_loop(seed, n, range_m, fov, los, k):
-    rng = np.random.default_rng(seed)
-    tin = random_tin(seed, 40, zscale=60)
-    w = World(tin, params(sensor={"range_m": range_m, "fov_deg": fov, "check_los": los, "max_candidates": k},
-                          robot={"max_slope_deg": 25.0, "max_climb_deg": 40.0}, break_angle_deg=10.0))
-    if (~w.steep).sum() == 0:
+    out = _sense_against_reference(seed, n, {"range_m": range_m, "fov_deg": fov, "check_los": los,
+                                             "max_candidates": k}, 6)
+    if out is None:
         return
-    pos = spawn_positions(w.tin, w.steep, n, rng)
-    ents = spawn_positions(w.tin, w.steep, 12, rng)
-    s = w.reset(rng, pos, targets=ents[:6], assets=ents[6:])
-    s.status[rng.random(n) < 0.2] = FELL
-    s.status[rng.random(n) < 0.2] = EMPTY
-    got = w.sense(s)
-    ref = reference_sense(w, s)
-    assert got.robots.as_set() == ref[0]
-    assert got.targets.as_set() == ref[1]
-    assert got.assets.as_set() == ref[2]
+    w, s, got, ref = out
