@@ -99,12 +99,12 @@ def test_fields_subset_and_random_policy():
 sys.path.insert(0, str(Path(__file__).parent))
 from canyons import VARIANTS, canyon_config  # noqa: E402
 
-from tin_swarm_env.env.observation import ObsLayout  # noqa: E402
 from tin_swarm_env.apps.rollout import rollout  # noqa: E402
-from tin_swarm_env.world.state import Reason  # noqa: E402
+from tin_swarm_env.env.observation import ObsLayout  # noqa: E402
 from tin_swarm_env.policies.apf import BugMemory, bug_update, decode, keep_clear  # noqa: E402
 from tin_swarm_env.world.fields import FieldParams as FP  # noqa: E402
 from tin_swarm_env.world.fields import follow_field  # noqa: E402
+from tin_swarm_env.world.state import Reason  # noqa: E402
 
 
 @pytest.mark.parametrize("side,travel", VARIANTS)

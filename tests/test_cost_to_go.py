@@ -368,7 +368,7 @@ def test_compiled_kernels_match_py_func(seed, any_angle):
     d, _, src = K.query(*qargs)
     tb = reference.locate_brute(tin, q)
     s = np.linspace(0, 1, 41)[:, None]
-    for i in np.flatnonzero((tb >= 0)):
+    for i in np.flatnonzero(tb >= 0):
         if not passable[tb[i]]:
             continue
         nodes = ctg._tri_nodes[tb[i]]

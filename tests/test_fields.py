@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 from tin_swarm_env.world.fields import (
     FieldParams,
     break_field,
-    height_field,
     facing,
+    height_field,
     robot_field,
     target_field,
 )

@@ -291,7 +291,8 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         if "target_positions" in options:
             targets, _ = self._world.check_placement(np.asarray(options["target_positions"], float).reshape(-1, 2),
                                                      "target {i}")
-        elif cfg.targets.count:  # drawn by this reset's generator, before the robots (they spawn where theirs is reachable)
+        elif cfg.targets.count:  # drawn by this reset's generator, before the robots (they spawn where
+            # theirs is reachable)
             targets = place_entities(self._world, cfg.targets, self._np_random, spawn_region=self._stage.spawn_region,
                                      label=f"{cfg.source} [targets]")
         self._fields = tuple(self._field(t) for t in targets)

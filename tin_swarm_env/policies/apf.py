@@ -18,7 +18,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ArgumentError
-
 from ..world.fields import (
     FIELDS,
     FieldParams,
@@ -388,7 +387,8 @@ class APFPolicy(Controller):
     that side until clear of it and heading toward the target again by the turn count, turn
     back at the border, when stuck, or once at a dead end: the counted turn passes
     ``dead_end_turn_deg`` with the robot no nearer the target than where it started).
-    Rows are robots: ``act_batch`` row ``i`` is robot ``i``; ``act`` maps each agent name to a row the first time it sees it. The memory
+    Rows are robots: ``act_batch`` row ``i`` is robot ``i``; ``act`` maps each agent name to a row
+    the first time it sees it. The memory
     grows lazily to the number of rows; :meth:`reset` clears it (call it after each env reset).
 
     **Crowding and edges**: the summed command is cut by :func:`keep_clear` so that robots that

@@ -18,6 +18,7 @@ cost-to-go itself: no field passes through one (:func:`~tin_swarm_env.terrain.pi
 from __future__ import annotations
 
 import numpy as np
+
 from ..terrain import Tin, cost_to_go
 from ..world.fields import FieldParams, away_from, facing, robot_field
 from .apf import Controller, decode, unwrap_env

@@ -79,7 +79,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ArgumentError
-
 from ..terrain import Dem
 from ..terrain.breaks import MAX_SLOPE_DEG
 from .config import ScenarioError

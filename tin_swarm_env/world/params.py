@@ -7,7 +7,6 @@ location and containing triangle; the first three are these parameters, the last
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 from ..errors import ParameterError, check_range
