@@ -23,7 +23,7 @@ GOAL = -2  # parent of a node reached straight from the goal / query answered st
 NONE = -1  # no node
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def triangle_edges(tris, nbrs):
     """Edge ids ``(T, 3)`` int64 (edge of triangle t opposite vertex k) and the edge count.
     Ids follow first appearance in triangle order, like :attr:`Tin.edges`."""
@@ -44,7 +44,7 @@ def triangle_edges(tris, nbrs):
     return te, ne
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def build_nodes(vx, vy, tris, te, n_edges, m, passable):
     """Node coordinates, each triangle's boundary nodes and the node -> passable-triangle CSR.
 
@@ -93,7 +93,7 @@ def build_nodes(vx, vy, tris, te, n_edges, m, passable):
     return nx, ny, tri_nodes, start, node_tris
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def edge_starts(tris, te, n_edges):
     """``(E,)`` int64: each edge's first vertex in the frame of the first triangle holding it
     (the frame :func:`build_nodes` spaces its Steiner points in: canonical parameter 0 there).
@@ -107,7 +107,7 @@ def edge_starts(tris, te, n_edges):
     return ea
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _find(up, i):
     while up[i] != i:
         up[i] = up[up[i]]
@@ -115,7 +115,7 @@ def _find(up, i):
     return i
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def split_fans(tris, nbrs, passable, V):
     """Pinch vertices split into one vertex per passable *fan*: the single definition of a pinch.
 
@@ -168,7 +168,7 @@ def split_fans(tris, nbrs, passable, V):
     return tris2, vorig[:n].copy()
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def corners(vx, vy, tris, nbrs, passable):
     """``(V,)`` bool: vertices where a shortest path may bend: on the boundary of passable
     ground (an edge with passable ground on one side only, the TIN border counting as
@@ -200,7 +200,7 @@ def corners(vx, vy, tris, nbrs, passable):
     return out
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _sift_up(heap, pos, key, i):
     u = heap[i]
     ku = key[u]
@@ -216,7 +216,7 @@ def _sift_up(heap, pos, key, i):
     pos[u] = i
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _sift_down(heap, pos, key, i, size):
     u = heap[i]
     ku = key[u]
@@ -236,7 +236,7 @@ def _sift_down(heap, pos, key, i, size):
     pos[u] = i
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def dijkstra(nx, ny, tri_nodes, start, node_tris, seeds, seed_dist):
     """Plain Dijkstra over the implicit Steiner graph (indexed binary heap): ``seeds (s,)`` are
     the nodes of the goal's triangles at ``seed_dist (s,)`` (their straight distance to the
@@ -284,7 +284,7 @@ def dijkstra(nx, ny, tri_nodes, start, node_tris, seeds, seed_dist):
     return dist, parent
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _snap(vx, vy, tris, nbrs, passable, t, x, y, tol):
     """A point located on impassable triangle ``t`` but lying on its edge with a passable
     neighbour belongs to that neighbour (passable ground is a closed set)."""
@@ -313,12 +313,12 @@ _NTEST = 4  # a window is compared with the others at _NTEST + 1 evenly spaced p
 _UEPS = 1e-12  # interval parameters this close to 0/1 reach the edge's end vertex
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _hyp(x, y):
     return np.sqrt(x * x + y * y)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _seg_dist(rx, ry, ax, ay, bx, by):
     """Distance from r to the segment a-b."""
     dx = bx - ax
@@ -330,7 +330,7 @@ def _seg_dist(rx, ry, ax, ay, bx, by):
     return _hyp(ax + s * dx - rx, ay + s * dy - ry)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _push(st, wf, wi, links, heap, t, k, u0, u1, rx, ry, rd, root, key):
     """Append a record and queue it; grows the arrays (returned) when full. st = [n, heap
     size]; heap (cap, 2) float64 rows [key, record] (keys contiguous with their ids)."""
@@ -373,7 +373,7 @@ def _push(st, wf, wi, links, heap, t, k, u0, u1, rx, ry, rd, root, key):
     return wf, wi, links, heap
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _pop(st, heap):
     top = int(heap[0, 1])
     size = st[1] - 1
@@ -398,7 +398,7 @@ def _pop(st, heap):
     return top
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _set(u, val, root, dist, parent, corner, spawned, pend, stack, st, V):
     """Offer node u the value val (a drivable path via root); corners improved are stacked
     for a spawn event."""
@@ -411,7 +411,7 @@ def _set(u, val, root, dist, parent, corner, spawned, pend, stack, st, V):
             st[2] += 1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _cover(e, c0, c1, rx, ry, rd, root, ea_v, eb_v, m, V, nx, ny, dist, parent, corner, spawned, pend, stack, st):
     """Offer the nodes of edge e in the canonical interval [c0, c1] their straight path to root."""
     if c0 <= _UEPS:
@@ -425,7 +425,7 @@ def _cover(e, c0, c1, rx, ry, rd, root, ea_v, eb_v, m, V, nx, ny, dist, parent, 
             _set(u, rd + _hyp(nx[u] - rx, ny[u] - ry), root, dist, parent, corner, spawned, pend, stack, st, V)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _edge_best(e, c, x, y, root, ehead, links, wf, wi):
     """The best distance at point (x, y) (canonical parameter c) of edge e straight to the
     root of an accepted window on e covering it, ``root``'s own windows left out (they cannot
@@ -439,7 +439,7 @@ def _edge_best(e, c, x, y, root, ehead, links, wf, wi):
     return best
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _ray_hit(rx, ry, px, py, ux, uy, wx, wy):
     """Parameter along segment u->w where the line r->p crosses it (nan when parallel)."""
     ou = _orient(rx, ry, px, py, ux, uy)
@@ -450,7 +450,7 @@ def _ray_hit(rx, ry, px, py, ux, uy, wx, wy):
     return min(1.0, max(0.0, ou / den))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _spawn(rx, ry, rd, root, t, vx, vy, tris, nbrs, passable, tri_nodes, nx, ny, dist, parent, corner, spawned,
            pend, stack, st, wf, wi, links, heap, phead):
     """Root r lies on passable triangle t: offer t's nodes their straight segment to r and
@@ -476,7 +476,7 @@ def _spawn(rx, ry, rd, root, t, vx, vy, tris, nbrs, passable, tri_nodes, nx, ny,
     return wf, wi, links, heap
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _keep(w, e, ea_v, eb_v, flip, ax, ay, bx, by, m, V, nx, ny, dist, parent, ehead, links, wf, wi):
     """Whether window w beats every other root at some test point of its interval: _NTEST + 1
     evenly spaced points and the nodes inside it, each compared with the accepted windows of
@@ -512,7 +512,7 @@ def _keep(w, e, ea_v, eb_v, flip, ax, ay, bx, by, m, V, nx, ny, dist, parent, eh
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _merge(w, e, wf, wi, links, phead):
     """Absorb into window w the queued windows on edge e of the same root into the same
     triangle that continue its interval (pieces split by a vertex's ray join again one triangle
@@ -544,7 +544,7 @@ def _merge(w, e, wf, wi, links, phead):
             x = nxt
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def windows(nx, ny, vx, vy, tris, nbrs, te, ea, vorig, passable, tri_nodes, start, node_tris, corner, goal_tris,
             gx, gy, m):
     """Exact-visibility shortest paths to the goal by window propagation (a continuous
@@ -632,7 +632,7 @@ def windows(nx, ny, vx, vy, tris, nbrs, te, ea, vorig, passable, tri_nodes, star
     return dist, parent, wf[:n].copy(), wi[:n].copy()
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _children(w, t, k, vx, vy, tris, nbrs, te, ea, vorig, passable, m, V, nx, ny, dist, parent, corner, spawned, pend,
               stack, st, wf, wi, links, heap, phead):
     """Push window w (on edge k of t) through t: clip its wedge to t's other two edges. Long
@@ -702,7 +702,7 @@ def _children(w, t, k, vx, vy, tris, nbrs, te, ea, vorig, passable, m, V, nx, ny
     return wf, wi, links, heap
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def tri_windows(wf, wi, vx, vy, tris, T):
     """The accepted windows grouped by the triangle they open into, for queries: ``(start
     (T+1,), geo (n, 7) [rx, ry, rd, p0x, p0y, p1x, p1y], root (n,))``; a point p of triangle t
@@ -736,7 +736,7 @@ def tri_windows(wf, wi, vx, vy, tris, T):
     return start, geo, root
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def query(nx, ny, dist, parent, tri_nodes, passable, goal_tri, gx, gy, vx, vy, tris, nbrs, wstart, wgeo, wroot,
           px, py, tidx, tol, eps_m):
     """Distance ``(n,)``, first-leg unit direction ``(n, 2)`` and source ``(n,)`` at each point.
