@@ -1,6 +1,7 @@
 """Cost-to-go benchmark (terrain/cost_to_go.py). Run by hand:
 
     nice -n 10 python bench/cost_to_go.py [--sizes 2500,10000,40000] [--queries 1000000] [--repeat 5]
+                                          [--reset-repeats 20]
 
 On jacksboro greedy TINs (max_vertices per size, about 2 triangles per vertex: 5k/20k/80k
 triangles; passable = slope <= 30 deg, goal near the centre) prints per TIN: triangles, nodes,
@@ -9,8 +10,10 @@ graph, query throughput for 1e6 random points with known triangles and with poin
 and the accuracy on a flat copy of the same TIN (where the exact answer is the straight-line
 distance). Times are medians over ``--repeat`` runs, as CPU time of this process (``cpu``: what
 the code costs, robust on a shared machine) and wall time (``wall``: inflated when other
-processes share the cores). Targets (issue 10): build 20k triangles <= 50 ms, query >= 1e6
-points/s.
+processes share the cores). Then, in the same run, the time per ``reset`` of the ``generated``
+scenario on a 200 x 200 grid (generation, meshing, world, cost-to-go, and ``env.reset_arrays``
+as a whole; ``bench/generated.py``'s ``reset_times``; ``--reset-repeats 0`` skips it). Targets
+(issue 10): build 20k triangles <= 50 ms, query >= 1e6 points/s, <= 200 ms per reset.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ import argparse
 import time
 
 import numpy as np
+from generated import reset_times  # bench/ is sys.path[0] when run as a script
 
 import tin_swarm_env as tse
 from tin_swarm_env.terrain import Tin, cost_to_go
@@ -40,6 +44,7 @@ def main(argv=None):
     ap.add_argument("--sizes", default="2500,10000,40000")
     ap.add_argument("--queries", type=int, default=1_000_000)
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--reset-repeats", type=int, default=20)
     a = ap.parse_args(argv)
     dem = tse.terrain.sample_dem("jacksboro")
     rng = np.random.default_rng(0)
@@ -69,6 +74,9 @@ def main(argv=None):
               f"{b_cpu * 1e3:8.1f}/{b_wall * 1e3:<9.1f} {p_cpu * 1e3:12.1f} "
               f"{n / k_cpu:13.3g}/{n / k_wall:<13.3g} {n / l_cpu:21.3g} {100 * err.max():15.2g} "
               f"{100 * np.percentile(err_plain, 99):17.2g}")
+    if a.reset_repeats:
+        print()
+        reset_times(a.reset_repeats)
 
 
 if __name__ == "__main__":
