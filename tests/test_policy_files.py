@@ -267,3 +267,37 @@ def test_export_of_a_model_without_an_mlp_actor_names_the_model():
 
     with pytest.raises(ArgumentError, match=r"model SAC\.policy has no mlp_extractor: only SB3 MlpPolicy"):
         export_sb3_policy(SAC(), None, "unused.npz")
+
+
+def test_shield_filters_through_the_safety_cut(tmp_path):
+    """``"shield": "safety_cut"``: the action is the network's, cut by the same
+    :func:`safety_cut` APF applies last (constants from the env); ``net_batch`` is the raw net;
+    the key round-trips through the file and an unknown shield is refused naming the key."""
+    from tin_swarm_env.policies.apf import Controller, decode
+
+    e = env(n_robots=12)
+    rng = np.random.default_rng(1)
+    d = e.layout.size
+    layers = [(rng.normal(0, 1, (16, d)), rng.normal(0, 1, 16)), (rng.normal(0, 3, (2, 16)), np.zeros(2))]
+    p = save_policy(tmp_path / "sh", layers, layout=e.layout, scenario="cliff_goal", shield="safety_cut")
+    assert json.loads((p / "policy.json").read_text())["shield"] == "safety_cut"
+    pol = load_policy(p, e)
+    plain = load_policy(save_policy(tmp_path / "plain", layers, layout=e.layout, scenario="cliff_goal"), e)
+    assert "shield" not in json.loads((tmp_path / "plain" / "policy.json").read_text())
+    obs = observations(300)
+    ctl = Controller()
+    ctl._read_constants(e.config)
+    want = ctl._cut(plain.act_batch(obs), decode(obs.astype(np.float64), e.layout, ctl.range_m))
+    got = pol.act_batch(obs)
+    np.testing.assert_array_equal(pol.net_batch(obs), plain.act_batch(obs))
+    np.testing.assert_allclose(got, want, atol=1e-7)
+    assert not np.allclose(got, plain.act_batch(obs))  # the cut did change some actions
+    # the cut never adds speed
+    assert np.all(np.linalg.norm(got, axis=1) <= np.linalg.norm(plain.act_batch(obs), axis=1) + 1e-6)
+    meta = json.loads((p / "policy.json").read_text())
+    meta["shield"] = "magic"
+    (p / "policy.json").write_text(json.dumps(meta))
+    with pytest.raises(PolicyFileError, match=r"policy\.json.*'shield'.*magic"):
+        load_policy(p, e)
+    with pytest.raises(TinSwarmError, match="needs the env"):
+        MLPPolicy(layers, layout=_layout_dict(e.layout), shield="safety_cut")

@@ -14,6 +14,7 @@ loaded that way; export them once with :func:`tin_swarm_env.adapters.sb3.export_
                                              "names": ["own.battery", ...]}},
      "action": {"size": 2, "low": -1.0, "high": 1.0},
      "scenario": "cliff_goal",
+     "shield": "safety_cut",                 # optional: "none" (default) or "safety_cut"
      "training": {...}}                      # free-form metadata (library versions, steps...)
 
 ``weights.npz``: ``W0, b0, W1, b1, ...``; ``W{i}`` has shape ``(layer_sizes[i+1], layer_sizes[i])``
@@ -21,6 +22,14 @@ loaded that way; export them once with :func:`tin_swarm_env.adapters.sb3.export_
 ``a = transform(W_L (act(... act(W_0 x + b_0) ...)) + b_L)``: the activation after every layer
 but the last; ``"clip"`` clips the output to ``[-1, 1]`` (the deterministic action of a Gaussian
 policy: its mean, clipped to the action space, as SB3's ``predict(deterministic=True)``).
+
+``"shield": "safety_cut"`` filters the network's action through the same safety cut every
+built-in controller applies last (:func:`tin_swarm_env.policies.apf.safety_cut`: no command into
+the blind sector, none that closes on a robot the robot sees to within 1.5 body diameters or on
+a dangerous break it sees to within one diameter). The filter reads only the observation, so
+the policy stays observation-only; it is a shield in the safe-RL sense (the network proposes,
+the filter removes the unsafe part). The constants come from the environment the policy is
+loaded for, so a shielded policy needs ``load_policy(path, env)``.
 """
 
 from __future__ import annotations
@@ -35,7 +44,7 @@ import numpy as np
 
 from ..errors import ArgumentError, PolicyFileError
 
-__all__ = ["MLPPolicy", "save_policy", "load_policy", "FORMAT", "VERSION", "ACTIVATIONS"]
+__all__ = ["MLPPolicy", "save_policy", "load_policy", "FORMAT", "VERSION", "ACTIVATIONS", "SHIELDS"]
 
 FORMAT = "tin_swarm_env.policy"
 VERSION = 1
@@ -49,6 +58,7 @@ ACTIVATIONS = {
     "identity": lambda x: x,
 }
 ACTION_TRANSFORMS = ("clip",)
+SHIELDS = ("none", "safety_cut")
 ACTION_SIZE = 2
 
 
@@ -63,11 +73,14 @@ class MLPPolicy:
     """A multi-layer perceptron policy read from a policy file (numpy forward pass).
 
     ``layers``: ``[(W (out, in), b (out,)), ...]`` float64. ``act_batch(obs (n, d)) -> (n, 2)``
-    float32, deterministic; ``act({agent: obs}) -> {agent: action}``.
+    float32, deterministic; ``act({agent: obs}) -> {agent: action}``. ``shield="safety_cut"``
+    (with ``env``, whose constants and layout it reads) filters each action through
+    :func:`~tin_swarm_env.policies.apf.safety_cut`; ``net_batch`` is the unfiltered network.
     """
 
     def __init__(self, layers, activation: str = "tanh", action_transform: str = "clip", *, layout: dict,
-                 scenario: str = "", training: dict | None = None, source: str = "<memory>"):
+                 scenario: str = "", training: dict | None = None, source: str = "<memory>",
+                 shield: str = "none", env=None):
         self.layers = [(np.asarray(W, dtype=np.float64), np.asarray(b, dtype=np.float64)) for W, b in layers]
         self.activation = activation
         self.action_transform = action_transform
@@ -76,8 +89,20 @@ class MLPPolicy:
         self.training = dict(training or {})
         self.source = source
         self.obs_size = self.layers[0][0].shape[1]
+        if shield not in SHIELDS:
+            raise ArgumentError(f"{source}: shield {shield!r} is not one of {list(SHIELDS)}")
+        self.shield = shield
+        self._cut = None
+        if shield == "safety_cut":
+            if env is None:
+                raise ArgumentError(f"{source}: a shielded policy needs the env it acts in (load_policy(path, env))")
+            self._cut = _Shield(env)
 
     def act_batch(self, obs) -> np.ndarray:
+        a = self.net_batch(obs)
+        return a if self._cut is None else self._cut(a, obs)
+
+    def net_batch(self, obs) -> np.ndarray:
         x = np.asarray(obs, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != self.obs_size:
             raise ArgumentError(f"{self.source}: obs must have shape (n, {self.obs_size}), got {x.shape}")
@@ -97,15 +122,36 @@ class MLPPolicy:
 
     def __repr__(self) -> str:
         sizes = [self.obs_size] + [W.shape[0] for W, _ in self.layers]
-        return f"MLPPolicy({self.source!r}, {sizes}, {self.activation}, scenario={self.scenario!r})"
+        shield = "" if self.shield == "none" else f", shield={self.shield!r}"
+        return f"MLPPolicy({self.source!r}, {sizes}, {self.activation}, scenario={self.scenario!r}{shield})"
+
+
+class _Shield:
+    """``safety_cut`` with the constants of one environment (a :class:`Controller` without a
+    policy of its own)."""
+
+    def __init__(self, env):
+        from .apf import Controller, unwrap_env
+
+        base = unwrap_env(env)
+        self._ctl = Controller()
+        self._ctl._read_constants(base.config)
+        self._layout = base.layout
+
+    def __call__(self, action, obs) -> np.ndarray:
+        from .apf import decode
+
+        d = decode(np.asarray(obs, dtype=np.float64), self._layout, self._ctl.range_m)
+        return self._ctl._cut(action, d, edges=bool(self._layout.k_breaks))
 
 
 # -- saving ---------------------------------------------------------------------------------
 
 
 def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str, action_transform: str = "clip",
-                extra: dict | None = None) -> Path:
-    """Write a policy directory ``path/`` (``policy.json`` + ``weights.npz``) atomically: both
+                extra: dict | None = None, shield: str = "none") -> Path:
+    """Write a policy directory ``path/`` (``policy.json`` + ``weights.npz``) atomically (``shield``:
+    ``"none"`` or ``"safety_cut"``, see the module docstring): both
     files go into a temporary directory beside it, which is then renamed into place; an existing
     policy directory at ``path`` is replaced, anything else there is refused. Returns the path."""
     p = Path(os.fspath(path))
@@ -118,6 +164,8 @@ def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str
             "observation": {"size": sizes[0] if sizes else 0, "layout": lay},
             "action": {"size": ACTION_SIZE, "low": -1.0, "high": 1.0},
             "scenario": str(scenario), "training": dict(extra or {})}
+    if shield != "none":
+        meta["shield"] = shield
     _validate(meta, {f"{k}{i}": a for i, (W, b) in enumerate(layers) for k, a in (("W", W), ("b", b))},
               str(p / POLICY_JSON), str(p / WEIGHTS))
     if p.exists() and not (p.is_dir() and (p / POLICY_JSON).is_file()):
@@ -188,7 +236,8 @@ def load_policy(path, env) -> MLPPolicy:
     _check_env(meta, env, str(jpath))
     net = meta["network"]
     return MLPPolicy(layers, net["activation"], net["action_transform"], layout=meta["observation"]["layout"],
-                     scenario=meta["scenario"], training=meta.get("training", {}), source=str(d))
+                     scenario=meta["scenario"], training=meta.get("training", {}), source=str(d),
+                     shield=meta.get("shield", "none"), env=env)
 
 
 def _read_weights(wpath: Path) -> dict:
@@ -253,6 +302,8 @@ def _validate(meta, arrays: dict, jname: str, wname: str) -> list:
     _get(meta, "scenario", str, jname)
     if "training" in meta:
         _get(meta, "training", dict, jname)
+    if "shield" in meta and _get(meta, "shield", str, jname) not in SHIELDS:
+        raise PolicyFileError(f"{jname}: key 'shield' is {meta['shield']!r}; known: {list(SHIELDS)}")
     return _check_weights(arrays, sizes, wname)
 
 
