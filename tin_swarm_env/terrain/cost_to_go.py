@@ -130,7 +130,8 @@ class CostToGo:
         t0 = int(tin.locate(g[None])[0])
         if t0 < 0:
             raise ArgumentError(f"goal_xy {g.tolist()} lies outside the TIN (bounds {tin.bounds})")
-        near = np.isin(tin.triangles, tin.triangles[t0]).any(axis=1)  # triangles sharing a vertex
+        tri, (a, b, c) = tin.triangles, tin.triangles[t0]
+        near = ((tri == a) | (tri == b) | (tri == c)).any(axis=1)  # triangles sharing a vertex with t0
         cand = np.flatnonzero(near & self.passable)
         v = tin.vertices[tin.triangles[cand], :2]  # (c, 3, 2) CCW
         tol = tin.tolerances[0]
