@@ -10,6 +10,10 @@ The plain references are :func:`tin_swarm_env.terrain.reference.cost_to_go_graph
 (an explicit edge list and ``scipy.sparse.csgraph.dijkstra``) and
 :func:`~tin_swarm_env.terrain.reference.cost_to_go_query_brute`; the tests check the
 compiled kernels against them and against their own ``.py_func``.
+
+Speed: the window loop (:func:`_propagate`) and its small helpers are compiled without
+reference counting (``_nrt=False``; they allocate nothing, the caller does): numba's
+take-and-release of every array argument of every inlined helper had cost as much as the loop.
 """
 
 from __future__ import annotations
@@ -107,8 +111,11 @@ def edge_starts(tris, te, n_edges):
     return ea
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _find(up, i):
+    """Union-find root of i (path halving). Like every helper of a hot loop here, compiled
+    without reference counting (``_nrt=False``: it allocates nothing): taking and releasing
+    its array argument would cost more than the work."""
     while up[i] != i:
         up[i] = up[up[i]]
         i = up[i]
@@ -133,7 +140,7 @@ def split_fans(tris, nbrs, passable, V):
             continue
         for k in range(3):  # the edge opposite k joins corners (k+1)%3, (k+2)%3 of t to nb's
             nb = nbrs[t, k]
-            if nb < 0 or not passable[nb]:
+            if nb < t or not passable[nb]:  # each edge once (a set's root is its smallest corner)
                 continue
             for j in range(1, 3):
                 v = tris[t, (k + j) % 3]
@@ -182,7 +189,17 @@ def corners(vx, vy, tris, nbrs, passable):
         if not passable[t]:
             continue
         for k in range(3):
+            nb = nbrs[t, k]  # across the edge opposite corner k
+            if nb < 0 or not passable[nb]:
+                bcount[tris[t, (k + 1) % 3]] += 1
+                bcount[tris[t, (k + 2) % 3]] += 1
+    for t in range(tris.shape[0]):  # the angles, at boundary vertices only
+        if not passable[t]:
+            continue
+        for k in range(3):
             a = tris[t, k]
+            if bcount[a] != 2:
+                continue
             b = tris[t, (k + 1) % 3]
             c = tris[t, (k + 2) % 3]
             ux = vx[b] - vx[a]
@@ -190,14 +207,22 @@ def corners(vx, vy, tris, nbrs, passable):
             wx = vx[c] - vx[a]
             wy = vy[c] - vy[a]
             ang[a] += np.arctan2(abs(ux * wy - uy * wx), ux * wx + uy * wy)
-            nb = nbrs[t, k]  # across the edge b-c
-            if nb < 0 or not passable[nb]:
-                bcount[b] += 1
-                bcount[c] += 1
     out = np.zeros(V, dtype=np.bool_)
     for v in range(V):
         out[v] = bcount[v] == 2 and ang[v] > np.pi + 1e-9
     return out
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _norm2(x, y):
+    """x * x + y * y: squares as products, never ``** 2`` (Python's float power is libm's
+    ``pow``, which can differ from the product in the last bit: ``.py_func`` would not match)."""
+    return x * x + y * y
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _hyp(x, y):
+    return np.sqrt(_norm2(x, y))
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -272,7 +297,7 @@ def dijkstra(nx, ny, tri_nodes, start, node_tris, seeds, seed_dist):
                 w = tri_nodes[t, s]
                 if pos[w] == -2:
                     continue
-                nd = dist[u] + np.sqrt((nx[w] - nx[u]) ** 2 + (ny[w] - ny[u]) ** 2)
+                nd = dist[u] + _hyp(nx[w] - nx[u], ny[w] - ny[u])
                 if nd < dist[w]:
                     dist[w] = nd
                     parent[w] = u
@@ -314,11 +339,6 @@ _UEPS = 1e-12  # interval parameters this close to 0/1 reach the edge's end vert
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _hyp(x, y):
-    return np.sqrt(x * x + y * y)
-
-
-@njit(cache=True, error_model="numpy")
 def _seg_dist(rx, ry, ax, ay, bx, by):
     """Distance from r to the segment a-b."""
     dx = bx - ax
@@ -330,22 +350,15 @@ def _seg_dist(rx, ry, ax, ay, bx, by):
     return _hyp(ax + s * dx - rx, ay + s * dy - ry)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _push(st, wf, wi, links, heap, t, k, u0, u1, rx, ry, rd, root, key):
-    """Append a record and queue it; grows the arrays (returned) when full. st = [n, heap
-    size]; heap (cap, 2) float64 rows [key, record] (keys contiguous with their ids)."""
+    """Append a record and queue it. st = [n, heap size, stacked corners, full]; heap (cap, 2)
+    float64 rows [key, record] (keys contiguous with their ids). When the arrays are full the
+    record is dropped and ``st[3]`` set: :func:`windows` starts again with twice the room."""
     n = st[0]
     if n == wf.shape[0]:
-        cap = 2 * n
-        wf2 = np.empty((cap, 8))
-        wf2[:n] = wf
-        wi2 = np.empty((cap, 4), dtype=np.int64)
-        wi2[:n] = wi
-        links2 = np.full((cap, 2), -1, dtype=np.int64)
-        links2[:n] = links[:n]
-        heap2 = np.empty((cap, 2))
-        heap2[:st[1]] = heap[:st[1]]
-        wf, wi, links, heap = wf2, wi2, links2, heap2
+        st[3] = 1
+        return
     wf[n, 0] = u0
     wf[n, 1] = u1
     wf[n, 2] = rx
@@ -370,10 +383,9 @@ def _push(st, wf, wi, links, heap, t, k, u0, u1, rx, ry, rd, root, key):
     heap[i, 1] = n
     st[0] = n + 1
     st[1] += 1
-    return wf, wi, links, heap
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _pop(st, heap):
     top = int(heap[0, 1])
     size = st[1] - 1
@@ -398,7 +410,7 @@ def _pop(st, heap):
     return top
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _set(u, val, root, dist, parent, corner, spawned, pend, stack, st, V):
     """Offer node u the value val (a drivable path via root); corners improved are stacked
     for a spawn event."""
@@ -411,7 +423,7 @@ def _set(u, val, root, dist, parent, corner, spawned, pend, stack, st, V):
             st[2] += 1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _cover(e, c0, c1, rx, ry, rd, root, ea_v, eb_v, m, V, nx, ny, dist, parent, corner, spawned, pend, stack, st):
     """Offer the nodes of edge e in the canonical interval [c0, c1] their straight path to root."""
     if c0 <= _UEPS:
@@ -425,7 +437,7 @@ def _cover(e, c0, c1, rx, ry, rd, root, ea_v, eb_v, m, V, nx, ny, dist, parent, 
             _set(u, rd + _hyp(nx[u] - rx, ny[u] - ry), root, dist, parent, corner, spawned, pend, stack, st, V)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _edge_best(e, c, x, y, root, ehead, links, wf, wi):
     """The best distance at point (x, y) (canonical parameter c) of edge e straight to the
     root of an accepted window on e covering it, ``root``'s own windows left out (they cannot
@@ -450,7 +462,7 @@ def _ray_hit(rx, ry, px, py, ux, uy, wx, wy):
     return min(1.0, max(0.0, ou / den))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _spawn(rx, ry, rd, root, t, vx, vy, tris, nbrs, passable, tri_nodes, nx, ny, dist, parent, corner, spawned,
            pend, stack, st, wf, wi, links, heap, phead):
     """Root r lies on passable triangle t: offer t's nodes their straight segment to r and
@@ -462,7 +474,7 @@ def _spawn(rx, ry, rd, root, t, vx, vy, tris, nbrs, passable, tri_nodes, nx, ny,
     for k in range(3):
         a = tris[t, (k + 1) % 3]
         b = tris[t, (k + 2) % 3]
-        L2 = (vx[b] - vx[a]) ** 2 + (vy[b] - vy[a]) ** 2
+        L2 = _norm2(vx[b] - vx[a], vy[b] - vy[a])
         if _orient(vx[a], vy[a], vx[b], vy[b], rx, ry) <= 1e-14 * L2:
             continue  # r on this edge (a vertex root's own edges)
         nb = nbrs[t, k]
@@ -472,11 +484,10 @@ def _spawn(rx, ry, rd, root, t, vx, vy, tris, nbrs, passable, tri_nodes, nx, ny,
         while nbrs[nb, kk] != t:
             kk += 1
         key = rd + _seg_dist(rx, ry, vx[a], vy[a], vx[b], vy[b])
-        wf, wi, links, heap = _push(st, wf, wi, links, heap, nb, kk, 0.0, 1.0, rx, ry, rd, root, key)
-    return wf, wi, links, heap
+        _push(st, wf, wi, links, heap, nb, kk, 0.0, 1.0, rx, ry, rd, root, key)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _keep(w, e, ea_v, eb_v, flip, ax, ay, bx, by, m, V, nx, ny, dist, parent, ehead, links, wf, wi):
     """Whether window w beats every other root at some test point of its interval: _NTEST + 1
     evenly spaced points and the nodes inside it, each compared with the accepted windows of
@@ -512,7 +523,7 @@ def _keep(w, e, ea_v, eb_v, flip, ax, ay, bx, by, m, V, nx, ny, dist, parent, eh
     return False
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _merge(w, e, wf, wi, links, phead):
     """Absorb into window w the queued windows on edge e of the same root into the same
     triangle that continue its interval (pieces split by a vertex's ray join again one triangle
@@ -546,11 +557,9 @@ def _merge(w, e, wf, wi, links, phead):
 
 @njit(cache=True, error_model="numpy")
 def windows(nx, ny, vx, vy, tris, nbrs, te, ea, vorig, passable, tri_nodes, start, node_tris, corner, goal_tris,
-            gx, gy, m):
+            gx, gy, m, cap=0):
     """Exact-visibility shortest paths to the goal by window propagation (a continuous
-    Dijkstra restricted to passable triangles, in the plane). Long (~80 lines) on purpose: one
-    compiled loop whose heap, window arrays and node state would otherwise travel through many
-    more kernel arguments.
+    Dijkstra restricted to passable triangles, in the plane).
 
     The goal and every corner vertex (:func:`corners`) act as *roots*; a root sends a window
     over each edge of its triangles; a window is pushed through the next triangle, its wedge of
@@ -561,34 +570,55 @@ def windows(nx, ny, vx, vy, tris, nbrs, te, ea, vorig, passable, tri_nodes, star
     (:func:`split_fans`; ``vorig`` maps back, ``ea`` is in original ids). Every node gets the best straight segment to a
     root whose window covers it. Returns ``(dist (N,), parent (N,), wf, wi)`` (root per node:
     a vertex, :data:`GOAL` or :data:`NONE`; the accepted windows are those with ``wi[:, 3]``).
+    ``cap``: room for window records at first (0: twice the edge count, about what a field
+    needs); :func:`_propagate` starts again with twice the room whenever it runs out.
     """
     N = nx.shape[0]
     V = vx.shape[0]
     E = ea.shape[0]
-    dist = np.full(N, np.inf)
-    parent = np.full(N, NONE, dtype=np.int64)
-    cap = 2 * E + 16
-    wf = np.empty((cap, 8))
-    wi = np.empty((cap, 4), dtype=np.int64)  # state wi[:, 3]: 0 queued, 1 accepted, 2 done, 3 merged away
-    links = np.full((cap, 2), -1, dtype=np.int64)  # next accepted / next queued window on the same edge
-    heap = np.empty((cap, 2))
-    ehead = np.full(E, -1, dtype=np.int64)
-    phead = np.full(E, -1, dtype=np.int64)
-    spawned = np.zeros(V, dtype=np.bool_)
-    pend = np.zeros(V, dtype=np.bool_)
-    stack = np.empty(V, dtype=np.int64)
-    st = np.zeros(3, dtype=np.int64)  # records, heap size, stacked corners
+    if cap <= 0:
+        cap = 2 * E + 16
+    while True:
+        dist = np.full(N, np.inf)
+        parent = np.full(N, NONE, dtype=np.int64)
+        wf = np.empty((cap, 8))
+        wi = np.empty((cap, 4), dtype=np.int64)  # state wi[:, 3]: 0 queued, 1 accepted, 2 done, 3 merged away
+        links = np.full((cap, 2), -1, dtype=np.int64)  # next accepted / next queued window on the same edge
+        heap = np.empty((cap, 2))
+        ehead = np.full(E, -1, dtype=np.int64)
+        phead = np.full(E, -1, dtype=np.int64)
+        spawned = np.zeros(V, dtype=np.bool_)
+        pend = np.zeros(V, dtype=np.bool_)
+        stack = np.empty(V, dtype=np.int64)
+        st = np.zeros(4, dtype=np.int64)  # records, heap size, stacked corners, full
+        _propagate(nx, ny, vx, vy, tris, nbrs, te, ea, vorig, passable, tri_nodes, start, node_tris, corner, goal_tris,
+                   gx, gy, m, dist, parent, wf, wi, links, heap, ehead, phead, spawned, pend, stack, st)
+        if not st[3]:
+            n = st[0]
+            return dist, parent, wf[:n], wi[:n]
+        cap *= 2
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _propagate(nx, ny, vx, vy, tris, nbrs, te, ea, vorig, passable, tri_nodes, start, node_tris, corner, goal_tris,
+               gx, gy, m, dist, parent, wf, wi, links, heap, ehead, phead, spawned, pend, stack, st):
+    """The loop of :func:`windows` over the work arrays it allocates (``st[3]`` set when the
+    window arrays run out of room: the results are then void). Compiled without reference
+    counting (``_nrt=False``: it allocates nothing), which would otherwise cost about as much
+    as the loop itself, each inlined helper taking and releasing its array arguments. Long
+    (~60 lines) on purpose: one compiled loop whose heap, window arrays and node state would
+    otherwise travel through many more kernel arguments."""
+    V = vx.shape[0]
     for i in range(goal_tris.shape[0]):
-        wf, wi, links, heap = _spawn(gx, gy, 0.0, GOAL, goal_tris[i], vx, vy, tris, nbrs, passable, tri_nodes,
-                                     nx, ny, dist, parent, corner, spawned, pend, stack, st, wf, wi, links, heap,
-                                     phead)
+        _spawn(gx, gy, 0.0, GOAL, goal_tris[i], vx, vy, tris, nbrs, passable, tri_nodes, nx, ny, dist, parent, corner,
+               spawned, pend, stack, st, wf, wi, links, heap, phead)
     while True:
         for i in range(st[2]):  # improved corners: queue their spawn at their new distance
             v = stack[i]
             pend[v] = False
-            wf, wi, links, heap = _push(st, wf, wi, links, heap, -1, 0, 0.0, 0.0, 0.0, 0.0, 0.0, v, dist[v])
+            _push(st, wf, wi, links, heap, -1, 0, 0.0, 0.0, 0.0, 0.0, 0.0, v, dist[v])
         st[2] = 0
-        if st[1] == 0:
+        if st[1] == 0 or st[3]:
             break
         w = _pop(st, heap)
         t = wi[w, 0]
@@ -601,9 +631,8 @@ def windows(nx, ny, vx, vy, tris, nbrs, te, ea, vorig, passable, tri_nodes, star
                 continue
             spawned[v] = True
             for a in range(start[v], start[v + 1]):
-                wf, wi, links, heap = _spawn(vx[v], vy[v], dist[v], v, node_tris[a], vx, vy, tris, nbrs, passable,
-                                             tri_nodes, nx, ny, dist, parent, corner, spawned, pend, stack, st, wf,
-                                             wi, links, heap, phead)
+                _spawn(vx[v], vy[v], dist[v], v, node_tris[a], vx, vy, tris, nbrs, passable, tri_nodes, nx, ny, dist,
+                       parent, corner, spawned, pend, stack, st, wf, wi, links, heap, phead)
             continue
         k = wi[w, 1]
         e = te[t, k]
@@ -626,13 +655,11 @@ def windows(nx, ny, vx, vy, tris, nbrs, te, ea, vorig, passable, tri_nodes, star
         ehead[e] = w
         _cover(e, wf[w, 6], wf[w, 7], rx, ry, rd, wi[w, 2], ea_v, eb_v, m, V, nx, ny, dist, parent, corner, spawned,
                pend, stack, st)
-        wf, wi, links, heap = _children(w, t, k, vx, vy, tris, nbrs, te, ea, vorig, passable, m, V, nx, ny, dist,
-                                        parent, corner, spawned, pend, stack, st, wf, wi, links, heap, phead)
-    n = st[0]
-    return dist, parent, wf[:n].copy(), wi[:n].copy()
+        _children(w, t, k, vx, vy, tris, nbrs, te, ea, vorig, passable, m, V, nx, ny, dist, parent, corner, spawned,
+                  pend, stack, st, wf, wi, links, heap, phead)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _children(w, t, k, vx, vy, tris, nbrs, te, ea, vorig, passable, m, V, nx, ny, dist, parent, corner, spawned, pend,
               stack, st, wf, wi, links, heap, phead):
     """Push window w (on edge k of t) through t: clip its wedge to t's other two edges. Long
@@ -695,11 +722,12 @@ def _children(w, t, k, vx, vy, tris, nbrs, te, ea, vorig, passable, m, V, nx, ny
         qx1 = vx[a2] + hi * (vx[b2] - vx[a2])
         qy1 = vy[a2] + hi * (vy[b2] - vy[a2])
         key = rd + _seg_dist(rx, ry, qx0, qy0, qx1, qy1)
-        wf, wi, links, heap = _push(st, wf, wi, links, heap, nb, kk, 1.0 - hi, 1.0 - lo, rx, ry, rd, root, key)
+        _push(st, wf, wi, links, heap, nb, kk, 1.0 - hi, 1.0 - lo, rx, ry, rd, root, key)
+        if st[3]:  # no room: the record was dropped
+            return
         e2 = te[nb, kk]
         links[st[0] - 1, 1] = phead[e2]  # pending on e2, to be merged with its contiguous pieces
         phead[e2] = st[0] - 1
-    return wf, wi, links, heap
 
 
 @njit(cache=True, error_model="numpy")
@@ -767,22 +795,22 @@ def query(nx, ny, dist, parent, tri_nodes, passable, goal_tri, gx, gy, vx, vy, t
         arg = NONE
         if passable[t]:
             if goal_tri[t]:
-                best = np.sqrt((gx - x) ** 2 + (gy - y) ** 2)
+                best = _hyp(gx - x, gy - y)
                 arg = GOAL
             for s in range(S):
                 u = tri_nodes[t, s]
-                c = np.sqrt((nx[u] - x) ** 2 + (ny[u] - y) ** 2) + dist[u]
+                c = _hyp(nx[u] - x, ny[u] - y) + dist[u]
                 if c < best:
                     best = c
                     arg = u
             for a in range(wstart[t], wstart[t + 1]):
                 rx = wgeo[a, 0]
                 ry = wgeo[a, 1]
-                L = np.sqrt((rx - x) ** 2 + (ry - y) ** 2)
+                L = _hyp(rx - x, ry - y)
                 c = wgeo[a, 2] + L
                 if c < best:
-                    lim0 = 1e-12 * L * np.sqrt((wgeo[a, 3] - rx) ** 2 + (wgeo[a, 4] - ry) ** 2)
-                    lim1 = 1e-12 * L * np.sqrt((wgeo[a, 5] - rx) ** 2 + (wgeo[a, 6] - ry) ** 2)
+                    lim0 = 1e-12 * L * _hyp(wgeo[a, 3] - rx, wgeo[a, 4] - ry)
+                    lim1 = 1e-12 * L * _hyp(wgeo[a, 5] - rx, wgeo[a, 6] - ry)
                     if (_orient(rx, ry, wgeo[a, 3], wgeo[a, 4], x, y) <= lim0
                             and _orient(rx, ry, wgeo[a, 5], wgeo[a, 6], x, y) >= -lim1):
                         best = c
@@ -790,14 +818,14 @@ def query(nx, ny, dist, parent, tri_nodes, passable, goal_tri, gx, gy, vx, vy, t
         else:  # on a vertex of an impassable triangle that passable ground touches
             for k in range(3):
                 u = tris[t, k]
-                if (nx[u] - x) ** 2 + (ny[u] - y) ** 2 <= eps_m * eps_m and dist[u] < best:
+                if _norm2(nx[u] - x, ny[u] - y) <= eps_m * eps_m and dist[u] < best:
                     best = dist[u]
                     arg = u
         out[i] = best
         if best == np.inf:
             continue
         src[i] = arg
-        while arg >= 0 and (nx[arg] - x) ** 2 + (ny[arg] - y) ** 2 <= eps_m * eps_m:
+        while arg >= 0 and _norm2(nx[arg] - x, ny[arg] - y) <= eps_m * eps_m:
             arg = parent[arg]
         if arg == GOAL:
             dx = gx - x

@@ -47,12 +47,13 @@ Why not the alternatives:
 * fast marching on a triangulation needs non-obtuse triangles (greedy and VIP TINs are full of
   obtuse ones); an exact visibility graph costs O(n^2) visibility tests per goal.
 
-Measured (``nice -n 10 python bench/cost_to_go.py``, jacksboro greedy, median of 5, CPU time
-of the process on a shared 2-core machine; wall time under load about twice): build 9 ms /
-52 ms / 0.30 s at 5k / 20k / 80k triangles (splitting the pinches, 98 at 80k, is within the
-noise; target 50 ms at 20k: about met in CPU time), about 1 window
-per edge; queries 1.0e7 points/s with known triangles at 20k (4.6e6 with point location), 4e6
-at 80k (target 1e6: met). Flat TIN: error 2e-14 %.
+Measured (``nice -n 10 python bench/cost_to_go.py --repeat 9``, jacksboro greedy, median of 9,
+CPU time of the process on a shared 2-core machine, two runs; wall time under load up to
+twice): build 4-6 ms / 21-24 ms / 0.14-0.16 s at 5k / 20k / 80k triangles (target 50 ms at
+20k: met), about 1 window per edge, 0.3-0.4 us per window record: the window loop runs
+without reference counting (:func:`._ctg_kernels._propagate`), which had doubled its cost;
+queries 9e6 points/s with known triangles at 20k (3.9e6 with point location), 3e6 at 80k
+(target 1e6: met). Flat TIN: error 2e-14 %.
 """
 
 from __future__ import annotations
@@ -130,7 +131,8 @@ class CostToGo:
         t0 = int(tin.locate(g[None])[0])
         if t0 < 0:
             raise ArgumentError(f"goal_xy {g.tolist()} lies outside the TIN (bounds {tin.bounds})")
-        near = np.isin(tin.triangles, tin.triangles[t0]).any(axis=1)  # triangles sharing a vertex
+        tri, (a, b, c) = tin.triangles, tin.triangles[t0]
+        near = ((tri == a) | (tri == b) | (tri == c)).any(axis=1)  # triangles sharing a vertex with t0
         cand = np.flatnonzero(near & self.passable)
         v = tin.vertices[tin.triangles[cand], :2]  # (c, 3, 2) CCW
         tol = tin.tolerances[0]
