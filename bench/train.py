@@ -34,7 +34,7 @@ def throughput(scenario, n_envs, n_robots, timesteps):
 
     import tin_swarm_env as tse
 
-    torch.set_num_threads(2)
+    torch.set_num_threads(1)  # as apps/train.py: extra torch threads spin-wait against the env
     vec = tse.adapters.make_sb3_vec_env(scenario, n_robots=n_robots, n_envs=n_envs, seed=0)
     model = PPO("MlpPolicy", vec, n_steps=256, batch_size=1024, n_epochs=5, policy_kwargs={"net_arch": [128, 128]},
                 seed=0, device="cpu", verbose=0)

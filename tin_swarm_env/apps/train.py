@@ -91,7 +91,7 @@ class Args:
     checkpoint_every: int = 50_000
     out_dir: str = ""  # "": runs/<algo>_<scenarios>_s<seed>
     progress_bar: bool = True
-    torch_threads: int = 2
+    torch_threads: int = 1  # more than 1 on a busy 2-core machine makes PPO ~10x slower (threads spin-wait)
 
 
 def scenarios_of(args: Args) -> list[str]:
