@@ -10,6 +10,7 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import VecEnv
 
 import tin_swarm_env as tse
+from tin_swarm_env.errors import TinSwarmError
 
 
 def vec(**kw):
@@ -192,28 +193,33 @@ def test_ppo_accepts_the_adapter_with_a_seed():
 
 
 def test_smoke_train_with_imitation_in_a_subprocess_then_load_and_evaluate_the_policy(tmp_path):
-    """`tin-swarm train` on the imitation path (BC, one DAgger round, a little PPO), then the
-    exported pickle-free policy: loaded with load_policy it acts as the SB3 model it came from,
-    and `tin-swarm eval --model DIR` runs it beside random and APF."""
+    """`tin-swarm train` on the imitation path (BC, one DAgger round, a little PPO) with the
+    shield, then the exported pickle-free policies (before and after PPO): loaded with
+    load_policy the network acts as the SB3 model it came from and the policy as that model
+    through the shield, and `tin-swarm eval --model DIR` runs it beside random and APF."""
     from tin_swarm_env.apps.policy_factory import SB3Policy
-    from tin_swarm_env.policies import load_policy
+    from tin_swarm_env.policies import ShieldedPolicy, load_policy
 
     out = tmp_path / "run"
     r = subprocess.run([sys.executable, "-m", "tin_swarm_env", "train", "flat", "--timesteps", "128",
                         "--bc-episodes", "1", "--dagger-rounds", "1", "--bc-robots", "3", "--bc-epochs", "2",
                         "--n-robots", "4", "--n-envs", "1", "--n-steps", "32", "--batch-size", "64",
                         "--eval-every", "256", "--eval-episodes", "1", "--max-cycles", "30",
-                        "--out-dir", str(out), "--progress-bar", "false"],
+                        "--shield", "safety_cut", "--out-dir", str(out), "--progress-bar", "false"],
                        capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr[-2000:]
     assert "BC: 90 samples" in r.stdout and "DAgger round 1" in r.stdout and str(out / "policy") in r.stdout
-    for f in ("model.zip", "model.json", "eval.csv", "curve.png", "policy/policy.json", "policy/weights.npz"):
+    for f in ("model.zip", "model.json", "eval.csv", "curve.png", "policy/policy.json", "policy/weights.npz",
+              "policy_imitation/policy.json", "policy_imitation/weights.npz"):
         assert (out / f).exists(), f
     env = tse.parallel_env(scenario="flat", n_robots=4, max_cycles=30)
     pol = load_policy(out / "policy", env)
+    assert pol.shield == "safety_cut" and load_policy(out / "policy_imitation", env).shield == "safety_cut"
+    assert load_policy(out / "policy_imitation", env).training["stage"] == "imitation"
     obs = env.reset_arrays(seed=1)
     sb3 = SB3Policy.load(out / "model.zip")  # our own file: trusted
-    assert np.allclose(pol.act_batch(obs), sb3.act_batch(obs), atol=1e-5)
+    assert np.allclose(pol.net_batch(obs), sb3.act_batch(obs), atol=1e-5)
+    assert np.allclose(pol.act_batch(obs), ShieldedPolicy(sb3, env).act_batch(obs), atol=1e-5)
     ev = tmp_path / "ev"
     r = subprocess.run([sys.executable, "-m", "tin_swarm_env", "eval", "flat", "--seeds", "2", "--robots", "4",
                         "--model", str(out / "policy"), "--out", str(ev)], capture_output=True, text=True,
@@ -223,6 +229,29 @@ def test_smoke_train_with_imitation_in_a_subprocess_then_load_and_evaluate_the_p
     assert "| flat | random |" in md and "| flat | apf |" in md and "| flat | run |" in md
     assert (tmp_path / "ev.csv").exists() and (tmp_path / "ev.png").stat().st_size > 5000
     assert math.isfinite(float(md.split("| flat | run |")[1].split("|")[-2].split("±")[0]))
+
+
+def test_shielded_vec_env_steps_with_the_shielded_actions():
+    """``shield="safety_cut"``: each copy steps with its robots' actions passed through the
+    policy-file shield of that copy (same rollouts as an unshielded VecEnv given the cut actions)."""
+    from tin_swarm_env.policies.learned import _Shield
+
+    a, b = (tse.adapters.make_sb3_vec_env("cliff_goal", n_robots=6, n_envs=2, seed=4, max_cycles=40, shield=s)
+            for s in ("safety_cut", "none"))
+    oa, ob = a.reset(), b.reset()
+    rng = np.random.default_rng(0)
+    cut_any = False
+    for _ in range(30):
+        act = rng.uniform(-1, 1, (a.num_envs, 2)).astype(np.float32)
+        cut = np.concatenate([_Shield(e)(act[c * 6:(c + 1) * 6], ob[c * 6:(c + 1) * 6]) for c, e in enumerate(b.envs)])
+        cut_any |= not np.allclose(cut, act)
+        oa, ra, da, _ = a.step(act)
+        ob, rb, db, _ = b.step(cut)
+        np.testing.assert_array_equal(oa, ob)
+        np.testing.assert_array_equal(ra, rb)
+    assert cut_any
+    with pytest.raises(TinSwarmError, match="shield"):
+        tse.adapters.make_sb3_vec_env("flat", n_robots=2, shield="bogus")
 
 
 def test_missing_sb3_names_the_extra(monkeypatch):

@@ -45,13 +45,17 @@ def _vecenv_base():
     return require("stable_baselines3", "train", "The SB3 adapter").common.vec_env.base_vec_env.VecEnv
 
 
-def make_sb3_vec_env(scenario="cliff_goal", n_robots=None, n_envs=1, seed=0, **env_kwargs):
+def make_sb3_vec_env(scenario="cliff_goal", n_robots=None, n_envs=1, seed=0, shield="none", **env_kwargs):
     """An SB3 ``VecEnv`` of ``n_envs`` copies of ``tin_swarm_v0`` (see the module docstring);
     ``env_kwargs`` (``max_cycles``, ``render_mode``...) pass through to each copy. ``scenario``
     may be a list (a mix): copy ``c`` runs ``scenario[c % len(scenario)]``; the copies must then
-    share the robot count (pass ``n_robots``) and the observation size."""
+    share the robot count (pass ``n_robots``) and the observation size. ``shield="safety_cut"``:
+    the actions pass through the policy-file shield (:mod:`tin_swarm_env.policies.learned`) of
+    their copy before the env steps, so the policy learns in the shielded environment it will
+    be deployed in (PPO keeps the unshielded action as the one taken: the shield is part of the
+    environment)."""
     cls = _vec_class()
-    return cls(scenario=scenario, n_robots=n_robots, n_envs=n_envs, seed=seed, **env_kwargs)
+    return cls(scenario=scenario, n_robots=n_robots, n_envs=n_envs, seed=seed, shield=shield, **env_kwargs)
 
 
 _CLASS = None
@@ -68,8 +72,9 @@ def _vec_class():
     class TinSwarmVecEnv(VecEnv):
         __doc__ = __doc__
 
-        def __init__(self, scenario="cliff_goal", n_robots=None, n_envs=1, seed=0, **env_kwargs):
+        def __init__(self, scenario="cliff_goal", n_robots=None, n_envs=1, seed=0, shield="none", **env_kwargs):
             from ..env import parallel_env
+            from ..policies.learned import SHIELDS, _Shield
 
             if n_envs < 1:
                 raise ArgumentError(f"n_envs must be >= 1, got {n_envs}")
@@ -84,6 +89,10 @@ def _vec_class():
                                         f"{e.config.name!r} {e.n}, {e.layout.size} (pass n_robots)")
             self.n_robots = e0.n
             self.n_copies = n_envs
+            if shield not in SHIELDS:
+                raise ArgumentError(f"shield must be one of {list(SHIELDS)}, got {shield!r}")
+            self.shield = shield
+            self._shields = [_Shield(e) for e in self.envs] if shield == "safety_cut" else None
             super().__init__(n_envs * e0.n, e0.observation_space("robot_0"), e0.action_space("robot_0"))
             self.render_mode = e0.render_mode
             self._seeds = [None if seed is None else seed + c for c in range(n_envs)]
@@ -122,7 +131,8 @@ def _vec_class():
             for c, env in enumerate(self.envs):
                 sl = slice(c * n, (c + 1) * n)
                 live_before = env.live_mask
-                o, r, term, trunc, reasons = env.step_arrays(self._actions[sl])
+                act = self._actions[sl] if self._shields is None else self._shields[c](self._actions[sl], self._obs[sl])
+                o, r, term, trunc, reasons = env.step_arrays(act)
                 rewards[sl] = np.where(live_before, r, 0.0)
                 ended = term | trunc
                 idx = np.flatnonzero(ended) + c * n
@@ -178,13 +188,15 @@ def _vec_class():
 _TORCH_ACTIVATIONS = {"Tanh": "tanh", "ReLU": "relu", "ELU": "elu", "LeakyReLU": "leaky_relu", "Identity": "identity"}
 
 
-def export_sb3_policy(model, path, env_or_layout, scenario: str | None = None, extra: dict | None = None):
+def export_sb3_policy(model, path, env_or_layout, scenario: str | None = None, extra: dict | None = None,
+                      shield: str = "none"):
     """Write the actor of an SB3 PPO/A2C ``MlpPolicy`` as a pickle-free policy directory
     (:func:`tin_swarm_env.policies.save_policy`): the Linear layers of
     ``policy.mlp_extractor.policy_net`` and ``policy.action_net``, the activation from
     ``policy_kwargs["activation_fn"]`` (default Tanh), the deterministic action (the Gaussian's
     mean, clipped to [-1, 1]). ``env_or_layout``: the env (or this module's VecEnv) it was trained on
-    (its layout and scenario name are recorded) or an ``ObsLayout``. Returns the path."""
+    (its layout and scenario name are recorded) or an ``ObsLayout``; ``shield`` is written into the
+    file (``"safety_cut"``: the actor was trained to act through it). Returns the path."""
     require("torch", "train", "Exporting an SB3 policy")
     from ..policies.learned import save_policy
 
@@ -226,7 +238,7 @@ def export_sb3_policy(model, path, env_or_layout, scenario: str | None = None, e
     except ImportError:  # pragma: no cover
         pass
     meta.update(extra or {})
-    return save_policy(path, layers, activation, layout=layout, scenario=scenario, extra=meta)
+    return save_policy(path, layers, activation, layout=layout, scenario=scenario, extra=meta, shield=shield)
 
 
 def __getattr__(name):

@@ -78,13 +78,14 @@ def _discounted(rewards, live, gamma):
 STALL_EPS_M = 0.25  # a robot "makes progress" when its distance to go drops this much below its best
 
 
-def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=None):
+def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=None, shield=None):
     """One episode: ``(obs (N, d), labels (N, 2), returns (N,), reasons (n,))`` over the kept
     live robot-steps. ``beta``: each live robot's action is the teacher's with this probability
     (per robot and step, drawn from ``rng``), else the learner's. ``stall_steps`` > 0: a robot's
     samples stop being kept once its distance to go (``env.distance_to_go()``) has not dropped
     :data:`STALL_EPS_M` below its best for that many steps (it is stuck; its steps would flood
-    the data); it keeps driving and the teacher keeps seeing it."""
+    the data); it keeps driving and the teacher keeps seeing it. ``shield``: a callable
+    ``(actions, obs) -> actions`` the learner's actions pass through (the policy-file shield)."""
     from ..world.state import Reason
 
     obs = env.reset_arrays(seed=seed)
@@ -99,6 +100,8 @@ def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=No
     while live.any():
         label = teacher.act_batch(obs)  # every row, every step: the teacher's memory sees the whole stream
         act = label if learner is None else learner.act_batch(obs)
+        if learner is not None and shield is not None:
+            act = shield(act, obs)
         if learner is not None and beta > 0:
             act = np.where((rng.random(n) < beta)[:, None], label, act)
         keep = live & ((since < stall_steps) if stall_steps > 0 else True)
@@ -120,13 +123,15 @@ def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=No
 
 
 def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=None, learner=None,
-            gamma: float = 0.99, env_kwargs: dict | None = None, beta: float = 0.0, stall_steps: int = 0) -> Demos:
+            gamma: float = 0.99, env_kwargs: dict | None = None, beta: float = 0.0, stall_steps: int = 0,
+            shield: str = "none") -> Demos:
     """Run ``episodes`` episodes (cycling over ``scenarios``; see the module docstring), driven by
     APF (``learner=None``: behaviour cloning data) or by ``learner`` (an object with
     ``act_batch(obs (n, d)) -> (n, 2)``: DAgger data), every live robot-step labelled with APF's
     action. ``n_robots``/``max_cycles`` None: the scenario's. ``beta`` (DAgger's mixing: the teacher
     drives each robot-step with this probability; the draws come from ``default_rng(seed)``) and
-    ``stall_steps`` (drop a stuck robot's later samples): see :func:`_episode`."""
+    ``stall_steps`` (drop a stuck robot's later samples): see :func:`_episode`. ``shield="safety_cut"``:
+    the learner acts through the policy-file shield (:mod:`tin_swarm_env.policies.learned`)."""
     from ..env import parallel_env
     from ..policies import APFPolicy
     from ..world.state import Reason
@@ -142,10 +147,13 @@ def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=No
         kw["max_cycles"] = max_cycles
     envs = {s: parallel_env(scenario=s, n_robots=n_robots or None, **kw) for s in scenarios}
     teachers = {s: APFPolicy(e) for s, e in envs.items()}
+    from ..policies.learned import _Shield
+
+    shields = {s: _Shield(e) if shield == "safety_cut" else None for s, e in envs.items()}
     parts, reasons = [], []
     for k in range(episodes):
         s = scenarios[k % len(scenarios)]
-        o, a, r, why = _episode(envs[s], teachers[s], learner, seed + k, gamma, beta, stall_steps, rng)
+        o, a, r, why = _episode(envs[s], teachers[s], learner, seed + k, gamma, beta, stall_steps, rng, shields[s])
         parts.append((o, a, r))
         reasons.append(why)
     why = np.concatenate(reasons)

@@ -29,7 +29,8 @@ Read top to bottom: arguments, environment, imitation, evaluation, training, sav
   ``tin-swarm eval``) starts at 10**6, so on ``"generated"`` it is on terrains never trained on.
 
 Writes into ``out_dir`` (default ``runs/<algo>_<scenarios>_s<seed>``): ``model.zip`` (SB3, a
-pickle: load only your own), ``policy/`` (the pickle-free policy directory, ``load_policy``),
+pickle: load only your own), ``policy/`` (the pickle-free policy directory, ``load_policy``; with imitation and PPO also
+``policy_imitation/``, the policy before PPO),
 ``model.json`` (scenario files' text and these arguments), ``checkpoints/``, ``eval.csv``
 (periodic evaluation), ``curve.png`` and TensorBoard logs when tensorboard is installed. Needs the
 ``[train]`` extra (and sb3-contrib for ``--recurrent``).
@@ -48,6 +49,7 @@ import numpy as np
 
 from ..errors import ArgumentError, require
 from ..world.state import Reason
+from ..policies.learned import SHIELDS, ShieldedPolicy
 from .evaluate import EVAL_SEED0
 from .policy_factory import SB3Policy
 from .rollout import rollout
@@ -91,6 +93,7 @@ class Args:
     checkpoint_every: int = 50_000
     out_dir: str = ""  # "": runs/<algo>_<scenarios>_s<seed>
     progress_bar: bool = True
+    shield: str = "none"  # "safety_cut": learn and act through the policy-file shield (exported with it)
     torch_threads: int = 1  # more than 1 on a busy 2-core machine makes PPO ~10x slower (threads spin-wait)
 
 
@@ -129,6 +132,10 @@ def check_args(args: Args) -> None:
         raise ArgumentError(f"--dagger-beta must be in [0, 1), got {args.dagger_beta}")
     if args.recurrent and _imitating(args):
         raise ArgumentError("--recurrent cannot be combined with --bc-episodes (imitation fits an MLP actor)")
+    if args.shield not in SHIELDS:
+        raise ArgumentError(f"--shield must be one of {list(SHIELDS)}, got {args.shield!r}")
+    if args.shield != "none" and args.recurrent:
+        raise ArgumentError("--shield applies to MLP policies (the exported file); not with --recurrent")
     if args.seed < 0 or args.seed * 1000 + 1000 >= EVAL_SEED0:
         raise ArgumentError(f"--seed must be in [0, {EVAL_SEED0 // 1000 - 1}] (seeds from {EVAL_SEED0} are "
                             "evaluation seeds)")
@@ -161,6 +168,8 @@ def evaluate_model(model, args: Args, episodes: int, seed: int = EVAL_SEED0) -> 
     for scen in scenarios_of(args):
         env = parallel_env(scenario=scen, n_robots=args.n_robots, max_cycles=args.max_cycles or None)
         pol = RecurrentSB3Policy(model) if args.recurrent else SB3Policy(model)
+        if args.shield != "none":
+            pol = ShieldedPolicy(pol, env)
         outs += [rollout(env, pol, seed + ep) for ep in range(episodes)]
     return (float(np.mean([o.returns.mean() for o in outs])), float(np.mean([o.share(Reason.ARRIVED) for o in outs])),
             float(np.mean([o.share(Reason.FELL) for o in outs])))
@@ -227,7 +236,7 @@ def imitate(model, args: Args, log=print) -> dict:
 
     scen, n_rob = scenarios_of(args), args.bc_robots or None
     kw = {"n_robots": n_rob, "max_cycles": args.max_cycles or None, "gamma": args.gamma,
-          "stall_steps": args.stall_steps}
+          "stall_steps": args.stall_steps, "shield": args.shield}
     fit = {"epochs": args.bc_epochs, "batch_size": args.bc_batch_size, "lr": args.bc_lr, "std": args.bc_std}
     base = args.seed * 1000
     demos = collect(scen, args.bc_episodes, base, **kw)
@@ -267,10 +276,15 @@ def train(args: Args) -> Path:
     # every robot of every copy is one SB3 sub-environment; a mix holds n_envs copies of each scenario
     kw = {"max_cycles": args.max_cycles} if args.max_cycles else {}
     vec = make_sb3_vec_env(scen if len(scen) > 1 else scen[0], n_robots=args.n_robots,
-                           n_envs=args.n_envs * len(scen), seed=args.seed, **kw)
+                           n_envs=args.n_envs * len(scen), seed=args.seed, shield=args.shield, **kw)
     rows, t0 = [], time.perf_counter()
     model = _model(args, vec, str(out / "tb") if _has("tensorboard") else None)
     imitation = imitate(model, args) if _imitating(args) else None
+    if imitation is not None and args.total_timesteps:  # the imitation stage alone, before PPO changes it
+        from ..adapters.sb3 import export_sb3_policy
+
+        export_sb3_policy(model, out / "policy_imitation", vec, scenario=args.scenario, shield=args.shield,
+                          extra={"imitation": imitation, "args": dataclasses.asdict(args), "stage": "imitation"})
     if imitation is not None and args.eval_every:
         row = _eval_row(model, args, rows, t0, 0)
         print(f"after imitation: arrived {row['arrived']:.0%}, fell {row['fell']:.0%} ({row['minutes']:.1f} min)")
@@ -318,7 +332,7 @@ def _save(model, args: Args, out: Path, rows: list, t0: float, vec, imitation) -
         return
     from ..adapters.sb3 import export_sb3_policy
 
-    export_sb3_policy(model, out / "policy", vec, scenario=args.scenario,
+    export_sb3_policy(model, out / "policy", vec, scenario=args.scenario, shield=args.shield,
                       extra={"imitation": imitation, "args": dataclasses.asdict(args)})
     print(f"exported the pickle-free policy {out / 'policy'} (load_policy / --model {out / 'policy'})")
 

@@ -3,6 +3,7 @@
 
 from .apf import APFPolicy, RandomPolicy, apf_forces
 from .geodesic import GeodesicPolicy
-from .learned import MLPPolicy, load_policy, save_policy
+from .learned import MLPPolicy, ShieldedPolicy, load_policy, save_policy
 
-__all__ = ["APFPolicy", "RandomPolicy", "GeodesicPolicy", "apf_forces", "MLPPolicy", "load_policy", "save_policy"]
+__all__ = ["APFPolicy", "RandomPolicy", "GeodesicPolicy", "apf_forces", "MLPPolicy", "ShieldedPolicy", "load_policy",
+           "save_policy"]

@@ -44,7 +44,8 @@ import numpy as np
 
 from ..errors import ArgumentError, PolicyFileError
 
-__all__ = ["MLPPolicy", "save_policy", "load_policy", "FORMAT", "VERSION", "ACTIVATIONS", "SHIELDS"]
+__all__ = ["MLPPolicy", "ShieldedPolicy", "save_policy", "load_policy", "FORMAT", "VERSION", "ACTIVATIONS",
+           "SHIELDS"]
 
 FORMAT = "tin_swarm_env.policy"
 VERSION = 1
@@ -124,6 +125,23 @@ class MLPPolicy:
         sizes = [self.obs_size] + [W.shape[0] for W, _ in self.layers]
         shield = "" if self.shield == "none" else f", shield={self.shield!r}"
         return f"MLPPolicy({self.source!r}, {sizes}, {self.activation}, scenario={self.scenario!r}{shield})"
+
+
+class ShieldedPolicy:
+    """Any policy (``act_batch(obs (n, d)) -> (n, 2)``, optional ``reset()``) acting through the
+    ``"safety_cut"`` shield of ``env`` (see the module docstring): what training uses for a
+    shielded learner before it is exported."""
+
+    def __init__(self, policy, env):
+        self.policy = policy
+        self._cut = _Shield(env)
+
+    def reset(self):
+        if hasattr(self.policy, "reset"):
+            self.policy.reset()
+
+    def act_batch(self, obs) -> np.ndarray:
+        return self._cut(self.policy.act_batch(obs), obs)
 
 
 class _Shield:
