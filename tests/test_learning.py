@@ -28,14 +28,14 @@ def test_bc_labels_are_apfs_actions_on_its_own_trajectory():
     env = tse.parallel_env(scenario="cliff_goal", **SMALL)
     apf = APFPolicy(env)
     obs = env.reset_arrays(seed=3)
-    O, A = [], []
+    Os, A = [], []
     while env.live_mask.any():
         live = env.live_mask
         a = apf.act_batch(obs)
-        O.append(obs[live])
+        Os.append(obs[live])
         A.append(a[live])
         obs, *_ = env.step_arrays(a)
-    assert np.array_equal(demos.obs, np.concatenate(O)) and np.array_equal(demos.actions, np.concatenate(A))
+    assert np.array_equal(demos.obs, np.concatenate(Os)) and np.array_equal(demos.actions, np.concatenate(A))
     assert demos.episodes == 1 and demos.obs.dtype == np.float32 and demos.returns.shape == (len(demos),)
 
 

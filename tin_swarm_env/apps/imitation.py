@@ -95,7 +95,7 @@ def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=No
     n = env.n
     reasons = np.full(n, int(Reason.NONE), dtype=np.int8)
     best, since = env.distance_to_go(), np.zeros(n, dtype=np.int64)
-    O, A, R, L, K = [], [], [], [], []
+    Os, A, R, L, K = [], [], [], [], []
     live = env.live_mask
     while live.any():
         label = teacher.act_batch(obs)  # every row, every step: the teacher's memory sees the whole stream
@@ -105,7 +105,7 @@ def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=No
         if learner is not None and beta > 0:
             act = np.where((rng.random(n) < beta)[:, None], label, act)
         keep = live & ((since < stall_steps) if stall_steps > 0 else True)
-        O.append(obs[keep])
+        Os.append(obs[keep])
         A.append(label[keep])
         obs, rew, term, trunc, why = env.step_arrays(act)
         R.append(np.where(live, rew, 0.0))
@@ -119,7 +119,7 @@ def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=No
         since = np.where(better, 0, since + 1)
         live = env.live_mask
     ret = _discounted(np.asarray(R), np.asarray(L), gamma)[np.asarray(K)]  # row-major: step by step, robot order
-    return np.concatenate(O), np.concatenate(A), ret.astype(np.float32), reasons
+    return np.concatenate(Os), np.concatenate(A), ret.astype(np.float32), reasons
 
 
 def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=None, learner=None,

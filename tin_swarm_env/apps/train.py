@@ -48,8 +48,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ArgumentError, require
-from ..world.state import Reason
 from ..policies.learned import SHIELDS, ShieldedPolicy
+from ..world.state import Reason
 from .evaluate import EVAL_SEED0
 from .policy_factory import SB3Policy
 from .rollout import rollout
@@ -252,8 +252,8 @@ def imitate(model, args: Args, log=print) -> dict:
         demos = demos + new
         mse = fit_actor(model.policy, demos.obs, demos.actions, seed=args.seed + r + 1, **fit)
         info["rounds"].append({"learner_arrived": new.arrived, "learner_fell": new.fell, "mse": mse})
-        log(f"DAgger round {r + 1} (beta {beta:.2f}): the learner drove {n_dag} episodes (arrived {new.arrived:.0%}, fell "
-            f"{new.fell:.0%}); {len(demos)} samples; actor MSE {mse:.4f}")
+        log(f"DAgger round {r + 1} (beta {beta:.2f}): the learner drove {n_dag} episodes (arrived "
+            f"{new.arrived:.0%}, fell {new.fell:.0%}); {len(demos)} samples; actor MSE {mse:.4f}")
     if args.value_epochs:
         info["value_mse"] = fit_value(model.policy, demos.obs, demos.returns, epochs=args.value_epochs,
                                       batch_size=args.bc_batch_size, lr=args.bc_lr, seed=args.seed)

@@ -11,8 +11,8 @@ that point (no robot can hit the point exactly): each pinch vertex is split into
 fan (:func:`pinch_vertices`, :func:`._ctg_kernels.split_fans`), so paths and windows reaching
 it continue only into triangles of the same fan. ``distance_at(p)`` is the length of the
 shortest path from ``p`` to the goal that stays on passable ground, ``inf`` where there is
-none, outside the TIN and on impassable triangles. Lengths are **planar** (x, y) metres: the reward and the robots' speed
-limits work in the plane, and a planar metric keeps the field a true distance (triangle
+none, outside the TIN and on impassable triangles. Lengths are **planar** (x, y) metres: the
+reward and the robots' speed limits work in the plane, and a planar metric keeps the field a true distance (triangle
 inequality, at least the straight-line distance). A slope-aware 3D length is not offered.
 
 Method (default, ``any_angle=True``): window propagation, a continuous Dijkstra restricted to
