@@ -57,12 +57,13 @@ def main(argv=None):
         passable = tin.slope_deg <= 30.0
         lo, hi = np.array(tin.bounds[:2]), np.array(tin.bounds[2:])
         goal = (lo + hi) / 2
-        ctg, b_wall, b_cpu = median_of(lambda: cost_to_go(tin, goal, passable), a.repeat)
-        _, _, p_cpu = median_of(lambda: cost_to_go(tin, goal, passable, any_angle=False), a.repeat)
+        args = (tin, goal, passable)
+        ctg, b_wall, b_cpu = median_of(lambda args=args: cost_to_go(*args), a.repeat)
+        _, _, p_cpu = median_of(lambda args=args: cost_to_go(*args, any_angle=False), a.repeat)
         q = rng.uniform(lo, hi, (a.queries, 2))
         tri = tin.locate(q)
-        _, k_wall, k_cpu = median_of(lambda: ctg.distance_at(q, tri), a.repeat)
-        _, _, l_cpu = median_of(lambda: ctg.distance_at(q), a.repeat)
+        _, k_wall, k_cpu = median_of(lambda c=ctg, q=q, t=tri: c.distance_at(q, t), a.repeat)
+        _, _, l_cpu = median_of(lambda c=ctg, q=q: c.distance_at(q), a.repeat)
         flat = Tin(np.column_stack([tin.vertices[:, :2], np.zeros(tin.n_vertices)]), tin.triangles)
         qs = q[:20000]
         far = np.hypot(*(qs - goal).T) > 100.0
