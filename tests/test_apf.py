@@ -304,19 +304,28 @@ def test_pass_gap_takes_a_gap_between_two_break_ends_and_nothing_else():
     assert g["has"][0]
 
 
-def test_a_robot_in_front_of_a_gap_drives_through_it_instead_of_following_the_wall():
-    # a 6 m gap in a cliff along y = -5 (body frame), the target beyond it: the two ends do not
-    # push the robot back and its command points through the gap
+def test_a_robot_following_a_wall_drives_through_a_gap_in_it_once_per_following():
+    # a cliff along y = -5 (body frame), the target beyond it: first seen square on (blocked: the
+    # robot starts following), then a 6 m gap between two ends: the ends do not push the robot
+    # back and its command points through the gap
     layout, R = ObsLayout(), 60.0
     env = tse.parallel_env(scenario=canyon_config("left", "east", robots=1))
     pol = APFPolicy(env)
     ends = [(-3.0, -5.0, 0.0, 1.0, 50.0), (3.0, -5.0, 0.0, 1.0, 50.0)]
-    obs = _obs(layout, R, (0.0, -100.0), ends)
-    a = pol.act_batch(obs)[0]
-    assert a[1] < -0.9 * np.hypot(*a) and np.hypot(*a) > 0.5, a  # through the gap, at speed
-    assert pol.memory.side[0] == 0  # not blocked: it does not start following
-    # the same two breaks with no gap between them (one wall seen square on): it is blocked
-    pol.reset()
     wall = [(0.0, -5.0, 0.0, 1.0, 50.0), *ends]
     pol.act_batch(_obs(layout, R, (0.0, -100.0), wall))
-    assert pol.memory.side[0] != 0
+    side = pol.memory.side[0]
+    assert side != 0 and pol.memory.gap[0] == 0
+    a = pol.act_batch(_obs(layout, R, (0.0, -100.0), ends))[0]
+    assert a[1] < -0.9 * np.hypot(*a) and np.hypot(*a) > 0.5, a  # through the gap, at speed
+    assert pol.memory.side[0] == side and pol.memory.gap[0] == 1  # keeps its side meanwhile
+    # the gap proved to be none (the wall is seen square on again): it is not tried again
+    pol.act_batch(_obs(layout, R, (0.0, -100.0), wall))
+    assert pol.memory.gap[0] == 2
+    a = pol.act_batch(_obs(layout, R, (0.0, -100.0), ends))[0]
+    assert pol.memory.gap[0] == 2 and not a[1] < -0.9 * np.hypot(*a), a
+    # a robot with another one ahead toward the gap queues instead
+    pol.reset()
+    pol.act_batch(_obs(layout, R, (0.0, -100.0), wall))
+    pol.act_batch(_obs(layout, R, (0.0, -100.0), ends, robots=[(0.0, -3.0)]))
+    assert pol.memory.gap[0] == 0

@@ -142,6 +142,9 @@ class BugMemory:
     start_m   (n,)  m     distance to the target when it started following (its progress mark)
     kept      (n,) bool   it has turned back from a dead end since it started following: it
                           keeps that side (no second dead-end turn) until it leaves the break
+    gap       (n,) int8   0: has not driven at a gap in the wall it follows; 1: is driving at one
+                          (:func:`pass_gap`); 2: has done so since it started following (one gap
+                          per following: a gap that proves to be none is not tried again)
     """
 
     side: np.ndarray
@@ -151,13 +154,14 @@ class BugMemory:
     wall: np.ndarray
     start_m: np.ndarray
     kept: np.ndarray
+    gap: np.ndarray
 
-    _KEYS = ("side", "turn", "stall", "on_border", "wall", "start_m", "kept")
+    _KEYS = ("side", "turn", "stall", "on_border", "wall", "start_m", "kept", "gap")
 
     @classmethod
     def empty(cls, n: int) -> BugMemory:
         return cls(np.zeros(n, dtype=np.int8), np.zeros(n), np.zeros(n, dtype=np.int64), np.zeros(n, dtype=bool),
-                   np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool))
+                   np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int8))
 
     def grow(self, n: int) -> BugMemory:
         if n <= len(self.side):
@@ -337,7 +341,8 @@ def bug_update(mem: BugMemory, rows, d: dict, pull, params: FieldParams, crowd_m
     turn = np.where(new, theta, turn)
     turn = np.where((side != 0) & ~new & has_wall, turn + _wrap(theta - _wrap(turn)), turn)
     # leave when clear and heading within 90 degrees of the target again, counted
-    side = np.where((side != 0) & ~s["blocked"] & (np.abs(turn) < np.pi / 2), 0, side).astype(np.int8)
+    through = np.zeros(n, dtype=bool) if gap is None else gap  # not while driving through a gap
+    side = np.where((side != 0) & ~s["blocked"] & (np.abs(turn) < np.pi / 2) & ~through, 0, side).astype(np.int8)
     on_border = has_wall & d["b_border"][rows_i, kc]
     back = _turn_back(mem, rows, d, s, side, turn, t_left, on_border, params, crowd_m) & ~new
     side = np.where(back, -side, side).astype(np.int8)
@@ -345,6 +350,7 @@ def bug_update(mem: BugMemory, rows, d: dict, pull, params: FieldParams, crowd_m
     mem.turn[rows] = np.where(back, _angle_to(side[:, None] * t_left, s["ref"]), turn)
     mem.stall[rows] = np.where(back, 0, mem.stall[rows])
     mem.kept[rows] &= side != 0
+    mem.gap[rows] = np.where((side == 0) | new, 0, mem.gap[rows])
     mem.on_border[rows] = on_border
     mem.wall[rows] = np.where(has_wall, s["ang"][rows_i, kc], last_wall)
     return np.where(side != 0, kf, -1)
@@ -523,7 +529,10 @@ class APFPolicy(Controller):
         # a robot with another one ahead toward the gap queues (the usual fields) instead
         r_d = np.sqrt(np.sum(d["r_rel"] ** 2, axis=-1))
         ahead = np.einsum("nkj,nj->nk", d["r_rel"], g["aim"]) > 0
-        has = g["has"] & ~((d["r_valid"] > 0.5) & ahead & (r_d < 2 * self.params.robot_range_m)).any(axis=-1)
+        queue = ((d["r_valid"] > 0.5) & ahead & (r_d < 2 * self.params.robot_range_m)).any(axis=-1)
+        mem_gap = self.memory.gap[rows]
+        has = g["has"] & ~queue & (self.memory.side[rows] != 0) & (mem_gap < 2)
+        self.memory.gap[rows] = np.where(has, 1, np.where(mem_gap == 1, 2, mem_gap))
         if has.any():  # the two ends bounding the gap do not push (the edge cut still keeps it off them)
             danger = d["b_danger"].copy()
             r = np.flatnonzero(has)
