@@ -259,3 +259,73 @@ def test_bug_memory_turns_back_once_at_a_dead_end():
     for k in range(12):
         _step(mem, _obs(layout, R, (100.0 - 5 * k, 30.0), [_round(30.0 * k)]), layout, R, p)
         assert mem.side[0] == 1 and not mem.kept[0]
+
+
+# -- gaps between break ends (a narrow pass lined with break fragments) -----------------------
+
+
+def _gap_obs(points, normals, target):
+    """Decoded-observation stand-in: dangerous break slots at ``points`` with ``normals`` (body
+    frame, robot at the origin) and the target at ``target``."""
+    k = len(points)
+    nrm = np.array([normals], dtype=float)
+    return {"b_rel": np.array([points], dtype=float), "b_normal": nrm / np.hypot(nrm[..., :1], nrm[..., 1:]),
+            "b_danger": np.ones((1, k), dtype=bool), "rel_t": np.array([target], dtype=float),
+            "has_t": np.array([True])}
+
+
+def test_pass_gap_takes_a_gap_between_two_break_ends_and_nothing_else():
+    from tin_swarm_env.policies.apf import pass_gap
+    up = [0.0, 1.0]
+    # a straight cliff along y = -5 with a 6 m gap (x in [-3, 3]); the robot 5 m above the gap
+    g = pass_gap(_gap_obs([[-3.0, -5.0], [3.0, -5.0]], [up, up], [0.0, -100.0]), 3.0, 8.0)
+    assert g["has"][0] and sorted(g["slots"][0]) == [0, 1]
+    np.testing.assert_allclose(g["aim"][0], [0.0, -1.0], atol=1e-12)  # straight through its middle
+    # the same gap seen off-centre: the aim points between the two ends, through the gap
+    g = pass_gap(_gap_obs([[-1.0, -5.0], [5.0, -5.0]], [up, up], [0.0, -100.0]), 3.0, 8.0)
+    a = g["aim"][0]
+    assert g["has"][0] and a[1] < 0 and -1.0 / 5.0 < a[0] / -a[1] < 5.0 / 5.0
+    # narrower than width_m, or the target on the robot's side, or too far: no gap
+    assert not pass_gap(_gap_obs([[-1.0, -5.0], [1.0, -5.0]], [up, up], [0.0, -100.0]), 3.0, 8.0)["has"][0]
+    assert not pass_gap(_gap_obs([[-3.0, -5.0], [3.0, -5.0]], [up, up], [0.0, 100.0]), 3.0, 8.0)["has"][0]
+    assert not pass_gap(_gap_obs([[-3.0, -9.0], [3.0, -9.0]], [up, up], [0.0, -100.0]), 3.0, 8.0)["has"][0]
+    # one straight wall in three pieces: the point seen square on lies between the two ends
+    g = pass_gap(_gap_obs([[0.0, -5.0], [-3.0, -5.0], [3.0, -5.0]], [up, up, up], [0.0, -100.0]), 3.0, 8.0)
+    assert not g["has"][0]
+    # two pieces of one wall meeting at a vertex: one is seen square on, so it is no gap
+    assert not pass_gap(_gap_obs([[0.0, -5.0], [4.0, -5.0]], [up, up], [0.0, -100.0]), 3.0, 8.0)["has"][0]
+    # a concave corner (a wall along y = -5 meeting one along x = 6 at (6, -5)), seen from
+    # inside: the two closest points seen are ends, but the corner where their lines meet (6.6,
+    # -5.7) lies in the cone through the gap and closes it
+    g = pass_gap(_gap_obs([[2.0, -5.2], [5.8, 2.0]], [[0.1, 1.0], [-1.0, -0.1]], [60.0, -100.0]), 3.0, 8.0)
+    assert not g["has"][0]
+    # ... while two ends whose lines meet away from the gap (at (7.9, -5)) leave it open
+    g = pass_gap(_gap_obs([[-3.0, -5.0], [3.0, -6.0]], [up, [-0.2, 0.98]], [0.0, -100.0]), 3.0, 8.0)
+    assert g["has"][0]
+
+
+def test_a_robot_following_a_wall_drives_through_a_gap_in_it_once_per_following():
+    # a cliff along y = -5 (body frame), the target beyond it: first seen square on (blocked: the
+    # robot starts following), then a 6 m gap between two ends: the ends do not push the robot
+    # back and its command points through the gap
+    layout, R = ObsLayout(), 60.0
+    env = tse.parallel_env(scenario=canyon_config("left", "east", robots=1))
+    pol = APFPolicy(env)
+    ends = [(-3.0, -5.0, 0.0, 1.0, 50.0), (3.0, -5.0, 0.0, 1.0, 50.0)]
+    wall = [(0.0, -5.0, 0.0, 1.0, 50.0), *ends]
+    pol.act_batch(_obs(layout, R, (0.0, -100.0), wall))
+    side = pol.memory.side[0]
+    assert side != 0 and pol.memory.gap[0] == 0
+    a = pol.act_batch(_obs(layout, R, (0.0, -100.0), ends))[0]
+    assert a[1] < -0.9 * np.hypot(*a) and np.hypot(*a) > 0.5, a  # through the gap, at speed
+    assert pol.memory.side[0] == side and pol.memory.gap[0] == 1  # keeps its side meanwhile
+    # the gap proved to be none (the wall is seen square on again): it is not tried again
+    pol.act_batch(_obs(layout, R, (0.0, -100.0), wall))
+    assert pol.memory.gap[0] == 2
+    a = pol.act_batch(_obs(layout, R, (0.0, -100.0), ends))[0]
+    assert pol.memory.gap[0] == 2 and not a[1] < -0.9 * np.hypot(*a), a
+    # a robot with another one ahead toward the gap queues instead
+    pol.reset()
+    pol.act_batch(_obs(layout, R, (0.0, -100.0), wall))
+    pol.act_batch(_obs(layout, R, (0.0, -100.0), ends, robots=[(0.0, -3.0)]))
+    assert pol.memory.gap[0] == 0

@@ -5,7 +5,8 @@ four fields of :mod:`tin_swarm_env.world.fields` are evaluated in the body frame
 the commanded body-frame velocity, full speed once the force reaches ``speed_saturation``:
 ``action = F / max(|F|, speed_saturation)``. Where a dangerous break blocks the way, the
 attraction is replaced by wall-following (:func:`~tin_swarm_env.world.fields.follow_field`) on a
-side kept in a small per-robot memory (:class:`BugMemory`); last, the command is cut so that no
+side kept in a small per-robot memory (:class:`BugMemory`), and a robot drives through a gap
+between two break ends that leads toward its target (:func:`pass_gap`); last, the command is cut so that no
 robot closes on a robot it sees by more than half the gap in one step (:func:`keep_clear`).
 What the policy takes from the environment is static: the observation layout, the sensor range,
 the task's standoff distance, the robot's radius, top speed and time step, never the world state.
@@ -32,7 +33,7 @@ from ..world.fields import (
 )
 
 __all__ = ["APFPolicy", "RandomPolicy", "apf_forces", "decode", "BugMemory", "bug_update", "keep_clear", "into_view",
-           "safety_cut", "unwrap_env", "Controller"]
+           "safety_cut", "unwrap_env", "Controller", "pass_gap"]
 
 
 def unwrap_env(env):
@@ -141,6 +142,9 @@ class BugMemory:
     start_m   (n,)  m     distance to the target when it started following (its progress mark)
     kept      (n,) bool   it has turned back from a dead end since it started following: it
                           keeps that side (no second dead-end turn) until it leaves the break
+    gap       (n,) int8   0: has not driven at a gap in the wall it follows; 1: is driving at one
+                          (:func:`pass_gap`); 2: has done so since it started following (one gap
+                          per following: a gap that proves to be none is not tried again)
     """
 
     side: np.ndarray
@@ -150,13 +154,14 @@ class BugMemory:
     wall: np.ndarray
     start_m: np.ndarray
     kept: np.ndarray
+    gap: np.ndarray
 
-    _KEYS = ("side", "turn", "stall", "on_border", "wall", "start_m", "kept")
+    _KEYS = ("side", "turn", "stall", "on_border", "wall", "start_m", "kept", "gap")
 
     @classmethod
     def empty(cls, n: int) -> BugMemory:
         return cls(np.zeros(n, dtype=np.int8), np.zeros(n), np.zeros(n, dtype=np.int64), np.zeros(n, dtype=bool),
-                   np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool))
+                   np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int8))
 
     def grow(self, n: int) -> BugMemory:
         if n <= len(self.side):
@@ -218,7 +223,79 @@ def _start_side(s: dict, pull) -> tuple[np.ndarray, np.ndarray]:
     return kb, np.where(score >= 0, 1, -1)
 
 
-def bug_update(mem: BugMemory, rows, d: dict, pull, params: FieldParams, crowd_m: float) -> np.ndarray:
+def _cross(a, b):
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def _closes(q, pi, pj, g, depth_m):
+    """``(n,)``: point ``q (n, 2)`` lies in the cone from the robot (the origin) through the gap
+    ``pi``-``pj`` and at most ``depth_m`` beyond the gap's line (``g`` its normal, away from the robot)."""
+    in_cone = (_cross(pi, q) * _cross(pi, pj) > 0) & (_cross(pj, q) * _cross(pj, pi) > 0)
+    depth = np.sum((q - pi) * g, axis=-1)
+    return in_cone & (depth > -0.5) & (depth < depth_m)
+
+
+def pass_gap(d: dict, width_m: float, reach_m: float, end_deg: float = 5.0) -> dict:
+    """A gap between two dangerous breaks that the robot can drive through toward its target,
+    read from the break slots of the decoded observation ``d`` (:func:`decode`). A pair of slots
+    ``i, j`` (closest points ``p_i``, ``p_j``, body frame) bounds a gap when:
+
+    * both are dangerous breaks seen from their safe side, and both are break *ends*: the robot
+      stands past the end of each, so the direction from the closest point to the robot is more
+      than ``end_deg`` off the break's normal (square in front of a wall the two are the same;
+      two pieces of one straight wall show one point seen square on and one end);
+    * they are at least ``width_m`` apart and their midpoint lies within ``reach_m``;
+    * the robot and its target lie on opposite sides of the line through ``p_i`` and ``p_j``;
+    * nothing sensed closes it: neither the corner where the two breaks' lines would meet (were
+      they to run on) nor a third slot's closest point lies in the cone from the robot through
+      the gap, beyond its line (a third point: within ``width_m`` beyond).
+
+    Only closest points are sensed (``K_b`` of them), so a wall hidden behind the slots can make
+    a gap that is none; the caller keeps the edge cut, which stops the robot a body diameter off
+    any break it then senses. Returns ``has (n,)`` bool, ``aim (n, 2)`` (unit: toward the gap's
+    midpoint plus the gap's normal toward the target side, so the robot drives through it) and
+    ``slots (n, 2)`` (the pair; -1 where none); the nearest gap (by midpoint) wins."""
+    rel, nrm = d["b_rel"], d["b_normal"]
+    n, k = rel.shape[:2]
+    face = facing(rel, nrm, d["b_danger"])
+    e = away_from(rel, nrm)
+    end = face & (np.sum(e * nrm, axis=-1) < np.cos(np.radians(end_deg)))
+    rel_t = d["rel_t"]
+    best = np.full(n, np.inf)
+    aim = np.zeros((n, 2))
+    slots = np.full((n, 2), -1)
+    for i in range(k):
+        for j in range(i + 1, k):
+            pi, pj = rel[:, i], rel[:, j]
+            w = pj - pi
+            width = np.sqrt(np.sum(w * w, axis=-1))
+            mid = 0.5 * (pi + pj)
+            mid_d = np.sqrt(np.sum(mid * mid, axis=-1))
+            c_robot, c_target = _cross(w, -pi), _cross(w, rel_t - pi)
+            ok = (end[:, i] & end[:, j] & (width >= width_m) & (mid_d < reach_m) & (c_robot * c_target < 0)
+                  & d["has_t"])
+            g = np.stack([-w[:, 1], w[:, 0]], axis=-1) / np.maximum(width, 1e-9)[:, None] * np.sign(c_target)[:, None]
+            # the corner where the two breaks' lines meet, if they were to run on to it
+            ni, nj = nrm[:, i], nrm[:, j]
+            det = _cross(ni, nj)
+            bi, bj = np.sum(ni * pi, axis=-1), np.sum(nj * pj, axis=-1)
+            par = np.abs(det) < 1e-6
+            sd = np.where(par, 1.0, det)
+            corner = np.stack([(bi * nj[:, 1] - bj * ni[:, 1]) / sd, (ni[:, 0] * bj - nj[:, 0] * bi) / sd], axis=-1)
+            ok &= par | ~_closes(corner, pi, pj, g, np.inf)
+            for m in range(k):
+                if m in (i, j):
+                    continue
+                ok &= ~(face[:, m] & _closes(rel[:, m], pi, pj, g, width_m))
+            take = ok & (mid_d < best)
+            best = np.where(take, mid_d, best)
+            a = mid / np.maximum(mid_d, 1e-9)[:, None] + g
+            aim = np.where(take[:, None], a / np.maximum(np.sqrt(np.sum(a * a, axis=-1)), 1e-9)[:, None], aim)
+            slots = np.where(take[:, None], np.array([i, j]), slots)
+    return {"has": np.isfinite(best), "aim": aim, "slots": slots}
+
+
+def bug_update(mem: BugMemory, rows, d: dict, pull, params: FieldParams, crowd_m: float, gap=None) -> np.ndarray:
     """One step of the bug rules for the robots in ``rows`` (their decoded observations ``d``
     and attraction ``pull (m, 2)``); updates ``mem`` in place and returns the break slot each
     robot follows ``(m,)`` (-1 none).
@@ -237,10 +314,15 @@ def bug_update(mem: BugMemory, rows, d: dict, pull, params: FieldParams, crowd_m
     * turn back (side -> -side, ``turn`` restarts from the new direction), :func:`_turn_back`:
       at the border, when stalled, or at a dead end (the counted turn exceeds
       ``dead_end_turn_deg`` while the robot is no nearer the target than where it started
-      following: it went into a pocket or round a tongue; once per following, ``kept``)."""
+      following: it went into a pocket or round a tongue; once per following, ``kept``).
+    * gap (``gap (m,)`` bool, :func:`pass_gap`): a robot driving through a gap between two break
+      ends is not blocked; it keeps its side (and counted turn), so if the gap proves to be none
+      it goes on following as before."""
     side, turn = mem.side[rows], mem.turn[rows]
     s = _sensed(d, pull, params)
     n = len(pull)
+    if gap is not None:  # driving through a gap: not blocked (the side is kept)
+        s["blocked"] &= ~gap
     rows_i = np.arange(n)
     new = (side == 0) & s["blocked"]
     kb, start = _start_side(s, pull)
@@ -259,7 +341,8 @@ def bug_update(mem: BugMemory, rows, d: dict, pull, params: FieldParams, crowd_m
     turn = np.where(new, theta, turn)
     turn = np.where((side != 0) & ~new & has_wall, turn + _wrap(theta - _wrap(turn)), turn)
     # leave when clear and heading within 90 degrees of the target again, counted
-    side = np.where((side != 0) & ~s["blocked"] & (np.abs(turn) < np.pi / 2), 0, side).astype(np.int8)
+    through = np.zeros(n, dtype=bool) if gap is None else gap  # not while driving through a gap
+    side = np.where((side != 0) & ~s["blocked"] & (np.abs(turn) < np.pi / 2) & ~through, 0, side).astype(np.int8)
     on_border = has_wall & d["b_border"][rows_i, kc]
     back = _turn_back(mem, rows, d, s, side, turn, t_left, on_border, params, crowd_m) & ~new
     side = np.where(back, -side, side).astype(np.int8)
@@ -267,6 +350,7 @@ def bug_update(mem: BugMemory, rows, d: dict, pull, params: FieldParams, crowd_m
     mem.turn[rows] = np.where(back, _angle_to(side[:, None] * t_left, s["ref"]), turn)
     mem.stall[rows] = np.where(back, 0, mem.stall[rows])
     mem.kept[rows] &= side != 0
+    mem.gap[rows] = np.where((side == 0) | new, 0, mem.gap[rows])
     mem.on_border[rows] = on_border
     mem.wall[rows] = np.where(has_wall, s["ang"][rows_i, kc], last_wall)
     return np.where(side != 0, kf, -1)
@@ -350,7 +434,8 @@ class Controller:
     range), ``standoff_m`` (the containment ring's radius, 0 for a goal task), ``guard_m`` (the
     assets' guard ring), ``gap_m`` (3 robot radii: 1.5 body diameters kept between robots that
     see each other), ``edge_m`` (2 radii: one body diameter kept off a dangerous break),
-    ``fov_deg`` and ``step_m`` (the distance covered in one step at full speed); :meth:`_cut`
+    ``fov_deg``, ``step_m`` (the distance covered in one step at full speed) and ``pass_m`` (3
+    body diameters: the narrowest gap between breaks a robot drives through); :meth:`_cut`
     applies :func:`safety_cut` with them."""
 
     def _read_constants(self, cfg):
@@ -361,6 +446,7 @@ class Controller:
         self.edge_m = 2.0 * cfg.world.robot.radius_m
         self.fov_deg = cfg.world.sensor.fov_deg
         self.step_m = cfg.world.robot.max_speed_mps * cfg.world.dt_s
+        self.pass_m = 3.0 * self.edge_m
 
     def _cut(self, action, d: dict, edges: bool = True) -> np.ndarray:
         """:func:`safety_cut` of ``action (n, 2)`` (the break cut only when ``edges``), float32."""
@@ -387,6 +473,13 @@ class APFPolicy(Controller):
     that side until clear of it and heading toward the target again by the turn count, turn
     back at the border, when stuck, or once at a dead end: the counted turn passes
     ``dead_end_turn_deg`` with the robot no nearer the target than where it started).
+
+    **Gaps**: where two sensed break ends leave a gap at least 3 body diameters wide (the edge cut
+    keeps one diameter off each side) with the target beyond it and no sensed corner or break
+    closing it (:func:`pass_gap`), the robot drives through it: its attraction turns toward the
+    gap and through it, the two ends do not push (the edge cut still applies) and it does not
+    count as blocked. A robot following a wall at ``follow_hold_m`` would otherwise walk past a
+    pass narrower than twice that, and the two ends' break field would close it.
     Rows are robots: ``act_batch`` row ``i`` is robot ``i``; ``act`` maps each agent name to a row
     the first time it sees it. The memory
     grows lazily to the number of rows; :meth:`reset` clears it (call it after each env reset).
@@ -432,8 +525,25 @@ class APFPolicy(Controller):
         rows = np.arange(len(d["dist"])) if rows is None else np.asarray(rows, dtype=np.int64)
         self.memory = self.memory.grow(int(rows.max(initial=-1)) + 1)
         pull = f["target"] + f["height"]
-        slot = bug_update(self.memory, rows, d, pull, self.params, 2 * self.params.robot_range_m)
+        g = pass_gap(d, self.pass_m, self.params.follow_engage_m)
+        # a robot with another one ahead toward the gap queues (the usual fields) instead
+        r_d = np.sqrt(np.sum(d["r_rel"] ** 2, axis=-1))
+        ahead = np.einsum("nkj,nj->nk", d["r_rel"], g["aim"]) > 0
+        queue = ((d["r_valid"] > 0.5) & ahead & (r_d < 2 * self.params.robot_range_m)).any(axis=-1)
+        mem_gap = self.memory.gap[rows]
+        has = g["has"] & ~queue & (self.memory.side[rows] != 0) & (mem_gap < 2)
+        self.memory.gap[rows] = np.where(has, 1, np.where(mem_gap == 1, 2, mem_gap))
+        if has.any():  # the two ends bounding the gap do not push (the edge cut still keeps it off them)
+            danger = d["b_danger"].copy()
+            r = np.flatnonzero(has)
+            danger[r, g["slots"][r, 0]] = danger[r, g["slots"][r, 1]] = False
+            p = self.params
+            f["break"], _ = break_field(d["b_rel"], d["b_normal"], danger, p.break_gain, p.break_range_m,
+                                        p.break_decay_m)
+        slot = bug_update(self.memory, rows, d, pull, self.params, 2 * self.params.robot_range_m, gap=has)
         f["follow"] = follow_term(d, pull, self.memory.side[rows], slot, self.params, self.step_m)
+        mag = np.sqrt(np.sum(pull * pull, axis=-1, keepdims=True))
+        f["follow"] = np.where(has[:, None], mag * g["aim"] - pull, f["follow"])
         return f
 
     def act_batch(self, obs, rows=None) -> np.ndarray:
