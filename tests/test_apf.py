@@ -140,7 +140,8 @@ def _obs(layout, R, target_xy, breaks=(), robots=(), speed=1.0):
     return o[None]
 
 
-def _step(mem, obs, layout, R, params=FP()):
+def _step(mem, obs, layout, R, params=None):
+    params = FP() if params is None else params
     d = decode(obs, layout, R)
     pull = d["rel_t"] / np.hypot(*d["rel_t"][0])
     return bug_update(mem, np.arange(len(obs)), d, pull, params, 8.0)
