@@ -147,6 +147,21 @@ def horizon_rows(args):
               f"{np.mean(need <= cfg.max_cycles):.0%} |", flush=True)
 
 
+def longer_rows(args, checkpoints=(900, 1200, 1500, 1800)):
+    """Jacksboro's APF given more steps than the scenario's ``max_cycles``: the share of robots
+    that arrived by each checkpoint (one episode of ``checkpoints[-1]`` steps per seed). It says
+    whether APF's timeouts are robots that are lost or robots that are late."""
+    env = tse.parallel_env(scenario="jacksboro", max_cycles=checkpoints[-1])
+    print(f"\njacksboro, APF given {checkpoints[-1]} steps: share of robots arrived by step ...")
+    print("| seed | " + " | ".join(str(c) for c in checkpoints) + " | fell |")
+    print("|---:|" + "---:|" * (len(checkpoints) + 1))
+    for sd in range(args.jacksboro_seeds):
+        out = rollout(env, APFPolicy(env), sd)
+        arrived = out.reasons == Reason.ARRIVED
+        shares = [np.mean(arrived & (out.steps <= c)) for c in checkpoints]
+        print(f"| {sd} | " + " | ".join(f"{x:.1%}" for x in shares) + f" | {out.share(Reason.FELL):.1%} |", flush=True)
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--seeds", type=int, default=5, help="episodes per row (not jacksboro, not generated)")
@@ -157,7 +172,8 @@ def main(argv=None):
     p.add_argument("--only", type=lambda s: s.split(","), default=None,
                    help="comma-separated row prefixes (e.g. jacksboro,canyon,containment)")
     p.add_argument("--horizon", action="store_true",
-                   help="also: for jacksboro's timed-out APF robots, first contact + shortest path at top speed")
+                   help="also: for jacksboro's timed-out APF robots, first contact + shortest path at top speed; "
+                        "and APF on jacksboro given up to 1800 steps")
     args = p.parse_args(argv)
     print(f"{args.seeds} seeds per row ({args.jacksboro_seeds} on jacksboro), robots: "
           f"{args.robots or 'the scenario default'}\n")
@@ -166,6 +182,7 @@ def main(argv=None):
         containment_rows(args)
     if args.horizon:
         horizon_rows(args)
+        longer_rows(args)
 
 
 if __name__ == "__main__":
