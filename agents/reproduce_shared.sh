@@ -11,19 +11,22 @@
 #   60 steps without progress;
 # * the learner acts through the policy-file shield (--shield safety_cut: APF's last cut, from the
 #   observation) in DAgger, in PPO's environment and in the exported file;
-# * PPO fine-tuning with the geodesic progress reward (the goal task's default), to 45 minutes in all.
+# * PPO fine-tuning with the geodesic progress reward (the goal task's default), to 40 minutes in all
+#   (the shipped run: imitation 12.6 min, then 3.49 M PPO timesteps; 40.2 min on the idle 2-core machine).
 # runs/shared/policy_imitation is the policy before PPO (the "BC+DAgger" row), runs/shared/policy after.
 set -e
 cd "$(dirname "$0")/.."
 mkdir -p runs
 PY=${PY:-python}
-MINUTES=${MINUTES:-45}
+MINUTES=${MINUTES:-40}
 $PY agents/train_sb3.py --scenario generated,generated,cliff_goal,ramp --n-robots 8 --n-envs 2 --net-arch 256,256 \
   --bc-episodes 40 --dagger-rounds 2 --dagger-episodes 20 --dagger-beta 0.5 --stall-steps 60 \
   --bc-epochs 30 --bc-std 0.3 --value-epochs 10 --shield safety_cut \
   --learning-rate 1e-4 --n-steps 256 --batch-size 1024 --n-epochs 5 --gamma 0.995 --ent-coef 0.0 \
   --total-timesteps 50000000 --max-minutes "$MINUTES" --eval-every 200000 --eval-episodes 2 --checkpoint-every 400000 \
   --seed 0 --out-dir runs/shared --progress-bar false > runs/shared.log 2>&1
-# Ship it only if it meets the issue's numbers (see README): cp -r runs/shared/policy agents/models/shared
+# agents/models/shared is runs/shared/policy of the shipped run (cp -r). The budget is wall clock, so a rerun
+# stops after a different number of PPO steps and does not give the same weights bit for bit; README's table
+# says which of the issue's numbers the shipped file meets.
 $PY agents/evaluate.py --scenarios cliff_goal,ramp,hill,generated,scenarios/canyon_left.toml,scenarios/canyon_right.toml,scenarios/valley.toml,jacksboro \
-  --seeds 20 --robots 20 --models "shared=runs/shared/policy" --out runs/eval_shared
+  --seeds 20 --robots 20 --models "shared=runs/shared/policy,bc+dagger=runs/shared/policy_imitation" --out runs/eval_shared
