@@ -178,13 +178,18 @@ def test_a_pickled_object_array_is_never_unpickled(trained, tmp_path, monkeypatc
 
 
 def test_loading_never_calls_pickle(trained, monkeypatch):
+    from tin_swarm_env.policies.learned import dense
+
+    e = env()
+    dense(np.zeros((1, 1)), np.zeros((1, 1)), np.zeros(1))  # numba reads its compile cache with pickle
+
     def no(*a, **k):
         raise AssertionError("pickle used")
 
     monkeypatch.setattr(pickle, "load", no)
     monkeypatch.setattr(pickle, "loads", no)
     monkeypatch.setattr(pickle, "Unpickler", no)
-    pol = load_policy(trained[2], env())
+    pol = load_policy(trained[2], e)
     assert pol.act_batch(np.zeros((1, 59))).shape == (1, 2)
 
 
