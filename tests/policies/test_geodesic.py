@@ -2,9 +2,6 @@
 TINs with exact answers, the wall clearance by hand, arrival with 0 falls and the pass side on the
 canyon terrains (a reduced budget; bench/apf.py runs the full table)."""
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -15,9 +12,6 @@ from tin_swarm_env.policies.geodesic import clear_of_breaks, eroded
 from tin_swarm_env.terrain import Tin, cost_to_go, pinch_vertices
 from tin_swarm_env.world import World
 from tin_swarm_env.world.state import Reason
-
-sys.path.insert(0, str(Path(__file__).parent))
-from canyons import VARIANTS, canyon_config, pass_band  # noqa: E402
 
 
 def _grid_tin():
@@ -89,8 +83,8 @@ def test_geodesic_arrives_on_cliff_goal_without_falls_and_act_matches_act_batch(
     assert all(env.action_space(k).contains(v) for k, v in a.items())
 
 
-@pytest.mark.parametrize("side,travel", VARIANTS)
-def test_geodesic_heads_for_the_pass_on_either_side(side, travel):
+def test_geodesic_heads_for_the_pass_on_either_side(canyon_config, pass_band, canyon_variant):
+    side, travel = canyon_variant
     env = tse.parallel_env(scenario=canyon_config(side, travel, robots=10))
     env.reset_arrays(seed=0)
     pol = GeodesicPolicy(env)
@@ -100,7 +94,7 @@ def test_geodesic_heads_for_the_pass_on_either_side(side, travel):
     assert np.all(np.isfinite(dist)) and np.all(np.sign(u[:, 1]) == toward), (side, travel, u)
 
 
-def test_geodesic_arrives_through_an_unseen_canyon_pass_on_the_right():
+def test_geodesic_arrives_through_an_unseen_canyon_pass_on_the_right(canyon_config):
     env = tse.parallel_env(scenario=canyon_config("right", "east", robots=10, max_cycles=700))
     out = rollout(env, GeodesicPolicy(env), 0)
     assert out.count(Reason.FELL) == 0 and out.count(Reason.ARRIVED) == 10, out.counts()
