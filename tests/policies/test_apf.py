@@ -2,6 +2,7 @@
 full 20-seed table)."""
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -96,7 +97,8 @@ def test_fields_subset_and_random_policy():
 
 from tin_swarm_env.apps.rollout import rollout  # noqa: E402
 from tin_swarm_env.env.observation import ObsLayout  # noqa: E402
-from tin_swarm_env.policies.apf import BugMemory, bug_update, decode, keep_clear  # noqa: E402
+from tin_swarm_env.policies.apf import BugMemory, bug_update  # noqa: E402
+from tin_swarm_env.policies.base import decode, keep_clear  # noqa: E402
 from tin_swarm_env.world.fields import FieldParams as FP  # noqa: E402
 from tin_swarm_env.world.fields import follow_field  # noqa: E402
 from tin_swarm_env.world.state import Reason  # noqa: E402
@@ -138,7 +140,7 @@ def _obs(layout, R, target_xy, breaks=(), robots=(), speed=1.0):
 def _step(mem, obs, layout, R, params=None):
     params = FP() if params is None else params
     d = decode(obs, layout, R)
-    pull = d["rel_t"] / np.hypot(*d["rel_t"][0])
+    pull = d.rel_t / np.hypot(*d.rel_t[0])
     return bug_update(mem, np.arange(len(obs)), d, pull, params, 8.0)
 
 
@@ -265,9 +267,9 @@ def _gap_obs(points, normals, target):
     frame, robot at the origin) and the target at ``target``."""
     k = len(points)
     nrm = np.array([normals], dtype=float)
-    return {"b_rel": np.array([points], dtype=float), "b_normal": nrm / np.hypot(nrm[..., :1], nrm[..., 1:]),
-            "b_danger": np.ones((1, k), dtype=bool), "rel_t": np.array([target], dtype=float),
-            "has_t": np.array([True])}
+    return SimpleNamespace(b_rel=np.array([points], dtype=float), b_normal=nrm / np.hypot(nrm[..., :1], nrm[..., 1:]),
+                           b_danger=np.ones((1, k), dtype=bool), rel_t=np.array([target], dtype=float),
+                           has_t=np.array([True]))
 
 
 def test_pass_gap_takes_a_gap_between_two_break_ends_and_nothing_else():

@@ -2,6 +2,7 @@
 TINs with exact answers, the wall clearance by hand, arrival with 0 falls and the pass side on the
 canyon terrains (a reduced budget; bench/apf.py runs the full table)."""
 
+from types import SimpleNamespace
 import numpy as np
 import pytest
 
@@ -59,13 +60,13 @@ def test_eroded_drops_the_ring_round_impassable_triangles():
 
 def test_clear_of_breaks_hand_values():
     # a dangerous break 1 m ahead (closest point (1, 0), normal back toward the robot), clear 2.5 m
-    d = {"b_rel": np.array([[[1.0, 0.0]]] * 2), "b_normal": np.array([[[-1.0, 0.0]]] * 2),
-         "b_danger": np.array([[True], [True]])}
+    d = SimpleNamespace(b_rel=np.array([[[1.0, 0.0]]] * 2), b_normal=np.array([[[-1.0, 0.0]]] * 2),
+                        b_danger=np.array([[True], [True]]))
     u = np.array([[1.0, 0.0], [0.0, 1.0]])
     # into it: the approach is removed and 1 - 1/2.5 = 0.6 pushes back; along it: kept, pushed off
     np.testing.assert_allclose(clear_of_breaks(u, d, 2.5), [[-0.6, 0.0], [-0.6, 1.0]], atol=1e-12)
     assert np.array_equal(clear_of_breaks(u, d, 1.0), u)  # beyond clear_m: untouched
-    d["b_danger"][:] = False
+    d.b_danger[:] = False
     assert np.array_equal(clear_of_breaks(u, d, 2.5), u)
 
 
