@@ -9,9 +9,10 @@ Rows: ``policies`` (``random``, ``apf``, ``geodesic``) then every entry of ``mod
 (``label=path`` or ``path``; a path is a policy directory, loaded without pickle, or an SB3
 ``.zip``, which unpickles and so needs ``trust_pickle``). Every model runs on every scenario (held-out
 ones included). Columns (:data:`METRICS`): arrived, fell, timed out, of which stalled and looping
-(:mod:`~tin_swarm_env.apps.trajectory`), steps to arrive, contacts per robot, return per robot, each a mean with a 95% confidence half-width (Student t) over the
-robot-episodes (``seeds`` x robots; steps to arrive over the robots that arrived; robots of one
-episode are not independent, so the interval is somewhat narrow).
+(:mod:`~tin_swarm_env.apps.trajectory`), steps to arrive, contacts per robot, return per robot,
+each a mean with a 95% confidence half-width (Student t) over the robot-episodes (``seeds`` x
+robots; steps to arrive over the robots that arrived; robots of one episode are not independent,
+so the interval is somewhat narrow).
 
 **Seed split.** Evaluation seeds are ``seed_offset .. seed_offset + seeds - 1``, with
 ``seed_offset`` at least :data:`EVAL_SEED0` (10**6) by default; training (``apps/train.py``) uses
