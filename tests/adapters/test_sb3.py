@@ -6,11 +6,13 @@ import sys
 
 import numpy as np
 import pytest
-from stable_baselines3 import PPO
-from stable_baselines3.common.vec_env import VecEnv
 
-import tin_swarm_env as tse
-from tin_swarm_env.errors import TinSwarmError
+pytest.importorskip("stable_baselines3", reason="the train extra: pip install 'tin_swarm_env[train]'")
+from stable_baselines3 import PPO  # noqa: E402
+from stable_baselines3.common.vec_env import VecEnv  # noqa: E402
+
+import tin_swarm_env as tse  # noqa: E402
+from tin_swarm_env.errors import TinSwarmError  # noqa: E402
 
 
 def vec(**kw):
