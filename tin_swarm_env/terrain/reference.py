@@ -85,25 +85,18 @@ def line_of_sight_brute(tin, a_xyz, b_xyz, ztol: float | None = None) -> np.ndar
 
 
 def line_of_sight_dense(tin, a_xyz, b_xyz, n_samples: int = 2000):
-    """Dense sampling: min over ``n_samples`` points of (sight line - terrain) per ray.
-    Returns ``(n,)`` clearances in m (NaN where a sample falls outside the TIN)."""
+    """Dense sampling: min over ``n_samples`` points of (sight line - terrain) per ray, the terrain
+    height of each sample from the plane of the triangle holding it (:func:`height_brute`: every
+    triangle tested; no walk, no line-of-sight code). Returns ``(n,)`` clearances in m (NaN where a
+    sample falls outside the TIN)."""
     a = np.atleast_2d(np.asarray(a_xyz, dtype=np.float64))
     b = np.atleast_2d(np.asarray(b_xyz, dtype=np.float64))
     s = np.linspace(0.0, 1.0, n_samples)
     out = np.empty(len(a))
     for i in range(len(a)):
         p = a[i] + s[:, None] * (b[i] - a[i])
-        z = height_brute(tin, p[:, :2]) if tin.n_triangles < 64 else _height_fast(tin, p[:, :2])
-        out[i] = np.min(p[:, 2] - z)
+        out[i] = np.min(p[:, 2] - height_brute(tin, p[:, :2]))
     return out
-
-
-def _height_fast(tin, xy):
-    t = tin.locate(xy)
-    z = np.full(len(xy), np.nan)
-    ok = t >= 0
-    z[ok] = tin.height_in(xy[ok], t[ok])
-    return z
 
 
 def _clip_area(P, Q) -> float:
