@@ -86,9 +86,9 @@ trap        shape            round, square    a ring (C) or the sides of a squar
 trap        trap_m           [6, 12]          height of the wall or depth of the trench, m
 trap        radius_m         [28, 50]         inside radius (half side) of the barrier, m
 trap        thickness_m      [4, 10]          thickness of the barrier, m (at least 3 cells)
-trap        opening_deg      [100, 135]       the opening's centre, deg from the direction of
-                                              travel toward ``side``
-trap        gap_deg          [40, 60]         angular width of the opening, deg
+trap        opening_deg      [100, 150]       the opening's centre, deg from the direction of
+                                              travel toward ``side`` (180: straight back)
+trap        gap_deg          [30, 40]         angular width of the opening, deg
 trap        target_u_frac    [-0.15, 0.15]    target's lateral offset, of half the size
 =========== ================ ================ ===================================================
 
@@ -174,7 +174,7 @@ PARAMS: dict[str, dict[str, Param]] = {
              "target_u_frac": _f(-0.15, 0.15, -0.9, 0.9)},
     "trap": {**_COMMON, "heading": _c(*HEADINGS), "side": _c("left", "right"), "barrier": _c("wall", "trench"),
              "shape": _c("round", "square"), "trap_m": _f(6, 12, 1, 200), "radius_m": _f(28, 50, 5, 1000),
-             "thickness_m": _f(4, 10, 1, 200), "opening_deg": _f(100, 135, 0, 180), "gap_deg": _f(40, 60, 10, 180),
+             "thickness_m": _f(4, 10, 1, 200), "opening_deg": _f(100, 150, 0, 180), "gap_deg": _f(30, 40, 10, 180),
              "target_u_frac": _f(-0.15, 0.15, -0.9, 0.9)},
 }
 ALL_FAMILIES: tuple[str, ...] = tuple(PARAMS)  # every generated family, the default of every family list
