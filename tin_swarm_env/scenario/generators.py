@@ -16,7 +16,8 @@ cells`` wide, at most about 24 deg) join it to the ground over its full width ne
 greedy TIN never reduces that joint to one vertex. So the task stays unambiguous after TIN
 reduction (measured: the target was reachable over passable triangles of the greedy 0.5 m TIN in
 298 of 300 draws; the two misses, both mesas, had a steep sliver triangle across a ramp, which is
-what the ``solvable`` check below catches).
+what the ``solvable`` check below catches; fork: 149 of 150, trap: 150 of 150; a sliver can also
+seal a fork's dead end, about 1 in 60, which leaves the task solvable).
 
 =========== ================ ================ ===================================================
 family      parameter        default range    meaning
@@ -81,7 +82,8 @@ fork        pocket_depth_m   [3, 6]           depth of a pocket's pit below the 
 fork        target_u_frac    [-0.15, 0.15]    target's lateral offset, of half the size
 trap        heading          n/e/s/w          direction of travel
 trap        side             left, right      where the barrier's opening lies
-trap        barrier          wall, trench     raised wall or sunk trench
+trap        barrier          wall, trench,    raised wall, sunk trench, or a basin walled by a
+                                 cliff            cliff with a ramp out through the opening
 trap        shape            round, square    a ring (C) or the sides of a square (U)
 trap        trap_m           [6, 12]          height of the wall or depth of the trench, m
 trap        radius_m         [28, 50]         inside radius (half side) of the barrier, m
@@ -172,8 +174,8 @@ PARAMS: dict[str, dict[str, Param]] = {
              "pass_width_m": _f(10, 16, 2, 200), "ramp_slope_deg": _f(9, 13, 1, 45),
              "pocket_m": _f(15, 35, 2, 500), "pocket_depth_m": _f(3, 6, 1, 100),
              "target_u_frac": _f(-0.15, 0.15, -0.9, 0.9)},
-    "trap": {**_COMMON, "heading": _c(*HEADINGS), "side": _c("left", "right"), "barrier": _c("wall", "trench"),
-             "shape": _c("round", "square"), "trap_m": _f(6, 12, 1, 200), "radius_m": _f(28, 50, 5, 1000),
+    "trap": {**_COMMON, "heading": _c(*HEADINGS), "side": _c("left", "right"),
+             "barrier": _c("wall", "trench", "cliff"), "shape": _c("round", "square"), "trap_m": _f(6, 12, 1, 200), "radius_m": _f(28, 50, 5, 1000),
              "thickness_m": _f(4, 10, 1, 200), "opening_deg": _f(100, 150, 0, 180), "gap_deg": _f(30, 40, 10, 180),
              "target_u_frac": _f(-0.15, 0.15, -0.9, 0.9)},
 }
@@ -641,7 +643,9 @@ def trap(rng: np.random.Generator, **params) -> GeneratedTask:
     (at least the spawn region's half diagonal plus a margin); ``round`` (a ring) or ``square``
     (the sides of a square). An opening ``gap_deg`` wide is cut into it at ``opening_deg`` from
     the direction of travel, on the drawn ``side``: the robots must leave through it, away from
-    the target, and go round that side. The spawn region sits behind the map centre with a
+    the target, and go round that side. A ``cliff`` barrier is a basin ``trap_m`` deep out to the
+    barrier's outer edge, walled by a one-cell cliff except where a ramp (12 deg or the ramp cap,
+    as wide as the opening at the rim) climbs out through the opening. The spawn region sits behind the map centre with a
     corridor ``16 m + 2 cells`` wide between the barrier and the map edge, the target near the
     front edge. ``rng`` draws only the noise."""
     p = _resolve("trap", params)
@@ -649,7 +653,7 @@ def trap(rng: np.random.Generator, **params) -> GeneratedTask:
     u, v, to_world = _frame(x, half, p["heading"])
     sg = -1.0 if p["side"] == "left" else 1.0
     lat = sg * u  # (n, n) m, + toward the opening's side
-    h_min, _, _ = _slopes(p)
+    h_min, ramp_tan, _ = _slopes(p)
     hb = max(p["trap_m"], h_min)
     thick = max(p["thickness_m"], 3 * p["cell_m"])
     s = p["spawn_m"]
@@ -661,16 +665,28 @@ def trap(rng: np.random.Generator, **params) -> GeneratedTask:
     dl, dv = lat, v - vs
     r = np.hypot(dl, dv) if p["shape"] == "round" else np.maximum(np.abs(dl), np.abs(dv))
     off = (np.degrees(np.arctan2(dl, dv)) - p["opening_deg"] + 180.0) % 360.0 - 180.0
-    band = (r >= r_in) & (r <= r_out) & (np.abs(off) >= p["gap_deg"] / 2)
-    z = np.where(band, hb if p["barrier"] == "wall" else -hb, 0.0)
     a = math.radians(p["opening_deg"])
     dirn = np.array([math.sin(a), math.cos(a)])  # (lat, v) unit vector toward the opening
     scale = 1.0 if p["shape"] == "round" else 1.0 / max(abs(dirn[0]), abs(dirn[1]))
     spawn = np.array([0.0, vs])
-    opening = [spawn + (r_in - MARGIN_M) * scale * dirn, spawn + (r_out + MARGIN_M) * scale * dirn]
+    if p["barrier"] == "cliff":  # a basin inside the barrier's outer edge, a ramp up through the opening
+        rim = r_out * scale  # from the spawn centre to the rim along the opening's axis, m
+        run = hb / min(math.tan(math.radians(12.0)), ramp_tan)
+        width = 2.0 * rim * math.sin(math.radians(p["gap_deg"]) / 2)
+        ends = [spawn + (rim - run / 2) * dirn, spawn + (rim + run / 2) * dirn]
+        _fit(rim - run / 2 >= s / math.sqrt(2) and np.all(np.abs(ends[1]) <= half - MARGIN_M - width / 2), "trap",
+             f"a ramp {run:.0f} m long out of the basin", p)
+        along, across = dl * dirn[0] + dv * dirn[1], dv * dirn[0] - dl * dirn[1]
+        z = _cut_pass(np.where(r <= r_out, 0.0, hb), -along, across, -(rim + run / 2), run, hb, width, p) - hb
+        opening = ends
+    else:
+        band = (r >= r_in) & (r <= r_out) & (np.abs(off) >= p["gap_deg"] / 2)
+        z = np.where(band, hb if p["barrier"] == "wall" else -hb, 0.0)
+        opening = [spawn + (r_in - MARGIN_M) * scale * dirn, spawn + (r_out + MARGIN_M) * scale * dirn]
     uv = lambda pts: np.asarray(pts, dtype=np.float64) * [sg, 1.0]  # noqa: E731 - (lat, v) -> (u, v)
     target = np.array([p["target_u_frac"] * half, vt])
     return _task("trap", p, x, z, to_world(uv(spawn)), to_world(uv(target)), to_world(uv([opening])), rng)
+
 
 FAMILIES: dict[str, Callable[..., GeneratedTask]] = {"canyon": canyon, "mesa": mesa, "hills": hills, "fork": fork,
                                                      "trap": trap}
