@@ -552,9 +552,8 @@ def hills(rng: np.random.Generator, **params) -> GeneratedTask:
 def _lateral(rng, half_widths, taken, lo, hi, gap, both_sides=True, tries=32):
     """Lateral centres (m, signed; + toward the way through) for features of half-widths
     ``half_widths``, on a random side each (``both_sides``; else the + side), ``|lat|`` in
-    ``[lo + hw, hi - hw]``, at least ``gap``
-    from every footprint in ``taken`` (``[(centre, half-width), ...]``, extended in place) and
-    each other. ``tries`` candidates per feature, the first that fits wins (none: skipped).
+    ``[lo + hw, hi - hw]``, at least ``gap`` from every footprint in ``taken`` (``[(centre,
+    half-width), ...]``, extended in place) and from each other. ``tries`` candidates per feature, the first that fits wins (none: skipped).
     Returns ``[(index, centre), ...]`` of the features placed."""
     placed = []
     for i, hw in enumerate(half_widths):
@@ -577,14 +576,14 @@ def fork(rng: np.random.Generator, **params) -> GeneratedTask:
     """An escarpment ``cliff_m`` high across the way (as in :func:`canyon`) with ``n_passes``
     ramps or openings, ``n_dead`` of them (at most ``n_passes - 1``) dead ends, the rest ways
     through. The nearest way through lies ``pass_offset_frac`` of the half size off the
-    spawn-target line on the drawn ``side``; further ones lie further out on that side, so the
+    spawn-target line (at least clear of the spawn region) on the drawn ``side``; further ones lie further out on that side, so the
     shortest way round is on ``side``. Dead ends take random places on either side (fewer when 32
     tries find no room; at least one when ``n_dead >= 1``). A ``pocket`` dead end is a ramp down
     the cliff into a pit ``pocket_depth_m`` below the floor and ``pocket_m`` long past the ramp's
     foot, walled on its three other sides; a ``spur`` is a tongue of the plateau ``pocket_m`` long
-    (at least 8 cells) reaching out over the floor. With ``spawn_on = "bottom"`` the heights are turned upside down:
-    a pocket becomes a ramp up onto a block ``pocket_depth_m`` above the target's plateau, a spur
-    a blind canyon cut into the plateau. ``rng`` draws the dead ends' places and the noise."""
+    (at least 8 cells) reaching out over the floor. With ``spawn_on = "bottom"`` the heights are
+    turned upside down: a pocket becomes a ramp up onto a block ``pocket_depth_m`` above the
+    target's plateau, a spur a blind canyon cut into the plateau. ``rng`` draws the dead ends' places and the noise."""
     p = _resolve("fork", params)
     x, half = _grid(p)
     u, v, to_world = _frame(x, half, p["heading"])
@@ -618,7 +617,7 @@ def fork(rng: np.random.Generator, **params) -> GeneratedTask:
     z = np.where(v < vc, h, 0.0)  # (n, n) m, the plateau behind the cliff, the floor in front
     for c in ways:
         z = _cut_pass(z, v, lat - c, vc - run / 2, run, h, w, p)
-    ends, far = [], []
+    ends = []  # each dead end's entry (spawn side) and far end
     for c in dead:
         if pocket:  # the pit, then a ramp from the plateau (h) to its floor (-d)
             pit = (v >= vc) & (v <= vc + reach) & (np.abs(lat - c) <= hw_dead)
