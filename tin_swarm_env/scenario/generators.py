@@ -175,8 +175,9 @@ PARAMS: dict[str, dict[str, Param]] = {
              "pocket_m": _f(15, 35, 2, 500), "pocket_depth_m": _f(3, 6, 1, 100),
              "target_u_frac": _f(-0.15, 0.15, -0.9, 0.9)},
     "trap": {**_COMMON, "heading": _c(*HEADINGS), "side": _c("left", "right"),
-             "barrier": _c("wall", "trench", "cliff"), "shape": _c("round", "square"), "trap_m": _f(6, 12, 1, 200), "radius_m": _f(28, 50, 5, 1000),
-             "thickness_m": _f(4, 10, 1, 200), "opening_deg": _f(100, 150, 0, 180), "gap_deg": _f(30, 40, 10, 180),
+             "barrier": _c("wall", "trench", "cliff"), "shape": _c("round", "square"), "trap_m": _f(6, 12, 1, 200),
+             "radius_m": _f(28, 50, 5, 1000), "thickness_m": _f(4, 10, 1, 200), "opening_deg": _f(100, 150, 0, 180),
+             "gap_deg": _f(30, 40, 10, 180),
              "target_u_frac": _f(-0.15, 0.15, -0.9, 0.9)},
 }
 ALL_FAMILIES: tuple[str, ...] = tuple(PARAMS)  # every generated family, the default of every family list
@@ -551,10 +552,10 @@ def hills(rng: np.random.Generator, **params) -> GeneratedTask:
 
 def _lateral(rng, half_widths, taken, lo, hi, gap, both_sides=True, tries=32):
     """Lateral centres (m, signed; + toward the way through) for features of half-widths
-    ``half_widths``, on a random side each (``both_sides``; else the + side), ``|lat|`` in
-    ``[lo + hw, hi - hw]``, at least ``gap`` from every footprint in ``taken`` (``[(centre,
-    half-width), ...]``, extended in place) and from each other. ``tries`` candidates per feature, the first that fits wins (none: skipped).
-    Returns ``[(index, centre), ...]`` of the features placed."""
+    ``half_widths``, on a random side each (``both_sides``; else the + side), ``|lat|`` in ``[lo +
+    hw, hi - hw]``, at least ``gap`` from every footprint in ``taken`` (``[(centre, half-width),
+    ...]``, extended in place) and from each other. ``tries`` candidates per feature, the first that
+    fits wins (none: skipped). Returns ``[(index, centre), ...]`` of the features placed."""
     placed = []
     for i, hw in enumerate(half_widths):
         if hi - hw < lo + hw:
@@ -573,17 +574,18 @@ def _lateral(rng, half_widths, taken, lo, hi, gap, both_sides=True, tries=32):
 
 
 def fork(rng: np.random.Generator, **params) -> GeneratedTask:
-    """An escarpment ``cliff_m`` high across the way (as in :func:`canyon`) with ``n_passes``
-    ramps or openings, ``n_dead`` of them (at most ``n_passes - 1``) dead ends, the rest ways
-    through. The nearest way through lies ``pass_offset_frac`` of the half size off the
-    spawn-target line (at least clear of the spawn region) on the drawn ``side``; further ones lie further out on that side, so the
-    shortest way round is on ``side``. Dead ends take random places on either side (fewer when 32
-    tries find no room; at least one when ``n_dead >= 1``). A ``pocket`` dead end is a ramp down
-    the cliff into a pit ``pocket_depth_m`` below the floor and ``pocket_m`` long past the ramp's
-    foot, walled on its three other sides; a ``spur`` is a tongue of the plateau ``pocket_m`` long
-    (at least 8 cells) reaching out over the floor. With ``spawn_on = "bottom"`` the heights are
-    turned upside down: a pocket becomes a ramp up onto a block ``pocket_depth_m`` above the
-    target's plateau, a spur a blind canyon cut into the plateau. ``rng`` draws the dead ends' places and the noise."""
+    """An escarpment ``cliff_m`` high across the way (as in :func:`canyon`) with ``n_passes`` ramps
+    or openings, ``n_dead`` of them (at most ``n_passes - 1``) dead ends, the rest ways through. The
+    nearest way through lies ``pass_offset_frac`` of the half size off the spawn-target line (at
+    least clear of the spawn region) on the drawn ``side``; further ones lie further out on that
+    side, so the shortest way round is on ``side``. Dead ends take random places on either side
+    (fewer when 32 tries find no room; at least one when ``n_dead >= 1``). A ``pocket`` dead end is
+    a ramp down the cliff into a pit ``pocket_depth_m`` below the floor and ``pocket_m`` long past
+    the ramp's foot, walled on its three other sides; a ``spur`` is a tongue of the plateau
+    ``pocket_m`` long (at least 8 cells) reaching out over the floor. With ``spawn_on = "bottom"``
+    the heights are turned upside down: a pocket becomes a ramp up onto a block ``pocket_depth_m``
+    above the target's plateau, a spur a blind canyon cut into the plateau. ``rng`` draws the dead
+    ends' places and the noise."""
     p = _resolve("fork", params)
     x, half = _grid(p)
     u, v, to_world = _frame(x, half, p["heading"])
@@ -637,16 +639,16 @@ def fork(rng: np.random.Generator, **params) -> GeneratedTask:
 
 def trap(rng: np.random.Generator, **params) -> GeneratedTask:
     """A C- or U-shaped barrier round the spawn region, closed toward the target: a ``wall``
-    ``trap_m`` high or a ``trench`` ``trap_m`` deep (one-cell cliffs on both sides),
-    ``thickness_m`` thick (at least three cells), its inside ``radius_m`` from the spawn centre
-    (at least the spawn region's half diagonal plus a margin); ``round`` (a ring) or ``square``
-    (the sides of a square). An opening ``gap_deg`` wide is cut into it at ``opening_deg`` from
-    the direction of travel, on the drawn ``side``: the robots must leave through it, away from
-    the target, and go round that side. A ``cliff`` barrier is a basin ``trap_m`` deep out to the
-    barrier's outer edge, walled by a one-cell cliff except where a ramp (12 deg or the ramp cap,
-    as wide as the opening at the rim) climbs out through the opening. The spawn region sits behind the map centre with a
-    corridor ``16 m + 2 cells`` wide between the barrier and the map edge, the target near the
-    front edge. ``rng`` draws only the noise."""
+    ``trap_m`` high or a ``trench`` ``trap_m`` deep (one-cell cliffs on both sides), ``thickness_m``
+    thick (at least three cells), its inside ``radius_m`` from the spawn centre (at least the spawn
+    region's half diagonal plus a margin); ``round`` (a ring) or ``square`` (the sides of a square).
+    An opening ``gap_deg`` wide is cut into it at ``opening_deg`` from the direction of travel, on
+    the drawn ``side``: the robots must leave through it, away from the target, and go round that
+    side. A ``cliff`` barrier is a basin ``trap_m`` deep out to the barrier's outer edge, walled by
+    a one-cell cliff except where a ramp (12 deg or the ramp cap, as wide as the opening at the rim)
+    climbs out through the opening. The spawn region sits behind the map centre with a corridor 16 m
+    + 2 cells wide between the barrier and the map edge, the target near the front edge. ``rng``
+    draws only the noise."""
     p = _resolve("trap", params)
     x, half = _grid(p)
     u, v, to_world = _frame(x, half, p["heading"])
