@@ -94,7 +94,7 @@ def test_fields_subset_and_random_policy():
     assert all(np.array_equal(r1[k], r2[k]) and env.action_space(k).contains(r1[k]) for k in obs)
 
 
-# -- issue 11: the way round on either side, crowding --------------------------------------------
+# -- the way round on either side, crowding ----------------------------------------------------
 
 sys.path.insert(0, str(Path(__file__).parent))
 from canyons import VARIANTS, canyon_config  # noqa: E402
