@@ -53,6 +53,7 @@ except ModuleNotFoundError:  # Python 3.10: the same parser from PyPI
 
 from ..errors import ParameterError, ScenarioError, check_fields, check_range
 from ..world import BatteryParams, RobotParams, SensorParams, WorldParams
+from .generators import ALL_FAMILIES, family_weights, validate_ranges
 
 __all__ = ["ScenarioError", "TerrainSpec", "RobotsSpec", "EntitiesSpec", "RewardWeights", "ObservationSpec",
            "ScenarioConfig", "load_scenario", "scenario_from_dict", "SCENARIO_DIR", "list_scenarios",
@@ -94,6 +95,7 @@ class TerrainSpec:
     size_m          (width, height) of a flat plane or a procedural terrain, m
     params          recipe parameters, e.g. ``{cell = 2.0}``
     families        generated: family names, or ``{name = weight}``; empty: all of them
+                    (:data:`~tin_swarm_env.scenario.generators.ALL_FAMILIES`)
     ranges          generated: per-family parameter ranges, ``{family = {parameter = [lo, hi] or choices}}``
     resample        generated: "reset" (a new terrain on every ``reset(seed)``) or "once" (one, from
                     the scenario's seed)
@@ -402,10 +404,8 @@ def _families(value, where):
 def _check_generated(terrain: TerrainSpec, robots: RobotsSpec, targets: EntitiesSpec, task, source):
     """A generated terrain brings its own target and spawn region; its families, ranges and
     ``resample`` are checked here, at load, so that errors name the file."""
-    from .generators import PARAMS, _weights, validate_ranges
-
     where = f"{source} [terrain]"
-    names, _ = _weights(terrain.families or tuple(PARAMS), where)
+    names, _ = family_weights(terrain.families or ALL_FAMILIES, where)
     validate_ranges(terrain.ranges, names, f"{where} ranges")
     if terrain.resample not in ("reset", "once"):
         raise ScenarioError(f"{where}: 'resample' must be 'reset' or 'once', got {terrain.resample!r}")

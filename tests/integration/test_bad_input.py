@@ -5,7 +5,7 @@ nonsense, never a silent NaN.
 The documentation's bad-input table (docs/figures/bad_input.md) is generated from :data:`CASES` by
 :func:`test_docs_table_is_current`; after changing a message, regenerate it with
 
-    TIN_SWARM_WRITE_DOCS=1 python -m pytest tests/test_bad_input.py -k docs_table
+    TIN_SWARM_WRITE_DOCS=1 python -m pytest tests/integration/test_bad_input.py -k docs_table
 """
 
 from __future__ import annotations
