@@ -1,6 +1,6 @@
-"""The trained policy the README quotes, committed at agents/models/shared: it loads on the core
-install (no torch, no pickle), is refused by an env whose observation layout differs, and drives
-robots to the goal on cliff_goal (a reduced budget of the README's evaluation)."""
+"""The trained policy docs/figures/shipped_policy.md quotes, committed at agents/models/shared: it
+loads on the core install (no torch, no pickle), is refused by an env whose observation layout differs, and drives
+robots to the goal on cliff_goal (a reduced budget of that evaluation)."""
 
 from __future__ import annotations
 
