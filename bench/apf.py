@@ -8,7 +8,7 @@ stalled and looping robots (:mod:`tin_swarm_env.apps.trajectory`), contacts per 
     [--seeds 5] [--robots N] [--jacksboro-seeds 5] [--generated 50] [--only cliff_goal,...] [--out FILE]
     [--jobs 2]
 
-Policies: the APF baseline with all four fields, the APF without the break field (the thesis's
+Policies: the APF baseline with all its fields, the APF without the break field (the thesis's
 "poor ending": falls), :class:`~tin_swarm_env.policies.GeodesicPolicy` (knows the map: an upper
 bound, not a baseline) and uniform random actions. Terrains: every built-in goal scenario
 (``jacksboro`` with its 200 robots and 900 steps), the four canyon terrains of

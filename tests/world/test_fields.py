@@ -1,4 +1,4 @@
-"""The four potential fields: hand-computed values and forces = -grad(potential)."""
+"""The potential fields: hand-computed values and forces = -grad(potential)."""
 
 import math
 

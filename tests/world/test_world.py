@@ -9,13 +9,11 @@ from hypothesis import strategies as st
 
 from tin_swarm_env.terrain import Tin
 from tin_swarm_env.world import (
-    ACTIVE,
     BLOCKED_BORDER,
     BLOCKED_STEEP,
-    EMPTY,
-    FELL,
     FELL_INTO,
     BatteryParams,
+    Reason,
     RobotParams,
     SensorParams,
     World,
@@ -83,9 +81,9 @@ def test_out_of_range_and_fallen_robots_are_not_seen():
     w = World(None, params(sensor={"range_m": 30, "fov_deg": 360}))
     s = w.reset(0, [[100, 100], [125, 100], [140, 100]])
     assert w.sense(s).robots.as_set() == {(0, 1), (1, 0), (1, 2), (2, 1)}
-    s.status[1] = FELL
+    s.status[1] = Reason.FELL
     assert w.sense(s).robots.as_set() == set()
-    s.status[1] = EMPTY  # present but blind
+    s.status[1] = Reason.BATTERY  # present but blind
     assert w.sense(s).robots.as_set() == {(0, 1), (2, 1)}
 
 
@@ -97,7 +95,7 @@ def test_driving_down_into_a_cliff_falls_and_up_into_it_is_blocked():
     s = w.reset(0, [[99.0, 50.0], [106.0, 50.0]], headings=[0.0, math.pi])
     s, ev = w.step(s, [[1.0, 0.0], [1.0, 0.0]])  # both drive forward, toward the cliff face
     assert ev.motion_event.tolist() == [FELL_INTO, BLOCKED_STEEP]
-    assert s.status.tolist() == [FELL, ACTIVE]
+    assert s.status.tolist() == [Reason.FELL, Reason.NONE]
     assert ev.fell.tolist() == [True, False]
     assert 100.0 < s.positions[0, 0] < 100.01  # just inside the cliff triangle
     assert s.positions[1, 0] == pytest.approx(105.001)  # 1 mm before the foot of the cliff
@@ -121,7 +119,7 @@ def test_border_blocks():
     s = w.reset(0, [[8.0, 5.0]], headings=[0.0])
     s, ev = w.step(s, [[1.0, 0.0]])
     assert ev.motion_event[0] == BLOCKED_BORDER
-    assert s.positions[0, 0] == pytest.approx(10.0 - 1e-3) and s.status[0] == ACTIVE
+    assert s.positions[0, 0] == pytest.approx(10.0 - 1e-3) and s.status[0] == Reason.NONE
 
 
 def test_uphill_slows_by_pitch_and_downhill_does_not():
@@ -165,8 +163,8 @@ def test_battery_never_increases_and_an_empty_robot_never_moves_again():
         assert np.all(s.battery_j <= prev) and np.all(s.battery_j >= 0)
         prev = s.battery_j.copy()
         history.append((s.status.copy(), s.positions.copy()))
-    assert np.all(s.status == EMPTY) and np.all(s.battery_j == 0)
-    first_empty = next(k for k, (st_, _) in enumerate(history) if st_[0] == EMPTY)
+    assert np.all(s.status == Reason.BATTERY) and np.all(s.battery_j == 0)
+    first_empty = next(k for k, (st_, _) in enumerate(history) if st_[0] == Reason.BATTERY)
     for st_, p in history[first_empty:]:
         np.testing.assert_array_equal(p[0], history[first_empty][1][0])
 
@@ -274,8 +272,8 @@ def _sense_against_reference(random_tin, seed, n, sensor, n_entities):
     pos = spawn_positions(w.tin, w.steep, n, rng)
     ents = spawn_positions(w.tin, w.steep, 2 * n_entities, rng)
     s = w.reset(rng, pos, targets=ents[:n_entities], assets=ents[n_entities:])
-    s.status[rng.random(n) < 0.2] = FELL
-    s.status[rng.random(n) < 0.2] = EMPTY
+    s.status[rng.random(n) < 0.2] = Reason.FELL
+    s.status[rng.random(n) < 0.2] = Reason.BATTERY
     got = w.sense(s)
     ref = reference_sense(w, s)
     assert got.robots.as_set() == ref[0]

@@ -24,9 +24,9 @@ Read top to bottom: arguments, environment, imitation, evaluation, training, sav
 * ``--total-timesteps`` of PPO afterwards; 0 is refused without imitation (it would save an
   untrained model). ``--recurrent``: sb3-contrib's RecurrentPPO (MlpLstmPolicy); no imitation and
   no pickle-free export for it (the policy file format is an MLP).
-* Seeds: training uses seeds below :data:`~tin_swarm_env.apps.evaluate.EVAL_SEED0` (10**6): the
+* Seeds: training uses seeds below :data:`~tin_swarm_env.apps.evaluate.EVAL_SEED0`: the
   VecEnv's copies ``seed + c``, imitation episodes ``seed * 1000 + k``; evaluation (here and in
-  ``tin-swarm eval``) starts at 10**6, so on ``"generated"`` it is on terrains never trained on.
+  ``tin-swarm eval``) starts there, so on ``"generated"`` it is on terrains never trained on.
 
 Writes into ``out_dir`` (default ``runs/<algo>_<scenarios>_s<seed>``): ``model.zip`` (SB3, a
 pickle: load only your own), ``policy/`` (the pickle-free policy directory, ``load_policy``; with imitation and PPO also

@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from ..terrain.reference import height_brute, line_of_sight_brute
-from .state import ACTIVE, EMPTY
+from .state import Reason
 
 __all__ = ["reference_sense"]
 
@@ -31,7 +31,7 @@ def reference_sense(w, s):
     fov = math.radians(sp.fov_deg) / 2 + 1e-12
     z = s.heights + sp.height_m
     for i in range(s.n_robots):
-        if s.status[i] != ACTIVE:
+        if s.status[i] != Reason.NONE:
             continue
 
         def sees(xy, zt, i=i):
@@ -47,7 +47,7 @@ def reference_sense(w, s):
             return bool(line_of_sight_brute(w.tin, a, np.array([[xy[0], xy[1], zt]]))[0])
 
         K = sp.max_candidates
-        others = [j != i and s.status[j] in (ACTIVE, EMPTY) for j in range(s.n_robots)]
+        others = [j != i and s.status[j] in (Reason.NONE, Reason.BATTERY) for j in range(s.n_robots)]
         for j in _nearest_in_range(s.positions[i], s.positions, others, sp.range_m, K):
             if sees(s.positions[j], z[j]):
                 robots.add((i, j))
