@@ -130,11 +130,11 @@ MUTANTS = [
     M("loco-fall-direction-walk", "world/locomotion.py", "grad[nb, 0] * dx + grad[nb, 1] * dy < 0.0",
       "grad[nb, 0] * dx + grad[nb, 1] * dy > 0.0", LOCO),
     M("loco-fall-direction-start", "world/locomotion.py", "disp[mv]) < 0)", "disp[mv]) > 0)", LOCO),
-    M("loco-inactive-move", "world/locomotion.py", "vel_cmd[status != ACTIVE] = 0.0", "pass", LOCO),
+    M("loco-inactive-move", "world/locomotion.py", "vel_cmd[status != Reason.NONE] = 0.0", "pass", LOCO),
     M("loco-no-pullback", "world/locomotion.py", "s_stop = max(min(s - ds_pull, s), s_in, 0.0)", "s_stop = s", LOCO),
     # -- world/battery.py, world/world.py -------------------------------------------------------------------
     M("battery-descent-recharges", "world/battery.py", "np.maximum(climb_m, 0.0)", "climb_m", WORLD),
-    M("battery-inactive-drains", "world/battery.py", "use = np.where(status == ACTIVE, use, 0.0)", "use = use", WORLD),
+    M("battery-inactive-drains", "world/battery.py", "use = np.where(status == Reason.NONE, use, 0.0)", "use = use", WORLD),
     M("battery-negative", "world/battery.py", "np.maximum(battery_j - use, 0.0)", "battery_j - use", WORLD),
     M("world-emptied-strict", "world/world.py", "(new_batt <= 0.0)", "(new_batt < 0.0)", WORLD),
     M("world-collision-radius", "world/world.py", "pairs = pairs[d < 2 * P.robot.radius_m]",

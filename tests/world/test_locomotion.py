@@ -14,7 +14,7 @@ import pytest
 from tin_swarm_env.terrain import Tin
 from tin_swarm_env.world import BatteryParams, RobotParams, SensorParams, World, WorldParams
 from tin_swarm_env.world.locomotion import body_to_world, move, turn_toward, uphill_factor
-from tin_swarm_env.world.state import ACTIVE, FELL
+from tin_swarm_env.world.state import Reason
 
 D37 = math.radians(-37.0)
 C37, S37 = math.cos(D37), math.sin(D37)  # 0.7986, -0.6018
@@ -90,7 +90,7 @@ def test_move_on_a_slope_at_minus_37_degrees_slows_by_the_pitch_along_the_motion
     heads = np.array([D37, math.pi / 2])
     cmd = np.array([[1.0, 0.0], [1.0, 0.0]])
     new_pos, new_tri, new_head, speeds, ev = move(tin, np.zeros(tin.n_triangles, bool), pos, tri, heads,
-                                                  np.full(2, ACTIVE, np.int8), cmd, robot, 1.0)
+                                                  np.full(2, Reason.NONE, np.int8), cmd, robot, 1.0)
     pitch = math.degrees(math.atan(g * -S37))  # the rise along (cos -37, sin -37): southward part
     f = 1 - pitch / 45.0
     np.testing.assert_allclose(new_pos[0], [50 + 2 * f * C37, 50 + 2 * f * S37], atol=1e-9)
@@ -103,5 +103,5 @@ def test_robots_that_are_not_active_do_not_move():
     tin = Tin.from_points(np.array([[0, 0, 0], [100, 0, 0], [100, 100, 0], [0, 100, 0]], float))
     pos = np.array([[50.0, 50.0], [60.0, 60.0]])
     out = move(tin, np.zeros(tin.n_triangles, bool), pos, tin.locate(pos), np.array([0.3, 0.3]),
-               np.array([ACTIVE, FELL], np.int8), np.ones((2, 2)), RobotParams(), 1.0)
+               np.array([Reason.NONE, Reason.FELL], np.int8), np.ones((2, 2)), RobotParams(), 1.0)
     assert not np.array_equal(out[0][0], pos[0]) and np.array_equal(out[0][1], pos[1]) and out[3][1] == 0.0
