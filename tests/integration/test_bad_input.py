@@ -100,13 +100,16 @@ CASES = [
      "max_candidates (2) must be >="),
     ("`[terrain] size_m = [0, 100]`", "load", toml("").replace("[100.0, 100.0]", "[0.0, 100.0]"), "size_m[0]"),
     ("recipe param of the wrong type (`cell = \"2\"`)", "env",
-     toml("").replace('source = "flat"', 'source = "procedural"\nrecipe = "ridge"\nparams = {cell = "2"}'),
+     toml("").replace('source = "flat"', 'source = "procedural"\nrecipe = "ridge"\nparams = {cell = "2"}').replace(
+         "size_m = [100.0, 100.0]\n", ""),
      "params.cell must be a finite number"),
     ("recipe `cell = 0`", "env",
-     toml("").replace('source = "flat"', 'source = "procedural"\nrecipe = "ridge"\nparams = {cell = 0}'),
+     toml("").replace('source = "flat"', 'source = "procedural"\nrecipe = "ridge"\nparams = {cell = 0}').replace(
+         "size_m = [100.0, 100.0]\n", ""),
      "params.cell must be a finite number > 0"),
     ("recipe `cell = 0.001` (too many cells)", "env",
-     toml("").replace('source = "flat"', 'source = "procedural"\nrecipe = "ridge"\nparams = {cell = 0.001}'),
+     toml("").replace('source = "flat"', 'source = "procedural"\nrecipe = "ridge"\nparams = {cell = 0.001}').replace(
+         "size_m = [100.0, 100.0]\n", ""),
      "grid cells"),
     ("`parallel_env(n_robots=10**9)`", "call", lambda d: tse.parallel_env(scenario="flat", n_robots=10**9),
      "n_robots must be an integer >= 1 and <= 100000"),

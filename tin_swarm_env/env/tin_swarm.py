@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import EzPickle
@@ -20,6 +22,7 @@ from ..scenario import (
 )
 from ..scenario.config import MAX_ROBOTS
 from ..world import Reason, World
+from .checks import actions_from_dict, check_options, check_scenario_arg, check_seed, float_array
 from .observation import ObsLayout, build_observations
 from .reward import compute_rewards, distance_to_go
 
@@ -131,8 +134,9 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         EzPickle.__init__(self, scenario=scenario, n_robots=n_robots, max_cycles=max_cycles,
                           render_mode=render_mode, sensor_cones=sensor_cones, render_width=render_width,
                           render_decorations=render_decorations)
-        cfg = scenario if isinstance(scenario, ScenarioConfig) else load_scenario(scenario)
+        check_scenario_arg(scenario, ScenarioConfig)
         _check_args(n_robots, max_cycles, render_width)
+        cfg = scenario if isinstance(scenario, ScenarioConfig) else load_scenario(scenario)
         if n_robots is not None:
             cfg = cfg.replace(robots=type(cfg.robots)(count=int(n_robots), spawn_region=cfg.robots.spawn_region,
                                                       min_separation_m=cfg.robots.min_separation_m))
@@ -241,17 +245,22 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         (metres; headings in radians counter-clockwise from east, only with robot_positions);
         otherwise robots spawn at random in the scenario's spawn region and targets stand where
         the scenario puts them. Robots are assigned targets ``i mod m`` either way."""
+        seed = check_seed(seed)
+        options = check_options(options, ("robot_positions", "headings", "target_positions"))
+        if "robot_positions" in options:
+            options["robot_positions"] = float_array(options["robot_positions"], "options['robot_positions']",
+                                                     (self.n, 2))
+        if "headings" in options:
+            options["headings"] = float_array(options["headings"], "options['headings']", (self.n,))
+        if "target_positions" in options:
+            tp = options["target_positions"]
+            if isinstance(tp, (list, tuple, np.ndarray)) and len(tp) == 2 and all(
+                    isinstance(v, numbers.Real) for v in tp):
+                tp = [tp]  # one [x, y] pair
+            options["target_positions"] = float_array(tp, "options['target_positions']", (-1, 2))
         if seed is not None or self._np_random is None:
             s = seed if seed is not None else self.config.seed
             self._np_random = np.random.default_rng(s)
-        options = dict(options or {})
-        known = ("robot_positions", "headings", "target_positions")
-        unknown = set(options) - set(known)
-        if unknown:  # Gymnasium convention: options an env does not know are ignored (with a warning)
-            import warnings
-
-            warnings.warn(f"ignoring unknown reset option(s) {sorted(unknown)}; known: {', '.join(known)}",
-                          stacklevel=3)
         if "headings" in options and "robot_positions" not in options:
             raise ArgumentError("options['headings'] needs options['robot_positions']")
         cfg = self.config
@@ -259,8 +268,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
             self._set_stage(build_stage(cfg, self._np_random))
         targets = self._stage.targets
         if "target_positions" in options:
-            targets, _ = self._world.check_placement(np.asarray(options["target_positions"], float).reshape(-1, 2),
-                                                     "target {i}")
+            targets, _ = self._world.check_placement(options["target_positions"], "target {i}")
         elif cfg.targets.count:  # drawn by this reset's generator, before the robots (they spawn where
             # theirs is reachable)
             targets = place_entities(self._world, cfg.targets, self._np_random, spawn_region=self._stage.spawn_region,
@@ -305,14 +313,13 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         already gone read zeros/False. Robots that end this step are not live on the next."""
         if self._wstate is None:
             raise RuntimeError("call reset() before step()")
-        a = np.asarray(actions, dtype=np.float64)
-        if a.shape != (self.n, 2):
-            raise ArgumentError(f"actions must have shape ({self.n}, 2), got {a.shape}")
+        a = float_array(actions, "step_arrays(actions)", (self.n, 2), finite=False)
         a = np.where(self._live[:, None], a, 0.0)
         bad = ~np.all(np.isfinite(a), axis=1)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            raise ArgumentError(f"action of {self.possible_agents[i]} is not finite: {a[i].tolist()}")
+            raise ArgumentError(f"step_arrays(actions): the action of {self.possible_agents[i]} is not finite: "
+                                f"{a[i].tolist()}")
         prev = self._wstate
         new, events = self._world.step(prev, a)
         live = self._live
@@ -342,19 +349,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     def step(self, actions: dict):
         if self._wstate is None:
             raise RuntimeError("call reset() before step()")
-        arr = np.zeros((self.n, 2))
-        for agent, act in actions.items():
-            i = self.agent_name_mapping.get(agent)
-            if i is None:
-                raise ArgumentError(f"unknown agent {agent!r} in actions; agents are robot_0..robot_{self.n - 1}")
-            if not self._live[i]:
-                continue  # acting for an agent that is done: ignored
-            v = np.asarray(act, dtype=np.float64).reshape(-1)
-            if v.shape != (2,):
-                raise ArgumentError(f"action of {agent} must have shape (2,), got {np.shape(act)}")
-            if not np.all(np.isfinite(v)):
-                raise ArgumentError(f"action of {agent} is not finite: {v.tolist()}")
-            arr[i] = v
+        arr = actions_from_dict(actions, self.agent_name_mapping, self._live, f"robot_0..robot_{self.n - 1}")
         live_before = np.flatnonzero(self._live)
         obs, rew, term, trunc, reasons = self.step_arrays(arr)
         names = self.possible_agents

@@ -181,6 +181,8 @@ PARAMS: dict[str, dict[str, Param]] = {
              "target_u_frac": _f(-0.15, 0.15, -0.9, 0.9)},
 }
 ALL_FAMILIES: tuple[str, ...] = tuple(PARAMS)  # every generated family, the default of every family list
+MAX_GRID_CELLS = 4_000_000  # a generated DEM's cells (size_m / cell_m + 1)^2: ~120 bytes each while it is built
+# and meshed, so ~0.5 GB at the limit (2 km at 1 m); checked before any allocation
 DEFAULT_RANGES: dict[str, dict[str, list]] = {
     fam: {k: list(p.default) for k, p in spec.items()} for fam, spec in PARAMS.items()}
 
@@ -269,7 +271,17 @@ def validate_ranges(ranges: Mapping | None, families: Sequence[str] = ALL_FAMILI
             raise ScenarioError(f"{where}: ranges for family {fam!r} must be a table, got {over!r}")
         for key, value in over.items():
             out[fam][key] = _check_range(fam, key, value, where)
+    for fam, r in out.items():
+        _check_cells(fam, r["size_m"][1], r["cell_m"][0], where)
     return out
+
+
+def _check_cells(fam, size_m, cell_m, where):
+    """Refuse a grid of more than :data:`MAX_GRID_CELLS` cells (the largest size over the smallest cell)."""
+    cells = (size_m / cell_m + 1) ** 2
+    if cells > MAX_GRID_CELLS:
+        raise ScenarioError(f"{where}: {fam}.size_m up to {size_m:g} m with cell_m down to {cell_m:g} m makes "
+                            f"{cells:.3g} grid cells; at most {MAX_GRID_CELLS:,} (raise cell_m or lower size_m)")
 
 
 def draw_params(rng: np.random.Generator, family: str, ranges: Mapping[str, tuple]) -> dict:
@@ -301,6 +313,7 @@ def _resolve(family: str, params: dict) -> dict:
             choice = key in PARAMS[family] and PARAMS[family][key].kind == "choice"
             _check_range(family, key, [value] if choice else value, family)
         out[key] = value
+    _check_cells(family, out["size_m"], out["cell_m"], family)
     return out
 
 
