@@ -42,7 +42,8 @@ def grid_build(x, y, use, min_cell):
             y1 = max(y1, y[i])
     if m == 0:
         z = np.zeros(0)
-        return 0.0, 0.0, 1.0, 1, 1, np.zeros(2, dtype=np.int64), np.zeros(0, dtype=np.int64), z, z
+        e = np.zeros(0, dtype=np.int64)
+        return 0.0, 0.0, 1.0 / max(min_cell, 1e-9), 1, 1, np.zeros(2, dtype=np.int64), e, z, z
     cs = max(min_cell, 1e-9)
     max_cells = 4 * m + 64
     while True:

@@ -397,6 +397,7 @@ def collision_counts(px, py, present, G, diameter):
                 if j > i and math.hypot(gx[m] - px[i], gy[m] - py[i]) < diameter:
                     q = p
                     while q > p0 and pairs[q - 1, 1] > j:  # sorted by j
+                        pairs[q, 0] = i
                         pairs[q, 1] = pairs[q - 1, 1]
                         q -= 1
                     pairs[q, 0] = i
