@@ -28,7 +28,7 @@ Method (a batched Garland-Heckbert greedy insertion on a robot error)
    pieces, false drivable only shortens paths) plus ``vertical_weight`` x its largest vertical
    error in units of ``cell``-scale slope at S (the tie-breaker); insert, in the best
    ``batch_fraction`` x V triangles, the not-yet-kept corner of their worst sample's grid
-   triangle with the largest vertical error (:func:`triangle_candidates`).
+   triangle with the largest vertical error (:func:`score_triangles`).
 3. Stop at ``max_vertices``, or (``max_error_m``) when no sample is misclassified and every
    vertical error is at most ``max_error_m``, or when no triangle has a cell left to add.
 
@@ -54,13 +54,19 @@ from numba import njit
 from ..errors import ArgumentError, DemFormatError
 from .dem import Dem
 
-__all__ = ["robot_mesh", "full_surface", "full_surface_triangles", "raster_samples", "triangle_candidates",
-           "crest_score"]
+__all__ = ["robot_mesh", "full_surface", "full_surface_triangles", "full_surface_slope_deg", "sample_points", "raster_samples",
+           "score_triangles", "crest_score"]
 
 SEED_FRACTION = 0.6  # of max_vertices, from plain greedy insertion (vertical error)
 CREST_FRACTION = 0.05  # of max_vertices, crest cells (line of sight)
 BATCH_FRACTION = 0.5  # vertices inserted per round, as a fraction of the current count
 FALSE_STEEP_WEIGHT = 3.0  # a drivable sample under a too-steep TIN triangle
+FALSE_DRIVABLE_WEIGHT = 1.0  # a too-steep sample under a drivable TIN triangle
+# Where in its grid triangle a sample lies (cell units from the square's SW corner): inside, and
+# off every line through two grid nodes of a DEM of up to thousands of cells a side (the
+# centroid lies on many such lines, where a TIN edge could split it unseen)
+SAMPLE_NEAR, SAMPLE_FAR = 0.30901699, 0.63819660
+SHEAR = 1e-3  # cells of x shift per row, for the triangulation only
 VERTICAL_WEIGHT = 0.1  # per cell-scale vertical error (tie-breaker)
 
 
@@ -73,6 +79,31 @@ def full_surface_triangles(shape: tuple[int, int]) -> np.ndarray:
     a = (i * cols + j).ravel()
     b, c, d = a + 1, a + cols + 1, a + cols
     return np.stack([np.column_stack([a, b, c]), np.column_stack([a, c, d])], 1).reshape(-1, 3).astype(np.int64)
+
+
+def full_surface_slope_deg(dem: Dem) -> np.ndarray:
+    """``(2 (rows-1) (cols-1),)`` slope, deg, of each triangle of :func:`full_surface`, in the order of
+    :func:`full_surface_triangles`."""
+    z, dx, dy = dem.z, dem.dx, dem.dy
+    a, b, c, d = z[:-1, :-1], z[:-1, 1:], z[1:, 1:], z[1:, :-1]  # SW, SE, NE, NW of each square
+    g0 = np.hypot((b - a) / dx, (c - b) / dy)  # (SW, SE, NE)
+    g1 = np.hypot((c - d) / dx, (d - a) / dy)  # (SW, NE, NW)
+    return np.degrees(np.arctan(np.stack([g0, g1], -1).reshape(-1)))
+
+
+def sample_points(dem: Dem) -> np.ndarray:
+    """``(S, 3)`` m: the samples of the robot builder's error, one inside each triangle of
+    :func:`full_surface` (same order), on it: ``2k`` at (row i + SAMPLE_NEAR, col j + SAMPLE_FAR),
+    ``2k + 1`` at (i + SAMPLE_FAR, j + SAMPLE_NEAR) of square ``k = i (cols-1) + j``."""
+    z = dem.z
+    a, b, c, d = z[:-1, :-1], z[:-1, 1:], z[1:, 1:], z[1:, :-1]  # SW, SE, NE, NW
+    z0 = a + (b - a) * SAMPLE_FAR + (c - b) * SAMPLE_NEAR  # on (SW, SE, NE)
+    z1 = a + (d - a) * SAMPLE_FAR + (c - d) * SAMPLE_NEAR  # on (SW, NE, NW)
+    i, j = np.meshgrid(np.arange(z.shape[0] - 1, dtype=float), np.arange(z.shape[1] - 1, dtype=float), indexing="ij")
+    x0, y0 = dem.x[0] + (j + SAMPLE_FAR) * dem.dx, dem.y[0] + (i + SAMPLE_NEAR) * dem.dy
+    x1, y1 = dem.x[0] + (j + SAMPLE_NEAR) * dem.dx, dem.y[0] + (i + SAMPLE_FAR) * dem.dy
+    out = np.stack([np.stack([x0, y0, z0], -1), np.stack([x1, y1, z1], -1)], 2)
+    return out.reshape(-1, 3)
 
 
 def full_surface(dem: Dem):
@@ -90,9 +121,9 @@ def raster_samples(ni, nj, tris, rows, cols):
     """Owner TIN triangle of every full-surface sample (``-1``: none), in grid-index space.
 
     ``ni``, ``nj``: (rows*cols,) float64 row / column of each node; ``tris`` (T, 3) node ids.
-    Sample ``2k`` has its centroid at (i + 1/3, j + 2/3), sample ``2k + 1`` at (i + 2/3, j + 1/3)
-    of square ``k = i (cols-1) + j``. A centroid on an edge shared by two triangles goes to the
-    later one.
+    Sample ``2k`` lies at (i + SAMPLE_NEAR, j + SAMPLE_FAR), sample ``2k + 1`` at
+    (i + SAMPLE_FAR, j + SAMPLE_NEAR) of square ``k = i (cols-1) + j`` (:func:`sample_points`).
+    A sample on an edge shared by two triangles goes to the later one.
     """
     owner = np.full(2 * (rows - 1) * (cols - 1), -1, np.int64)
     for t in range(tris.shape[0]):
@@ -106,8 +137,8 @@ def raster_samples(ni, nj, tris, rows, cols):
         for i in range(i0, min(i1, rows - 1)):
             for j in range(j0, min(j1, cols - 1)):
                 for k in range(2):
-                    pi = i + (1.0 / 3.0 if k == 0 else 2.0 / 3.0)
-                    pj = j + (2.0 / 3.0 if k == 0 else 1.0 / 3.0)
+                    pi = i + (SAMPLE_NEAR if k == 0 else SAMPLE_FAR)
+                    pj = j + (SAMPLE_FAR if k == 0 else SAMPLE_NEAR)
                     w0 = (bj - aj) * (pi - ai) - (bi - ai) * (pj - aj)
                     w1 = (cj - bj) * (pi - bi) - (ci - bi) * (pj - bj)
                     w2 = (aj - cj) * (pi - ci) - (ai - ci) * (pj - cj)
@@ -117,29 +148,47 @@ def raster_samples(ni, nj, tris, rows, cols):
 
 
 @njit(cache=True)
-def triangle_candidates(owner, score, nodes, node_err, keep, n_tris):
-    """Per TIN triangle: its best sample score and the cell to insert for it (``-1``: none).
+def score_triangles(owner, gx, gy, c0, steep_t, sx, sy, sz, steep_f, weight, nodes, vx, vy, vz, keep,
+                    vertical_weight, cell_err):
+    """One refinement round's bookkeeping, per TIN triangle ``t`` (``owner`` from
+    :func:`raster_samples`; ``gx, gy, c0, steep_t`` the planes and classes of the TIN triangles;
+    ``sx, sy, sz, steep_f, weight`` the samples' centroids, classes and misclassification
+    weights; ``nodes`` (S, 3) the samples' grid-triangle corners; ``vx, vy, vz`` the cells).
 
-    ``score`` (S,) per sample; ``nodes`` (S, 3) the sample's grid-triangle corners;
-    ``node_err`` (S, 3) their vertical error under the owner's plane; ``keep`` (V,) bool. A
-    sample whose three corners are all kept is skipped; its cell is the corner with the largest
-    vertical error.
+    Returns ``best`` (T,): the largest sample score ``vertical_weight * |dz| / cell_err +
+    weight * misclassified`` among samples with a corner not yet kept; ``cell`` (T,): for that
+    sample, its not-kept corner of largest vertical error (``-1``: none); ``wrong`` (T,): summed
+    weight of its misclassified samples; ``err`` (T,): its largest vertical error at a sample
+    centroid, m.
     """
-    best = np.full(n_tris, -1.0)
-    cell = np.full(n_tris, -1, np.int64)
+    n_t = gx.shape[0]
+    best = np.full(n_t, -1.0)
+    cell = np.full(n_t, -1, np.int64)
+    wrong = np.zeros(n_t)
+    err = np.zeros(n_t)
     for s in range(owner.shape[0]):
         t = owner[s]
-        if t < 0 or score[s] <= best[t]:
+        if t < 0:
+            continue
+        dz = abs(gx[t] * sx[s] + gy[t] * sy[s] + c0[t] - sz[s])
+        if dz > err[t]:
+            err[t] = dz
+        sc = vertical_weight * dz / cell_err
+        if steep_t[t] != steep_f[s] and weight[s] > 0:
+            wrong[t] += weight[s]
+            sc += weight[s]
+        if sc <= best[t]:
             continue
         m, e = -1, -1.0
         for k in range(3):
             v = nodes[s, k]
-            if not keep[v] and node_err[s, k] > e:
-                m, e = v, node_err[s, k]
+            ev = abs(gx[t] * vx[v] + gy[t] * vy[v] + c0[t] - vz[v])
+            if not keep[v] and ev > e:
+                m, e = v, ev
         if m >= 0:
-            best[t] = score[s]
+            best[t] = sc
             cell[t] = m
-    return best, cell
+    return best, cell, wrong, err
 
 
 def crest_score(z: np.ndarray) -> np.ndarray:
@@ -166,7 +215,7 @@ def _check_dem(dem: Dem) -> None:
 def robot_mesh(dem: Dem, max_slope_deg: float, max_vertices: int | None = None, max_error_m: float | None = None,
                *, seed_fraction: float = SEED_FRACTION, crest_fraction: float = CREST_FRACTION,
                batch_fraction: float = BATCH_FRACTION, false_steep_weight: float = FALSE_STEEP_WEIGHT,
-               vertical_weight: float = VERTICAL_WEIGHT):
+               vertical_weight: float = VERTICAL_WEIGHT, false_drivable_weight: float = FALSE_DRIVABLE_WEIGHT):
     """Vertices ``(V, 3)`` m and triangles ``(T, 3)`` of the robot TIN of ``dem`` (module docstring)."""
     _check_dem(dem)
     if max_slope_deg is None or not (np.isfinite(max_slope_deg) and 0 < max_slope_deg < 90):
@@ -193,14 +242,14 @@ def robot_mesh(dem: Dem, max_slope_deg: float, max_vertices: int | None = None, 
     dx, dy = dem.dx, dem.dy
     tan_s = np.tan(np.radians(max_slope_deg))
     nodes = full_surface_triangles(dem.shape)  # (S, 3): the samples
-    p = np.stack([nodes % cols * dx, nodes // cols * dy, zf[nodes]], -1)
-    nrm = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    steep_f = np.hypot(nrm[:, 0], nrm[:, 1]) > tan_s * nrm[:, 2]  # (S,) class of the full surface
-    sx, sy, sz = p[..., 0].mean(1), p[..., 1].mean(1), p[..., 2].mean(1)  # sample centroids
     ni = (np.arange(n_cells) // cols).astype(np.float64)
     nj = (np.arange(n_cells) % cols).astype(np.float64)
+    vx, vy = nj * dx, ni * dy  # cell centres, m, from the south-west one
+    steep_f = full_surface_slope_deg(dem) > max_slope_deg  # (S,) class of the full surface
+    sp = sample_points(dem)
+    sx, sy, sz = sp[:, 0] - dem.x[0], sp[:, 1] - dem.y[0], sp[:, 2]  # in the frame of vx, vy
     cell_err = tan_s * min(dx, dy)  # m: the vertical scale of one cell at the threshold slope
-    weight = np.where(steep_f, 1.0, false_steep_weight)
+    weight = np.where(steep_f, false_drivable_weight, false_steep_weight)
 
     keep = np.zeros(n_cells, dtype=bool)
     keep[[0, cols - 1, n_cells - cols, n_cells - 1]] = True
@@ -221,35 +270,29 @@ def robot_mesh(dem: Dem, max_slope_deg: float, max_vertices: int | None = None, 
         idx = np.flatnonzero(keep)
         if len(idx) > budget:  # the seeds overshot a tiny budget: keep the corners and the first ones
             idx = idx[:budget]
-        tri = idx[Delaunay(np.column_stack([nj[idx] * dx, ni[idx] * dy]), qhull_options="Qbb Qc Qz Q12").simplices]
+        # Delaunay of a slightly sheared copy: a grid square with its four corners kept is then
+        # split along SW-NE like the full surface, not as Qhull breaks the co-circular tie
+        tri = idx[Delaunay(np.column_stack([vx[idx] - SHEAR * dx * ni[idx], vy[idx]]),
+                           qhull_options="Qbb Qc Qz Q12").simplices]
         if len(idx) >= budget:
             break
         owner = raster_samples(ni, nj, tri, rows, cols)
-        q = np.stack([nj[tri] * dx, ni[tri] * dy, zf[tri]], -1)
+        q = np.stack([vx[tri], vy[tri], zf[tri]], -1)
         n = np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
         gx, gy = -n[:, 0] / n[:, 2], -n[:, 1] / n[:, 2]
         c0 = q[:, 0, 2] - gx * q[:, 0, 0] - gy * q[:, 0, 1]
         steep_t = np.hypot(gx, gy) > tan_s
-        o = np.maximum(owner, 0)
-        dz = np.abs(gx[o] * sx + gy[o] * sy + c0[o] - sz)
-        wrong = (steep_t[o] != steep_f) & (owner >= 0)
-        if max_error_m is not None and not wrong.any() and dz.max() <= max_error_m:
+        best, cell, wrong, err = score_triangles(owner, gx, gy, c0, steep_t, sx, sy, sz, steep_f, weight, nodes,
+                                                 vx, vy, zf, keep, vertical_weight, cell_err)
+        if max_error_m is not None and not wrong.any() and err.max() <= max_error_m:
             break
-        node_err = np.abs(gx[o, None] * p[..., 0] + gy[o, None] * p[..., 1] + c0[o, None] - p[..., 2])
-        score = vertical_weight * dz / cell_err + wrong * weight
-        best, cell = triangle_candidates(owner, score, nodes, node_err, keep, len(tri))
-        wsum = np.bincount(owner[wrong], weights=weight[wrong], minlength=len(tri))
         ok = cell >= 0
-        if max_error_m is not None:
-            # error-bounded: only triangles that break a bound
-            err_t = np.zeros(len(tri))
-            np.maximum.at(err_t, o, dz)
-            ok &= (wsum > 0) | (err_t > max_error_m)
+        if max_error_m is not None:  # error-bounded: only triangles that break a bound
+            ok &= (wrong > 0) | (err > max_error_m)
         if not ok.any():
             break
-        pri = wsum + vertical_weight * np.where(ok, best, 0.0)
         cand = np.flatnonzero(ok)
-        cand = cand[np.argsort(-pri[cand], kind="stable")]
+        cand = cand[np.argsort(-(wrong[cand] + best[cand]), kind="stable")]
         add = np.unique(cell[cand], return_index=True)[1]
         add = cell[cand][np.sort(add)][: max(1, min(int(batch_fraction * len(idx)), budget - len(idx)))]
         keep[add] = True
