@@ -14,7 +14,7 @@ Layout of a scenario file (every table and key optional except ``terrain.source`
     source = "procedural"         # "procedural" | "sample" | "dem" | "tin" | "flat" | "generated"
     recipe = "cliff_goal"         # procedural recipe name (see scenario/terrains.py)
     path = ""                     # DEM/TIN file (relative to the scenario file) or sample name
-    method = "greedy"             # reduction for a DEM: "vip" | "greedy" | "delaunay"
+    method = "greedy"             # DEM reduction: "vip" | "greedy" | "delaunay" | "robot" ([robots] max_slope_deg)
     max_vertices = 0              # 0: not set
     max_error_m = 0.5
     size_m = [500.0, 500.0]       # flat plane / procedural extent

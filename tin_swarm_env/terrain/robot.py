@@ -57,7 +57,7 @@ from .dem import Dem
 __all__ = ["robot_mesh", "full_surface", "full_surface_triangles", "full_surface_slope_deg", "sample_points", "raster_samples",
            "score_triangles", "crest_score"]
 
-SEED_FRACTION = 0.6  # of max_vertices, from plain greedy insertion (vertical error)
+SEED_FRACTION = 0.8  # of max_vertices, from plain greedy insertion (vertical error)
 CREST_FRACTION = 0.05  # of max_vertices, crest cells (line of sight)
 BATCH_FRACTION = 0.5  # vertices inserted per round, as a fraction of the current count
 FALSE_STEEP_WEIGHT = 3.0  # a drivable sample under a too-steep TIN triangle
