@@ -337,7 +337,6 @@ def generated_dem(seed=3, shape=(240, 300), cell_m=40.0, steep_share=0.25):
         z += amp * (np.abs(n) if sigma == 16 else n)  # the folded octave: ridges and gullies
     y = np.arange(shape[0]) * cell_m
     x = np.arange(shape[1]) * cell_m
-    dem = tse.terrain.Dem(z, x, y, source=f"generated(seed={seed})")
     lo, hi = 1.0, 1e4
     for _ in range(40):  # bisect the vertical scale for the steep share
         mid = np.sqrt(lo * hi)
@@ -351,6 +350,15 @@ def robot_dems():
     # transposed and mirrored: rows become columns (cells 92.5 m east-west), then east-west flipped
     jt = tse.terrain.Dem(j.z.T[:, ::-1], j.y, j.x, source="jacksboro transposed+mirrored")
     return [j, jt, generated_dem()]
+
+
+def _row(rows, ref, name, tin, dt=None, ratio=None):
+    sc = ref.score(tin)
+    t = "" if dt is None else f"{dt:.3f}"
+    r = "" if ratio is None else f"{ratio:.1f}"
+    rows.append(f"| {name} | {tin.n_vertices} | {sc['slope']:.1%} | {sc['ctg']:.1%} | {sc['los']:.1%} | "
+                f"{sc['rms']:.2f} | {t} | {r} |")
+    print(rows[-1], flush=True)
 
 
 def robot_tables(fractions=(0.02, 0.05, 0.10), seed=0, write=False):
@@ -375,25 +383,17 @@ def robot_tables(fractions=(0.02, 0.05, 0.10), seed=0, write=False):
         rows = [head, "", "| TIN | vertices | slope class | cost-to-go within 5% | line of sight | RMS m | build s "
                 "| x greedy |", "|---|---|---|---|---|---|---|---|"]
 
-        def row(name, tin, dt=None, ratio=None):
-            sc = ref.score(tin)
-            t = "" if dt is None else f"{dt:.3f}"
-            r = "" if ratio is None else f"{ratio:.1f}"
-            rows.append(f"| {name} | {tin.n_vertices} | {sc['slope']:.1%} | {sc['ctg']:.1%} | {sc['los']:.1%} | "
-                        f"{sc['rms']:.2f} | {t} | {r} |")
-            print(rows[-1], flush=True)
-
         print(head, flush=True)
-        row("full surface", ref.full)
-        row("other diagonal", other_diagonal(dem))
+        _row(rows, ref, "full surface", ref.full)
+        _row(rows, ref, "other diagonal", other_diagonal(dem))
         for f in fractions:
             n = int(round(f * n_cells))
             times = {}
             for name, kw in methods:
                 build_tin(dem, max_vertices=min(n, 200), **kw)  # compile / warm up
-                tin, dt = timed(lambda kw=kw: build_tin(dem, max_vertices=n, **kw), 3)
+                tin, dt = timed(lambda kw=kw, dem=dem, n=n: build_tin(dem, max_vertices=n, **kw), 3)
                 times[name] = dt
-                row(f"{name} {f:.0%}", tin, dt, dt / times["greedy"] if "greedy" in times else None)
+                _row(rows, ref, f"{name} {f:.0%}", tin, dt, dt / times["greedy"] if "greedy" in times else None)
         lines += rows + [""]
     text = "\n".join(lines)
     if write:

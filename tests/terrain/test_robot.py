@@ -5,9 +5,7 @@ import pytest
 
 from tin_swarm_env.errors import ArgumentError, DemFormatError
 from tin_swarm_env.terrain import Dem, Tin, build_tin, cost_to_go
-from tin_swarm_env.terrain.robot import (
-    crest_score, full_surface, full_surface_slope_deg, full_surface_triangles, raster_samples, sample_points,
-    score_triangles)
+from tin_swarm_env.terrain import robot as R
 
 CELL = 10.0
 
@@ -19,8 +17,8 @@ def grid_dem(z, cell=CELL):
 
 def sample_classes_agree(tin, dem, max_slope_deg):
     """Every full-surface triangle's class equals the TIN's class at its sample point."""
-    p = sample_points(dem)[:, :2]
-    return np.array_equal(tin.slope_at(p) > max_slope_deg, full_surface_slope_deg(dem) > max_slope_deg)
+    p = R.sample_points(dem)[:, :2]
+    return np.array_equal(tin.slope_at(p) > max_slope_deg, R.full_surface_slope_deg(dem) > max_slope_deg)
 
 
 def edges_cover_segment(tin, x, y0, y1):
@@ -42,25 +40,25 @@ def edges_cover_segment(tin, x, y0, y1):
 
 def test_full_surface_is_every_cell_two_triangles_per_cell():
     dem = grid_dem(np.arange(12.0).reshape(3, 4) ** 2)
-    full = full_surface(dem)
+    full = R.full_surface(dem)
     assert full.n_vertices == 12 and full.n_triangles == 2 * 2 * 3
-    assert np.allclose(np.sort(full.slope_deg), np.sort(full_surface_slope_deg(dem)))
-    tri = full_surface_triangles(dem.shape)
-    assert np.allclose(full_surface_slope_deg(dem), Tin(full.vertices, tri).slope_deg)
+    assert np.allclose(np.sort(full.slope_deg), np.sort(R.full_surface_slope_deg(dem)))
+    tri = R.full_surface_triangles(dem.shape)
+    assert np.allclose(R.full_surface_slope_deg(dem), Tin(full.vertices, tri).slope_deg)
 
 
 def test_sample_points_lie_inside_their_full_surface_triangle():
     rng = np.random.default_rng(2)
     dem = grid_dem(rng.uniform(0, 30, (6, 8)))
-    full = full_surface(dem)
-    p = sample_points(dem)
+    full = R.full_surface(dem)
+    p = R.sample_points(dem)
     assert np.array_equal(full.locate(p[:, :2]), np.arange(full.n_triangles))
     assert np.allclose(full.height_at(p[:, :2]), p[:, 2])
 
 
 def test_full_surface_slope_of_a_plane():
     z = 0.5 * np.arange(5)[None, :] * CELL * np.ones((4, 1))  # dz/dx = 0.5
-    s = full_surface_slope_deg(grid_dem(z))
+    s = R.full_surface_slope_deg(grid_dem(z))
     assert np.allclose(s, np.degrees(np.arctan(0.5)))
 
 
@@ -72,11 +70,12 @@ def test_raster_samples_matches_point_location():
     keep[[0, cols - 1, rows * cols - cols, rows * cols - 1]] = True
     idx = np.flatnonzero(keep)
     tin = Tin.from_points(dem.points()[idx])
-    owner = raster_samples((np.arange(rows * cols) // cols).astype(float), (np.arange(rows * cols) % cols).astype(float),
-                           idx[tin.triangles], rows, cols)
+    cells = np.arange(rows * cols)
+    ni, nj = (cells // cols).astype(float), (cells % cols).astype(float)
+    owner = R.raster_samples(ni, nj, idx[tin.triangles], rows, cols)
     assert (owner >= 0).all()
     # every sample lies in (or on the border of) the triangle it was given
-    c = sample_points(dem)[:, :2]
+    c = R.sample_points(dem)[:, :2]
     p = tin.vertices[tin.triangles[owner], :2]
     for k in range(3):
         a, b = p[:, k], p[:, (k + 1) % 3]
@@ -96,7 +95,7 @@ def test_score_triangles_matches_numpy_reference():
     nodes = rng.integers(0, n_v, (n_s, 3))
     vx, vy, vz = rng.normal(size=n_v), rng.normal(size=n_v), rng.normal(size=n_v)
     keep = rng.random(n_v) < 0.3
-    best, cell, wrong, err = score_triangles(owner, gx, gy, c0, steep_t, sx, sy, sz, steep_f, weight, nodes,
+    best, cell, wrong, err = R.score_triangles(owner, gx, gy, c0, steep_t, sx, sy, sz, steep_f, weight, nodes,
                                              vx, vy, vz, keep, 0.1, 2.0)
     for t in range(n_t):
         s = np.flatnonzero(owner == t)
@@ -119,7 +118,7 @@ def test_score_triangles_matches_numpy_reference():
 def test_crest_score_marks_a_ridge_only():
     z = np.zeros((5, 7))
     z[:, 3] = 10.0
-    cs = crest_score(z)
+    cs = R.crest_score(z)
     assert np.allclose(cs[1:-1, 3], 10.0)
     assert np.allclose(np.delete(cs, 3, axis=1), 0.0)
 
@@ -153,7 +152,7 @@ def plateau_dem():
 
 def test_plateau_keeps_its_drivable_connection():
     dem = plateau_dem()
-    full = full_surface(dem)
+    full = R.full_surface(dem)
     tin = build_tin(dem, method="robot", max_error_m=1.0, max_slope_deg=20)
     assert tin.n_vertices < dem.z.size // 2
     assert sample_classes_agree(tin, dem, 20)
@@ -184,7 +183,7 @@ def test_hidden_valley_stays_hidden():
     eye = np.column_stack([np.full_like(y, 20.0), y, np.full_like(y, 2.0)])  # on the plain, 2 m up
     valley = np.column_stack([np.full_like(y, 190.0), y, np.full_like(y, -13.0)])  # floor, 2 m up
     near = np.column_stack([np.full_like(y, 70.0), y, np.full_like(y, 2.0 + np.interp(7.0, cols, prof))])
-    full = full_surface(dem)
+    full = R.full_surface(dem)
     assert not full.line_of_sight(eye, valley).any()
     assert not tin.line_of_sight(eye, valley).any()
     assert tin.line_of_sight(eye, near).all()  # the test can see what it should

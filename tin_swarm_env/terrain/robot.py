@@ -54,8 +54,8 @@ from numba import njit
 from ..errors import ArgumentError, DemFormatError
 from .dem import Dem
 
-__all__ = ["robot_mesh", "full_surface", "full_surface_triangles", "full_surface_slope_deg", "sample_points", "raster_samples",
-           "score_triangles", "crest_score"]
+__all__ = ["robot_mesh", "full_surface", "full_surface_triangles", "full_surface_slope_deg", "sample_points",
+           "raster_samples", "score_triangles", "crest_score"]
 
 SEED_FRACTION = 0.8  # of max_vertices, from plain greedy insertion (vertical error)
 CREST_FRACTION = 0.05  # of max_vertices, crest cells (line of sight)
