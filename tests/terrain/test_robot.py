@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tin_swarm_env.errors import ArgumentError, DemFormatError
 from tin_swarm_env.terrain import Dem, Tin, build_tin, cost_to_go
@@ -230,3 +232,19 @@ def test_robot_refuses_nodata():
 def test_robot_needs_a_stop():
     with pytest.raises(ArgumentError, match="max_vertices, max_error_m"):
         build_tin(grid_dem(np.zeros((5, 5))), method="robot", max_slope_deg=20)
+
+
+@settings(max_examples=40)
+@given(rows=st.integers(3, 9), cols=st.integers(3, 9), dx=st.sampled_from([1.0, 7.5, 30.0]),
+       dy=st.sampled_from([1.0, 10.0, 30.0]), slope=st.sampled_from([10.0, 20.0, 35.0]),
+       max_error_m=st.sampled_from([0.0, 0.5, 5.0]), seed=st.integers(0, 2**16))
+def test_error_bound_reproduces_every_sample(rows, cols, dx, dy, slope, max_error_m, seed):
+    """Without a vertex budget the builder stops only when every sample has the full surface's
+    class and lies within max_error_m of it (the reference: the full surface at the samples)."""
+    rng = np.random.default_rng(seed)
+    z = rng.uniform(0, 3 * max(dx, dy), (rows, cols)) * rng.integers(0, 2, (rows, cols))
+    dem = Dem(z, np.arange(cols) * dx, np.arange(rows) * dy, source="random")
+    tin = build_tin(dem, method="robot", max_error_m=max_error_m, max_slope_deg=slope)
+    p = R.sample_points(dem)
+    assert np.array_equal(tin.slope_at(p[:, :2]) > slope, R.full_surface_slope_deg(dem) > slope)
+    assert np.all(np.abs(tin.height_at(p[:, :2]) - p[:, 2]) <= max_error_m + 1e-9)

@@ -279,7 +279,9 @@ def robot_mesh(dem: Dem, max_slope_deg: float, max_vertices: int | None = None, 
         owner = raster_samples(ni, nj, tri, rows, cols)
         q = np.stack([vx[tri], vy[tri], zf[tri]], -1)
         n = np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
-        gx, gy = -n[:, 0] / n[:, 2], -n[:, 1] / n[:, 2]
+        flat = n[:, 2] == 0  # a zero-area triangle from Qhull (collinear cells): owns no sample
+        nz = np.where(flat, 1.0, n[:, 2])
+        gx, gy = np.where(flat, 0.0, -n[:, 0] / nz), np.where(flat, 0.0, -n[:, 1] / nz)
         c0 = q[:, 0, 2] - gx * q[:, 0, 0] - gy * q[:, 0, 1]
         steep_t = np.hypot(gx, gy) > tan_s
         best, cell, wrong, err = score_triangles(owner, gx, gy, c0, steep_t, sx, sy, sz, steep_f, weight, nodes,
