@@ -15,6 +15,7 @@ loaded that way; export them once with :func:`tin_swarm_env.adapters.sb3.export_
      "action": {"size": 2, "low": -1.0, "high": 1.0},
      "scenario": "cliff_goal",
      "shield": "safety_cut",                 # optional: "none" (default) or "safety_cut"
+     "symmetry": "mirror",                   # optional: "none" (default) or "mirror"
      "training": {...}}                      # free-form metadata (library versions, steps...)
 
 ``weights.npz``: ``W0, b0, W1, b1, ...``; ``W{i}`` has shape ``(layer_sizes[i+1], layer_sizes[i])``
@@ -30,6 +31,10 @@ a dangerous break it sees to within one diameter). The filter reads only the obs
 the policy stays observation-only; it is a shield in the safe-RL sense (the network proposes,
 the filter removes the unsafe part). The constants come from the environment the policy is
 loaded for, so a shielded policy needs ``load_policy(path, env)``.
+
+``"symmetry": "mirror"`` makes the network mirror-equivariant, ``(f(o) + M f(M o)) / 2``
+(:mod:`tin_swarm_env.policies.symmetry`), before the shield; it needs the layout's named fields,
+which every policy file records.
 """
 
 from __future__ import annotations
@@ -44,6 +49,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import ArgumentError, PolicyFileError
+from .symmetry import SYMMETRIES, mirror_signs, symmetrize
 
 __all__ = ["MLPPolicy", "ShieldedPolicy", "save_policy", "load_policy", "FORMAT", "VERSION", "ACTIVATIONS",
            "SHIELDS"]
@@ -103,7 +109,7 @@ class MLPPolicy:
 
     def __init__(self, layers, activation: str = "tanh", action_transform: str = "clip", *, layout: dict,
                  scenario: str = "", training: dict | None = None, source: str = "<memory>",
-                 shield: str = "none", env=None):
+                 shield: str = "none", env=None, symmetry: str = "none"):
         self.layers = [(np.ascontiguousarray(W, dtype=np.float64), np.ascontiguousarray(b, dtype=np.float64))
                        for W, b in layers]
         self.activation = activation
@@ -116,6 +122,10 @@ class MLPPolicy:
         if shield not in SHIELDS:
             raise ArgumentError(f"{source}: shield {shield!r} is not one of {list(SHIELDS)}")
         self.shield = shield
+        if symmetry not in SYMMETRIES:
+            raise ArgumentError(f"{source}: symmetry {symmetry!r} is not one of {list(SYMMETRIES)}")
+        self.symmetry = symmetry
+        self._signs = mirror_signs(layout) if symmetry == "mirror" else None
         self._cut = None
         if shield == "safety_cut":
             if env is None:
@@ -130,12 +140,18 @@ class MLPPolicy:
         x = np.ascontiguousarray(obs, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != self.obs_size:
             raise ArgumentError(f"{self.source}: obs must have shape (n, {self.obs_size}), got {x.shape}")
+        if self._signs is not None:
+            return symmetrize(self._forward, x, self._signs).astype(np.float32)
+        return self._forward(x).astype(np.float32)
+
+    def _forward(self, x) -> np.ndarray:
+        """The network alone: ``x (n, d)`` float64 -> clipped ``(n, 2)`` float64."""
         f = ACTIVATIONS[self.activation]
         for i, (W, b) in enumerate(self.layers):
             x = dense(x, W, b)
             if i < len(self.layers) - 1:
                 x = f(x)
-        return np.clip(x, -1.0, 1.0).astype(np.float32)
+        return np.clip(x, -1.0, 1.0)
 
     def act(self, obs: dict) -> dict:
         if not obs:
@@ -147,7 +163,8 @@ class MLPPolicy:
     def __repr__(self) -> str:
         sizes = [self.obs_size] + [W.shape[0] for W, _ in self.layers]
         shield = "" if self.shield == "none" else f", shield={self.shield!r}"
-        return f"MLPPolicy({self.source!r}, {sizes}, {self.activation}, scenario={self.scenario!r}{shield})"
+        sym = "" if self.symmetry == "none" else f", symmetry={self.symmetry!r}"
+        return f"MLPPolicy({self.source!r}, {sizes}, {self.activation}, scenario={self.scenario!r}{shield}{sym})"
 
 
 class ShieldedPolicy:
@@ -190,7 +207,7 @@ class _Shield:
 
 
 def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str, action_transform: str = "clip",
-                extra: dict | None = None, shield: str = "none") -> Path:
+                extra: dict | None = None, shield: str = "none", symmetry: str = "none") -> Path:
     """Write a policy directory ``path/`` (``policy.json`` + ``weights.npz``) atomically (``shield``:
     ``"none"`` or ``"safety_cut"``, see the module docstring): both
     files go into a temporary directory beside it, which is then renamed into place; an existing
@@ -207,6 +224,8 @@ def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str
             "scenario": str(scenario), "training": dict(extra or {})}
     if shield != "none":
         meta["shield"] = shield
+    if symmetry != "none":
+        meta["symmetry"] = symmetry
     _validate(meta, {f"{k}{i}": a for i, (W, b) in enumerate(layers) for k, a in (("W", W), ("b", b))},
               str(p / POLICY_JSON), str(p / WEIGHTS))
     if p.exists() and not (p.is_dir() and (p / POLICY_JSON).is_file()):
@@ -278,7 +297,7 @@ def load_policy(path, env) -> MLPPolicy:
     net = meta["network"]
     return MLPPolicy(layers, net["activation"], net["action_transform"], layout=meta["observation"]["layout"],
                      scenario=meta["scenario"], training=meta.get("training", {}), source=str(d),
-                     shield=meta.get("shield", "none"), env=env)
+                     shield=meta.get("shield", "none"), env=env, symmetry=meta.get("symmetry", "none"))
 
 
 def _read_weights(wpath: Path) -> dict:
@@ -345,6 +364,8 @@ def _validate(meta, arrays: dict, jname: str, wname: str) -> list:
         _get(meta, "training", dict, jname)
     if "shield" in meta and _get(meta, "shield", str, jname) not in SHIELDS:
         raise PolicyFileError(f"{jname}: key 'shield' is {meta['shield']!r}; known: {list(SHIELDS)}")
+    if "symmetry" in meta and _get(meta, "symmetry", str, jname) not in SYMMETRIES:
+        raise PolicyFileError(f"{jname}: key 'symmetry' is {meta['symmetry']!r}; known: {list(SYMMETRIES)}")
     return _check_weights(arrays, sizes, wname)
 
 
