@@ -32,6 +32,9 @@ the policy stays observation-only; it is a shield in the safe-RL sense (the netw
 the filter removes the unsafe part). The constants come from the environment the policy is
 loaded for, so a shielded policy needs ``load_policy(path, env)``.
 
+``"network": {"type": "recurrent", "cell": "lstm" | "gru", ...}``: a memory cell before the MLP,
+state per robot reset with the episode (:mod:`tin_swarm_env.policies.recurrent` describes it).
+
 ``"symmetry": "mirror"`` makes the network mirror-equivariant, ``(f(o) + M f(M o)) / 2``
 (:mod:`tin_swarm_env.policies.symmetry`), before the shield; it needs the layout's named fields,
 which every policy file records.
@@ -66,6 +69,7 @@ ACTIVATIONS = {
     "identity": lambda x: x,
 }
 ACTION_TRANSFORMS = ("clip",)
+NETWORK_TYPES = ("mlp", "recurrent")  # "recurrent": a memory cell before the MLP (policies/recurrent.py)
 
 
 @njit(cache=True, fastmath={"reassoc", "contract"})
@@ -207,27 +211,38 @@ class _Shield:
 
 
 def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str, action_transform: str = "clip",
-                extra: dict | None = None, shield: str = "none", symmetry: str = "none") -> Path:
+                extra: dict | None = None, shield: str = "none", symmetry: str = "none", cell=None) -> Path:
     """Write a policy directory ``path/`` (``policy.json`` + ``weights.npz``) atomically (``shield``:
-    ``"none"`` or ``"safety_cut"``, see the module docstring): both
+    ``"none"`` or ``"safety_cut"``, ``symmetry``: ``"none"`` or ``"mirror"``, see the module
+    docstring; ``cell``: ``(name, {cell_W_ih: ..., ...})`` for a recurrent policy whose head is
+    ``layers``, :mod:`tin_swarm_env.policies.recurrent`): both
     files go into a temporary directory beside it, which is then renamed into place; an existing
     policy directory at ``path`` is replaced, anything else there is refused. Returns the path."""
     p = Path(os.fspath(path))
     layers = [(np.asarray(W, dtype=np.float64), np.asarray(b, dtype=np.float64)) for W, b in layers]
     lay = _layout_dict(layout)
     sizes = [int(layers[0][0].shape[1])] + [int(W.shape[0]) for W, _ in layers] if layers else []
-    meta = {"format": FORMAT, "version": VERSION,
-            "network": {"type": "mlp", "layer_sizes": sizes, "activation": activation,
-                        "action_transform": action_transform},
-            "observation": {"size": sizes[0] if sizes else 0, "layout": lay},
+    arrays = {f"{k}{i}": a for i, (W, b) in enumerate(layers) for k, a in (("W", W), ("b", b))}
+    network = {"type": "mlp", "layer_sizes": sizes, "activation": activation, "action_transform": action_transform}
+    obs_size = sizes[0] if sizes else 0
+    if cell is not None:
+        from .recurrent import recurrent_network
+
+        name, cw = cell
+        cw = {k: np.asarray(v, dtype=np.float64) for k, v in cw.items()}
+        obs_size = int(cw["cell_W_ih"].shape[1]) if "cell_W_ih" in cw else 0
+        hidden = int(cw["cell_W_hh"].shape[1]) if "cell_W_hh" in cw else 0
+        network = recurrent_network(name, obs_size, hidden, sizes, activation, action_transform)
+        arrays.update(cw)
+    meta = {"format": FORMAT, "version": VERSION, "network": network,
+            "observation": {"size": obs_size, "layout": lay},
             "action": {"size": ACTION_SIZE, "low": -1.0, "high": 1.0},
             "scenario": str(scenario), "training": dict(extra or {})}
     if shield != "none":
         meta["shield"] = shield
     if symmetry != "none":
         meta["symmetry"] = symmetry
-    _validate(meta, {f"{k}{i}": a for i, (W, b) in enumerate(layers) for k, a in (("W", W), ("b", b))},
-              str(p / POLICY_JSON), str(p / WEIGHTS))
+    _validate(meta, arrays, str(p / POLICY_JSON), str(p / WEIGHTS))
     if p.exists() and not (p.is_dir() and (p / POLICY_JSON).is_file()):
         raise PolicyFileError(f"{p}: exists and is not a policy directory; refusing to replace it")
     if not p.parent.is_dir():
@@ -235,7 +250,7 @@ def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str
     tmp = Path(tempfile.mkdtemp(prefix=f".{p.name}.", suffix=".part", dir=p.parent))
     try:
         with open(tmp / WEIGHTS, "wb") as fh:
-            np.savez(fh, **{f"{k}{i}": a for i, (W, b) in enumerate(layers) for k, a in (("W", W), ("b", b))})
+            np.savez(fh, **arrays)
             fh.flush()
             os.fsync(fh.fileno())
         with open(tmp / POLICY_JSON, "w", encoding="utf-8") as fh:
@@ -271,9 +286,10 @@ def _swap_into_place(tmp: Path, p: Path) -> None:
 # -- loading --------------------------------------------------------------------------------
 
 
-def load_policy(path, env) -> MLPPolicy:
+def load_policy(path, env):
     """Read the policy directory ``path`` (or its ``policy.json``) for ``env``: no pickle, no
-    torch. Raises :class:`~tin_swarm_env.errors.PolicyFileError` naming the file and the key for
+    torch; an :class:`MLPPolicy`, or a :class:`~tin_swarm_env.policies.recurrent.RecurrentPolicy`
+    for a recurrent file. Raises :class:`~tin_swarm_env.errors.PolicyFileError` naming the file and the key for
     anything wrong: a missing file, bad JSON, unknown format or version, a missing key, unknown
     activation, weights that do not chain or are not finite, an object array in the weights, an
     observation size other than the env's, or a layout other than the env's (both named)."""
@@ -295,6 +311,14 @@ def load_policy(path, env) -> MLPPolicy:
     layers = _validate(meta, arrays, str(jpath), str(wpath))
     _check_env(meta, env, str(jpath))
     net = meta["network"]
+    if net["type"] == "recurrent":
+        from .recurrent import RecurrentPolicy, check_cell
+
+        _, cw = check_cell(net, arrays, str(jpath), str(wpath))
+        return RecurrentPolicy(net["cell"], cw, layers, net["activation"], net["action_transform"],
+                               layout=meta["observation"]["layout"], scenario=meta["scenario"],
+                               training=meta.get("training", {}), source=str(d), shield=meta.get("shield", "none"),
+                               env=env, symmetry=meta.get("symmetry", "none"))
     return MLPPolicy(layers, net["activation"], net["action_transform"], layout=meta["observation"]["layout"],
                      scenario=meta["scenario"], training=meta.get("training", {}), source=str(d),
                      shield=meta.get("shield", "none"), env=env, symmetry=meta.get("symmetry", "none"))
@@ -339,8 +363,8 @@ def _validate(meta, arrays: dict, jname: str, wname: str) -> list:
     if ver != VERSION:
         raise PolicyFileError(f"{jname}: key 'version' is {ver}; this tin_swarm_env reads version {VERSION}")
     net = _get(meta, "network", dict, jname)
-    if _get(net, "type", str, f"{jname} [network]") != "mlp":
-        raise PolicyFileError(f"{jname}: key 'network.type' is {net['type']!r}; expected 'mlp'")
+    if _get(net, "type", str, f"{jname} [network]") not in NETWORK_TYPES:
+        raise PolicyFileError(f"{jname}: key 'network.type' is {net['type']!r}; expected one of {list(NETWORK_TYPES)}")
     sizes = _get(net, "layer_sizes", list, f"{jname} [network]")
     if len(sizes) < 2 or not all(isinstance(s, int) and not isinstance(s, bool) and s >= 1 for s in sizes):
         raise PolicyFileError(f"{jname}: key 'network.layer_sizes' must be 2 or more positive integers, got {sizes}")
@@ -350,10 +374,16 @@ def _validate(meta, arrays: dict, jname: str, wname: str) -> list:
     tr = _get(net, "action_transform", str, f"{jname} [network]")
     if tr not in ACTION_TRANSFORMS:
         raise PolicyFileError(f"{jname}: key 'network.action_transform' is {tr!r}; known: {list(ACTION_TRANSFORMS)}")
+    in_size, what = sizes[0], "the first layer size"
+    if net["type"] == "recurrent":  # the cell reads the observation; the head (layer_sizes) reads the cell
+        from .recurrent import check_cell
+
+        in_size, cell = check_cell(net, arrays, jname, wname)
+        what = "the cell's 'network.input_size'"
+        arrays = {k: v for k, v in arrays.items() if k not in cell}
     obs = _get(meta, "observation", dict, jname)
-    if _get(obs, "size", int, f"{jname} [observation]") != sizes[0]:
-        raise PolicyFileError(f"{jname}: key 'observation.size' ({obs['size']}) differs from the first layer "
-                              f"size ({sizes[0]})")
+    if _get(obs, "size", int, f"{jname} [observation]") != in_size:
+        raise PolicyFileError(f"{jname}: key 'observation.size' ({obs['size']}) differs from {what} ({in_size})")
     _get(obs, "layout", dict, f"{jname} [observation]")
     action = _get(meta, "action", dict, jname)
     if _get(action, "size", int, f"{jname} [action]") != ACTION_SIZE or sizes[-1] != ACTION_SIZE:
