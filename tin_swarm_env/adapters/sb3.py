@@ -74,7 +74,8 @@ def _vec_class():
 
         def __init__(self, scenario="cliff_goal", n_robots=None, n_envs=1, seed=0, shield="none", **env_kwargs):
             from ..env import parallel_env
-            from ..policies.learned import SHIELDS, _Shield
+            from ..policies.base import SafetyShield
+            from ..policies.learned import SHIELDS
 
             if n_envs < 1:
                 raise ArgumentError(f"n_envs must be >= 1, got {n_envs}")
@@ -92,7 +93,7 @@ def _vec_class():
             if shield not in SHIELDS:
                 raise ArgumentError(f"shield must be one of {list(SHIELDS)}, got {shield!r}")
             self.shield = shield
-            self._shields = [_Shield(e) for e in self.envs] if shield == "safety_cut" else None
+            self._shields = [SafetyShield(e) for e in self.envs] if shield == "safety_cut" else None
             super().__init__(n_envs * e0.n, e0.observation_space("robot_0"), e0.action_space("robot_0"))
             self.render_mode = e0.render_mode
             self._seeds = [None if seed is None else seed + c for c in range(n_envs)]

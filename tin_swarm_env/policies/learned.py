@@ -25,7 +25,7 @@ but the last; ``"clip"`` clips the output to ``[-1, 1]`` (the deterministic acti
 policy: its mean, clipped to the action space, as SB3's ``predict(deterministic=True)``).
 
 ``"shield": "safety_cut"`` filters the network's action through the same safety cut every
-built-in controller applies last (:func:`tin_swarm_env.policies.apf.safety_cut`: no command into
+built-in controller applies last (:func:`tin_swarm_env.policies.base.safety_cut`: no command into
 the blind sector, none that closes on a robot the robot sees to within 1.5 body diameters or on
 a dangerous break it sees to within one diameter). The filter reads only the observation, so
 the policy stays observation-only; it is a shield in the safe-RL sense (the network proposes,
@@ -52,6 +52,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import ArgumentError, PolicyFileError
+from .base import SafetyShield, act_dict, unwrap_env
 from .symmetry import SYMMETRIES, mirror_signs, symmetrize
 
 __all__ = ["MLPPolicy", "ShieldedPolicy", "save_policy", "load_policy", "FORMAT", "VERSION", "ACTIVATIONS",
@@ -80,7 +81,7 @@ def dense(x, W, b):
     multi-threaded BLAS whose threads wait for a busy core (a second job, pytest -n 2, a training
     run beside the evaluation) took 26-31 ms per forward pass of a 59-256-256-2 network on the
     2-core machine, this 1 ms; it is as fast as BLAS at 2 000 robots there, and its sums do not
-    depend on a thread count. ``dense.py_func`` is the plain reference (tests/test_policy_files.py)."""
+    depend on a thread count. ``dense.py_func`` is the plain reference (tests/policies/test_learned.py)."""
     n, d = x.shape
     m = W.shape[0]
     out = np.empty((n, m))
@@ -108,7 +109,7 @@ class MLPPolicy:
     ``layers``: ``[(W (out, in), b (out,)), ...]`` float64. ``act_batch(obs (n, d)) -> (n, 2)``
     float32, deterministic; ``act({agent: obs}) -> {agent: action}``. ``shield="safety_cut"``
     (with ``env``, whose constants and layout it reads) filters each action through
-    :func:`~tin_swarm_env.policies.apf.safety_cut`; ``net_batch`` is the unfiltered network.
+    :func:`~tin_swarm_env.policies.base.safety_cut`; ``net_batch`` is the unfiltered network.
     """
 
     def __init__(self, layers, activation: str = "tanh", action_transform: str = "clip", *, layout: dict,
@@ -130,15 +131,15 @@ class MLPPolicy:
             raise ArgumentError(f"{source}: symmetry {symmetry!r} is not one of {list(SYMMETRIES)}")
         self.symmetry = symmetry
         self._signs = mirror_signs(layout) if symmetry == "mirror" else None
-        self._cut = None
+        self.shield_cut = None  # the SafetyShield applied to the network's actions, or None
         if shield == "safety_cut":
             if env is None:
                 raise ArgumentError(f"{source}: a shielded policy needs the env it acts in (load_policy(path, env))")
-            self._cut = _Shield(env)
+            self.shield_cut = SafetyShield(env)
 
     def act_batch(self, obs) -> np.ndarray:
         a = self.net_batch(obs)
-        return a if self._cut is None else self._cut(a, obs)
+        return a if self.shield_cut is None else self.shield_cut(a, obs)
 
     def net_batch(self, obs) -> np.ndarray:
         x = np.ascontiguousarray(obs, dtype=np.float64)
@@ -158,11 +159,7 @@ class MLPPolicy:
         return np.clip(x, -1.0, 1.0)
 
     def act(self, obs: dict) -> dict:
-        if not obs:
-            return {}
-        keys = list(obs)
-        a = self.act_batch(np.stack([obs[k] for k in keys]))
-        return {k: a[i] for i, k in enumerate(keys)}
+        return act_dict(self.act_batch, obs)
 
     def __repr__(self) -> str:
         sizes = [self.obs_size] + [W.shape[0] for W, _ in self.layers]
@@ -178,33 +175,17 @@ class ShieldedPolicy:
 
     def __init__(self, policy, env):
         self.policy = policy
-        self._cut = _Shield(env)
+        self.shield = SafetyShield(env)
 
     def reset(self):
         if hasattr(self.policy, "reset"):
             self.policy.reset()
 
     def act_batch(self, obs) -> np.ndarray:
-        return self._cut(self.policy.act_batch(obs), obs)
+        return self.shield(self.policy.act_batch(obs), obs)
 
-
-class _Shield:
-    """``safety_cut`` with the constants of one environment (a :class:`Controller` without a
-    policy of its own)."""
-
-    def __init__(self, env):
-        from .apf import Controller, unwrap_env
-
-        base = unwrap_env(env)
-        self._ctl = Controller()
-        self._ctl._read_constants(base.config)
-        self._layout = base.layout
-
-    def __call__(self, action, obs) -> np.ndarray:
-        from .apf import decode
-
-        d = decode(np.asarray(obs, dtype=np.float64), self._layout, self._ctl.range_m)
-        return self._ctl._cut(action, d, edges=bool(self._layout.k_breaks))
+    def act(self, obs: dict) -> dict:
+        return act_dict(self.act_batch, obs)
 
 
 # -- saving ---------------------------------------------------------------------------------
@@ -424,8 +405,6 @@ def _check_weights(arrays: dict, sizes: list, wname: str) -> list:
 
 
 def _check_env(meta: dict, env, jname: str) -> None:
-    from .apf import unwrap_env
-
     e = unwrap_env(env)
     mine = _layout_dict(e.layout)
     theirs = meta["observation"]["layout"]

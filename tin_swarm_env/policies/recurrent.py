@@ -35,6 +35,7 @@ import numpy as np
 
 from ..env.observation import ACTION_PARITY
 from ..errors import ArgumentError, PolicyFileError
+from .base import SafetyShield, act_dict
 from .symmetry import SYMMETRIES, mirror_signs
 
 __all__ = ["RecurrentPolicy", "CELLS", "CELL_ARRAYS", "check_cell", "recurrent_network"]
@@ -125,7 +126,7 @@ class RecurrentPolicy:
     def __init__(self, cell: str, cell_weights: dict, layers, activation: str = "tanh",
                  action_transform: str = "clip", *, layout: dict, scenario: str = "", training: dict | None = None,
                  source: str = "<memory>", shield: str = "none", env=None, symmetry: str = "none"):
-        from .learned import ACTIVATIONS, SHIELDS, _Shield
+        from .learned import ACTIVATIONS, SHIELDS
 
         if cell not in CELLS:
             raise ArgumentError(f"{source}: cell {cell!r} is not one of {sorted(CELLS)}")
@@ -146,11 +147,11 @@ class RecurrentPolicy:
             raise ArgumentError(f"{source}: symmetry {symmetry!r} is not one of {list(SYMMETRIES)}")
         self.shield, self.symmetry = shield, symmetry
         self._signs = mirror_signs(layout) if symmetry == "mirror" else None
-        self._cut = None
+        self.shield_cut = None  # the SafetyShield applied to the network's actions, or None
         if shield == "safety_cut":
             if env is None:
                 raise ArgumentError(f"{source}: a shielded policy needs the env it acts in (load_policy(path, env))")
-            self._cut = _Shield(env)
+            self.shield_cut = SafetyShield(env)
         self.reset()
 
     # -- memory --------------------------------------------------------------------------------
@@ -207,15 +208,10 @@ class RecurrentPolicy:
 
     def act_batch(self, obs, rows=None) -> np.ndarray:
         a = self.net_batch(obs, rows)
-        return a if self._cut is None else self._cut(a, obs)
+        return a if self.shield_cut is None else self.shield_cut(a, obs)
 
     def act(self, obs: dict) -> dict:
-        if not obs:
-            return {}
-        keys = list(obs)
-        rows = [self._rows.setdefault(k, len(self._rows)) for k in keys]
-        a = self.act_batch(np.stack([obs[k] for k in keys]), rows)
-        return {k: a[i] for i, k in enumerate(keys)}
+        return act_dict(self.act_batch, obs, [self._rows.setdefault(k, len(self._rows)) for k in obs])
 
     def __repr__(self) -> str:
         sizes = [self.obs_size, f"{self.cell}({self.hidden_size})"] + [W.shape[0] for W, _ in self.layers]

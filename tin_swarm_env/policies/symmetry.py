@@ -15,7 +15,7 @@ A policy file asks for it with ``"symmetry": "mirror"`` (:mod:`tin_swarm_env.pol
 ``"none"``, the default, is the network alone). The shield, when there is one, filters the
 averaged action. It is mirror-equivariant (every cut is a projection on sensed geometry) but for
 one tie: a command exactly backwards (``vy == 0``) into the blind sector is turned toward the left
-edge of the field of view in both images (:func:`~tin_swarm_env.policies.apf.into_view`). A mirror
+edge of the field of view in both images (:func:`~tin_swarm_env.policies.base.into_view`). A mirror
 policy gives ``vy == 0`` exactly where both images saturate ``vy`` alike, so this tie does occur;
 it is a fixed tie-break, not a side learned from data.
 """

@@ -186,7 +186,7 @@ def build_stage(cfg: ScenarioConfig, rng: np.random.Generator | None = None) -> 
 
 def _generated_stage(cfg: ScenarioConfig, rng: np.random.Generator) -> Stage:
     """Draw a solvable generated task; the TIN and fields made by the check are the ones kept."""
-    from .generators import PARAMS, generate
+    from .generators import ALL_FAMILIES, generate
 
     t = cfg.terrain
     max_slope = cfg.world.robot.max_slope_deg
@@ -198,7 +198,7 @@ def _generated_stage(cfg: ScenarioConfig, rng: np.random.Generator) -> Stage:
         made["task"], made["world"], made["fields"] = task, world, fields
         return all(reaches_region(f, task.spawn_region) for f in fields)
 
-    task = generate(rng, t.families or tuple(PARAMS), t.ranges, max_slope_deg=max_slope, solvable=solvable,
+    task = generate(rng, t.families or ALL_FAMILIES, t.ranges, max_slope_deg=max_slope, solvable=solvable,
                     where=f"{cfg.source} [terrain]")
     assert made["task"] is task  # generate returns the draw the check accepted last
     return Stage(made["world"], np.asarray(task.targets, dtype=float).reshape(-1, 2), task.spawn_region,

@@ -20,7 +20,7 @@ Layout of a scenario file (every table and key optional except ``terrain.source`
     size_m = [500.0, 500.0]       # flat plane / procedural extent
     params = {}                   # recipe parameters
     # source = "generated" (seeded task generators, scenario/generators.py):
-    families = ["canyon", "mesa", "hills"]   # or {canyon = 2, mesa = 1}: weights; default all
+    families = ["canyon", "fork"]  # or {canyon = 2, mesa = 1}: weights; default all (generators.ALL_FAMILIES)
     ranges = {}                   # per-family parameter ranges, e.g. {canyon = {cliff_m = [8, 12]}}
     resample = "reset"            # "reset": a new terrain on every reset(seed); "once": one, from seed
 
@@ -68,6 +68,7 @@ except ModuleNotFoundError:  # Python 3.10: the same parser from PyPI
 
 from ..errors import ParameterError, ScenarioError, check_fields, check_range
 from ..world import BatteryParams, RobotParams, SensorParams, WorldParams
+from .generators import ALL_FAMILIES, family_weights, validate_ranges
 
 __all__ = ["ScenarioError", "TerrainSpec", "RobotsSpec", "EntitiesSpec", "RewardWeights", "ObservationSpec",
            "ScenarioConfig", "load_scenario", "scenario_from_dict", "SCENARIO_DIR", "list_scenarios",
@@ -362,10 +363,8 @@ def _families(value, where):
 def _check_generated(terrain: TerrainSpec, robots: RobotsSpec, targets: EntitiesSpec, task, source):
     """A generated terrain brings its own target and spawn region; its families, ranges and
     ``resample`` are checked here, at load, so that errors name the file."""
-    from .generators import PARAMS, _weights, validate_ranges
-
     where = f"{source} [terrain]"
-    names, _ = _weights(terrain.families or tuple(PARAMS), where)
+    names, _ = family_weights(terrain.families or ALL_FAMILIES, where)
     validate_ranges(terrain.ranges, names, f"{where} ranges")
     if terrain.resample not in ("reset", "once"):
         raise ScenarioError(f"{where}: 'resample' must be 'reset' or 'once', got {terrain.resample!r}")

@@ -234,7 +234,7 @@ def test_smoke_train_with_imitation_in_a_subprocess_then_load_and_evaluate_the_p
 def test_shielded_vec_env_steps_with_the_shielded_actions():
     """``shield="safety_cut"``: each copy steps with its robots' actions passed through the
     policy-file shield of that copy (same rollouts as an unshielded VecEnv given the cut actions)."""
-    from tin_swarm_env.policies.learned import _Shield
+    from tin_swarm_env.policies.base import SafetyShield
 
     a, b = (tse.adapters.make_sb3_vec_env("cliff_goal", n_robots=6, n_envs=2, seed=4, max_cycles=40, shield=s)
             for s in ("safety_cut", "none"))
@@ -243,7 +243,7 @@ def test_shielded_vec_env_steps_with_the_shielded_actions():
     cut_any = False
     for _ in range(30):
         act = rng.uniform(-1, 1, (a.num_envs, 2)).astype(np.float32)
-        cut = np.concatenate([_Shield(e)(act[c * 6:(c + 1) * 6], ob[c * 6:(c + 1) * 6]) for c, e in enumerate(b.envs)])
+        cut = np.concatenate([SafetyShield(e)(act[c * 6:(c + 1) * 6], ob[c * 6:(c + 1) * 6]) for c, e in enumerate(b.envs)])
         cut_any |= not np.allclose(cut, act)
         oa, ra, da, _ = a.step(act)
         ob, rb, db, _ = b.step(cut)

@@ -13,7 +13,7 @@ import numpy as np
 from tin_swarm_env.scenario import load_scenario
 from tin_swarm_env.scenario.build import build_tin_for
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_scenario_config_imports_without_tomllib_using_tomli():

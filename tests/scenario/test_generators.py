@@ -17,7 +17,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from tin_swarm_env.scenario import generators as gen
 from tin_swarm_env.scenario.config import ScenarioError
-from tin_swarm_env.scenario.generators import DEFAULT_RANGES, PARAMS, generate, replay, validate_ranges
+from tin_swarm_env.scenario.generators import ALL_FAMILIES, DEFAULT_RANGES, PARAMS, generate, replay, validate_ranges
 
 MAX_SLOPE = 30.0
 
@@ -84,7 +84,7 @@ def same(a, b):
             and a.detour_side == b.detour_side and a.seed == b.seed)
 
 
-@pytest.mark.parametrize("families", [("canyon",), ("mesa",), ("hills",), ("canyon", "mesa", "hills")])
+@pytest.mark.parametrize("families", [(f,) for f in ALL_FAMILIES] + [ALL_FAMILIES])
 def test_same_seed_same_task_bit_for_bit_and_different_seeds_differ(families):
     a = generate(np.random.default_rng(7), families)
     b = generate(np.random.default_rng(7), families)
@@ -95,7 +95,7 @@ def test_same_seed_same_task_bit_for_bit_and_different_seeds_differ(families):
         assert a.dem.z.shape != o.dem.z.shape or not np.array_equal(a.dem.z, o.dem.z)
 
 
-@pytest.mark.parametrize("family", ["canyon", "mesa", "hills"])
+@pytest.mark.parametrize("family", ALL_FAMILIES)
 def test_replay_rebuilds_the_task_from_family_params_and_seed(family):
     for seed in range(3):
         t = task_for(family, seed)
@@ -119,7 +119,7 @@ def test_generate_consumes_one_stream_in_order():
 # -- geometry ---------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("family", ["canyon", "mesa", "hills"])
+@pytest.mark.parametrize("family", ALL_FAMILIES)
 def test_every_task_is_solvable_on_the_grid_and_inside_the_map(family):
     for seed in range(30):
         t = task_for(family, seed)
@@ -133,7 +133,7 @@ def test_every_task_is_solvable_on_the_grid_and_inside_the_map(family):
         assert np.all(np.isfinite(t.dem.z))
 
 
-@pytest.mark.parametrize("family", ["canyon", "mesa"])
+@pytest.mark.parametrize("family", ["canyon", "mesa", "fork", "trap"])
 def test_the_straight_line_is_blocked_and_the_cliff_is_steep(family):
     for seed in range(30):
         t = task_for(family, seed)
@@ -164,7 +164,7 @@ def test_passes_are_gentle_at_most_half_the_robots_limit(family, max_slope):
         assert slope[spawn_cells(t)].max() <= max_slope / 10 + 1e-6
 
 
-@pytest.mark.parametrize("family", ["canyon", "mesa"])
+@pytest.mark.parametrize("family", ["canyon", "mesa", "fork"])
 def test_spawn_on_top_or_bottom_puts_the_spawn_above_or_below_the_target(family):
     for spawn_on in ("top", "bottom"):
         for seed in range(5):
@@ -276,8 +276,8 @@ def test_a_draw_that_does_not_fit_its_map_is_drawn_again_and_counts_toward_max_t
 
 def tin_route(task, tin):
     """Side ("left"/"right") of the shortest route over passable triangles from the spawn centre to
-    the target (triangle adjacency, centroid hops), read where the route is halfway down; None when
-    there is none."""
+    the target (triangle adjacency, centroid hops), read where the route is halfway down (on level
+    ground: where it strays furthest from the straight line); None when there is none."""
     passable = tin.slope_deg <= MAX_SLOPE
     n = len(tin.triangles)
     cen = tin.vertices[tin.triangles].mean(axis=1)  # (T, 3)
@@ -295,12 +295,16 @@ def tin_route(task, tin):
     while path[-1] != s:
         path.append(pred[path[-1]])
     z = cen[path, 2]
-    mid = cen[path[int(np.argmin(np.abs(z - (z[0] + z[-1]) / 2)))], :2]
-    d, r = task.targets[0] - task.spawn_centre, mid - task.spawn_centre
-    return "left" if d[0] * r[1] - d[1] * r[0] > 0 else "right"
+    d, r = task.targets[0] - task.spawn_centre, cen[path, :2] - task.spawn_centre
+    cross = d[0] * r[:, 1] - d[1] * r[:, 0]  # (len(path),) + = left of the straight line
+    if abs(z[0] - z[-1]) > 2.0:
+        k = int(np.argmin(np.abs(z - (z[0] + z[-1]) / 2)))
+    else:  # no way up or down (trap: a way round on level ground): where it strays furthest
+        k = int(np.argmax(np.abs(cross)))
+    return "left" if cross[k] > 0 else "right"
 
 
-@pytest.mark.parametrize("family", ["canyon", "mesa", "hills"])
+@pytest.mark.parametrize("family", ALL_FAMILIES)
 def test_tin_tasks_with_a_solvable_check_are_solvable_on_the_greedy_tin(family):
     """What the integrator does with cost_to_go: mesh each draw (greedy, 0.5 m) and keep it only if
     the target is reachable over passable triangles; the route then goes the labelled way, the
@@ -336,7 +340,7 @@ def test_tin_tasks_with_a_solvable_check_are_solvable_on_the_greedy_tin(family):
 def test_every_parameter_is_in_the_module_docstring_table():
     rows = [ln.split() for ln in gen.__doc__.splitlines() if ln[:1] and not ln.startswith("=")]
     listed = {(r[0], r[1]) for r in rows if len(r) > 1}
-    common = set(PARAMS["canyon"]) & set(PARAMS["mesa"]) & set(PARAMS["hills"])
+    common = set.intersection(*(set(PARAMS[f]) for f in ALL_FAMILIES))
     for fam, spec in PARAMS.items():
         for key in spec:
             assert (("(all)", key) if key in common else (fam, key)) in listed, (fam, key)
@@ -409,3 +413,158 @@ def test_a_low_cliff_is_raised_until_it_is_steeper_than_the_cliff_minimum(max_sl
         z = np.array([t.dem.z[cell(t.dem, s + f * (g - s))] for f in np.linspace(0, 1, 1000)])
         step_deg = np.degrees(np.arctan(np.abs(np.diff(z)).max() / 4.0))
         assert cliff_deg - 1e-9 <= step_deg < cliff_deg + 1.0
+
+
+# -- fork and trap: sides, dead ends, variety ---------------------------------------------------
+
+
+def cross_side(task, point):
+    """'left' / 'right': the sign of (spawn centre -> target) x (spawn centre -> point)."""
+    d, r = task.targets[0] - task.spawn_centre, np.asarray(point) - task.spawn_centre
+    return "left" if d[0] * r[1] - d[1] * r[0] > 0 else "right"
+
+
+@pytest.mark.parametrize("family", ["fork", "trap"])
+def test_fork_and_trap_the_way_round_is_left_as_often_as_right_and_really_goes_that_way(family):
+    """Over 100 seeds: the useful pass (fork: the nearest way through, ``passes[0]``; trap: the
+    opening) is on the left as often as on the right by the cross product, the label says so,
+    and on the grid the target is reachable keeping to that side of the straight line only."""
+    sides = []
+    for seed in range(100):
+        t = task_for(family, seed)
+        side = cross_side(t, t.passes[0].mean(axis=0))
+        assert side == t.detour_side == t.params["side"], (seed, t.params)
+        assert all(cross_side(t, p.mean(axis=0)) == side for p in t.passes)  # every way through
+        assert detour_routes(t) == EXPECTED[side], (seed, t.params)
+        sides.append(side)
+    n_left = sides.count("left")
+    assert stats.binomtest(n_left, len(sides), 0.5).pvalue > 0.01, n_left
+
+
+def test_fork_dead_ends_lie_on_both_sides_and_some_between_the_line_and_the_way_through():
+    where = {"same": 0, "other": 0}
+    for seed in range(100):
+        t = task_for("fork", seed)
+        for e in t.dead_ends:
+            where["same" if cross_side(t, e[0]) == t.detour_side else "other"] += 1
+    assert where["same"] >= 15 and where["other"] >= 15, where
+
+
+def test_fork_and_trap_shapes_vary():
+    seen = {k: set() for k in ("dead_end", "spawn_on", "n_dead", "barrier", "shape", "heading")}
+    sizes = []
+    for seed in range(60):
+        f, tr = task_for("fork", seed), task_for("trap", seed)
+        seen["dead_end"].add(f.params["dead_end"])
+        seen["spawn_on"].add(f.params["spawn_on"])
+        seen["n_dead"].add(len(f.dead_ends))
+        seen["barrier"].add(tr.params["barrier"])
+        seen["shape"].add(tr.params["shape"])
+        seen["heading"].add(tr.params["heading"])
+        sizes.append(f.dem.shape[0] * f.params["cell_m"])
+    assert seen["dead_end"] == {"pocket", "spur"} and seen["spawn_on"] == {"top", "bottom"}
+    assert seen["n_dead"] == {0, 1, 2, 3} and seen["barrier"] == {"wall", "trench"}
+    assert seen["shape"] == {"round", "square"} and seen["heading"] == set(gen.HEADINGS)
+    assert max(sizes) > 1.5 * min(sizes)
+
+
+def test_fork_ramps_and_pocket_ramps_are_gentle_and_the_plateau_is_not():
+    for seed in range(20):
+        t = task_for("fork", seed, dead_end=["pocket"])
+        gy, gx = np.gradient(t.dem.z, t.dem.dx)
+        slope = np.degrees(np.arctan(np.hypot(gx, gy)))
+        for a, b in t.passes:
+            za, zb = (t.dem.z[cell(t.dem, q)] for q in (a, b))
+            assert za > zb + 5.0  # high end first
+            on = np.array([slope[cell(t.dem, a + f * (b - a))] for f in np.linspace(0.02, 0.98, 200)])
+            assert on.max() <= MAX_SLOPE / 2 + 1e-6, (seed, on.max())
+        for entry, far in t.dead_ends:  # the pocket's ramp: from its entry to its foot, then the pit
+            za, zf = t.dem.z[cell(t.dem, entry)], t.dem.z[cell(t.dem, far)]
+            zs, zt = (t.dem.z[cell(t.dem, q)] for q in (t.spawn_centre, t.targets[0]))
+            if t.params["spawn_on"] == "top":
+                assert zf < zt - 2.0 < za  # the pit's floor is below the target's floor
+            else:
+                assert zf > zt + 2.0 and abs(za - zs) < 2.0  # a block above the target's plateau
+
+
+def _mouth_closed(t, entry, far):
+    """The grid's passable cells with the dead end's mouth closed: a box across its axis at its
+    entry, as wide as a ramp with its flanks plus two cells and reaching 2.5 flank widths plus two
+    cells each way along it: a ramp's flanks (18 deg) meet the ground while the ramp (9 deg or more)
+    is less than tan(18) / tan(9) = 2.05 flank widths from its end."""
+    p = t.params
+    flare = 4.0 + 2.0 * p["cell_m"]
+    half_w = p["pass_width_m"] / 2 + flare + 2 * p["cell_m"] + (2 * p["cell_m"] + 2.0)
+    reach = 2.5 * flare + 2 * p["cell_m"]
+    a = (far - entry) / np.linalg.norm(far - entry)
+    X, Y = np.meshgrid(t.dem.x, t.dem.y)
+    along, across = (X - entry[0]) * a[0] + (Y - entry[1]) * a[1], (Y - entry[1]) * a[0] - (X - entry[0]) * a[1]
+    assert reach < np.linalg.norm(far - entry) - 2 * p["cell_m"]  # the box never covers the far end
+    return passable_cells(t.dem) & ~((np.abs(along) <= reach) & (np.abs(across) <= half_w))
+
+
+def test_fork_dead_ends_are_entered_from_the_spawn_side_and_left_only_the_way_in():
+    """Grid: every dead end's far end (pocket floor, block top, spur tip, blind canyon's end) is
+    reachable from the spawn region; with its mouth closed, it is reachable from neither the spawn
+    nor the target (pockets and blocks: their ramp is the only way; spurs: their base)."""
+    n = 0
+    for seed in range(40):
+        t = task_for("fork", seed)
+        ok = passable_cells(t.dem)
+        s, g = cell(t.dem, t.spawn_centre), cell(t.dem, t.targets[0])
+        for entry, far in t.dead_ends:
+            f = cell(t.dem, far)
+            assert connected(ok, s, f), (seed, t.params)
+            if t.params["dead_end"] == "pocket":
+                closed = _mouth_closed(t, entry, far)
+                assert not connected(closed, s, f) and not connected(closed, g, f), (seed, t.params)
+                assert connected(closed, s, g)  # the way through stays open
+            n += 1
+    assert n >= 30
+
+
+def test_fork_dead_ends_cost_more_to_go_at_their_far_end_than_at_their_entry_on_the_tin():
+    """cost_to_go on the greedy TIN (what the env drives on): going into a dead end never brings a
+    robot nearer its target (its far end costs more to go than its entry, by a margin), while going
+    down a way through does (its target-side end costs less than its spawn-side end)."""
+    from tin_swarm_env.terrain import build_tin, cost_to_go
+
+    checked = sealed = 0
+    for seed in range(12):
+        t = task_for("fork", seed)
+        tin = build_tin(t.dem, method="greedy", max_error_m=0.5)
+        ctg = cost_to_go(tin, t.targets[0], passable=tin.slope_deg <= MAX_SLOPE)
+        if not np.isfinite(ctg.distance_at(t.spawn_centre[None])[0]):
+            continue  # a rare TIN sliver across a ramp: generate's solvable check draws again there
+        for a, b in t.passes:
+            near, far = sorted((a, b), key=lambda q: np.linalg.norm(q - t.spawn_centre))
+            dn, df = ctg.distance_at(np.array([near, far]))
+            assert df < dn - 0.5 * np.linalg.norm(far - near), (seed, dn, df)
+        for entry, far in t.dead_ends:
+            de, dfar = ctg.distance_at(np.array([entry, far]))
+            if not np.isfinite(dfar):  # a TIN sliver across its ramp sealed it (measured: 1 in 60)
+                sealed += 1
+                continue
+            assert dfar > de + 2.0, (seed, t.params["dead_end"], de, dfar)
+            # and the far end costs more than the way through's spawn-side end (the other pass)
+            way = min(t.passes[0], key=lambda q: np.linalg.norm(q - t.spawn_centre))
+            assert dfar > ctg.distance_at(way[None])[0], (seed, t.params)
+            checked += 1
+    assert checked >= 8 and sealed <= 1
+
+
+def test_trap_barrier_is_closed_toward_the_target_and_open_on_its_side():
+    """Grid: with the opening's cells closed (a disc round its middle), the spawn is cut off from the
+    target; the opening's middle is reachable from the spawn along a straight line."""
+    for seed in range(30):
+        t = task_for("trap", seed)
+        ok = passable_cells(t.dem)
+        s, g = cell(t.dem, t.spawn_centre), cell(t.dem, t.targets[0])
+        inside, outside = t.passes[0]
+        mid = (inside + outside) / 2
+        X, Y = np.meshgrid(t.dem.x, t.dem.y)
+        gap_w = 2 * np.linalg.norm(mid - t.spawn_centre) * math.sin(math.radians(t.params["gap_deg"]) / 2)
+        closed = ok & (np.hypot(X - mid[0], Y - mid[1]) > gap_w)
+        assert connected(ok, s, g) and not connected(closed, s, g), (seed, t.params)
+        line = [cell(t.dem, t.spawn_centre + f * (outside - t.spawn_centre)) for f in np.linspace(0, 1, 400)]
+        assert all(ok[rc] for rc in line), (seed, t.params)

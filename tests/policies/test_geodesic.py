@@ -2,9 +2,7 @@
 TINs with exact answers, the wall clearance by hand, arrival with 0 falls and the pass side on the
 canyon terrains (a reduced budget; bench/apf.py runs the full table)."""
 
-import sys
-from pathlib import Path
-
+from types import SimpleNamespace
 import numpy as np
 import pytest
 
@@ -15,9 +13,6 @@ from tin_swarm_env.policies.geodesic import clear_of_breaks, eroded
 from tin_swarm_env.terrain import Tin, cost_to_go, pinch_vertices
 from tin_swarm_env.world import World
 from tin_swarm_env.world.state import Reason
-
-sys.path.insert(0, str(Path(__file__).parent))
-from canyons import VARIANTS, canyon_config, pass_band  # noqa: E402
 
 
 def _grid_tin():
@@ -65,13 +60,13 @@ def test_eroded_drops_the_ring_round_impassable_triangles():
 
 def test_clear_of_breaks_hand_values():
     # a dangerous break 1 m ahead (closest point (1, 0), normal back toward the robot), clear 2.5 m
-    d = {"b_rel": np.array([[[1.0, 0.0]]] * 2), "b_normal": np.array([[[-1.0, 0.0]]] * 2),
-         "b_danger": np.array([[True], [True]])}
+    d = SimpleNamespace(b_rel=np.array([[[1.0, 0.0]]] * 2), b_normal=np.array([[[-1.0, 0.0]]] * 2),
+                        b_danger=np.array([[True], [True]]))
     u = np.array([[1.0, 0.0], [0.0, 1.0]])
     # into it: the approach is removed and 1 - 1/2.5 = 0.6 pushes back; along it: kept, pushed off
     np.testing.assert_allclose(clear_of_breaks(u, d, 2.5), [[-0.6, 0.0], [-0.6, 1.0]], atol=1e-12)
     assert np.array_equal(clear_of_breaks(u, d, 1.0), u)  # beyond clear_m: untouched
-    d["b_danger"][:] = False
+    d.b_danger[:] = False
     assert np.array_equal(clear_of_breaks(u, d, 2.5), u)
 
 
@@ -89,8 +84,8 @@ def test_geodesic_arrives_on_cliff_goal_without_falls_and_act_matches_act_batch(
     assert all(env.action_space(k).contains(v) for k, v in a.items())
 
 
-@pytest.mark.parametrize("side,travel", VARIANTS)
-def test_geodesic_heads_for_the_pass_on_either_side(side, travel):
+def test_geodesic_heads_for_the_pass_on_either_side(canyon_config, pass_band, canyon_variant):
+    side, travel = canyon_variant
     env = tse.parallel_env(scenario=canyon_config(side, travel, robots=10))
     env.reset_arrays(seed=0)
     pol = GeodesicPolicy(env)
@@ -100,7 +95,7 @@ def test_geodesic_heads_for_the_pass_on_either_side(side, travel):
     assert np.all(np.isfinite(dist)) and np.all(np.sign(u[:, 1]) == toward), (side, travel, u)
 
 
-def test_geodesic_arrives_through_an_unseen_canyon_pass_on_the_right():
+def test_geodesic_arrives_through_an_unseen_canyon_pass_on_the_right(canyon_config):
     env = tse.parallel_env(scenario=canyon_config("right", "east", robots=10, max_cycles=700))
     out = rollout(env, GeodesicPolicy(env), 0)
     assert out.count(Reason.FELL) == 0 and out.count(Reason.ARRIVED) == 10, out.counts()

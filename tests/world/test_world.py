@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-from conftest import random_tin
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -204,7 +203,7 @@ def test_flat_world_matches_the_tin_world_on_a_flat_tin():
     assert ra.robots.as_set() == rb.robots.as_set() and ra.targets.as_set() == rb.targets.as_set()
 
 
-def test_same_seed_same_commands_same_trajectories_bit_for_bit():
+def test_same_seed_same_commands_same_trajectories_bit_for_bit(random_tin):
     tin = random_tin(3, 60, zscale=40)
 
     def run(seed):
@@ -262,7 +261,7 @@ def test_bad_input_is_named():
 # -- batched vs per-robot reference -------------------------------------------------------------
 
 
-def _sense_against_reference(seed, n, sensor, n_entities):
+def _sense_against_reference(random_tin, seed, n, sensor, n_entities):
     """A random world (some robots fallen or empty), its batched sensing and the per-robot
     reference's sets, the robot/target/asset contacts already checked equal; None when the
     random TIN has no traversable triangle."""
@@ -288,8 +287,8 @@ def _sense_against_reference(seed, n, sensor, n_entities):
 @settings(max_examples=25)
 @given(st.integers(0, 10_000), st.integers(1, 40), st.floats(20, 400), st.floats(30, 360),
        st.booleans())
-def test_batched_sensing_equals_a_per_robot_loop(seed, n, range_m, fov, los):
-    out = _sense_against_reference(seed, n, {"range_m": range_m, "fov_deg": fov, "check_los": los}, 3)
+def test_batched_sensing_equals_a_per_robot_loop(random_tin, seed, n, range_m, fov, los):
+    out = _sense_against_reference(random_tin, seed, n, {"range_m": range_m, "fov_deg": fov, "check_los": los}, 3)
     if out is None:
         return
     w, s, got, ref = out
@@ -322,7 +321,7 @@ def substep_reference(w, p0, d, n_sub=4000):
 
 @settings(max_examples=30)
 @given(st.integers(0, 10_000))
-def test_locomotion_walk_matches_substepping(seed):
+def test_locomotion_walk_matches_substepping(random_tin, seed):
     tin = random_tin(seed, 30, zscale=150)
     w = World(tin, params(robot={"max_slope_deg": 15.0, "max_climb_deg": 80.0}))
     if (~w.steep).sum() == 0:
@@ -409,8 +408,8 @@ def test_max_candidates_must_be_a_positive_integer():
 @settings(max_examples=20)
 @given(st.integers(0, 10_000), st.integers(2, 40), st.floats(50, 400), st.floats(30, 360), st.booleans(),
        st.integers(1, 6))
-def test_batched_sensing_with_few_candidates_equals_the_per_robot_loop(seed, n, range_m, fov, los, k):
-    out = _sense_against_reference(seed, n, {"range_m": range_m, "fov_deg": fov, "check_los": los,
+def test_batched_sensing_with_few_candidates_equals_the_per_robot_loop(random_tin, seed, n, range_m, fov, los, k):
+    out = _sense_against_reference(random_tin, seed, n, {"range_m": range_m, "fov_deg": fov, "check_los": los,
                                              "max_candidates": k}, 6)
     if out is None:
         return

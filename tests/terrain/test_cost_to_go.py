@@ -6,7 +6,6 @@ from unittest import mock
 
 import numpy as np
 import pytest
-from conftest import random_tin
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
@@ -123,7 +122,7 @@ def test_goal_on_impassable_ground_is_unreachable_everywhere():
 
 
 @given(st.integers(0, 10_000))
-def test_goal_and_point_on_one_triangle_is_the_straight_line(seed):
+def test_goal_and_point_on_one_triangle_is_the_straight_line(random_tin, seed):
     tin = random_tin(seed, 30)
     rng = np.random.default_rng(seed)
     passable = rng.random(tin.n_triangles) < 0.6
@@ -137,7 +136,7 @@ def test_goal_and_point_on_one_triangle_is_the_straight_line(seed):
 
 
 @given(st.integers(0, 10_000), st.integers(3, 150))
-def test_flat_plane_is_the_straight_line_everywhere(seed, n):
+def test_flat_plane_is_the_straight_line_everywhere(random_tin, seed, n):
     tin = random_tin(seed, n, zscale=0.0)
     rng = np.random.default_rng(seed)
     g = rng.uniform(0, 1000, 2)
@@ -171,7 +170,7 @@ def test_outside_points_and_bad_arguments():
 # -- properties on random TINs with obstacles ---------------------------------------------
 
 
-def obstacle_case(seed, n=40, n_discs=3):
+def obstacle_case(random_tin, seed, n=40, n_discs=3):
     tin = random_tin(seed, n)
     rng = np.random.default_rng(seed)
     passable = disc_obstacles(tin, rng, n_discs)
@@ -182,8 +181,8 @@ def obstacle_case(seed, n=40, n_discs=3):
 
 
 @given(st.integers(0, 10_000))
-def test_never_below_straight_line_and_triangle_inequality(seed):
-    tin, passable, goal, rng = obstacle_case(seed)
+def test_never_below_straight_line_and_triangle_inequality(random_tin, seed):
+    tin, passable, goal, rng = obstacle_case(random_tin, seed)
     ctg = cost_to_go(tin, goal, passable)
     q = rng.uniform(0, 1000, (400, 2))
     d = ctg.distance_at(q)
@@ -200,10 +199,10 @@ def test_never_below_straight_line_and_triangle_inequality(seed):
 
 
 @given(st.integers(0, 10_000))
-def test_every_path_link_is_drivable_and_sums_up(seed):
+def test_every_path_link_is_drivable_and_sums_up(random_tin, seed):
     """Any-angle values are lengths of real paths: each node's parent link is a segment on
     passable ground (checked by dense sampling against every triangle) and its length adds up."""
-    tin, passable, goal, _ = obstacle_case(seed, n=25)
+    tin, passable, goal, _ = obstacle_case(random_tin, seed, n=25)
     ctg = cost_to_go(tin, goal, passable, steiner_per_edge=1)
     D, par, xy = ctg.node_distance, ctg._parent, ctg.node_xy
     r = np.flatnonzero(np.isfinite(D))
@@ -217,13 +216,13 @@ def test_every_path_link_is_drivable_and_sums_up(seed):
 
 @settings(max_examples=8)
 @given(st.integers(0, 10_000))
-def test_agrees_with_a_dense_grid_dijkstra(seed):
+def test_agrees_with_a_dense_grid_dijkstra(random_tin, seed):
     """Tolerance: the grid's 32 move directions overestimate a straight leg by <= 1.3 %, and a
     grid path keeps cell centres on passable ground, so it bends up to about one cell wide of
     each obstacle corner (absolute slack 3 cells); ours overestimates by Theta*'s rare detours.
     Compared at cells 2 cells clear of impassable ground, where both are finite; the passable
     region must not be pinched at a vertex (a path the grid cannot follow)."""
-    tin, passable, goal, rng = obstacle_case(seed, n=40, n_discs=3)
+    tin, passable, goal, rng = obstacle_case(random_tin, seed, n=40, n_discs=3)
     assume(not has_pinch(tin, passable))
     cell = 10.0
     xs, ys, dg = reference.cost_to_go_grid(tin, goal, passable, cell)
@@ -250,10 +249,10 @@ def test_agrees_with_a_dense_grid_dijkstra(seed):
 
 @settings(max_examples=15, deadline=None)
 @given(st.integers(0, 10_000), st.integers(0, 3))
-def test_agrees_with_the_exact_visibility_graph(seed, m):
+def test_agrees_with_the_exact_visibility_graph(random_tin, seed, m):
     """Against the exact field (visibility graph over every vertex, brute force): the window
     propagation is exact but for windows dropped between test points; allow 0.5 %."""
-    tin, passable, goal, rng = obstacle_case(seed, n=20, n_discs=3)
+    tin, passable, goal, rng = obstacle_case(random_tin, seed, n=20, n_discs=3)
     ctg = cost_to_go(tin, goal, passable, steiner_per_edge=m)
     q = rng.uniform(0, 1000, (150, 2))
     d = ctg.distance_at(q)
@@ -285,8 +284,8 @@ def test_corners_are_reflex_or_pinched_boundary_vertices():
 
 
 @given(st.integers(0, 10_000))
-def test_a_step_along_direction_lowers_distance_by_the_step(seed):
-    tin, passable, goal, rng = obstacle_case(seed)
+def test_a_step_along_direction_lowers_distance_by_the_step(random_tin, seed):
+    tin, passable, goal, rng = obstacle_case(random_tin, seed)
     ctg = cost_to_go(tin, goal, passable)
     q = rng.uniform(0, 1000, (400, 2))
     d, u = ctg.query(q)
@@ -306,10 +305,10 @@ def test_a_step_along_direction_lowers_distance_by_the_step(seed):
 
 
 @given(st.integers(0, 10_000), st.integers(1, 6))
-def test_split_fans_matches_the_connected_components_reference(seed, n_discs):
+def test_split_fans_matches_the_connected_components_reference(random_tin, seed, n_discs):
     """split_fans against scipy's connected components of the corners: the same pinch vertices,
     and two passable corners share a vertex id after the split iff they share a fan."""
-    tin, passable, _, _ = obstacle_case(seed, n=25, n_discs=n_discs)
+    tin, passable, _, _ = obstacle_case(random_tin, seed, n=25, n_discs=n_discs)
     tris2, vorig = K.split_fans(tin.triangles, tin.neighbors, passable, tin.n_vertices)
     np.testing.assert_array_equal(tse.terrain.pinch_vertices(tin, passable),
                                   reference.pinch_vertices_brute(tin, passable))
@@ -324,8 +323,8 @@ def test_split_fans_matches_the_connected_components_reference(seed, n_discs):
 
 
 @given(st.integers(0, 10_000))
-def test_plain_graph_matches_scipy_dijkstra(seed):
-    tin, passable, goal, _ = obstacle_case(seed, n=25)
+def test_plain_graph_matches_scipy_dijkstra(random_tin, seed):
+    tin, passable, goal, _ = obstacle_case(random_tin, seed, n=25)
     ctg = cost_to_go(tin, goal, passable, steiner_per_edge=2, any_angle=False)
     ref = reference.cost_to_go_graph_brute(ctg)
     np.testing.assert_allclose(ctg.node_distance, ref, rtol=1e-12, atol=1e-9)
@@ -333,8 +332,8 @@ def test_plain_graph_matches_scipy_dijkstra(seed):
 
 @settings(max_examples=10)
 @given(st.integers(0, 10_000), st.booleans())
-def test_compiled_kernels_match_py_func(seed, any_angle):
-    tin, passable, goal, rng = obstacle_case(seed, n=20)
+def test_compiled_kernels_match_py_func(random_tin, seed, any_angle):
+    tin, passable, goal, rng = obstacle_case(random_tin, seed, n=20)
     ctg = cost_to_go(tin, goal, passable, steiner_per_edge=1, any_angle=any_angle)
     gt = np.flatnonzero(ctg.goal_triangles)
     if any_angle:

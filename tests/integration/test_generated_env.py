@@ -7,6 +7,7 @@ from pettingzoo.test import parallel_api_test, parallel_seed_test, seed_test
 import tin_swarm_env as tse
 from tin_swarm_env import tin_swarm_v0
 from tin_swarm_env.scenario import ScenarioError, load_scenario, scenario_from_dict
+from tin_swarm_env.scenario.generators import ALL_FAMILIES
 
 SMALL = {"scenario": "generated", "n_robots": 4}
 
@@ -69,7 +70,7 @@ def test_spaces_never_change_and_every_task_is_solvable():
         t_goal = env.tin.locate(env.task.targets)[0]
         assert np.all(piece[env.world_state.tri_idx] == piece[t_goal]) and piece[t_goal] >= 0
         assert all(obs_space.contains(o) for o in obs.values())
-    assert families == {"canyon", "mesa", "hills"}
+    assert len(families) >= 3 and families <= set(ALL_FAMILIES)
 
 
 def test_parallel_api_test_with_resampling():
@@ -128,7 +129,7 @@ def test_counted_assets_are_placed_reachable_from_the_generated_spawn_region(tmp
 def test_builtin_generated_scenario():
     cfg = load_scenario("generated")
     assert cfg.terrain.source == "generated" and cfg.terrain.resample == "reset"
-    assert set(cfg.terrain.families) == {"canyon", "mesa", "hills"} and cfg.robots.count == 20
+    assert cfg.terrain.families == () and cfg.robots.count == 20  # () = every family (ALL_FAMILIES)
 
 
 def test_cli_runs_three_episodes_on_generated(capsys):

@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-from conftest import random_tin
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -11,7 +10,7 @@ from tin_swarm_env.terrain import load_tin, save_tin
 
 
 @given(st.integers(0, 10_000), st.integers(3, 40), st.sampled_from([".tin", ".npz"]))
-def test_round_trip_is_exact(tmp_path_factory, seed, n, suffix):
+def test_round_trip_is_exact(random_tin, tmp_path_factory, seed, n, suffix):
     tin = random_tin(seed, n, zscale=1e3 * (seed % 7 + 1) / 3.0)
     p = tmp_path_factory.mktemp("rt") / f"t{suffix}"
     save_tin(tin, p)
@@ -64,7 +63,7 @@ def test_empty_non_manifold_and_folded_files(tmp_path):
         load_tin(tmp_path / "missing.tin")
 
 
-def test_failed_write_leaves_no_partial_file_and_keeps_the_old_one(tmp_path, monkeypatch):
+def test_failed_write_leaves_no_partial_file_and_keeps_the_old_one(random_tin, tmp_path, monkeypatch):
     tin = random_tin(1)
     p = tmp_path / "keep.tin"
     save_tin(tin, p)
@@ -81,7 +80,7 @@ def test_failed_write_leaves_no_partial_file_and_keeps_the_old_one(tmp_path, mon
     assert [q.name for q in tmp_path.iterdir()] == ["keep.tin"]
 
 
-def test_save_errors(tmp_path):
+def test_save_errors(random_tin, tmp_path):
     tin = random_tin(1)
     with pytest.raises(ValueError, match="unknown TIN suffix"):
         save_tin(tin, tmp_path / "t.obj")

@@ -49,7 +49,7 @@ def test_ppo_config_maps_every_robot_to_one_shared_policy():
 
 
 def test_one_rllib_ppo_iteration_runs_locally(tmp_path):
-    script = Path(__file__).resolve().parents[1] / "agents" / "train_rllib.py"
+    script = Path(__file__).resolve().parents[2] / "agents" / "train_rllib.py"
     r = subprocess.run([sys.executable, str(script), "--scenario", "flat", "--n-robots", "4", "--max-cycles", "50",
                         "--iterations", "1", "--train-batch-size", "400", "--minibatch-size", "100",
                         "--num-epochs", "1", "--num-cpus", "2", "--out-dir", str(tmp_path / "rl")],

@@ -5,7 +5,6 @@ import math
 
 import numpy as np
 import pytest
-from conftest import random_tin
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -29,7 +28,7 @@ def contains(tin, t, p, tol=1e-9):
 
 
 @given(st.integers(0, 10_000), st.integers(3, 50))
-def test_locate_matches_brute_force(seed, n):
+def test_locate_matches_brute_force(random_tin, seed, n):
     tin = random_tin(seed, n)
     rng = np.random.default_rng(seed + 1)
     xy = rng.uniform(-100, 1100, (300, 2))  # some outside
@@ -62,7 +61,7 @@ def test_locate_on_a_non_convex_tin_falls_back_to_the_bucket_grid():
 
 
 @given(st.integers(0, 10_000))
-def test_height_exact_at_vertices_and_linear_along_edges(seed):
+def test_height_exact_at_vertices_and_linear_along_edges(random_tin, seed):
     tin = random_tin(seed, 25, zscale=300)
     np.testing.assert_allclose(tin.height_at(tin.vertices[:, :2]), tin.vertices[:, 2], atol=1e-9)
     rng = np.random.default_rng(seed)
@@ -75,7 +74,7 @@ def test_height_exact_at_vertices_and_linear_along_edges(seed):
     np.testing.assert_allclose(tin.height_at(xy), height_brute(tin, xy), atol=1e-8)
 
 
-def test_height_outside_names_the_point():
+def test_height_outside_names_the_point(random_tin):
     tin = random_tin(0)
     with pytest.raises(ValueError, match=r"point 1 at \[2000.0, 5.0\] lies outside"):
         tin.height_at([[5.0, 5.0], [2000.0, 5.0]])
@@ -113,7 +112,7 @@ def random_rays(tin, rng, n, height=(0.0, 30.0)):
 
 
 @given(st.integers(0, 10_000))
-def test_line_of_sight_matches_exact_brute_force_and_is_symmetric(seed):
+def test_line_of_sight_matches_exact_brute_force_and_is_symmetric(random_tin, seed):
     tin = random_tin(seed, 40, zscale=80)
     rng = np.random.default_rng(seed)
     a, b = random_rays(tin, rng, 150)
@@ -124,7 +123,7 @@ def test_line_of_sight_matches_exact_brute_force_and_is_symmetric(seed):
 
 
 @given(st.integers(0, 10_000))
-def test_line_of_sight_matches_dense_sampling_outside_a_band(seed):
+def test_line_of_sight_matches_dense_sampling_outside_a_band(random_tin, seed):
     tin = random_tin(seed, 30, zscale=80)
     rng = np.random.default_rng(seed)
     a, b = random_rays(tin, rng, 60)
@@ -170,7 +169,7 @@ def test_line_of_sight_through_vertices_uses_a_consistent_rule():
     np.testing.assert_array_equal(tin.line_of_sight(b, a), [False, False, False, True, True])
 
 
-def test_compiled_kernels_equal_their_plain_python_versions():
+def test_compiled_kernels_equal_their_plain_python_versions(random_tin):
     tin = random_tin(7, 40, zscale=80)
     rng = np.random.default_rng(0)
     xy = rng.uniform(-50, 1050, (200, 2))
@@ -209,7 +208,7 @@ def test_queries_on_jacksboro_agree_with_references(jacksboro):
     np.testing.assert_array_equal(tin.line_of_sight(a, b), line_of_sight_brute(tin, a, b))
 
 
-def test_slope_and_aspect_at_points_follow_their_triangles():
+def test_slope_and_aspect_at_points_follow_their_triangles(random_tin):
     tin = random_tin(3, 20, zscale=200)
     rng = np.random.default_rng(3)
     xy = rng.uniform(0, 1000, (100, 2))

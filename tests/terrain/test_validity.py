@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import random_tin
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -85,7 +84,7 @@ def _scan(v, tri, nbrs, compiled=True):
 
 
 @given(st.integers(0, 10_000), st.integers(3, 30), st.sampled_from(["none", "move", "add", "split_edge"]))
-def test_grid_scan_agrees_with_all_pairs_brute_force(seed, n, how):
+def test_grid_scan_agrees_with_all_pairs_brute_force(random_tin, seed, n, how):
     """The bucket-grid scan finds a bad pair exactly when testing all T^2 pairs does."""
     rng = np.random.default_rng(seed)
     base = random_tin(seed, n)

@@ -7,15 +7,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from canyons import canyon_config
 
 import tin_swarm_env as tse
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.mark.parametrize("side", ["left", "right"])
-def test_canyon_files_match_the_test_terrains(side):
+def test_canyon_files_match_the_test_terrains(canyon_config, side):
     a = tse.parallel_env(scenario=canyon_config(side, "east"))
     b = tse.parallel_env(scenario=str(ROOT / "scenarios" / f"canyon_{side}.toml"))
     assert a.max_cycles == b.max_cycles == 1500 and a.n == b.n == 20

@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-from conftest import random_tin
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -30,7 +29,7 @@ def test_orientation_and_neighbors_on_a_square():
 
 
 @given(st.integers(0, 10_000), st.integers(3, 60))
-def test_neighbor_k_is_across_the_edge_opposite_vertex_k(seed, n):
+def test_neighbor_k_is_across_the_edge_opposite_vertex_k(random_tin, seed, n):
     tin = random_tin(seed, n)
     t, nb = tin.triangles, tin.neighbors
     for i in range(tin.n_triangles):
@@ -134,7 +133,7 @@ def opposite_angle_violations(tin, tol_deg=1e-6):
 
 
 @given(st.integers(0, 10_000), st.integers(3, 80))
-def test_scattered_triangulation_is_delaunay(seed, n):
+def test_scattered_triangulation_is_delaunay(random_tin, seed, n):
     assert opposite_angle_violations(random_tin(seed, n)) == 0
 
 

@@ -13,7 +13,7 @@ import tin_swarm_env as tse
 from tin_swarm_env import Reason
 from tin_swarm_env.apps.rollout import rollout
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def run_py(code):

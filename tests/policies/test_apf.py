@@ -2,8 +2,7 @@
 full 20-seed table)."""
 
 import math
-import sys
-from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -96,19 +95,17 @@ def test_fields_subset_and_random_policy():
 
 # -- issue 11: the way round on either side, crowding --------------------------------------------
 
-sys.path.insert(0, str(Path(__file__).parent))
-from canyons import VARIANTS, canyon_config  # noqa: E402
-
 from tin_swarm_env.apps.rollout import rollout  # noqa: E402
 from tin_swarm_env.env.observation import ObsLayout  # noqa: E402
-from tin_swarm_env.policies.apf import BugMemory, bug_update, decode, keep_clear  # noqa: E402
+from tin_swarm_env.policies.apf import BugMemory, bug_update  # noqa: E402
+from tin_swarm_env.policies.base import decode, keep_clear  # noqa: E402
 from tin_swarm_env.world.fields import FieldParams as FP  # noqa: E402
 from tin_swarm_env.world.fields import follow_field  # noqa: E402
 from tin_swarm_env.world.state import Reason  # noqa: E402
 
 
-@pytest.mark.parametrize("side,travel", VARIANTS)
-def test_apf_finds_the_pass_on_either_side_of_an_unseen_canyon(side, travel):
+def test_apf_finds_the_pass_on_either_side_of_an_unseen_canyon(canyon_config, canyon_variant):
+    side, travel = canyon_variant
     # a cliff across the whole terrain, one pass at one end: half the robots first walk the
     # wrong way, meet the border in the corner and turn back
     env = tse.parallel_env(scenario=canyon_config(side, travel, robots=10))
@@ -143,7 +140,7 @@ def _obs(layout, R, target_xy, breaks=(), robots=(), speed=1.0):
 def _step(mem, obs, layout, R, params=None):
     params = FP() if params is None else params
     d = decode(obs, layout, R)
-    pull = d["rel_t"] / np.hypot(*d["rel_t"][0])
+    pull = d.rel_t / np.hypot(*d.rel_t[0])
     return bug_update(mem, np.arange(len(obs)), d, pull, params, 8.0)
 
 
@@ -270,9 +267,9 @@ def _gap_obs(points, normals, target):
     frame, robot at the origin) and the target at ``target``."""
     k = len(points)
     nrm = np.array([normals], dtype=float)
-    return {"b_rel": np.array([points], dtype=float), "b_normal": nrm / np.hypot(nrm[..., :1], nrm[..., 1:]),
-            "b_danger": np.ones((1, k), dtype=bool), "rel_t": np.array([target], dtype=float),
-            "has_t": np.array([True])}
+    return SimpleNamespace(b_rel=np.array([points], dtype=float), b_normal=nrm / np.hypot(nrm[..., :1], nrm[..., 1:]),
+                           b_danger=np.ones((1, k), dtype=bool), rel_t=np.array([target], dtype=float),
+                           has_t=np.array([True]))
 
 
 def test_pass_gap_takes_a_gap_between_two_break_ends_and_nothing_else():
@@ -305,7 +302,7 @@ def test_pass_gap_takes_a_gap_between_two_break_ends_and_nothing_else():
     assert g["has"][0]
 
 
-def test_a_robot_following_a_wall_drives_through_a_gap_in_it_once_per_following():
+def test_a_robot_following_a_wall_drives_through_a_gap_in_it_once_per_following(canyon_config):
     # a cliff along y = -5 (body frame), the target beyond it: first seen square on (blocked: the
     # robot starts following), then a 6 m gap between two ends: the ends do not push the robot
     # back and its command points through the gap

@@ -89,7 +89,7 @@ def test_missing_dem_file_and_target_in_a_cliff(tmp_path):
 def test_the_example_dem_scenario_in_scenarios_dir_runs_by_path():
     from pathlib import Path
 
-    p = Path(__file__).resolve().parents[1] / "scenarios" / "valley.toml"
+    p = Path(__file__).resolve().parents[2] / "scenarios" / "valley.toml"
     env = tse.parallel_env(scenario=str(p), n_robots=4, max_cycles=20)
     env.reset(seed=0)
     assert env.world.tin.n_triangles > 100 and env.world.steep.any()

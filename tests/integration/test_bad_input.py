@@ -5,7 +5,7 @@ nonsense, never a silent NaN.
 The README's "What bad input gets" table is generated from :data:`CASES` by
 :func:`test_readme_table_is_current`; after changing a message, regenerate it with
 
-    TIN_SWARM_WRITE_DOCS=1 python -m pytest tests/test_bad_input.py -k readme
+    TIN_SWARM_WRITE_DOCS=1 python -m pytest tests/integration/test_bad_input.py -k readme
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import tin_swarm_env as tse
 from tin_swarm_env.apps.cli import main
 from tin_swarm_env.errors import TinSwarmError
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 START, END = "<!-- bad-input-table:start -->", "<!-- bad-input-table:end -->"
 
 FLAT = ["--robots", "2", "--max-cycles", "3", "--quiet"]
@@ -239,7 +239,7 @@ def test_readme_table_is_current(workdir, capsys, monkeypatch):
     if os.environ.get("TIN_SWARM_WRITE_DOCS") == "1":
         readme.write_text(new)
     assert new == text, ("README.md's 'What bad input gets' table is stale; regenerate it with "
-                         "TIN_SWARM_WRITE_DOCS=1 python -m pytest tests/test_bad_input.py -k readme")
+                         "TIN_SWARM_WRITE_DOCS=1 python -m pytest tests/integration/test_bad_input.py -k readme")
 
 
 def test_check_range_refuses_nan_inf_bool_and_strings():

@@ -280,7 +280,7 @@ def test_shield_filters_through_the_safety_cut(tmp_path):
     """``"shield": "safety_cut"``: the action is the network's, cut by the same
     :func:`safety_cut` APF applies last (constants from the env); ``net_batch`` is the raw net;
     the key round-trips through the file and an unknown shield is refused naming the key."""
-    from tin_swarm_env.policies.apf import Controller, decode
+    from tin_swarm_env.policies.base import SafetyShield
 
     e = env(n_robots=12)
     rng = np.random.default_rng(1)
@@ -292,9 +292,8 @@ def test_shield_filters_through_the_safety_cut(tmp_path):
     plain = load_policy(save_policy(tmp_path / "plain", layers, layout=e.layout, scenario="cliff_goal"), e)
     assert "shield" not in json.loads((tmp_path / "plain" / "policy.json").read_text())
     obs = observations(300)
-    ctl = Controller()
-    ctl._read_constants(e.config)
-    want = ctl._cut(plain.act_batch(obs), decode(obs.astype(np.float64), e.layout, ctl.range_m))
+    ctl = SafetyShield(e)
+    want = ctl.cut(plain.act_batch(obs), ctl.decode(obs.astype(np.float64)))
     got = pol.act_batch(obs)
     np.testing.assert_array_equal(pol.net_batch(obs), plain.act_batch(obs))
     np.testing.assert_allclose(got, want, atol=1e-7)

@@ -18,7 +18,7 @@ from tin_swarm_env.errors import PolicyFileError
 from tin_swarm_env.policies import load_policy
 from tin_swarm_env.world.state import Reason
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SHARED = ROOT / "agents" / "models" / "shared"
 
 
