@@ -1,15 +1,21 @@
-"""APF against its references, in one run: arrived / fell / timed out / contacts per robot. By hand:
+"""APF against its references, in one run: arrived / fell / timed out, and of the timed out the
+stalled and looping robots (:mod:`tin_swarm_env.apps.trajectory`), contacts per robot. By hand:
 
-    python bench/apf.py [--seeds 5] [--robots N] [--jacksboro-seeds 5] [--generated 50] [--only cliff_goal,...]
-                        [--horizon]
+    python bench/apf.py                # the full run; writes the tables to docs/figures/apf.md
+    python bench/apf.py --quick        # a smoke run: 2 seeds a row, 3 per family, jacksboro 1; prints only
+    python bench/apf.py --horizon      # also: steps to arrive, APF against GeodesicPolicy, per terrain,
+                                       # and jacksboro's horizon analysis
+    [--seeds 5] [--robots N] [--jacksboro-seeds 5] [--generated 50] [--only cliff_goal,...] [--out FILE]
+    [--jobs 2]
 
-Policies: the APF baseline with all four fields, the APF without the break field (the thesis's
+Policies: the APF baseline with all its fields, the APF without the break field (the thesis's
 "poor ending": falls), :class:`~tin_swarm_env.policies.GeodesicPolicy` (knows the map: an upper
 bound, not a baseline) and uniform random actions. Terrains: every built-in goal scenario
 (``jacksboro`` with its 200 robots and 900 steps), the four canyon terrains of
-``tests/canyons.py`` (pass left or right, travelling east or west) and, with ``--generated K``,
-seeds 0..K-1 of the ``generated`` scenario (a new terrain per seed; default K = 50, 0 leaves it
-out). A terrain whose env cannot be built is reported as a skipped row with the error.
+``tests/canyons.py`` (pass left or right, travelling east or west) and, with ``--generated K``
+(default 50, 0 leaves them out), one row per generated family (:data:`ALL_FAMILIES`) over K
+held-out seeds (``EVAL_SEED0`` on, never used in training), APF and GeodesicPolicy only. A
+terrain whose env cannot be built is reported as a skipped row with the error.
 ``containment`` has no arrival: its rows give the mean distance to the assigned threat over the
 standoff (1.00 = on the ring) and contacts per robot.
 Every episode runs through :func:`~tin_swarm_env.apps.rollout.rollout`.
@@ -18,6 +24,9 @@ Every episode runs through :func:`~tin_swarm_env.apps.rollout.rollout`.
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import os
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -25,11 +34,15 @@ from pathlib import Path
 import numpy as np
 
 import tin_swarm_env as tse
+from tin_swarm_env.apps.evaluate import EVAL_SEED0
 from tin_swarm_env.apps.rollout import rollout
 from tin_swarm_env.policies import APFPolicy, GeodesicPolicy, RandomPolicy
+from tin_swarm_env.scenario import load_scenario
+from tin_swarm_env.scenario.generators import ALL_FAMILIES
 from tin_swarm_env.world.state import Reason
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
 from canyons import VARIANTS, canyon_config  # noqa: E402
 
 POLICIES = {
@@ -38,57 +51,129 @@ POLICIES = {
     "geodesic (knows the map)": lambda env: GeodesicPolicy(env),
     "random": lambda env: RandomPolicy(env, seed=0),
 }
+GENERATED_POLICIES = ("apf", "geodesic (knows the map)")  # the generated rows: the baseline and the bound
 GOAL_SCENARIOS = ("cliff_goal", "ramp", "hill", "flat", "jacksboro")
+QUICK = {"seeds": 2, "generated": 3, "jacksboro_seeds": 1}
 
 
-def _envs(args):
-    """(label, env factory, seeds) for every goal-task row."""
+@dataclasses.dataclass
+class Row:
+    """One terrain: its label, an env factory, the seeds and the policies it runs."""
+
+    label: str
+    make: object
+    seeds: range
+    policies: tuple = tuple(POLICIES)
+
+
+def generated_family(family: str, robots: int | None):
+    """The built-in ``generated`` scenario restricted to one family."""
+    cfg = load_scenario("generated")
+    cfg = cfg.replace(terrain=dataclasses.replace(cfg.terrain, families=(family,)))
+    return tse.parallel_env(scenario=cfg, n_robots=robots)
+
+
+def _rows(args) -> list[Row]:
     out = []
     for s in GOAL_SCENARIOS:
         n = None if s == "jacksboro" else args.robots
         seeds = range(args.jacksboro_seeds if s == "jacksboro" else args.seeds)
-        out.append((s, lambda s=s, n=n: tse.parallel_env(scenario=s, n_robots=n), seeds))
+        out.append(Row(s, lambda s=s, n=n: tse.parallel_env(scenario=s, n_robots=n), seeds))
     for side, travel in VARIANTS:
-        out.append((f"canyon, pass {side}, going {travel}",
-                    lambda a=side, b=travel: tse.parallel_env(scenario=canyon_config(a, b, robots=args.robots or 20)),
-                    range(args.seeds)))
-    if args.generated:
-        out.append((f"generated ({args.generated} seeds)",
-                    lambda: tse.parallel_env(scenario="generated", n_robots=args.robots), range(args.generated)))
-    return out
+        def make(a=side, b=travel):
+            return tse.parallel_env(scenario=canyon_config(a, b, robots=args.robots or 20))
+
+        out.append(Row(f"canyon, pass {side}, going {travel}", make, range(args.seeds)))
+    for fam in ALL_FAMILIES if args.generated else ():
+        out.append(Row(f"generated: {fam}", lambda f=fam: generated_family(f, args.robots),
+                       range(EVAL_SEED0, EVAL_SEED0 + args.generated), GENERATED_POLICIES))
+    return [r for r in out if not args.only or any(r.label.startswith(o) for o in args.only)]
 
 
-def goal_rows(args):
-    print("| terrain | policy | arrived | fell | timed out | contacts / robot | s |")
-    print("|---|---|---:|---:|---:|---:|---:|")
-    for label, make, seeds in _envs(args):
-        if args.only and not any(label.startswith(o) for o in args.only):
+_ROWS: list = []  # the rows of this run, set before the worker processes fork (rows hold lambdas)
+_WORKER_ENVS: dict = {}  # label -> env, one per process (built on its first episode of the row)
+
+
+def _episode(job):
+    """One episode ``(row index, policy name, seed) -> Outcome`` with a fresh policy, so the result
+    does not depend on which process ran it or in which order."""
+    k, name, seed = job
+    row = _ROWS[k]
+    env = _WORKER_ENVS.get(row.label)
+    if env is None:
+        env = _WORKER_ENVS[row.label] = row.make()
+    return rollout(env, POLICIES[name](env), seed)
+
+
+def goal_rows(args, emit) -> dict:
+    """Every goal row; returns ``{(label, policy): [Outcome, ...]}`` (one per seed, same order).
+    With ``args.jobs > 1`` the episodes of a row run in that many processes (forked)."""
+    emit("| terrain | policy | seeds x robots | arrived | fell | timed out | stalled | looping | contacts / robot "
+         "| s |")
+    emit("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    results = {}
+    _ROWS[:] = _rows(args)
+    pool = None
+    if args.jobs > 1:
+        import multiprocessing
+
+        pool = multiprocessing.get_context("fork").Pool(args.jobs)
+    try:
+        for k, row in enumerate(_ROWS):
+            try:
+                env = _WORKER_ENVS[row.label] = row.make()
+            except Exception as e:  # noqa: BLE001 - report the row as skipped, run the rest
+                emit(f"| {row.label} | (skipped: {type(e).__name__}: {e}) | | | | | | | | |")
+                continue
+            for name in row.policies:
+                t = time.perf_counter()
+                jobs = [(k, name, sd) for sd in row.seeds]
+                outs = pool.map(_episode, jobs, chunksize=1) if pool else [_episode(j) for j in jobs]
+                results[(row.label, name)] = outs
+                n = sum(o.n_robots for o in outs)
+                share = {k: sum(o.shares()[k] * o.n_robots for o in outs) / n
+                         for k in ("arrived", "fell", "timed_out", "stalled", "looping")}
+                contacts = sum(int(o.collisions.sum()) for o in outs) / n
+                emit(f"| {row.label} | {name} | {len(outs)} x {env.n} | {share['arrived']:.1%} | "
+                     f"{share['fell']:.1%} | {share['timed_out']:.1%} | {share['stalled']:.1%} | "
+                     f"{share['looping']:.1%} | {contacts:.2f} | {time.perf_counter() - t:.0f} |")
+            _WORKER_ENVS.pop(row.label, None)
+    finally:
+        if pool is not None:
+            pool.close()
+            pool.join()
+    return results
+
+
+def steps_rows(results, emit):
+    """Per terrain, APF's steps to arrive against GeodesicPolicy's, robot by robot: the same seed
+    puts every robot at the same spawn point under both policies, so the pairs compare like with
+    like. Over the robots that arrived under both: median steps of each and the median of the
+    per-robot ratio APF / geodesic; and the share that arrived under geodesic but not APF."""
+    emit("\nsteps to arrive, APF against GeodesicPolicy (robots that arrived under both; same seeds, same spawns)")
+    emit("| terrain | both arrived | APF steps (median) | geodesic steps (median) | APF / geodesic (median) "
+         "| geodesic only |")
+    emit("|---|---:|---:|---:|---:|---:|")
+    for label in dict.fromkeys(k[0] for k in results):
+        a, g = results.get((label, "apf")), results.get((label, "geodesic (knows the map)"))
+        if not a or not g:
             continue
-        try:
-            env = make()
-        except Exception as e:  # noqa: BLE001 - report the row as skipped, run the rest
-            print(f"| {label} | (skipped: {type(e).__name__}: {e}) | | | | | |")
+        sa = np.concatenate([np.where(o.reasons == Reason.ARRIVED, o.steps, -1) for o in a])
+        sg = np.concatenate([np.where(o.reasons == Reason.ARRIVED, o.steps, -1) for o in g])
+        both = (sa > 0) & (sg > 0)
+        only = np.mean((sg > 0) & (sa <= 0))
+        if not both.any():
+            emit(f"| {label} | 0 | | | | {only:.1%} |")
             continue
-        for name, make_pol in POLICIES.items():
-            t = time.perf_counter()
-            pol = make_pol(env)
-            c = {r: 0 for r in (Reason.ARRIVED, Reason.FELL, Reason.TIMEOUT)}
-            n = contacts = 0
-            for sd in seeds:
-                out = rollout(env, pol, sd)
-                for r in c:
-                    c[r] += out.count(r)
-                n += out.n_robots
-                contacts += int(out.collisions.sum())
-            print(f"| {label} | {name} | {c[Reason.ARRIVED] / n:.1%} | {c[Reason.FELL] / n:.1%} | "
-                  f"{c[Reason.TIMEOUT] / n:.1%} | {contacts / n:.2f} | {time.perf_counter() - t:.0f} |", flush=True)
+        emit(f"| {label} | {both.sum()} | {np.median(sa[both]):.0f} | {np.median(sg[both]):.0f} | "
+             f"{np.median(sa[both] / sg[both]):.2f} | {only:.1%} |")
 
 
-def containment_rows(args):
-    print("\ncontainment: mean distance to the assigned threat / standoff (1.00 = on the ring), worst seed "
-          "and threat, and contacts per robot")
-    print("| policy | distance / standoff (mean) | worst | fell | contacts / robot |")
-    print("|---|---:|---:|---:|---:|")
+def containment_rows(args, emit=print):
+    emit("\ncontainment: mean distance to the assigned threat / standoff (1.00 = on the ring), worst seed "
+         "and threat, and contacts per robot")
+    emit("| policy | distance / standoff (mean) | worst | fell | contacts / robot |")
+    emit("|---|---:|---:|---:|---:|")
     env = tse.parallel_env(scenario="containment", n_robots=args.robots)
     so = env.config.targets.standoff_m
     for name, make_pol in POLICIES.items():
@@ -105,10 +190,10 @@ def containment_rows(args):
             contacts += int(out.collisions.sum())
             n += out.n_robots
         worst = max(ratios, key=lambda r: abs(r - 1))
-        print(f"| {name} | {np.mean(ratios):.2f} | {worst:.2f} | {fell} | {contacts / n:.2f} |", flush=True)
+        emit(f"| {name} | {np.mean(ratios):.2f} | {worst:.2f} | {fell} | {contacts / n:.2f} |")
 
 
-def horizon_rows(args):
+def horizon_rows(args, emit=print):
     """Why APF times out on jacksboro: for each robot that timed out, the step at which it
     first followed a break plus the steps the shortest drivable path from there to its target
     takes at top speed (GeodesicPolicy's cost-to-go field). Above ``max_cycles``, no policy
@@ -116,9 +201,9 @@ def horizon_rows(args):
     env = tse.parallel_env(scenario="jacksboro")
     cfg = env.config
     step_m = cfg.world.robot.max_speed_mps * cfg.world.dt_s
-    print("\njacksboro, APF robots that timed out: first break contact + shortest path at top speed (steps)")
-    print("| seed | timed out | needed: min | median | max | share within max_cycles |")
-    print("|---:|---:|---:|---:|---:|---:|")
+    emit("\njacksboro, APF robots that timed out: first break contact + shortest path at top speed (steps)")
+    emit("| seed | timed out | needed: min | median | max | share within max_cycles |")
+    emit("|---:|---:|---:|---:|---:|---:|")
     for sd in range(args.jacksboro_seeds):
         pol = APFPolicy(env)
         first_t = np.full(env.n, -1)
@@ -136,53 +221,97 @@ def horizon_rows(args):
         out = rollout(env, pol, sd, on_step=on_step)
         late = np.nonzero((out.reasons == Reason.TIMEOUT) & (first_t >= 0))[0]
         if not len(late):
-            print(f"| {sd} | 0 | | | | |")
+            emit(f"| {sd} | 0 | | | | |")
             continue
         geo, targets = GeodesicPolicy(env), env.world_state.targets.positions
         need = np.empty(len(late))
         for k in np.unique(env.target_assignment[late]):
             mine = env.target_assignment[late] == k
             need[mine] = first_t[late[mine]] + geo.field(k, targets[k])[0].distance_at(first_xy[late[mine]]) / step_m
-        print(f"| {sd} | {len(late)} | {need.min():.0f} | {np.median(need):.0f} | {need.max():.0f} | "
-              f"{np.mean(need <= cfg.max_cycles):.0%} |", flush=True)
+        emit(f"| {sd} | {len(late)} | {need.min():.0f} | {np.median(need):.0f} | {need.max():.0f} | "
+             f"{np.mean(need <= cfg.max_cycles):.0%} |")
 
 
-def longer_rows(args, checkpoints=(900, 1200, 1500, 1800)):
+def longer_rows(args, emit=print, checkpoints=(900, 1200, 1500, 1800)):
     """Jacksboro's APF given more steps than the scenario's ``max_cycles``: the share of robots
     that arrived by each checkpoint (one episode of ``checkpoints[-1]`` steps per seed). It says
     whether APF's timeouts are robots that are lost or robots that are late."""
     env = tse.parallel_env(scenario="jacksboro", max_cycles=checkpoints[-1])
-    print(f"\njacksboro, APF given {checkpoints[-1]} steps: share of robots arrived by step ...")
-    print("| seed | " + " | ".join(str(c) for c in checkpoints) + " | fell |")
-    print("|---:|" + "---:|" * (len(checkpoints) + 1))
+    emit(f"\njacksboro, APF given {checkpoints[-1]} steps: share of robots arrived by step ...")
+    emit("| seed | " + " | ".join(str(c) for c in checkpoints) + " | fell |")
+    emit("|---:|" + "---:|" * (len(checkpoints) + 1))
     for sd in range(args.jacksboro_seeds):
         out = rollout(env, APFPolicy(env), sd)
         arrived = out.reasons == Reason.ARRIVED
         shares = [np.mean(arrived & (out.steps <= c)) for c in checkpoints]
-        print(f"| {sd} | " + " | ".join(f"{x:.1%}" for x in shares) + f" | {out.share(Reason.FELL):.1%} |", flush=True)
+        emit(f"| {sd} | " + " | ".join(f"{x:.1%}" for x in shares) + f" | {out.share(Reason.FELL):.1%} |")
+
+
+def _header(argv) -> str:
+    """The command, commit, date and load average the tables came from (one line)."""
+    try:
+        commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
+                                text=True, check=False).stdout.strip() or "?"
+    except OSError:
+        commit = "?"
+    cmd = " ".join(["python bench/apf.py", *argv])
+    return (f"Measured with `{cmd}` at commit {commit}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
+            f"load average {_load()} at the start ({os.cpu_count()} cores, shared).")
+
+
+def _load() -> str:
+    return " / ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
 def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--seeds", type=int, default=5, help="episodes per row (not jacksboro, not generated)")
     p.add_argument("--robots", type=int, default=None, help="robots per episode (default: the scenario's)")
     p.add_argument("--jacksboro-seeds", type=int, default=5)
     p.add_argument("--generated", type=int, default=50, metavar="K",
-                   help="seeds of the 'generated' scenario (0: none)")
+                   help="held-out seeds per generated family (0: no generated rows)")
     p.add_argument("--only", type=lambda s: s.split(","), default=None,
-                   help="comma-separated row prefixes (e.g. jacksboro,canyon,containment)")
+                   help="comma-separated row prefixes (e.g. jacksboro,canyon,generated: fork,containment)")
     p.add_argument("--horizon", action="store_true",
-                   help="also: for jacksboro's timed-out APF robots, first contact + shortest path at top speed; "
-                        "and APF on jacksboro given up to 1800 steps")
+                   help="also: APF's steps to arrive against GeodesicPolicy's per terrain; for jacksboro's "
+                        "timed-out APF robots, first contact + shortest path at top speed; and APF on jacksboro "
+                        "given up to 1800 steps")
+    p.add_argument("--jobs", type=int, default=1,
+                   help="processes for the goal rows' episodes (results do not depend on it; wall time does)")
+    p.add_argument("--quick", action="store_true",
+                   help=f"a smoke run ({QUICK}); prints only, unless --out is given")
+    p.add_argument("--out", default=None,
+                   help="Markdown file for the tables (default docs/figures/apf.md; none with --quick)")
     args = p.parse_args(argv)
-    print(f"{args.seeds} seeds per row ({args.jacksboro_seeds} on jacksboro), robots: "
-          f"{args.robots or 'the scenario default'}\n")
-    goal_rows(args)
-    if not args.only or "containment" in args.only:
-        containment_rows(args)
+    if args.quick:
+        for k, v in QUICK.items():
+            setattr(args, k, min(getattr(args, k), v))
+    out = args.out if args.out is not None else (None if args.quick else str(ROOT / "docs" / "figures" / "apf.md"))
+    lines = [_header(argv), ""]
+
+    def emit(line=""):
+        print(line, flush=True)
+        lines.append(line)
+
+    emit(f"{args.seeds} seeds per row ({args.jacksboro_seeds} on jacksboro, {args.generated} held-out seeds from "
+         f"{EVAL_SEED0} per generated family), robots: {args.robots or 'the scenario default'}; stalled and "
+         "looping robots are among the timed out (tin_swarm_env/apps/trajectory.py); s: seconds per row.\n")
+    results = goal_rows(args, emit)
     if args.horizon:
-        horizon_rows(args)
-        longer_rows(args)
+        steps_rows(results, emit)
+    if not args.only or "containment" in args.only:
+        containment_rows(args, emit)
+    if args.horizon and (not args.only or any(o.startswith("jacksboro") for o in args.only)):
+        horizon_rows(args, emit)
+        longer_rows(args, emit)
+    emit(f"\nLoad average at the end: {_load()}.")
+    if out:
+        tmp = Path(out).with_suffix(".md.tmp")
+        tmp.parent.mkdir(parents=True, exist_ok=True)
+        tmp.write_text("\n".join(lines) + "\n")
+        tmp.replace(out)  # whole file or nothing
+        print(f"wrote {out}")
 
 
 if __name__ == "__main__":

@@ -23,7 +23,7 @@ import tin_swarm_env as tse
 from tin_swarm_env.apps.policy_factory import make_policy
 from tin_swarm_env.apps.rollout import rollout
 from tin_swarm_env.scenario import load_scenario
-from tin_swarm_env.scenario.generators import generate
+from tin_swarm_env.scenario.generators import ALL_FAMILIES, generate
 from tin_swarm_env.terrain import build_tin, cost_to_go
 from tin_swarm_env.world import Reason, World
 
@@ -33,7 +33,7 @@ GRID_200 = {"size_m": [398.0, 398.0], "cell_m": [2.0, 2.0]}  # 200 x 200 cells
 
 def reset_times(repeats: int):
     cfg = load_scenario("generated")
-    ranges = {fam: GRID_200 for fam in ("canyon", "mesa", "hills")}
+    ranges = {fam: GRID_200 for fam in ALL_FAMILIES}
     parts = {"generate": [], "mesh": [], "world": [], "cost_to_go": []}
     for seed in range(repeats):
         t0 = time.perf_counter()

@@ -1,4 +1,8 @@
+"""Shared fixtures and helpers of the test suite (test files never import each other)."""
+
+import importlib.util
 import os
+from pathlib import Path
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
@@ -14,7 +18,7 @@ settings.register_profile("dev", max_examples=200, deadline=None)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
-def random_tin(seed: int, n: int = 30, zscale: float = 50.0):
+def _random_tin(seed: int, n: int = 30, zscale: float = 50.0):
     """A Delaunay TIN over n random points in a 1000 m square, corners included."""
     from tin_swarm_env.terrain import Tin
 
@@ -26,7 +30,84 @@ def random_tin(seed: int, n: int = 30, zscale: float = 50.0):
 
 
 @pytest.fixture(scope="session")
+def random_tin():
+    """``random_tin(seed, n=30, zscale=50.0)``: a Delaunay TIN over n random points in a 1000 m square."""
+    return _random_tin
+
+
+@pytest.fixture(scope="session")
 def jacksboro():
     from tin_swarm_env.terrain import sample_dem
 
     return sample_dem("jacksboro")
+
+
+def _load_helper(name: str):
+    """Import the helper module tests/<name>.py by its path (the suite runs in importlib mode, so
+    tests/ is not on sys.path; test files get helpers through the fixtures below, never by import)."""
+    spec = importlib.util.spec_from_file_location(f"_tin_swarm_tests_{name}", Path(__file__).parent / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+canyons = _load_helper("canyons")
+
+
+@pytest.fixture(scope="session")
+def canyon_config():
+    """``canyon_config(side, travel, trench=False, robots=20, max_cycles=1500)``: one canyon variant's scenario."""
+    return canyons.canyon_config
+
+
+@pytest.fixture(scope="session")
+def pass_band():
+    """``pass_band(side, travel)``: the canyon pass's (y0, y1) band."""
+    return canyons.pass_band
+
+
+@pytest.fixture(params=canyons.VARIANTS, ids=[f"{s}-{t}" for s, t in canyons.VARIANTS])
+def canyon_variant(request):
+    """(side, travel) of each of the four canyon variants."""
+    return request.param
+
+
+@pytest.fixture(scope="session")
+def repo_root():
+    """The repository root (read only: tests write under tmp_path)."""
+    return Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def generated_doc():
+    """``check(relpath, text)``: a generated documentation file (relative to the repository) must equal
+    ``text``; with ``TIN_SWARM_WRITE_DOCS=1`` it is rewritten first. See docs/contributing.md."""
+
+    def check(relpath: str, text: str) -> None:
+        path = Path(__file__).resolve().parents[1] / relpath
+        if os.environ.get("TIN_SWARM_WRITE_DOCS") == "1":
+            path.parent.mkdir(parents=True, exist_ok=True)
+            part = path.with_name(f".{path.name}.part")
+            part.write_text(text)
+            os.replace(part, path)
+        old = path.read_text() if path.exists() else None
+        assert old == text, (f"{relpath} is stale: regenerate it with TIN_SWARM_WRITE_DOCS=1 and the test "
+                             "that failed (see docs/contributing.md)")
+
+    return check
+
+
+@pytest.fixture(scope="session")
+def env_with_k_robots():
+    """``env_with_k_robots(k, n_robots=4)``: the cliff_goal env with ``k`` robot slots in its observation."""
+    import dataclasses
+
+    import tin_swarm_env as tse
+    from tin_swarm_env.scenario import load_scenario
+
+    def make(k: int, n_robots: int = 4):
+        cfg = load_scenario("cliff_goal")
+        return tse.parallel_env(scenario=cfg.replace(observation=dataclasses.replace(cfg.observation, k_robots=k)),
+                                n_robots=n_robots)
+
+    return make

@@ -8,13 +8,14 @@ map-knowing reference, when installed) and learned policies (pickle-free directo
 Rows: ``policies`` (``random``, ``apf``, ``geodesic``) then every entry of ``models``
 (``label=path`` or ``path``; a path is a policy directory, loaded without pickle, or an SB3
 ``.zip``, which unpickles and so needs ``trust_pickle``). Every model runs on every scenario (held-out
-ones included). Columns (:data:`METRICS`): arrived, fell, timed out, steps to arrive, contacts per
-robot, return per robot, each a mean with a 95% confidence half-width (Student t) over the
-robot-episodes (``seeds`` x robots; steps to arrive over the robots that arrived; robots of one
-episode are not independent, so the interval is somewhat narrow).
+ones included). Columns (:data:`METRICS`): arrived, fell, timed out, of which stalled and looping
+(:mod:`~tin_swarm_env.apps.trajectory`), steps to arrive, contacts per robot, return per robot,
+each a mean with a 95% confidence half-width (Student t) over the robot-episodes (``seeds`` x
+robots; steps to arrive over the robots that arrived; robots of one episode are not independent,
+so the interval is somewhat narrow).
 
 **Seed split.** Evaluation seeds are ``seed_offset .. seed_offset + seeds - 1``, with
-``seed_offset`` at least :data:`EVAL_SEED0` (10**6) by default; training (``apps/train.py``) uses
+``seed_offset`` at least :data:`EVAL_SEED0` by default; training (``apps/train.py``) uses
 seeds below it. On ``"generated"`` (a new terrain drawn from each reset seed) the evaluation
 terrains are therefore never seen in training. Every option is checked before the first episode
 (:func:`check_args`). Writes ``out``.md and .csv and a bar plot ``out``.png (default ``out``:
@@ -39,6 +40,7 @@ __all__ = ["Args", "METRICS", "EVAL_SEED0", "evaluate", "check_args", "default_o
 EVAL_SEED0 = 1_000_000  # evaluation seeds start here; training seeds stay below
 
 METRICS = [("arrived", "arrived", "{:.1%}"), ("fell", "fell", "{:.1%}"), ("timed_out", "timed out", "{:.1%}"),
+           ("stalled", "stalled", "{:.1%}"), ("looping", "looping", "{:.1%}"),
            ("steps_to_arrive", "steps to arrive", "{:.0f}"), ("contacts", "contacts/robot", "{:.2f}"),
            ("return", "return/robot", "{:.1f}")]
 
@@ -61,6 +63,7 @@ def episode_metrics(o: Outcome) -> dict:
     arrived = o.reasons == Reason.ARRIVED
     return {"arrived": arrived.astype(float), "fell": (o.reasons == Reason.FELL).astype(float),
             "timed_out": (o.reasons == Reason.TIMEOUT).astype(float),
+            "stalled": o.stalled.astype(float), "looping": o.looping.astype(float),
             "steps_to_arrive": np.where(arrived, o.steps, np.nan), "contacts": o.collisions.astype(float),
             "return": np.asarray(o.returns, dtype=float)}
 
@@ -167,7 +170,8 @@ def evaluate(args: Args) -> list[dict]:
                 row[key], row[key + "_ci95"] = ci95(np.concatenate([e[key] for e in eps]))
             rows.append(row)
             print(f"{scen:12s} {label:28s} arrived {row['arrived']:.1%} ± {row['arrived_ci95']:.1%}, "
-                  f"fell {row['fell']:.1%}, timed out {row['timed_out']:.1%}, return {row['return']:.1f}", flush=True)
+                  f"fell {row['fell']:.1%}, timed out {row['timed_out']:.1%} (stalled {row['stalled']:.1%}, "
+                  f"looping {row['looping']:.1%}), return {row['return']:.1f}", flush=True)
     md = markdown(rows)
     out.with_suffix(".md").write_text(md + "\n")
     with open(out.with_suffix(".csv"), "w", newline="") as fh:

@@ -335,8 +335,8 @@ class FieldExplorer:
         if src["target"] is not None:
             z_t = float(w.tin.height_at(np.asarray(src["target"])[None])[0])
         pol = self.policy
-        out = fields_at(pts, pol.params, robots=src["robots"], target=src["target"], standoff_m=pol.standoff_m,
-                        breaks=src["breaks"], tin=w.tin, z_target=z_t, assets=src["assets"], guard_m=pol.guard_m)
+        out = fields_at(pts, pol.params, robots=src["robots"], target=src["target"], standoff_m=pol.shield.standoff_m,
+                        breaks=src["breaks"], tin=w.tin, z_target=z_t, assets=src["assets"], guard_m=pol.shield.guard_m)
         f, u = out["total"]
         return X, Y, u.reshape(X.shape), f.reshape(*X.shape, 2)
 

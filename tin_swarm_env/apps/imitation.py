@@ -147,9 +147,9 @@ def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=No
         kw["max_cycles"] = max_cycles
     envs = {s: parallel_env(scenario=s, n_robots=n_robots or None, **kw) for s in scenarios}
     teachers = {s: APFPolicy(e) for s, e in envs.items()}
-    from ..policies.learned import _Shield
+    from ..policies.base import SafetyShield
 
-    shields = {s: _Shield(e) if shield == "safety_cut" else None for s, e in envs.items()}
+    shields = {s: SafetyShield(e) if shield == "safety_cut" else None for s, e in envs.items()}
     parts, reasons = [], []
     for k in range(episodes):
         s = scenarios[k % len(scenarios)]

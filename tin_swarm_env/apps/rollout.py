@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..world.state import Reason
+from .trajectory import Track
 
 __all__ = ["Outcome", "rollout"]
 
@@ -27,6 +28,8 @@ class Outcome:
     returns       (n,) float  sum of its rewards
     collisions    (n,) int64  collisions it was in
     battery_left  (n,) float  charge left at the end / capacity
+    stalled       (n,) bool   timed out stalled, :mod:`~tin_swarm_env.apps.trajectory`'s definition
+    looping       (n,) bool   timed out looping (not stalled), the same module's definition
     seed, n_steps (the episode's length), seconds (wall clock); frames: rendered RGB frames
     when asked for.
     """
@@ -40,6 +43,13 @@ class Outcome:
     n_steps: int
     seconds: float
     frames: list = field(default_factory=list, repr=False)
+    stalled: np.ndarray | None = None  # None: all False
+    looping: np.ndarray | None = None
+
+    def __post_init__(self):
+        n = len(self.reasons)
+        self.stalled = np.zeros(n, dtype=bool) if self.stalled is None else np.asarray(self.stalled, dtype=bool)
+        self.looping = np.zeros(n, dtype=bool) if self.looping is None else np.asarray(self.looping, dtype=bool)
 
     @property
     def n_robots(self) -> int:
@@ -56,6 +66,16 @@ class Outcome:
     def counts(self) -> dict[str, int]:
         """``{"arrived": k, "fell": k, "battery": k, "max_cycles": k}``."""
         return {r.label: self.count(r) for r in (Reason.ARRIVED, Reason.FELL, Reason.BATTERY, Reason.TIMEOUT)}
+
+    def shares(self) -> dict[str, float]:
+        """Fractions of the robots: ``arrived``, ``fell``, ``battery``, ``timed_out`` (these four
+        sum to 1 when the episode ran to its end) and, among the timed out, ``stalled`` and
+        ``looping``."""
+        n = max(self.n_robots, 1)
+        out = {k: self.count(r) / n for k, r in (("arrived", Reason.ARRIVED), ("fell", Reason.FELL),
+                                                  ("battery", Reason.BATTERY), ("timed_out", Reason.TIMEOUT))}
+        out["stalled"], out["looping"] = float(self.stalled.sum()) / n, float(self.looping.sum()) / n
+        return out
 
     def steps_to_arrive(self) -> float:
         """Mean step of arrival over the robots that arrived (NaN when none did)."""
@@ -80,6 +100,8 @@ def rollout(env, policy, seed: int | None, *, on_step=None, frames_every: int = 
     frames = []
     keep = on_frame if on_frame is not None else frames.append
     live = env.live_mask
+    track = Track(n)
+    track.push(env.world_state.positions)
     while live.any():
         if frames_every and env.steps % frames_every == 0:
             keep(env.render())
@@ -89,11 +111,13 @@ def rollout(env, policy, seed: int | None, *, on_step=None, frames_every: int = 
         reasons[ended] = why[ended]
         steps[ended] = env.steps
         live = env.live_mask
+        track.push(env.world_state.positions)
         if on_step is not None:
             on_step(env, reasons)
     if frames_every:
         keep(env.render())
     s = env.world_state
+    stalled, looping = track.stalled_looping(2.0 * env.config.world.robot.radius_m, reasons == Reason.TIMEOUT)
     return Outcome(seed=seed, reasons=reasons, steps=steps, returns=returns, collisions=s.collisions.copy(),
                    battery_left=s.battery_j / env.config.world.battery.capacity_j, n_steps=env.steps,
-                   seconds=time.perf_counter() - t0, frames=frames)
+                   seconds=time.perf_counter() - t0, frames=frames, stalled=stalled, looping=looping)

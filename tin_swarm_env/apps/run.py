@@ -1,8 +1,9 @@
 """Run a policy on a scenario for some episodes: the engine of ``tin-swarm run``.
 
 Per episode it counts robots that arrived, fell, ran out of battery or were cut off by
-``max_cycles``, collisions, the mean battery left and the steps taken (one
-:func:`~.rollout.rollout` per episode), shows a progress bar and formats a Markdown table.
+``max_cycles`` (and of these the stalled and looping ones, :mod:`~.trajectory`), collisions, the
+mean battery left and the steps taken (one :func:`~.rollout.rollout` per episode), shows a
+progress bar and formats a Markdown table.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..env import parallel_env
+from ..env.tin_swarm import DEFAULT_RENDER_WIDTH_PX
 from ..world.state import Reason
 from .policy_factory import make_policy
 from .rollout import Outcome, rollout
@@ -28,6 +30,8 @@ class EpisodeStats:
     fell: int
     battery_dead: int
     timed_out: int
+    stalled: int
+    looping: int
     collisions: int
     mean_battery_left: float
     steps: int
@@ -38,7 +42,8 @@ class EpisodeStats:
     def from_outcome(cls, episode: int, o: Outcome) -> EpisodeStats:
         return cls(episode=episode, seed=o.seed, robots=o.n_robots, arrived=o.count(Reason.ARRIVED),
                    fell=o.count(Reason.FELL), battery_dead=o.count(Reason.BATTERY),
-                   timed_out=o.count(Reason.TIMEOUT), collisions=int(o.collisions.sum()),
+                   timed_out=o.count(Reason.TIMEOUT), stalled=int(o.stalled.sum()), looping=int(o.looping.sum()),
+                   collisions=int(o.collisions.sum()),
                    mean_battery_left=float(o.battery_left.mean()), steps=o.n_steps,
                    episode_return=float(o.returns.mean()), seconds=o.seconds)
 
@@ -67,7 +72,8 @@ def _on_step(bar):
 
 
 def run_episodes(scenario, policy="apf", robots=None, episodes=1, seed=0, fields=None, frames_every=0,
-                 max_cycles=None, progress=True, render_width=640, on_frame=None, trust_pickle=False):
+                 max_cycles=None, progress=True, render_width=DEFAULT_RENDER_WIDTH_PX, on_frame=None,
+                 trust_pickle=False):
     """Run ``episodes`` episodes (seeds ``seed``, ``seed+1``...). Returns ``(stats list, frames)``;
     frames (the first episode's, every ``frames_every`` steps) only when ``frames_every > 0``;
     with ``on_frame`` each frame goes to ``on_frame(frame)`` as it is drawn instead (the list is
@@ -92,16 +98,17 @@ def run_episodes(scenario, policy="apf", robots=None, episodes=1, seed=0, fields
 
 def format_table(stats) -> str:
     """A Markdown table of episode statistics, with a mean row when there are several."""
-    hdr = ("| episode | seed | robots | arrived | fell | battery-dead | timed out | collisions | "
+    hdr = ("| episode | seed | robots | arrived | fell | battery-dead | timed out | stalled | looping | collisions | "
            "mean battery left | steps | return/robot |")
-    lines = [hdr, "|" + "---:|" * 11]
+    lines = [hdr, "|" + "---:|" * 13]
     for s in stats:
         lines.append(f"| {s.episode} | {s.seed} | {s.robots} | {s.arrived} | {s.fell} | {s.battery_dead} | "
-                     f"{s.timed_out} | {s.collisions} | {s.mean_battery_left:.1%} | {s.steps} | "
-                     f"{s.episode_return:.1f} |")
+                     f"{s.timed_out} | {s.stalled} | {s.looping} | {s.collisions} | {s.mean_battery_left:.1%} | "
+                     f"{s.steps} | {s.episode_return:.1f} |")
     if len(stats) > 1:
         m = {k: np.mean([asdict(s)[k] for s in stats]) for k in asdict(stats[0])}
         lines.append(f"| mean | | {m['robots']:.0f} | {m['arrived']:.1f} | {m['fell']:.1f} | "
-                     f"{m['battery_dead']:.1f} | {m['timed_out']:.1f} | {m['collisions']:.1f} | "
+                     f"{m['battery_dead']:.1f} | {m['timed_out']:.1f} | {m['stalled']:.1f} | {m['looping']:.1f} | "
+                     f"{m['collisions']:.1f} | "
                      f"{m['mean_battery_left']:.1%} | {m['steps']:.0f} | {m['episode_return']:.1f} |")
     return "\n".join(lines)

@@ -22,11 +22,13 @@ Read top to bottom: arguments, environment, imitation, evaluation, training, sav
   critic is warmed up on the rollouts' discounted returns (``--value-epochs``) and the policy's
   exploration std set to ``--bc-std`` before PPO fine-tuning.
 * ``--total-timesteps`` of PPO afterwards; 0 is refused without imitation (it would save an
-  untrained model). ``--recurrent``: sb3-contrib's RecurrentPPO (MlpLstmPolicy); no imitation and
-  no pickle-free export for it (the policy file format is an MLP).
-* Seeds: training uses seeds below :data:`~tin_swarm_env.apps.evaluate.EVAL_SEED0` (10**6): the
+  untrained model). ``--recurrent``: sb3-contrib's RecurrentPPO (MlpLstmPolicy, ``--lstm-hidden`` units,
+  then ``--net-arch``); no imitation for it (imitation fits an MLP actor); it is exported as a
+  recurrent policy file (:mod:`tin_swarm_env.policies.recurrent`: memory per robot, numpy forward
+  pass).
+* Seeds: training uses seeds below :data:`~tin_swarm_env.apps.evaluate.EVAL_SEED0`: the
   VecEnv's copies ``seed + c``, imitation episodes ``seed * 1000 + k``; evaluation (here and in
-  ``tin-swarm eval``) starts at 10**6, so on ``"generated"`` it is on terrains never trained on.
+  ``tin-swarm eval``) starts there, so on ``"generated"`` it is on terrains never trained on.
 
 Writes into ``out_dir`` (default ``runs/<algo>_<scenarios>_s<seed>``): ``model.zip`` (SB3, a
 pickle: load only your own), ``policy/`` (the pickle-free policy directory, ``load_policy``; with imitation and PPO also
@@ -104,7 +106,8 @@ class Args:
     ent_coef: float = opt(0.0, "entropy bonus coefficient", lo=0)
     clip_range: float = opt(0.2, "PPO clip range", lo=0, lo_open=True, hi=10)
     net_arch: str = opt("64,64", "hidden layer widths of actor and critic, comma-separated", check=_arch_msg)
-    recurrent: bool = opt(False, "sb3-contrib RecurrentPPO (MlpLstmPolicy); no imitation, no policy-file export")
+    recurrent: bool = opt(False, "sb3-contrib RecurrentPPO (MlpLstmPolicy); no imitation")
+    lstm_hidden: int = opt(256, "--recurrent: LSTM units (RecurrentPPO's default)", lo=1, hi=4096)
     bc_episodes: int = opt(0, "behaviour cloning: APF-driven episodes (0: no imitation)", **_NONNEG)
     dagger_rounds: int = opt(0, "DAgger rounds after BC (the learner drives, APF labels)", **_NONNEG)
     dagger_episodes: int = opt(0, "episodes per DAgger round (0: as many as --bc-episodes)", **_NONNEG)
@@ -168,8 +171,6 @@ def check_args(args: Args) -> None:
         raise ArgumentError(f"--dagger-beta must be in [0, 1), got {args.dagger_beta}")
     if args.recurrent and _imitating(args):
         raise ArgumentError("--recurrent cannot be combined with --bc-episodes (imitation fits an MLP actor)")
-    if args.shield != "none" and args.recurrent:
-        raise ArgumentError("--shield applies to MLP policies (the exported file); not with --recurrent")
     if args.batch_size > args.n_steps * args.n_robots * args.n_envs * len(scenarios_of(args)) and args.total_timesteps:
         raise ArgumentError(f"--batch-size {args.batch_size} is more than one rollout holds (--n-steps x robots x "
                             f"copies = {args.n_steps * args.n_robots * args.n_envs * len(scenarios_of(args))})")
@@ -265,6 +266,7 @@ def _model(args: Args, vec, tb):
               tensorboard_log=tb, verbose=0)
     if args.recurrent:
         RecurrentPPO = require("sb3_contrib", "train", "--recurrent (RecurrentPPO from sb3-contrib)").RecurrentPPO
+        kw["policy_kwargs"]["lstm_hidden_size"] = args.lstm_hidden
         return RecurrentPPO("MlpLstmPolicy", vec, **kw)
     from stable_baselines3 import PPO
 
@@ -392,7 +394,7 @@ def train(args: Args) -> Path:
 
 
 def _save(model, args: Args, out: Path, rows: list, t0: float, vec, imitation) -> None:
-    """``model.zip``, ``policy/`` (pickle-free; not for a recurrent model), ``model.json``,
+    """``model.zip``, ``policy/`` (pickle-free; recurrent for a recurrent model), ``model.json``,
     ``eval.csv``, ``curve.png``; prints where."""
     from .. import __version__
     from ..scenario import load_scenario
@@ -423,9 +425,6 @@ def _save(model, args: Args, out: Path, rows: list, t0: float, vec, imitation) -
     r = rows[-1]
     print(f"trained {model.num_timesteps} timesteps in {meta['minutes']:.1f} min; final eval: return "
           f"{r['return']:.1f}, arrived {r['arrived']:.0%}, fell {r['fell']:.0%}; saved {out / 'model.zip'}")
-    if args.recurrent:
-        print("no pickle-free policy for a recurrent model (the policy file format is an MLP); use model.zip")
-        return
     from ..adapters.sb3 import export_sb3_policy
 
     export_sb3_policy(model, out / "policy", vec, scenario=args.scenario, shield=args.shield,

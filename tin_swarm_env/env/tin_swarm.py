@@ -26,10 +26,11 @@ from .checks import actions_from_dict, check_options, check_scenario_arg, check_
 from .observation import ObsLayout, build_observations
 from .reward import compute_rewards, distance_to_go
 
-__all__ = ["TinSwarmEnv", "parallel_env", "raw_env", "env"]
+__all__ = ["TinSwarmEnv", "parallel_env", "raw_env", "env", "RENDER_WIDTH_PX", "DEFAULT_RENDER_WIDTH_PX"]
 
 
 RENDER_WIDTH_PX = (64, 4096)  # the frame widths render() draws
+DEFAULT_RENDER_WIDTH_PX = 640  # render_width when none is given (the CLI's --render-width too)
 
 
 def _check_args(n_robots, max_cycles, render_width) -> None:
@@ -53,33 +54,10 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     **Agents**: ``robot_0 … robot_{n-1}``; a robot leaves ``agents`` the step after it is
     reported terminated or truncated.
 
-    **Observation** (identical ``Box(-1, 1, (d,), float32)`` for every robot; egocentric, body
-    frame x forward / y left, distances over the sensor range ``R``); named slices in
-    ``env.layout`` (:class:`~tin_swarm_env.env.observation.ObsLayout`):
-
-    ==================  =====  =================================================================
-    slice               size   contents
-    ==================  =====  =================================================================
-    own.battery         1      charge / capacity
-    own.speed           1      last step's speed / max speed
-    own.tilt            1      sensor tilt asin(sin(slope) sin(heading - aspect)) / 90 deg
-    own.slope           1      slope underfoot / 90 deg
-    own.uphill          2      unit vector toward uphill (0 on flat ground)
-    own.target_valid    1      1 when the task assigns a target
-    own.target_dir      2      unit vector toward the assigned target
-    own.target_dist     1      d / (d + R)
-    own.target_dz       1      dz / (|dz| + 10 m), the target's height above the robot
-    robots              4·K_r  valid, x/R, y/R, d/R of the K_r nearest visible robots
-    targets             4·K_t  the same for the nearest visible threats/targets
-    breaks              8·K_b  valid, closest point x/R, y/R, normal to safety (x, y),
-                               drop / (|drop| + 10 m), d/R, danger (cliff edge or border: 1;
-                               a bend between traversable planes: 0) of the nearest breaks
-    assets              4·K_a  valid, x/R, y/R, d/R of the K_a nearest visible assets
-    ==================  =====  =================================================================
-
-    Defaults K_r = 4, K_t = 2, K_b = 3, and K_a = 2 when the scenario has assets, else 0 (so
-    d = 59 without assets; ``[observation] k_assets`` sets it). Empty slots and robots no longer
-    in ``agents`` read all zeros.
+    **Observation**: an identical ``Box(-1, 1, (d,), float32)`` for every robot, egocentric (body
+    frame x forward / y left, distances over the sensor range), read through the named slices of
+    ``env.layout`` (an :class:`~tin_swarm_env.env.observation.ObsLayout`); the module docstring of
+    :mod:`tin_swarm_env.env.observation` is its table. Robots no longer in ``agents`` read all zeros.
 
     **Assets** (``[assets]``: positions, or a count drawn by the reset seed like targets): what
     the swarm protects. Robots sense them like threats (range, field of view, line of sight) in
@@ -93,18 +71,12 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     ValueError naming the agent, and so does an unknown agent key; a live agent missing from
     the action dict gets the zero action (it stands still).
 
-    **Rewards** (per robot; weights in the scenario's ``[rewards]``; defaults in brackets):
-    goal task: ``progress_per_m`` [1] per metre gained toward the assigned target,
-    ``arrival`` [10] on reaching it; containment: ``progress_per_m`` per metre gained toward
-    the standoff ring around the assigned threat and ``on_ring_per_step`` [0.1] while on it;
-    both: ``fall`` [-100], ``battery_empty`` [-5], ``collision`` [-1] per robot touched,
-    ``energy_per_kj`` [-1] per kJ drawn. Metres are measured along the shortest drivable path
-    (``progress`` ["geodesic"]: the target's cost-to-go field over triangles no steeper than
-    ``max_slope_deg``, so a detour around a cliff pays) or the straight line (``"euclidean"``);
-    mobile targets always use the straight line (see :mod:`~tin_swarm_env.env.reward`). A step
-    from or to a point with no drivable path (``inf``) gains 0. ``infos[agent]["distance_to_go_m"]``
-    is that distance (geodesic or straight, as the reward uses it) for every live agent at
-    reset and after every step; :meth:`distance_to_go` gives it for all robots as an array.
+    **Rewards**: per robot, weighted by the scenario's ``[rewards]``
+    (:class:`~tin_swarm_env.scenario.RewardWeights`); what each term pays for, and how progress is
+    measured (along the shortest drivable path by default), is the module docstring of
+    :mod:`tin_swarm_env.env.reward`. ``infos[agent]["distance_to_go_m"]`` is the distance the reward
+    uses, for every live agent at reset and after every step; :meth:`distance_to_go` gives it for all
+    robots as an array.
 
     **Solvability**: a target that cannot be reached from any point of the spawn region is a
     ScenarioError at construction (naming the file and the target); robots are spawned only where
@@ -126,17 +98,15 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
 
     **Arguments**
 
-    ==============  ==========================================================================
-    scenario        built-in name (``tin_swarm_env.scenario.list_scenarios()``), a TOML path, or
-                    a :class:`~tin_swarm_env.scenario.ScenarioConfig` ["cliff_goal"]
-    n_robots        overrides the scenario's robot count
-    max_cycles      overrides the scenario's episode length
-    render_mode     None, "human" (matplotlib window) or "rgb_array" (HxWx3 uint8)
-    sensor_cones    draw each robot's field of view when rendering [False]
-    render_width    width of rendered frames in pixels [640]
-    render_decorations  a title strip (scenario, step, arrived/fell counts), a legend and a scale
-                    bar on rendered frames [True]; False for bare frames (training videos)
-    ==============  ==========================================================================
+    - ``scenario``: a built-in name (``tin_swarm_env.scenario.list_scenarios()``), a TOML path, or a
+      :class:`~tin_swarm_env.scenario.ScenarioConfig` ["cliff_goal"]
+    - ``n_robots``: overrides the scenario's robot count
+    - ``max_cycles``: overrides the scenario's episode length
+    - ``render_mode``: None, "human" (matplotlib window) or "rgb_array" (HxWx3 uint8)
+    - ``sensor_cones``: draw each robot's field of view when rendering [False]
+    - ``render_width``: width of rendered frames in pixels [``DEFAULT_RENDER_WIDTH_PX``]
+    - ``render_decorations``: a title strip (scenario, step, arrived/fell counts), a legend and a
+      scale bar on rendered frames [True]; False for bare frames (training videos)
 
     ``state()`` (for centralised critics): per robot x, y (scaled to the terrain's bounds), cos
     and sin of the heading, battery fraction and an active flag; per target x, y.
@@ -160,7 +130,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
 
     def __init__(self, scenario: str | ScenarioConfig = "cliff_goal", n_robots: int | None = None,
                  max_cycles: int | None = None, render_mode: str | None = None, sensor_cones: bool = False,
-                 render_width: int = 640, render_decorations: bool = True):
+                 render_width: int = DEFAULT_RENDER_WIDTH_PX, render_decorations: bool = True):
         EzPickle.__init__(self, scenario=scenario, n_robots=n_robots, max_cycles=max_cycles,
                           render_mode=render_mode, sensor_cones=sensor_cones, render_width=render_width,
                           render_decorations=render_decorations)
@@ -479,7 +449,7 @@ def _warn_if_no_display() -> None:
 
 def parallel_env(scenario: str | ScenarioConfig = "cliff_goal", n_robots: int | None = None,
                  max_cycles: int | None = None, render_mode: str | None = None, sensor_cones: bool = False,
-                 render_width: int = 640, render_decorations: bool = True) -> TinSwarmEnv:
+                 render_width: int = DEFAULT_RENDER_WIDTH_PX, render_decorations: bool = True) -> TinSwarmEnv:
     """The parallel environment (see :class:`TinSwarmEnv` for the arguments)."""
     return TinSwarmEnv(scenario=scenario, n_robots=n_robots, max_cycles=max_cycles, render_mode=render_mode,
                        sensor_cones=sensor_cones, render_width=render_width, render_decorations=render_decorations)

@@ -1,13 +1,13 @@
 """Artificial Potential Field policy: acts from the observation alone, for all robots at once.
 
 The observation (see :class:`~tin_swarm_env.env.observation.ObsLayout`) is egocentric, so the
-four fields of :mod:`tin_swarm_env.world.fields` are evaluated in the body frame and their sum is
+fields of :mod:`tin_swarm_env.world.fields` are evaluated in the body frame and their sum is
 the commanded body-frame velocity, full speed once the force reaches ``speed_saturation``:
 ``action = F / max(|F|, speed_saturation)``. Where a dangerous break blocks the way, the
 attraction is replaced by wall-following (:func:`~tin_swarm_env.world.fields.follow_field`) on a
 side kept in a small per-robot memory (:class:`BugMemory`), and a robot drives through a gap
 between two break ends that leads toward its target (:func:`pass_gap`); last, the command is cut so that no
-robot closes on a robot it sees by more than half the gap in one step (:func:`keep_clear`).
+robot closes on a robot it sees by more than half the gap in one step (:func:`~tin_swarm_env.policies.base.keep_clear`).
 What the policy takes from the environment is static: the observation layout, the sensor range,
 the task's standoff distance, the robot's radius, top speed and time step, never the world state.
 """
@@ -18,7 +18,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ArgumentError
 from ..world.fields import (
     FIELDS,
     FieldParams,
@@ -31,46 +30,9 @@ from ..world.fields import (
     robot_field,
     target_field,
 )
+from .base import DecodedObs, SafetyShield, act_dict, decode, unwrap_env
 
-__all__ = ["APFPolicy", "RandomPolicy", "apf_forces", "decode", "BugMemory", "bug_update", "keep_clear", "into_view",
-           "safety_cut", "unwrap_env", "Controller", "pass_gap"]
-
-
-def unwrap_env(env):
-    """The :class:`~tin_swarm_env.env.TinSwarmEnv` under ``env`` (itself or a wrapper of one)."""
-    e = env
-    for _ in range(10):
-        if hasattr(e, "layout") and hasattr(e, "config"):
-            return e
-        e = getattr(e, "env", None) or getattr(e, "unwrapped", None)
-        if e is None:
-            break
-    raise ArgumentError("the policy needs a tin_swarm_env environment (or a wrapper of one)")
-
-
-def decode(obs, layout, range_m) -> dict:
-    """Observations ``(n, d)`` -> physical quantities in the body frame (metres):
-    ``has_t (n,)``, ``dist (n,)`` and ``rel_t (n, 2)`` to the assigned target, ``dz (n,)`` its
-    height above the robot, ``grad_z (n, 2)``, ``speed (n,)`` (fraction of top speed), robot slots
-    ``r_rel (n, K_r, 2)``, ``r_valid (n, K_r)``, break slots ``b_rel``, ``b_normal (n, K_b, 2)``,
-    ``b_danger (n, K_b)`` (valid and dangerous), ``b_border (n, K_b)`` and asset slots ``a_rel
-    (n, K_a, 2)``, ``a_valid (n, K_a)`` (K_a may be 0). The observation does not
-    name the border; its sensed proxy is a dangerous break with zero drop (border edges have no
-    triangle beyond them, so their drop is 0; a cliff edge's drop is not)."""
-    obs = np.asarray(obs, dtype=np.float64)
-    R = range_m
-    dist = layout.target_distance_m(obs, R)
-    slope = np.radians(layout.field(obs, "own", "slope")[:, 0] * 90.0)
-    out = {"has_t": layout.field(obs, "own", "target_valid")[:, 0] > 0.5, "dist": dist,
-           "rel_t": layout.field(obs, "own", "target_dir") * dist[:, None], "dz": layout.target_dz_m(obs),
-           "grad_z": np.tan(slope)[:, None] * layout.field(obs, "own", "uphill"),
-           "speed": layout.field(obs, "own", "speed")[:, 0]}
-    out["r_rel"], out["r_valid"] = layout.vectors(obs, "robots") * R, layout.field(obs, "robots", "valid")
-    out["b_rel"], out["b_normal"] = layout.vectors(obs, "breaks") * R, layout.vectors(obs, "breaks", "nx", "ny")
-    out["b_danger"] = (layout.field(obs, "breaks", "valid") * layout.field(obs, "breaks", "danger")) > 0.5
-    out["b_border"] = out["b_danger"] & (layout.field(obs, "breaks", "drop") == 0.0)
-    out["a_rel"], out["a_valid"] = layout.vectors(obs, "assets") * R, layout.field(obs, "assets", "valid")
-    return out
+__all__ = ["APFPolicy", "apf_forces", "field_forces", "follow_term", "FORCES", "BugMemory", "bug_update", "pass_gap"]
 
 
 FORCES = ("robot", "target", "break", "follow", "height", "asset")
@@ -92,36 +54,36 @@ def apf_forces(obs, layout, range_m, standoff_m, params: FieldParams, follow=Non
     return out
 
 
-def field_forces(d: dict, layout, standoff_m, params: FieldParams, guard_m=0.0) -> dict:
+def field_forces(d: DecodedObs, layout, standoff_m, params: FieldParams, guard_m=0.0) -> dict:
     """:func:`apf_forces` from the decoded observation ``d`` (:func:`decode`), without the
     wall-following term (``follow`` is zeros)."""
-    n = len(d["dist"])
+    n = len(d.dist)
     zero = np.zeros((n, 2))
     out = dict.fromkeys(FORCES, zero)
     if params.on("asset") and layout.k_assets:
-        out["asset"], _ = asset_field(d["a_rel"], d["a_valid"], guard_m, params.asset_gain, params.asset_range_m)
-    has_t = d["has_t"][:, None]
+        out["asset"], _ = asset_field(d.a_rel, d.a_valid, guard_m, params.asset_gain, params.asset_range_m)
+    has_t = d.has_t[:, None]
     if params.on("target"):
-        f, _ = target_field(d["rel_t"], standoff_m, params.target_gain, params.target_range_m)
+        f, _ = target_field(d.rel_t, standoff_m, params.target_gain, params.target_range_m)
         out["target"] = np.where(has_t, f, 0.0)
     if params.on("height"):
-        f, _ = height_field(d["grad_z"], d["dz"], params.height_gain)
+        f, _ = height_field(d.grad_z, d.dz, params.height_gain)
         out["height"] = np.where(has_t, f, 0.0)
     if params.on("robot") and layout.k_robots:
-        out["robot"], _ = robot_field(d["r_rel"], d["r_valid"], params.robot_gain, params.robot_range_m)
+        out["robot"], _ = robot_field(d.r_rel, d.r_valid, params.robot_gain, params.robot_range_m)
     if params.on("break") and layout.k_breaks:
-        out["break"], _ = break_field(d["b_rel"], d["b_normal"], d["b_danger"], params.break_gain,
+        out["break"], _ = break_field(d.b_rel, d.b_normal, d.b_danger, params.break_gain,
                                       params.break_range_m, params.break_decay_m)
     return out
 
 
-def follow_term(d: dict, pull, side, slot, params: FieldParams, step_m: float):
+def follow_term(d: DecodedObs, pull, side, slot, params: FieldParams, step_m: float):
     """The wall-following term ``(n, 2)`` of robots following break ``slot (n,)`` (-1 none) on
     ``side (n,)`` with attraction ``pull (n, 2)`` (:func:`~tin_swarm_env.world.fields.follow_field`)."""
     k = np.maximum(slot, 0)[:, None, None]
     side = np.where(slot >= 0, side, 0)
-    rel = np.take_along_axis(d["b_rel"], k, axis=1)[:, 0]
-    nrm = np.take_along_axis(d["b_normal"], k, axis=1)[:, 0]
+    rel = np.take_along_axis(d.b_rel, k, axis=1)[:, 0]
+    nrm = np.take_along_axis(d.b_normal, k, axis=1)[:, 0]
     return follow_field(pull, rel, nrm, side, params.follow_hold_m, step_m)
 
 
@@ -192,21 +154,21 @@ def _followed(seen, dist_b, ang, following, last_ang, hold_m):
     return np.where(seen.any(axis=-1), k, -1)
 
 
-def _sensed(d: dict, pull, params: FieldParams) -> dict:
+def _sensed(d: DecodedObs, pull, params: FieldParams) -> dict:
     """What :func:`bug_update` reads from the decoded observation, per break slot ``(m, K)``:
     ``dist`` (m), ``e`` (unit vector from the break to the robot, ``(m, K, 2)``), ``facing``
     (dangerous, seen from the safe side), ``into`` (facing, within ``follow_engage_m`` and the
     pull points into it), ``ang`` (``e``'s direction relative to the target's bearing, rad);
     per robot: ``blocked (m,)`` and ``ref (m, 2)`` (the target's bearing)."""
-    rel = d["b_rel"]
+    rel = d.b_rel
     dist = np.sqrt(np.sum(rel * rel, axis=-1))
-    face = facing(rel, d["b_normal"], d["b_danger"])
-    e = away_from(rel, d["b_normal"])
+    face = facing(rel, d.b_normal, d.b_danger)
+    e = away_from(rel, d.b_normal)
     into = face & (dist < params.follow_engage_m) & (np.einsum("nj,nkj->nk", pull, e) < 0)
-    ref = np.where(d["dist"][:, None] > 0, d["rel_t"], 1.0)
+    ref = np.where(d.dist[:, None] > 0, d.rel_t, 1.0)
     ang = _wrap(np.arctan2(e[..., 1], e[..., 0]) - np.arctan2(ref[:, 1], ref[:, 0])[:, None])
     return {"dist": dist, "e": e, "facing": face, "into": into, "ang": ang, "ref": ref,
-            "blocked": into.any(axis=-1) & d["has_t"]}
+            "blocked": into.any(axis=-1) & d.has_t}
 
 
 def _start_side(s: dict, pull) -> tuple[np.ndarray, np.ndarray]:
@@ -235,7 +197,7 @@ def _closes(q, pi, pj, g, depth_m):
     return in_cone & (depth > -0.5) & (depth < depth_m)
 
 
-def pass_gap(d: dict, width_m: float, reach_m: float, end_deg: float = 5.0) -> dict:
+def pass_gap(d: DecodedObs, width_m: float, reach_m: float, end_deg: float = 5.0) -> dict:
     """A gap between two dangerous breaks that the robot can drive through toward its target,
     read from the break slots of the decoded observation ``d`` (:func:`decode`). A pair of slots
     ``i, j`` (closest points ``p_i``, ``p_j``, body frame) bounds a gap when:
@@ -255,12 +217,12 @@ def pass_gap(d: dict, width_m: float, reach_m: float, end_deg: float = 5.0) -> d
     any break it then senses. Returns ``has (n,)`` bool, ``aim (n, 2)`` (unit: toward the gap's
     midpoint plus the gap's normal toward the target side, so the robot drives through it) and
     ``slots (n, 2)`` (the pair; -1 where none); the nearest gap (by midpoint) wins."""
-    rel, nrm = d["b_rel"], d["b_normal"]
+    rel, nrm = d.b_rel, d.b_normal
     n, k = rel.shape[:2]
-    face = facing(rel, nrm, d["b_danger"])
+    face = facing(rel, nrm, d.b_danger)
     e = away_from(rel, nrm)
     end = face & (np.sum(e * nrm, axis=-1) < np.cos(np.radians(end_deg)))
-    rel_t = d["rel_t"]
+    rel_t = d.rel_t
     best = np.full(n, np.inf)
     aim = np.zeros((n, 2))
     slots = np.full((n, 2), -1)
@@ -273,7 +235,7 @@ def pass_gap(d: dict, width_m: float, reach_m: float, end_deg: float = 5.0) -> d
             mid_d = np.sqrt(np.sum(mid * mid, axis=-1))
             c_robot, c_target = _cross(w, -pi), _cross(w, rel_t - pi)
             ok = (end[:, i] & end[:, j] & (width >= width_m) & (mid_d < reach_m) & (c_robot * c_target < 0)
-                  & d["has_t"])
+                  & d.has_t)
             g = np.stack([-w[:, 1], w[:, 0]], axis=-1) / np.maximum(width, 1e-9)[:, None] * np.sign(c_target)[:, None]
             # the corner where the two breaks' lines meet, if they were to run on to it
             ni, nj = nrm[:, i], nrm[:, j]
@@ -295,7 +257,7 @@ def pass_gap(d: dict, width_m: float, reach_m: float, end_deg: float = 5.0) -> d
     return {"has": np.isfinite(best), "aim": aim, "slots": slots}
 
 
-def bug_update(mem: BugMemory, rows, d: dict, pull, params: FieldParams, crowd_m: float, gap=None) -> np.ndarray:
+def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, crowd_m: float, gap=None) -> np.ndarray:
     """One step of the bug rules for the robots in ``rows`` (their decoded observations ``d``
     and attraction ``pull (m, 2)``); updates ``mem`` in place and returns the break slot each
     robot follows ``(m,)`` (-1 none).
@@ -328,7 +290,7 @@ def bug_update(mem: BugMemory, rows, d: dict, pull, params: FieldParams, crowd_m
     kb, start = _start_side(s, pull)
     side = np.where(new, start, side).astype(np.int8)
     last_wall = np.where(new, s["ang"][rows_i, kb], mem.wall[rows])
-    mem.start_m[rows] = np.where(new, d["dist"], mem.start_m[rows])
+    mem.start_m[rows] = np.where(new, d.dist, mem.start_m[rows])
     mem.kept[rows] &= ~new
     # the followed break and the direction of travel along it
     seen = s["facing"] & (s["dist"] < params.break_range_m)
@@ -343,7 +305,7 @@ def bug_update(mem: BugMemory, rows, d: dict, pull, params: FieldParams, crowd_m
     # leave when clear and heading within 90 degrees of the target again, counted
     through = np.zeros(n, dtype=bool) if gap is None else gap  # not while driving through a gap
     side = np.where((side != 0) & ~s["blocked"] & (np.abs(turn) < np.pi / 2) & ~through, 0, side).astype(np.int8)
-    on_border = has_wall & d["b_border"][rows_i, kc]
+    on_border = has_wall & d.b_border[rows_i, kc]
     back = _turn_back(mem, rows, d, s, side, turn, t_left, on_border, params, crowd_m) & ~new
     side = np.where(back, -side, side).astype(np.int8)
     mem.side[rows] = side
@@ -356,7 +318,7 @@ def bug_update(mem: BugMemory, rows, d: dict, pull, params: FieldParams, crowd_m
     return np.where(side != 0, kf, -1)
 
 
-def _turn_back(mem: BugMemory, rows, d: dict, s: dict, side, turn, t_left, on_border, params: FieldParams,
+def _turn_back(mem: BugMemory, rows, d: DecodedObs, s: dict, side, turn, t_left, on_border, params: FieldParams,
                crowd_m: float) -> np.ndarray:
     """Which following robots turn back ``(m,)``: the followed break becomes the border (it
     cannot be gone round) after one that was not, or the border lies ahead along the followed
@@ -366,95 +328,18 @@ def _turn_back(mem: BugMemory, rows, d: dict, s: dict, side, turn, t_left, on_bo
     sets ``kept``). Advances ``mem.stall``."""
     following = side != 0
     ahead = np.einsum("nj,nkj->nk", side[:, None] * t_left, -s["e"]) > 0.3
-    border_ahead = (d["b_border"] & s["facing"] & ahead & (s["dist"] < params.follow_engage_m)).any(axis=-1)
-    r_d = np.sqrt(np.sum(d["r_rel"] ** 2, axis=-1))
-    crowded = ((d["r_valid"] > 0.5) & (r_d < crowd_m)).any(axis=-1)
-    stall = np.where(following & (d["speed"] < 0.05) & ~crowded, mem.stall[rows] + 1, 0)
+    border_ahead = (d.b_border & s["facing"] & ahead & (s["dist"] < params.follow_engage_m)).any(axis=-1)
+    r_d = np.sqrt(np.sum(d.r_rel ** 2, axis=-1))
+    crowded = ((d.r_valid > 0.5) & (r_d < crowd_m)).any(axis=-1)
+    stall = np.where(following & (d.speed < 0.05) & ~crowded, mem.stall[rows] + 1, 0)
     mem.stall[rows] = stall
     dead_end = (following & ~mem.kept[rows] & (np.abs(turn) > np.radians(params.dead_end_turn_deg))
-                & (d["dist"] >= mem.start_m[rows]))
+                & (d.dist >= mem.start_m[rows]))
     mem.kept[rows] |= dead_end
     return following & (border_ahead | (on_border & ~mem.on_border[rows]) | (stall >= params.stall_steps) | dead_end)
 
 
-def keep_clear(action, rel, valid, gap_m: float, step_m: float, share: float = 2.0, passes: int = 2):
-    """Cut body-frame ``action (n, 2)`` (fractions of top speed) so that no robot closes on what
-    it sees at ``rel (n, K, 2)`` m (``valid (n, K)``) by more than ``1 / share`` of the free gap
-    ``d - gap_m`` in one step of ``step_m`` at full speed: ``a . u <= max(d - gap, 0) / (share
-    step)``, ``u`` the unit vector toward it. For robots (``share`` 2, both move) two robots
-    that see each other never come closer than ``gap_m``; for the closest points of dangerous
-    breaks (``share`` 1, they stand still) the robot never comes within ``gap_m`` of them (the
-    distance to a segment after a move ``delta`` is at least ``d - delta . u``). Only the part
-    of the action toward each is removed (a projection onto each half-plane, ``passes`` sweeps
-    over the slots), so the cut never adds motion toward anything. Returns ``(n, 2)``."""
-    a = np.array(action, dtype=np.float64)
-    d = np.sqrt(np.sum(rel * rel, axis=-1))
-    ok = (np.asarray(valid) > 0.5) & (d > 1e-9)
-    u = rel / np.maximum(d, 1e-9)[..., None]
-    limit = np.maximum(d - gap_m, 0.0) / (share * step_m)
-    for _ in range(passes):
-        for j in range(rel.shape[1]):
-            excess = np.sum(a * u[:, j], axis=-1) - limit[:, j]
-            cut = np.where(ok[:, j] & (excess > 0), excess, 0.0)
-            a -= cut[:, None] * u[:, j]
-    return a
-
-
-def into_view(action, fov_deg: float):
-    """Body-frame ``action (n, 2)`` turned out of the robot's blind sector: a command whose
-    bearing lies beyond ``fov_deg / 2`` (where the robot sees no robot) is projected onto the
-    nearer edge of its field of view, so robots do not back into robots they cannot see (the
-    heading turns toward the motion, so the next step sees further round). Returns ``(n, 2)``."""
-    a = np.array(action, dtype=np.float64)
-    half = np.radians(min(fov_deg, 360.0)) / 2
-    if half >= np.pi:
-        return a
-    bearing = np.arctan2(a[:, 1], a[:, 0])
-    blind = np.abs(bearing) > half
-    edge = np.stack([np.full(len(a), np.cos(half)), np.where(a[:, 1] >= 0, 1.0, -1.0) * np.sin(half)], axis=-1)
-    along = np.maximum(np.sum(a * edge, axis=-1), 0.0)
-    return np.where(blind[:, None], along[:, None] * edge, a)
-
-
-def safety_cut(action, d: dict, gap_m: float, edge_m: float | None, step_m: float, fov_deg: float):
-    """The cuts every built-in controller applies last to its body-frame ``action (n, 2)``, from
-    the decoded observation ``d`` (:func:`decode`): turned out of the blind sector
-    (:func:`into_view`), then cut so that robots that see each other never come within ``gap_m``
-    (:func:`keep_clear`, ``share`` 2) and, unless ``edge_m`` is None, so that no robot comes
-    within ``edge_m`` of a dangerous break it sees from its safe side (``share`` 1)."""
-    a = keep_clear(into_view(action, fov_deg), d["r_rel"], d["r_valid"], gap_m, step_m)
-    if edge_m is not None:
-        a = keep_clear(a, d["b_rel"], facing(d["b_rel"], d["b_normal"], d["b_danger"]), edge_m, step_m, share=1.0)
-    return a
-
-
-class Controller:
-    """What every built-in controller reads from the environment, in one place: static
-    quantities only (never the world state). :meth:`_read_constants` sets ``range_m`` (sensor
-    range), ``standoff_m`` (the containment ring's radius, 0 for a goal task), ``guard_m`` (the
-    assets' guard ring), ``gap_m`` (3 robot radii: 1.5 body diameters kept between robots that
-    see each other), ``edge_m`` (2 radii: one body diameter kept off a dangerous break),
-    ``fov_deg``, ``step_m`` (the distance covered in one step at full speed) and ``pass_m`` (3
-    body diameters: the narrowest gap between breaks a robot drives through); :meth:`_cut`
-    applies :func:`safety_cut` with them."""
-
-    def _read_constants(self, cfg):
-        self.range_m = cfg.world.sensor.range_m
-        self.standoff_m = cfg.targets.standoff_m if cfg.task == "containment" else 0.0
-        self.guard_m = cfg.assets.standoff_m
-        self.gap_m = 3.0 * cfg.world.robot.radius_m
-        self.edge_m = 2.0 * cfg.world.robot.radius_m
-        self.fov_deg = cfg.world.sensor.fov_deg
-        self.step_m = cfg.world.robot.max_speed_mps * cfg.world.dt_s
-        self.pass_m = 3.0 * self.edge_m
-
-    def _cut(self, action, d: dict, edges: bool = True) -> np.ndarray:
-        """:func:`safety_cut` of ``action (n, 2)`` (the break cut only when ``edges``), float32."""
-        return safety_cut(action, d, self.gap_m, self.edge_m if edges else None, self.step_m,
-                          self.fov_deg).astype(np.float32)
-
-
-class APFPolicy(Controller):
+class APFPolicy:
     """The thesis's potential-field controller as a policy: ``act(obs_dict) -> action_dict``
     and ``act_batch(obs (n, d)) -> actions (n, 2)``.
 
@@ -484,10 +369,10 @@ class APFPolicy(Controller):
     the first time it sees it. The memory
     grows lazily to the number of rows; :meth:`reset` clears it (call it after each env reset).
 
-    **Crowding and edges**: the summed command is cut by :func:`keep_clear` so that robots that
+    **Crowding and edges**: the summed command is cut by :func:`~tin_swarm_env.policies.base.keep_clear` so that robots that
     see each other never come within 1.5 body diameters (the robot field spreads them; a
     command into the blind sector behind the robot is first turned to the edge of its field of
-    view, :func:`into_view`), and,
+    view, :func:`~tin_swarm_env.policies.base.into_view`), and,
     with the break field on, so that no robot comes within one body diameter of a dangerous
     break it sees, however long its step.
     """
@@ -495,14 +380,14 @@ class APFPolicy(Controller):
     def __init__(self, env, fields=FIELDS, params: FieldParams | None = None):
         base = unwrap_env(env)
         cfg = base.config
-        self._read_constants(cfg)
+        self.shield = SafetyShield(env)
         if params is None:
             params = FieldParams()
             n_threats = cfg.targets.n
-            if cfg.task == "containment" and n_threats and self.standoff_m > 0:
+            if cfg.task == "containment" and n_threats and self.shield.standoff_m > 0:
                 # spread around the ring: robots repel out to the arc spacing of an even ring
                 per_ring = -(-cfg.robots.count // n_threats)
-                spacing = 2 * np.pi * self.standoff_m / max(per_ring, 1)
+                spacing = 2 * np.pi * self.shield.standoff_m / max(per_ring, 1)
                 params = FieldParams(robot_range_m=max(params.robot_range_m, 1.1 * spacing))
         self.params = FieldParams(**{**params.__dict__, "fields": tuple(fields)})
         self.layout = base.layout
@@ -516,61 +401,41 @@ class APFPolicy(Controller):
     def forces(self, obs, rows=None) -> dict:
         """Per-field forces (:func:`apf_forces`) for observations ``obs (n, d)`` of the robots in
         ``rows`` (default ``0..n-1``); advances their memory by one step."""
-        return self._forces(decode(obs, self.layout, self.range_m), rows)
+        return self._forces(decode(obs, self.layout, self.shield.range_m), rows)
 
-    def _forces(self, d: dict, rows=None) -> dict:
-        f = field_forces(d, self.layout, self.standoff_m, self.params, self.guard_m)
+    def _forces(self, d: DecodedObs, rows=None) -> dict:
+        f = field_forces(d, self.layout, self.shield.standoff_m, self.params, self.shield.guard_m)
         if not (self.params.on("break") and self.layout.k_breaks):
             return f
-        rows = np.arange(len(d["dist"])) if rows is None else np.asarray(rows, dtype=np.int64)
+        rows = np.arange(len(d.dist)) if rows is None else np.asarray(rows, dtype=np.int64)
         self.memory = self.memory.grow(int(rows.max(initial=-1)) + 1)
         pull = f["target"] + f["height"]
-        g = pass_gap(d, self.pass_m, self.params.follow_engage_m)
+        g = pass_gap(d, self.shield.pass_m, self.params.follow_engage_m)
         # a robot with another one ahead toward the gap queues (the usual fields) instead
-        r_d = np.sqrt(np.sum(d["r_rel"] ** 2, axis=-1))
-        ahead = np.einsum("nkj,nj->nk", d["r_rel"], g["aim"]) > 0
-        queue = ((d["r_valid"] > 0.5) & ahead & (r_d < 2 * self.params.robot_range_m)).any(axis=-1)
+        r_d = np.sqrt(np.sum(d.r_rel ** 2, axis=-1))
+        ahead = np.einsum("nkj,nj->nk", d.r_rel, g["aim"]) > 0
+        queue = ((d.r_valid > 0.5) & ahead & (r_d < 2 * self.params.robot_range_m)).any(axis=-1)
         mem_gap = self.memory.gap[rows]
         has = g["has"] & ~queue & (self.memory.side[rows] != 0) & (mem_gap < 2)
         self.memory.gap[rows] = np.where(has, 1, np.where(mem_gap == 1, 2, mem_gap))
         if has.any():  # the two ends bounding the gap do not push (the edge cut still keeps it off them)
-            danger = d["b_danger"].copy()
+            danger = d.b_danger.copy()
             r = np.flatnonzero(has)
             danger[r, g["slots"][r, 0]] = danger[r, g["slots"][r, 1]] = False
             p = self.params
-            f["break"], _ = break_field(d["b_rel"], d["b_normal"], danger, p.break_gain, p.break_range_m,
+            f["break"], _ = break_field(d.b_rel, d.b_normal, danger, p.break_gain, p.break_range_m,
                                         p.break_decay_m)
         slot = bug_update(self.memory, rows, d, pull, self.params, 2 * self.params.robot_range_m, gap=has)
-        f["follow"] = follow_term(d, pull, self.memory.side[rows], slot, self.params, self.step_m)
+        f["follow"] = follow_term(d, pull, self.memory.side[rows], slot, self.params, self.shield.step_m)
         mag = np.sqrt(np.sum(pull * pull, axis=-1, keepdims=True))
         f["follow"] = np.where(has[:, None], mag * g["aim"] - pull, f["follow"])
         return f
 
     def act_batch(self, obs, rows=None) -> np.ndarray:
-        d = decode(obs, self.layout, self.range_m)
+        d = decode(obs, self.layout, self.shield.range_m)
         f = sum(self._forces(d, rows).values())
         mag = np.sqrt(np.sum(f * f, axis=-1, keepdims=True))
-        return self._cut(f / np.maximum(mag, self.params.speed_saturation), d, edges=self.params.on("break"))
+        return self.shield.cut(f / np.maximum(mag, self.params.speed_saturation), d, edges=self.params.on("break"))
 
     def act(self, obs: dict) -> dict:
-        if not obs:
-            return {}
-        keys = list(obs)
-        rows = [self._rows.setdefault(k, len(self._rows)) for k in keys]
-        a = self.act_batch(np.stack([obs[k] for k in keys]), rows)
-        return {k: a[i] for i, k in enumerate(keys)}
-
-
-class RandomPolicy:
-    """Uniform random body-frame velocities (its own generator, seeded)."""
-
-    def __init__(self, env=None, seed: int | None = None):
-        self.rng = np.random.default_rng(seed)
-
-    def act_batch(self, obs) -> np.ndarray:
-        return self.rng.uniform(-1, 1, (len(obs), 2)).astype(np.float32)
-
-    def act(self, obs: dict) -> dict:
-        keys = list(obs)
-        a = self.act_batch(keys)
-        return {k: a[i] for i, k in enumerate(keys)}
+        return act_dict(self.act_batch, obs, [self._rows.setdefault(k, len(self._rows)) for k in obs])

@@ -8,7 +8,7 @@ controller that *knows the map* does: what a learned or reactive policy could ho
 Per target it builds the shortest-drivable-path field (:func:`~tin_swarm_env.terrain.cost_to_go`
 over the triangles a robot may drive on) once and caches it; robots move along the field's first
 leg, the robot field of :mod:`tin_swarm_env.world.fields` spreads them, and the same last cuts as
-the APF baseline (:func:`~tin_swarm_env.policies.apf.safety_cut`) keep robots that see each other
+the APF baseline (:func:`~tin_swarm_env.policies.base.safety_cut`) keep robots that see each other
 apart and every robot off the dangerous breaks it senses.
 
 *Pinches* (vertices where two passable areas touch only at one point) are handled by the
@@ -21,7 +21,7 @@ import numpy as np
 
 from ..terrain import Tin, cost_to_go
 from ..world.fields import FieldParams, away_from, facing, robot_field
-from .apf import Controller, decode, unwrap_env
+from .base import DecodedObs, SafetyShield, act_dict, unwrap_env
 
 __all__ = ["GeodesicPolicy", "eroded"]
 
@@ -37,16 +37,16 @@ def eroded(tin: Tin, passable, rings: int = 1) -> np.ndarray:
     return ok
 
 
-def clear_of_breaks(u, d: dict, clear_m: float):
+def clear_of_breaks(u, d: DecodedObs, clear_m: float):
     """Unit directions ``u (n, 2)`` (body frame) kept ``clear_m`` off the dangerous breaks in the
     decoded observation ``d``: for each such break seen from its safe side at ``dist < clear_m``
     (``e`` the unit vector from it to the robot), the part of ``u`` toward it is removed and
     ``(1 - dist / clear_m) e`` added, so a path that runs along a cliff edge is followed a little
     off it and nothing of the motion along the edge is lost. Returns ``(n, 2)``."""
-    rel, nrm = d["b_rel"], d["b_normal"]
+    rel, nrm = d.b_rel, d.b_normal
     dist = np.sqrt(np.sum(rel * rel, axis=-1))
     e = away_from(rel, nrm)
-    near = facing(rel, nrm, d["b_danger"]) & (dist < clear_m)
+    near = facing(rel, nrm, d.b_danger) & (dist < clear_m)
     out = np.array(u, dtype=np.float64)
     for j in range(rel.shape[1]):
         ej = e[:, j]
@@ -56,7 +56,7 @@ def clear_of_breaks(u, d: dict, clear_m: float):
     return out
 
 
-class GeodesicPolicy(Controller):
+class GeodesicPolicy:
     """Map-knowing reference: each robot follows the shortest drivable path to its assigned
     target. ``act_batch(obs (n, d), rows=None) -> actions (n, 2)`` and ``act(obs_dict)``.
 
@@ -74,7 +74,7 @@ class GeodesicPolicy(Controller):
     (``gain * clip((D - standoff) / range, -1, 1)``; inside the containment standoff the target
     pushes straight away), rotated into the body frame, plus the robot field from the
     observation; saturated like the APF (``F / max(|F|, speed_saturation)``) and cut by
-    :func:`~tin_swarm_env.policies.apf.safety_cut`. Where the target cannot be reached (no
+    :func:`~tin_swarm_env.policies.base.safety_cut`. Where the target cannot be reached (no
     drivable path), the robot heads straight for it.
 
     **Fields** are built per target (:func:`~tin_swarm_env.terrain.cost_to_go` over
@@ -90,7 +90,7 @@ class GeodesicPolicy(Controller):
         base = unwrap_env(env)
         cfg = base.config
         self.env = base
-        self._read_constants(cfg)
+        self.shield = SafetyShield(env)
         self.params = params or FieldParams()
         self.clear_m = 5.0 * cfg.world.robot.radius_m if clear_m is None else float(clear_m)
         self.rebuild_m = float(rebuild_m)
@@ -162,29 +162,24 @@ class GeodesicPolicy(Controller):
         p = self.params
         u, dist = self.directions(rows)
         tgt = self.env.target_assignment[rows]
-        d = decode(obs, self.layout, self.range_m)
-        straight = d["dist"]
-        e = np.where(np.isfinite(dist), dist, straight) - self.standoff_m
+        d = self.shield.decode(obs)
+        straight = d.dist
+        e = np.where(np.isfinite(dist), dist, straight) - self.shield.standoff_m
         mag = p.target_gain * np.clip(e / p.target_range_m, -1.0, 1.0)
         h = s.headings[rows]
         c, sn = np.cos(h), np.sin(h)
         body = np.stack([c * u[:, 0] + sn * u[:, 1], -sn * u[:, 0] + c * u[:, 1]], axis=-1)
-        if self.standoff_m > 0:  # inside the ring: straight away from the threat
-            away = d["rel_t"] / np.maximum(straight, 1e-12)[:, None]
-            body = np.where((straight < self.standoff_m)[:, None], away, body)
-            mag = np.where(straight < self.standoff_m, p.target_gain * np.clip((straight - self.standoff_m)
-                                                                               / p.target_range_m, -1, 0), mag)
+        if self.shield.standoff_m > 0:  # inside the ring: straight away from the threat
+            away = d.rel_t / np.maximum(straight, 1e-12)[:, None]
+            body = np.where((straight < self.shield.standoff_m)[:, None], away, body)
+            inner = p.target_gain * np.clip((straight - self.shield.standoff_m) / p.target_range_m, -1, 0)
+            mag = np.where(straight < self.shield.standoff_m, inner, mag)
         body = clear_of_breaks(body, d, self.clear_m)
         f = np.where((tgt >= 0)[:, None], mag[:, None] * body, 0.0)
         if self.robot_field_on and self.layout.k_robots:
-            f = f + robot_field(d["r_rel"], d["r_valid"], p.robot_gain, p.robot_range_m)[0]
+            f = f + robot_field(d.r_rel, d.r_valid, p.robot_gain, p.robot_range_m)[0]
         a = f / np.maximum(np.sqrt(np.sum(f * f, axis=-1, keepdims=True)), p.speed_saturation)
-        return self._cut(a, d)
+        return self.shield.cut(a, d)
 
     def act(self, obs: dict) -> dict:
-        if not obs:
-            return {}
-        keys = list(obs)
-        rows = [self.env.agent_name_mapping[k] for k in keys]
-        a = self.act_batch(np.stack([obs[k] for k in keys]), rows)
-        return {k: a[i] for i, k in enumerate(keys)}
+        return act_dict(self.act_batch, obs, [self.env.agent_name_mapping[k] for k in obs])

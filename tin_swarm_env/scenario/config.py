@@ -3,53 +3,38 @@
 Every key maps onto one dataclass field; an unknown key, a wrong type, or a missing required
 value raises :class:`ScenarioError` naming the file and the key (``[robots] cuont``).
 
-Layout of a scenario file (every table and key optional except ``terrain.source``)::
+Each table maps onto one dataclass, whose docstring lists its keys (the documentation's scenario
+keys page is generated from those lists); every table and key is optional except
+``[terrain] source``::
 
-    name = "cliff_goal"
-    task = "goal"                 # "goal" (reach an assigned target) or "containment"
+    (top level)    ScenarioConfig (name, task, max_cycles, seed) and description, the line
+                   ``tin-swarm scenarios`` shows
+    [terrain]      TerrainSpec
+    [robots]       RobotsSpec and every RobotParams field
+    [sensor]       SensorParams
+    [battery]      BatteryParams
+    [world]        WorldParams, less its robot/sensor/battery models and flat_size_m ([terrain] size_m)
+    [targets]      EntitiesSpec: threats/targets, by positions or by a count drawn at each reset
+    [assets]       EntitiesSpec less arrival_radius_m: what the swarm guards
+    [rewards]      RewardWeights
+    [observation]  ObservationSpec
+
+A small file::
+
+    name = "crossing"
+    task = "goal"
     max_cycles = 400
-    seed = 0
 
     [terrain]
-    source = "procedural"         # "procedural" | "sample" | "dem" | "tin" | "flat" | "generated"
-    recipe = "cliff_goal"         # procedural recipe name (see scenario/terrains.py)
-    path = ""                     # DEM/TIN file (relative to the scenario file) or sample name
-    method = "greedy"             # reduction for a DEM: "vip" | "greedy" | "delaunay"
-    max_vertices = 0              # 0: not set
-    max_error_m = 0.5
-    size_m = [500.0, 500.0]       # flat plane / procedural extent
-    params = {}                   # recipe parameters
-    # source = "generated" (seeded task generators, scenario/generators.py):
-    families = ["canyon", "mesa", "hills"]   # or {canyon = 2, mesa = 1}: weights; default all
-    ranges = {}                   # per-family parameter ranges, e.g. {canyon = {cliff_m = [8, 12]}}
-    resample = "reset"            # "reset": a new terrain on every reset(seed); "once": one, from seed
+    source = "flat"
+    size_m = [300.0, 300.0]
 
     [robots]
-    count = 20
-    spawn_region = [x0, y0, x1, y1]  # m; default: the whole terrain
-    min_separation_m = 2.0
-    # any RobotParams field: radius_m, max_speed_mps, turn_rate_dps, max_slope_deg, max_climb_deg
+    count = 10
+    spawn_region = [10.0, 10.0, 60.0, 60.0]
 
-    [sensor]     # SensorParams fields
-    [battery]    # BatteryParams fields
-    [world]      # dt_s, entity_height_m, entity_speed_mps, entity_turn_sd_deg, break_angle_deg
-
-    [targets]    # threats/targets: positions, or count (+ region) drawn by the reset seed
-    positions = [[x, y], ...]
-    count = 0                     # N > 0: N targets drawn from reset(seed) (not with positions)
-    region = [x0, y0, x1, y1]     # m, where counted ones are drawn; default: the whole terrain
-    min_separation_m = 10.0       # between counted ones
-    mobile = false
-    standoff_m = 0.0              # containment: ring radius; goal: 0
-    arrival_radius_m = 5.0
-
-    [assets]     # things the swarm guards (positions or count/region/min_separation_m, as targets)
-    positions = [[x, y], ...]
-    mobile = false
-    standoff_m = 0.0              # the guard ring's radius (the APF's asset field)
-
-    [rewards]    # RewardWeights fields; progress = "geodesic" | "euclidean"
-    [observation]  # k_robots, k_targets, k_breaks, k_assets
+    [targets]
+    positions = [[250.0, 250.0]]
 """
 
 from __future__ import annotations
@@ -71,6 +56,7 @@ except ModuleNotFoundError:  # Python 3.10: the same parser from PyPI
 
 from ..errors import ParameterError, ScenarioError, check_fields, check_range
 from ..world import BatteryParams, RobotParams, SensorParams, WorldParams
+from .generators import ALL_FAMILIES, family_weights, validate_ranges
 
 __all__ = ["ScenarioError", "TerrainSpec", "RobotsSpec", "EntitiesSpec", "RewardWeights", "ObservationSpec",
            "ScenarioConfig", "load_scenario", "scenario_from_dict", "SCENARIO_DIR", "list_scenarios",
@@ -101,6 +87,23 @@ def _check_region(spec, key: str) -> None:
 
 @dataclass(frozen=True)
 class TerrainSpec:
+    """The ``[terrain]`` table: where the terrain comes from.
+
+    source          "procedural" | "sample" | "dem" | "tin" | "flat" | "generated"
+    recipe          procedural recipe name (:mod:`tin_swarm_env.scenario.terrains`)
+    path            DEM or TIN file (relative to the scenario file), or a sample DEM's name
+    method          reduction of a DEM: "vip" | "greedy" | "delaunay" | "robot" (the robots' max_slope_deg)
+    max_vertices    vertex budget of the reduction; 0: not set
+    max_error_m     vertical error the greedy reduction may leave
+    size_m          (width, height) of a flat plane or a procedural terrain, m
+    params          recipe parameters, e.g. ``{cell = 2.0}``
+    families        generated: family names, or ``{name = weight}``; empty: all of them
+                    (:data:`~tin_swarm_env.scenario.generators.ALL_FAMILIES`)
+    ranges          generated: per-family parameter ranges, ``{family = {parameter = [lo, hi] or choices}}``
+    resample        generated: "reset" (a new terrain on every ``reset(seed)``) or "once" (one, from
+                    the scenario's seed)
+    """
+
     source: str = "flat"
     recipe: str = ""
     path: str = ""
@@ -109,9 +112,9 @@ class TerrainSpec:
     max_error_m: float = 0.5
     size_m: tuple[float, float] = (500.0, 500.0)
     params: dict = field(default_factory=dict)
-    families: tuple[str, ...] | dict = ()  # generated: family names or {name: weight}; () = all
-    ranges: dict = field(default_factory=dict)  # generated: {family: {parameter: [lo, hi] | choices}}
-    resample: str = "reset"  # generated: "reset" (new terrain every reset(seed)) or "once"
+    families: tuple[str, ...] | dict = ()
+    ranges: dict = field(default_factory=dict)
+    resample: str = "reset"
 
     def __post_init__(self):  # types normalised (lists -> tuples), then the values (see _check_terrain)
         if isinstance(self.families, (list, dict)) and not self.families:
@@ -122,6 +125,14 @@ class TerrainSpec:
 
 @dataclass(frozen=True)
 class RobotsSpec:
+    """The ``[robots]`` table's swarm keys (the table also takes every
+    :class:`~tin_swarm_env.world.RobotParams` field).
+
+    count             how many robots
+    spawn_region      ``[x0, y0, x1, y1]`` m where they start; default: the whole terrain
+    min_separation_m  least distance between two robots at the start
+    """
+
     count: int = 10
     spawn_region: tuple[float, float, float, float] | None = None
     min_separation_m: float = 2.0
@@ -137,7 +148,17 @@ class EntitiesSpec:
     """Threats/targets or assets: fixed ``positions``, or ``count`` of them drawn at every reset
     from the reset seed inside ``region`` (m; default the whole terrain) on traversable ground,
     at least ``min_separation_m`` apart and reachable from the robots' spawn region
-    (:func:`tin_swarm_env.scenario.build.place_entities`). Not both."""
+    (:func:`tin_swarm_env.scenario.build.place_entities`). Not both.
+
+    positions         ``[[x, y], ...]`` m
+    count             N > 0: N of them drawn from the reset seed (not with ``positions``)
+    region            ``[x0, y0, x1, y1]`` m where counted ones are drawn; default: the whole terrain
+    min_separation_m  least distance between counted ones
+    mobile            whether they wander (a random walk, :class:`~tin_swarm_env.world.WorldParams`)
+    standoff_m        targets: the containment task's ring radius (0 for the goal task); assets:
+                      the guard ring the APF's asset field draws robots to
+    arrival_radius_m  goal task: a robot this close to its target has arrived (targets only)
+    """
 
     positions: tuple[tuple[float, float], ...] = ()
     count: int = 0
@@ -166,15 +187,20 @@ class EntitiesSpec:
 
 @dataclass(frozen=True)
 class RewardWeights:
-    """Per-robot reward = progress_per_m * (metres gained toward the goal or standoff ring)
-    + arrival (once, goal task) + on_ring_per_step (containment, within ring_tolerance_m)
-    + fall (once) + battery_empty (once) + collision * (robots touched this step)
-    + energy_per_kj * (kJ drawn this step).
+    """The ``[rewards]`` table: the weights of the per-robot reward (what each term pays for is
+    :mod:`tin_swarm_env.env.reward`).
 
-    ``progress`` says how the metres are measured: "geodesic" (default) by the length of the
-    shortest drivable path (:func:`~tin_swarm_env.terrain.cost_to_go` over the triangles no
-    steeper than the robots' ``max_slope_deg``), "euclidean" by the straight line (see
-    :mod:`tin_swarm_env.env.reward`)."""
+    progress          how the metres of progress are measured: "geodesic" (the shortest drivable
+                      path) or "euclidean" (the straight line)
+    progress_per_m    per metre gained toward the target (goal) or the standoff ring (containment)
+    arrival           once, on reaching the target (goal task)
+    on_ring_per_step  per step within ``ring_tolerance_m`` of the ring (containment)
+    ring_tolerance_m  how near the ring counts as on it, m
+    fall              once, on falling
+    battery_empty     once, when the battery runs out
+    collision         per robot touched this step
+    energy_per_kj     per kJ drawn this step
+    """
 
     progress: str = "geodesic"
     progress_per_m: float = 1.0
@@ -196,13 +222,20 @@ class RewardWeights:
 
 @dataclass(frozen=True)
 class ObservationSpec:
-    """Slot counts of the observation (the only place they are written;
-    :class:`~tin_swarm_env.env.observation.ObsLayout` is built from it)."""
+    """The ``[observation]`` table: slot counts of the observation (the only place they are written;
+    :class:`~tin_swarm_env.env.observation.ObsLayout` is built from it).
+
+    k_robots    slots for the nearest visible robots
+    k_targets   slots for the nearest visible threats/targets
+    k_breaks    slots for the nearest terrain breaks in range
+    k_assets    slots for the nearest visible assets; not set: ``DEFAULT_K_ASSETS`` when the scenario
+                has assets, else 0 (:meth:`~tin_swarm_env.env.observation.ObsLayout.from_spec`)
+    """
 
     k_robots: int = 4
     k_targets: int = 2
     k_breaks: int = 3
-    k_assets: int | None = None  # None: 2 when the scenario has assets, else 0 (ObsLayout.from_spec)
+    k_assets: int | None = None
 
     def __post_init__(self):
         _check_types(self)
@@ -214,6 +247,15 @@ class ObservationSpec:
 
 @dataclass(frozen=True)
 class ScenarioConfig:
+    """A whole scenario; its top-level keys:
+
+    name        the scenario's name (default: the file's stem)
+    task        "goal" (reach an assigned target) or "containment" (surround threats at a standoff)
+    max_cycles  episode length in steps (truncation)
+    seed        the seed of ``reset()`` called without one, and of a terrain drawn once
+                (``resample = "once"``; not set: 0)
+    """
+
     name: str = "custom"
     task: str = "goal"
     max_cycles: int = 400
@@ -301,12 +343,10 @@ def _check_terrain(t: TerrainSpec) -> None:
         raise ParameterError(f"TerrainSpec.size_m {list(t.size_m)}: a flat plane of at most {MAX_FLAT_AREA_M2:.0e} "
                              "m^2 (robots' spawn and sensing grids scale with the area)")
     if t.source == "generated":
-        from .generators import PARAMS, _weights, validate_ranges
-
         if isinstance(t.families, dict):
             for k, w in t.families.items():
                 check_range("TerrainSpec", f"families[{k!r}]", w, 0)
-        names, _ = _weights(t.families or tuple(PARAMS), "TerrainSpec.families")
+        names, _ = family_weights(t.families or ALL_FAMILIES, "TerrainSpec.families")
         validate_ranges(t.ranges, names, "ranges")
         if t.resample not in ("reset", "once"):
             raise ParameterError(f"'resample' must be 'reset' or 'once', got {t.resample!r}")

@@ -16,7 +16,8 @@ cells`` wide, at most about 24 deg) join it to the ground over its full width ne
 greedy TIN never reduces that joint to one vertex. So the task stays unambiguous after TIN
 reduction (measured: the target was reachable over passable triangles of the greedy 0.5 m TIN in
 298 of 300 draws; the two misses, both mesas, had a steep sliver triangle across a ramp, which is
-what the ``solvable`` check below catches).
+what the ``solvable`` check below catches; fork: 149 of 150, trap: 150 of 150; a sliver can also
+seal a fork's dead end, about 1 in 60, which leaves the task solvable).
 
 =========== ================ ================ ===================================================
 family      parameter        default range    meaning
@@ -59,10 +60,47 @@ hills       n_pits           [1, 4]           steep-walled round pits
 hills       pit_m            [6, 12]          depth of a pit, m
 hills       pit_radius_m     [6, 16]          largest radius of a pit, m
 hills       target_u_frac    [-0.3, 0.3]      target's lateral offset, of half the size
+fork        heading          n/e/s/w          direction of travel (the cliff runs across it)
+fork        spawn_on         top, bottom      robots start on the plateau or below the cliff
+fork        side             left, right      where the way(s) through lie
+fork        cliff_m          [6, 12]          height of the escarpment, m
+fork        cliff_v_frac     [-0.1, 0.1]      cliff line's offset along travel, of half the size
+fork        n_passes         [2, 4]           ramps or openings in the cliff, dead ends included
+fork        n_dead           [0, 3]           how many of them are dead ends (at most
+                                              n_passes - 1; 0: a canyon with several passes)
+fork        dead_end         pocket, spur     a ramp into a walled pit, or a tongue of the
+                                              plateau (spawn at the bottom: a ramp onto a
+                                              walled block, or a blind canyon)
+fork        pass_offset_frac [0.3, 0.7]       nearest way through's lateral offset, of half
+                                              the size
+fork        pass_width_m     [10, 16]         width of a ramp, m
+fork        ramp_slope_deg   [9, 13]          slope of a ramp (capped as above), deg
+fork        pocket_m         [15, 35]         length of a pocket past its ramp's foot, or of a
+                                              spur, m
+fork        pocket_depth_m   [3, 6]           depth of a pocket's pit below the floor, m (at
+                                              least the cliff minimum)
+fork        target_u_frac    [-0.15, 0.15]    target's lateral offset, of half the size
+trap        heading          n/e/s/w          direction of travel
+trap        side             left, right      where the barrier's opening lies
+trap        barrier          wall, trench,    raised wall, sunk trench, or a basin walled by a
+                                 cliff            cliff with a ramp out through the opening
+trap        shape            round, square    a ring (C) or the sides of a square (U)
+trap        trap_m           [6, 12]          height of the wall or depth of the trench, m
+trap        radius_m         [28, 50]         inside radius (half side) of the barrier, m
+trap        thickness_m      [4, 10]          thickness of the barrier, m (at least 3 cells)
+trap        opening_deg      [100, 150]       the opening's centre, deg from the direction of
+                                              travel toward ``side`` (180: straight back)
+trap        gap_deg          [30, 40]         angular width of the opening, deg
+trap        target_u_frac    [-0.15, 0.15]    target's lateral offset, of half the size
 =========== ================ ================ ===================================================
 
 ``detour_side``: canyon and mesa put the only way(s) down or up on the drawn ``side``; the
-straight line from the spawn centre to the target always crosses a cliff. Hills keep every block
+straight line from the spawn centre to the target always crosses a cliff. Fork puts every way
+through on the drawn ``side`` (the nearest one first in ``passes``) and its dead ends on either
+side (``dead_ends``); trap puts its opening on the drawn ``side``, so the shortest way round
+goes that way. "Left" is the sign of the cross product of (spawn centre -> target) with (spawn
+centre -> the middle of the first pass or opening), ``_side_of``; ``side`` is drawn uniformly,
+so over many seeds the way round is on the left as often as on the right. Hills keep every block
 and pit (their bounding circles) ``6 m + 2 cells`` apart and away from the map edge, the spawn
 region and the target, so their tasks are solvable by construction; their label is "none". A
 ``solvable(task) -> bool`` check (the integrator passes one built on ``terrain.cost_to_go``)
@@ -78,13 +116,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ArgumentError
+from ..errors import ArgumentError, ScenarioError
 from ..terrain import Dem
 from ..terrain.breaks import MAX_SLOPE_DEG
-from .config import ScenarioError
 
-__all__ = ["GeneratedTask", "PARAMS", "DEFAULT_RANGES", "FAMILIES", "HEADINGS", "generate", "validate_ranges",
-           "draw_params", "replay", "canyon", "mesa", "hills", "NoFitError"]
+__all__ = ["GeneratedTask", "PARAMS", "ALL_FAMILIES", "DEFAULT_RANGES", "FAMILIES", "HEADINGS", "generate",
+           "validate_ranges", "family_weights", "draw_params", "replay", "canyon", "mesa", "hills", "fork", "trap",
+           "NoFitError"]
 
 HEADINGS = {"north": (0.0, 1.0), "east": (1.0, 0.0), "south": (0.0, -1.0), "west": (-1.0, 0.0)}
 SIDES = ("left", "right", "both")
@@ -130,7 +168,19 @@ PARAMS: dict[str, dict[str, Param]] = {
               "n_blocks": _i(2, 6, 0, 50), "block_m": _f(8, 14, 1, 200), "block_size_m": _f(12, 36, 2, 500),
               "n_pits": _i(1, 4, 0, 50), "pit_m": _f(6, 12, 1, 200), "pit_radius_m": _f(6, 16, 1, 500),
               "target_u_frac": _f(-0.3, 0.3, -0.9, 0.9)},
+    "fork": {**_COMMON, "heading": _c(*HEADINGS), "spawn_on": _c("top", "bottom"), "side": _c("left", "right"),
+             "cliff_m": _f(6, 12, 1, 200), "cliff_v_frac": _f(-0.1, 0.1, -0.5, 0.5), "n_passes": _i(2, 4, 2, 8),
+             "n_dead": _i(0, 3, 0, 7), "dead_end": _c("pocket", "spur"), "pass_offset_frac": _f(0.3, 0.7, 0.05, 0.95),
+             "pass_width_m": _f(10, 16, 2, 200), "ramp_slope_deg": _f(9, 13, 1, 45),
+             "pocket_m": _f(15, 35, 2, 500), "pocket_depth_m": _f(3, 6, 1, 100),
+             "target_u_frac": _f(-0.15, 0.15, -0.9, 0.9)},
+    "trap": {**_COMMON, "heading": _c(*HEADINGS), "side": _c("left", "right"),
+             "barrier": _c("wall", "trench", "cliff"), "shape": _c("round", "square"), "trap_m": _f(6, 12, 1, 200),
+             "radius_m": _f(28, 50, 5, 1000), "thickness_m": _f(4, 10, 1, 200), "opening_deg": _f(100, 150, 0, 180),
+             "gap_deg": _f(30, 40, 10, 180),
+             "target_u_frac": _f(-0.15, 0.15, -0.9, 0.9)},
 }
+ALL_FAMILIES: tuple[str, ...] = tuple(PARAMS)  # every generated family, the default of every family list
 MAX_GRID_CELLS = 4_000_000  # a generated DEM's cells (size_m / cell_m + 1)^2: ~120 bytes each while it is built
 # and meshed, so ~0.5 GB at the limit (2 km at 1 m); checked before any allocation
 DEFAULT_RANGES: dict[str, dict[str, list]] = {
@@ -148,9 +198,12 @@ class GeneratedTask:
     params         every parameter the family was called with (drawn ones and ``max_slope_deg``)
     detour_side    "left", "right", "both" or "none": where the way round the cliff lies, as
                    seen from the spawn centre looking at the target
-    passes         (k, 2, 2) m, the centre line of each pass or ramp, high end first
+    passes         (k, 2, 2) m, the centre line of each pass or ramp, high end first (trap: of
+                   the opening, inside first); fork: the way through first
     seed           the seed of the family's own generator (``replay`` rebuilds the task from it);
                    None when the family was called directly
+    dead_ends      (j, 2, 2) m, fork: each dead end's entry (where a robot coming from the spawn
+                   side enters it) and its far end (pocket floor, spur tip, blind canyon's end)
     """
 
     dem: Dem
@@ -161,6 +214,7 @@ class GeneratedTask:
     detour_side: str
     passes: np.ndarray
     seed: int | None = None
+    dead_ends: np.ndarray = dataclasses.field(default_factory=lambda: _frozen(np.zeros((0, 2, 2))))
 
     @property
     def spawn_centre(self) -> np.ndarray:
@@ -201,7 +255,7 @@ def _check_range(fam, key, value, where):
     return (int(lo), int(hi)) if p.kind == "int" else (float(lo), float(hi))
 
 
-def validate_ranges(ranges: Mapping | None, families: Sequence[str] = tuple(PARAMS),
+def validate_ranges(ranges: Mapping | None, families: Sequence[str] = ALL_FAMILIES,
                     where: str = "generated terrain") -> dict[str, dict[str, tuple]]:
     """The default ranges of ``families`` with ``ranges`` (``{family: {param: [lo, hi] | value |
     [choices]}}``) laid over them, checked. An unknown family or parameter, or a bad range, is a
@@ -353,17 +407,22 @@ def _side_of(spawn, target, points):
     return "both" if left and right else ("left" if left else "right")
 
 
-def _task(family, p, x, z, spawn_centre, target, passes, rng_noise):
+def _frozen(a):
+    a = np.asarray(a, dtype=np.float64)
+    a.setflags(write=False)
+    return a
+
+
+def _task(family, p, x, z, spawn_centre, target, passes, rng_noise, dead_ends=()):
     """Add the common noise and wrap up. ``passes`` (k, 2, 2) m world; the rest as in GeneratedTask."""
     _, _, noise_tan = _slopes(p)
     z = z + _capped(_noise(rng_noise, x, p["noise_scale_m"]), p["noise_m"], noise_tan, p["cell_m"])
-    targets = np.asarray(target, dtype=np.float64).reshape(1, 2)
-    targets.setflags(write=False)
-    passes = np.asarray(passes, dtype=np.float64).reshape(-1, 2, 2)
-    passes.setflags(write=False)
+    targets = _frozen(np.asarray(target, dtype=np.float64).reshape(1, 2))
+    passes = _frozen(np.asarray(passes, dtype=np.float64).reshape(-1, 2, 2))
     side = "none" if len(passes) == 0 else _side_of(np.asarray(spawn_centre), targets[0], passes.mean(axis=1))
     return GeneratedTask(Dem(z, x, x, source=f"generated:{family}"), _square(spawn_centre, p["spawn_m"]),
-                         targets, family, p, side, passes)
+                         targets, family, p, side, passes,
+                         dead_ends=_frozen(np.asarray(dead_ends, dtype=np.float64).reshape(-1, 2, 2)))
 
 
 class NoFitError(ScenarioError):
@@ -504,13 +563,156 @@ def hills(rng: np.random.Generator, **params) -> GeneratedTask:
     return _task("hills", p, x, z, to_world(spawn_uv), to_world(target_uv), np.zeros((0, 2, 2)), rng)
 
 
-FAMILIES: dict[str, Callable[..., GeneratedTask]] = {"canyon": canyon, "mesa": mesa, "hills": hills}
+def _lateral(rng, half_widths, taken, lo, hi, gap, both_sides=True, tries=32):
+    """Lateral centres (m, signed; + toward the way through) for features of half-widths
+    ``half_widths``, on a random side each (``both_sides``; else the + side), ``|lat|`` in ``[lo +
+    hw, hi - hw]``, at least ``gap`` from every footprint in ``taken`` (``[(centre, half-width),
+    ...]``, extended in place) and from each other. ``tries`` candidates per feature, the first that
+    fits wins (none: skipped). Returns ``[(index, centre), ...]`` of the features placed."""
+    placed = []
+    for i, hw in enumerate(half_widths):
+        if hi - hw < lo + hw:
+            continue
+        cands = rng.uniform(lo + hw, hi - hw, tries)
+        if both_sides:
+            cands = cands * np.where(rng.random(tries) < 0.5, -1.0, 1.0)
+        ok = np.ones(tries, dtype=bool)
+        for c, w in taken:
+            ok &= np.abs(cands - c) >= hw + w + gap
+        if ok.any():
+            c = float(cands[np.argmax(ok)])
+            taken.append((c, hw))
+            placed.append((i, c))
+    return placed
+
+
+def fork(rng: np.random.Generator, **params) -> GeneratedTask:
+    """An escarpment ``cliff_m`` high across the way (as in :func:`canyon`) with ``n_passes`` ramps
+    or openings, ``n_dead`` of them (at most ``n_passes - 1``) dead ends, the rest ways through. The
+    nearest way through lies ``pass_offset_frac`` of the half size off the spawn-target line (at
+    least clear of the spawn region) on the drawn ``side``; further ones lie further out on that
+    side, so the shortest way round is on ``side``. Dead ends take random places on either side
+    (fewer when 32 tries find no room; at least one when ``n_dead >= 1``). A ``pocket`` dead end is
+    a ramp down the cliff into a pit ``pocket_depth_m`` below the floor and ``pocket_m`` long past
+    the ramp's foot, walled on its three other sides; a ``spur`` is a tongue of the plateau
+    ``pocket_m`` long (at least 8 cells) reaching out over the floor. With ``spawn_on = "bottom"``
+    the heights are turned upside down: a pocket becomes a ramp up onto a block ``pocket_depth_m``
+    above the target's plateau, a spur a blind canyon cut into the plateau. ``rng`` draws the dead
+    ends' places and the noise."""
+    p = _resolve("fork", params)
+    x, half = _grid(p)
+    u, v, to_world = _frame(x, half, p["heading"])
+    sg = -1.0 if p["side"] == "left" else 1.0
+    lat = sg * u  # (n, n) m, lateral coordinate, + toward the way through
+    h_min, ramp_tan, _ = _slopes(p)
+    h, d = max(p["cliff_m"], h_min), max(p["pocket_depth_m"], h_min)
+    tan = min(math.tan(math.radians(p["ramp_slope_deg"])), ramp_tan)
+    run, run_d = h / tan, (h + d) / tan  # horizontal length of a pass and of a pocket's ramp, m
+    vc, w, s, fl, cell = p["cliff_v_frac"] * half, p["pass_width_m"], p["spawn_m"], _flare_m(p), p["cell_m"]
+    spawn = np.array([0.0, (vc - half) / 2])
+    target = np.array([p["target_u_frac"] * half, (vc + half) / 2])
+    cross = target[0] * (vc - spawn[1]) / (target[1] - spawn[1])  # where the straight line meets the cliff
+    c0 = max(s / 2, abs(cross), abs(target[0])) + MARGIN_M  # features stay clear of |lat| < c0
+    gap = 2 * MARGIN_M + 2 * cell  # between two features' footprints, m
+    hw_pass = w / 2 + fl
+    pocket = p["dead_end"] == "pocket"
+    hw_dead = hw_pass + (2 * cell + 2.0 if pocket else 0.0)  # a pocket keeps pit floor beside its ramp
+    reach = (run_d / 2 + p["pocket_m"]) if pocket else max(p["pocket_m"], 8 * cell)  # past the cliff line, m
+    _fit(vc - max(run, run_d if pocket else 0.0) / 2 >= -half + MARGIN_M
+         and vc + max(run / 2, reach) <= half - MARGIN_M, "fork", f"a pass {run:.0f} m long and the dead ends", p)
+    _fit(spawn[1] - s / 2 >= -half + MARGIN_M and spawn[1] + s / 2 <= vc - MARGIN_M, "fork", "the spawn region", p)
+    off = max(p["pass_offset_frac"] * half, c0 + hw_pass)
+    _fit(off + hw_pass <= half - MARGIN_M, "fork", "the way through beside the spawn region", p)
+    n_dead = min(p["n_dead"], p["n_passes"] - 1)
+    taken = [(off, hw_pass)]  # further ways through lie on the same side beyond the first (never shorter)
+    _lateral(rng, [hw_pass] * (p["n_passes"] - 1 - n_dead), taken, off + hw_pass, half - MARGIN_M, gap, False)
+    ways = [t for t, _ in taken]
+    dead = [c for _, c in _lateral(rng, [hw_dead] * n_dead, taken, c0, half - MARGIN_M, gap)]
+    _fit(n_dead == 0 or len(dead) > 0, "fork", "a dead end beside the ways through", p)
+    z = np.where(v < vc, h, 0.0)  # (n, n) m, the plateau behind the cliff, the floor in front
+    for c in ways:
+        z = _cut_pass(z, v, lat - c, vc - run / 2, run, h, w, p)
+    ends = []  # each dead end's entry (spawn side) and far end
+    for c in dead:
+        if pocket:  # the pit, then a ramp from the plateau (h) to its floor (-d)
+            pit = (v >= vc) & (v <= vc + reach) & (np.abs(lat - c) <= hw_dead)
+            z = _cut_pass(np.where(pit, -d, z) + d, v, lat - c, vc - run_d / 2, run_d, h + d, w, p) - d
+            ends.append([[c, vc - run_d / 2], [c, vc + run_d / 2 + p["pocket_m"] / 2]])
+        else:
+            z = np.where((v >= vc) & (v <= vc + reach) & (np.abs(lat - c) <= hw_dead), h, z)
+            ends.append([[c, vc], [c, vc + reach / 2]])
+    passes = [[[c, vc - run / 2], [c, vc + run / 2]] for c in ways]  # high end first
+    if p["spawn_on"] == "bottom":
+        z = h - z
+        passes = [e[::-1] for e in passes]
+    uv = lambda pts: np.asarray(pts, dtype=np.float64) * [sg, 1.0]  # noqa: E731 - (lat, v) -> (u, v)
+    return _task("fork", p, x, z, to_world(uv(spawn)), to_world(uv(target)), to_world(uv(passes)), rng,
+                 dead_ends=to_world(uv(ends)).reshape(-1, 2, 2) if ends else ())
+
+
+def trap(rng: np.random.Generator, **params) -> GeneratedTask:
+    """A C- or U-shaped barrier round the spawn region, closed toward the target: a ``wall``
+    ``trap_m`` high or a ``trench`` ``trap_m`` deep (one-cell cliffs on both sides), ``thickness_m``
+    thick (at least three cells), its inside ``radius_m`` from the spawn centre (at least the spawn
+    region's half diagonal plus a margin); ``round`` (a ring) or ``square`` (the sides of a square).
+    An opening ``gap_deg`` wide is cut into it at ``opening_deg`` from the direction of travel, on
+    the drawn ``side``: the robots must leave through it, away from the target, and go round that
+    side. A ``cliff`` barrier is a basin ``trap_m`` deep out to the barrier's outer edge, walled by
+    a one-cell cliff except where a ramp (12 deg or the ramp cap, as wide as the opening at the rim)
+    climbs out through the opening. The spawn region sits behind the map centre with a corridor 16 m
+    + 2 cells wide between the barrier and the map edge, the target near the front edge. ``rng``
+    draws only the noise."""
+    p = _resolve("trap", params)
+    x, half = _grid(p)
+    u, v, to_world = _frame(x, half, p["heading"])
+    sg = -1.0 if p["side"] == "left" else 1.0
+    lat = sg * u  # (n, n) m, + toward the opening's side
+    h_min, ramp_tan, _ = _slopes(p)
+    hb = max(p["trap_m"], h_min)
+    thick = max(p["thickness_m"], 3 * p["cell_m"])
+    s = p["spawn_m"]
+    r_in = max(p["radius_m"], s / math.sqrt(2) + MARGIN_M + p["cell_m"])
+    r_out, corridor = r_in + thick, 16.0 + 2 * p["cell_m"]
+    _fit(r_out + corridor <= half, "trap", f"a barrier {r_out:.0f} m round the spawn", p)
+    vs, vt = -half + corridor + r_out, half - 3 * MARGIN_M
+    _fit(vt - vs >= r_out + 2 * MARGIN_M, "trap", "the target in front of the barrier", p)
+    dl, dv = lat, v - vs
+    r = np.hypot(dl, dv) if p["shape"] == "round" else np.maximum(np.abs(dl), np.abs(dv))
+    off = (np.degrees(np.arctan2(dl, dv)) - p["opening_deg"] + 180.0) % 360.0 - 180.0
+    a = math.radians(p["opening_deg"])
+    dirn = np.array([math.sin(a), math.cos(a)])  # (lat, v) unit vector toward the opening
+    scale = 1.0 if p["shape"] == "round" else 1.0 / max(abs(dirn[0]), abs(dirn[1]))
+    spawn = np.array([0.0, vs])
+    if p["barrier"] == "cliff":  # a basin inside the barrier's outer edge, a ramp up through the opening
+        rim = r_out * scale  # from the spawn centre to the rim along the opening's axis, m
+        run = hb / min(math.tan(math.radians(12.0)), ramp_tan)
+        width = 2.0 * rim * math.sin(math.radians(p["gap_deg"]) / 2)
+        ends = [spawn + (rim - run / 2) * dirn, spawn + (rim + run / 2) * dirn]
+        _fit(rim - run / 2 >= s / math.sqrt(2) and np.all(np.abs(ends[1]) <= half - MARGIN_M - width / 2), "trap",
+             f"a ramp {run:.0f} m long out of the basin", p)
+        along, across = dl * dirn[0] + dv * dirn[1], dv * dirn[0] - dl * dirn[1]
+        z = _cut_pass(np.where(r <= r_out, 0.0, hb), -along, across, -(rim + run / 2), run, hb, width, p) - hb
+        opening = ends
+    else:
+        band = (r >= r_in) & (r <= r_out) & (np.abs(off) >= p["gap_deg"] / 2)
+        z = np.where(band, hb if p["barrier"] == "wall" else -hb, 0.0)
+        opening = [spawn + (r_in - MARGIN_M) * scale * dirn, spawn + (r_out + MARGIN_M) * scale * dirn]
+    uv = lambda pts: np.asarray(pts, dtype=np.float64) * [sg, 1.0]  # noqa: E731 - (lat, v) -> (u, v)
+    target = np.array([p["target_u_frac"] * half, vt])
+    return _task("trap", p, x, z, to_world(uv(spawn)), to_world(uv(target)), to_world(uv([opening])), rng)
+
+
+FAMILIES: dict[str, Callable[..., GeneratedTask]] = {"canyon": canyon, "mesa": mesa, "hills": hills, "fork": fork,
+                                                     "trap": trap}
+assert tuple(FAMILIES) == ALL_FAMILIES
 
 
 # -- the dispatcher ---------------------------------------------------------------------------
 
 
-def _weights(families, where):
+def family_weights(families, where: str = "generated terrain") -> tuple[list[str], np.ndarray]:
+    """``(names, probabilities)`` of a family list (uniform) or ``{family: weight}`` mapping; a
+    ScenarioError naming ``where`` for an unknown family, no family, or bad weights."""
     if isinstance(families, str):
         families = (families,)
     if isinstance(families, Mapping):
@@ -527,7 +729,7 @@ def _weights(families, where):
     return names, w / w.sum()
 
 
-def generate(rng: np.random.Generator, families: Sequence[str] | Mapping[str, float] = tuple(PARAMS),
+def generate(rng: np.random.Generator, families: Sequence[str] | Mapping[str, float] = ALL_FAMILIES,
              ranges: Mapping | None = None, *, max_slope_deg: float = MAX_SLOPE_DEG,
              solvable: Callable[[GeneratedTask], bool] | None = None, max_tries: int = 20,
              where: str = "generated terrain") -> GeneratedTask:
@@ -539,7 +741,7 @@ def generate(rng: np.random.Generator, families: Sequence[str] | Mapping[str, fl
     ``solvable(task)`` is false is drawn again from the same stream, at most ``max_tries`` draws
     in all, then a ScenarioError names the last misfit.
     ``where`` (the scenario file) prefixes error messages."""
-    names, weights = _weights(families, where)
+    names, weights = family_weights(families, where)
     checked = validate_ranges(ranges, names, where)
     if max_tries < 1:
         raise ScenarioError(f"{where}: max_tries must be >= 1, got {max_tries}")

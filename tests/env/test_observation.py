@@ -1,0 +1,209 @@
+"""ObsLayout is the observation's one description: offsets, names, scales, decoders, saving."""
+
+import json
+import math
+
+import numba
+import numpy as np
+import pytest
+
+import tin_swarm_env as tse
+from tin_swarm_env.env import observation as O
+from tin_swarm_env.env.observation import DZ_SCALE_M, SLOT_FIELDS, ObsLayout
+from tin_swarm_env.errors import ObservationLayoutError
+from tin_swarm_env.policies import APFPolicy
+from tin_swarm_env.scenario import ObservationSpec, load_scenario
+from tin_swarm_env.world.fields import HEIGHT_SCALE_M
+
+
+def test_field_names_offsets_and_size_agree():
+    lay = ObsLayout(k_robots=2, k_targets=1, k_breaks=5)
+    names = lay.names()
+    assert len(names) == lay.size == 11 + 4 * 2 + 4 * 1 + 8 * 5
+    obs = np.arange(lay.size, dtype=float)[None]  # element i holds i: reading a field reads its index
+    for part in SLOT_FIELDS:
+        for f in SLOT_FIELDS[part]:
+            idx = lay.field(obs, part, f)[0].astype(int)
+            assert [names[i] for i in idx] == [f"{part}[{k}].{f}" for k in range(lay.count(part))]
+    assert names[int(lay.field(obs, "own", "target_dz")[0, 0])] == "own.target_dz"
+    np.testing.assert_array_equal(lay.vectors(obs, "breaks", "nx", "ny")[0, 1], [lay.breaks.start + 11,
+                                                                                   lay.breaks.start + 12])
+    with pytest.raises(ObservationLayoutError, match="breaks slots hold"):
+        lay.field(obs, "breaks", "colour")
+    with pytest.raises(ObservationLayoutError, match="k_robots"):
+        ObsLayout(k_robots=-1)
+
+
+def test_the_default_counts_are_the_scenario_specs():
+    assert ObsLayout() == ObsLayout.from_spec(ObservationSpec())
+    import inspect
+
+    import tin_swarm_env.env.observation as o
+
+    assert DZ_SCALE_M == HEIGHT_SCALE_M
+    assert "10.0" not in inspect.getsource(o)  # one constant, imported from world.fields, not a second literal
+
+
+def test_decoders_invert_the_encodings():
+    lay = ObsLayout()
+    R = 60.0
+    d = np.array([0.0, 0.5, 12.0, 59.9, 300.0])
+    dz = np.array([-40.0, -1.0, 0.0, 2.5, 80.0])
+    obs = np.zeros((5, lay.size))
+    obs[:, lay.own["target_dist"]] = (d / (d + R))[:, None]
+    obs[:, lay.own["target_dz"]] = (dz / (np.abs(dz) + DZ_SCALE_M))[:, None]
+    np.testing.assert_allclose(lay.target_distance_m(obs, R), d, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(lay.target_dz_m(obs), dz, rtol=1e-9, atol=1e-9)
+    drop = np.array([-3.0, 0.0, 7.0])
+    obs[0, lay.breaks] = 0.0
+    s = lay.slots(obs, "breaks")
+    s[0, :, lay.slot_index("breaks", "drop")] = drop / (np.abs(drop) + DZ_SCALE_M)
+    obs[0, lay.breaks] = s[0].ravel()
+    np.testing.assert_allclose(lay.drop_m(obs)[0], drop, atol=1e-9)
+
+
+def test_to_dict_round_trips_through_json_and_reports_a_mismatch():
+    lay = ObsLayout(k_robots=3, k_targets=0, k_breaks=4)
+    d = json.loads(json.dumps(lay.to_dict()))
+    assert ObsLayout.from_dict(d) == lay
+    assert d["size"] == lay.size and d["scales"]["dz_scale_m"] == DZ_SCALE_M
+    bad = dict(d, slots={**d["slots"], "breaks": ["valid", "x", "y"]})
+    with pytest.raises(ObservationLayoutError, match="'slots'"):
+        ObsLayout.from_dict(bad)
+    with pytest.raises(ObservationLayoutError, match="k_breaks"):
+        ObsLayout.from_dict({"k_robots": 1, "k_targets": 1})
+
+
+def test_other_slot_counts_reach_the_encoder_and_apf_still_brings_robots_in():
+    cfg = load_scenario("ramp")
+    cfg = cfg.replace(observation=ObservationSpec(k_robots=2, k_targets=2, k_breaks=5))
+    env = tse.parallel_env(scenario=cfg, n_robots=8)
+    assert env.layout == ObsLayout(2, 2, 5) and env.observation_space("robot_0").shape == (env.layout.size,)
+    pol = APFPolicy(env)
+    obs, _ = env.reset(seed=3)
+    saw_five = False
+    reasons = []
+    while env.agents:
+        arr = np.stack(list(obs.values()))
+        saw_five |= bool(np.any(env.layout.field(arr, "breaks", "valid")[:, 4] > 0))
+        obs, _, _, _, infos = env.step(pol.act(obs))
+        reasons += [i["reason"] for i in infos.values() if "reason" in i]
+    assert len(reasons) == 8
+    assert reasons.count("arrived") >= 7 and "fell" not in reasons, reasons
+    assert saw_five  # the fifth break slot is filled somewhere on the way
+
+
+# -- every field by hand at several headings (90 and -37 degrees among them) ----------------------
+
+GX, GY = 0.1, -0.05  # the plane z = 0.1 x - 0.05 y: rises to the east, falls to the north
+
+
+@pytest.fixture(scope="module")
+def plane_env(tmp_path_factory):
+    """A 400 m square plane (5 vertices, 4 triangles, all with the gradient (GX, GY)), sensor
+    range 60 m and 360 deg: robot 0 at the centre (200, 200), robot 1 10 m east of it, robot 2
+    20 m south; one target 50 m away at (230, 240). The border is 140 m away or more: no break slot."""
+    from tin_swarm_env.scenario import scenario_from_dict
+    from tin_swarm_env.terrain import Tin, save_tin
+
+    xy = np.array([[0, 0], [400, 0], [400, 400], [0, 400], [200, 200]], float)
+    tin = Tin.from_points(np.column_stack([xy, GX * xy[:, 0] + GY * xy[:, 1] + 50.0]))
+    path = tmp_path_factory.mktemp("plane") / "plane.npz"
+    save_tin(tin, path)
+    cfg = scenario_from_dict({
+        "name": "plane", "task": "goal", "max_cycles": 10,
+        "terrain": {"source": "tin", "path": str(path)},
+        "robots": {"count": 3}, "sensor": {"range_m": 60.0, "fov_deg": 360.0},
+        "targets": {"positions": [[230.0, 240.0]], "arrival_radius_m": 1.0},
+    }, source="plane")
+    return tse.parallel_env(scenario=cfg)
+
+
+def body(v, heading):
+    """World vector -> body frame by projecting on the forward and left unit vectors."""
+    fwd = np.array([math.cos(heading), math.sin(heading)])
+    left = np.array([-math.sin(heading), math.cos(heading)])
+    return np.array([fwd @ v, left @ v])
+
+
+@pytest.mark.parametrize("heading_deg", [0.0, 90.0, -37.0, 180.0, 123.0])
+def test_every_own_and_slot_field_by_hand(plane_env, heading_deg):
+    env, L = plane_env, plane_env.layout
+    h = math.radians(heading_deg)
+    obs = env.reset_arrays(seed=0, options={"robot_positions": [[200.0, 200.0], [210.0, 200.0], [200.0, 180.0]],
+                                            "headings": [h, 0.0, 0.0]})[0]
+    R = 60.0
+    g = np.array([GX, GY])
+    gn = math.hypot(GX, GY)
+    # tilt (thesis 3.1) from the surface normal: sin(tilt) = normal . left axis, positive when the
+    # ground falls away on the robot's left; slope = atan |grad|
+    normal = np.array([-GX, -GY, 1.0]) / math.sqrt(1 + gn * gn)
+    left3 = np.array([-math.sin(h), math.cos(h), 0.0])
+    tilt = math.asin(normal @ left3)
+    target = np.array([30.0, 40.0])  # (230, 240) - (200, 200): 50 m
+    dz = GX * 30.0 + GY * 40.0  # 1 m
+    want = {
+        "battery": [1.0], "speed": [0.0], "tilt": [tilt / (math.pi / 2)],
+        "slope": [math.degrees(math.atan(gn)) / 90.0], "uphill": body(g, h) / gn,
+        "target_valid": [1.0], "target_dir": body(target, h) / 50.0, "target_dist": [50.0 / (50.0 + R)],
+        "target_dz": [dz / (abs(dz) + DZ_SCALE_M)],
+    }
+    for name, v in want.items():
+        # float32 observation of values of order 1: 1e-6 is a few float32 ulps
+        np.testing.assert_allclose(obs[L.own[name]], v, atol=1e-6, err_msg=name)
+    rob = L.slots(obs, "robots")
+    np.testing.assert_allclose(rob[0], [1.0, *(body(np.array([10.0, 0.0]), h) / R), 10.0 / R], atol=1e-6)
+    np.testing.assert_allclose(rob[1], [1.0, *(body(np.array([0.0, -20.0]), h) / R), 20.0 / R], atol=1e-6)
+    assert not rob[2:].any()
+    tgt = L.slots(obs, "targets")
+    np.testing.assert_allclose(tgt[0], [1.0, *(body(target, h) / R), 50.0 / R], atol=1e-6)
+    assert not tgt[1:].any() and not L.slots(obs, "breaks").any()
+
+
+def test_hand_values_written_out_at_90_degrees(plane_env):
+    """The same at 90 degrees with the numbers written out: facing north, a point east of the
+    robot is on its right (body y < 0), north is straight ahead."""
+    env, L = plane_env, plane_env.layout
+    obs = env.reset_arrays(seed=0, options={"robot_positions": [[200.0, 200.0], [210.0, 200.0], [200.0, 180.0]],
+                                            "headings": [math.pi / 2, 0.0, 0.0]})[0]
+    np.testing.assert_allclose(obs[L.own["target_dir"]], [0.8, -0.6], atol=1e-6)  # (30, 40) m: 40 ahead, 30 right
+    gn = math.hypot(GX, GY)
+    np.testing.assert_allclose(obs[L.own["uphill"]], [GY / gn, -GX / gn], atol=1e-6)  # uphill: east-south-east
+    np.testing.assert_allclose(L.slots(obs, "robots")[0], [1.0, 0.0, -10 / 60, 10 / 60], atol=1e-6)
+    np.testing.assert_allclose(L.slots(obs, "robots")[1], [1.0, -20 / 60, 0.0, 20 / 60], atol=1e-6)
+    # facing north on ground that rises to the east: the downhill side (west) is on the left
+    assert obs[L.own["tilt"]][0] > 0
+    np.testing.assert_allclose(obs[L.own["tilt"]], [math.asin(GX / math.sqrt(1 + gn * gn)) / (math.pi / 2)],
+                               atol=1e-6)
+
+
+# -- the parallel encoder: bit-identical for any thread count and to its plain loop ----------------
+
+
+def _episode(env, steps, seed=0):
+    rng = np.random.default_rng(seed)
+    out = [env.reset_arrays(seed=seed)]
+    for _ in range(steps):
+        obs, rew, term, trunc, reasons = env.step_arrays(rng.uniform(-1, 1, (env.n, 2)))
+        out += [obs, rew, term, trunc, reasons]
+    return out
+
+
+@pytest.mark.parametrize("scenario", ["cliff_goal", "hill"])
+def test_env_episode_is_bit_identical_for_1_and_2_threads_and_the_plain_encoder(scenario, monkeypatch):
+    env = tse.parallel_env(scenario=scenario, n_robots=24)
+    old = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = _episode(env, 15)
+        numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+        two = _episode(env, 15)
+    finally:
+        numba.set_num_threads(old)
+    monkeypatch.setattr(O, "_fill", O._fill.py_func)
+    ref = _episode(env, 3)
+    for a, b in zip(one, two, strict=True):
+        assert a.tobytes() == b.tobytes()
+    for a, b in zip(one, ref, strict=False):
+        assert a.tobytes() == b.tobytes()
+    assert np.any(one[0] != 0)

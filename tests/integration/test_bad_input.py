@@ -1,0 +1,244 @@
+"""Bad input, as a new user would give it: every case gets a one-line error naming the culprit
+(or, for the few inputs that are fine, a normal run), never a traceback, never exit 0 on
+nonsense, never a silent NaN.
+
+The documentation's bad-input table (docs/figures/bad_input.md) is generated from :data:`CASES` by
+:func:`test_docs_table_is_current`; after changing a message, regenerate it with
+
+    TIN_SWARM_WRITE_DOCS=1 python -m pytest tests/integration/test_bad_input.py -k docs_table
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import tin_swarm_env as tse
+from tin_swarm_env.apps.cli import main
+from tin_swarm_env.errors import TinSwarmError
+
+FLAT = ["--robots", "2", "--max-cycles", "3", "--quiet"]
+
+
+def _scenario(tmp, text: str, name="bad.toml") -> str:
+    """A flat scenario file with ``text`` appended (tables and keys that override the base)."""
+    p = tmp / name
+    p.write_text(text)
+    return str(p)
+
+
+BASE = """task = "goal"
+max_cycles = 5
+[terrain]
+source = "flat"
+size_m = [100.0, 100.0]
+"""
+GOAL = "[targets]\npositions = [[90.0, 50.0]]\n"
+
+
+def toml(body: str, targets: str = GOAL) -> str:
+    return BASE + body + ("\n" + targets if targets else "")
+
+
+# (label shown in the docs table, kind, what, expected fragment of the message or "exit 0")
+# kind "cli": argv (strings, "{d}" is a temporary directory); "load": a scenario file's text, loaded;
+# "env": a scenario file's text, made into an env and reset; "call": a function of the temp dir
+CASES = [
+    ("`run flat --policy APF` (any case)", "cli", ["run", "flat", "--policy", "APF", *FLAT], "exit 0"),
+    ("`run flat --policy apff`", "cli", ["run", "flat", "--policy", "apff", *FLAT], "give apf, random"),
+    ("`run flat --policy model.zip` (no --trust-pickle)", "cli", ["run", "flat", "--policy", "{d}/model.zip", *FLAT],
+     "without --trust-pickle"),
+    ("`eval flat --model missing/`", "cli", ["eval", "flat", "--model", "{d}/missing", "--seeds", "1"],
+     "no such file or directory"),
+    ("`eval flat --seeds 0`", "cli", ["eval", "flat", "--seeds", "0"], "--seeds: must be >= 1"),
+    ("`eval flat --policies apf,ppo`", "cli", ["eval", "flat", "--policies", "apf,ppo"], "unknown ['ppo']"),
+    ("`run flat --fields ''`", "cli", ["run", "flat", "--fields", "", *FLAT], "no field named"),
+    ("`run flat --fields robot,wind`", "cli", ["run", "flat", "--fields", "robot,wind", *FLAT], "unknown field"),
+    ("`run flat --episodes 0`", "cli", ["run", "flat", "--episodes", "0", "--quiet"], "must be >= 1"),
+    ("`run flat --robots 1000000`", "cli", ["run", "flat", "--robots", "1000000", "--quiet"],
+     "n_robots must be an integer >= 1 and <= 100000"),
+    ("`run flat --render-width 0`", "cli", ["run", "flat", "--render-width", "0", "--gif", "{d}/a.gif", *FLAT],
+     "must be >= 64 and <= 4096"),
+    ("`run flat --summary s.gif --gif s.gif`", "cli",
+     ["run", "flat", "--summary", "{d}/s.gif", "--gif", "{d}/s.gif", *FLAT], "are the same file"),
+    ("`run flat --gif DIR/` (a directory)", "cli", ["run", "flat", "--gif", "{d}", *FLAT], "is a directory"),
+    ("`run flat --gif no/such/dir/x.gif`", "cli", ["run", "flat", "--gif", "{d}/no/x.gif", *FLAT],
+     "does not exist"),
+    ("`run my.toml --summary my.toml`", "cli", ["run", "{d}/ok.toml", "--summary", "{d}/ok.toml", *FLAT],
+     "is the input"),
+    ("`build-tin X.npz -o X.npz`", "cli", ["build-tin", "{d}/dem.npz", "-o", "{d}/dem.npz"], "is the input"),
+    ("`explore flat --robot 999`", "cli", ["explore", "flat", "--robot", "999", "--png", "{d}/e.png"],
+     "the scenario has robots 0..19"),
+    ("`scenarios --copy ramp EXISTING.toml`", "cli", ["scenarios", "--copy", "ramp", "{d}/ok.toml"], "--force"),
+    ("`scenarios --copy atlantis x.toml`", "cli", ["scenarios", "--copy", "atlantis", "{d}/x.toml"],
+     "unknown scenario 'atlantis'"),
+    ("disk full while writing `--summary`", "cli", ["run", "flat", "--summary", "{d}/full.md", *FLAT],
+     "No space left on device"),
+    ("Ctrl-C during `run`", "cli", ["run", "flat", *FLAT], "interrupted"),
+    ("an unexpected error (a bug) in `run`", "cli", ["run", "flat", "--summary", "{d}/bug.md", *FLAT],
+     "rerun with --debug"),
+    ("`[rewards] fall = nan`", "load", toml("[rewards]\nfall = nan\n"), "RewardWeights.fall must be a finite"),
+    ("`[rewards] arrival = inf`", "load", toml("[rewards]\narrival = inf\n"), "RewardWeights.arrival"),
+    ("`[targets] standoff_m = nan` (containment)", "load",
+     toml('[targets]\npositions = [[50.0, 50.0]]\nstandoff_m = nan\n', targets="").replace('"goal"',
+                                                                                          '"containment"'),
+     "EntitiesSpec.standoff_m"),
+    ("`[targets] arrival_radius_m = -1`", "load", toml("", "[targets]\npositions = [[9.0, 9.0]]\n"
+                                                          "arrival_radius_m = -1\n"), "arrival_radius_m must be"),
+    ("`[robots] min_separation_m = nan`", "load", toml("[robots]\nmin_separation_m = nan\n"), "min_separation_m"),
+    ("`[robots] max_speed_mps = 1e308`", "load", toml("[robots]\nmax_speed_mps = 1e308\n"), "<= 1000"),
+    ("`[robots] count = 1000000000`", "load", toml("[robots]\ncount = 1000000000\n"), "<= 100000"),
+    ("`[robots] count = -1`", "load", toml("[robots]\ncount = -1\n"), "RobotsSpec.count must be"),
+    ("`seed = -1`", "load", "seed = -1\n" + toml(""), "ScenarioConfig.seed must be an integer >= 0"),
+    ("`[observation] k_robots = -1`", "load", toml("[observation]\nk_robots = -1\n"), "k_robots must be"),
+    ("`[observation] k_robots = 100000`", "load", toml("[observation]\nk_robots = 100000\n"), "<= 256"),
+    ("`[sensor] max_candidates = 2` (< k_robots 4)", "load", toml("[sensor]\nmax_candidates = 2\n"),
+     "max_candidates (2) must be >="),
+    ("`[terrain] size_m = [0, 100]`", "load", toml("").replace("[100.0, 100.0]", "[0.0, 100.0]"), "size_m[0]"),
+    ("recipe param of the wrong type (`cell = \"2\"`)", "env",
+     toml("").replace('source = "flat"', 'source = "procedural"\nrecipe = "ridge"\nparams = {cell = "2"}').replace(
+         "size_m = [100.0, 100.0]\n", ""),
+     "params.cell must be a finite number"),
+    ("recipe `cell = 0`", "env",
+     toml("").replace('source = "flat"', 'source = "procedural"\nrecipe = "ridge"\nparams = {cell = 0}').replace(
+         "size_m = [100.0, 100.0]\n", ""),
+     "params.cell must be a finite number > 0"),
+    ("recipe `cell = 0.001` (too many cells)", "env",
+     toml("").replace('source = "flat"', 'source = "procedural"\nrecipe = "ridge"\nparams = {cell = 0.001}').replace(
+         "size_m = [100.0, 100.0]\n", ""),
+     "grid cells"),
+    ("`parallel_env(n_robots=10**9)`", "call", lambda d: tse.parallel_env(scenario="flat", n_robots=10**9),
+     "n_robots must be an integer >= 1 and <= 100000"),
+    ("`parallel_env(render_width=100000)`", "call",
+     lambda d: tse.parallel_env(scenario="flat", render_width=100_000), "render_width must be"),
+    ("`parallel_env(max_cycles=2.5)`", "call", lambda d: tse.parallel_env(scenario="flat", max_cycles=2.5),
+     "max_cycles must be an integer"),
+]
+
+
+@pytest.fixture
+def workdir(tmp_path, monkeypatch):
+    """A temporary directory with the files some cases name (an SB3-looking .zip, a DEM, a scenario)."""
+    (tmp_path / "model.zip").write_bytes(b"PK\x05\x06" + bytes(18))
+    np.savez(tmp_path / "dem.npz", z=np.zeros((4, 4)))
+    (tmp_path / "ok.toml").write_text(toml(""))
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+def _patch_for(label: str, monkeypatch):
+    """The few cases that need a fault injected (disk full, Ctrl-C, a bug)."""
+    import tin_swarm_env.apps.run as run
+
+    real = run.format_table
+    if label.startswith("disk full"):
+        import types
+
+        import tin_swarm_env._atomic as atomic
+
+        def full(*a, **k):
+            raise OSError(28, "No space left on device", "full.md")
+
+        monkeypatch.setattr(atomic, "os", types.SimpleNamespace(**{**vars(os), "replace": full}))
+    elif label.startswith("Ctrl-C"):
+        def stop(*a, **k):
+            raise KeyboardInterrupt
+
+        monkeypatch.setattr(run, "rollout", stop)
+    elif label.startswith("an unexpected error"):
+        monkeypatch.setattr(run, "format_table", lambda stats: real(stats) + 1)  # TypeError: a bug
+    return monkeypatch
+
+
+def outcome(label, kind, what, d: Path, capsys, monkeypatch) -> tuple[int | None, str]:
+    """Run one case: ``(exit status or None for an API call, the one-line result)``."""
+    if kind == "cli":
+        _patch_for(label, monkeypatch)
+        argv = [a.replace("{d}", str(d)) for a in what]
+        try:
+            code = main(argv)
+        except SystemExit as exc:  # argparse's own errors (exit 2, usage + one line)
+            code = exc.code
+        monkeypatch.undo()
+        monkeypatch.chdir(d)
+        cap = capsys.readouterr()
+        assert "Traceback" not in cap.err, cap.err
+        lines = [ln for ln in cap.err.splitlines() if ln.strip() and not ln.startswith(("usage:", "  "))]
+        if code == 0:
+            return code, "exit 0, runs"
+        assert len(lines) == 1, cap.err
+        return code, f"exit {code}: `{lines[0]}`"
+    try:
+        if kind == "call":
+            what(d)
+        else:
+            path = _scenario(d, what)
+            if kind == "load":
+                tse.scenario.load_scenario(path)
+            else:
+                tse.parallel_env(scenario=path).reset(seed=0)
+    except TinSwarmError as exc:
+        return None, f"{type(exc).__name__}: `{' '.join(str(exc).split())}`"
+    raise AssertionError(f"{label}: accepted")
+
+
+def _table(results) -> str:
+    rows = ["| input | what you get |", "|---|---|"]
+    for label, res in results:
+        res = res.replace("|", "\\|")
+        if len(res) > 190:
+            res = res[:186].rstrip() + "…`"
+        rows.append(f"| {label} | {res} |")
+    return "\n".join(rows)
+
+
+def _normalise(text: str, d: Path) -> str:
+    return text.replace(str(d), "DIR")
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
+def test_each_bad_input_gets_one_clear_line(case, workdir, capsys, monkeypatch):
+    label, kind, what, expect = case
+    code, line = outcome(label, kind, what, workdir, capsys, monkeypatch)
+    if expect == "exit 0":
+        assert code == 0, line
+        return
+    assert code != 0
+    assert expect in line, line
+    if label.startswith("Ctrl-C"):
+        assert code == 130
+    elif code is not None and not label.startswith("an unexpected"):
+        assert code == 2
+
+
+def test_no_partial_files_are_left(workdir, capsys, monkeypatch):
+    """After the disk-full and Ctrl-C cases nothing but the inputs is left in the directory."""
+    before = sorted(os.listdir(workdir))
+    for label, kind, what, _ in CASES:
+        if label.startswith(("disk full", "Ctrl-C")):
+            outcome(label, kind, what, workdir, capsys, monkeypatch)
+    assert sorted(os.listdir(workdir)) == before
+
+
+def test_docs_table_is_current(workdir, capsys, monkeypatch, generated_doc):
+    results = []
+    for label, kind, what, _ in CASES:
+        _, line = outcome(label, kind, what, workdir, capsys, monkeypatch)
+        results.append((label, _normalise(line, workdir)))
+    generated_doc("docs/figures/bad_input.md", _table(results) + "\n")
+
+
+def test_check_range_refuses_nan_inf_bool_and_strings():
+    from tin_swarm_env.errors import ParameterError, check_range
+
+    assert check_range("X", "a", 3, 0, 5) == 3
+    for v in (float("nan"), float("inf"), -float("inf"), True, "3", None, -1, 6):
+        with pytest.raises(ParameterError, match=re.escape("X.a must be a finite number >= 0 and <= 5")):
+            check_range("X", "a", v, 0, 5)
+    with pytest.raises(ParameterError, match="must be an integer > 0"):
+        check_range("X", "k", 2.5, 0, lo_open=True, integer=True)
+    assert check_range("X", "k", np.int64(4), 0, integer=True) == 4

@@ -1,0 +1,77 @@
+"""The trained policy docs/figures/shipped_policy.md quotes, committed at agents/models/shared: it
+loads on the core install (no torch, no pickle), is refused by an env whose observation layout differs, and drives
+robots to the goal on cliff_goal (a reduced budget of that evaluation)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import tin_swarm_env as tse
+from tin_swarm_env.apps.evaluate import EVAL_SEED0
+from tin_swarm_env.apps.rollout import rollout
+from tin_swarm_env.errors import PolicyFileError
+from tin_swarm_env.policies import load_policy
+from tin_swarm_env.world.state import Reason
+
+ROOT = Path(__file__).resolve().parents[2]
+SHARED = ROOT / "agents" / "models" / "shared"
+
+
+def test_the_shipped_policy_is_small_pickle_free_data():
+    files = sorted(p.name for p in SHARED.iterdir())
+    assert files == ["policy.json", "weights.npz"]
+    assert sum(p.stat().st_size for p in SHARED.iterdir()) < 4 * 2**20
+    meta = json.loads((SHARED / "policy.json").read_text())
+    assert meta["format"] == "tin_swarm_env.policy" and meta["shield"] == "safety_cut"
+    with np.load(SHARED / "weights.npz", allow_pickle=False) as w:  # raises on any object array
+        assert all(w[k].dtype.kind == "f" and np.isfinite(w[k]).all() for k in w.files)
+
+
+def test_the_shipped_policy_runs_without_torch_or_pickle():
+    code = (
+        "import sys, pickle\n"
+        "for m in ('torch', 'stable_baselines3'): sys.modules[m] = None  # importing them now fails\n"
+        "import tin_swarm_env as tse\n"
+        "from tin_swarm_env.policies import load_policy\n"
+        "env = tse.parallel_env(scenario='ramp', n_robots=3)\n"
+        "obs, _ = env.reset(seed=0)\n"
+        "import numpy as np\n"
+        "from tin_swarm_env.policies.learned import dense\n"
+        "dense(np.zeros((1, 1)), np.zeros((1, 1)), np.zeros(1))  # numba's compile cache is read with pickle\n"
+        "def no(*a, **k): raise AssertionError('pickle used')\n"
+        "pickle.load = pickle.loads = no  # from here on: loading the policy file and acting\n"
+        f"pol = load_policy({str(SHARED)!r}, env)\n"
+        "acts = pol.act(obs)\n"
+        "print(sorted(acts), [a.shape for a in acts.values()])\n"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    assert "['robot_0', 'robot_1', 'robot_2'] [(2,), (2,), (2,)]" in r.stdout
+
+
+def test_the_shipped_policy_is_refused_by_another_layout(env_with_k_robots):
+    with pytest.raises(PolicyFileError, match=r"shared.*policy\.json.*layout.*'k_robots': 6"):
+        load_policy(SHARED, env_with_k_robots(6))
+
+
+def test_the_shipped_policy_brings_robots_in_on_cliff_goal():
+    env = tse.parallel_env(scenario="cliff_goal", n_robots=6)
+    out = rollout(env, load_policy(SHARED, env), seed=EVAL_SEED0)
+    assert out.count(Reason.FELL) == 0
+    assert out.count(Reason.ARRIVED) >= 5, out.counts()
+
+
+def test_cli_runs_and_evaluates_the_shipped_policy(tmp_path):
+    from tin_swarm_env.apps.cli import main
+
+    assert main(["run", "ramp", "--policy", str(SHARED), "--robots", "3", "--max-cycles", "20", "--quiet"]) == 0
+    out = tmp_path / "ev"
+    assert main(["eval", "flat", "--seeds", "1", "--robots", "3", "--policies", "apf", "--model", str(SHARED),
+                 "--out", str(out)]) == 0
+    assert "shared" in out.with_suffix(".md").read_text()

@@ -1,0 +1,403 @@
+"""Cost-to-go (terrain/cost_to_go.py): exact answers on hand-built TINs, properties on random
+TINs, the compiled kernels against their plain references and a dense-grid Dijkstra."""
+
+import math
+from unittest import mock
+
+import numpy as np
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+import tin_swarm_env as tse
+from tin_swarm_env.terrain import Tin, cost_to_go, reference
+from tin_swarm_env.terrain import _ctg_kernels as K
+
+
+def grid_tin(nx=10, ny=10, step=10.0):
+    """A flat TIN over an (nx x ny)-square grid, two triangles per square; returns the TIN and
+    each triangle's square (col, row)."""
+    xs, ys = np.meshgrid(np.arange(nx + 1) * step, np.arange(ny + 1) * step)
+    v = np.column_stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)])
+    idx = np.arange((nx + 1) * (ny + 1)).reshape(ny + 1, nx + 1)
+    tris, cells = [], []
+    for r in range(ny):
+        for c in range(nx):
+            a, b, d, e = idx[r, c], idx[r, c + 1], idx[r + 1, c + 1], idx[r + 1, c]
+            tris += [[a, b, d], [a, d, e]]
+            cells += [(c, r), (c, r)]
+    tin = Tin(v, tris)
+    return tin, np.array(cells)
+
+
+def disc_obstacles(tin, rng, n_discs):
+    """Impassable: triangles touching one of ``n_discs`` random discs (radius 60-180 m)."""
+    c = rng.uniform(150, 850, (n_discs, 2))
+    r = rng.uniform(60, 180, n_discs)
+    pts = tin.vertices[tin.triangles, :2]  # (T, 3, 2)
+    cen = pts.mean(axis=1, keepdims=True)
+    probe = np.concatenate([pts, cen], axis=1)  # (T, 4, 2)
+    d = np.linalg.norm(probe[:, :, None, :] - c[None, None], axis=-1)  # (T, 4, n)
+    return ~(d < r).any(axis=(1, 2))
+
+
+def has_pinch(tin, passable):
+    """Whether passable ground is pinched at a vertex (two passable fans touching only there)."""
+    return len(reference.pinch_vertices_brute(tin, passable)) > 0
+
+
+# -- exact answers ------------------------------------------------------------------------
+
+
+def test_wall_with_one_gap_goes_round_the_gap_end():
+    tin, cells = grid_tin(10, 10, 10.0)
+    wall = (cells[:, 1] == 4) & (cells[:, 0] < 7)  # y in [40, 50], x in [0, 70]; gap x in [70, 100]
+    ctg = cost_to_go(tin, [20.0, 80.0], passable=~wall)
+    p = np.array([[20.0, 10.0]])
+    exact = math.hypot(50, 30) + 10.0 + math.hypot(50, 30)  # to (70, 40), along the wall end, to the goal
+    assert ctg.distance_at(p)[0] == pytest.approx(exact, rel=1e-9)
+    # the first leg heads for the wall end
+    np.testing.assert_allclose(ctg.direction_at(p)[0], np.array([50.0, 30.0]) / math.hypot(50, 30), atol=1e-9)
+    # in the gap, and straight above the wall: straight-line distance
+    q = np.array([[85.0, 45.0], [60.0, 60.0]])
+    np.testing.assert_allclose(ctg.distance_at(q), np.hypot(*(q - [20.0, 80.0]).T), rtol=1e-12)
+    # on the wall: inf, direction zero
+    assert ctg.distance_at([[30.0, 45.0]])[0] == np.inf
+    assert np.all(ctg.direction_at([[30.0, 45.0]]) == 0)
+    # the wall face itself (edge between wall and passable ground) is drivable
+    assert ctg.distance_at([[30.0, 40.0]])[0] == pytest.approx(40.0 + 10.0 + math.hypot(50, 30), rel=1e-9)
+
+
+def test_enclosed_mesa_is_unreachable():
+    tin, cells = grid_tin(10, 10, 10.0)
+    ring = (np.isin(cells[:, 0], [3, 6]) & (cells[:, 1] >= 3) & (cells[:, 1] <= 6)) | (
+        np.isin(cells[:, 1], [3, 6]) & (cells[:, 0] >= 3) & (cells[:, 0] <= 6))
+    ctg = cost_to_go(tin, [50.0, 50.0], passable=~ring)
+    assert ctg.reachable
+    out = np.array([[5.0, 5.0], [95.0, 50.0], [50.0, 99.0]])
+    assert np.all(ctg.distance_at(out) == np.inf)
+    assert np.all(ctg.direction_at(out) == 0)
+    inside = np.array([[45.0, 45.0], [55.0, 42.0]])
+    np.testing.assert_allclose(ctg.distance_at(inside), np.hypot(*(inside - 50.0).T), rtol=1e-12)
+    # the reverse: goal outside, robot on the mesa
+    ctg2 = cost_to_go(tin, [5.0, 5.0], passable=~ring)
+    assert ctg2.distance_at([[50.0, 50.0]])[0] == np.inf
+    assert not ctg2.triangle_reachable()[tin.locate([[50.0, 50.0]])[0]]
+
+
+def test_no_path_passes_a_pinch_vertex():
+    """Squares (1, 1) and (2, 2) steep: squares (1, 2) and (2, 1) touch only at vertex (20, 20), a
+    pinch. The straight line (14.1 m) through it is not drivable; the detour round either steep
+    square is 2 * 50**0.5 + 20 m. With (2, 2) passable too there is no pinch: straight again."""
+    tin, cells = grid_tin(4, 4, 10.0)
+    steep = ((cells[:, 0] == 1) & (cells[:, 1] == 1)) | ((cells[:, 0] == 2) & (cells[:, 1] == 2))
+    p, g = np.array([[15.0, 25.0]]), np.array([25.0, 15.0])
+    detour = 20.0 + 2 * math.sqrt(50.0)
+    for m, any_angle in ((1, True), (0, True), (3, True)):
+        ctg = cost_to_go(tin, g, ~steep, steiner_per_edge=m, any_angle=any_angle)
+        assert ctg.pinch_vertices.tolist() == [12]
+        assert ctg.distance_at(p)[0] == pytest.approx(detour, rel=1e-9)
+        # near the pinch on either side: round the steep square, never through the point
+        q = np.array([[19.0, 21.0], [21.0, 19.0]])
+        d = ctg.distance_at(q)
+        assert d[1] == pytest.approx(math.hypot(4.0, 4.0), rel=1e-9)  # same side as the goal
+        assert d[0] == pytest.approx(math.hypot(9.0, 1.0) + 20.0 + math.sqrt(50.0), rel=1e-9)
+    plain = cost_to_go(tin, g, ~steep, steiner_per_edge=1, any_angle=False).distance_at(p)[0]
+    assert plain >= detour - 1e-9 and np.isfinite(plain)
+    # the pinch's two fans separated from the rest: nothing joins them, inf
+    only = (cells[:, 0] == 1) & (cells[:, 1] == 2) | (cells[:, 0] == 2) & (cells[:, 1] == 1)
+    for any_angle in (True, False):
+        assert cost_to_go(tin, g, only, any_angle=any_angle).distance_at(p)[0] == np.inf
+    one = (cells[:, 0] == 1) & (cells[:, 1] == 1)
+    ctg = cost_to_go(tin, g, ~one)
+    assert len(ctg.pinch_vertices) == 0
+    assert ctg.distance_at(p)[0] == pytest.approx(math.hypot(10.0, 10.0), rel=1e-9)
+
+
+def test_goal_on_impassable_ground_is_unreachable_everywhere():
+    tin, cells = grid_tin(4, 4, 10.0)
+    ctg = cost_to_go(tin, [15.0, 15.0], passable=~((cells[:, 0] == 1) & (cells[:, 1] == 1)))
+    assert not ctg.reachable
+    assert np.all(ctg.distance_at([[1.0, 1.0], [35.0, 35.0]]) == np.inf)
+
+
+@given(st.integers(0, 10_000))
+def test_goal_and_point_on_one_triangle_is_the_straight_line(random_tin, seed):
+    tin = random_tin(seed, 30)
+    rng = np.random.default_rng(seed)
+    passable = rng.random(tin.n_triangles) < 0.6
+    t = int(rng.choice(np.flatnonzero(passable))) if passable.any() else 0
+    passable[t] = True
+    w = rng.dirichlet(np.ones(3), 2)  # two points inside triangle t
+    pts = w @ tin.vertices[tin.triangles[t], :2]
+    ctg = cost_to_go(tin, pts[0], passable)
+    d = ctg.distance_at(pts[1:], tri_idx=[t])[0]
+    assert d == pytest.approx(np.hypot(*(pts[1] - pts[0])), rel=1e-12, abs=1e-12)
+
+
+@given(st.integers(0, 10_000), st.integers(3, 150))
+def test_flat_plane_is_the_straight_line_everywhere(random_tin, seed, n):
+    tin = random_tin(seed, n, zscale=0.0)
+    rng = np.random.default_rng(seed)
+    g = rng.uniform(0, 1000, 2)
+    ctg = cost_to_go(tin, g)
+    q = rng.uniform(0, 1000, (500, 2))
+    np.testing.assert_allclose(ctg.distance_at(q), np.hypot(*(q - g).T), rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(ctg.node_distance, np.hypot(*(ctg.node_xy - g).T), rtol=1e-12, atol=1e-9)
+    dirs = ctg.direction_at(q)
+    far = np.hypot(*(q - g).T) > 1e-3
+    # (a leg through a node that lies on the straight line within rounding may aim at that node)
+    np.testing.assert_allclose(dirs[far], (g - q[far]) / np.hypot(*(g - q[far]).T)[:, None], atol=1e-4)
+
+
+def test_outside_points_and_bad_arguments():
+    tin, _ = grid_tin(3, 3, 10.0)
+    ctg = cost_to_go(tin, [15.0, 15.0])
+    assert np.all(ctg.distance_at([[-1.0, 5.0], [5.0, 31.0]]) == np.inf)
+    assert np.all(ctg.direction_at([[15.0, 15.0]]) == 0)  # at the goal
+    with pytest.raises(ValueError, match="goal_xy.*outside"):
+        cost_to_go(tin, [50.0, 5.0])
+    with pytest.raises(ValueError, match="goal_xy"):
+        cost_to_go(tin, [np.nan, 5.0])
+    with pytest.raises(ValueError, match="passable must have shape"):
+        cost_to_go(tin, [5.0, 5.0], passable=np.ones(3, dtype=bool))
+    with pytest.raises(ValueError, match="bool"):
+        cost_to_go(tin, [5.0, 5.0], passable=np.ones(tin.n_triangles))
+    with pytest.raises(ValueError, match="tri_idx"):
+        ctg.distance_at([[1.0, 1.0]], tri_idx=[tin.n_triangles])
+
+
+# -- properties on random TINs with obstacles ---------------------------------------------
+
+
+def obstacle_case(random_tin, seed, n=40, n_discs=3):
+    tin = random_tin(seed, n)
+    rng = np.random.default_rng(seed)
+    passable = disc_obstacles(tin, rng, n_discs)
+    ok = np.flatnonzero(passable)
+    t = int(rng.choice(ok)) if len(ok) else 0
+    goal = rng.dirichlet(np.ones(3)) @ tin.vertices[tin.triangles[t], :2]
+    return tin, passable, goal, rng
+
+
+@given(st.integers(0, 10_000))
+def test_never_below_straight_line_and_triangle_inequality(random_tin, seed):
+    tin, passable, goal, rng = obstacle_case(random_tin, seed)
+    ctg = cost_to_go(tin, goal, passable)
+    q = rng.uniform(0, 1000, (400, 2))
+    d = ctg.distance_at(q)
+    assert np.all(d >= np.hypot(*(q - goal).T) * (1 - 1e-12))
+    # q2 on the same passable triangle as q: d(q) <= |q - q2| + d(q2), exact for the plain
+    # candidates; a shortcut drivable from q2 but not from q may break it by the method's error
+    t = tin.locate(q)
+    on = (t >= 0) & passable[np.maximum(t, 0)]
+    w = rng.dirichlet(np.ones(3), int(on.sum()))
+    q2 = np.einsum("nk,nkd->nd", w, tin.vertices[tin.triangles[t[on]], :2])
+    d2 = ctg.distance_at(q2, tri_idx=t[on])
+    assert np.all(d[on] <= (np.hypot(*(q[on] - q2).T) + d2) * 1.03 + 1e-9)
+    assert np.array_equal(np.isfinite(d[on]), np.isfinite(d2))
+
+
+@given(st.integers(0, 10_000))
+def test_every_path_link_is_drivable_and_sums_up(random_tin, seed):
+    """Any-angle values are lengths of real paths: each node's parent link is a segment on
+    passable ground (checked by dense sampling against every triangle) and its length adds up."""
+    tin, passable, goal, _ = obstacle_case(random_tin, seed, n=25)
+    ctg = cost_to_go(tin, goal, passable, steiner_per_edge=1)
+    D, par, xy = ctg.node_distance, ctg._parent, ctg.node_xy
+    r = np.flatnonzero(np.isfinite(D))
+    end = np.where(par[r, None] == K.GOAL, goal[None], xy[np.maximum(par[r], 0)])
+    dend = np.where(par[r] == K.GOAL, 0.0, D[np.maximum(par[r], 0)])
+    np.testing.assert_allclose(D[r], dend + np.hypot(*(xy[r] - end).T), rtol=1e-12, atol=1e-9)
+    s = np.linspace(0, 1, 41)[None, :, None]
+    pts = xy[r, None] + s * (end - xy[r])[:, None]
+    assert reference.on_passable_brute(tin, pts.reshape(-1, 2), passable, tol=1e-6).all()
+
+
+@settings(max_examples=8)
+@given(st.integers(0, 10_000))
+def test_agrees_with_a_dense_grid_dijkstra(random_tin, seed):
+    """Tolerance: the grid's 32 move directions overestimate a straight leg by <= 1.3 %, and a
+    grid path keeps cell centres on passable ground, so it bends up to about one cell wide of
+    each obstacle corner (absolute slack 3 cells); ours overestimates by Theta*'s rare detours.
+    Compared at cells 2 cells clear of impassable ground, where both are finite; the passable
+    region must not be pinched at a vertex (a path the grid cannot follow)."""
+    tin, passable, goal, rng = obstacle_case(random_tin, seed, n=40, n_discs=3)
+    assume(not has_pinch(tin, passable))
+    cell = 10.0
+    xs, ys, dg = reference.cost_to_go_grid(tin, goal, passable, cell)
+    goal = np.array([xs[np.argmin(np.abs(xs - goal[0]))], ys[np.argmin(np.abs(ys - goal[1]))]])
+    assume(reference.on_passable_brute(tin, goal[None], passable)[0])
+    ctg = cost_to_go(tin, goal, passable)
+    X, Y = np.meshgrid(xs, ys)
+    d = ctg.distance_at(np.column_stack([X.ravel(), Y.ravel()])).reshape(X.shape)
+    ok = np.isfinite(dg)
+    clear = ok.copy()
+    for a in range(-2, 3):
+        for b in range(-2, 3):
+            clear[2:-2, 2:-2] &= ok[2 + b:ok.shape[0] - 2 + b, 2 + a:ok.shape[1] - 2 + a]
+    clear[:2] = clear[-2:] = False
+    clear[:, :2] = clear[:, -2:] = False
+    both = clear & np.isfinite(d)
+    assume(both.sum() > 50)
+    assert np.all(d[both] <= dg[both] * 1.03 + 3 * cell)
+    assert np.all(d[both] >= dg[both] / 1.03 - 3 * cell)
+    far = both & (dg > 300)
+    if far.any():
+        assert np.all(np.abs(d[far] / dg[far] - 1) <= 0.03 + 3 * cell / dg[far])
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 10_000), st.integers(0, 3))
+def test_agrees_with_the_exact_visibility_graph(random_tin, seed, m):
+    """Against the exact field (visibility graph over every vertex, brute force): the window
+    propagation is exact but for windows dropped between test points; allow 0.5 %."""
+    tin, passable, goal, rng = obstacle_case(random_tin, seed, n=20, n_discs=3)
+    ctg = cost_to_go(tin, goal, passable, steiner_per_edge=m)
+    q = rng.uniform(0, 1000, (150, 2))
+    d = ctg.distance_at(q)
+    ref = reference.cost_to_go_visibility_brute(tin, goal, passable, q)
+    assert np.array_equal(np.isfinite(d), np.isfinite(ref))
+    f = np.isfinite(d)
+    assert np.all(d[f] >= ref[f] * (1 - 1e-9) - 1e-6)  # every value is a real path
+    assert np.all(d[f] <= ref[f] * 1.005 + 1e-6)
+    assert np.mean(np.abs(d[f] - ref[f]) <= 1e-6 * ref[f] + 1e-6) > 0.95  # and nearly all exact
+
+
+def test_corners_are_reflex_or_pinched_boundary_vertices():
+    tin, cells = grid_tin(4, 4, 10.0)
+    one = (cells[:, 0] == 1) & (cells[:, 1] == 1)  # one impassable square: its 4 corners are reflex
+    c = K.corners(tin._vx, tin._vy, tin.triangles, tin.neighbors, ~one)
+    assert set(np.flatnonzero(c)) == {6, 7, 11, 12}
+    assert not K.corners(tin._vx, tin._vy, tin.triangles, tin.neighbors, np.ones(tin.n_triangles, bool)).any()
+    # two squares touching at vertex 12 only (a pinch): split into one vertex per fan (12 and a
+    # copy 25 at the same place), neither a corner (each side turns < 180 deg)
+    two = ((cells[:, 0] == 1) & (cells[:, 1] == 1)) | ((cells[:, 0] == 2) & (cells[:, 1] == 2))
+    tris2, vorig = K.split_fans(tin.triangles, tin.neighbors, two, tin.n_vertices)
+    np.testing.assert_array_equal(vorig, np.r_[np.arange(25), 12])
+    np.testing.assert_array_equal(tris2[~two], tin.triangles[~two])
+    fan2 = two & (cells[:, 0] == 2)
+    assert (tris2[fan2] == 25).sum() == 2 and not (tris2[~fan2] == 25).any()
+    assert not K.corners(tin._vx[vorig], tin._vy[vorig], tris2, tin.neighbors, two).any()
+    assert tse.terrain.pinch_vertices(tin, two).tolist() == [12]
+    assert len(tse.terrain.pinch_vertices(tin, ~one)) == 0
+
+
+@given(st.integers(0, 10_000))
+def test_a_step_along_direction_lowers_distance_by_the_step(random_tin, seed):
+    tin, passable, goal, rng = obstacle_case(random_tin, seed)
+    ctg = cost_to_go(tin, goal, passable)
+    q = rng.uniform(0, 1000, (400, 2))
+    d, u = ctg.query(q)
+    fin = np.isfinite(d) & (np.abs(u).sum(axis=1) > 0)
+    assume(fin.sum() > 10)
+    np.testing.assert_allclose(np.hypot(*u[fin].T), 1.0, rtol=1e-12)
+    h = 1e-3
+    q2 = q[fin] + h * u[fin]
+    same = tin.locate(q2) == tin.locate(q[fin])
+    d2 = ctg.distance_at(q2)
+    assert np.all(d2[same] <= d[fin][same] - h + 1e-8)  # the same first leg is still drivable
+    assert np.mean(np.abs(d2[same] - (d[fin][same] - h)) < 1e-8) > 0.9
+    assert np.mean(same) > 0.9
+
+
+# -- compiled kernels against their plain references --------------------------------------
+
+
+@given(st.integers(0, 10_000), st.integers(1, 6))
+def test_split_fans_matches_the_connected_components_reference(random_tin, seed, n_discs):
+    """split_fans against scipy's connected components of the corners: the same pinch vertices,
+    and two passable corners share a vertex id after the split iff they share a fan."""
+    tin, passable, _, _ = obstacle_case(random_tin, seed, n=25, n_discs=n_discs)
+    tris2, vorig = K.split_fans(tin.triangles, tin.neighbors, passable, tin.n_vertices)
+    np.testing.assert_array_equal(tse.terrain.pinch_vertices(tin, passable),
+                                  reference.pinch_vertices_brute(tin, passable))
+    np.testing.assert_array_equal(vorig[tris2], tin.triangles)  # every corner keeps its place
+    lab = reference.fan_labels_brute(tin, passable)
+    ok = lab >= 0
+    pairs_kernel = np.unique(np.stack([tin.triangles[ok], tris2[ok]], axis=1), axis=0)
+    pairs_ref = np.unique(np.stack([tin.triangles[ok], lab[ok]], axis=1), axis=0)
+    assert len(pairs_kernel) == len(pairs_ref)  # as many (vertex, fan) pairs
+    both = np.unique(np.stack([tris2[ok], lab[ok]], axis=1), axis=0)
+    assert len(both) == len(pairs_ref)  # and the same grouping
+
+
+@given(st.integers(0, 10_000))
+def test_plain_graph_matches_scipy_dijkstra(random_tin, seed):
+    tin, passable, goal, _ = obstacle_case(random_tin, seed, n=25)
+    ctg = cost_to_go(tin, goal, passable, steiner_per_edge=2, any_angle=False)
+    ref = reference.cost_to_go_graph_brute(ctg)
+    np.testing.assert_allclose(ctg.node_distance, ref, rtol=1e-12, atol=1e-9)
+
+
+@settings(max_examples=10)
+@given(st.integers(0, 10_000), st.booleans())
+def test_compiled_kernels_match_py_func(random_tin, seed, any_angle):
+    tin, passable, goal, rng = obstacle_case(random_tin, seed, n=20)
+    ctg = cost_to_go(tin, goal, passable, steiner_per_edge=1, any_angle=any_angle)
+    gt = np.flatnonzero(ctg.goal_triangles)
+    if any_angle:
+        te, n_edges = K.triangle_edges(tin.triangles, tin.neighbors)
+        for a, b in zip(K.split_fans(tin.triangles, tin.neighbors, passable, tin.n_vertices),
+                        K.split_fans.py_func(tin.triangles, tin.neighbors, passable, tin.n_vertices)):
+            np.testing.assert_array_equal(a, b)
+        corner = K.corners(ctg._vx, ctg._vy, ctg._tris, tin.neighbors, passable)
+        np.testing.assert_array_equal(corner, K.corners.py_func(ctg._vx, ctg._vy, ctg._tris, tin.neighbors,
+                                                                passable))
+        args = (ctg._nx, ctg._ny, ctg._vx, ctg._vy, ctg._tris, tin.neighbors, te,
+                K.edge_starts(tin.triangles, te, n_edges), ctg._vorig, ctg.passable, ctg._tri_nodes, ctg._start,
+                ctg._node_tris, corner, gt, goal[0], goal[1], 1)
+        fn = K.windows
+    else:
+        seeds = np.unique(ctg._tri_nodes[gt].ravel())
+        sd = np.hypot(*(ctg.node_xy[seeds] - goal).T)
+        args = (ctg._nx, ctg._ny, ctg._tri_nodes, ctg._start, ctg._node_tris, seeds, sd)
+        fn = K.dijkstra
+    with mock.patch.object(K, "_propagate", K._propagate.py_func):  # windows' loop in Python too
+        plain = fn.py_func(*args)
+    for a, b in zip(fn(*args), plain):
+        np.testing.assert_array_equal(a, b)
+    if any_angle:  # a window kernel that runs out of room starts again with twice the room: same answer
+        for a, b in zip(fn(*args, 3), plain):
+            np.testing.assert_array_equal(a, b)
+    q = rng.uniform(-10, 1010, (200, 2))
+    t = tin.locate(q)
+    qargs = (ctg._nx, ctg._ny, ctg.node_distance, ctg._parent, ctg._tri_nodes, ctg.passable, ctg.goal_triangles,
+             goal[0], goal[1], ctg._vx, ctg._vy, ctg._tris, tin.neighbors, ctg._wstart, ctg._wgeo, ctg._wroot,
+             q[:, 0].copy(), q[:, 1].copy(), t, tin._tol[0], 1e-6)
+    for a, b in zip(K.query(*qargs), K.query.py_func(*qargs)):
+        np.testing.assert_array_equal(a, b)
+    # the query against a brute-force search of the triangle's candidates: the answer is the
+    # plain minimum over the triangle's nodes, or a cheaper straight segment to the source the
+    # query names (a node or the goal) that is drivable (dense samples) and adds up
+    d, _, src = K.query(*qargs)
+    tb = reference.locate_brute(tin, q)
+    s = np.linspace(0, 1, 41)[:, None]
+    for i in np.flatnonzero(tb >= 0):
+        if not passable[tb[i]]:
+            continue
+        nodes = ctg._tri_nodes[tb[i]]
+        direct = np.hypot(*(goal - q[i])) if ctg.goal_triangles[tb[i]] else np.inf
+        plain = min(np.min(np.hypot(*(ctg.node_xy[nodes] - q[i]).T) + ctg.node_distance[nodes]), direct)
+        if not any_angle or plain == np.inf:
+            assert d[i] == pytest.approx(plain, rel=1e-12, abs=1e-9)
+            continue
+        assert d[i] <= plain * (1 + 1e-12)
+        end = goal if src[i] == K.GOAL else ctg.node_xy[src[i]]
+        dend = 0.0 if src[i] == K.GOAL else ctg.node_distance[src[i]]
+        assert d[i] == pytest.approx(np.hypot(*(end - q[i])) + dend, rel=1e-12)
+        seg = q[i] + s * (end - q[i])
+        assert reference.on_passable_brute(tin, seg, passable, tol=1e-6).all()
+
+
+def test_jacksboro_field_is_finite_on_most_passable_ground(jacksboro):
+    tin = tse.terrain.build_tin(jacksboro, method="greedy", max_vertices=2000)
+    passable = tin.slope_deg <= 30
+    g = tin.vertices[np.argmin(np.abs(tin.vertices[:, :2] - tin.vertices[:, :2].mean(0)).sum(1)), :2]
+    ctg = tse.terrain.cost_to_go(tin, g, passable=passable)
+    reach = ctg.triangle_reachable()
+    assert reach.sum() > 0.9 * passable.sum()
+    c = tin.vertices[tin.triangles, :2].mean(axis=1)
+    d = ctg.distance_at(c)
+    assert np.array_equal(np.isfinite(d), reach)
+    assert np.all(d[reach] >= np.hypot(*(c[reach] - g).T) * (1 - 1e-12))

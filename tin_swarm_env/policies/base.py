@@ -1,0 +1,208 @@
+"""What every policy shares: the :class:`Policy` protocol, :func:`unwrap_env`, the decoded
+observation (:class:`DecodedObs`, :func:`decode`) and the safety shield (:class:`SafetyShield`:
+the cuts every built-in controller applies last, :func:`safety_cut`, and that a policy file may
+ask for).
+
+A policy maps observations to actions, one row per robot: ``act_batch(obs (n, d)) -> (n, 2)``
+body-frame velocities as fractions of top speed, and ``act({agent: obs}) -> {agent: action}``.
+Policies read the observation through :class:`~tin_swarm_env.env.observation.ObsLayout` and the
+environment's static constants (:class:`SafetyShield`), never the world state; the one exception
+is :class:`~tin_swarm_env.policies.GeodesicPolicy`, the map-knowing reference.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from ..errors import ArgumentError
+from ..world.fields import facing
+
+__all__ = ["Policy", "unwrap_env", "DecodedObs", "decode", "keep_clear", "into_view", "safety_cut", "SafetyShield",
+           "act_dict"]
+
+
+@runtime_checkable
+class Policy(Protocol):
+    """The interface every policy here implements (a structural protocol: no base class needed).
+
+    ``act_batch(obs (n, d)) -> (n, 2)`` float32 body-frame velocities in ``[-1, 1]`` (fractions of
+    top speed), row ``i`` for observation row ``i``; ``act({agent: obs (d,)}) -> {agent: (2,)}``.
+    A policy with per-robot memory also has ``reset()`` (call it after each environment reset)."""
+
+    def act_batch(self, obs) -> np.ndarray: ...
+
+    def act(self, obs: dict) -> dict: ...
+
+
+def act_dict(act_batch, obs: dict, rows=None) -> dict:
+    """``act`` from ``act_batch``: stack the agents' observations (dict order), act, split again.
+    ``rows`` (optional, one per agent) is passed on as ``act_batch(obs, rows)``."""
+    if not obs:
+        return {}
+    keys = list(obs)
+    stacked = np.stack([obs[k] for k in keys])
+    a = act_batch(stacked) if rows is None else act_batch(stacked, rows)
+    return {k: a[i] for i, k in enumerate(keys)}
+
+
+def unwrap_env(env):
+    """The :class:`~tin_swarm_env.env.TinSwarmEnv` under ``env`` (itself or a wrapper of one)."""
+    e = env
+    for _ in range(10):
+        if hasattr(e, "layout") and hasattr(e, "config"):
+            return e
+        e = getattr(e, "env", None) or getattr(e, "unwrapped", None)
+        if e is None:
+            break
+    raise ArgumentError("the policy needs a tin_swarm_env environment (or a wrapper of one)")
+
+
+@dataclass
+class DecodedObs:
+    """Observations ``(n, d)`` as physical quantities in the body frame (metres), :func:`decode`.
+
+    ``K_r``, ``K_b``, ``K_a``: the layout's robot, break and asset slots (``K_a`` may be 0). The
+    observation does not name the terrain's border; its sensed proxy is ``b_border``, a dangerous
+    break with zero drop (a border edge has no triangle beyond it, so its drop is 0; a cliff
+    edge's drop is not)."""
+
+    has_t: np.ndarray  # (n,) bool: the task assigns the robot a target
+    dist: np.ndarray  # (n,) m: horizontal distance to it
+    rel_t: np.ndarray  # (n, 2) m: vector to it
+    dz: np.ndarray  # (n,) m: its height above the robot
+    grad_z: np.ndarray  # (n, 2): terrain gradient underfoot (tan(slope) times the uphill unit vector)
+    speed: np.ndarray  # (n,): speed achieved last step, fraction of top speed
+    r_rel: np.ndarray  # (n, K_r, 2) m: vectors to the robots it sees
+    r_valid: np.ndarray  # (n, K_r) float 0/1
+    b_rel: np.ndarray  # (n, K_b, 2) m: vectors to the closest points of the breaks in range
+    b_normal: np.ndarray  # (n, K_b, 2): their unit normals toward the safe side
+    b_danger: np.ndarray  # (n, K_b) bool: valid and dangerous (a cliff edge or the border)
+    b_border: np.ndarray  # (n, K_b) bool: dangerous with zero drop (the terrain's border)
+    a_rel: np.ndarray  # (n, K_a, 2) m: vectors to the assets it sees
+    a_valid: np.ndarray  # (n, K_a) float 0/1
+
+    @property
+    def n(self) -> int:
+        return len(self.dist)
+
+
+def decode(obs, layout, range_m) -> DecodedObs:
+    """Observations ``(n, d)`` laid out by ``layout`` (sensor range ``range_m``) -> :class:`DecodedObs`."""
+    obs = np.asarray(obs, dtype=np.float64)
+    R = range_m
+    dist = layout.target_distance_m(obs, R)
+    slope = np.radians(layout.field(obs, "own", "slope")[:, 0] * 90.0)
+    b_danger = (layout.field(obs, "breaks", "valid") * layout.field(obs, "breaks", "danger")) > 0.5
+    return DecodedObs(
+        has_t=layout.field(obs, "own", "target_valid")[:, 0] > 0.5, dist=dist,
+        rel_t=layout.field(obs, "own", "target_dir") * dist[:, None], dz=layout.target_dz_m(obs),
+        grad_z=np.tan(slope)[:, None] * layout.field(obs, "own", "uphill"),
+        speed=layout.field(obs, "own", "speed")[:, 0],
+        r_rel=layout.vectors(obs, "robots") * R, r_valid=layout.field(obs, "robots", "valid"),
+        b_rel=layout.vectors(obs, "breaks") * R, b_normal=layout.vectors(obs, "breaks", "nx", "ny"),
+        b_danger=b_danger, b_border=b_danger & (layout.field(obs, "breaks", "drop") == 0.0),
+        a_rel=layout.vectors(obs, "assets") * R, a_valid=layout.field(obs, "assets", "valid"))
+
+
+def keep_clear(action, rel, valid, gap_m: float, step_m: float, share: float = 2.0, passes: int = 2):
+    """Cut body-frame ``action (n, 2)`` (fractions of top speed) so that no robot closes on what
+    it sees at ``rel (n, K, 2)`` m (``valid (n, K)``) by more than ``1 / share`` of the free gap
+    ``d - gap_m`` in one step of ``step_m`` at full speed: ``a . u <= max(d - gap, 0) / (share
+    step)``, ``u`` the unit vector toward it. For robots (``share`` 2, both move) two robots
+    that see each other never come closer than ``gap_m``; for the closest points of dangerous
+    breaks (``share`` 1, they stand still) the robot never comes within ``gap_m`` of them (the
+    distance to a segment after a move ``delta`` is at least ``d - delta . u``). Only the part
+    of the action toward each is removed (a projection onto each half-plane, ``passes`` sweeps
+    over the slots), so the cut never adds motion toward anything. Returns ``(n, 2)``."""
+    a = np.array(action, dtype=np.float64)
+    d = np.sqrt(np.sum(rel * rel, axis=-1))
+    ok = (np.asarray(valid) > 0.5) & (d > 1e-9)
+    u = rel / np.maximum(d, 1e-9)[..., None]
+    limit = np.maximum(d - gap_m, 0.0) / (share * step_m)
+    for _ in range(passes):
+        for j in range(rel.shape[1]):
+            excess = np.sum(a * u[:, j], axis=-1) - limit[:, j]
+            cut = np.where(ok[:, j] & (excess > 0), excess, 0.0)
+            a -= cut[:, None] * u[:, j]
+    return a
+
+
+def into_view(action, fov_deg: float):
+    """Body-frame ``action (n, 2)`` turned out of the robot's blind sector: a command whose
+    bearing lies beyond ``fov_deg / 2`` (where the robot sees no robot) is projected onto the
+    nearer edge of its field of view, so robots do not back into robots they cannot see (the
+    heading turns toward the motion, so the next step sees further round). Returns ``(n, 2)``."""
+    a = np.array(action, dtype=np.float64)
+    half = np.radians(min(fov_deg, 360.0)) / 2
+    if half >= np.pi:
+        return a
+    bearing = np.arctan2(a[:, 1], a[:, 0])
+    blind = np.abs(bearing) > half
+    edge = np.stack([np.full(len(a), np.cos(half)), np.where(a[:, 1] >= 0, 1.0, -1.0) * np.sin(half)], axis=-1)
+    along = np.maximum(np.sum(a * edge, axis=-1), 0.0)
+    return np.where(blind[:, None], along[:, None] * edge, a)
+
+
+def safety_cut(action, d: DecodedObs, gap_m: float, edge_m: float | None, step_m: float, fov_deg: float):
+    """The cuts every built-in controller applies last to its body-frame ``action (n, 2)``, from
+    the decoded observation ``d``: turned out of the blind sector (:func:`into_view`), then cut
+    so that robots that see each other never come within ``gap_m`` (:func:`keep_clear`,
+    ``share`` 2) and, unless ``edge_m`` is None, so that no robot comes within ``edge_m`` of a
+    dangerous break it sees from its safe side (``share`` 1)."""
+    a = keep_clear(into_view(action, fov_deg), d.r_rel, d.r_valid, gap_m, step_m)
+    if edge_m is not None:
+        a = keep_clear(a, d.b_rel, facing(d.b_rel, d.b_normal, d.b_danger), edge_m, step_m, share=1.0)
+    return a
+
+
+class SafetyShield:
+    """The static quantities every built-in controller reads from an environment, and the
+    safety cut made with them; a shield in the safe-RL sense (a policy proposes an action, the
+    shield removes its unsafe part), reading only the observation.
+
+    ``SafetyShield(env)`` (an env or a wrapper of one; :meth:`from_config` from a scenario config
+    and an :class:`~tin_swarm_env.env.observation.ObsLayout`) sets ``layout``, ``range_m`` (sensor
+    range), ``standoff_m`` (the containment ring's radius, 0 for a goal task), ``guard_m`` (the
+    assets' guard ring), ``gap_m`` (3 robot radii: 1.5 body diameters kept between robots that
+    see each other), ``edge_m`` (2 radii: one body diameter kept off a dangerous break),
+    ``fov_deg``, ``step_m`` (the distance covered in one step at full speed) and ``pass_m`` (3
+    body diameters: the narrowest gap between breaks a robot drives through).
+    ``shield(action, obs)`` is :func:`safety_cut` of ``action (n, 2)`` for observations
+    ``obs (n, d)`` (the break cut when the layout has break slots), float32; :meth:`cut` the same
+    from an observation already decoded."""
+
+    def __init__(self, env):
+        base = unwrap_env(env)
+        self._set(base.config, base.layout)
+
+    @classmethod
+    def from_config(cls, cfg, layout) -> SafetyShield:
+        s = cls.__new__(cls)
+        s._set(cfg, layout)
+        return s
+
+    def _set(self, cfg, layout):
+        self.layout = layout
+        self.range_m = cfg.world.sensor.range_m
+        self.standoff_m = cfg.targets.standoff_m if cfg.task == "containment" else 0.0
+        self.guard_m = cfg.assets.standoff_m
+        self.gap_m = 3.0 * cfg.world.robot.radius_m
+        self.edge_m = 2.0 * cfg.world.robot.radius_m
+        self.fov_deg = cfg.world.sensor.fov_deg
+        self.step_m = cfg.world.robot.max_speed_mps * cfg.world.dt_s
+        self.pass_m = 3.0 * self.edge_m
+
+    def decode(self, obs) -> DecodedObs:
+        """:func:`decode` with this environment's layout and sensor range."""
+        return decode(obs, self.layout, self.range_m)
+
+    def cut(self, action, d: DecodedObs, edges: bool = True) -> np.ndarray:
+        """:func:`safety_cut` of ``action (n, 2)`` (the break cut only when ``edges``), float32."""
+        return safety_cut(action, d, self.gap_m, self.edge_m if edges else None, self.step_m,
+                          self.fov_deg).astype(np.float32)
+
+    def __call__(self, action, obs) -> np.ndarray:
+        return self.cut(action, self.decode(obs), edges=bool(self.layout.k_breaks))
