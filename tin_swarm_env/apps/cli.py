@@ -143,6 +143,13 @@ def _cmd_run(args) -> int:
         raise ArgumentError(f"--mp4 {args.mp4}: the file name must end in .mp4")
     check_outputs({"--summary": args.summary, "--gif": args.gif, "--mp4": args.mp4},
                   inputs=(*_scenario_inputs(args.scenario), args.policy))
+    if args.gif or args.mp4:
+        from ..scenario.config import load_scenario
+        from .media import check_animation
+
+        cfg = load_scenario(args.scenario)
+        check_animation(args.robots or cfg.robots.count, args.max_cycles or cfg.max_cycles, args.frame_every,
+                        "--gif" if args.gif else "--mp4")
     with ExitStack() as stack:  # frames go to disk as they are drawn; .part files removed on any error
         writers = [stack.enter_context(FrameWriter(p)) for p in (args.gif, args.mp4) if p]
         every = args.frame_every if writers else 0
