@@ -211,6 +211,8 @@ MUTANTS = [
       'if meta["observation"]["size"] != e.layout.size:', 'if meta["observation"]["size"] < e.layout.size:', LEARNED),
 ]
 
+MARKER = "<!-- judged by hand: everything below this line is kept when bench/mutants.py rewrites the table -->"
+
 # mutants judged equivalent by hand (no test can tell them from the original): id -> why
 EQUIVALENT: dict[str, str] = {}
 
@@ -317,8 +319,11 @@ def _write(path, rows, killed, counted, score, load, total, argv):
     for m, status, failed, dt in rows:
         res = f"equivalent: {EQUIVALENT[m.id]}" if m.id in EQUIVALENT else status
         lines.append(f"| `{m.id}` | {m.path} | {res} | {failed.split('::')[-1] if failed else ''} | {dt:.0f} |")
+    keep = ""  # the survivors' judgement, written by hand below the marker, survives a new run
+    if path.exists() and MARKER in path.read_text():
+        keep = path.read_text()[path.read_text().index(MARKER):]
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(lines) + "\n")
+    path.write_text("\n".join(lines) + "\n\n" + (keep or MARKER + "\n"))
 
 
 if __name__ == "__main__":
