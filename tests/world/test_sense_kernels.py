@@ -7,7 +7,6 @@ from contextlib import contextmanager
 import numba
 import numpy as np
 import pytest
-from conftest import random_tin
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -43,7 +42,7 @@ def plain_python(monkeypatch):
         yield
 
 
-def _world(seed, sensor, k_ent=3, n=30):
+def _world(random_tin, seed, sensor, k_ent=3, n=30):
     rng = np.random.default_rng(seed)
     p = WorldParams(robot=RobotParams(max_slope_deg=25.0, max_climb_deg=40.0, radius_m=8.0),
                     sensor=SensorParams(**sensor), battery=BatteryParams(), break_angle_deg=10.0)
@@ -89,8 +88,10 @@ def _run(w, s, cmds):
 @settings(max_examples=12)
 @given(st.integers(0, 10_000), st.integers(2, 40), st.floats(30, 400), st.floats(30, 360), st.booleans(),
        st.integers(1, 12))
-def test_step_and_sensing_are_bit_identical_for_1_and_2_threads_and_plain_python(seed, n, range_m, fov, los, k):
-    w, s, rng = _world(seed, {"range_m": range_m, "fov_deg": fov, "check_los": los, "max_candidates": k}, n=n)
+def test_step_and_sensing_are_bit_identical_for_1_and_2_threads_and_plain_python(random_tin, seed, n, range_m, fov,
+                                                                                     los, k):
+    sensor = {"range_m": range_m, "fov_deg": fov, "check_los": los, "max_candidates": k}
+    w, s, rng = _world(random_tin, seed, sensor, n=n)
     if w is None:
         return
     cmds = rng.uniform(-1.2, 1.2, (3, n, 2))
@@ -156,8 +157,8 @@ def test_collision_counts_equal_all_pairs(seed, n, diameter):
     np.testing.assert_array_equal(pairs.reshape(-1, 2), np.argwhere(np.triu(touch)))
 
 
-def test_break_contacts_are_nearest_first_and_complete():
-    w, s, _ = _world(5, {"range_m": 150.0}, n=25)
+def test_break_contacts_are_nearest_first_and_complete(random_tin):
+    w, s, _ = _world(random_tin, 5, {"range_m": 150.0}, n=25)
     b = w.sense(s).breaks
     seg = w.breaks.segments[:, :, :2]
     for i in range(s.n_robots):
@@ -177,8 +178,8 @@ def sensing_closest(p, seg):
     return closest_on_segments(p, seg[:, 0], seg[:, 1])
 
 
-def test_contacts_nearest_fast_path_equals_the_sort():
-    w, s, _ = _world(11, {"range_m": 300.0}, n=40)
+def test_contacts_nearest_fast_path_equals_the_sort(random_tin):
+    w, s, _ = _world(random_tin, 11, {"range_m": 300.0}, n=40)
     r = w.sense(s)
     for part in (r.robots, r.targets, r.breaks):
         rows_fast = sensing._rows(part, s.n_robots, 4)
