@@ -43,7 +43,7 @@ Method
 Cost: greedy insertion (C++), then one scan of the samples for the triangle costs and, per
 sweep, two triangle costs per interior edge (each a scan of the samples in a triangle's rows):
 O(rows x cols) per sweep, compiled (numba). Step 2 adds per round a Delaunay of V points and a
-scan of the samples. Measured against greedy at the same vertex count: ``docs/figures/terrain.md``
+scan of the samples. Measured against greedy at the same vertex count: ``docs/figures/terrain_robot.md``
 (``python bench/terrain.py --robot --write``).
 
 Limits: on a DEM whose slope field is noisy at the cell scale (jacksboro at 20 deg: the two
