@@ -185,7 +185,7 @@ BAD = {
     "no_hidden": (lambda j: j["network"].pop("hidden_size"), None, r"missing key 'network\.hidden_size'"),
     "head_start": (lambda j: j["network"].update(hidden_size=9), None,
                    r"'network\.layer_sizes' must start at hidden_size 9"),
-    "input": (lambda j: j["network"].update(input_size=60), None, r"weights\.npz.*'cell_W_ih' has shape \(32, 59\)"),
+    "input": (lambda j: j["network"].update(input_size=60), None, r"policy\.json: key 'observation.size' \(59\) differs from the cell's 'network.input_size' \(60\)"),
     "type": (lambda j: j["network"].update(type="transformer"), None, r"'network\.type' is 'transformer'"),
     "missing_array": (None, lambda a: a.pop("cell_W_hh"), r"weights\.npz: missing array 'cell_W_hh'"),
     "shape": (None, lambda a: a.update(cell_b_ih=np.zeros(31)), r"weights\.npz: array 'cell_b_ih' has shape \(31,\)"),

@@ -428,7 +428,8 @@ def _validate(meta, arrays: dict | None, jname: str, wname: str) -> list:
 
         in_size, cell = check_cell(net, arrays, jname, wname)
         what = "the cell's 'network.input_size'"
-        arrays = {k: v for k, v in arrays.items() if k not in cell}
+        if arrays is not None:
+            arrays = {k: v for k, v in arrays.items() if k not in cell}
     obs = _get(meta, "observation", dict, jname)
     if _get(obs, "size", int, f"{jname} [observation]") != in_size:
         raise PolicyFileError(f"{jname}: key 'observation.size' ({obs['size']}) differs from {what} ({in_size})")

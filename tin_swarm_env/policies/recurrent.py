@@ -60,7 +60,7 @@ def _pos_int(net, key, jname):
     return v
 
 
-def check_cell(net: dict, arrays: dict, jname: str, wname: str) -> tuple[int, dict]:
+def check_cell(net: dict, arrays: dict | None, jname: str, wname: str) -> tuple[int, dict]:
     """Check the cell part of a recurrent ``network`` entry and its arrays; returns
     ``(input_size, {name: float64 array})``. Raises :class:`PolicyFileError` naming the file and
     the key or array."""
@@ -77,6 +77,8 @@ def check_cell(net: dict, arrays: dict, jname: str, wname: str) -> tuple[int, di
     G = CELLS[cell]
     shapes = {"cell_W_ih": (G * H, d), "cell_W_hh": (G * H, H), "cell_b_ih": (G * H,), "cell_b_hh": (G * H,)}
     out = {}
+    if arrays is None:  # the description alone (load_policy checks it before reading the weights)
+        return d, out
     for k, shape in shapes.items():
         if k not in arrays:
             raise PolicyFileError(f"{wname}: missing array {k!r} (a {cell} cell needs {list(shapes)})")
