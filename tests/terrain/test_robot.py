@@ -334,3 +334,14 @@ def min_angle_deg(tin):
         cs = np.sum(u * w, axis=1) / np.linalg.norm(u, axis=1) / np.linalg.norm(w, axis=1)
         out.append(np.degrees(np.arccos(np.clip(cs, -1, 1))))
     return float(np.min(out))
+
+
+def test_a_budget_filled_before_the_error_bound_builds_as_the_budget_alone():
+    # a scenario passes both keys: greedy insertion fills the budget first, the flips then run unguarded
+    rng = np.random.default_rng(6)
+    dem = grid_dem(np.cumsum(rng.normal(0, 3, (25, 30)), axis=1))
+    a = build_tin(dem, method="robot", max_vertices=150, max_slope_deg=15)
+    b = build_tin(dem, method="robot", max_vertices=150, max_error_m=0.01, max_slope_deg=15)
+    assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.triangles, b.triangles)
+    greedy = build_tin(dem, method="greedy", max_vertices=150)
+    assert not np.array_equal(np.sort(a.triangles, axis=1), np.sort(greedy.triangles, axis=1))  # flipped

@@ -20,9 +20,9 @@ Method
 1. Vertices by greedy insertion on vertical error (Garland and Heckbert 1995, "Fast polygonal
    approximation of terrains and height fields", via pydelatin: :func:`~.greedy.greedy_mesh`):
    it places cliff feet and tops, valley floors and crests first, the breaks and the sight
-   lines. With ``max_vertices`` alone (the default ``seed_fraction`` = 1) the whole budget
-   comes from it and its own triangles are kept for step 3.
-2. Otherwise (``max_error_m`` given, or ``seed_fraction`` < 1) a batched greedy insertion on
+   lines. When it fills ``max_vertices`` (the default ``seed_fraction`` = 1, unless
+   ``max_error_m`` stops it first) its own triangles go to step 3.
+2. Otherwise (``max_error_m`` reached first, or ``seed_fraction`` < 1) a batched greedy insertion on
    the robot error: the rest of the budget, after ``crest_fraction`` of it on *crest* cells
    (:func:`crest_score`: higher than both neighbours on a row, column or diagonal profile, the
    ridges that hide things), goes in rounds: Delaunay in x, y (scipy/Qhull, on a copy sheared
@@ -37,8 +37,8 @@ Method
    piecewise linear interpolation"), ``flip_passes`` sweeps (:func:`flip_edges`): the diagonal
    of each convex quadrilateral goes where the robot error of the two triangles
    (``flip_vertical_weight`` for the vertical term) is lower, never making an angle below
-   ``MIN_FLIP_ANGLE_DEG`` (no new slivers). With ``max_error_m`` the flips are kept only when
-   the bound still holds.
+   ``MIN_FLIP_ANGLE_DEG`` (no new slivers). When step 2 met ``max_error_m`` the flips are kept
+   only if the bound still holds.
 
 Cost: greedy insertion (C++), then one scan of the samples for the triangle costs and, per
 sweep, two triangle costs per interior edge (each a scan of the samples in a triangle's rows):
@@ -275,10 +275,10 @@ def robot_mesh(dem: Dem, max_slope_deg: float, max_vertices: int | None = None, 
         ii = np.rint((v[:, 1] - dem.y[0]) / dy).astype(np.int64)
         greedy_tri = (ii * cols + jj)[greedy_tri]
         keep[ii * cols + jj] = True
-    if max_vertices is not None and max_error_m is None and n_seed >= budget:
+    if greedy_tri is not None and max_vertices is not None and len(v) >= budget:
         # the whole budget from greedy insertion: its own triangles, then the flips
         idx = np.flatnonzero(keep)
-        return _finish(dem, idx, greedy_tri, None, flip_passes, flip_vertical_weight, max_error_m, ni, nj, vx, vy,
+        return _finish(dem, idx, greedy_tri, None, flip_passes, flip_vertical_weight, None, ni, nj, vx, vy,
                        sx, sy, sz, steep_f, weight, tan_s, cell_err, None)
     n_crest = min(int(crest_fraction * budget), budget - int(keep.sum()))
     if n_crest > 0:
@@ -299,6 +299,7 @@ def robot_mesh(dem: Dem, max_slope_deg: float, max_vertices: int | None = None, 
         return score_triangles(owner, gx, gy, c0, steep_t, sx, sy, sz, steep_f, weight, nodes, vx, vy, zf, keep,
                                vertical_weight, cell_err)
 
+    reached = False  # the loop ended with every sample classified right and within max_error_m
     while True:
         idx = np.flatnonzero(keep)
         if len(idx) > budget:  # the seeds overshot a tiny budget: keep the corners and the first ones
@@ -311,6 +312,7 @@ def robot_mesh(dem: Dem, max_slope_deg: float, max_vertices: int | None = None, 
             break
         best, cell, wrong, err = stats(tri)
         if max_error_m is not None and not wrong.any() and err.max() <= max_error_m:
+            reached = True
             break
         ok = cell >= 0
         if max_error_m is not None:  # error-bounded: only triangles that break a bound
@@ -322,13 +324,15 @@ def robot_mesh(dem: Dem, max_slope_deg: float, max_vertices: int | None = None, 
         add = np.unique(cell[cand], return_index=True)[1]
         add = cell[cand][np.sort(add)][: max(1, min(int(batch_fraction * len(idx)), budget - len(idx)))]
         keep[add] = True
-    return _finish(dem, idx, tri, d.neighbors.astype(np.int64), flip_passes, flip_vertical_weight, max_error_m, ni, nj,
+    return _finish(dem, idx, tri, d.neighbors.astype(np.int64), flip_passes, flip_vertical_weight,
+                   max_error_m if reached else None, ni, nj,
                    vx, vy, sx, sy, sz, steep_f, weight, tan_s, cell_err, stats)
 
 
 def _finish(dem, idx, tri, nbrs, flip_passes, flip_vertical_weight, max_error_m, ni, nj, vx, vy, sx, sy, sz, steep_f,
             weight, tan_s, cell_err, stats):
-    """The flips (:func:`flip_edges`) and the vertices/triangles to return; ``nbrs`` None: computed."""
+    """The flips (:func:`flip_edges`) and the vertices/triangles to return; ``nbrs`` None: computed.
+    ``max_error_m`` not None: the bound the triangles meet, kept (flips undone when they break it)."""
     rows, cols = dem.shape
     zf = dem.z.ravel()
     if flip_passes > 0:
