@@ -249,12 +249,17 @@ def test_evaluation_table_has_the_columns_and_uses_held_out_seeds(tmp_path):
     assert rows[1]["arrived"] + rows[1]["fell"] + rows[1]["timed_out"] <= 1.0 + 1e-12
 
 
-def test_recurrent_training_runs_and_saves_only_the_zip(tmp_path, capsys):
+def test_recurrent_training_runs_and_exports_a_recurrent_policy_file(tmp_path, capsys):
     pytest.importorskip("sb3_contrib")
     from tin_swarm_env.apps.train import train
+    from tin_swarm_env.policies import load_policy
+    from tin_swarm_env.policies.recurrent import RecurrentPolicy
 
     path = train(Args(scenario="flat", n_robots=2, n_envs=1, max_cycles=10, total_timesteps=32, n_steps=16,
-                      batch_size=32, n_epochs=1, net_arch="16", recurrent=True, eval_every=0, eval_episodes=1,
-                      out_dir=str(tmp_path / "r"), progress_bar=False))
-    assert path.exists() and not (tmp_path / "r" / "policy").exists()
-    assert "no pickle-free policy for a recurrent model" in capsys.readouterr().out
+                      batch_size=32, n_epochs=1, net_arch="16", recurrent=True, lstm_hidden=8, eval_every=0,
+                      eval_episodes=1, out_dir=str(tmp_path / "r"), progress_bar=False, shield="safety_cut"))
+    assert path.exists()
+    env = tse.parallel_env(scenario="flat", n_robots=2)
+    pol = load_policy(tmp_path / "r" / "policy", env)
+    assert isinstance(pol, RecurrentPolicy) and pol.hidden_size == 8 and pol.shield == "safety_cut"
+    assert "exported the pickle-free policy" in capsys.readouterr().out

@@ -200,19 +200,46 @@ _TORCH_ACTIVATIONS = {"Tanh": "tanh", "ReLU": "relu", "ELU": "elu", "LeakyReLU":
 
 
 def export_sb3_policy(model, path, env_or_layout, scenario: str | None = None, extra: dict | None = None,
-                      shield: str = "none"):
+                      shield: str = "none", symmetry: str = "none"):
     """Write the actor of an SB3 PPO/A2C ``MlpPolicy`` as a pickle-free policy directory
     (:func:`tin_swarm_env.policies.save_policy`): the Linear layers of
     ``policy.mlp_extractor.policy_net`` and ``policy.action_net``, the activation from
     ``policy_kwargs["activation_fn"]`` (default Tanh), the deterministic action (the Gaussian's
-    mean, clipped to [-1, 1]). ``env_or_layout``: the env (or this module's VecEnv) it was trained on
+    mean, clipped to [-1, 1]). A recurrent actor (sb3-contrib's RecurrentPPO ``MlpLstmPolicy``,
+    one LSTM layer) is written as a recurrent policy file
+    (:mod:`tin_swarm_env.policies.recurrent`): ``policy.lstm_actor``'s weights, then the same
+    head. ``env_or_layout``: the env (or this module's VecEnv) it was trained on
     (its layout and scenario name are recorded) or an ``ObsLayout``; ``shield`` is written into the
-    file (``"safety_cut"``: the actor was trained to act through it). Returns the path."""
+    file (``"safety_cut"``: the actor was trained to act through it), and ``symmetry``
+    (``"mirror"``: the file acts as the mirror-averaged network). Returns the path."""
     require("torch", "train", "Exporting an SB3 policy")
     from ..policies.learned import save_policy
 
     pol = model.policy
     where = f"model {type(model).__name__}.policy"
+    layers, activation = _actor_head(pol, where)
+    cell = _lstm_cell(pol.lstm_actor, where) if hasattr(pol, "lstm_actor") else None
+    src = env_or_layout.envs[0] if hasattr(env_or_layout, "envs") else env_or_layout  # our VecEnv: a copy
+    layout = getattr(src, "layout", src)
+    if scenario is None:
+        cfg = getattr(src, "config", None)
+        scenario = getattr(cfg, "name", "") if cfg is not None else ""
+    meta = {"algorithm": type(model).__name__, "num_timesteps": int(getattr(model, "num_timesteps", 0))}
+    try:
+        import stable_baselines3
+        import torch
+
+        meta.update(stable_baselines3=stable_baselines3.__version__, torch=torch.__version__)
+    except ImportError:  # pragma: no cover
+        pass
+    meta.update(extra or {})
+    return save_policy(path, layers, activation, layout=layout, scenario=scenario, extra=meta, shield=shield,
+                       symmetry=symmetry, cell=cell)
+
+
+def _actor_head(pol, where: str):
+    """``([(W, b), ...], activation)`` of an SB3 actor: ``mlp_extractor.policy_net`` then
+    ``action_net``; refuses anything the policy file cannot express, naming the part."""
     for attr in ("mlp_extractor", "action_net"):
         if not hasattr(pol, attr):
             raise ArgumentError(f"{where} has no {attr}: only SB3 MlpPolicy actors (PPO, A2C) can be exported")
@@ -234,22 +261,22 @@ def export_sb3_policy(model, path, env_or_layout, scenario: str | None = None, e
     if len(acts) > 1:
         raise ArgumentError(f"{where}: mixed activations {sorted(acts)} are not exportable")
     act_fn = pol.activation_fn.__name__ if hasattr(pol, "activation_fn") else "Tanh"
-    activation = acts.pop() if acts else _TORCH_ACTIVATIONS.get(act_fn, "tanh")
-    src = env_or_layout.envs[0] if hasattr(env_or_layout, "envs") else env_or_layout  # our VecEnv: a copy
-    layout = getattr(src, "layout", src)
-    if scenario is None:
-        cfg = getattr(src, "config", None)
-        scenario = getattr(cfg, "name", "") if cfg is not None else ""
-    meta = {"algorithm": type(model).__name__, "num_timesteps": int(getattr(model, "num_timesteps", 0))}
-    try:
-        import stable_baselines3
-        import torch
+    return layers, (acts.pop() if acts else _TORCH_ACTIVATIONS.get(act_fn, "tanh"))
 
-        meta.update(stable_baselines3=stable_baselines3.__version__, torch=torch.__version__)
-    except ImportError:  # pragma: no cover
-        pass
-    meta.update(extra or {})
-    return save_policy(path, layers, activation, layout=layout, scenario=scenario, extra=meta, shield=shield)
+
+def _lstm_cell(lstm, where: str):
+    """``("lstm", {cell_W_ih, cell_W_hh, cell_b_ih, cell_b_hh})`` of a one-layer torch ``nn.LSTM``."""
+    if (type(lstm).__name__ != "LSTM" or lstm.num_layers != 1 or lstm.bidirectional
+            or getattr(lstm, "proj_size", 0)):
+        raise ArgumentError(f"{where}.lstm_actor: only a one-layer, one-directional LSTM without projection is "
+                            f"exportable (got {lstm})")
+
+    def get(name):
+        t = getattr(lstm, name, None)
+        return t.detach().cpu().double().numpy() if t is not None else np.zeros(4 * lstm.hidden_size)
+
+    return "lstm", {"cell_W_ih": get("weight_ih_l0"), "cell_W_hh": get("weight_hh_l0"),
+                    "cell_b_ih": get("bias_ih_l0"), "cell_b_hh": get("bias_hh_l0")}
 
 
 def __getattr__(name):

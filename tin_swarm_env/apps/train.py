@@ -22,8 +22,10 @@ Read top to bottom: arguments, environment, imitation, evaluation, training, sav
   critic is warmed up on the rollouts' discounted returns (``--value-epochs``) and the policy's
   exploration std set to ``--bc-std`` before PPO fine-tuning.
 * ``--total-timesteps`` of PPO afterwards; 0 is refused without imitation (it would save an
-  untrained model). ``--recurrent``: sb3-contrib's RecurrentPPO (MlpLstmPolicy); no imitation and
-  no pickle-free export for it (the policy file format is an MLP).
+  untrained model). ``--recurrent``: sb3-contrib's RecurrentPPO (MlpLstmPolicy, ``--lstm-hidden`` units,
+  then ``--net-arch``); no imitation for it (imitation fits an MLP actor); it is exported as a
+  recurrent policy file (:mod:`tin_swarm_env.policies.recurrent`: memory per robot, numpy forward
+  pass).
 * Seeds: training uses seeds below :data:`~tin_swarm_env.apps.evaluate.EVAL_SEED0`: the
   VecEnv's copies ``seed + c``, imitation episodes ``seed * 1000 + k``; evaluation (here and in
   ``tin-swarm eval``) starts there, so on ``"generated"`` it is on terrains never trained on.
@@ -76,6 +78,7 @@ class Args:
     clip_range: float = 0.2
     net_arch: str = "64,64"
     recurrent: bool = False  # sb3-contrib RecurrentPPO (MlpLstmPolicy)
+    lstm_hidden: int = 256  # --recurrent: LSTM units (RecurrentPPO's default)
     bc_episodes: int = 0  # behaviour cloning: APF-driven episodes (0: no imitation)
     dagger_rounds: int = 0  # DAgger rounds after BC (the learner drives, APF labels)
     dagger_episodes: int = 0  # episodes per DAgger round (0: as many as bc_episodes)
@@ -134,8 +137,8 @@ def check_args(args: Args) -> None:
         raise ArgumentError("--recurrent cannot be combined with --bc-episodes (imitation fits an MLP actor)")
     if args.shield not in SHIELDS:
         raise ArgumentError(f"--shield must be one of {list(SHIELDS)}, got {args.shield!r}")
-    if args.shield != "none" and args.recurrent:
-        raise ArgumentError("--shield applies to MLP policies (the exported file); not with --recurrent")
+    if args.lstm_hidden < 1:
+        raise ArgumentError(f"--lstm-hidden must be >= 1, got {args.lstm_hidden}")
     if args.seed < 0 or args.seed * 1000 + 1000 >= EVAL_SEED0:
         raise ArgumentError(f"--seed must be in [0, {EVAL_SEED0 // 1000 - 1}] (seeds from {EVAL_SEED0} are "
                             "evaluation seeds)")
@@ -216,6 +219,7 @@ def _model(args: Args, vec, tb):
               tensorboard_log=tb, verbose=0)
     if args.recurrent:
         RecurrentPPO = require("sb3_contrib", "train", "--recurrent (RecurrentPPO from sb3-contrib)").RecurrentPPO
+        kw["policy_kwargs"]["lstm_hidden_size"] = args.lstm_hidden
         return RecurrentPPO("MlpLstmPolicy", vec, **kw)
     from stable_baselines3 import PPO
 
@@ -300,7 +304,7 @@ def train(args: Args) -> Path:
 
 
 def _save(model, args: Args, out: Path, rows: list, t0: float, vec, imitation) -> None:
-    """``model.zip``, ``policy/`` (pickle-free; not for a recurrent model), ``model.json``,
+    """``model.zip``, ``policy/`` (pickle-free; recurrent for a recurrent model), ``model.json``,
     ``eval.csv``, ``curve.png``; prints where."""
     from .. import __version__
     from ..scenario import load_scenario
@@ -327,9 +331,6 @@ def _save(model, args: Args, out: Path, rows: list, t0: float, vec, imitation) -
     r = rows[-1]
     print(f"trained {model.num_timesteps} timesteps in {meta['minutes']:.1f} min; final eval: return "
           f"{r['return']:.1f}, arrived {r['arrived']:.0%}, fell {r['fell']:.0%}; saved {out / 'model.zip'}")
-    if args.recurrent:
-        print("no pickle-free policy for a recurrent model (the policy file format is an MLP); use model.zip")
-        return
     from ..adapters.sb3 import export_sb3_policy
 
     export_sb3_policy(model, out / "policy", vec, scenario=args.scenario, shield=args.shield,
