@@ -7,7 +7,7 @@
 
 1. **Time to solve**: wall-clock minutes on this machine until the policy first reaches 90%
    arrival on cliff_goal (8 robots, evaluated every ``--eval-every`` timesteps on the same 3
-   held-out seeds from 10**6), for PPO from scratch and for BC+DAgger-then-PPO (DAgger with
+   held-out seeds from ``EVAL_SEED0``), for PPO from scratch and for BC+DAgger-then-PPO (DAgger with
    beta-mixing 0.5 and stalled robots' samples dropped after 60 steps; the clock starts
    before the imitation's APF rollouts, so they are counted; evaluation time is counted too).
    Each is capped at ``--cap-minutes``; a run that does not get there prints "not solved within".

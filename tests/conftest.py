@@ -76,3 +76,22 @@ def canyon_variant(request):
 def repo_root():
     """The repository root (read only: tests write under tmp_path)."""
     return Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def generated_doc():
+    """``check(relpath, text)``: a generated documentation file (relative to the repository) must equal
+    ``text``; with ``TIN_SWARM_WRITE_DOCS=1`` it is rewritten first. See docs/contributing.md."""
+
+    def check(relpath: str, text: str) -> None:
+        path = Path(__file__).resolve().parents[1] / relpath
+        if os.environ.get("TIN_SWARM_WRITE_DOCS") == "1":
+            path.parent.mkdir(parents=True, exist_ok=True)
+            part = path.with_name(f".{path.name}.part")
+            part.write_text(text)
+            os.replace(part, path)
+        old = path.read_text() if path.exists() else None
+        assert old == text, (f"{relpath} is stale: regenerate it with TIN_SWARM_WRITE_DOCS=1 and the test "
+                             "that failed (see docs/contributing.md)")
+
+    return check

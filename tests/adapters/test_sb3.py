@@ -6,11 +6,13 @@ import sys
 
 import numpy as np
 import pytest
-from stable_baselines3 import PPO
-from stable_baselines3.common.vec_env import VecEnv
 
-import tin_swarm_env as tse
-from tin_swarm_env.errors import TinSwarmError
+pytest.importorskip("stable_baselines3", reason="the train extra: pip install 'tin_swarm_env[train]'")
+from stable_baselines3 import PPO  # noqa: E402
+from stable_baselines3.common.vec_env import VecEnv  # noqa: E402
+
+import tin_swarm_env as tse  # noqa: E402
+from tin_swarm_env.errors import TinSwarmError  # noqa: E402
 
 
 def vec(**kw):
@@ -271,3 +273,33 @@ def test_missing_sb3_names_the_extra(monkeypatch):
         from tin_swarm_env.apps.policy_factory import SB3Policy
 
         SB3Policy.load("x.zip")
+
+
+def test_adapter_episode_length_counts_the_robot_s_own_steps_and_return_its_own_rewards():
+    """info["episode"] of the adapter itself (no VecMonitor, which overwrites it): robot 0 falls
+    at step k of a 12-step copy episode, robot 1 runs to the time limit. Robot 0's first episode
+    is k long; after the copy resets, its second episode is 12 long (the frozen stretch of the
+    first copy episode is not counted in either), and each return is the sum of that robot's
+    rewards over its own live steps."""
+    v = vec(scenario="ramp", n_robots=2, n_envs=1, max_cycles=12)
+    v.reset()
+    v.envs[0].reset_arrays(seed=0, options={"robot_positions": [[217.0, 120.0], [30.0, 120.0]],
+                                            "headings": [0.0, 0.0]})
+    act = np.array([[1.0, 0.0], [0.0, 0.0]], np.float32)
+    episodes = {0: [], 1: []}
+    ret = np.zeros(2)
+    steps = np.zeros(2, int)
+    for _ in range(24):  # two copy episodes
+        live = v.envs[0].live_mask.copy()
+        _, rew, done, info = v.step(act)
+        ret += rew
+        steps += live
+        for j in np.flatnonzero(done):
+            episodes[j].append((info[j]["episode"]["l"], info[j]["episode"]["r"], int(steps[j]), ret[j]))
+            ret[j], steps[j] = 0.0, 0
+    (l0, r0, s0, ret0), (l0b, r0b, s0b, ret0b) = episodes[0]
+    assert 1 <= l0 == s0 < 12 and l0b == s0b == 12  # robot 0 fell first, then timed out
+    assert [e[0] for e in episodes[1]] == [12, 12]
+    assert r0 == pytest.approx(ret0, abs=1e-4) and r0b == pytest.approx(ret0b, abs=1e-4)
+    assert r0 < -50  # the fall penalty is in the first return, not the second
+    assert r0b > -50

@@ -136,7 +136,9 @@ def test_fit_actor_clones_a_known_linear_teacher_and_sets_the_std():
     before = np.mean((TorchActor(model.policy).act_batch(x) - y) ** 2)
     mse = fit_actor(model.policy, x, y, epochs=60, batch_size=256, lr=3e-3, std=0.25)
     after = np.mean((TorchActor(model.policy).act_batch(x) - y) ** 2)
-    assert after < 0.02 < before and mse == pytest.approx(after, rel=1.0)
+    # the returned MSE is the last epoch's mean over its minibatches while the weights still moved:
+    # it lies near the final MSE (measured 1.76e-4 against 1.66e-4, +6 %); 50 % allows for the last epoch's updates
+    assert after < 0.02 < before and mse == pytest.approx(after, rel=0.5)
     assert np.allclose(np.exp(model.policy.log_std.detach().numpy()), 0.25)
     ret = 3.0 * x[:, 0]
     assert fit_value(model.policy, x, ret, epochs=40, batch_size=256, lr=3e-3) < 0.1 * np.var(ret)

@@ -77,8 +77,15 @@ def _vec_class():
             from ..policies.base import SafetyShield
             from ..policies.learned import SHIELDS
 
-            if n_envs < 1:
-                raise ArgumentError(f"n_envs must be >= 1, got {n_envs}")
+            from ..env.checks import ENV_ARGS, check_env_kwargs, check_seed
+            from ..errors import check_range
+
+            check_range("make_sb3_vec_env", "n_envs", n_envs, 1, integer=True, exc=ArgumentError)
+            check_seed(seed, "make_sb3_vec_env")
+            check_env_kwargs(env_kwargs, "make_sb3_vec_env", tuple(a for a in ENV_ARGS if a not in ("scenario",
+                                                                                                  "n_robots")))
+            if isinstance(scenario, (list, tuple)) and not scenario:
+                raise ArgumentError("make_sb3_vec_env: scenario is an empty list; give a name, a path or a list of them")
             mix = [scenario] if isinstance(scenario, str) or not hasattr(scenario, "__len__") else list(scenario)
             self.envs = [parallel_env(scenario=mix[c % len(mix)], n_robots=n_robots, **env_kwargs)
                          for c in range(n_envs)]
@@ -120,7 +127,10 @@ def _vec_class():
             return obs.copy()
 
         def step_async(self, actions):
-            self._actions = np.asarray(actions, dtype=np.float32).reshape(self.num_envs, -1)
+            from ..env.checks import float_array
+
+            self._actions = float_array(np.reshape(actions, (self.num_envs, -1)) if np.size(actions) == 2 * self.num_envs
+                                        else actions, "step_async(actions)", (self.num_envs, 2), finite=False)
 
         def step_wait(self):
             n = self.n_robots

@@ -282,7 +282,7 @@ class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
 
 
 def _add_run(sub) -> None:
-    from ..env.tin_swarm import RENDER_WIDTH_PX
+    from ..env.tin_swarm import DEFAULT_RENDER_WIDTH_PX, RENDER_WIDTH_PX
 
     r = sub.add_parser("run", help="run a swarm on a scenario and report each episode", formatter_class=_Formatter,
                        description="Run a policy on a scenario; a table per episode, optionally a GIF/MP4.")
@@ -298,7 +298,7 @@ def _add_run(sub) -> None:
     r.add_argument("--gif", default=None, help="write the first episode as a GIF (or its last frame as .png)")
     r.add_argument("--mp4", default=None, help="write the first episode as an MP4 video (the [video] extra)")
     r.add_argument("--frame-every", type=_POS, default=5, help="steps between GIF/MP4 frames")
-    r.add_argument("--render-width", type=_int_in(*RENDER_WIDTH_PX), default=640,
+    r.add_argument("--render-width", type=_int_in(*RENDER_WIDTH_PX), default=DEFAULT_RENDER_WIDTH_PX,
                    help="width of GIF/MP4 frames in pixels")
     r.add_argument("--max-cycles", type=_POS, default=None, help="steps per episode (default: the scenario's)")
     r.add_argument("--summary", default=None, help="also write the table to this Markdown file")
@@ -329,6 +329,7 @@ def _add_explore_and_scenarios(sub) -> None:
 
 def _add_train_eval_build(sub) -> None:
     from .args import add_dataclass_args
+    from .evaluate import EVAL_SEED0
     from .train import Args as TrainArgs
 
     t = sub.add_parser("train", help="train PPO (apps/train.py, = agents/train_sb3.py; needs the [train] extra)",
@@ -348,8 +349,9 @@ def _add_train_eval_build(sub) -> None:
                    help="allow SB3 .zip models: they are pickles and loading one runs any code it holds")
     e.add_argument("--policies", default="random,apf,geodesic",
                    help="built-in policies to evaluate as well (random, apf, geodesic: the map-knowing reference)")
-    e.add_argument("--seed-offset", type=_NONNEG, default=1_000_000,
-                   help="evaluation seeds are SEED_OFFSET .. SEED_OFFSET + SEEDS - 1 (training uses seeds below 10**6)")
+    e.add_argument("--seed-offset", type=_NONNEG, default=EVAL_SEED0,
+                   help=f"evaluation seeds are SEED_OFFSET .. SEED_OFFSET + SEEDS - 1 (training uses seeds below "
+                        f"{EVAL_SEED0})")
     e.add_argument("--out", default=None, help="writes OUT.md, OUT.csv and OUT.png (default: runs/eval_<scenarios>)")
     e.set_defaults(func=_cmd_eval)
     b = sub.add_parser("build-tin", help="reduce a DEM to a TIN and write it (.tin or .npz)",

@@ -26,9 +26,9 @@ Read top to bottom: arguments, environment, imitation, evaluation, training, sav
   then ``--net-arch``); no imitation for it (imitation fits an MLP actor); it is exported as a
   recurrent policy file (:mod:`tin_swarm_env.policies.recurrent`: memory per robot, numpy forward
   pass).
-* Seeds: training uses seeds below :data:`~tin_swarm_env.apps.evaluate.EVAL_SEED0` (10**6): the
+* Seeds: training uses seeds below :data:`~tin_swarm_env.apps.evaluate.EVAL_SEED0`: the
   VecEnv's copies ``seed + c``, imitation episodes ``seed * 1000 + k``; evaluation (here and in
-  ``tin-swarm eval``) starts at 10**6, so on ``"generated"`` it is on terrains never trained on.
+  ``tin-swarm eval``) starts there, so on ``"generated"`` it is on terrains never trained on.
 
 Writes into ``out_dir`` (default ``runs/<algo>_<scenarios>_s<seed>``): ``model.zip`` (SB3, a
 pickle: load only your own), ``policy/`` (the pickle-free policy directory, ``load_policy``; with imitation and PPO also

@@ -1,7 +1,7 @@
 """Artificial Potential Field policy: acts from the observation alone, for all robots at once.
 
 The observation (see :class:`~tin_swarm_env.env.observation.ObsLayout`) is egocentric, so the
-four fields of :mod:`tin_swarm_env.world.fields` are evaluated in the body frame and their sum is
+fields of :mod:`tin_swarm_env.world.fields` are evaluated in the body frame and their sum is
 the commanded body-frame velocity, full speed once the force reaches ``speed_saturation``:
 ``action = F / max(|F|, speed_saturation)``. Where a dangerous break blocks the way, the
 attraction is replaced by wall-following (:func:`~tin_swarm_env.world.fields.follow_field`) on a

@@ -95,6 +95,15 @@ def dense(x, W, b):
 SHIELDS = ("none", "safety_cut")
 ACTION_SIZE = 2
 
+# Limits checked before anything is read into memory (a policy file is data from anywhere):
+MAX_JSON_BYTES = 1_000_000  # policy.json: metadata and the layout's element names, a few KB in practice
+MAX_JSON_DEPTH = 64  # nesting of policy.json (deeper would exhaust the parser's recursion)
+MAX_LAYERS = 16  # linear layers of the MLP
+MAX_LAYER_WIDTH = 4096  # units per layer: a 4096-wide float64 layer is 128 MB at most
+MAX_PARAMETERS = 20_000_000  # weights and biases in all: 160 MB of float64 (the shipped net has ~20 000)
+MAX_WEIGHTS_BYTES = 8 * MAX_PARAMETERS + 1_000_000  # weights.npz on disk (uncompressed arrays + headers)
+MAX_ABS_WEIGHT = 1e6  # trained weights are O(1-100); beyond this a forward pass can overflow to NaN/inf
+
 
 def _layout_dict(layout) -> dict:
     """The observation layout as plain data (:meth:`ObsLayout.to_dict`; a dict passes through)."""
@@ -156,6 +165,10 @@ class MLPPolicy:
             x = dense(x, W, b)
             if i < len(self.layers) - 1:
                 x = f(x)
+        bad = ~np.isfinite(x).all(axis=1)
+        if bad.any():  # finite weights whose products overflow: the file is at fault, not the robot
+            raise PolicyFileError(f"{self.source}: the network's output is not finite (NaN or inf) for observation "
+                                  f"row {int(np.flatnonzero(bad)[0])}: its weights overflow float64")
         return np.clip(x, -1.0, 1.0)
 
     def act(self, obs: dict) -> dict:
@@ -274,6 +287,9 @@ def load_policy(path, env):
     anything wrong: a missing file, bad JSON, unknown format or version, a missing key, unknown
     activation, weights that do not chain or are not finite, an object array in the weights, an
     observation size other than the env's, or a layout other than the env's (both named)."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise ArgumentError(f"load_policy(path=...): path must be a policy directory (str or os.PathLike), got "
+                            f"{type(path).__name__}")
     p = Path(os.fspath(path))
     d = p.parent if p.name == POLICY_JSON and p.is_file() else p
     jpath, wpath = d / POLICY_JSON, d / WEIGHTS
@@ -282,13 +298,20 @@ def load_policy(path, env):
     for f in (jpath, wpath):
         if not f.is_file():
             raise PolicyFileError(f"{f}: missing; a policy directory holds {POLICY_JSON} and {WEIGHTS}")
+    for f, limit in ((jpath, MAX_JSON_BYTES), (wpath, MAX_WEIGHTS_BYTES)):
+        if f.stat().st_size > limit:
+            raise PolicyFileError(f"{f}: {f.stat().st_size:,} bytes; a policy file has at most {limit:,} (networks of "
+                                  f"up to {MAX_PARAMETERS:,} parameters)")
     try:
-        meta = json.loads(jpath.read_text(encoding="utf-8"))
+        text = jpath.read_text(encoding="utf-8")
+        _check_depth(text, str(jpath))
+        meta = json.loads(text)
     except json.JSONDecodeError as exc:
         raise PolicyFileError(f"{jpath}:{exc.lineno}: not valid JSON ({exc.msg})") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise PolicyFileError(f"{jpath}: cannot be read ({exc})") from None
-    arrays = _read_weights(wpath)
+    _validate(meta, None, str(jpath), str(wpath))  # sizes and limits before the weights are read
+    arrays = _read_weights(wpath, meta["network"]["layer_sizes"])
     layers = _validate(meta, arrays, str(jpath), str(wpath))
     _check_env(meta, env, str(jpath))
     net = meta["network"]
@@ -305,8 +328,46 @@ def load_policy(path, env):
                      shield=meta.get("shield", "none"), env=env, symmetry=meta.get("symmetry", "none"))
 
 
-def _read_weights(wpath: Path) -> dict:
+def _check_depth(text: str, where: str) -> None:
+    """Refuse JSON nested deeper than :data:`MAX_JSON_DEPTH` before parsing it (vectorised: strings
+    removed, then the running count of brackets)."""
+    import re
+
+    bare = re.sub(r'"(?:[^"\\]|\\.)*"', "", text).encode("utf-8", "replace")
+    c = np.frombuffer(bare, dtype=np.uint8)
+    step = np.isin(c, (ord("["), ord("{"))).astype(np.int64) - np.isin(c, (ord("]"), ord("}")))
+    depth = int(np.cumsum(step).max()) if len(step) else 0
+    if depth > MAX_JSON_DEPTH:
+        raise PolicyFileError(f"{where}: JSON nested {depth} deep; at most {MAX_JSON_DEPTH}")
+
+
+def _npz_shapes(wpath: Path) -> dict:
+    """``{name: (shape, dtype)}`` of the arrays in an .npz, from their headers only (no data read)."""
+    import zipfile
+
+    out = {}
+    with zipfile.ZipFile(wpath) as z:
+        for info in z.infolist():
+            if not info.filename.endswith(".npy"):
+                continue
+            with z.open(info) as fh:
+                version = np.lib.format.read_magic(fh)
+                read = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
+                if version not in read:
+                    raise ValueError(f"array {info.filename!r}: .npy format version {version}")
+                shape, _, dtype = read[version](fh)
+            out[info.filename[:-4]] = (shape, dtype)
+    return out
+
+
+def _read_weights(wpath: Path, sizes=None) -> dict:
     try:
+        if sizes is not None:  # every array's size from its header, against what the layer sizes allow
+            for k, (shape, dtype) in _npz_shapes(wpath).items():
+                n = int(np.prod(shape, dtype=np.float64)) if shape else 1
+                if n > MAX_LAYER_WIDTH ** 2 or dtype.itemsize * n > MAX_WEIGHTS_BYTES:
+                    raise PolicyFileError(f"{wpath}: array {k!r} has shape {shape}; a layer has at most "
+                                          f"{MAX_LAYER_WIDTH} x {MAX_LAYER_WIDTH} weights")
         with np.load(wpath, allow_pickle=False) as f:
             out = {}
             for k in f.files:
@@ -333,8 +394,9 @@ def _get(d, key, typ, where):
     return v
 
 
-def _validate(meta, arrays: dict, jname: str, wname: str) -> list:
-    """Check a policy description and its weights; return ``[(W, b), ...]`` float64."""
+def _validate(meta, arrays: dict | None, jname: str, wname: str) -> list:
+    """Check a policy description and its weights (``arrays``; None: the description alone);
+    return ``[(W, b), ...]`` float64."""
     if not isinstance(meta, dict):
         raise PolicyFileError(f"{jname}: the top level must be a JSON object")
     fmt = meta.get("format")
@@ -348,7 +410,12 @@ def _validate(meta, arrays: dict, jname: str, wname: str) -> list:
         raise PolicyFileError(f"{jname}: key 'network.type' is {net['type']!r}; expected one of {list(NETWORK_TYPES)}")
     sizes = _get(net, "layer_sizes", list, f"{jname} [network]")
     if len(sizes) < 2 or not all(isinstance(s, int) and not isinstance(s, bool) and s >= 1 for s in sizes):
-        raise PolicyFileError(f"{jname}: key 'network.layer_sizes' must be 2 or more positive integers, got {sizes}")
+        raise PolicyFileError(f"{jname}: key 'network.layer_sizes' must be 2 or more positive integers, got "
+                              f"{str(sizes)[:80]}")
+    if len(sizes) > MAX_LAYERS + 1 or max(sizes) > MAX_LAYER_WIDTH or sum(
+            a * b + b for a, b in zip(sizes[:-1], sizes[1:])) > MAX_PARAMETERS:
+        raise PolicyFileError(f"{jname}: key 'network.layer_sizes' {str(sizes)[:80]} is beyond the limits: at most "
+                              f"{MAX_LAYERS} layers of {MAX_LAYER_WIDTH} units and {MAX_PARAMETERS:,} parameters")
     act = _get(net, "activation", str, f"{jname} [network]")
     if act not in ACTIVATIONS:
         raise PolicyFileError(f"{jname}: key 'network.activation' is {act!r}; known: {sorted(ACTIVATIONS)}")
@@ -361,7 +428,8 @@ def _validate(meta, arrays: dict, jname: str, wname: str) -> list:
 
         in_size, cell = check_cell(net, arrays, jname, wname)
         what = "the cell's 'network.input_size'"
-        arrays = {k: v for k, v in arrays.items() if k not in cell}
+        if arrays is not None:
+            arrays = {k: v for k, v in arrays.items() if k not in cell}
     obs = _get(meta, "observation", dict, jname)
     if _get(obs, "size", int, f"{jname} [observation]") != in_size:
         raise PolicyFileError(f"{jname}: key 'observation.size' ({obs['size']}) differs from {what} ({in_size})")
@@ -377,7 +445,7 @@ def _validate(meta, arrays: dict, jname: str, wname: str) -> list:
         raise PolicyFileError(f"{jname}: key 'shield' is {meta['shield']!r}; known: {list(SHIELDS)}")
     if "symmetry" in meta and _get(meta, "symmetry", str, jname) not in SYMMETRIES:
         raise PolicyFileError(f"{jname}: key 'symmetry' is {meta['symmetry']!r}; known: {list(SYMMETRIES)}")
-    return _check_weights(arrays, sizes, wname)
+    return [] if arrays is None else _check_weights(arrays, sizes, wname)
 
 
 def _check_weights(arrays: dict, sizes: list, wname: str) -> list:
@@ -399,6 +467,9 @@ def _check_weights(arrays: dict, sizes: list, wname: str) -> list:
             a = a.astype(np.float64)
             if not np.all(np.isfinite(a)):
                 raise PolicyFileError(f"{wname}: array '{k}{i}' holds NaN or infinite values")
+            if np.abs(a).max(initial=0.0) > MAX_ABS_WEIGHT:
+                raise PolicyFileError(f"{wname}: array '{k}{i}' holds a value of magnitude {np.abs(a).max():.3g}; at "
+                                      f"most {MAX_ABS_WEIGHT:g} (larger weights overflow the forward pass)")
             pair.append(a)
         layers.append(tuple(pair))
     return layers

@@ -60,10 +60,13 @@ def _pos_int(net, key, jname):
     return v
 
 
-def check_cell(net: dict, arrays: dict, jname: str, wname: str) -> tuple[int, dict]:
-    """Check the cell part of a recurrent ``network`` entry and its arrays; returns
-    ``(input_size, {name: float64 array})``. Raises :class:`PolicyFileError` naming the file and
-    the key or array."""
+def check_cell(net: dict, arrays: dict | None, jname: str, wname: str) -> tuple[int, dict]:
+    """Check the cell part of a recurrent ``network`` entry and its arrays (``arrays`` None: the
+    entry alone, against the size limits of :mod:`~tin_swarm_env.policies.learned`, before the
+    weights are read); returns ``(input_size, {name: float64 array})``. Raises
+    :class:`PolicyFileError` naming the file and the key or array."""
+    from .learned import MAX_ABS_WEIGHT, MAX_LAYER_WIDTH, MAX_PARAMETERS
+
     cell = net.get("cell")
     if "cell" not in net:
         raise PolicyFileError(f"{jname}: missing key 'network.cell'")
@@ -75,8 +78,14 @@ def check_cell(net: dict, arrays: dict, jname: str, wname: str) -> tuple[int, di
         raise PolicyFileError(f"{jname}: key 'network.layer_sizes' must start at hidden_size {H} (the head reads "
                               f"the cell's output), got {sizes}")
     G = CELLS[cell]
+    if max(d, G * H) > MAX_LAYER_WIDTH or G * H * (d + H + 2) > MAX_PARAMETERS:
+        raise PolicyFileError(f"{jname}: a {cell} cell with 'network.input_size' {d} and 'network.hidden_size' {H} "
+                              f"is beyond the limits: at most {MAX_LAYER_WIDTH} gate units and {MAX_PARAMETERS:,} "
+                              "parameters")
     shapes = {"cell_W_ih": (G * H, d), "cell_W_hh": (G * H, H), "cell_b_ih": (G * H,), "cell_b_hh": (G * H,)}
     out = {}
+    if arrays is None:
+        return d, out
     for k, shape in shapes.items():
         if k not in arrays:
             raise PolicyFileError(f"{wname}: missing array {k!r} (a {cell} cell needs {list(shapes)})")
@@ -89,6 +98,9 @@ def check_cell(net: dict, arrays: dict, jname: str, wname: str) -> tuple[int, di
         a = a.astype(np.float64)
         if not np.all(np.isfinite(a)):
             raise PolicyFileError(f"{wname}: array {k!r} holds NaN or infinite values")
+        if np.abs(a).max(initial=0.0) > MAX_ABS_WEIGHT:
+            raise PolicyFileError(f"{wname}: array {k!r} holds a value of magnitude {np.abs(a).max():.3g}; at most "
+                                  f"{MAX_ABS_WEIGHT:g}")
         out[k] = np.ascontiguousarray(a)
     return d, out
 
@@ -204,6 +216,10 @@ class RecurrentPolicy:
             x = dense(x, W, b)
             if i < len(self.layers) - 1:
                 x = self._act(x)
+        bad = ~np.isfinite(x).all(axis=1)
+        if bad.any():  # finite weights whose products overflow: the file is at fault, not the robot
+            raise PolicyFileError(f"{self.source}: the network's output is not finite (NaN or inf) for row "
+                                  f"{int(np.flatnonzero(bad)[0])}: its weights overflow float64")
         return np.clip(x, -1.0, 1.0)
 
     def act_batch(self, obs, rows=None) -> np.ndarray:

@@ -28,7 +28,7 @@ def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices:
                until ``max_error_m`` and/or ``max_vertices``; its own triangles are kept, or
                with ``delaunay=True`` its vertices are re-triangulated as Delaunay in x, y
                (thesis 2.2's empty-circle condition; the vertical error grows, see
-               :func:`~.metrics.vertical_error` and the README's comparison table).
+               :func:`~.metrics.vertical_error` and the terrain table in docs/figures/terrain.md).
     "delaunay" every point, Delaunay in x, y. The default (and only choice) for a
                :class:`PointCloud`; ``max_vertices`` smaller than the cloud is an error.
     ========== ================================================================================

@@ -1,6 +1,6 @@
 """Locomotion: commanded body-frame velocity -> motion over the TIN, for all robots at once.
 
-Per step and robot (only ACTIVE robots move):
+Per step and robot (only active robots, status ``Reason.NONE``, move):
 
 1. The command ``(u, v)`` (body frame: x forward, y left; fractions of max speed) is clipped to
    ``[-1, 1]^2`` and then to norm 1, and rotated into the world frame by the current heading.
@@ -10,7 +10,7 @@ Per step and robot (only ACTIVE robots move):
 3. The displacement segment is walked exactly through the TIN, triangle by triangle (the same
    walk as line of sight), so no step length can tunnel through a thin steep band:
    entering a triangle steeper than ``max_slope_deg`` while going *down* its slope
-   (``grad . d < 0``) is a fall: the robot stops just inside it and is destroyed (FELL);
+   (``grad . d < 0``) is a fall: the robot stops just inside it and is destroyed (``Reason.FELL``);
    entering one going up or across it (``grad . d >= 0``) is blocked, and so is the TIN's
    border: the robot stops 1 mm before the edge (and stays in its triangle).
 4. The heading turns toward the direction of the commanded motion by at most
@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit
 
 from ..terrain import exit_edge
-from .state import ACTIVE
+from .state import Reason
 
 __all__ = ["MOVED", "BLOCKED_BORDER", "BLOCKED_STEEP", "FELL_INTO", "body_to_world", "move", "turn_toward",
            "uphill_factor", "walk", "move_walk"]
@@ -167,9 +167,9 @@ def turn_toward(headings, velocity, max_turn_rad):
 
 def move(tin, steep, positions, tri_idx, headings, status, commands, robot, dt_s):
     """One locomotion step for all robots. Returns ``(positions, tri_idx, headings, speeds,
-    events)``; robots that are not ACTIVE do not move (event MOVED with zero displacement)."""
+    events)``; robots that are not active do not move (event MOVED with zero displacement)."""
     vel_cmd = body_to_world(commands, headings, robot.max_speed_mps)
-    vel_cmd[status != ACTIVE] = 0.0
+    vel_cmd[status != Reason.NONE] = 0.0
     grad = tin.planes[:, :2]
     disp = vel_cmd * (uphill_factor(grad[tri_idx], vel_cmd, robot.max_climb_deg) * dt_s)[:, None]
     new_pos, new_tri, ev = walk(tin, steep, positions, tri_idx, disp)

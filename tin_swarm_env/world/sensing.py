@@ -2,8 +2,8 @@
 
 A robot *sees* another robot, a threat/target or an asset when all of these hold:
 
-* it is ACTIVE (robots out of battery sense nothing but are still seen; fallen robots and
-  robots the task took off the terrain (DONE) are gone and are not seen);
+* it is active (``Reason.NONE``; robots out of battery sense nothing but are still seen; fallen robots and
+  robots the task took off the terrain (``Reason.ARRIVED``) are gone and are not seen);
 * the horizontal distance is at most ``range_m``;
 * the bearing relative to its heading lies within ``±fov_deg / 2``;
 * with ``check_los``, the sight line from its sensor (ground + ``height_m``) to the other's

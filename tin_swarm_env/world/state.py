@@ -7,8 +7,7 @@ from enum import IntEnum
 
 import numpy as np
 
-__all__ = ["WorldState", "Entities", "Reason", "ACTIVE", "FELL", "EMPTY", "DONE", "STATUS_NAMES",
-           "is_present"]
+__all__ = ["WorldState", "Entities", "Reason", "is_present"]
 
 
 class Reason(IntEnum):
@@ -32,16 +31,12 @@ class Reason(IntEnum):
 _LABELS = {Reason.NONE: "", Reason.ARRIVED: "arrived", Reason.FELL: "fell", Reason.BATTERY: "battery",
            Reason.TIMEOUT: "max_cycles"}
 
-# robot status codes: the Reason code of the same meaning. DONE: taken off the terrain by the
-# task (arrived at its goal); like a fallen robot it no longer moves, senses, is seen or collides.
-ACTIVE, DONE, FELL, EMPTY = int(Reason.NONE), int(Reason.ARRIVED), int(Reason.FELL), int(Reason.BATTERY)
-STATUS_NAMES = {ACTIVE: "active", FELL: "fell", EMPTY: "battery", DONE: "done"}
 
 
 def is_present(status: np.ndarray) -> np.ndarray:
     """``(n,)`` bool: robots physically on the terrain (active or out of battery; fallen and
     done ones are gone): they are seen and collide."""
-    return (status == ACTIVE) | (status == EMPTY)
+    return (status == Reason.NONE) | (status == Reason.BATTERY)
 
 
 @dataclass
@@ -80,7 +75,9 @@ class WorldState:
     heights     (n,)   m        ground height under each robot
     speeds      (n,)   m/s      speed achieved in the last step
     battery_j   (n,)   J        charge left
-    status      (n,)   int8     ACTIVE, FELL, EMPTY or DONE
+    status      (n,)   int8     a :class:`Reason` code: NONE (active), FELL, BATTERY (out of battery:
+                               still on the terrain) or ARRIVED (taken off the terrain by the task;
+                               like a fallen robot it no longer moves, senses, is seen or collides)
     collisions  (n,)   int64    collisions counted so far (robots within 2 radii, per step)
     targets, assets             :class:`Entities`
     step        int             steps taken
@@ -107,7 +104,7 @@ class WorldState:
     @property
     def active(self) -> np.ndarray:
         """``(n,)`` bool: robots that move, sense and draw power."""
-        return self.status == ACTIVE
+        return self.status == Reason.NONE
 
     @property
     def present(self) -> np.ndarray:

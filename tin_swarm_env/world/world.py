@@ -16,7 +16,7 @@ from .entities import make_entities, move_entities
 from .params import WorldParams
 from .placement import check_placement
 from .sensing import BreakIndex, SensorReadings, sense
-from .state import ACTIVE, DONE, EMPTY, FELL, Entities, WorldState, is_present
+from .state import Entities, Reason, WorldState, is_present
 
 __all__ = ["World", "StepEvents", "flat_tin"]
 
@@ -122,9 +122,9 @@ class World:
         energy = s.battery_j - new_batt
         fell = ev == locomotion.FELL_INTO
         status = s.status.copy()
-        status[fell] = FELL
-        emptied = (status == ACTIVE) & (new_batt <= 0.0)
-        status[emptied] = EMPTY
+        status[fell] = Reason.FELL
+        emptied = (status == Reason.NONE) & (new_batt <= 0.0)
+        status[emptied] = Reason.BATTERY
         # collisions among robots still on the terrain
         present = np.flatnonzero(is_present(status))
         coll = np.zeros(s.n_robots, dtype=np.int64)
@@ -145,12 +145,12 @@ class World:
                                emptied=emptied, collisions=coll, collision_pairs=pairs)
 
     def retire(self, state: WorldState, mask) -> WorldState:
-        """A copy of ``state`` with the robots in ``mask`` taken off the terrain (status DONE):
+        """A copy of ``state`` with the robots in ``mask`` taken off the terrain (status ``Reason.ARRIVED``):
         the task is over for them (e.g. they arrived); they no longer move, sense, are seen or
-        collide. Fallen robots stay FELL."""
+        collide. Fallen robots stay ``Reason.FELL``."""
         s = state.copy()
-        m = np.asarray(mask, dtype=bool) & (s.status != FELL)
-        s.status[m] = DONE
+        m = np.asarray(mask, dtype=bool) & (s.status != Reason.FELL)
+        s.status[m] = Reason.ARRIVED
         return s
 
     def sense(self, state: WorldState) -> SensorReadings:
