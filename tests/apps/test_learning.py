@@ -263,3 +263,22 @@ def test_recurrent_training_runs_and_exports_a_recurrent_policy_file(tmp_path, c
     pol = load_policy(tmp_path / "r" / "policy", env)
     assert isinstance(pol, RecurrentPolicy) and pol.hidden_size == 8 and pol.shield == "safety_cut"
     assert "exported the pickle-free policy" in capsys.readouterr().out
+
+
+def test_mirror_samples_add_the_mirror_image_of_every_sample():
+    from tin_swarm_env.apps.imitation import Demos
+    from tin_swarm_env.apps.train import fit_set
+    from tin_swarm_env.env.observation import ObsLayout
+
+    lay = ObsLayout()
+    rng = np.random.default_rng(0)
+    d = Demos(rng.uniform(-1, 1, (5, lay.size)).astype(np.float32), rng.uniform(-1, 1, (5, 2)).astype(np.float32),
+              rng.normal(size=5).astype(np.float32), arrived=0.75, fell=0.1, episodes=3)
+    m = d.mirrored(lay)
+    np.testing.assert_array_equal(m.obs, d.obs * lay.mirror_signs())
+    np.testing.assert_array_equal(m.actions, d.actions * [1, -1])
+    np.testing.assert_array_equal(m.returns, d.returns)
+    assert fit_set(d, Args(), lay) is d
+    both = fit_set(d, Args(mirror_samples=True), lay)
+    assert len(both) == 10 and (both.arrived, both.fell, both.episodes) == (0.75, 0.1, 3)
+    np.testing.assert_array_equal(both.obs[5:], m.obs)

@@ -115,3 +115,22 @@ def test_symmetrize_calls_the_network_once_on_both_images():
     np.testing.assert_array_equal(out, x[:, :2])  # f is already equivariant: unchanged
     out = symmetrize(lambda x: np.column_stack([x[:, 2], x[:, 2]]), x, signs)  # vy from an even field: cancels
     np.testing.assert_array_equal(out, np.column_stack([x[:, 2], np.zeros(2)]))
+
+
+def test_apf_with_its_memory_is_mirror_equivariant_over_an_episode():
+    """Why mirrored demonstrations (train --mirror-samples) are APF's own labels: an APF fed the
+    mirror images of another's observations acts as its mirror image, memory included."""
+    from tin_swarm_env.policies import APFPolicy
+
+    e = _env()
+    lay = e.layout
+    a, b = APFPolicy(e), APFPolicy(e)
+    obs = e.reset_arrays(seed=1)
+    for _ in range(150):
+        x = a.act_batch(obs)
+        np.testing.assert_allclose(b.act_batch(lay.mirror(obs)), mirror_action(x), atol=1e-6)
+        obs, *_ = e.step_arrays(x)
+    o = _random_obs(lay, 1000, 3)
+    a, b = APFPolicy(e), APFPolicy(e)
+    for _ in range(3):
+        np.testing.assert_allclose(b.act_batch(lay.mirror(o)), mirror_action(a.act_batch(o)), atol=1e-6)

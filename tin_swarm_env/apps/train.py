@@ -20,7 +20,9 @@ Read top to bottom: arguments, environment, imitation, evaluation, training, sav
   (DAgger's mixture, so early rounds stay near the teacher's states). ``--stall-steps S``: a robot
   whose distance to go has not improved for S steps contributes no more samples that episode. Then the
   critic is warmed up on the rollouts' discounted returns (``--value-epochs``) and the policy's
-  exploration std set to ``--bc-std`` before PPO fine-tuning.
+  exploration std set to ``--bc-std`` before PPO fine-tuning. ``--mirror-samples``: every fit also
+  sees each sample's mirror image (observation and APF's action reflected,
+  :meth:`~tin_swarm_env.apps.imitation.Demos.mirrored`), so the clone learns both sides alike.
 * ``--total-timesteps`` of PPO afterwards; 0 is refused without imitation (it would save an
   untrained model). ``--recurrent``: sb3-contrib's RecurrentPPO (MlpLstmPolicy, ``--lstm-hidden`` units,
   then ``--net-arch``); no imitation for it (imitation fits an MLP actor); it is exported as a
@@ -89,6 +91,7 @@ class Args:
     bc_lr: float = 1e-3
     bc_batch_size: int = 4096
     bc_std: float = 0.3  # the Gaussian std PPO starts from after imitation
+    mirror_samples: bool = False  # imitation fits on every sample and its mirror image (both sides alike)
     value_epochs: int = 10  # critic warm-up on the imitation rollouts' returns (0: none)
     eval_every: int = 20_000  # timesteps between evaluations (0: none)
     eval_episodes: int = 3
@@ -232,11 +235,23 @@ def _has(*modules) -> bool:
     return all(importlib.util.find_spec(m) is not None for m in modules)
 
 
-def imitate(model, args: Args, log=print) -> dict:
+def fit_set(demos, args: Args, layout):
+    """What imitation fits on: ``demos``, and with ``--mirror-samples`` their mirror images too
+    (:meth:`~tin_swarm_env.apps.imitation.Demos.mirrored`)."""
+    return demos + demos.mirrored(layout) if args.mirror_samples else demos
+
+
+def imitate(model, args: Args, log=print, layout=None) -> dict:
     """Behaviour cloning then DAgger into ``model.policy`` (see the module docstring), then the
     critic warm-up and the exploration std. Returns a summary (samples, MSEs, the driving
-    policies' arrival per round)."""
+    policies' arrival per round). ``layout``: the observation layout (for ``--mirror-samples``;
+    default: the first scenario's)."""
     from .imitation import TorchActor, collect, fit_actor, fit_value
+
+    if args.mirror_samples and layout is None:
+        from ..env import parallel_env
+
+        layout = parallel_env(scenario=scenarios_of(args)[0], n_robots=args.bc_robots or args.n_robots).layout
 
     scen, n_rob = scenarios_of(args), args.bc_robots or None
     kw = {"n_robots": n_rob, "max_cycles": args.max_cycles or None, "gamma": args.gamma,
@@ -244,7 +259,8 @@ def imitate(model, args: Args, log=print) -> dict:
     fit = {"epochs": args.bc_epochs, "batch_size": args.bc_batch_size, "lr": args.bc_lr, "std": args.bc_std}
     base = args.seed * 1000
     demos = collect(scen, args.bc_episodes, base, **kw)
-    mse = fit_actor(model.policy, demos.obs, demos.actions, seed=args.seed, **fit)
+    fs = fit_set(demos, args, layout)
+    mse = fit_actor(model.policy, fs.obs, fs.actions, seed=args.seed, **fit)
     info = {"bc_samples": len(demos), "apf_arrived": demos.arrived, "rounds": [{"mse": mse}]}
     log(f"BC: {len(demos)} samples from {demos.episodes} APF episodes (APF arrived {demos.arrived:.0%}, fell "
         f"{demos.fell:.0%}); actor MSE {mse:.4f}")
@@ -254,12 +270,14 @@ def imitate(model, args: Args, log=print) -> dict:
         new = collect(scen, n_dag, base + args.bc_episodes + r * n_dag, learner=TorchActor(model.policy), beta=beta,
                       **kw)
         demos = demos + new
-        mse = fit_actor(model.policy, demos.obs, demos.actions, seed=args.seed + r + 1, **fit)
+        fs = fit_set(demos, args, layout)
+        mse = fit_actor(model.policy, fs.obs, fs.actions, seed=args.seed + r + 1, **fit)
         info["rounds"].append({"learner_arrived": new.arrived, "learner_fell": new.fell, "mse": mse})
         log(f"DAgger round {r + 1} (beta {beta:.2f}): the learner drove {n_dag} episodes (arrived "
             f"{new.arrived:.0%}, fell {new.fell:.0%}); {len(demos)} samples; actor MSE {mse:.4f}")
     if args.value_epochs:
-        info["value_mse"] = fit_value(model.policy, demos.obs, demos.returns, epochs=args.value_epochs,
+        fs = fit_set(demos, args, layout)
+        info["value_mse"] = fit_value(model.policy, fs.obs, fs.returns, epochs=args.value_epochs,
                                       batch_size=args.bc_batch_size, lr=args.bc_lr, seed=args.seed)
         log(f"value warm-up on {len(demos)} returns: MSE {info['value_mse']:.3f}")
     return info
@@ -283,7 +301,7 @@ def train(args: Args) -> Path:
                            n_envs=args.n_envs * len(scen), seed=args.seed, shield=args.shield, **kw)
     rows, t0 = [], time.perf_counter()
     model = _model(args, vec, str(out / "tb") if _has("tensorboard") else None)
-    imitation = imitate(model, args) if _imitating(args) else None
+    imitation = imitate(model, args, layout=vec.envs[0].layout) if _imitating(args) else None
     if imitation is not None and args.total_timesteps:  # the imitation stage alone, before PPO changes it
         from ..adapters.sb3 import export_sb3_policy
 
