@@ -95,3 +95,19 @@ def generated_doc():
                              "that failed (see docs/contributing.md)")
 
     return check
+
+
+@pytest.fixture(scope="session")
+def env_with_k_robots():
+    """``env_with_k_robots(k, n_robots=4)``: the cliff_goal env with ``k`` robot slots in its observation."""
+    import dataclasses
+
+    import tin_swarm_env as tse
+    from tin_swarm_env.scenario import load_scenario
+
+    def make(k: int, n_robots: int = 4):
+        cfg = load_scenario("cliff_goal")
+        return tse.parallel_env(scenario=cfg.replace(observation=dataclasses.replace(cfg.observation, k_robots=k)),
+                                n_robots=n_robots)
+
+    return make

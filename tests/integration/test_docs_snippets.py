@@ -65,8 +65,10 @@ def markdown_files() -> list[Path]:
 RUNNER = """
 import json, sys
 ns = {"__name__": "__main__"}
-for name, line, code in json.loads(sys.stdin.read()):
+blocks = json.loads(sys.stdin.read())
+for name, line, code in blocks:
     exec(compile("\\n" * (line - 1) + code, name, "exec"), ns)
+print("all", len(blocks), "blocks ran")
 """
 
 
@@ -81,6 +83,7 @@ def test_python_blocks_run(path, tmp_path):
     r = subprocess.run([sys.executable, "-c", RUNNER], input=json.dumps(blocks), cwd=tmp_path, env=env,
                        capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, f"{rel}: a snippet failed\n{r.stdout[-2000:]}\n{r.stderr[-4000:]}"
+    assert f"all {len(blocks)} blocks ran" in r.stdout, f"{rel}: a snippet left early\n{r.stdout[-2000:]}"
 
 
 def test_blocks_markers_and_line_numbers():

@@ -55,11 +55,9 @@ def test_the_shipped_policy_runs_without_torch_or_pickle():
     assert "['robot_0', 'robot_1', 'robot_2'] [(2,), (2,), (2,)]" in r.stdout
 
 
-def test_the_shipped_policy_is_refused_by_another_layout():
-    from test_policy_files import _env_with_k
-
+def test_the_shipped_policy_is_refused_by_another_layout(env_with_k_robots):
     with pytest.raises(PolicyFileError, match=r"shared.*policy\.json.*layout.*'k_robots': 6"):
-        load_policy(SHARED, _env_with_k(6))
+        load_policy(SHARED, env_with_k_robots(6))
 
 
 def test_the_shipped_policy_brings_robots_in_on_cliff_goal():

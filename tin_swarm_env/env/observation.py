@@ -48,7 +48,7 @@ from collections import namedtuple
 from dataclasses import dataclass, fields
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from ..errors import ObservationLayoutError
 from ..scenario.config import ObservationSpec
@@ -373,24 +373,29 @@ def _own(obs, i, o, c, s, own_n, grad, target_idx, tpos, tz, pos, heights, R, dz
         obs[i, o.target_dz] = dz / (abs(dz) + dz_scale)
 
 
-@njit(cache=True)
-def _fill(obs, offsets, pos, head, heights, own_n, grad, live, target_idx, tpos, tz, robots, targets, breaks,
+@njit(cache=True, parallel=True)
+def _fill(obs, o, o_rob, o_tgt, o_brk, o_ast, pos, head, heights, own_n, grad, live, target_idx, tpos, tz, robots,
+          targets, breaks,
           apos, assets, R, dz_scale):
-    """Write every live robot's row of ``obs``; ``offsets`` from :meth:`ObsLayout.kernel_offsets`;
+    """Write every live robot's row of ``obs``; ``o, o_rob, o_tgt, o_brk, o_ast`` the offsets of
+    :meth:`ObsLayout.kernel_offsets` (passed one by one: numba's parallel loop takes namedtuples
+    as arguments, not unpacked inside);
     ``robots``/``targets``/``assets`` ``(idx, dist)`` and ``breaks`` ``(idx, dist, closest,
     normals, drops, danger)`` from the sensor readings and the break set; ``apos (k, 2)``."""
-    o, o_rob, o_tgt, o_brk, o_ast = offsets
-    for i in range(pos.shape[0]):
+    ri, rd = robots  # (numba's parallel loops take arrays, not tuples of them)
+    ti, td = targets
+    bi, bd, bc, bn, bdrop, bdanger = breaks
+    ai, ad = assets
+    for i in prange(pos.shape[0]):  # one row per iteration: bit-identical for any thread count
         if not live[i]:
             continue
         c = np.cos(head[i])
         s = np.sin(head[i])
         _own(obs, i, o, c, s, own_n, grad, target_idx, tpos, tz, pos, heights, R, dz_scale)
-        _point_slots(obs, i, o_rob, robots[0], robots[1], pos, pos, c, s, R)
-        _point_slots(obs, i, o_tgt, targets[0], targets[1], tpos, pos, c, s, R)
-        _break_slots(obs, i, o_brk, breaks[0], breaks[1], breaks[2], breaks[3], breaks[4], breaks[5], pos, c, s,
-                     R, dz_scale)
-        _point_slots(obs, i, o_ast, assets[0], assets[1], apos, pos, c, s, R)
+        _point_slots(obs, i, o_rob, ri, rd, pos, pos, c, s, R)
+        _point_slots(obs, i, o_tgt, ti, td, tpos, pos, c, s, R)
+        _break_slots(obs, i, o_brk, bi, bd, bc, bn, bdrop, bdanger, pos, c, s, R, dz_scale)
+        _point_slots(obs, i, o_ast, ai, ad, apos, pos, c, s, R)
         for m in range(obs.shape[1]):
             obs[i, m] = min(max(obs[i, m], -1.0), 1.0)
 
@@ -413,7 +418,7 @@ def build_observations(world, state, readings, target_idx, live, layout: ObsLayo
     breaks = (bi, bd, np.ascontiguousarray(bc, dtype=np.float64), br.normals.reshape(-1, 2),
               br.drops_m.reshape(-1), (br.kinds != ANGLE).astype(np.float64))
     obs = np.zeros((n, layout.size), dtype=np.float32)
-    _fill(obs, layout.kernel_offsets(), state.positions, state.headings, state.heights, own_n,
+    _fill(obs, *layout.kernel_offsets(), state.positions, state.headings, state.heights, own_n,
           world.tin.planes[state.tri_idx, :2], live, target_idx, tg.positions.reshape(-1, 2), tz, (ri, rd),
           (ti, td), breaks, state.assets.positions.reshape(-1, 2), (ai, ad), float(P.sensor.range_m), DZ_SCALE_M)
     return obs

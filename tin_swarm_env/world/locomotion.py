@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from ..terrain import exit_edge
 from .state import Reason
@@ -37,7 +37,7 @@ MOVED, BLOCKED_BORDER, BLOCKED_STEEP, FELL_INTO, STUCK = 0, 1, 2, 3, -2
 _PULLBACK_M = 1e-3
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def move_walk(vx, vy, tris, nbrs, grad, steep, pos, tri, disp, max_steps):
     """Walk each robot's displacement through the TIN (see the module docstring).
 
@@ -49,7 +49,7 @@ def move_walk(vx, vy, tris, nbrs, grad, steep, pos, tri, disp, max_steps):
     out_pos = pos.copy()
     out_tri = tri.copy()
     event = np.zeros(n, dtype=np.int8)
-    for i in range(n):
+    for i in prange(n):  # one robot per iteration, nothing shared: any thread count, same result
         dx = disp[i, 0]
         dy = disp[i, 1]
         if dx == 0.0 and dy == 0.0:

@@ -6,7 +6,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..errors import ArgumentError
 from ..terrain import Tin
@@ -14,7 +13,9 @@ from . import locomotion
 from .battery import drain
 from .entities import make_entities, move_entities
 from .params import WorldParams
+from .grid import grid_build
 from .placement import check_placement
+from .sense_kernels import collision_counts
 from .sensing import BreakIndex, SensorReadings, sense
 from .state import Entities, Reason, WorldState, is_present
 
@@ -58,7 +59,7 @@ class World:
         self.steep = np.ascontiguousarray(self.tin.slope_deg > self.params.robot.max_slope_deg)
         self.breaks = self.tin.breaks(max_slope_deg=self.params.robot.max_slope_deg,
                                       break_angle_deg=self.params.break_angle_deg)
-        self.break_index = BreakIndex(self.breaks, piece_m=self.params.sensor.range_m)
+        self.break_index = BreakIndex(self.breaks, piece_m=self.params.sensor.range_m, bounds=self.tin.bounds)
 
     # -- reset --------------------------------------------------------------------------
     def reset(self, rng: np.random.Generator | int | None, robot_positions, headings=None, *,
@@ -125,16 +126,11 @@ class World:
         status[fell] = Reason.FELL
         emptied = (status == Reason.NONE) & (new_batt <= 0.0)
         status[emptied] = Reason.BATTERY
-        # collisions among robots still on the terrain
-        present = np.flatnonzero(is_present(status))
-        coll = np.zeros(s.n_robots, dtype=np.int64)
-        pairs = np.zeros((0, 2), dtype=np.int64)
-        if len(present) > 1:
-            pp = cKDTree(pos[present]).query_pairs(2 * P.robot.radius_m, output_type="ndarray")
-            pairs = present[pp] if len(pp) else pairs
-            d = np.hypot(*(pos[pairs[:, 0]] - pos[pairs[:, 1]]).T)
-            pairs = pairs[d < 2 * P.robot.radius_m]
-            coll = np.bincount(pairs.ravel(), minlength=s.n_robots).astype(np.int64)
+        # collisions among robots still on the terrain: a grid of cell = the collision diameter
+        present = is_present(status)
+        x, y = np.ascontiguousarray(pos[:, 0]), np.ascontiguousarray(pos[:, 1])
+        diameter = 2 * P.robot.radius_m
+        coll, pairs = collision_counts(x, y, present, grid_build(x, y, present, diameter), diameter)
         turn_sd = math.radians(P.entity_turn_sd_deg)
         targets = move_entities(self.tin, self.steep, s.targets, P.entity_speed_mps, turn_sd, P.dt_s, s.rng)
         assets = move_entities(self.tin, self.steep, s.assets, P.entity_speed_mps, turn_sd, P.dt_s, s.rng)
