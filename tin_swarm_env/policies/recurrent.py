@@ -15,7 +15,7 @@ One step, ``x`` the observation and ``(h, c)`` the state (``c`` only for an LSTM
           c' = f c + i g;  h' = o tanh(c')
     GRU:  r, z = sigmoid(split(W_ih x + b_ih + W_hh h + b_hh)[:2])
           n = tanh(W_in x + b_in + r (W_hn h + b_hn));  h' = (1 - z) n + z h
-    action = head(h')   (the MLP of learned.py, activation after every layer but the last, clipped)
+    action = clip(head(h'))   (the MLP of learned.py: activation after every layer but the last)
 
 **Memory per robot.** Rows are robots, as :class:`~tin_swarm_env.policies.APFPolicy`'s:
 ``act_batch`` row ``i`` is robot ``i`` (or ``rows[i]``), ``act`` gives each agent name a row the
@@ -25,7 +25,7 @@ RecurrentPPO zeroes it at an episode start; each call advances the state of the 
 
 **Symmetry** (``"symmetry": "mirror"``, :mod:`tin_swarm_env.policies.symmetry`): the policy keeps
 two states per robot, one fed the observations and one their mirror images, and averages the
-two streams' actions (``vy`` of the mirrored one negated). It is then equivariant over whole
+two streams' head outputs (``vy`` of the mirrored one negated) before the clip. It is then equivariant over whole
 histories, exactly: a mirrored episode gives mirrored actions at every step.
 """
 
@@ -207,7 +207,7 @@ class RecurrentPolicy:
         a = self._head(h)
         if self._signs is not None:
             a = (a[:n] + a[n:] * np.asarray(ACTION_PARITY)) / 2
-        return a.astype(np.float32)
+        return np.clip(a, -1.0, 1.0).astype(np.float32)
 
     def _head(self, x) -> np.ndarray:
         from .learned import dense
@@ -220,7 +220,7 @@ class RecurrentPolicy:
         if bad.any():  # finite weights whose products overflow: the file is at fault, not the robot
             raise PolicyFileError(f"{self.source}: the network's output is not finite (NaN or inf) for row "
                                   f"{int(np.flatnonzero(bad)[0])}: its weights overflow float64")
-        return np.clip(x, -1.0, 1.0)
+        return x
 
     def act_batch(self, obs, rows=None) -> np.ndarray:
         a = self.net_batch(obs, rows)
