@@ -178,12 +178,17 @@ def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=No
 
 
 def actor_mean(policy, obs_t):
-    """The Gaussian mean of SB3 ``ActorCriticPolicy`` ``policy`` for a torch batch ``(B, d)``."""
+    """The Gaussian mean of SB3 ``ActorCriticPolicy`` ``policy`` for a torch batch ``(B, d)``
+    (averaged with the mirror image for a mirror-equivariant policy)."""
+    if hasattr(policy, "mirror_mean_value"):
+        return policy.mirror_mean_value(obs_t)[0]
     features = policy.extract_features(obs_t, policy.pi_features_extractor)
     return policy.action_net(policy.mlp_extractor.forward_actor(features))
 
 
 def _value(policy, obs_t):
+    if hasattr(policy, "mirror_mean_value"):
+        return policy.mirror_mean_value(obs_t)[1][:, 0]
     features = policy.extract_features(obs_t, policy.vf_features_extractor)
     return policy.value_net(policy.mlp_extractor.forward_critic(features))[:, 0]
 

@@ -23,6 +23,9 @@ Read top to bottom: arguments, environment, imitation, evaluation, training, sav
   exploration std set to ``--bc-std`` before PPO fine-tuning. ``--mirror-samples``: every fit also
   sees each sample's mirror image (observation and APF's action reflected,
   :meth:`~tin_swarm_env.apps.imitation.Demos.mirrored`), so the clone learns both sides alike.
+  ``--symmetry mirror``: the actor and critic are mirror-equivariant by construction
+  (:func:`~tin_swarm_env.adapters.sb3.mirror_policy_class`) in imitation and PPO alike, and the
+  exported file says ``"symmetry": "mirror"`` (:mod:`tin_swarm_env.policies.symmetry`).
 * ``--total-timesteps`` of PPO afterwards; 0 is refused without imitation (it would save an
   untrained model). ``--recurrent``: sb3-contrib's RecurrentPPO (MlpLstmPolicy, ``--lstm-hidden`` units,
   then ``--net-arch``); no imitation for it (imitation fits an MLP actor); it is exported as a
@@ -53,6 +56,7 @@ import numpy as np
 
 from ..errors import ArgumentError, require
 from ..policies.learned import SHIELDS, ShieldedPolicy
+from ..policies.symmetry import SYMMETRIES
 from ..world.state import Reason
 from .evaluate import EVAL_SEED0
 from .policy_factory import SB3Policy
@@ -92,6 +96,7 @@ class Args:
     bc_batch_size: int = 4096
     bc_std: float = 0.3  # the Gaussian std PPO starts from after imitation
     mirror_samples: bool = False  # imitation fits on every sample and its mirror image (both sides alike)
+    symmetry: str = "none"  # "mirror": a mirror-equivariant actor and critic (exported with "symmetry": "mirror")
     value_epochs: int = 10  # critic warm-up on the imitation rollouts' returns (0: none)
     eval_every: int = 20_000  # timesteps between evaluations (0: none)
     eval_episodes: int = 3
@@ -140,6 +145,11 @@ def check_args(args: Args) -> None:
         raise ArgumentError("--recurrent cannot be combined with --bc-episodes (imitation fits an MLP actor)")
     if args.shield not in SHIELDS:
         raise ArgumentError(f"--shield must be one of {list(SHIELDS)}, got {args.shield!r}")
+    if args.symmetry not in SYMMETRIES:
+        raise ArgumentError(f"--symmetry must be one of {list(SYMMETRIES)}, got {args.symmetry!r}")
+    if args.symmetry != "none" and args.recurrent:
+        raise ArgumentError("--symmetry mirror is for the MLP policy; RecurrentPPO has no mirror-equivariant "
+                            "policy here")
     if args.lstm_hidden < 1:
         raise ArgumentError(f"--lstm-hidden must be >= 1, got {args.lstm_hidden}")
     if args.seed < 0 or args.seed * 1000 + 1000 >= EVAL_SEED0:
@@ -226,6 +236,11 @@ def _model(args: Args, vec, tb):
         return RecurrentPPO("MlpLstmPolicy", vec, **kw)
     from stable_baselines3 import PPO
 
+    if args.symmetry == "mirror":
+        from ..adapters.sb3 import mirror_policy_class
+
+        kw["policy_kwargs"]["mirror_signs"] = vec.envs[0].layout.mirror_signs().tolist()
+        return PPO(mirror_policy_class(), vec, **kw)
     return PPO("MlpPolicy", vec, **kw)
 
 
