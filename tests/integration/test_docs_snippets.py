@@ -70,7 +70,8 @@ RUNNER = """
 import json, sys
 ns = {"__name__": "__main__"}
 optional = set(sys.argv[1].split(","))
-for name, line, code in json.loads(sys.stdin.read()):
+blocks = json.loads(sys.stdin.read())
+for name, line, code in blocks:
     try:
         exec(compile("\\n" * (line - 1) + code, name, "exec"), ns)
     except ImportError as exc:
@@ -79,6 +80,7 @@ for name, line, code in json.loads(sys.stdin.read()):
             print(f"{name}:{line}: needs {missing or exc}")
             sys.exit(%d)
         raise
+print("all", len(blocks), "blocks ran")
 """ % MISSING_EXTRA_RC
 
 
@@ -95,6 +97,7 @@ def test_python_blocks_run(path, tmp_path):
     if r.returncode == MISSING_EXTRA_RC:
         pytest.skip(f"an optional extra is not installed: {r.stdout.strip().splitlines()[-1]}")
     assert r.returncode == 0, f"{rel}: a snippet failed\n{r.stdout[-2000:]}\n{r.stderr[-4000:]}"
+    assert f"all {len(blocks)} blocks ran" in r.stdout, f"{rel}: a snippet left early\n{r.stdout[-2000:]}"
 
 
 def test_blocks_markers_and_line_numbers():

@@ -15,6 +15,7 @@ loaded that way; export them once with :func:`tin_swarm_env.adapters.sb3.export_
      "action": {"size": 2, "low": -1.0, "high": 1.0},
      "scenario": "cliff_goal",
      "shield": "safety_cut",                 # optional: "none" (default) or "safety_cut"
+     "symmetry": "mirror",                   # optional: "none" (default) or "mirror"
      "training": {...}}                      # free-form metadata (library versions, steps...)
 
 ``weights.npz``: ``W0, b0, W1, b1, ...``; ``W{i}`` has shape ``(layer_sizes[i+1], layer_sizes[i])``
@@ -30,6 +31,13 @@ a dangerous break it sees to within one diameter). The filter reads only the obs
 the policy stays observation-only; it is a shield in the safe-RL sense (the network proposes,
 the filter removes the unsafe part). The constants come from the environment the policy is
 loaded for, so a shielded policy needs ``load_policy(path, env)``.
+
+``"network": {"type": "recurrent", "cell": "lstm" | "gru", ...}``: a memory cell before the MLP,
+state per robot reset with the episode (:mod:`tin_swarm_env.policies.recurrent` describes it).
+
+``"symmetry": "mirror"`` makes the network mirror-equivariant, ``clip((g(o) + M g(M o)) / 2)``
+with ``g`` the network before its clip (:mod:`tin_swarm_env.policies.symmetry`), before the shield; it needs the layout's named fields,
+which every policy file records.
 """
 
 from __future__ import annotations
@@ -45,6 +53,7 @@ from numba import njit
 
 from ..errors import ArgumentError, PolicyFileError
 from .base import SafetyShield, act_dict, unwrap_env
+from .symmetry import SYMMETRIES, mirror_signs, symmetrize
 
 __all__ = ["MLPPolicy", "ShieldedPolicy", "save_policy", "load_policy", "FORMAT", "VERSION", "ACTIVATIONS",
            "SHIELDS"]
@@ -61,6 +70,7 @@ ACTIVATIONS = {
     "identity": lambda x: x,
 }
 ACTION_TRANSFORMS = ("clip",)
+NETWORK_TYPES = ("mlp", "recurrent")  # "recurrent": a memory cell before the MLP (policies/recurrent.py)
 
 
 @njit(cache=True, fastmath={"reassoc", "contract"})
@@ -113,7 +123,7 @@ class MLPPolicy:
 
     def __init__(self, layers, activation: str = "tanh", action_transform: str = "clip", *, layout: dict,
                  scenario: str = "", training: dict | None = None, source: str = "<memory>",
-                 shield: str = "none", env=None):
+                 shield: str = "none", env=None, symmetry: str = "none"):
         self.layers = [(np.ascontiguousarray(W, dtype=np.float64), np.ascontiguousarray(b, dtype=np.float64))
                        for W, b in layers]
         self.activation = activation
@@ -126,6 +136,10 @@ class MLPPolicy:
         if shield not in SHIELDS:
             raise ArgumentError(f"{source}: shield {shield!r} is not one of {list(SHIELDS)}")
         self.shield = shield
+        if symmetry not in SYMMETRIES:
+            raise ArgumentError(f"{source}: symmetry {symmetry!r} is not one of {list(SYMMETRIES)}")
+        self.symmetry = symmetry
+        self._signs = mirror_signs(layout) if symmetry == "mirror" else None
         self.shield_cut = None  # the SafetyShield applied to the network's actions, or None
         if shield == "safety_cut":
             if env is None:
@@ -140,6 +154,11 @@ class MLPPolicy:
         x = np.ascontiguousarray(obs, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != self.obs_size:
             raise ArgumentError(f"{self.source}: obs must have shape (n, {self.obs_size}), got {x.shape}")
+        a = symmetrize(self._forward, x, self._signs) if self._signs is not None else self._forward(x)
+        return np.clip(a, -1.0, 1.0).astype(np.float32)
+
+    def _forward(self, x) -> np.ndarray:
+        """The network alone: ``x (n, d)`` float64 -> ``(n, 2)`` float64, before the clip."""
         f = ACTIVATIONS[self.activation]
         for i, (W, b) in enumerate(self.layers):
             x = dense(x, W, b)
@@ -149,7 +168,7 @@ class MLPPolicy:
         if bad.any():  # finite weights whose products overflow: the file is at fault, not the robot
             raise PolicyFileError(f"{self.source}: the network's output is not finite (NaN or inf) for observation "
                                   f"row {int(np.flatnonzero(bad)[0])}: its weights overflow float64")
-        return np.clip(x, -1.0, 1.0).astype(np.float32)
+        return x
 
     def act(self, obs: dict) -> dict:
         return act_dict(self.act_batch, obs)
@@ -157,7 +176,8 @@ class MLPPolicy:
     def __repr__(self) -> str:
         sizes = [self.obs_size] + [W.shape[0] for W, _ in self.layers]
         shield = "" if self.shield == "none" else f", shield={self.shield!r}"
-        return f"MLPPolicy({self.source!r}, {sizes}, {self.activation}, scenario={self.scenario!r}{shield})"
+        sym = "" if self.symmetry == "none" else f", symmetry={self.symmetry!r}"
+        return f"MLPPolicy({self.source!r}, {sizes}, {self.activation}, scenario={self.scenario!r}{shield}{sym})"
 
 
 class ShieldedPolicy:
@@ -184,25 +204,38 @@ class ShieldedPolicy:
 
 
 def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str, action_transform: str = "clip",
-                extra: dict | None = None, shield: str = "none") -> Path:
+                extra: dict | None = None, shield: str = "none", symmetry: str = "none", cell=None) -> Path:
     """Write a policy directory ``path/`` (``policy.json`` + ``weights.npz``) atomically (``shield``:
-    ``"none"`` or ``"safety_cut"``, see the module docstring): both
+    ``"none"`` or ``"safety_cut"``, ``symmetry``: ``"none"`` or ``"mirror"``, see the module
+    docstring; ``cell``: ``(name, {cell_W_ih: ..., ...})`` for a recurrent policy whose head is
+    ``layers``, :mod:`tin_swarm_env.policies.recurrent`): both
     files go into a temporary directory beside it, which is then renamed into place; an existing
     policy directory at ``path`` is replaced, anything else there is refused. Returns the path."""
     p = Path(os.fspath(path))
     layers = [(np.asarray(W, dtype=np.float64), np.asarray(b, dtype=np.float64)) for W, b in layers]
     lay = _layout_dict(layout)
     sizes = [int(layers[0][0].shape[1])] + [int(W.shape[0]) for W, _ in layers] if layers else []
-    meta = {"format": FORMAT, "version": VERSION,
-            "network": {"type": "mlp", "layer_sizes": sizes, "activation": activation,
-                        "action_transform": action_transform},
-            "observation": {"size": sizes[0] if sizes else 0, "layout": lay},
+    arrays = {f"{k}{i}": a for i, (W, b) in enumerate(layers) for k, a in (("W", W), ("b", b))}
+    network = {"type": "mlp", "layer_sizes": sizes, "activation": activation, "action_transform": action_transform}
+    obs_size = sizes[0] if sizes else 0
+    if cell is not None:
+        from .recurrent import recurrent_network
+
+        name, cw = cell
+        cw = {k: np.asarray(v, dtype=np.float64) for k, v in cw.items()}
+        obs_size = int(cw["cell_W_ih"].shape[1]) if "cell_W_ih" in cw else 0
+        hidden = int(cw["cell_W_hh"].shape[1]) if "cell_W_hh" in cw else 0
+        network = recurrent_network(name, obs_size, hidden, sizes, activation, action_transform)
+        arrays.update(cw)
+    meta = {"format": FORMAT, "version": VERSION, "network": network,
+            "observation": {"size": obs_size, "layout": lay},
             "action": {"size": ACTION_SIZE, "low": -1.0, "high": 1.0},
             "scenario": str(scenario), "training": dict(extra or {})}
     if shield != "none":
         meta["shield"] = shield
-    _validate(meta, {f"{k}{i}": a for i, (W, b) in enumerate(layers) for k, a in (("W", W), ("b", b))},
-              str(p / POLICY_JSON), str(p / WEIGHTS))
+    if symmetry != "none":
+        meta["symmetry"] = symmetry
+    _validate(meta, arrays, str(p / POLICY_JSON), str(p / WEIGHTS))
     if p.exists() and not (p.is_dir() and (p / POLICY_JSON).is_file()):
         raise PolicyFileError(f"{p}: exists and is not a policy directory; refusing to replace it")
     if not p.parent.is_dir():
@@ -210,7 +243,7 @@ def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str
     tmp = Path(tempfile.mkdtemp(prefix=f".{p.name}.", suffix=".part", dir=p.parent))
     try:
         with open(tmp / WEIGHTS, "wb") as fh:
-            np.savez(fh, **{f"{k}{i}": a for i, (W, b) in enumerate(layers) for k, a in (("W", W), ("b", b))})
+            np.savez(fh, **arrays)
             fh.flush()
             os.fsync(fh.fileno())
         with open(tmp / POLICY_JSON, "w", encoding="utf-8") as fh:
@@ -246,9 +279,10 @@ def _swap_into_place(tmp: Path, p: Path) -> None:
 # -- loading --------------------------------------------------------------------------------
 
 
-def load_policy(path, env) -> MLPPolicy:
+def load_policy(path, env):
     """Read the policy directory ``path`` (or its ``policy.json``) for ``env``: no pickle, no
-    torch. Raises :class:`~tin_swarm_env.errors.PolicyFileError` naming the file and the key for
+    torch; an :class:`MLPPolicy`, or a :class:`~tin_swarm_env.policies.recurrent.RecurrentPolicy`
+    for a recurrent file. Raises :class:`~tin_swarm_env.errors.PolicyFileError` naming the file and the key for
     anything wrong: a missing file, bad JSON, unknown format or version, a missing key, unknown
     activation, weights that do not chain or are not finite, an object array in the weights, an
     observation size other than the env's, or a layout other than the env's (both named)."""
@@ -280,9 +314,17 @@ def load_policy(path, env) -> MLPPolicy:
     layers = _validate(meta, arrays, str(jpath), str(wpath))
     _check_env(meta, env, str(jpath))
     net = meta["network"]
+    if net["type"] == "recurrent":
+        from .recurrent import RecurrentPolicy, check_cell
+
+        _, cw = check_cell(net, arrays, str(jpath), str(wpath))
+        return RecurrentPolicy(net["cell"], cw, layers, net["activation"], net["action_transform"],
+                               layout=meta["observation"]["layout"], scenario=meta["scenario"],
+                               training=meta.get("training", {}), source=str(d), shield=meta.get("shield", "none"),
+                               env=env, symmetry=meta.get("symmetry", "none"))
     return MLPPolicy(layers, net["activation"], net["action_transform"], layout=meta["observation"]["layout"],
                      scenario=meta["scenario"], training=meta.get("training", {}), source=str(d),
-                     shield=meta.get("shield", "none"), env=env)
+                     shield=meta.get("shield", "none"), env=env, symmetry=meta.get("symmetry", "none"))
 
 
 def _check_depth(text: str, where: str) -> None:
@@ -363,8 +405,8 @@ def _validate(meta, arrays: dict | None, jname: str, wname: str) -> list:
     if ver != VERSION:
         raise PolicyFileError(f"{jname}: key 'version' is {ver}; this tin_swarm_env reads version {VERSION}")
     net = _get(meta, "network", dict, jname)
-    if _get(net, "type", str, f"{jname} [network]") != "mlp":
-        raise PolicyFileError(f"{jname}: key 'network.type' is {net['type']!r}; expected 'mlp'")
+    if _get(net, "type", str, f"{jname} [network]") not in NETWORK_TYPES:
+        raise PolicyFileError(f"{jname}: key 'network.type' is {net['type']!r}; expected one of {list(NETWORK_TYPES)}")
     sizes = _get(net, "layer_sizes", list, f"{jname} [network]")
     if len(sizes) < 2 or not all(isinstance(s, int) and not isinstance(s, bool) and s >= 1 for s in sizes):
         raise PolicyFileError(f"{jname}: key 'network.layer_sizes' must be 2 or more positive integers, got "
@@ -379,10 +421,17 @@ def _validate(meta, arrays: dict | None, jname: str, wname: str) -> list:
     tr = _get(net, "action_transform", str, f"{jname} [network]")
     if tr not in ACTION_TRANSFORMS:
         raise PolicyFileError(f"{jname}: key 'network.action_transform' is {tr!r}; known: {list(ACTION_TRANSFORMS)}")
+    in_size, what = sizes[0], "the first layer size"
+    if net["type"] == "recurrent":  # the cell reads the observation; the head (layer_sizes) reads the cell
+        from .recurrent import check_cell
+
+        in_size, cell = check_cell(net, arrays, jname, wname)
+        what = "the cell's 'network.input_size'"
+        if arrays is not None:
+            arrays = {k: v for k, v in arrays.items() if k not in cell}
     obs = _get(meta, "observation", dict, jname)
-    if _get(obs, "size", int, f"{jname} [observation]") != sizes[0]:
-        raise PolicyFileError(f"{jname}: key 'observation.size' ({obs['size']}) differs from the first layer "
-                              f"size ({sizes[0]})")
+    if _get(obs, "size", int, f"{jname} [observation]") != in_size:
+        raise PolicyFileError(f"{jname}: key 'observation.size' ({obs['size']}) differs from {what} ({in_size})")
     _get(obs, "layout", dict, f"{jname} [observation]")
     action = _get(meta, "action", dict, jname)
     if _get(action, "size", int, f"{jname} [action]") != ACTION_SIZE or sizes[-1] != ACTION_SIZE:
@@ -393,6 +442,8 @@ def _validate(meta, arrays: dict | None, jname: str, wname: str) -> list:
         _get(meta, "training", dict, jname)
     if "shield" in meta and _get(meta, "shield", str, jname) not in SHIELDS:
         raise PolicyFileError(f"{jname}: key 'shield' is {meta['shield']!r}; known: {list(SHIELDS)}")
+    if "symmetry" in meta and _get(meta, "symmetry", str, jname) not in SYMMETRIES:
+        raise PolicyFileError(f"{jname}: key 'symmetry' is {meta['symmetry']!r}; known: {list(SYMMETRIES)}")
     return [] if arrays is None else _check_weights(arrays, sizes, wname)
 
 
