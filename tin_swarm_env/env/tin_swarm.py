@@ -225,6 +225,22 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         return self._target_idx.copy()
 
     @property
+    def rng_state(self) -> dict | None:
+        """The state of the episode generator (``np.random.Generator.bit_generator.state``, plain
+        data; None before the first reset). Setting it makes the next ``reset(seed=None)`` continue
+        from there (training checkpoints save and restore it)."""
+        return None if self._np_random is None else self._np_random.bit_generator.state
+
+    @rng_state.setter
+    def rng_state(self, state: dict) -> None:
+        g = np.random.default_rng()
+        try:
+            g.bit_generator.state = state
+        except (TypeError, ValueError, KeyError) as exc:
+            raise ArgumentError(f"rng_state: not a generator state ({exc})") from None
+        self._np_random = g
+
+    @property
     def steps(self) -> int:
         """Steps taken in this episode."""
         return self._steps

@@ -35,8 +35,8 @@ loaded for, so a shielded policy needs ``load_policy(path, env)``.
 ``"network": {"type": "recurrent", "cell": "lstm" | "gru", ...}``: a memory cell before the MLP,
 state per robot reset with the episode (:mod:`tin_swarm_env.policies.recurrent` describes it).
 
-``"symmetry": "mirror"`` makes the network mirror-equivariant, ``(f(o) + M f(M o)) / 2``
-(:mod:`tin_swarm_env.policies.symmetry`), before the shield; it needs the layout's named fields,
+``"symmetry": "mirror"`` makes the network mirror-equivariant, ``clip((g(o) + M g(M o)) / 2)``
+with ``g`` the network before its clip (:mod:`tin_swarm_env.policies.symmetry`), before the shield; it needs the layout's named fields,
 which every policy file records.
 """
 
@@ -154,12 +154,11 @@ class MLPPolicy:
         x = np.ascontiguousarray(obs, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != self.obs_size:
             raise ArgumentError(f"{self.source}: obs must have shape (n, {self.obs_size}), got {x.shape}")
-        if self._signs is not None:
-            return symmetrize(self._forward, x, self._signs).astype(np.float32)
-        return self._forward(x).astype(np.float32)
+        a = symmetrize(self._forward, x, self._signs) if self._signs is not None else self._forward(x)
+        return np.clip(a, -1.0, 1.0).astype(np.float32)
 
     def _forward(self, x) -> np.ndarray:
-        """The network alone: ``x (n, d)`` float64 -> clipped ``(n, 2)`` float64."""
+        """The network alone: ``x (n, d)`` float64 -> ``(n, 2)`` float64, before the clip."""
         f = ACTIVATIONS[self.activation]
         for i, (W, b) in enumerate(self.layers):
             x = dense(x, W, b)
@@ -169,7 +168,7 @@ class MLPPolicy:
         if bad.any():  # finite weights whose products overflow: the file is at fault, not the robot
             raise PolicyFileError(f"{self.source}: the network's output is not finite (NaN or inf) for observation "
                                   f"row {int(np.flatnonzero(bad)[0])}: its weights overflow float64")
-        return np.clip(x, -1.0, 1.0)
+        return x
 
     def act(self, obs: dict) -> dict:
         return act_dict(self.act_batch, obs)
@@ -428,7 +427,8 @@ def _validate(meta, arrays: dict | None, jname: str, wname: str) -> list:
 
         in_size, cell = check_cell(net, arrays, jname, wname)
         what = "the cell's 'network.input_size'"
-        arrays = {k: v for k, v in arrays.items() if k not in cell}
+        if arrays is not None:
+            arrays = {k: v for k, v in arrays.items() if k not in cell}
     obs = _get(meta, "observation", dict, jname)
     if _get(obs, "size", int, f"{jname} [observation]") != in_size:
         raise PolicyFileError(f"{jname}: key 'observation.size' ({obs['size']}) differs from {what} ({in_size})")
