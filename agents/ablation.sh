@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The ablation rows of the README's learned-policy table (run by hand, one after the other, ~35 min
+# The ablation table (docs/figures/ablation.md) (run by hand, one after the other, ~35 min
 # on 2 cores; agents/reproduce_shared.sh gives the BC+DAgger and BC+DAgger+PPO rows):
 #   bash agents/ablation.sh            # outputs in runs/ablation/*
 # * ppo_geodesic:  PPO from scratch, geodesic progress reward, the shared policy's terrain mix

@@ -6,7 +6,8 @@ learned policies (pickle-free directories; SB3 .zip with --trust-pickle true).
     tin-swarm eval cliff_goal ramp --seeds 20 --model runs/bc_ppo_cliff_goal_s0/policy   # the same kind
 
 The arguments are the fields of :class:`tin_swarm_env.apps.evaluate.Args`; the evaluation (one
-:func:`~tin_swarm_env.apps.rollout.rollout` per seed from ``--seed-offset`` = 10**6, above every
+:func:`~tin_swarm_env.apps.rollout.rollout` per seed from ``--seed-offset`` (default
+:data:`~tin_swarm_env.apps.evaluate.EVAL_SEED0`), above every
 training seed; arrived, fell, timed out, steps to arrive, contacts per robot, return, each a mean
 with a 95% confidence interval over robot-episodes; the Markdown table, CSV and bar plot written to
 ``--out``) is :func:`tin_swarm_env.apps.evaluate.evaluate`.

@@ -3,7 +3,7 @@
 # evaluation table.   bash agents/reproduce_shared.sh        # outputs in runs/shared (log: runs/shared.log)
 # Recipe (all through agents/train_sb3.py):
 # * terrain: generated terrains (a new seeded terrain per reset: canyons, mesas, hills; training seeds
-#   < 10**6, evaluation seeds from 10**6, so the table's "generated" rows are terrains never trained on),
+#   below EVAL_SEED0 (tin_swarm_env.apps.evaluate), evaluation seeds from it, so the table's "generated" rows are terrains never trained on),
 #   half of the episodes, plus cliff_goal and ramp; hill, valley, the canyon files and jacksboro stay
 #   held out;
 # * behaviour cloning from APF (40 episodes), two DAgger rounds of 20 episodes with beta-mixing (APF
@@ -26,7 +26,7 @@ $PY agents/train_sb3.py --scenario generated,generated,cliff_goal,ramp --n-robot
   --total-timesteps 50000000 --max-minutes "$MINUTES" --eval-every 200000 --eval-episodes 2 --checkpoint-every 400000 \
   --seed 0 --out-dir runs/shared --progress-bar false > runs/shared.log 2>&1
 # agents/models/shared is runs/shared/policy of the shipped run (cp -r). The budget is wall clock, so a rerun
-# stops after a different number of PPO steps and does not give the same weights bit for bit; README's table
-# says which of the numbers the shipped file meets.
+# stops after a different number of PPO steps and does not give the same weights bit for bit; the table of
+# docs/figures/shipped_policy.md says which of the numbers the shipped file meets.
 $PY agents/evaluate.py --scenarios cliff_goal,ramp,hill,generated,scenarios/canyon_left.toml,scenarios/canyon_right.toml,scenarios/valley.toml,jacksboro \
   --seeds 20 --robots 20 --models "shared=runs/shared/policy,bc+dagger=runs/shared/policy_imitation" --out runs/eval_shared

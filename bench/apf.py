@@ -6,8 +6,9 @@ stalled and looping robots (:mod:`tin_swarm_env.apps.trajectory`), contacts per 
     python bench/apf.py --horizon      # also: steps to arrive, APF against GeodesicPolicy, per terrain,
                                        # and jacksboro's horizon analysis
     [--seeds 5] [--robots N] [--jacksboro-seeds 5] [--generated 50] [--only cliff_goal,...] [--out FILE]
+    [--jobs 2]
 
-Policies: the APF baseline with all four fields, the APF without the break field (the thesis's
+Policies: the APF baseline with all its fields, the APF without the break field (the thesis's
 "poor ending": falls), :class:`~tin_swarm_env.policies.GeodesicPolicy` (knows the map: an upper
 bound, not a baseline) and uniform random actions. Terrains: every built-in goal scenario
 (``jacksboro`` with its 200 robots and 900 steps), the four canyon terrains of
@@ -89,29 +90,58 @@ def _rows(args) -> list[Row]:
     return [r for r in out if not args.only or any(r.label.startswith(o) for o in args.only)]
 
 
+_ROWS: list = []  # the rows of this run, set before the worker processes fork (rows hold lambdas)
+_WORKER_ENVS: dict = {}  # label -> env, one per process (built on its first episode of the row)
+
+
+def _episode(job):
+    """One episode ``(row index, policy name, seed) -> Outcome`` with a fresh policy, so the result
+    does not depend on which process ran it or in which order."""
+    k, name, seed = job
+    row = _ROWS[k]
+    env = _WORKER_ENVS.get(row.label)
+    if env is None:
+        env = _WORKER_ENVS[row.label] = row.make()
+    return rollout(env, POLICIES[name](env), seed)
+
+
 def goal_rows(args, emit) -> dict:
-    """Every goal row; returns ``{(label, policy): [Outcome, ...]}`` (one per seed, same order)."""
+    """Every goal row; returns ``{(label, policy): [Outcome, ...]}`` (one per seed, same order).
+    With ``args.jobs > 1`` the episodes of a row run in that many processes (forked)."""
     emit("| terrain | policy | seeds x robots | arrived | fell | timed out | stalled | looping | contacts / robot "
          "| s |")
     emit("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     results = {}
-    for row in _rows(args):
-        try:
-            env = row.make()
-        except Exception as e:  # noqa: BLE001 - report the row as skipped, run the rest
-            emit(f"| {row.label} | (skipped: {type(e).__name__}: {e}) | | | | | | | | |")
-            continue
-        for name in row.policies:
-            t = time.perf_counter()
-            pol = POLICIES[name](env)
-            outs = results[(row.label, name)] = [rollout(env, pol, sd) for sd in row.seeds]
-            n = sum(o.n_robots for o in outs)
-            share = {k: sum(o.shares()[k] * o.n_robots for o in outs) / n
-                     for k in ("arrived", "fell", "timed_out", "stalled", "looping")}
-            contacts = sum(int(o.collisions.sum()) for o in outs) / n
-            emit(f"| {row.label} | {name} | {len(outs)} x {env.n} | {share['arrived']:.1%} | {share['fell']:.1%} | "
-                 f"{share['timed_out']:.1%} | {share['stalled']:.1%} | {share['looping']:.1%} | {contacts:.2f} | "
-                 f"{time.perf_counter() - t:.0f} |")
+    _ROWS[:] = _rows(args)
+    pool = None
+    if args.jobs > 1:
+        import multiprocessing
+
+        pool = multiprocessing.get_context("fork").Pool(args.jobs)
+    try:
+        for k, row in enumerate(_ROWS):
+            try:
+                env = _WORKER_ENVS[row.label] = row.make()
+            except Exception as e:  # noqa: BLE001 - report the row as skipped, run the rest
+                emit(f"| {row.label} | (skipped: {type(e).__name__}: {e}) | | | | | | | | |")
+                continue
+            for name in row.policies:
+                t = time.perf_counter()
+                jobs = [(k, name, sd) for sd in row.seeds]
+                outs = pool.map(_episode, jobs, chunksize=1) if pool else [_episode(j) for j in jobs]
+                results[(row.label, name)] = outs
+                n = sum(o.n_robots for o in outs)
+                share = {k: sum(o.shares()[k] * o.n_robots for o in outs) / n
+                         for k in ("arrived", "fell", "timed_out", "stalled", "looping")}
+                contacts = sum(int(o.collisions.sum()) for o in outs) / n
+                emit(f"| {row.label} | {name} | {len(outs)} x {env.n} | {share['arrived']:.1%} | "
+                     f"{share['fell']:.1%} | {share['timed_out']:.1%} | {share['stalled']:.1%} | "
+                     f"{share['looping']:.1%} | {contacts:.2f} | {time.perf_counter() - t:.0f} |")
+            _WORKER_ENVS.pop(row.label, None)
+    finally:
+        if pool is not None:
+            pool.close()
+            pool.join()
     return results
 
 
@@ -247,6 +277,8 @@ def main(argv=None):
                    help="also: APF's steps to arrive against GeodesicPolicy's per terrain; for jacksboro's "
                         "timed-out APF robots, first contact + shortest path at top speed; and APF on jacksboro "
                         "given up to 1800 steps")
+    p.add_argument("--jobs", type=int, default=1,
+                   help="processes for the goal rows' episodes (results do not depend on it; wall time does)")
     p.add_argument("--quick", action="store_true",
                    help=f"a smoke run ({QUICK}); prints only, unless --out is given")
     p.add_argument("--out", default=None,

@@ -12,8 +12,8 @@ distance). Times are medians over ``--repeat`` runs, as CPU time of this process
 the code costs, robust on a shared machine) and wall time (``wall``: inflated when other
 processes share the cores). Then, in the same run, the time per ``reset`` of the ``generated``
 scenario on a 200 x 200 grid (generation, meshing, world, cost-to-go, and ``env.reset_arrays``
-as a whole; ``bench/generated.py``'s ``reset_times``; ``--reset-repeats 0`` skips it). Targets
-(issue 10): build 20k triangles <= 50 ms, query >= 1e6 points/s, <= 200 ms per reset.
+as a whole; ``bench/generated.py``'s ``reset_times``; ``--reset-repeats 0`` skips it). Targets:
+build 20k triangles <= 50 ms, query >= 1e6 points/s, <= 200 ms per reset.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Canyon test terrains (issue 11) the APF baseline never saw while it was written.
+"""Canyon test terrains the APF baseline never saw while it was written.
 
 400 x 400 m, 2 m cells: a 50 m plateau whose near-vertical north-south cliff has one 20 m wide
 pass at one end; 20 robots on the plateau, the target on the floor beyond the cliff. Four

@@ -2,6 +2,7 @@
 
 import importlib.util
 import os
+import tempfile
 from pathlib import Path
 
 os.environ.setdefault("MPLBACKEND", "Agg")
@@ -9,6 +10,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
+from hypothesis.configuration import set_hypothesis_home_dir
 
 settings.register_profile(
     "ci", max_examples=60, deadline=None, derandomize=True,
@@ -16,6 +18,8 @@ settings.register_profile(
 )
 settings.register_profile("dev", max_examples=200, deadline=None)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+# hypothesis keeps caches (e.g. its character tables) in ./.hypothesis: keep them out of the repository
+set_hypothesis_home_dir(Path(tempfile.gettempdir()) / "tin_swarm_env_hypothesis")
 
 
 def _random_tin(seed: int, n: int = 30, zscale: float = 50.0):
@@ -76,3 +80,38 @@ def canyon_variant(request):
 def repo_root():
     """The repository root (read only: tests write under tmp_path)."""
     return Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def generated_doc():
+    """``check(relpath, text)``: a generated documentation file (relative to the repository) must equal
+    ``text``; with ``TIN_SWARM_WRITE_DOCS=1`` it is rewritten first. See docs/contributing.md."""
+
+    def check(relpath: str, text: str) -> None:
+        path = Path(__file__).resolve().parents[1] / relpath
+        if os.environ.get("TIN_SWARM_WRITE_DOCS") == "1":
+            path.parent.mkdir(parents=True, exist_ok=True)
+            part = path.with_name(f".{path.name}.part")
+            part.write_text(text)
+            os.replace(part, path)
+        old = path.read_text() if path.exists() else None
+        assert old == text, (f"{relpath} is stale: regenerate it with TIN_SWARM_WRITE_DOCS=1 and the test "
+                             "that failed (see docs/contributing.md)")
+
+    return check
+
+
+@pytest.fixture(scope="session")
+def env_with_k_robots():
+    """``env_with_k_robots(k, n_robots=4)``: the cliff_goal env with ``k`` robot slots in its observation."""
+    import dataclasses
+
+    import tin_swarm_env as tse
+    from tin_swarm_env.scenario import load_scenario
+
+    def make(k: int, n_robots: int = 4):
+        cfg = load_scenario("cliff_goal")
+        return tse.parallel_env(scenario=cfg.replace(observation=dataclasses.replace(cfg.observation, k_robots=k)),
+                                n_robots=n_robots)
+
+    return make

@@ -3,7 +3,7 @@
 Layers (imports flow downwards only): ``terrain`` (DEM -> TIN, geometry queries), ``world``
 (robots, sensing, locomotion, battery), ``scenario`` (TOML -> config -> initial state), ``env``
 (the PettingZoo parallel environment), ``adapters``/``policies``, ``apps`` (CLI, run, evaluate,
-train, explorer). The repository README (section "Layout") describes them.
+train, explorer). The documentation's contributing page (docs/contributing.md, "Layout") describes them.
 
 The package root is lazy: it loads only :mod:`.errors`; ``tse.parallel_env``, ``tse.TinSwarmEnv``,
 ``tse.Reason`` and the subpackages load on first use, so ``import tin_swarm_env.terrain`` needs

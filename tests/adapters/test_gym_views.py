@@ -8,7 +8,6 @@ import gymnasium
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
-from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 from tin_swarm_env.adapters.gym_views import (
     CENTRAL_ID,
@@ -67,6 +66,7 @@ def _wrappers(env):
 @pytest.mark.parametrize("env_id", [SINGLE_ID, CENTRAL_ID])
 @pytest.mark.parametrize("scenario", sorted(list_scenarios()))
 def test_gymnasium_and_sb3_env_checkers_pass_on_every_scenario(scenario, env_id):
+    sb3_check_env = pytest.importorskip("stable_baselines3.common.env_checker", reason="the train extra").check_env
     env = gymnasium.make(env_id, render_mode="rgb_array", **small(scenario))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -304,6 +304,7 @@ def test_render_is_the_parallel_env_frame():
 
 
 def test_sb3_ppo_runs_on_the_single_robot_view():
+    pytest.importorskip("stable_baselines3", reason="the train extra")
     from stable_baselines3 import PPO
 
     env = gymnasium.make(SINGLE_ID, scenario="flat", n_robots=2, max_cycles=40)

@@ -6,11 +6,13 @@ import sys
 
 import numpy as np
 import pytest
-from stable_baselines3 import PPO
-from stable_baselines3.common.vec_env import VecEnv
 
-import tin_swarm_env as tse
-from tin_swarm_env.errors import TinSwarmError
+pytest.importorskip("stable_baselines3", reason="the train extra: pip install 'tin_swarm_env[train]'")
+from stable_baselines3 import PPO  # noqa: E402
+from stable_baselines3.common.vec_env import VecEnv  # noqa: E402
+
+import tin_swarm_env as tse  # noqa: E402
+from tin_swarm_env.errors import TinSwarmError  # noqa: E402
 
 
 def vec(**kw):
@@ -271,3 +273,81 @@ def test_missing_sb3_names_the_extra(monkeypatch):
         from tin_swarm_env.apps.policy_factory import SB3Policy
 
         SB3Policy.load("x.zip")
+
+
+def test_adapter_episode_length_counts_the_robot_s_own_steps_and_return_its_own_rewards():
+    """info["episode"] of the adapter itself (no VecMonitor, which overwrites it): robot 0 falls
+    at step k of a 12-step copy episode, robot 1 runs to the time limit. Robot 0's first episode
+    is k long; after the copy resets, its second episode is 12 long (the frozen stretch of the
+    first copy episode is not counted in either), and each return is the sum of that robot's
+    rewards over its own live steps."""
+    v = vec(scenario="ramp", n_robots=2, n_envs=1, max_cycles=12)
+    v.reset()
+    v.envs[0].reset_arrays(seed=0, options={"robot_positions": [[217.0, 120.0], [30.0, 120.0]],
+                                            "headings": [0.0, 0.0]})
+    act = np.array([[1.0, 0.0], [0.0, 0.0]], np.float32)
+    episodes = {0: [], 1: []}
+    ret = np.zeros(2)
+    steps = np.zeros(2, int)
+    for _ in range(24):  # two copy episodes
+        live = v.envs[0].live_mask.copy()
+        _, rew, done, info = v.step(act)
+        ret += rew
+        steps += live
+        for j in np.flatnonzero(done):
+            episodes[j].append((info[j]["episode"]["l"], info[j]["episode"]["r"], int(steps[j]), ret[j]))
+            ret[j], steps[j] = 0.0, 0
+    (l0, r0, s0, ret0), (l0b, r0b, s0b, ret0b) = episodes[0]
+    assert 1 <= l0 == s0 < 12 and l0b == s0b == 12  # robot 0 fell first, then timed out
+    assert [e[0] for e in episodes[1]] == [12, 12]
+    assert r0 == pytest.approx(ret0, abs=1e-4) and r0b == pytest.approx(ret0b, abs=1e-4)
+    assert r0 < -50  # the fall penalty is in the first return, not the second
+    assert r0b > -50
+
+
+def test_the_mirror_policy_is_equivariant_and_exports_to_the_same_actions(tmp_path):
+    """MirrorActorCriticPolicy (train --symmetry mirror): the Gaussian's mean and the value are
+    mirror-equivariant / invariant on random observations, log-probabilities of mirrored actions
+    are equal, and the exported policy file (``"symmetry": "mirror"``) gives model.predict's
+    deterministic actions."""
+    torch = pytest.importorskip("torch")
+    from stable_baselines3 import PPO
+
+    from tin_swarm_env.adapters.sb3 import export_sb3_policy, mirror_policy_class
+    from tin_swarm_env.env.observation import mirror_action
+    from tin_swarm_env.policies import load_policy
+
+    vec = tse.adapters.make_sb3_vec_env("cliff_goal", n_robots=4, n_envs=1, seed=0, max_cycles=30)
+    lay = vec.envs[0].layout
+    model = PPO(mirror_policy_class(), vec, n_steps=32, batch_size=64, n_epochs=1, seed=0, device="cpu",
+                policy_kwargs={"net_arch": [16, 16], "mirror_signs": lay.mirror_signs().tolist()})
+    model.learn(64)
+    with torch.no_grad():
+        model.policy.action_net.weight.mul_(300.0)  # outputs beyond [-1, 1]: the clip is exercised
+    rng = np.random.default_rng(0)
+    o = rng.uniform(-1, 1, (300, lay.size)).astype(np.float32)
+    mo = lay.mirror(o)
+    pol = model.policy
+    with torch.no_grad():
+        m, v = pol.mirror_mean_value(torch.as_tensor(o))
+        mm, vm = pol.mirror_mean_value(torch.as_tensor(mo))
+        a = torch.as_tensor(rng.uniform(-1, 1, (300, 2)).astype(np.float32))
+        _, lp, _ = pol.evaluate_actions(torch.as_tensor(o), a)
+        _, lpm, _ = pol.evaluate_actions(torch.as_tensor(mo), torch.as_tensor(mirror_action(a.numpy())))
+    np.testing.assert_allclose(mm.numpy(), mirror_action(m.numpy()), atol=1e-5)
+    np.testing.assert_allclose(vm.numpy(), v.numpy(), atol=1e-5)
+    np.testing.assert_allclose(lpm.numpy(), lp.numpy(), rtol=1e-5, atol=1e-4)
+    # the plain actor inside is not equivariant (the averaging does the work)
+    with torch.no_grad():
+        raw = pol.action_net(pol.mlp_extractor.forward_actor(torch.as_tensor(o)))
+        raw_m = pol.action_net(pol.mlp_extractor.forward_actor(torch.as_tensor(mo)))
+    assert np.abs(raw_m.numpy() - mirror_action(raw.numpy())).max() > 0.1
+    d = export_sb3_policy(model, tmp_path / "mirror", vec)
+    file_pol = load_policy(d, vec.envs[0])
+    assert file_pol.symmetry == "mirror"
+    want, _ = model.predict(o, deterministic=True)
+    got = file_pol.act_batch(o)
+    np.testing.assert_allclose(got, want, atol=1e-5)
+    assert np.any(np.abs(got) == 1.0) and np.any(np.abs(got) < 1.0)
+    with pytest.raises(TinSwarmError, match="mirror_signs of length 59"):
+        PPO(mirror_policy_class(), vec, policy_kwargs={"mirror_signs": [1.0]}, device="cpu")

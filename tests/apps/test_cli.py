@@ -6,6 +6,7 @@ import sys
 import numpy as np
 
 from tin_swarm_env.apps.cli import main
+from tin_swarm_env.env.tin_swarm import DEFAULT_RENDER_WIDTH_PX
 from tin_swarm_env.terrain import load_tin
 
 
@@ -55,11 +56,11 @@ def test_run_writes_table_summary_and_gif(tmp_path, capsys):
     from PIL import Image
 
     im = Image.open(gif)
-    assert im.n_frames >= 2 and im.size[0] == 640
+    assert im.n_frames >= 2 and im.size[0] == DEFAULT_RENDER_WIDTH_PX
     assert "| 2 | 4 | 6 |" in md.read_text()
     assert main(["run", "flat", "--robots", "2", "--max-cycles", "5", "--gif", str(tmp_path / "last.png"),
                  "--quiet"]) == 0
-    assert Image.open(tmp_path / "last.png").size[0] == 640
+    assert Image.open(tmp_path / "last.png").size[0] == DEFAULT_RENDER_WIDTH_PX
 
 
 def test_run_errors_exit_2(tmp_path, capsys):

@@ -1,4 +1,4 @@
-"""CLI polish (issue 17) and the file-safety pieces behind it: help and defaults on every option,
+"""CLI polish and the file-safety pieces behind it: help and defaults on every option,
 --version, --debug, ``scenarios --copy``, eval's default output and up-front checks, policy
 directories, atomic writes that keep permissions and clean up, GIF/MP4 frames streamed to disk,
 the typed ``parallel_env`` signature and the no-display warning."""

@@ -136,7 +136,9 @@ def test_fit_actor_clones_a_known_linear_teacher_and_sets_the_std():
     before = np.mean((TorchActor(model.policy).act_batch(x) - y) ** 2)
     mse = fit_actor(model.policy, x, y, epochs=60, batch_size=256, lr=3e-3, std=0.25)
     after = np.mean((TorchActor(model.policy).act_batch(x) - y) ** 2)
-    assert after < 0.02 < before and mse == pytest.approx(after, rel=1.0)
+    # the returned MSE is the last epoch's mean over its minibatches while the weights still moved:
+    # it lies near the final MSE (measured 1.76e-4 against 1.66e-4, +6 %); 50 % allows for the last epoch's updates
+    assert after < 0.02 < before and mse == pytest.approx(after, rel=0.5)
     assert np.allclose(np.exp(model.policy.log_std.detach().numpy()), 0.25)
     ret = 3.0 * x[:, 0]
     assert fit_value(model.policy, x, ret, epochs=40, batch_size=256, lr=3e-3) < 0.1 * np.var(ret)
@@ -171,7 +173,7 @@ def test_cli_train_exposes_the_imitation_options():
 
     ns = build_parser().parse_args(["train", "cliff_goal,ramp", "--bc-episodes", "3", "--dagger-rounds", "2",
                                     "--recurrent", "false", "--timesteps", "0"])
-    assert (ns.scenario, ns.bc_episodes, ns.dagger_rounds, ns.recurrent, ns.timesteps) == ("cliff_goal,ramp", 3, 2,
+    assert (ns.scenario, ns.bc_episodes, ns.dagger_rounds, ns.recurrent, ns.total_timesteps) == ("cliff_goal,ramp", 3, 2,
                                                                                           False, 0)
 
 
@@ -247,12 +249,57 @@ def test_evaluation_table_has_the_columns_and_uses_held_out_seeds(tmp_path):
     assert rows[1]["arrived"] + rows[1]["fell"] + rows[1]["timed_out"] <= 1.0 + 1e-12
 
 
-def test_recurrent_training_runs_and_saves_only_the_zip(tmp_path, capsys):
+def test_recurrent_training_runs_and_exports_a_recurrent_policy_file(tmp_path, capsys):
     pytest.importorskip("sb3_contrib")
     from tin_swarm_env.apps.train import train
+    from tin_swarm_env.policies import load_policy
+    from tin_swarm_env.policies.recurrent import RecurrentPolicy
 
     path = train(Args(scenario="flat", n_robots=2, n_envs=1, max_cycles=10, total_timesteps=32, n_steps=16,
-                      batch_size=32, n_epochs=1, net_arch="16", recurrent=True, eval_every=0, eval_episodes=1,
-                      out_dir=str(tmp_path / "r"), progress_bar=False))
-    assert path.exists() and not (tmp_path / "r" / "policy").exists()
-    assert "no pickle-free policy for a recurrent model" in capsys.readouterr().out
+                      batch_size=32, n_epochs=1, net_arch="16", recurrent=True, lstm_hidden=8, eval_every=0,
+                      eval_episodes=1, out_dir=str(tmp_path / "r"), progress_bar=False, shield="safety_cut"))
+    assert path.exists()
+    env = tse.parallel_env(scenario="flat", n_robots=2)
+    pol = load_policy(tmp_path / "r" / "policy", env)
+    assert isinstance(pol, RecurrentPolicy) and pol.hidden_size == 8 and pol.shield == "safety_cut"
+    assert "exported the pickle-free policy" in capsys.readouterr().out
+
+
+def test_mirror_samples_add_the_mirror_image_of_every_sample():
+    from tin_swarm_env.apps.imitation import Demos
+    from tin_swarm_env.apps.train import fit_set
+    from tin_swarm_env.env.observation import ObsLayout
+
+    lay = ObsLayout()
+    rng = np.random.default_rng(0)
+    d = Demos(rng.uniform(-1, 1, (5, lay.size)).astype(np.float32), rng.uniform(-1, 1, (5, 2)).astype(np.float32),
+              rng.normal(size=5).astype(np.float32), arrived=0.75, fell=0.1, episodes=3)
+    m = d.mirrored(lay)
+    np.testing.assert_array_equal(m.obs, d.obs * lay.mirror_signs())
+    np.testing.assert_array_equal(m.actions, d.actions * [1, -1])
+    np.testing.assert_array_equal(m.returns, d.returns)
+    assert fit_set(d, Args(), lay) is d
+    both = fit_set(d, Args(mirror_samples=True), lay)
+    assert len(both) == 10 and (both.arrived, both.fell, both.episodes) == (0.75, 0.1, 3)
+    np.testing.assert_array_equal(both.obs[5:], m.obs)
+
+
+def test_symmetry_mirror_trains_imitates_and_exports_an_equivariant_policy(tmp_path):
+    pytest.importorskip("torch")
+    from tin_swarm_env.apps.train import train
+    from tin_swarm_env.env.observation import mirror_action
+    from tin_swarm_env.policies import load_policy
+
+    with pytest.raises(ArgumentError, match="--symmetry must be one of"):
+        check_args(Args(symmetry="left"))
+    with pytest.raises(ArgumentError, match="--symmetry mirror is for the MLP"):
+        check_args(Args(symmetry="mirror", recurrent=True))
+    train(Args(scenario="cliff_goal", n_robots=3, n_envs=1, max_cycles=15, total_timesteps=48, n_steps=16,
+               batch_size=48, n_epochs=1, net_arch="16", bc_episodes=1, bc_epochs=2, value_epochs=1, eval_every=0,
+               eval_episodes=1, symmetry="mirror", out_dir=str(tmp_path / "m"), progress_bar=False))
+    env = tse.parallel_env(scenario="cliff_goal", n_robots=3)
+    for stage in ("policy_imitation", "policy"):
+        pol = load_policy(tmp_path / "m" / stage, env)
+        assert pol.symmetry == "mirror"
+        o = np.random.default_rng(0).uniform(-1, 1, (50, env.layout.size)).astype(np.float32)
+        np.testing.assert_array_equal(pol.act_batch(env.layout.mirror(o)), mirror_action(pol.act_batch(o)))

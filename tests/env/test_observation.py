@@ -1,11 +1,14 @@
 """ObsLayout is the observation's one description: offsets, names, scales, decoders, saving."""
 
 import json
+import math
 
+import numba
 import numpy as np
 import pytest
 
 import tin_swarm_env as tse
+from tin_swarm_env.env import observation as O
 from tin_swarm_env.env.observation import DZ_SCALE_M, SLOT_FIELDS, ObsLayout
 from tin_swarm_env.errors import ObservationLayoutError
 from tin_swarm_env.policies import APFPolicy
@@ -88,3 +91,119 @@ def test_other_slot_counts_reach_the_encoder_and_apf_still_brings_robots_in():
     assert len(reasons) == 8
     assert reasons.count("arrived") >= 7 and "fell" not in reasons, reasons
     assert saw_five  # the fifth break slot is filled somewhere on the way
+
+
+# -- every field by hand at several headings (90 and -37 degrees among them) ----------------------
+
+GX, GY = 0.1, -0.05  # the plane z = 0.1 x - 0.05 y: rises to the east, falls to the north
+
+
+@pytest.fixture(scope="module")
+def plane_env(tmp_path_factory):
+    """A 400 m square plane (5 vertices, 4 triangles, all with the gradient (GX, GY)), sensor
+    range 60 m and 360 deg: robot 0 at the centre (200, 200), robot 1 10 m east of it, robot 2
+    20 m south; one target 50 m away at (230, 240). The border is 140 m away or more: no break slot."""
+    from tin_swarm_env.scenario import scenario_from_dict
+    from tin_swarm_env.terrain import Tin, save_tin
+
+    xy = np.array([[0, 0], [400, 0], [400, 400], [0, 400], [200, 200]], float)
+    tin = Tin.from_points(np.column_stack([xy, GX * xy[:, 0] + GY * xy[:, 1] + 50.0]))
+    path = tmp_path_factory.mktemp("plane") / "plane.npz"
+    save_tin(tin, path)
+    cfg = scenario_from_dict({
+        "name": "plane", "task": "goal", "max_cycles": 10,
+        "terrain": {"source": "tin", "path": str(path)},
+        "robots": {"count": 3}, "sensor": {"range_m": 60.0, "fov_deg": 360.0},
+        "targets": {"positions": [[230.0, 240.0]], "arrival_radius_m": 1.0},
+    }, source="plane")
+    return tse.parallel_env(scenario=cfg)
+
+
+def body(v, heading):
+    """World vector -> body frame by projecting on the forward and left unit vectors."""
+    fwd = np.array([math.cos(heading), math.sin(heading)])
+    left = np.array([-math.sin(heading), math.cos(heading)])
+    return np.array([fwd @ v, left @ v])
+
+
+@pytest.mark.parametrize("heading_deg", [0.0, 90.0, -37.0, 180.0, 123.0])
+def test_every_own_and_slot_field_by_hand(plane_env, heading_deg):
+    env, L = plane_env, plane_env.layout
+    h = math.radians(heading_deg)
+    obs = env.reset_arrays(seed=0, options={"robot_positions": [[200.0, 200.0], [210.0, 200.0], [200.0, 180.0]],
+                                            "headings": [h, 0.0, 0.0]})[0]
+    R = 60.0
+    g = np.array([GX, GY])
+    gn = math.hypot(GX, GY)
+    # tilt (thesis 3.1) from the surface normal: sin(tilt) = normal . left axis, positive when the
+    # ground falls away on the robot's left; slope = atan |grad|
+    normal = np.array([-GX, -GY, 1.0]) / math.sqrt(1 + gn * gn)
+    left3 = np.array([-math.sin(h), math.cos(h), 0.0])
+    tilt = math.asin(normal @ left3)
+    target = np.array([30.0, 40.0])  # (230, 240) - (200, 200): 50 m
+    dz = GX * 30.0 + GY * 40.0  # 1 m
+    want = {
+        "battery": [1.0], "speed": [0.0], "tilt": [tilt / (math.pi / 2)],
+        "slope": [math.degrees(math.atan(gn)) / 90.0], "uphill": body(g, h) / gn,
+        "target_valid": [1.0], "target_dir": body(target, h) / 50.0, "target_dist": [50.0 / (50.0 + R)],
+        "target_dz": [dz / (abs(dz) + DZ_SCALE_M)],
+    }
+    for name, v in want.items():
+        # float32 observation of values of order 1: 1e-6 is a few float32 ulps
+        np.testing.assert_allclose(obs[L.own[name]], v, atol=1e-6, err_msg=name)
+    rob = L.slots(obs, "robots")
+    np.testing.assert_allclose(rob[0], [1.0, *(body(np.array([10.0, 0.0]), h) / R), 10.0 / R], atol=1e-6)
+    np.testing.assert_allclose(rob[1], [1.0, *(body(np.array([0.0, -20.0]), h) / R), 20.0 / R], atol=1e-6)
+    assert not rob[2:].any()
+    tgt = L.slots(obs, "targets")
+    np.testing.assert_allclose(tgt[0], [1.0, *(body(target, h) / R), 50.0 / R], atol=1e-6)
+    assert not tgt[1:].any() and not L.slots(obs, "breaks").any()
+
+
+def test_hand_values_written_out_at_90_degrees(plane_env):
+    """The same at 90 degrees with the numbers written out: facing north, a point east of the
+    robot is on its right (body y < 0), north is straight ahead."""
+    env, L = plane_env, plane_env.layout
+    obs = env.reset_arrays(seed=0, options={"robot_positions": [[200.0, 200.0], [210.0, 200.0], [200.0, 180.0]],
+                                            "headings": [math.pi / 2, 0.0, 0.0]})[0]
+    np.testing.assert_allclose(obs[L.own["target_dir"]], [0.8, -0.6], atol=1e-6)  # (30, 40) m: 40 ahead, 30 right
+    gn = math.hypot(GX, GY)
+    np.testing.assert_allclose(obs[L.own["uphill"]], [GY / gn, -GX / gn], atol=1e-6)  # uphill: east-south-east
+    np.testing.assert_allclose(L.slots(obs, "robots")[0], [1.0, 0.0, -10 / 60, 10 / 60], atol=1e-6)
+    np.testing.assert_allclose(L.slots(obs, "robots")[1], [1.0, -20 / 60, 0.0, 20 / 60], atol=1e-6)
+    # facing north on ground that rises to the east: the downhill side (west) is on the left
+    assert obs[L.own["tilt"]][0] > 0
+    np.testing.assert_allclose(obs[L.own["tilt"]], [math.asin(GX / math.sqrt(1 + gn * gn)) / (math.pi / 2)],
+                               atol=1e-6)
+
+
+# -- the parallel encoder: bit-identical for any thread count and to its plain loop ----------------
+
+
+def _episode(env, steps, seed=0):
+    rng = np.random.default_rng(seed)
+    out = [env.reset_arrays(seed=seed)]
+    for _ in range(steps):
+        obs, rew, term, trunc, reasons = env.step_arrays(rng.uniform(-1, 1, (env.n, 2)))
+        out += [obs, rew, term, trunc, reasons]
+    return out
+
+
+@pytest.mark.parametrize("scenario", ["cliff_goal", "hill"])
+def test_env_episode_is_bit_identical_for_1_and_2_threads_and_the_plain_encoder(scenario, monkeypatch):
+    env = tse.parallel_env(scenario=scenario, n_robots=24)
+    old = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = _episode(env, 15)
+        numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+        two = _episode(env, 15)
+    finally:
+        numba.set_num_threads(old)
+    monkeypatch.setattr(O, "_fill", O._fill.py_func)
+    ref = _episode(env, 3)
+    for a, b in zip(one, two, strict=True):
+        assert a.tobytes() == b.tobytes()
+    for a, b in zip(one, ref, strict=False):
+        assert a.tobytes() == b.tobytes()
+    assert np.any(one[0] != 0)

@@ -2,10 +2,10 @@
 (or, for the few inputs that are fine, a normal run), never a traceback, never exit 0 on
 nonsense, never a silent NaN.
 
-The README's "What bad input gets" table is generated from :data:`CASES` by
-:func:`test_readme_table_is_current`; after changing a message, regenerate it with
+The documentation's bad-input table (docs/figures/bad_input.md) is generated from :data:`CASES` by
+:func:`test_docs_table_is_current`; after changing a message, regenerate it with
 
-    TIN_SWARM_WRITE_DOCS=1 python -m pytest tests/integration/test_bad_input.py -k readme
+    TIN_SWARM_WRITE_DOCS=1 python -m pytest tests/integration/test_bad_input.py -k docs_table
 """
 
 from __future__ import annotations
@@ -20,9 +20,6 @@ import pytest
 import tin_swarm_env as tse
 from tin_swarm_env.apps.cli import main
 from tin_swarm_env.errors import TinSwarmError
-
-ROOT = Path(__file__).resolve().parents[2]
-START, END = "<!-- bad-input-table:start -->", "<!-- bad-input-table:end -->"
 
 FLAT = ["--robots", "2", "--max-cycles", "3", "--quiet"]
 
@@ -47,7 +44,7 @@ def toml(body: str, targets: str = GOAL) -> str:
     return BASE + body + ("\n" + targets if targets else "")
 
 
-# (label shown in the README, kind, what, expected fragment of the message or "exit 0")
+# (label shown in the docs table, kind, what, expected fragment of the message or "exit 0")
 # kind "cli": argv (strings, "{d}" is a temporary directory); "load": a scenario file's text, loaded;
 # "env": a scenario file's text, made into an env and reset; "call": a function of the temp dir
 CASES = [
@@ -103,13 +100,16 @@ CASES = [
      "max_candidates (2) must be >="),
     ("`[terrain] size_m = [0, 100]`", "load", toml("").replace("[100.0, 100.0]", "[0.0, 100.0]"), "size_m[0]"),
     ("recipe param of the wrong type (`cell = \"2\"`)", "env",
-     toml("").replace('source = "flat"', 'source = "procedural"\nrecipe = "ridge"\nparams = {cell = "2"}'),
+     toml("").replace('source = "flat"', 'source = "procedural"\nrecipe = "ridge"\nparams = {cell = "2"}').replace(
+         "size_m = [100.0, 100.0]\n", ""),
      "params.cell must be a finite number"),
     ("recipe `cell = 0`", "env",
-     toml("").replace('source = "flat"', 'source = "procedural"\nrecipe = "ridge"\nparams = {cell = 0}'),
+     toml("").replace('source = "flat"', 'source = "procedural"\nrecipe = "ridge"\nparams = {cell = 0}').replace(
+         "size_m = [100.0, 100.0]\n", ""),
      "params.cell must be a finite number > 0"),
     ("recipe `cell = 0.001` (too many cells)", "env",
-     toml("").replace('source = "flat"', 'source = "procedural"\nrecipe = "ridge"\nparams = {cell = 0.001}'),
+     toml("").replace('source = "flat"', 'source = "procedural"\nrecipe = "ridge"\nparams = {cell = 0.001}').replace(
+         "size_m = [100.0, 100.0]\n", ""),
      "grid cells"),
     ("`parallel_env(n_robots=10**9)`", "call", lambda d: tse.parallel_env(scenario="flat", n_robots=10**9),
      "n_robots must be an integer >= 1 and <= 100000"),
@@ -224,22 +224,12 @@ def test_no_partial_files_are_left(workdir, capsys, monkeypatch):
     assert sorted(os.listdir(workdir)) == before
 
 
-def test_readme_table_is_current(workdir, capsys, monkeypatch):
+def test_docs_table_is_current(workdir, capsys, monkeypatch, generated_doc):
     results = []
     for label, kind, what, _ in CASES:
         _, line = outcome(label, kind, what, workdir, capsys, monkeypatch)
         results.append((label, _normalise(line, workdir)))
-    table = _table(results)
-    readme = ROOT / "README.md"
-    text = readme.read_text()
-    assert START in text and END in text, "README.md lacks the bad-input table markers"
-    head, rest = text.split(START, 1)
-    _, tail = rest.split(END, 1)
-    new = f"{head}{START}\n{table}\n{END}{tail}"
-    if os.environ.get("TIN_SWARM_WRITE_DOCS") == "1":
-        readme.write_text(new)
-    assert new == text, ("README.md's 'What bad input gets' table is stale; regenerate it with "
-                         "TIN_SWARM_WRITE_DOCS=1 python -m pytest tests/integration/test_bad_input.py -k readme")
+    generated_doc("docs/figures/bad_input.md", _table(results) + "\n")
 
 
 def test_check_range_refuses_nan_inf_bool_and_strings():

@@ -1,4 +1,4 @@
-"""``[terrain] source = "generated"`` in the env: resampling, determinism, PettingZoo API (issue 10)."""
+"""``[terrain] source = "generated"`` in the env: resampling, determinism, PettingZoo API."""
 
 import numpy as np
 import pytest

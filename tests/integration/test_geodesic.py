@@ -1,4 +1,4 @@
-"""The geodesic progress reward, distance_to_go_m, and solvability at load (issue 10, items 2-3)."""
+"""The geodesic progress reward, distance_to_go_m, and solvability at load."""
 
 import numpy as np
 import pytest

@@ -61,9 +61,11 @@ def test_on_import_runs_callbacks_once_after_the_module_executed(tmp_path, monke
 def test_reason_codes_and_labels():
     assert [int(r) for r in Reason] == [0, 1, 2, 3, 4]
     assert [r.label for r in Reason][1:] == ["arrived", "fell", "battery", "max_cycles"]
-    from tin_swarm_env.world.state import DONE, EMPTY, FELL
+    import tin_swarm_env.world as world
+    import tin_swarm_env.world.state as state
 
-    assert (FELL, EMPTY, DONE) == (Reason.FELL, Reason.BATTERY, Reason.ARRIVED)  # status codes share them
+    for alias in ("ACTIVE", "DONE", "FELL", "EMPTY", "STATUS_NAMES"):  # robot status is a Reason code, no aliases
+        assert not hasattr(world, alias) and not hasattr(state, alias), alias
 
 
 def test_no_raw_reason_numbers_and_no_env_internals_outside_env():

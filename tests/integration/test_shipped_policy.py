@@ -1,6 +1,6 @@
-"""The trained policy the README quotes, committed at agents/models/shared: it loads on the core
-install (no torch, no pickle), is refused by an env whose observation layout differs, and drives
-robots to the goal on cliff_goal (a reduced budget of the README's evaluation)."""
+"""The trained policy docs/figures/shipped_policy.md quotes, committed at agents/models/shared: it
+loads on the core install (no torch, no pickle), is refused by an env whose observation layout differs, and drives
+robots to the goal on cliff_goal (a reduced budget of that evaluation)."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
+from tin_swarm_env.apps.evaluate import EVAL_SEED0
 from tin_swarm_env.apps.rollout import rollout
 from tin_swarm_env.errors import PolicyFileError
 from tin_swarm_env.policies import load_policy
@@ -54,16 +55,14 @@ def test_the_shipped_policy_runs_without_torch_or_pickle():
     assert "['robot_0', 'robot_1', 'robot_2'] [(2,), (2,), (2,)]" in r.stdout
 
 
-def test_the_shipped_policy_is_refused_by_another_layout():
-    from test_policy_files import _env_with_k
-
+def test_the_shipped_policy_is_refused_by_another_layout(env_with_k_robots):
     with pytest.raises(PolicyFileError, match=r"shared.*policy\.json.*layout.*'k_robots': 6"):
-        load_policy(SHARED, _env_with_k(6))
+        load_policy(SHARED, env_with_k_robots(6))
 
 
 def test_the_shipped_policy_brings_robots_in_on_cliff_goal():
     env = tse.parallel_env(scenario="cliff_goal", n_robots=6)
-    out = rollout(env, load_policy(SHARED, env), seed=10**6)
+    out = rollout(env, load_policy(SHARED, env), seed=EVAL_SEED0)
     assert out.count(Reason.FELL) == 0
     assert out.count(Reason.ARRIVED) >= 5, out.counts()
 

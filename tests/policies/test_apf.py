@@ -93,7 +93,7 @@ def test_fields_subset_and_random_policy():
     assert all(np.array_equal(r1[k], r2[k]) and env.action_space(k).contains(r1[k]) for k in obs)
 
 
-# -- issue 11: the way round on either side, crowding --------------------------------------------
+# -- the way round on either side, crowding ----------------------------------------------------
 
 from tin_swarm_env.apps.rollout import rollout  # noqa: E402
 from tin_swarm_env.env.observation import ObsLayout  # noqa: E402

@@ -1,4 +1,4 @@
-"""GeodesicPolicy, the map-knowing reference (issue 11): no path through a pinch, erosion on hand-built
+"""GeodesicPolicy, the map-knowing reference: no path through a pinch, erosion on hand-built
 TINs with exact answers, the wall clearance by hand, arrival with 0 falls and the pass side on the
 canyon terrains (a reduced budget; bench/apf.py runs the full table)."""
 

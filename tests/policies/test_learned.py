@@ -40,6 +40,17 @@ def trained(tmp_path_factory):
     return model, vec, d
 
 
+@pytest.fixture(scope="module")
+def saved(tmp_path_factory):
+    """A policy directory written by save_policy alone (no torch): random 59-32-16-2 tanh layers, the
+    layout of the cliff_goal env; what the refusal tests edit."""
+    rng = np.random.default_rng(0)
+    sizes = [59, 32, 16, 2]
+    layers = [(rng.normal(0, 1, (m, n)), rng.normal(0, 1, m)) for n, m in zip(sizes[:-1], sizes[1:])]
+    return save_policy(tmp_path_factory.mktemp("pol") / "shared", layers, "tanh", layout=env().layout,
+                       scenario="cliff_goal", extra={"note": "test"})
+
+
 def env(**kw):
     args = dict(SCEN)
     args.update(kw)
@@ -78,15 +89,13 @@ def test_exported_policy_acts_as_sb3_predict(trained):
     assert set(acts) == set(o) and all(a.shape == (2,) for a in acts.values())
 
 
-def test_layout_mismatch_is_refused_naming_both(trained):
-    _, _, d = trained
+def test_layout_mismatch_is_refused_naming_both(saved, tmp_path):
     with pytest.raises(PolicyFileError, match=r"policy\.json.*'k_robots': 4.*environment's layout.*'k_robots': 6"):
-        load_policy(d, _env_with_k(6))
+        load_policy(saved, _env_with_k(6, tmp_path))
 
 
-def _env_with_k(k, tmp=[]):  # noqa: B006 - a scenario file written once per session
-    import tempfile
-
+def _env_with_k(k, dd):
+    """The cliff_goal env with ``k`` robot slots, from a scenario file written in ``dd``."""
     from tin_swarm_env.scenario import SCENARIO_DIR
 
     text = (SCENARIO_DIR / "cliff_goal.toml").read_text()
@@ -94,8 +103,6 @@ def _env_with_k(k, tmp=[]):  # noqa: B006 - a scenario file written once per ses
         text = text.replace("[observation]", f"[observation]\nk_robots = {k}", 1)
     else:
         text += f"\n[observation]\nk_robots = {k}\n"
-    dd = tempfile.mkdtemp()
-    tmp.append(dd)
     p = os.path.join(dd, "k.toml")
     with open(p, "w") as fh:
         fh.write(text)
@@ -137,9 +144,9 @@ JSON_EDITS = {
 
 
 @pytest.mark.parametrize("case", sorted(JSON_EDITS))
-def test_edited_json_is_refused_naming_file_and_key(trained, tmp_path, case):
+def test_edited_json_is_refused_naming_file_and_key(saved, tmp_path, case):
     fn, pattern = JSON_EDITS[case]
-    p = _copy(trained[2], tmp_path)
+    p = _copy(saved, tmp_path)
     _edit_json(p, fn)
     with pytest.raises(PolicyFileError, match=pattern):
         load_policy(p, env())
@@ -155,9 +162,9 @@ NPZ_EDITS = {
 
 
 @pytest.mark.parametrize("case", sorted(NPZ_EDITS))
-def test_edited_weights_are_refused_naming_the_file(trained, tmp_path, case):
+def test_edited_weights_are_refused_naming_the_file(saved, tmp_path, case):
     fn, pattern = NPZ_EDITS[case]
-    p = _copy(trained[2], tmp_path)
+    p = _copy(saved, tmp_path)
     _edit_npz(p, fn)
     with pytest.raises(PolicyFileError, match=pattern):
         load_policy(p, env())
@@ -168,16 +175,16 @@ class Boom:
         return (os.system, ("touch PWNED_BY_POLICY",))
 
 
-def test_a_pickled_object_array_is_never_unpickled(trained, tmp_path, monkeypatch):
+def test_a_pickled_object_array_is_never_unpickled(saved, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    p = _copy(trained[2], tmp_path)
+    p = _copy(saved, tmp_path)
     _edit_npz(p, lambda a: a.update(W0=np.array([Boom()], dtype=object)))
     with pytest.raises(PolicyFileError, match=r"weights\.npz: array 'W0' cannot be read without unpickling"):
         load_policy(p, env())
     assert not (tmp_path / "PWNED_BY_POLICY").exists()
 
 
-def test_loading_never_calls_pickle(trained, monkeypatch):
+def test_loading_never_calls_pickle(saved, monkeypatch):
     from tin_swarm_env.policies.learned import dense
 
     e = env()
@@ -189,13 +196,13 @@ def test_loading_never_calls_pickle(trained, monkeypatch):
     monkeypatch.setattr(pickle, "load", no)
     monkeypatch.setattr(pickle, "loads", no)
     monkeypatch.setattr(pickle, "Unpickler", no)
-    pol = load_policy(trained[2], e)
+    pol = load_policy(saved, e)
     assert pol.act_batch(np.zeros((1, 59))).shape == (1, 2)
 
 
 @pytest.mark.parametrize("what", ["no_dir", "no_json", "no_npz", "bad_json", "junk_npz", "json_list"])
-def test_missing_or_unreadable_files_are_named(trained, tmp_path, what):
-    p = _copy(trained[2], tmp_path)
+def test_missing_or_unreadable_files_are_named(saved, tmp_path, what):
+    p = _copy(saved, tmp_path)
     if what == "no_dir":
         p, pattern = tmp_path / "nowhere", r"nowhere: no such policy directory"
     elif what == "no_json":

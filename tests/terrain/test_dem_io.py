@@ -179,7 +179,7 @@ def test_metres_per_degree_known_values():
 
 
 def test_geotiff_projected_and_geographic(tmp_path):
-    import rasterio
+    rasterio = pytest.importorskip("rasterio", reason="the geo extra")
     from rasterio.transform import from_origin
 
     z = np.arange(12, dtype="float32").reshape(3, 4)
@@ -207,7 +207,7 @@ def test_geotiff_projected_and_geographic(tmp_path):
                                           ("int32", None), ("float32", None)])
 def test_integer_geotiffs_with_and_without_nodata(tmp_path, dtype, nodata):
     """SRTM-style rasters: integers cast to float64 before NODATA cells become NaN."""
-    import rasterio
+    rasterio = pytest.importorskip("rasterio", reason="the geo extra")
     from rasterio.transform import from_origin
 
     z = (np.arange(12).reshape(3, 4) * 7 + 100).astype(dtype)
@@ -232,6 +232,7 @@ def test_integer_geotiffs_with_and_without_nodata(tmp_path, dtype, nodata):
 
 
 def test_unreadable_geotiff_is_a_dem_error(tmp_path):
+    pytest.importorskip("rasterio", reason="the geo extra")
     with pytest.raises(DemFormatError, match=r"junk\.tif: not a readable GeoTIFF"):
         load_dem(write(tmp_path / "junk.tif", "II*\x00 not really a tiff"))
 

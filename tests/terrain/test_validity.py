@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from tin_swarm_env.errors import TinFormatError, TinStructureError
 from tin_swarm_env.terrain import Tin, load_tin
 from tin_swarm_env.terrain import tin as tin_module
 from tin_swarm_env.terrain.reference import single_surface_brute
-from tin_swarm_env.terrain.validity import OK, OVERLAP, T_JUNCTION, on_line_tolerance, scan_pairs
+from tin_swarm_env.terrain.validity import OK, OVERLAP, T_JUNCTION, on_line_tolerance, pair_status, scan_pairs
 
 SQ = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]
 
@@ -102,14 +102,19 @@ def test_grid_scan_agrees_with_all_pairs_brute_force(random_tin, seed, n, how):
         tri = np.vstack([np.delete(tri, t, axis=0), [[p, m, r], [m, q, r]]])
     e1, e2 = v[tri[:, 1], :2] - v[tri[:, 0], :2], v[tri[:, 2], :2] - v[tri[:, 0], :2]
     cross = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    if np.any(np.abs(cross) < 1e-6):
-        return  # Tin drops zero-area triangles before its check; not this test's subject
+    assume(not np.any(np.abs(cross) < 1e-6))  # Tin drops zero-area triangles before its check: not the subject
     tri[cross < 0] = tri[cross < 0][:, [0, 2, 1]]
     try:
         nbrs = tin_module._neighbors(tri, v, "t")
     except TinStructureError:
-        return  # refused earlier, at the adjacency build
+        nbrs = None  # refused earlier, at the adjacency build: not the subject
+    assume(nbrs is not None)
     brute = single_surface_brute(v, tri)
+    # the plain-numpy pair test agrees with the independent brute force on every pair not sharing an edge
+    pa, pb = np.triu_indices(len(tri), k=1)
+    shared = (tri[pa][:, :, None] == tri[pb][:, None, :]).any(axis=2).sum(axis=1)
+    pa, pb = pa[shared < 2], pb[shared < 2]
+    np.testing.assert_array_equal(pair_status(v, tri, pa, pb, on_line_tolerance(v)), brute[pa, pb])
     code, a, b, k, j = _scan(v, tri, nbrs)
     assert (code != OK) == bool(brute.any())
     if code != OK:
@@ -122,9 +127,14 @@ def test_grid_scan_agrees_with_all_pairs_brute_force(random_tin, seed, n, how):
         assert code == OK
 
 
-def test_a_large_valid_tin_passes(jacksboro):
+def test_a_large_valid_tin_passes(jacksboro, monkeypatch):
     from tin_swarm_env.terrain import build_tin
+    from tin_swarm_env.terrain.reference import locate_brute
 
     tin = build_tin(jacksboro, method="greedy", max_error_m=5)
     assert tin.n_triangles > 10_000
-    assert tin._bucket is not None  # the grid built for the check is kept for point location
+    # the grid built for the check is kept for point location: locating needs no second build
+    monkeypatch.setattr(tin_module, "_build_bucket", lambda *a: pytest.fail("point-location grid built twice"))
+    xy = np.random.default_rng(0).uniform(tin.bounds[:2], tin.bounds[2:], (50, 2))
+    t = tin._bucket_locate(xy[:, 0], xy[:, 1])
+    assert np.array_equal(t, locate_brute(tin, xy))

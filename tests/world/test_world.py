@@ -4,18 +4,16 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from tin_swarm_env.terrain import Tin
 from tin_swarm_env.world import (
-    ACTIVE,
     BLOCKED_BORDER,
     BLOCKED_STEEP,
-    EMPTY,
-    FELL,
     FELL_INTO,
     BatteryParams,
+    Reason,
     RobotParams,
     SensorParams,
     World,
@@ -83,9 +81,9 @@ def test_out_of_range_and_fallen_robots_are_not_seen():
     w = World(None, params(sensor={"range_m": 30, "fov_deg": 360}))
     s = w.reset(0, [[100, 100], [125, 100], [140, 100]])
     assert w.sense(s).robots.as_set() == {(0, 1), (1, 0), (1, 2), (2, 1)}
-    s.status[1] = FELL
+    s.status[1] = Reason.FELL
     assert w.sense(s).robots.as_set() == set()
-    s.status[1] = EMPTY  # present but blind
+    s.status[1] = Reason.BATTERY  # present but blind
     assert w.sense(s).robots.as_set() == {(0, 1), (2, 1)}
 
 
@@ -97,7 +95,7 @@ def test_driving_down_into_a_cliff_falls_and_up_into_it_is_blocked():
     s = w.reset(0, [[99.0, 50.0], [106.0, 50.0]], headings=[0.0, math.pi])
     s, ev = w.step(s, [[1.0, 0.0], [1.0, 0.0]])  # both drive forward, toward the cliff face
     assert ev.motion_event.tolist() == [FELL_INTO, BLOCKED_STEEP]
-    assert s.status.tolist() == [FELL, ACTIVE]
+    assert s.status.tolist() == [Reason.FELL, Reason.NONE]
     assert ev.fell.tolist() == [True, False]
     assert 100.0 < s.positions[0, 0] < 100.01  # just inside the cliff triangle
     assert s.positions[1, 0] == pytest.approx(105.001)  # 1 mm before the foot of the cliff
@@ -121,7 +119,7 @@ def test_border_blocks():
     s = w.reset(0, [[8.0, 5.0]], headings=[0.0])
     s, ev = w.step(s, [[1.0, 0.0]])
     assert ev.motion_event[0] == BLOCKED_BORDER
-    assert s.positions[0, 0] == pytest.approx(10.0 - 1e-3) and s.status[0] == ACTIVE
+    assert s.positions[0, 0] == pytest.approx(10.0 - 1e-3) and s.status[0] == Reason.NONE
 
 
 def test_uphill_slows_by_pitch_and_downhill_does_not():
@@ -165,8 +163,8 @@ def test_battery_never_increases_and_an_empty_robot_never_moves_again():
         assert np.all(s.battery_j <= prev) and np.all(s.battery_j >= 0)
         prev = s.battery_j.copy()
         history.append((s.status.copy(), s.positions.copy()))
-    assert np.all(s.status == EMPTY) and np.all(s.battery_j == 0)
-    first_empty = next(k for k, (st_, _) in enumerate(history) if st_[0] == EMPTY)
+    assert np.all(s.status == Reason.BATTERY) and np.all(s.battery_j == 0)
+    first_empty = next(k for k, (st_, _) in enumerate(history) if st_[0] == Reason.BATTERY)
     for st_, p in history[first_empty:]:
         np.testing.assert_array_equal(p[0], history[first_empty][1][0])
 
@@ -274,8 +272,8 @@ def _sense_against_reference(random_tin, seed, n, sensor, n_entities):
     pos = spawn_positions(w.tin, w.steep, n, rng)
     ents = spawn_positions(w.tin, w.steep, 2 * n_entities, rng)
     s = w.reset(rng, pos, targets=ents[:n_entities], assets=ents[n_entities:])
-    s.status[rng.random(n) < 0.2] = FELL
-    s.status[rng.random(n) < 0.2] = EMPTY
+    s.status[rng.random(n) < 0.2] = Reason.FELL
+    s.status[rng.random(n) < 0.2] = Reason.BATTERY
     got = w.sense(s)
     ref = reference_sense(w, s)
     assert got.robots.as_set() == ref[0]
@@ -289,8 +287,7 @@ def _sense_against_reference(random_tin, seed, n, sensor, n_entities):
        st.booleans())
 def test_batched_sensing_equals_a_per_robot_loop(random_tin, seed, n, range_m, fov, los):
     out = _sense_against_reference(random_tin, seed, n, {"range_m": range_m, "fov_deg": fov, "check_los": los}, 3)
-    if out is None:
-        return
+    assume(out is not None)
     w, s, got, ref = out
     assert got.breaks.as_set() == ref[3]
     # K-nearest slots are the nearest of those sets, nearest first
@@ -324,8 +321,7 @@ def substep_reference(w, p0, d, n_sub=4000):
 def test_locomotion_walk_matches_substepping(random_tin, seed):
     tin = random_tin(seed, 30, zscale=150)
     w = World(tin, params(robot={"max_slope_deg": 15.0, "max_climb_deg": 80.0}))
-    if (~w.steep).sum() == 0:
-        return
+    assume((~w.steep).sum() > 0)
     rng = np.random.default_rng(seed)
     pos = spawn_positions(w.tin, w.steep, 20, rng)
     disp = rng.normal(0, 150, (20, 2))
@@ -411,6 +407,14 @@ def test_max_candidates_must_be_a_positive_integer():
 def test_batched_sensing_with_few_candidates_equals_the_per_robot_loop(random_tin, seed, n, range_m, fov, los, k):
     out = _sense_against_reference(random_tin, seed, n, {"range_m": range_m, "fov_deg": fov, "check_los": los,
                                              "max_candidates": k}, 6)
-    if out is None:
-        return
+    assume(out is not None)
     w, s, got, ref = out
+
+
+def test_the_state_counts_collisions_over_the_episode_and_the_events_per_step():
+    w = World(None, params())
+    s = w.reset(0, [[100.0, 100.0], [100.5, 100.0], [200.0, 200.0]], headings=[0.0, 0.0, 0.0])
+    for step in (1, 2):
+        s, ev = w.step(s, np.zeros((3, 2)))  # robots 0 and 1 stand 0.5 m apart (radius 0.5 m: touching)
+        assert ev.collisions.tolist() == [1, 1, 0]
+        assert s.collisions.tolist() == [step, step, 0]

@@ -34,6 +34,7 @@ from gymnasium import spaces
 
 from .._registration import CENTRAL_ID, SINGLE_ID, register_gymnasium
 from ..env.tin_swarm import TinSwarmEnv
+from ..env.checks import ENV_ARGS, check_env_kwargs, check_seed, float_array
 from ..errors import ArgumentError
 from ..world.state import Reason
 
@@ -66,6 +67,7 @@ class _SwarmView(gymnasium.Env):
     metadata = _METADATA
 
     def __init__(self, render_mode: str | None, env_kwargs: dict):
+        check_env_kwargs(env_kwargs, f"{type(self).__name__}", tuple(a for a in ENV_ARGS if a != "render_mode"))
         self.parallel_env = TinSwarmEnv(render_mode=render_mode, **env_kwargs)
         self.metadata = copy.deepcopy(type(self).metadata)  # this instance's own (wrappers may write to it)
         self.render_mode = render_mode
@@ -76,7 +78,7 @@ class _SwarmView(gymnasium.Env):
 
     def _reset_swarm(self, seed, options) -> int:
         """Seed ``np_random`` the Gymnasium way and reset the parallel env; returns its seed."""
-        super().reset(seed=seed)
+        super().reset(seed=check_seed(seed))
         swarm_seed = int(seed) if seed is not None else int(self.np_random.integers(2**63 - 1))
         self._obs = self.parallel_env.reset_arrays(seed=swarm_seed, options=options)
         self._live[:] = True
@@ -174,9 +176,7 @@ class TinSwarmSingleEnv(_SwarmView):
     def step(self, action):
         if self._obs is None or not self._live[0]:
             raise RuntimeError("call reset() before step() (robot 0's episode is over or not started)")
-        a = np.asarray(action, dtype=np.float64)
-        if a.shape != (2,):
-            raise ArgumentError(f"action must have shape (2,), got {a.shape}")
+        a = float_array(action, "step(action)", (2,), finite=False)  # NaN: named as robot_0 by step_arrays
         actions = self._others_actions()
         actions[0] = a
         obs, rewards, terminated, truncated, labels = self._step_swarm(actions)
@@ -240,9 +240,7 @@ class TinSwarmCentralEnv(_SwarmView):
     def step(self, action):
         if self._obs is None or not self._live.any():
             raise RuntimeError("call reset() before step() (every robot's episode is over or not started)")
-        a = np.asarray(action, dtype=np.float64)
-        if a.shape != (self.n, 2):
-            raise ArgumentError(f"action must have shape ({self.n}, 2), got {a.shape}")
+        a = float_array(action, "step(action)", (self.n, 2), finite=False)
         live_before = self._live.copy()
         a = np.where(live_before[:, None], a, 0.0)  # done robots' actions are ignored, even NaN
         obs, rewards, terminated, truncated, labels = self._step_swarm(a)

@@ -19,7 +19,7 @@ whole ``Dict`` observation space and fails with a cryptic Dict-encoder error.
 
 from __future__ import annotations
 
-from ..errors import require
+from ..errors import ArgumentError, require
 
 __all__ = ["RLlibTinSwarmEnv", "rllib_env_creator", "ppo_config",  # noqa: F822 (lazy, see __getattr__)
            "ENV_NAME", "SHARED_POLICY", "NODE_METRIC"]
@@ -49,6 +49,12 @@ def _cls():
 
         def __init__(self, config=None):
             MultiAgentEnv.__init__(self)
+            from ..env.checks import check_env_kwargs
+
+            if config is not None and not isinstance(config, dict):
+                raise ArgumentError(f"RLlib env config must be a dict of parallel_env's arguments, got "
+                                    f"{type(config).__name__}")
+            check_env_kwargs(dict(config or {}), "RLlib env config")
             self.par_env = parallel_env(**dict(config or {}))
             self.possible_agents = list(self.par_env.possible_agents)
             self.agents = list(self.possible_agents)

@@ -38,7 +38,7 @@ import numpy as np
 from ..errors import ArgumentError, require
 from ..world.state import Reason
 
-__all__ = ["TinSwarmVecEnv", "make_sb3_vec_env", "export_sb3_policy"]  # noqa: F822 (lazy, see __getattr__)
+__all__ = ["TinSwarmVecEnv", "make_sb3_vec_env", "export_sb3_policy", "mirror_policy_class"]  # noqa: F822 (lazy)
 
 
 def _vecenv_base():
@@ -77,8 +77,15 @@ def _vec_class():
             from ..policies.base import SafetyShield
             from ..policies.learned import SHIELDS
 
-            if n_envs < 1:
-                raise ArgumentError(f"n_envs must be >= 1, got {n_envs}")
+            from ..env.checks import ENV_ARGS, check_env_kwargs, check_seed
+            from ..errors import check_range
+
+            check_range("make_sb3_vec_env", "n_envs", n_envs, 1, integer=True, exc=ArgumentError)
+            check_seed(seed, "make_sb3_vec_env")
+            check_env_kwargs(env_kwargs, "make_sb3_vec_env", tuple(a for a in ENV_ARGS if a not in ("scenario",
+                                                                                                  "n_robots")))
+            if isinstance(scenario, (list, tuple)) and not scenario:
+                raise ArgumentError("make_sb3_vec_env: scenario is an empty list; give a name, a path or a list of them")
             mix = [scenario] if isinstance(scenario, str) or not hasattr(scenario, "__len__") else list(scenario)
             self.envs = [parallel_env(scenario=mix[c % len(mix)], n_robots=n_robots, **env_kwargs)
                          for c in range(n_envs)]
@@ -120,7 +127,10 @@ def _vec_class():
             return obs.copy()
 
         def step_async(self, actions):
-            self._actions = np.asarray(actions, dtype=np.float32).reshape(self.num_envs, -1)
+            from ..env.checks import float_array
+
+            self._actions = float_array(np.reshape(actions, (self.num_envs, -1)) if np.size(actions) == 2 * self.num_envs
+                                        else actions, "step_async(actions)", (self.num_envs, 2), finite=False)
 
         def step_wait(self):
             n = self.n_robots
@@ -190,19 +200,50 @@ _TORCH_ACTIVATIONS = {"Tanh": "tanh", "ReLU": "relu", "ELU": "elu", "LeakyReLU":
 
 
 def export_sb3_policy(model, path, env_or_layout, scenario: str | None = None, extra: dict | None = None,
-                      shield: str = "none"):
+                      shield: str = "none", symmetry: str = "none"):
     """Write the actor of an SB3 PPO/A2C ``MlpPolicy`` as a pickle-free policy directory
     (:func:`tin_swarm_env.policies.save_policy`): the Linear layers of
     ``policy.mlp_extractor.policy_net`` and ``policy.action_net``, the activation from
     ``policy_kwargs["activation_fn"]`` (default Tanh), the deterministic action (the Gaussian's
-    mean, clipped to [-1, 1]). ``env_or_layout``: the env (or this module's VecEnv) it was trained on
+    mean, clipped to [-1, 1]). A recurrent actor (sb3-contrib's RecurrentPPO ``MlpLstmPolicy``,
+    one LSTM layer) is written as a recurrent policy file
+    (:mod:`tin_swarm_env.policies.recurrent`): ``policy.lstm_actor``'s weights, then the same
+    head. ``env_or_layout``: the env (or this module's VecEnv) it was trained on
     (its layout and scenario name are recorded) or an ``ObsLayout``; ``shield`` is written into the
-    file (``"safety_cut"``: the actor was trained to act through it). Returns the path."""
+    file (``"safety_cut"``: the actor was trained to act through it), and ``symmetry``
+    (``"mirror"``: the file acts as the mirror-averaged network). Returns the path."""
     require("torch", "train", "Exporting an SB3 policy")
     from ..policies.learned import save_policy
 
     pol = model.policy
     where = f"model {type(model).__name__}.policy"
+    layers, activation = _actor_head(pol, where)
+    if hasattr(pol, "mirror_mean_value"):  # trained equivariant: the file must average the same way
+        if symmetry != "none" and symmetry != "mirror":
+            raise ArgumentError(f"{where} is mirror-equivariant; it exports with symmetry 'mirror', not {symmetry!r}")
+        symmetry = "mirror"
+    cell = _lstm_cell(pol.lstm_actor, where) if hasattr(pol, "lstm_actor") else None
+    src = env_or_layout.envs[0] if hasattr(env_or_layout, "envs") else env_or_layout  # our VecEnv: a copy
+    layout = getattr(src, "layout", src)
+    if scenario is None:
+        cfg = getattr(src, "config", None)
+        scenario = getattr(cfg, "name", "") if cfg is not None else ""
+    meta = {"algorithm": type(model).__name__, "num_timesteps": int(getattr(model, "num_timesteps", 0))}
+    try:
+        import stable_baselines3
+        import torch
+
+        meta.update(stable_baselines3=stable_baselines3.__version__, torch=torch.__version__)
+    except ImportError:  # pragma: no cover
+        pass
+    meta.update(extra or {})
+    return save_policy(path, layers, activation, layout=layout, scenario=scenario, extra=meta, shield=shield,
+                       symmetry=symmetry, cell=cell)
+
+
+def _actor_head(pol, where: str):
+    """``([(W, b), ...], activation)`` of an SB3 actor: ``mlp_extractor.policy_net`` then
+    ``action_net``; refuses anything the policy file cannot express, naming the part."""
     for attr in ("mlp_extractor", "action_net"):
         if not hasattr(pol, attr):
             raise ArgumentError(f"{where} has no {attr}: only SB3 MlpPolicy actors (PPO, A2C) can be exported")
@@ -224,22 +265,99 @@ def export_sb3_policy(model, path, env_or_layout, scenario: str | None = None, e
     if len(acts) > 1:
         raise ArgumentError(f"{where}: mixed activations {sorted(acts)} are not exportable")
     act_fn = pol.activation_fn.__name__ if hasattr(pol, "activation_fn") else "Tanh"
-    activation = acts.pop() if acts else _TORCH_ACTIVATIONS.get(act_fn, "tanh")
-    src = env_or_layout.envs[0] if hasattr(env_or_layout, "envs") else env_or_layout  # our VecEnv: a copy
-    layout = getattr(src, "layout", src)
-    if scenario is None:
-        cfg = getattr(src, "config", None)
-        scenario = getattr(cfg, "name", "") if cfg is not None else ""
-    meta = {"algorithm": type(model).__name__, "num_timesteps": int(getattr(model, "num_timesteps", 0))}
-    try:
-        import stable_baselines3
-        import torch
+    return layers, (acts.pop() if acts else _TORCH_ACTIVATIONS.get(act_fn, "tanh"))
 
-        meta.update(stable_baselines3=stable_baselines3.__version__, torch=torch.__version__)
-    except ImportError:  # pragma: no cover
-        pass
-    meta.update(extra or {})
-    return save_policy(path, layers, activation, layout=layout, scenario=scenario, extra=meta, shield=shield)
+
+def _lstm_cell(lstm, where: str):
+    """``("lstm", {cell_W_ih, cell_W_hh, cell_b_ih, cell_b_hh})`` of a one-layer torch ``nn.LSTM``."""
+    if (type(lstm).__name__ != "LSTM" or lstm.num_layers != 1 or lstm.bidirectional
+            or getattr(lstm, "proj_size", 0)):
+        raise ArgumentError(f"{where}.lstm_actor: only a one-layer, one-directional LSTM without projection is "
+                            f"exportable (got {lstm})")
+
+    def get(name):
+        t = getattr(lstm, name, None)
+        return t.detach().cpu().double().numpy() if t is not None else np.zeros(4 * lstm.hidden_size)
+
+    return "lstm", {"cell_W_ih": get("weight_ih_l0"), "cell_W_hh": get("weight_hh_l0"),
+                    "cell_b_ih": get("bias_ih_l0"), "cell_b_hh": get("bias_hh_l0")}
+
+
+_MIRROR = None
+
+
+def mirror_policy_class():
+    """``MirrorActorCriticPolicy``: SB3's ``ActorCriticPolicy`` (MlpPolicy) made mirror-equivariant
+    by construction, for PPO/A2C with ``policy_kwargs={"mirror_signs": layout.mirror_signs().tolist()}``
+    (``apps/train.py --symmetry mirror``). Every evaluation runs the networks on the observations
+    and their mirror images in one batch: the Gaussian's mean is ``(g(o) + M g(M o)) / 2`` (``g``
+    the actor network, ``M`` :func:`~tin_swarm_env.env.observation.mirror_action` on the output)
+    and the value ``(v(o) + v(M o)) / 2``; the state-independent std is the same for both sides
+    (a sign flip does not change a variance), so ``pi(M a | M o) = pi(a | o)`` for every sample
+    PPO draws, and its deterministic action, clipped, is what a policy file with
+    ``"symmetry": "mirror"`` and the same weights computes (:func:`export_sb3_policy` writes it so)."""
+    global _MIRROR
+    if _MIRROR is not None:
+        return _MIRROR
+    policies = require("stable_baselines3", "train", "The mirror-equivariant SB3 policy").common.policies
+    import torch as th
+
+    from ..env.observation import ACTION_PARITY
+
+    class MirrorActorCriticPolicy(policies.ActorCriticPolicy):
+        def __init__(self, *args, mirror_signs=None, **kwargs):
+            super().__init__(*args, **kwargs)
+            d = int(np.prod(self.observation_space.shape))
+            if mirror_signs is None or len(mirror_signs) != d:
+                raise ArgumentError(f"MirrorActorCriticPolicy needs mirror_signs of length {d} "
+                                    "(ObsLayout.mirror_signs()), got "
+                                    f"{None if mirror_signs is None else len(mirror_signs)}")
+            if type(self.action_dist).__name__ != "DiagGaussianDistribution":
+                raise ArgumentError("MirrorActorCriticPolicy: only a diagonal Gaussian actor (no gSDE)")
+            self.mirror_signs = [float(x) for x in mirror_signs]
+            self.register_buffer("_signs", th.as_tensor(self.mirror_signs, dtype=th.float32))
+            self.register_buffer("_parity", th.as_tensor(ACTION_PARITY, dtype=th.float32))
+
+        def _get_constructor_parameters(self):
+            return {**super()._get_constructor_parameters(), "mirror_signs": self.mirror_signs}
+
+        def mirror_mean_value(self, obs):
+            """``(mean (n, 2), value (n, 1))``, both averaged with the mirror image."""
+            obs = obs.float()
+            n = obs.shape[0]
+            features = self.extract_features(th.cat([obs, obs * self._signs]))
+            if self.share_features_extractor:
+                latent_pi, latent_vf = self.mlp_extractor(features)
+            else:
+                latent_pi = self.mlp_extractor.forward_actor(features[0])
+                latent_vf = self.mlp_extractor.forward_critic(features[1])
+            mean, value = self.action_net(latent_pi), self.value_net(latent_vf)
+            return (mean[:n] + mean[n:] * self._parity) / 2, (value[:n] + value[n:]) / 2
+
+        def _dist(self, mean):
+            return self.action_dist.proba_distribution(mean, self.log_std)
+
+        def forward(self, obs, deterministic=False):
+            mean, values = self.mirror_mean_value(obs)
+            dist = self._dist(mean)
+            actions = dist.get_actions(deterministic=deterministic)
+            log_prob = dist.log_prob(actions)
+            return actions.reshape((-1, *self.action_space.shape)), values, log_prob
+
+        def evaluate_actions(self, obs, actions):
+            mean, values = self.mirror_mean_value(obs)
+            dist = self._dist(mean)
+            return values, dist.log_prob(actions), dist.entropy()
+
+        def get_distribution(self, obs):
+            return self._dist(self.mirror_mean_value(obs)[0])
+
+        def predict_values(self, obs):
+            return self.mirror_mean_value(obs)[1]
+
+    MirrorActorCriticPolicy.__qualname__ = "MirrorActorCriticPolicy"
+    _MIRROR = MirrorActorCriticPolicy
+    return MirrorActorCriticPolicy
 
 
 def __getattr__(name):

@@ -30,6 +30,7 @@ import argparse
 import os
 import sys
 import time
+from pathlib import Path
 
 from .._atomic import check_outputs
 from ..errors import ArgumentError, TinSwarmError
@@ -142,6 +143,13 @@ def _cmd_run(args) -> int:
         raise ArgumentError(f"--mp4 {args.mp4}: the file name must end in .mp4")
     check_outputs({"--summary": args.summary, "--gif": args.gif, "--mp4": args.mp4},
                   inputs=(*_scenario_inputs(args.scenario), args.policy))
+    if args.gif or args.mp4:
+        from ..scenario.config import load_scenario
+        from .media import check_animation
+
+        cfg = load_scenario(args.scenario)
+        check_animation(args.robots or cfg.robots.count, args.max_cycles or cfg.max_cycles, args.frame_every,
+                        "--gif" if args.gif else "--mp4")
     with ExitStack() as stack:  # frames go to disk as they are drawn; .part files removed on any error
         writers = [stack.enter_context(FrameWriter(p)) for p in (args.gif, args.mp4) if p]
         every = args.frame_every if writers else 0
@@ -172,7 +180,14 @@ def _cmd_train(args) -> int:
     from .args import dataclass_from_namespace
     from .train import Args, train
 
-    train(dataclass_from_namespace(Args, args, total_timesteps=args.timesteps))
+    a = dataclass_from_namespace(Args, args)
+    if a.resume:
+        from .checkpoint import read_args
+
+        saved = read_args(Path(a.resume)).get("scenario")
+        if saved != a.scenario:
+            raise ArgumentError(f"--resume {a.resume}: that run trained on {saved!r}, not {a.scenario!r}")
+    train(a)
     return 0
 
 
@@ -282,7 +297,7 @@ class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
 
 
 def _add_run(sub) -> None:
-    from ..env.tin_swarm import RENDER_WIDTH_PX
+    from ..env.tin_swarm import DEFAULT_RENDER_WIDTH_PX, RENDER_WIDTH_PX
 
     r = sub.add_parser("run", help="run a swarm on a scenario and report each episode", formatter_class=_Formatter,
                        description="Run a policy on a scenario; a table per episode, optionally a GIF/MP4.")
@@ -298,7 +313,7 @@ def _add_run(sub) -> None:
     r.add_argument("--gif", default=None, help="write the first episode as a GIF (or its last frame as .png)")
     r.add_argument("--mp4", default=None, help="write the first episode as an MP4 video (the [video] extra)")
     r.add_argument("--frame-every", type=_POS, default=5, help="steps between GIF/MP4 frames")
-    r.add_argument("--render-width", type=_int_in(*RENDER_WIDTH_PX), default=640,
+    r.add_argument("--render-width", type=_int_in(*RENDER_WIDTH_PX), default=DEFAULT_RENDER_WIDTH_PX,
                    help="width of GIF/MP4 frames in pixels")
     r.add_argument("--max-cycles", type=_POS, default=None, help="steps per episode (default: the scenario's)")
     r.add_argument("--summary", default=None, help="also write the table to this Markdown file")
@@ -329,13 +344,12 @@ def _add_explore_and_scenarios(sub) -> None:
 
 def _add_train_eval_build(sub) -> None:
     from .args import add_dataclass_args
+    from .evaluate import EVAL_SEED0
     from .train import Args as TrainArgs
 
     t = sub.add_parser("train", help="train PPO (apps/train.py, = agents/train_sb3.py; needs the [train] extra)",
                        formatter_class=_Formatter)
-    t.add_argument("scenario", help="built-in scenario name or a .toml path")
-    t.add_argument("--timesteps", type=int, default=200_000, help="total environment steps (all robots)")
-    add_dataclass_args(t, TrainArgs, skip=("scenario", "total_timesteps"))
+    add_dataclass_args(t, TrainArgs, positional=("scenario",), rename={"total_timesteps": "timesteps"})
     t.set_defaults(func=_cmd_train)
     e = sub.add_parser("eval", help="random, APF and saved policies on the same scenarios and seeds",
                        formatter_class=_Formatter)
@@ -348,8 +362,9 @@ def _add_train_eval_build(sub) -> None:
                    help="allow SB3 .zip models: they are pickles and loading one runs any code it holds")
     e.add_argument("--policies", default="random,apf,geodesic",
                    help="built-in policies to evaluate as well (random, apf, geodesic: the map-knowing reference)")
-    e.add_argument("--seed-offset", type=_NONNEG, default=1_000_000,
-                   help="evaluation seeds are SEED_OFFSET .. SEED_OFFSET + SEEDS - 1 (training uses seeds below 10**6)")
+    e.add_argument("--seed-offset", type=_NONNEG, default=EVAL_SEED0,
+                   help=f"evaluation seeds are SEED_OFFSET .. SEED_OFFSET + SEEDS - 1 (training uses seeds below "
+                        f"{EVAL_SEED0})")
     e.add_argument("--out", default=None, help="writes OUT.md, OUT.csv and OUT.png (default: runs/eval_<scenarios>)")
     e.set_defaults(func=_cmd_eval)
     b = sub.add_parser("build-tin", help="reduce a DEM to a TIN and write it (.tin or .npz)",

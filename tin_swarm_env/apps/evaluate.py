@@ -15,7 +15,7 @@ robots; steps to arrive over the robots that arrived; robots of one episode are 
 so the interval is somewhat narrow).
 
 **Seed split.** Evaluation seeds are ``seed_offset .. seed_offset + seeds - 1``, with
-``seed_offset`` at least :data:`EVAL_SEED0` (10**6) by default; training (``apps/train.py``) uses
+``seed_offset`` at least :data:`EVAL_SEED0` by default; training (``apps/train.py``) uses
 seeds below it. On ``"generated"`` (a new terrain drawn from each reset seed) the evaluation
 terrains are therefore never seen in training. Every option is checked before the first episode
 (:func:`check_args`). Writes ``out``.md and .csv and a bar plot ``out``.png (default ``out``:

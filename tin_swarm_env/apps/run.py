@@ -13,6 +13,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..env import parallel_env
+from ..env.tin_swarm import DEFAULT_RENDER_WIDTH_PX
 from ..world.state import Reason
 from .policy_factory import make_policy
 from .rollout import Outcome, rollout
@@ -71,7 +72,8 @@ def _on_step(bar):
 
 
 def run_episodes(scenario, policy="apf", robots=None, episodes=1, seed=0, fields=None, frames_every=0,
-                 max_cycles=None, progress=True, render_width=640, on_frame=None, trust_pickle=False):
+                 max_cycles=None, progress=True, render_width=DEFAULT_RENDER_WIDTH_PX, on_frame=None,
+                 trust_pickle=False):
     """Run ``episodes`` episodes (seeds ``seed``, ``seed+1``...). Returns ``(stats list, frames)``;
     frames (the first episode's, every ``frames_every`` steps) only when ``frames_every > 0``;
     with ``on_frame`` each frame goes to ``on_frame(frame)`` as it is drawn instead (the list is

@@ -25,6 +25,14 @@ breaks               8 K_b  per slot: valid, closest point x / R, y / R, unit no
 assets               4 K_a  valid, x / R, y / R, d / R of the K_a nearest visible assets
 ===================  =====  ==================================================================
 
+**Mirror symmetry.** Reflecting the world across a vertical plane (``y -> -y`` in the world,
+headings ``theta -> -theta``) reflects every robot's body frame across its x axis: each
+observation maps to the observation of the mirrored world by negating the elements that are
+body-frame y components or signed turns, and keeping the rest (:data:`OWN_PARITY`,
+:data:`SLOT_PARITY`: the sign of every field, so a new field must declare its own). The action
+maps by :data:`ACTION_PARITY` (``vy`` negated). :meth:`ObsLayout.mirror` and :func:`mirror_action`
+apply them; both are involutions.
+
 ``K_a`` (the assets part, last so the other offsets never move): the scenario's
 ``[observation] k_assets`` when given, else :data:`DEFAULT_K_ASSETS` when the scenario has assets
 and 0 when it has none, so a scenario without assets keeps the default size 59.
@@ -35,24 +43,35 @@ constant). Empty slots are all zero. Robots no longer in ``agents`` get an all-z
 
 from __future__ import annotations
 
+import functools
 from collections import namedtuple
 from dataclasses import dataclass, fields
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from ..errors import ObservationLayoutError
 from ..scenario.config import ObservationSpec
 from ..terrain import ANGLE
 from ..world.fields import HEIGHT_SCALE_M as DZ_SCALE_M
 
-__all__ = ["ObsLayout", "build_observations", "OWN_FIELDS", "SLOT_FIELDS", "DZ_SCALE_M", "DEFAULT_K_ASSETS"]
+__all__ = ["ObsLayout", "build_observations", "OWN_FIELDS", "SLOT_FIELDS", "DZ_SCALE_M", "DEFAULT_K_ASSETS",
+           "OWN_PARITY", "SLOT_PARITY", "ACTION_PARITY", "mirror_action"]
 
 OWN_FIELDS = (("battery", 1), ("speed", 1), ("tilt", 1), ("slope", 1), ("uphill", 2), ("target_valid", 1),
               ("target_dir", 2), ("target_dist", 1), ("target_dz", 1))
 SLOT_FIELDS = {"robots": ("valid", "x", "y", "d"), "targets": ("valid", "x", "y", "d"),
                "breaks": ("valid", "x", "y", "nx", "ny", "drop", "d", "danger"), "assets": ("valid", "x", "y", "d")}
 PARTS = tuple(SLOT_FIELDS)
+# The mirror image (module docstring): +1 for a field the reflection keeps, -1 for one it negates
+# (a body-frame y component or a signed angle about the vertical); one sign per element.
+OWN_PARITY = {"battery": (1,), "speed": (1,), "tilt": (-1,), "slope": (1,), "uphill": (1, -1),
+              "target_valid": (1,), "target_dir": (1, -1), "target_dist": (1,), "target_dz": (1,)}
+SLOT_PARITY = {"valid": 1, "x": 1, "y": -1, "d": 1, "nx": 1, "ny": -1, "drop": 1, "danger": 1}
+ACTION_PARITY = (1.0, -1.0)  # body-frame (vx, vy): the mirrored robot drives to the other side
+if {n: len(p) for n, p in OWN_PARITY.items()} != dict(OWN_FIELDS) or not all(
+        f in SLOT_PARITY for fs in SLOT_FIELDS.values() for f in fs):  # pragma: no cover (a new field)
+    raise ImportError("observation.py: every own and slot field needs its mirror sign in OWN_PARITY / SLOT_PARITY")
 _COUNT = {"robots": "k_robots", "targets": "k_targets", "breaks": "k_breaks", "assets": "k_assets"}
 DEFAULT_K_ASSETS = 2  # asset slots of a scenario that has assets and does not set k_assets
 
@@ -200,6 +219,20 @@ class ObsLayout:
             out += [f"{part}[{i}].{f}" for i in range(self.count(part)) for f in SLOT_FIELDS[part]]
         return out
 
+    # -- mirror symmetry -------------------------------------------------------------------------
+    def mirror_signs(self) -> np.ndarray:
+        """``(size,)`` float32 of +-1: the sign the reflection gives each element, from
+        :data:`OWN_PARITY` and :data:`SLOT_PARITY` over this layout's named slices."""
+        return _mirror_signs(self)
+
+    def mirror(self, obs) -> np.ndarray:
+        """The observation of the mirrored world (module docstring): ``obs (..., size)`` with its
+        y components and signed turns negated. Exact (a sign flip), and ``mirror(mirror(o)) == o``."""
+        obs = np.asarray(obs)
+        if obs.shape[-1:] != (self.size,):
+            raise ObservationLayoutError(f"mirror: observations must end in size {self.size}, got shape {obs.shape}")
+        return obs * self.mirror_signs().astype(obs.dtype if np.issubdtype(obs.dtype, np.floating) else np.float64)
+
     # -- saving ------------------------------------------------------------------------------
     def to_dict(self) -> dict:
         """JSON-able description (counts, field names, scale constants, size): a saved policy
@@ -241,6 +274,27 @@ class ObsLayout:
 
         return (own, slot(PointSlot, "robots"), slot(PointSlot, "targets"), slot(BreakSlot, "breaks"),
                 slot(PointSlot, "assets"))
+
+
+@functools.lru_cache(maxsize=64)
+def _mirror_signs(layout: ObsLayout) -> np.ndarray:
+    signs = np.ones(layout.size, dtype=np.float32)
+    for name, sl in layout.own.items():
+        signs[sl] = OWN_PARITY[name]
+    for part in PARTS:
+        k, w = layout.count(part), len(SLOT_FIELDS[part])
+        per_slot = np.array([SLOT_PARITY[f] for f in SLOT_FIELDS[part]], dtype=np.float32)
+        signs[layout.part_slice(part)] = np.tile(per_slot, k) if k * w else per_slot[:0]
+    signs.setflags(write=False)
+    return signs
+
+
+def mirror_action(action) -> np.ndarray:
+    """The mirrored body-frame action ``(..., 2)``: ``vy`` negated (:data:`ACTION_PARITY`); exact."""
+    a = np.asarray(action)
+    if a.shape[-1:] != (len(ACTION_PARITY),):
+        raise ObservationLayoutError(f"mirror_action: actions must end in size {len(ACTION_PARITY)}, got {a.shape}")
+    return a * np.asarray(ACTION_PARITY, dtype=a.dtype if np.issubdtype(a.dtype, np.floating) else np.float64)
 
 
 def _jsonish(v):
@@ -319,24 +373,29 @@ def _own(obs, i, o, c, s, own_n, grad, target_idx, tpos, tz, pos, heights, R, dz
         obs[i, o.target_dz] = dz / (abs(dz) + dz_scale)
 
 
-@njit(cache=True)
-def _fill(obs, offsets, pos, head, heights, own_n, grad, live, target_idx, tpos, tz, robots, targets, breaks,
+@njit(cache=True, parallel=True)
+def _fill(obs, o, o_rob, o_tgt, o_brk, o_ast, pos, head, heights, own_n, grad, live, target_idx, tpos, tz, robots,
+          targets, breaks,
           apos, assets, R, dz_scale):
-    """Write every live robot's row of ``obs``; ``offsets`` from :meth:`ObsLayout.kernel_offsets`;
+    """Write every live robot's row of ``obs``; ``o, o_rob, o_tgt, o_brk, o_ast`` the offsets of
+    :meth:`ObsLayout.kernel_offsets` (passed one by one: numba's parallel loop takes namedtuples
+    as arguments, not unpacked inside);
     ``robots``/``targets``/``assets`` ``(idx, dist)`` and ``breaks`` ``(idx, dist, closest,
     normals, drops, danger)`` from the sensor readings and the break set; ``apos (k, 2)``."""
-    o, o_rob, o_tgt, o_brk, o_ast = offsets
-    for i in range(pos.shape[0]):
+    ri, rd = robots  # (numba's parallel loops take arrays, not tuples of them)
+    ti, td = targets
+    bi, bd, bc, bn, bdrop, bdanger = breaks
+    ai, ad = assets
+    for i in prange(pos.shape[0]):  # one row per iteration: bit-identical for any thread count
         if not live[i]:
             continue
         c = np.cos(head[i])
         s = np.sin(head[i])
         _own(obs, i, o, c, s, own_n, grad, target_idx, tpos, tz, pos, heights, R, dz_scale)
-        _point_slots(obs, i, o_rob, robots[0], robots[1], pos, pos, c, s, R)
-        _point_slots(obs, i, o_tgt, targets[0], targets[1], tpos, pos, c, s, R)
-        _break_slots(obs, i, o_brk, breaks[0], breaks[1], breaks[2], breaks[3], breaks[4], breaks[5], pos, c, s,
-                     R, dz_scale)
-        _point_slots(obs, i, o_ast, assets[0], assets[1], apos, pos, c, s, R)
+        _point_slots(obs, i, o_rob, ri, rd, pos, pos, c, s, R)
+        _point_slots(obs, i, o_tgt, ti, td, tpos, pos, c, s, R)
+        _break_slots(obs, i, o_brk, bi, bd, bc, bn, bdrop, bdanger, pos, c, s, R, dz_scale)
+        _point_slots(obs, i, o_ast, ai, ad, apos, pos, c, s, R)
         for m in range(obs.shape[1]):
             obs[i, m] = min(max(obs[i, m], -1.0), 1.0)
 
@@ -359,7 +418,7 @@ def build_observations(world, state, readings, target_idx, live, layout: ObsLayo
     breaks = (bi, bd, np.ascontiguousarray(bc, dtype=np.float64), br.normals.reshape(-1, 2),
               br.drops_m.reshape(-1), (br.kinds != ANGLE).astype(np.float64))
     obs = np.zeros((n, layout.size), dtype=np.float32)
-    _fill(obs, layout.kernel_offsets(), state.positions, state.headings, state.heights, own_n,
+    _fill(obs, *layout.kernel_offsets(), state.positions, state.headings, state.heights, own_n,
           world.tin.planes[state.tri_idx, :2], live, target_idx, tg.positions.reshape(-1, 2), tz, (ri, rd),
           (ti, td), breaks, state.assets.positions.reshape(-1, 2), (ai, ad), float(P.sensor.range_m), DZ_SCALE_M)
     return obs

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import EzPickle
@@ -20,13 +22,17 @@ from ..scenario import (
 )
 from ..scenario.config import MAX_ROBOTS
 from ..world import Reason, World
+from .checks import actions_from_dict, check_options, check_scenario_arg, check_seed, float_array
 from .observation import ObsLayout, build_observations
 from .reward import compute_rewards, distance_to_go
 
-__all__ = ["TinSwarmEnv", "parallel_env", "raw_env", "env"]
+__all__ = ["TinSwarmEnv", "parallel_env", "raw_env", "env", "RENDER_WIDTH_PX", "DEFAULT_RENDER_WIDTH_PX"]
 
 
 RENDER_WIDTH_PX = (64, 4096)  # the frame widths render() draws
+DEFAULT_RENDER_WIDTH_PX = 640  # render_width when none is given (the CLI's --render-width too)
+
+_REASON_LABEL = {int(r): r.label for r in Reason}  # Reason code -> infos[agent]["reason"]
 
 
 def _check_args(n_robots, max_cycles, render_width) -> None:
@@ -50,33 +56,10 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     **Agents**: ``robot_0 … robot_{n-1}``; a robot leaves ``agents`` the step after it is
     reported terminated or truncated.
 
-    **Observation** (identical ``Box(-1, 1, (d,), float32)`` for every robot; egocentric, body
-    frame x forward / y left, distances over the sensor range ``R``); named slices in
-    ``env.layout`` (:class:`~tin_swarm_env.env.observation.ObsLayout`):
-
-    ==================  =====  =================================================================
-    slice               size   contents
-    ==================  =====  =================================================================
-    own.battery         1      charge / capacity
-    own.speed           1      last step's speed / max speed
-    own.tilt            1      sensor tilt asin(sin(slope) sin(heading - aspect)) / 90 deg
-    own.slope           1      slope underfoot / 90 deg
-    own.uphill          2      unit vector toward uphill (0 on flat ground)
-    own.target_valid    1      1 when the task assigns a target
-    own.target_dir      2      unit vector toward the assigned target
-    own.target_dist     1      d / (d + R)
-    own.target_dz       1      dz / (|dz| + 10 m), the target's height above the robot
-    robots              4·K_r  valid, x/R, y/R, d/R of the K_r nearest visible robots
-    targets             4·K_t  the same for the nearest visible threats/targets
-    breaks              8·K_b  valid, closest point x/R, y/R, normal to safety (x, y),
-                               drop / (|drop| + 10 m), d/R, danger (cliff edge or border: 1;
-                               a bend between traversable planes: 0) of the nearest breaks
-    assets              4·K_a  valid, x/R, y/R, d/R of the K_a nearest visible assets
-    ==================  =====  =================================================================
-
-    Defaults K_r = 4, K_t = 2, K_b = 3, and K_a = 2 when the scenario has assets, else 0 (so
-    d = 59 without assets; ``[observation] k_assets`` sets it). Empty slots and robots no longer
-    in ``agents`` read all zeros.
+    **Observation**: an identical ``Box(-1, 1, (d,), float32)`` for every robot, egocentric (body
+    frame x forward / y left, distances over the sensor range), read through the named slices of
+    ``env.layout`` (an :class:`~tin_swarm_env.env.observation.ObsLayout`); the module docstring of
+    :mod:`tin_swarm_env.env.observation` is its table. Robots no longer in ``agents`` read all zeros.
 
     **Assets** (``[assets]``: positions, or a count drawn by the reset seed like targets): what
     the swarm protects. Robots sense them like threats (range, field of view, line of sight) in
@@ -90,18 +73,12 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     ValueError naming the agent, and so does an unknown agent key; a live agent missing from
     the action dict gets the zero action (it stands still).
 
-    **Rewards** (per robot; weights in the scenario's ``[rewards]``; defaults in brackets):
-    goal task: ``progress_per_m`` [1] per metre gained toward the assigned target,
-    ``arrival`` [10] on reaching it; containment: ``progress_per_m`` per metre gained toward
-    the standoff ring around the assigned threat and ``on_ring_per_step`` [0.1] while on it;
-    both: ``fall`` [-100], ``battery_empty`` [-5], ``collision`` [-1] per robot touched,
-    ``energy_per_kj`` [-1] per kJ drawn. Metres are measured along the shortest drivable path
-    (``progress`` ["geodesic"]: the target's cost-to-go field over triangles no steeper than
-    ``max_slope_deg``, so a detour around a cliff pays) or the straight line (``"euclidean"``);
-    mobile targets always use the straight line (see :mod:`~tin_swarm_env.env.reward`). A step
-    from or to a point with no drivable path (``inf``) gains 0. ``infos[agent]["distance_to_go_m"]``
-    is that distance (geodesic or straight, as the reward uses it) for every live agent at
-    reset and after every step; :meth:`distance_to_go` gives it for all robots as an array.
+    **Rewards**: per robot, weighted by the scenario's ``[rewards]``
+    (:class:`~tin_swarm_env.scenario.RewardWeights`); what each term pays for, and how progress is
+    measured (along the shortest drivable path by default), is the module docstring of
+    :mod:`tin_swarm_env.env.reward`. ``infos[agent]["distance_to_go_m"]`` is the distance the reward
+    uses, for every live agent at reset and after every step; :meth:`distance_to_go` gives it for all
+    robots as an array.
 
     **Solvability**: a target that cannot be reached from any point of the spawn region is a
     ScenarioError at construction (naming the file and the target); robots are spawned only where
@@ -123,17 +100,15 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
 
     **Arguments**
 
-    ==============  ==========================================================================
-    scenario        built-in name (``tin_swarm_env.scenario.list_scenarios()``), a TOML path, or
-                    a :class:`~tin_swarm_env.scenario.ScenarioConfig` ["cliff_goal"]
-    n_robots        overrides the scenario's robot count
-    max_cycles      overrides the scenario's episode length
-    render_mode     None, "human" (matplotlib window) or "rgb_array" (HxWx3 uint8)
-    sensor_cones    draw each robot's field of view when rendering [False]
-    render_width    width of rendered frames in pixels [640]
-    render_decorations  a title strip (scenario, step, arrived/fell counts), a legend and a scale
-                    bar on rendered frames [True]; False for bare frames (training videos)
-    ==============  ==========================================================================
+    - ``scenario``: a built-in name (``tin_swarm_env.scenario.list_scenarios()``), a TOML path, or a
+      :class:`~tin_swarm_env.scenario.ScenarioConfig` ["cliff_goal"]
+    - ``n_robots``: overrides the scenario's robot count
+    - ``max_cycles``: overrides the scenario's episode length
+    - ``render_mode``: None, "human" (matplotlib window) or "rgb_array" (HxWx3 uint8)
+    - ``sensor_cones``: draw each robot's field of view when rendering [False]
+    - ``render_width``: width of rendered frames in pixels [``DEFAULT_RENDER_WIDTH_PX``]
+    - ``render_decorations``: a title strip (scenario, step, arrived/fell counts), a legend and a
+      scale bar on rendered frames [True]; False for bare frames (training videos)
 
     ``state()`` (for centralised critics): per robot x, y (scaled to the terrain's bounds), cos
     and sin of the heading, battery fraction and an active flag; per target x, y.
@@ -157,12 +132,13 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
 
     def __init__(self, scenario: str | ScenarioConfig = "cliff_goal", n_robots: int | None = None,
                  max_cycles: int | None = None, render_mode: str | None = None, sensor_cones: bool = False,
-                 render_width: int = 640, render_decorations: bool = True):
+                 render_width: int = DEFAULT_RENDER_WIDTH_PX, render_decorations: bool = True):
         EzPickle.__init__(self, scenario=scenario, n_robots=n_robots, max_cycles=max_cycles,
                           render_mode=render_mode, sensor_cones=sensor_cones, render_width=render_width,
                           render_decorations=render_decorations)
-        cfg = scenario if isinstance(scenario, ScenarioConfig) else load_scenario(scenario)
+        check_scenario_arg(scenario, ScenarioConfig)
         _check_args(n_robots, max_cycles, render_width)
+        cfg = scenario if isinstance(scenario, ScenarioConfig) else load_scenario(scenario)
         if n_robots is not None:
             cfg = cfg.replace(robots=type(cfg.robots)(count=int(n_robots), spawn_region=cfg.robots.spawn_region,
                                                       min_separation_m=cfg.robots.min_separation_m))
@@ -249,6 +225,22 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         return self._target_idx.copy()
 
     @property
+    def rng_state(self) -> dict | None:
+        """The state of the episode generator (``np.random.Generator.bit_generator.state``, plain
+        data; None before the first reset). Setting it makes the next ``reset(seed=None)`` continue
+        from there (training checkpoints save and restore it)."""
+        return None if self._np_random is None else self._np_random.bit_generator.state
+
+    @rng_state.setter
+    def rng_state(self, state: dict) -> None:
+        g = np.random.default_rng()
+        try:
+            g.bit_generator.state = state
+        except (TypeError, ValueError, KeyError) as exc:
+            raise ArgumentError(f"rng_state: not a generator state ({exc})") from None
+        self._np_random = g
+
+    @property
     def steps(self) -> int:
         """Steps taken in this episode."""
         return self._steps
@@ -271,17 +263,22 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         (metres; headings in radians counter-clockwise from east, only with robot_positions);
         otherwise robots spawn at random in the scenario's spawn region and targets stand where
         the scenario puts them. Robots are assigned targets ``i mod m`` either way."""
+        seed = check_seed(seed)
+        options = check_options(options, ("robot_positions", "headings", "target_positions"))
+        if "robot_positions" in options:
+            options["robot_positions"] = float_array(options["robot_positions"], "options['robot_positions']",
+                                                     (self.n, 2))
+        if "headings" in options:
+            options["headings"] = float_array(options["headings"], "options['headings']", (self.n,))
+        if "target_positions" in options:
+            tp = options["target_positions"]
+            if isinstance(tp, (list, tuple, np.ndarray)) and len(tp) == 2 and all(
+                    isinstance(v, numbers.Real) for v in tp):
+                tp = [tp]  # one [x, y] pair
+            options["target_positions"] = float_array(tp, "options['target_positions']", (-1, 2))
         if seed is not None or self._np_random is None:
             s = seed if seed is not None else self.config.seed
             self._np_random = np.random.default_rng(s)
-        options = dict(options or {})
-        known = ("robot_positions", "headings", "target_positions")
-        unknown = set(options) - set(known)
-        if unknown:  # Gymnasium convention: options an env does not know are ignored (with a warning)
-            import warnings
-
-            warnings.warn(f"ignoring unknown reset option(s) {sorted(unknown)}; known: {', '.join(known)}",
-                          stacklevel=3)
         if "headings" in options and "robot_positions" not in options:
             raise ArgumentError("options['headings'] needs options['robot_positions']")
         cfg = self.config
@@ -289,8 +286,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
             self._set_stage(build_stage(cfg, self._np_random))
         targets = self._stage.targets
         if "target_positions" in options:
-            targets, _ = self._world.check_placement(np.asarray(options["target_positions"], float).reshape(-1, 2),
-                                                     "target {i}")
+            targets, _ = self._world.check_placement(options["target_positions"], "target {i}")
         elif cfg.targets.count:  # drawn by this reset's generator, before the robots (they spawn where
             # theirs is reachable)
             targets = place_entities(self._world, cfg.targets, self._np_random, spawn_region=self._stage.spawn_region,
@@ -335,14 +331,13 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         already gone read zeros/False. Robots that end this step are not live on the next."""
         if self._wstate is None:
             raise RuntimeError("call reset() before step()")
-        a = np.asarray(actions, dtype=np.float64)
-        if a.shape != (self.n, 2):
-            raise ArgumentError(f"actions must have shape ({self.n}, 2), got {a.shape}")
+        a = float_array(actions, "step_arrays(actions)", (self.n, 2), finite=False)
         a = np.where(self._live[:, None], a, 0.0)
         bad = ~np.all(np.isfinite(a), axis=1)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            raise ArgumentError(f"action of {self.possible_agents[i]} is not finite: {a[i].tolist()}")
+            raise ArgumentError(f"step_arrays(actions): the action of {self.possible_agents[i]} is not finite: "
+                                f"{a[i].tolist()}")
         prev = self._wstate
         new, events = self._world.step(prev, a)
         live = self._live
@@ -372,29 +367,18 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     def step(self, actions: dict):
         if self._wstate is None:
             raise RuntimeError("call reset() before step()")
-        arr = np.zeros((self.n, 2))
-        for agent, act in actions.items():
-            i = self.agent_name_mapping.get(agent)
-            if i is None:
-                raise ArgumentError(f"unknown agent {agent!r} in actions; agents are robot_0..robot_{self.n - 1}")
-            if not self._live[i]:
-                continue  # acting for an agent that is done: ignored
-            v = np.asarray(act, dtype=np.float64).reshape(-1)
-            if v.shape != (2,):
-                raise ArgumentError(f"action of {agent} must have shape (2,), got {np.shape(act)}")
-            if not np.all(np.isfinite(v)):
-                raise ArgumentError(f"action of {agent} is not finite: {v.tolist()}")
-            arr[i] = v
+        arr = actions_from_dict(actions, self.agent_name_mapping, self._live, f"robot_0..robot_{self.n - 1}")
         live_before = np.flatnonzero(self._live)
         obs, rew, term, trunc, reasons = self.step_arrays(arr)
         names = self.possible_agents
-        observations = {names[i]: obs[i] for i in live_before}
-        rewards = {names[i]: float(rew[i]) for i in live_before}
-        terminations = {names[i]: bool(term[i]) for i in live_before}
-        truncations = {names[i]: bool(trunc[i]) for i in live_before}
-        infos = {names[i]: {"distance_to_go_m": float(self._dist[i]),
-                            **({"reason": Reason(int(reasons[i])).label} if reasons[i] else {})} for i in live_before}
-        self.agents = [names[i] for i in np.flatnonzero(self._live)]
+        live = [names[i] for i in live_before.tolist()]  # dicts built from whole-array conversions
+        observations = dict(zip(live, obs[live_before]))
+        rewards = dict(zip(live, rew[live_before].tolist()))
+        terminations = dict(zip(live, term[live_before].tolist()))
+        truncations = dict(zip(live, trunc[live_before].tolist()))
+        infos = {a: {"distance_to_go_m": d, "reason": _REASON_LABEL[r]} if r else {"distance_to_go_m": d}
+                 for a, d, r in zip(live, self._dist[live_before].tolist(), reasons[live_before].tolist())}
+        self.agents = [names[i] for i in np.flatnonzero(self._live).tolist()]
         if self.render_mode == "human":
             self.render()
         return observations, rewards, terminations, truncations, infos
@@ -468,7 +452,7 @@ def _warn_if_no_display() -> None:
 
 def parallel_env(scenario: str | ScenarioConfig = "cliff_goal", n_robots: int | None = None,
                  max_cycles: int | None = None, render_mode: str | None = None, sensor_cones: bool = False,
-                 render_width: int = 640, render_decorations: bool = True) -> TinSwarmEnv:
+                 render_width: int = DEFAULT_RENDER_WIDTH_PX, render_decorations: bool = True) -> TinSwarmEnv:
     """The parallel environment (see :class:`TinSwarmEnv` for the arguments)."""
     return TinSwarmEnv(scenario=scenario, n_robots=n_robots, max_cycles=max_cycles, render_mode=render_mode,
                        sensor_cones=sensor_cones, render_width=render_width, render_decorations=render_decorations)

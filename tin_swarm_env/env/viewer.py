@@ -36,7 +36,7 @@ def _disc(r):
 
 
 class Viewer:
-    def __init__(self, world, width_px: int = 640, sensor_cones: bool = False, decorations: bool = True,
+    def __init__(self, world, width_px: int, sensor_cones: bool = False, decorations: bool = True,
                  name: str = ""):
         from matplotlib import colormaps
         from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -88,11 +88,11 @@ class Viewer:
 
     def title(self, state) -> str:
         """The title strip's text for ``state``."""
-        from ..world import DONE, EMPTY, FELL
+        from ..world import Reason
 
         st = state.status
-        return (f"{self.name}   step {state.step}   robots {len(st)}: arrived {int((st == DONE).sum())}, "
-                f"fell {int((st == FELL).sum())}, battery {int((st == EMPTY).sum())}")
+        return (f"{self.name}   step {state.step}   robots {len(st)}: arrived {int((st == Reason.ARRIVED).sum())}, "
+                f"fell {int((st == Reason.FELL).sum())}, battery {int((st == Reason.BATTERY).sum())}")
 
     def to_px(self, xy):
         x0, y0, x1, y1 = self.bounds
@@ -124,13 +124,13 @@ class Viewer:
 
     def frame(self, state) -> np.ndarray:
         """An ``(H, W, 3)`` uint8 picture of ``state``."""
-        from ..world import ACTIVE, DONE, EMPTY
+        from ..world import Reason
 
         img = self.background.copy()
         P = self.world.params
         pos, h = state.positions, state.headings
         if self.sensor_cones:
-            act = state.status == ACTIVE
+            act = state.status == Reason.NONE
             half = np.radians(P.sensor.fov_deg) / 2
             for s in (-half, half):
                 a = pos[act]
@@ -140,10 +140,10 @@ class Viewer:
             self._stamp(img, *self.to_px(state.targets.positions), RED, self._disc5)
         if len(state.assets):
             self._stamp(img, *self.to_px(state.assets.positions), BLUE, self._disc5)
-        shown = state.status != DONE  # robots the task took off the terrain are not drawn
+        shown = state.status != Reason.ARRIVED  # robots the task took off the terrain are not drawn
         pos, h, status = pos[shown], h[shown], state.status[shown]
-        colors = np.where((status == ACTIVE)[:, None], ORANGE,
-                          np.where((status == EMPTY)[:, None], GREY, BLACK)).astype(np.uint8)
+        colors = np.where((status == Reason.NONE)[:, None], ORANGE,
+                          np.where((status == Reason.BATTERY)[:, None], GREY, BLACK)).astype(np.uint8)
         r, c = self.to_px(pos)
         self._stamp(img, r, c, colors, self._disc3)
         x0, y0, x1, y1 = self.bounds

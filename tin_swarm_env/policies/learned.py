@@ -15,6 +15,7 @@ loaded that way; export them once with :func:`tin_swarm_env.adapters.sb3.export_
      "action": {"size": 2, "low": -1.0, "high": 1.0},
      "scenario": "cliff_goal",
      "shield": "safety_cut",                 # optional: "none" (default) or "safety_cut"
+     "symmetry": "mirror",                   # optional: "none" (default) or "mirror"
      "training": {...}}                      # free-form metadata (library versions, steps...)
 
 ``weights.npz``: ``W0, b0, W1, b1, ...``; ``W{i}`` has shape ``(layer_sizes[i+1], layer_sizes[i])``
@@ -30,6 +31,13 @@ a dangerous break it sees to within one diameter). The filter reads only the obs
 the policy stays observation-only; it is a shield in the safe-RL sense (the network proposes,
 the filter removes the unsafe part). The constants come from the environment the policy is
 loaded for, so a shielded policy needs ``load_policy(path, env)``.
+
+``"network": {"type": "recurrent", "cell": "lstm" | "gru", ...}``: a memory cell before the MLP,
+state per robot reset with the episode (:mod:`tin_swarm_env.policies.recurrent` describes it).
+
+``"symmetry": "mirror"`` makes the network mirror-equivariant, ``clip((g(o) + M g(M o)) / 2)``
+with ``g`` the network before its clip (:mod:`tin_swarm_env.policies.symmetry`), before the
+shield; it needs the layout's named fields, which every policy file records.
 """
 
 from __future__ import annotations
@@ -41,10 +49,13 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from numba import njit
 
 from ..errors import ArgumentError, PolicyFileError
 from .base import SafetyShield, act_dict, unwrap_env
+from .network import (ACTIVATIONS, MAX_ABS_WEIGHT, MAX_JSON_BYTES, MAX_JSON_DEPTH, MAX_LAYER_WIDTH,  # noqa: F401
+                      MAX_LAYERS, MAX_PARAMETERS, MAX_WEIGHTS_BYTES, SHIELDS, dense)
+from .recurrent import RecurrentPolicy, check_cell, recurrent_network
+from .symmetry import SYMMETRIES, mirror_signs, symmetrize
 
 __all__ = ["MLPPolicy", "ShieldedPolicy", "save_policy", "load_policy", "FORMAT", "VERSION", "ACTIVATIONS",
            "SHIELDS"]
@@ -53,36 +64,8 @@ FORMAT = "tin_swarm_env.policy"
 VERSION = 1
 POLICY_JSON = "policy.json"
 WEIGHTS = "weights.npz"
-ACTIVATIONS = {
-    "tanh": np.tanh,
-    "relu": lambda x: np.maximum(x, 0.0),
-    "elu": lambda x: np.where(x > 0, x, np.expm1(np.minimum(x, 0.0))),
-    "leaky_relu": lambda x: np.where(x > 0, x, 0.01 * x),
-    "identity": lambda x: x,
-}
 ACTION_TRANSFORMS = ("clip",)
-
-
-@njit(cache=True, fastmath={"reassoc", "contract"})
-def dense(x, W, b):
-    """One layer, ``x @ W.T + b``: ``x (n, d)``, ``W (m, d)``, ``b (m,)`` float64 -> ``(n, m)``.
-
-    Compiled single-threaded loops instead of BLAS: for the few robots of one env step, a
-    multi-threaded BLAS whose threads wait for a busy core (a second job, pytest -n 2, a training
-    run beside the evaluation) took 26-31 ms per forward pass of a 59-256-256-2 network on the
-    2-core machine, this 1 ms; it is as fast as BLAS at 2 000 robots there, and its sums do not
-    depend on a thread count. ``dense.py_func`` is the plain reference (tests/policies/test_learned.py)."""
-    n, d = x.shape
-    m = W.shape[0]
-    out = np.empty((n, m))
-    for i in range(n):
-        for j in range(m):
-            s = b[j]
-            for k in range(d):
-                s += x[i, k] * W[j, k]
-            out[i, j] = s
-    return out
-SHIELDS = ("none", "safety_cut")
+NETWORK_TYPES = ("mlp", "recurrent")  # "recurrent": a memory cell before the MLP (policies/recurrent.py)
 ACTION_SIZE = 2
 
 
@@ -104,7 +87,7 @@ class MLPPolicy:
 
     def __init__(self, layers, activation: str = "tanh", action_transform: str = "clip", *, layout: dict,
                  scenario: str = "", training: dict | None = None, source: str = "<memory>",
-                 shield: str = "none", env=None):
+                 shield: str = "none", env=None, symmetry: str = "none"):
         self.layers = [(np.ascontiguousarray(W, dtype=np.float64), np.ascontiguousarray(b, dtype=np.float64))
                        for W, b in layers]
         self.activation = activation
@@ -117,6 +100,10 @@ class MLPPolicy:
         if shield not in SHIELDS:
             raise ArgumentError(f"{source}: shield {shield!r} is not one of {list(SHIELDS)}")
         self.shield = shield
+        if symmetry not in SYMMETRIES:
+            raise ArgumentError(f"{source}: symmetry {symmetry!r} is not one of {list(SYMMETRIES)}")
+        self.symmetry = symmetry
+        self._signs = mirror_signs(layout) if symmetry == "mirror" else None
         self.shield_cut = None  # the SafetyShield applied to the network's actions, or None
         if shield == "safety_cut":
             if env is None:
@@ -131,12 +118,21 @@ class MLPPolicy:
         x = np.ascontiguousarray(obs, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != self.obs_size:
             raise ArgumentError(f"{self.source}: obs must have shape (n, {self.obs_size}), got {x.shape}")
+        a = symmetrize(self._forward, x, self._signs) if self._signs is not None else self._forward(x)
+        return np.clip(a, -1.0, 1.0).astype(np.float32)
+
+    def _forward(self, x) -> np.ndarray:
+        """The network alone: ``x (n, d)`` float64 -> ``(n, 2)`` float64, before the clip."""
         f = ACTIVATIONS[self.activation]
         for i, (W, b) in enumerate(self.layers):
             x = dense(x, W, b)
             if i < len(self.layers) - 1:
                 x = f(x)
-        return np.clip(x, -1.0, 1.0).astype(np.float32)
+        bad = ~np.isfinite(x).all(axis=1)
+        if bad.any():  # finite weights whose products overflow: the file is at fault, not the robot
+            raise PolicyFileError(f"{self.source}: the network's output is not finite (NaN or inf) for observation "
+                                  f"row {int(np.flatnonzero(bad)[0])}: its weights overflow float64")
+        return x
 
     def act(self, obs: dict) -> dict:
         return act_dict(self.act_batch, obs)
@@ -144,7 +140,8 @@ class MLPPolicy:
     def __repr__(self) -> str:
         sizes = [self.obs_size] + [W.shape[0] for W, _ in self.layers]
         shield = "" if self.shield == "none" else f", shield={self.shield!r}"
-        return f"MLPPolicy({self.source!r}, {sizes}, {self.activation}, scenario={self.scenario!r}{shield})"
+        sym = "" if self.symmetry == "none" else f", symmetry={self.symmetry!r}"
+        return f"MLPPolicy({self.source!r}, {sizes}, {self.activation}, scenario={self.scenario!r}{shield}{sym})"
 
 
 class ShieldedPolicy:
@@ -171,25 +168,36 @@ class ShieldedPolicy:
 
 
 def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str, action_transform: str = "clip",
-                extra: dict | None = None, shield: str = "none") -> Path:
+                extra: dict | None = None, shield: str = "none", symmetry: str = "none", cell=None) -> Path:
     """Write a policy directory ``path/`` (``policy.json`` + ``weights.npz``) atomically (``shield``:
-    ``"none"`` or ``"safety_cut"``, see the module docstring): both
+    ``"none"`` or ``"safety_cut"``, ``symmetry``: ``"none"`` or ``"mirror"``, see the module
+    docstring; ``cell``: ``(name, {cell_W_ih: ..., ...})`` for a recurrent policy whose head is
+    ``layers``, :mod:`tin_swarm_env.policies.recurrent`): both
     files go into a temporary directory beside it, which is then renamed into place; an existing
     policy directory at ``path`` is replaced, anything else there is refused. Returns the path."""
     p = Path(os.fspath(path))
     layers = [(np.asarray(W, dtype=np.float64), np.asarray(b, dtype=np.float64)) for W, b in layers]
     lay = _layout_dict(layout)
     sizes = [int(layers[0][0].shape[1])] + [int(W.shape[0]) for W, _ in layers] if layers else []
-    meta = {"format": FORMAT, "version": VERSION,
-            "network": {"type": "mlp", "layer_sizes": sizes, "activation": activation,
-                        "action_transform": action_transform},
-            "observation": {"size": sizes[0] if sizes else 0, "layout": lay},
+    arrays = {f"{k}{i}": a for i, (W, b) in enumerate(layers) for k, a in (("W", W), ("b", b))}
+    network = {"type": "mlp", "layer_sizes": sizes, "activation": activation, "action_transform": action_transform}
+    obs_size = sizes[0] if sizes else 0
+    if cell is not None:
+        name, cw = cell
+        cw = {k: np.asarray(v, dtype=np.float64) for k, v in cw.items()}
+        obs_size = int(cw["cell_W_ih"].shape[1]) if "cell_W_ih" in cw else 0
+        hidden = int(cw["cell_W_hh"].shape[1]) if "cell_W_hh" in cw else 0
+        network = recurrent_network(name, obs_size, hidden, sizes, activation, action_transform)
+        arrays.update(cw)
+    meta = {"format": FORMAT, "version": VERSION, "network": network,
+            "observation": {"size": obs_size, "layout": lay},
             "action": {"size": ACTION_SIZE, "low": -1.0, "high": 1.0},
             "scenario": str(scenario), "training": dict(extra or {})}
     if shield != "none":
         meta["shield"] = shield
-    _validate(meta, {f"{k}{i}": a for i, (W, b) in enumerate(layers) for k, a in (("W", W), ("b", b))},
-              str(p / POLICY_JSON), str(p / WEIGHTS))
+    if symmetry != "none":
+        meta["symmetry"] = symmetry
+    _validate(meta, arrays, str(p / POLICY_JSON), str(p / WEIGHTS))
     if p.exists() and not (p.is_dir() and (p / POLICY_JSON).is_file()):
         raise PolicyFileError(f"{p}: exists and is not a policy directory; refusing to replace it")
     if not p.parent.is_dir():
@@ -197,7 +205,7 @@ def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str
     tmp = Path(tempfile.mkdtemp(prefix=f".{p.name}.", suffix=".part", dir=p.parent))
     try:
         with open(tmp / WEIGHTS, "wb") as fh:
-            np.savez(fh, **{f"{k}{i}": a for i, (W, b) in enumerate(layers) for k, a in (("W", W), ("b", b))})
+            np.savez(fh, **arrays)
             fh.flush()
             os.fsync(fh.fileno())
         with open(tmp / POLICY_JSON, "w", encoding="utf-8") as fh:
@@ -233,12 +241,16 @@ def _swap_into_place(tmp: Path, p: Path) -> None:
 # -- loading --------------------------------------------------------------------------------
 
 
-def load_policy(path, env) -> MLPPolicy:
+def load_policy(path, env):
     """Read the policy directory ``path`` (or its ``policy.json``) for ``env``: no pickle, no
-    torch. Raises :class:`~tin_swarm_env.errors.PolicyFileError` naming the file and the key for
+    torch; an :class:`MLPPolicy`, or a :class:`~tin_swarm_env.policies.recurrent.RecurrentPolicy`
+    for a recurrent file. Raises :class:`~tin_swarm_env.errors.PolicyFileError` naming the file and the key for
     anything wrong: a missing file, bad JSON, unknown format or version, a missing key, unknown
     activation, weights that do not chain or are not finite, an object array in the weights, an
     observation size other than the env's, or a layout other than the env's (both named)."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise ArgumentError(f"load_policy(path=...): path must be a policy directory (str or os.PathLike), got "
+                            f"{type(path).__name__}")
     p = Path(os.fspath(path))
     d = p.parent if p.name == POLICY_JSON and p.is_file() else p
     jpath, wpath = d / POLICY_JSON, d / WEIGHTS
@@ -247,23 +259,74 @@ def load_policy(path, env) -> MLPPolicy:
     for f in (jpath, wpath):
         if not f.is_file():
             raise PolicyFileError(f"{f}: missing; a policy directory holds {POLICY_JSON} and {WEIGHTS}")
+    for f, limit in ((jpath, MAX_JSON_BYTES), (wpath, MAX_WEIGHTS_BYTES)):
+        if f.stat().st_size > limit:
+            raise PolicyFileError(f"{f}: {f.stat().st_size:,} bytes; a policy file has at most {limit:,} (networks of "
+                                  f"up to {MAX_PARAMETERS:,} parameters)")
     try:
-        meta = json.loads(jpath.read_text(encoding="utf-8"))
+        text = jpath.read_text(encoding="utf-8")
+        _check_depth(text, str(jpath))
+        meta = json.loads(text)
     except json.JSONDecodeError as exc:
         raise PolicyFileError(f"{jpath}:{exc.lineno}: not valid JSON ({exc.msg})") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise PolicyFileError(f"{jpath}: cannot be read ({exc})") from None
-    arrays = _read_weights(wpath)
+    _validate(meta, None, str(jpath), str(wpath))  # sizes and limits before the weights are read
+    arrays = _read_weights(wpath, meta["network"]["layer_sizes"])
     layers = _validate(meta, arrays, str(jpath), str(wpath))
     _check_env(meta, env, str(jpath))
     net = meta["network"]
+    if net["type"] == "recurrent":
+        _, cw = check_cell(net, arrays, str(jpath), str(wpath))
+        return RecurrentPolicy(net["cell"], cw, layers, net["activation"], net["action_transform"],
+                               layout=meta["observation"]["layout"], scenario=meta["scenario"],
+                               training=meta.get("training", {}), source=str(d), shield=meta.get("shield", "none"),
+                               env=env, symmetry=meta.get("symmetry", "none"))
     return MLPPolicy(layers, net["activation"], net["action_transform"], layout=meta["observation"]["layout"],
                      scenario=meta["scenario"], training=meta.get("training", {}), source=str(d),
-                     shield=meta.get("shield", "none"), env=env)
+                     shield=meta.get("shield", "none"), env=env, symmetry=meta.get("symmetry", "none"))
 
 
-def _read_weights(wpath: Path) -> dict:
+def _check_depth(text: str, where: str) -> None:
+    """Refuse JSON nested deeper than :data:`MAX_JSON_DEPTH` before parsing it (vectorised: strings
+    removed, then the running count of brackets)."""
+    import re
+
+    bare = re.sub(r'"(?:[^"\\]|\\.)*"', "", text).encode("utf-8", "replace")
+    c = np.frombuffer(bare, dtype=np.uint8)
+    step = np.isin(c, (ord("["), ord("{"))).astype(np.int64) - np.isin(c, (ord("]"), ord("}")))
+    depth = int(np.cumsum(step).max()) if len(step) else 0
+    if depth > MAX_JSON_DEPTH:
+        raise PolicyFileError(f"{where}: JSON nested {depth} deep; at most {MAX_JSON_DEPTH}")
+
+
+def _npz_shapes(wpath: Path) -> dict:
+    """``{name: (shape, dtype)}`` of the arrays in an .npz, from their headers only (no data read)."""
+    import zipfile
+
+    out = {}
+    with zipfile.ZipFile(wpath) as z:
+        for info in z.infolist():
+            if not info.filename.endswith(".npy"):
+                continue
+            with z.open(info) as fh:
+                version = np.lib.format.read_magic(fh)
+                read = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
+                if version not in read:
+                    raise ValueError(f"array {info.filename!r}: .npy format version {version}")
+                shape, _, dtype = read[version](fh)
+            out[info.filename[:-4]] = (shape, dtype)
+    return out
+
+
+def _read_weights(wpath: Path, sizes=None) -> dict:
     try:
+        if sizes is not None:  # every array's size from its header, against what the layer sizes allow
+            for k, (shape, dtype) in _npz_shapes(wpath).items():
+                n = int(np.prod(shape, dtype=np.float64)) if shape else 1
+                if n > MAX_LAYER_WIDTH ** 2 or dtype.itemsize * n > MAX_WEIGHTS_BYTES:
+                    raise PolicyFileError(f"{wpath}: array {k!r} has shape {shape}; a layer has at most "
+                                          f"{MAX_LAYER_WIDTH} x {MAX_LAYER_WIDTH} weights")
         with np.load(wpath, allow_pickle=False) as f:
             out = {}
             for k in f.files:
@@ -290,8 +353,9 @@ def _get(d, key, typ, where):
     return v
 
 
-def _validate(meta, arrays: dict, jname: str, wname: str) -> list:
-    """Check a policy description and its weights; return ``[(W, b), ...]`` float64."""
+def _validate(meta, arrays: dict | None, jname: str, wname: str) -> list:
+    """Check a policy description and its weights (``arrays``; None: the description alone);
+    return ``[(W, b), ...]`` float64."""
     if not isinstance(meta, dict):
         raise PolicyFileError(f"{jname}: the top level must be a JSON object")
     fmt = meta.get("format")
@@ -301,21 +365,31 @@ def _validate(meta, arrays: dict, jname: str, wname: str) -> list:
     if ver != VERSION:
         raise PolicyFileError(f"{jname}: key 'version' is {ver}; this tin_swarm_env reads version {VERSION}")
     net = _get(meta, "network", dict, jname)
-    if _get(net, "type", str, f"{jname} [network]") != "mlp":
-        raise PolicyFileError(f"{jname}: key 'network.type' is {net['type']!r}; expected 'mlp'")
+    if _get(net, "type", str, f"{jname} [network]") not in NETWORK_TYPES:
+        raise PolicyFileError(f"{jname}: key 'network.type' is {net['type']!r}; expected one of {list(NETWORK_TYPES)}")
     sizes = _get(net, "layer_sizes", list, f"{jname} [network]")
     if len(sizes) < 2 or not all(isinstance(s, int) and not isinstance(s, bool) and s >= 1 for s in sizes):
-        raise PolicyFileError(f"{jname}: key 'network.layer_sizes' must be 2 or more positive integers, got {sizes}")
+        raise PolicyFileError(f"{jname}: key 'network.layer_sizes' must be 2 or more positive integers, got "
+                              f"{str(sizes)[:80]}")
+    if len(sizes) > MAX_LAYERS + 1 or max(sizes) > MAX_LAYER_WIDTH or sum(
+            a * b + b for a, b in zip(sizes[:-1], sizes[1:])) > MAX_PARAMETERS:
+        raise PolicyFileError(f"{jname}: key 'network.layer_sizes' {str(sizes)[:80]} is beyond the limits: at most "
+                              f"{MAX_LAYERS} layers of {MAX_LAYER_WIDTH} units and {MAX_PARAMETERS:,} parameters")
     act = _get(net, "activation", str, f"{jname} [network]")
     if act not in ACTIVATIONS:
         raise PolicyFileError(f"{jname}: key 'network.activation' is {act!r}; known: {sorted(ACTIVATIONS)}")
     tr = _get(net, "action_transform", str, f"{jname} [network]")
     if tr not in ACTION_TRANSFORMS:
         raise PolicyFileError(f"{jname}: key 'network.action_transform' is {tr!r}; known: {list(ACTION_TRANSFORMS)}")
+    in_size, what = sizes[0], "the first layer size"
+    if net["type"] == "recurrent":  # the cell reads the observation; the head (layer_sizes) reads the cell
+        in_size, cell = check_cell(net, arrays, jname, wname)
+        what = "the cell's 'network.input_size'"
+        if arrays is not None:
+            arrays = {k: v for k, v in arrays.items() if k not in cell}
     obs = _get(meta, "observation", dict, jname)
-    if _get(obs, "size", int, f"{jname} [observation]") != sizes[0]:
-        raise PolicyFileError(f"{jname}: key 'observation.size' ({obs['size']}) differs from the first layer "
-                              f"size ({sizes[0]})")
+    if _get(obs, "size", int, f"{jname} [observation]") != in_size:
+        raise PolicyFileError(f"{jname}: key 'observation.size' ({obs['size']}) differs from {what} ({in_size})")
     _get(obs, "layout", dict, f"{jname} [observation]")
     action = _get(meta, "action", dict, jname)
     if _get(action, "size", int, f"{jname} [action]") != ACTION_SIZE or sizes[-1] != ACTION_SIZE:
@@ -326,7 +400,9 @@ def _validate(meta, arrays: dict, jname: str, wname: str) -> list:
         _get(meta, "training", dict, jname)
     if "shield" in meta and _get(meta, "shield", str, jname) not in SHIELDS:
         raise PolicyFileError(f"{jname}: key 'shield' is {meta['shield']!r}; known: {list(SHIELDS)}")
-    return _check_weights(arrays, sizes, wname)
+    if "symmetry" in meta and _get(meta, "symmetry", str, jname) not in SYMMETRIES:
+        raise PolicyFileError(f"{jname}: key 'symmetry' is {meta['symmetry']!r}; known: {list(SYMMETRIES)}")
+    return [] if arrays is None else _check_weights(arrays, sizes, wname)
 
 
 def _check_weights(arrays: dict, sizes: list, wname: str) -> list:
@@ -348,6 +424,9 @@ def _check_weights(arrays: dict, sizes: list, wname: str) -> list:
             a = a.astype(np.float64)
             if not np.all(np.isfinite(a)):
                 raise PolicyFileError(f"{wname}: array '{k}{i}' holds NaN or infinite values")
+            if np.abs(a).max(initial=0.0) > MAX_ABS_WEIGHT:
+                raise PolicyFileError(f"{wname}: array '{k}{i}' holds a value of magnitude {np.abs(a).max():.3g}; at "
+                                      f"most {MAX_ABS_WEIGHT:g} (larger weights overflow the forward pass)")
             pair.append(a)
         layers.append(tuple(pair))
     return layers

@@ -63,16 +63,19 @@ def _cached_tin(key: str):
         dem = T.load_dem(p)
         if isinstance(dem, T.Dem) and dem.n_nodata:
             dem = dem.fill_nodata()
-    return _mesh(dem, spec["method"], spec["max_vertices"], spec["max_error_m"])
+    return _mesh(dem, spec["method"], spec["max_vertices"], spec["max_error_m"], spec.get("max_slope_deg"))
 
 
-def _mesh(dem, method: str, max_vertices: int, max_error_m: float):
-    """The TIN of a DEM as a scenario's ``[terrain]`` asks for it (the one place these keys are read)."""
+def _mesh(dem, method: str, max_vertices: int, max_error_m: float, max_slope_deg: float | None = None):
+    """The TIN of a DEM as a scenario's ``[terrain]`` asks for it (the one place these keys are read);
+    method "robot" keeps the slope class at the robots' ``max_slope_deg``."""
     kw = {}
     if max_vertices:
         kw["max_vertices"] = max_vertices
-    if method == "greedy" and max_error_m:
+    if method in ("greedy", "robot") and max_error_m:
         kw["max_error_m"] = max_error_m
+    if method == "robot":
+        kw["max_slope_deg"] = max_slope_deg
     return T.build_tin(dem, method=method, **kw)
 
 
@@ -93,6 +96,7 @@ def build_tin_for(cfg: ScenarioConfig):
     stamp = _file_stamp(base / t.path) if t.source in ("dem", "tin") else None
     key = json.dumps({"source": t.source, "recipe": t.recipe, "path": t.path, "method": t.method,
                       "max_vertices": t.max_vertices, "max_error_m": t.max_error_m, "params": t.params,
+                      "max_slope_deg": cfg.world.robot.max_slope_deg if t.method == "robot" else None,
                       "_where": cfg.source, "_base": str(base), "_stamp": stamp}, sort_keys=True)
     return _cached_tin(key)
 
@@ -193,7 +197,7 @@ def _generated_stage(cfg: ScenarioConfig, rng: np.random.Generator) -> Stage:
     made = {}
 
     def solvable(task) -> bool:
-        world = World(_mesh(task.dem, t.method, t.max_vertices, t.max_error_m), cfg.world)
+        world = World(_mesh(task.dem, t.method, t.max_vertices, t.max_error_m, max_slope), cfg.world)
         fields = tuple(T.cost_to_go(world.tin, g, ~world.steep) for g in task.targets)
         made["task"], made["world"], made["fields"] = task, world, fields
         return all(reaches_region(f, task.spawn_region) for f in fields)

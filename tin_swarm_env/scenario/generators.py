@@ -16,7 +16,8 @@ cells`` wide, at most about 24 deg) join it to the ground over its full width ne
 greedy TIN never reduces that joint to one vertex. So the task stays unambiguous after TIN
 reduction (measured: the target was reachable over passable triangles of the greedy 0.5 m TIN in
 298 of 300 draws; the two misses, both mesas, had a steep sliver triangle across a ramp, which is
-what the ``solvable`` check below catches).
+what the ``solvable`` check below catches; fork: 149 of 150, trap: 150 of 150; a sliver can also
+seal a fork's dead end, about 1 in 60, which leaves the task solvable).
 
 =========== ================ ================ ===================================================
 family      parameter        default range    meaning
@@ -81,14 +82,15 @@ fork        pocket_depth_m   [3, 6]           depth of a pocket's pit below the 
 fork        target_u_frac    [-0.15, 0.15]    target's lateral offset, of half the size
 trap        heading          n/e/s/w          direction of travel
 trap        side             left, right      where the barrier's opening lies
-trap        barrier          wall, trench     raised wall or sunk trench
+trap        barrier          wall, trench,    raised wall, sunk trench, or a basin walled by a
+                                 cliff            cliff with a ramp out through the opening
 trap        shape            round, square    a ring (C) or the sides of a square (U)
 trap        trap_m           [6, 12]          height of the wall or depth of the trench, m
 trap        radius_m         [28, 50]         inside radius (half side) of the barrier, m
 trap        thickness_m      [4, 10]          thickness of the barrier, m (at least 3 cells)
-trap        opening_deg      [100, 135]       the opening's centre, deg from the direction of
-                                              travel toward ``side``
-trap        gap_deg          [40, 60]         angular width of the opening, deg
+trap        opening_deg      [100, 150]       the opening's centre, deg from the direction of
+                                              travel toward ``side`` (180: straight back)
+trap        gap_deg          [30, 40]         angular width of the opening, deg
 trap        target_u_frac    [-0.15, 0.15]    target's lateral offset, of half the size
 =========== ================ ================ ===================================================
 
@@ -172,12 +174,15 @@ PARAMS: dict[str, dict[str, Param]] = {
              "pass_width_m": _f(10, 16, 2, 200), "ramp_slope_deg": _f(9, 13, 1, 45),
              "pocket_m": _f(15, 35, 2, 500), "pocket_depth_m": _f(3, 6, 1, 100),
              "target_u_frac": _f(-0.15, 0.15, -0.9, 0.9)},
-    "trap": {**_COMMON, "heading": _c(*HEADINGS), "side": _c("left", "right"), "barrier": _c("wall", "trench"),
-             "shape": _c("round", "square"), "trap_m": _f(6, 12, 1, 200), "radius_m": _f(28, 50, 5, 1000),
-             "thickness_m": _f(4, 10, 1, 200), "opening_deg": _f(100, 135, 0, 180), "gap_deg": _f(40, 60, 10, 180),
+    "trap": {**_COMMON, "heading": _c(*HEADINGS), "side": _c("left", "right"),
+             "barrier": _c("wall", "trench", "cliff"), "shape": _c("round", "square"), "trap_m": _f(6, 12, 1, 200),
+             "radius_m": _f(28, 50, 5, 1000), "thickness_m": _f(4, 10, 1, 200), "opening_deg": _f(100, 150, 0, 180),
+             "gap_deg": _f(30, 40, 10, 180),
              "target_u_frac": _f(-0.15, 0.15, -0.9, 0.9)},
 }
 ALL_FAMILIES: tuple[str, ...] = tuple(PARAMS)  # every generated family, the default of every family list
+MAX_GRID_CELLS = 4_000_000  # a generated DEM's cells (size_m / cell_m + 1)^2: ~120 bytes each while it is built
+# and meshed, so ~0.5 GB at the limit (2 km at 1 m); checked before any allocation
 DEFAULT_RANGES: dict[str, dict[str, list]] = {
     fam: {k: list(p.default) for k, p in spec.items()} for fam, spec in PARAMS.items()}
 
@@ -266,7 +271,17 @@ def validate_ranges(ranges: Mapping | None, families: Sequence[str] = ALL_FAMILI
             raise ScenarioError(f"{where}: ranges for family {fam!r} must be a table, got {over!r}")
         for key, value in over.items():
             out[fam][key] = _check_range(fam, key, value, where)
+    for fam, r in out.items():
+        _check_cells(fam, r["size_m"][1], r["cell_m"][0], where)
     return out
+
+
+def _check_cells(fam, size_m, cell_m, where):
+    """Refuse a grid of more than :data:`MAX_GRID_CELLS` cells (the largest size over the smallest cell)."""
+    cells = (size_m / cell_m + 1) ** 2
+    if cells > MAX_GRID_CELLS:
+        raise ScenarioError(f"{where}: {fam}.size_m up to {size_m:g} m with cell_m down to {cell_m:g} m makes "
+                            f"{cells:.3g} grid cells; at most {MAX_GRID_CELLS:,} (raise cell_m or lower size_m)")
 
 
 def draw_params(rng: np.random.Generator, family: str, ranges: Mapping[str, tuple]) -> dict:
@@ -298,6 +313,7 @@ def _resolve(family: str, params: dict) -> dict:
             choice = key in PARAMS[family] and PARAMS[family][key].kind == "choice"
             _check_range(family, key, [value] if choice else value, family)
         out[key] = value
+    _check_cells(family, out["size_m"], out["cell_m"], family)
     return out
 
 
@@ -549,11 +565,10 @@ def hills(rng: np.random.Generator, **params) -> GeneratedTask:
 
 def _lateral(rng, half_widths, taken, lo, hi, gap, both_sides=True, tries=32):
     """Lateral centres (m, signed; + toward the way through) for features of half-widths
-    ``half_widths``, on a random side each (``both_sides``; else the + side), ``|lat|`` in
-    ``[lo + hw, hi - hw]``, at least ``gap``
-    from every footprint in ``taken`` (``[(centre, half-width), ...]``, extended in place) and
-    each other. ``tries`` candidates per feature, the first that fits wins (none: skipped).
-    Returns ``[(index, centre), ...]`` of the features placed."""
+    ``half_widths``, on a random side each (``both_sides``; else the + side), ``|lat|`` in ``[lo +
+    hw, hi - hw]``, at least ``gap`` from every footprint in ``taken`` (``[(centre, half-width),
+    ...]``, extended in place) and from each other. ``tries`` candidates per feature, the first that
+    fits wins (none: skipped). Returns ``[(index, centre), ...]`` of the features placed."""
     placed = []
     for i, hw in enumerate(half_widths):
         if hi - hw < lo + hw:
@@ -572,17 +587,18 @@ def _lateral(rng, half_widths, taken, lo, hi, gap, both_sides=True, tries=32):
 
 
 def fork(rng: np.random.Generator, **params) -> GeneratedTask:
-    """An escarpment ``cliff_m`` high across the way (as in :func:`canyon`) with ``n_passes``
-    ramps or openings, ``n_dead`` of them (at most ``n_passes - 1``) dead ends, the rest ways
-    through. The nearest way through lies ``pass_offset_frac`` of the half size off the
-    spawn-target line on the drawn ``side``; further ones lie further out on that side, so the
-    shortest way round is on ``side``. Dead ends take random places on either side (fewer when 32
-    tries find no room; at least one when ``n_dead >= 1``). A ``pocket`` dead end is a ramp down
-    the cliff into a pit ``pocket_depth_m`` below the floor and ``pocket_m`` long past the ramp's
-    foot, walled on its three other sides; a ``spur`` is a tongue of the plateau ``pocket_m`` long
-    (at least 8 cells) reaching out over the floor. With ``spawn_on = "bottom"`` the heights are turned upside down:
-    a pocket becomes a ramp up onto a block ``pocket_depth_m`` above the target's plateau, a spur
-    a blind canyon cut into the plateau. ``rng`` draws the dead ends' places and the noise."""
+    """An escarpment ``cliff_m`` high across the way (as in :func:`canyon`) with ``n_passes`` ramps
+    or openings, ``n_dead`` of them (at most ``n_passes - 1``) dead ends, the rest ways through. The
+    nearest way through lies ``pass_offset_frac`` of the half size off the spawn-target line (at
+    least clear of the spawn region) on the drawn ``side``; further ones lie further out on that
+    side, so the shortest way round is on ``side``. Dead ends take random places on either side
+    (fewer when 32 tries find no room; at least one when ``n_dead >= 1``). A ``pocket`` dead end is
+    a ramp down the cliff into a pit ``pocket_depth_m`` below the floor and ``pocket_m`` long past
+    the ramp's foot, walled on its three other sides; a ``spur`` is a tongue of the plateau
+    ``pocket_m`` long (at least 8 cells) reaching out over the floor. With ``spawn_on = "bottom"``
+    the heights are turned upside down: a pocket becomes a ramp up onto a block ``pocket_depth_m``
+    above the target's plateau, a spur a blind canyon cut into the plateau. ``rng`` draws the dead
+    ends' places and the noise."""
     p = _resolve("fork", params)
     x, half = _grid(p)
     u, v, to_world = _frame(x, half, p["heading"])
@@ -616,7 +632,7 @@ def fork(rng: np.random.Generator, **params) -> GeneratedTask:
     z = np.where(v < vc, h, 0.0)  # (n, n) m, the plateau behind the cliff, the floor in front
     for c in ways:
         z = _cut_pass(z, v, lat - c, vc - run / 2, run, h, w, p)
-    ends, far = [], []
+    ends = []  # each dead end's entry (spawn side) and far end
     for c in dead:
         if pocket:  # the pit, then a ramp from the plateau (h) to its floor (-d)
             pit = (v >= vc) & (v <= vc + reach) & (np.abs(lat - c) <= hw_dead)
@@ -636,20 +652,22 @@ def fork(rng: np.random.Generator, **params) -> GeneratedTask:
 
 def trap(rng: np.random.Generator, **params) -> GeneratedTask:
     """A C- or U-shaped barrier round the spawn region, closed toward the target: a ``wall``
-    ``trap_m`` high or a ``trench`` ``trap_m`` deep (one-cell cliffs on both sides),
-    ``thickness_m`` thick (at least three cells), its inside ``radius_m`` from the spawn centre
-    (at least the spawn region's half diagonal plus a margin); ``round`` (a ring) or ``square``
-    (the sides of a square). An opening ``gap_deg`` wide is cut into it at ``opening_deg`` from
-    the direction of travel, on the drawn ``side``: the robots must leave through it, away from
-    the target, and go round that side. The spawn region sits behind the map centre with a
-    corridor ``16 m + 2 cells`` wide between the barrier and the map edge, the target near the
-    front edge. ``rng`` draws only the noise."""
+    ``trap_m`` high or a ``trench`` ``trap_m`` deep (one-cell cliffs on both sides), ``thickness_m``
+    thick (at least three cells), its inside ``radius_m`` from the spawn centre (at least the spawn
+    region's half diagonal plus a margin); ``round`` (a ring) or ``square`` (the sides of a square).
+    An opening ``gap_deg`` wide is cut into it at ``opening_deg`` from the direction of travel, on
+    the drawn ``side``: the robots must leave through it, away from the target, and go round that
+    side. A ``cliff`` barrier is a basin ``trap_m`` deep out to the barrier's outer edge, walled by
+    a one-cell cliff except where a ramp (12 deg or the ramp cap, as wide as the opening at the rim)
+    climbs out through the opening. The spawn region sits behind the map centre with a corridor 16 m
+    + 2 cells wide between the barrier and the map edge, the target near the front edge. ``rng``
+    draws only the noise."""
     p = _resolve("trap", params)
     x, half = _grid(p)
     u, v, to_world = _frame(x, half, p["heading"])
     sg = -1.0 if p["side"] == "left" else 1.0
     lat = sg * u  # (n, n) m, + toward the opening's side
-    h_min, _, _ = _slopes(p)
+    h_min, ramp_tan, _ = _slopes(p)
     hb = max(p["trap_m"], h_min)
     thick = max(p["thickness_m"], 3 * p["cell_m"])
     s = p["spawn_m"]
@@ -661,16 +679,28 @@ def trap(rng: np.random.Generator, **params) -> GeneratedTask:
     dl, dv = lat, v - vs
     r = np.hypot(dl, dv) if p["shape"] == "round" else np.maximum(np.abs(dl), np.abs(dv))
     off = (np.degrees(np.arctan2(dl, dv)) - p["opening_deg"] + 180.0) % 360.0 - 180.0
-    band = (r >= r_in) & (r <= r_out) & (np.abs(off) >= p["gap_deg"] / 2)
-    z = np.where(band, hb if p["barrier"] == "wall" else -hb, 0.0)
     a = math.radians(p["opening_deg"])
     dirn = np.array([math.sin(a), math.cos(a)])  # (lat, v) unit vector toward the opening
     scale = 1.0 if p["shape"] == "round" else 1.0 / max(abs(dirn[0]), abs(dirn[1]))
     spawn = np.array([0.0, vs])
-    opening = [spawn + (r_in - MARGIN_M) * scale * dirn, spawn + (r_out + MARGIN_M) * scale * dirn]
+    if p["barrier"] == "cliff":  # a basin inside the barrier's outer edge, a ramp up through the opening
+        rim = r_out * scale  # from the spawn centre to the rim along the opening's axis, m
+        run = hb / min(math.tan(math.radians(12.0)), ramp_tan)
+        width = 2.0 * rim * math.sin(math.radians(p["gap_deg"]) / 2)
+        ends = [spawn + (rim - run / 2) * dirn, spawn + (rim + run / 2) * dirn]
+        _fit(rim - run / 2 >= s / math.sqrt(2) and np.all(np.abs(ends[1]) <= half - MARGIN_M - width / 2), "trap",
+             f"a ramp {run:.0f} m long out of the basin", p)
+        along, across = dl * dirn[0] + dv * dirn[1], dv * dirn[0] - dl * dirn[1]
+        z = _cut_pass(np.where(r <= r_out, 0.0, hb), -along, across, -(rim + run / 2), run, hb, width, p) - hb
+        opening = ends
+    else:
+        band = (r >= r_in) & (r <= r_out) & (np.abs(off) >= p["gap_deg"] / 2)
+        z = np.where(band, hb if p["barrier"] == "wall" else -hb, 0.0)
+        opening = [spawn + (r_in - MARGIN_M) * scale * dirn, spawn + (r_out + MARGIN_M) * scale * dirn]
     uv = lambda pts: np.asarray(pts, dtype=np.float64) * [sg, 1.0]  # noqa: E731 - (lat, v) -> (u, v)
     target = np.array([p["target_u_frac"] * half, vt])
     return _task("trap", p, x, z, to_world(uv(spawn)), to_world(uv(target)), to_world(uv([opening])), rng)
+
 
 FAMILIES: dict[str, Callable[..., GeneratedTask]] = {"canyon": canyon, "mesa": mesa, "hills": hills, "fork": fork,
                                                      "trap": trap}

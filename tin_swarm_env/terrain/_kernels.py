@@ -28,6 +28,31 @@ def orient(ax, ay, bx, by, cx, cy):
     return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
 
+@njit(cache=True, inline="always")
+def walk_locate1(vx, vy, tris, nbrs, x, y, t, max_steps, tol):
+    """:func:`walk_locate` for one point ``(x, y)`` from triangle ``t``."""
+    res = GAVE_UP
+    for step in range(max_steps):
+        moved = False
+        for kk in range(3):
+            k = (kk + step) % 3
+            a = tris[t, (k + 1) % 3]
+            b = tris[t, (k + 2) % 3]
+            if orient(vx[a], vy[a], vx[b], vy[b], x, y) < -tol:
+                nb = nbrs[t, k]
+                if nb < 0:
+                    res = OUTSIDE
+                else:
+                    t = nb
+                    moved = True
+                break
+        if not moved:
+            if res != OUTSIDE:
+                res = t
+            break
+    return res
+
+
 @njit(cache=True)
 def walk_locate(vx, vy, tris, nbrs, px, py, hints, max_steps, tol):
     """Visibility walk from ``hints[i]`` to the triangle holding point i.
@@ -40,30 +65,33 @@ def walk_locate(vx, vy, tris, nbrs, px, py, hints, max_steps, tol):
     n = px.shape[0]
     out = np.empty(n, dtype=np.int64)
     for i in range(n):
-        t = hints[i]
-        x = px[i]
-        y = py[i]
-        res = GAVE_UP
-        for step in range(max_steps):
-            moved = False
-            for kk in range(3):
-                k = (kk + step) % 3
-                a = tris[t, (k + 1) % 3]
-                b = tris[t, (k + 2) % 3]
-                if orient(vx[a], vy[a], vx[b], vy[b], x, y) < -tol:
-                    nb = nbrs[t, k]
-                    if nb < 0:
-                        res = OUTSIDE
-                    else:
-                        t = nb
-                        moved = True
-                    break
-            if not moved:
-                if res != OUTSIDE:
-                    res = t
-                break
-        out[i] = res
+        out[i] = walk_locate1(vx, vy, tris, nbrs, px[i], py[i], hints[i], max_steps, tol)
     return out
+
+
+@njit(cache=True, inline="always")
+def bucket_locate1(vx, vy, tris, cell_start, cell_tris, gx0, gy0, inv_cs, gnx, gny, x, y, tol):
+    """:func:`bucket_locate` for one point."""
+    fi = (x - gx0) * inv_cs
+    fj = (y - gy0) * inv_cs
+    if not (fi >= 0.0 and fj >= 0.0 and fi < gnx and fj < gny):
+        # outside the grid; allow the closing boundary (x == max) through clipping
+        if fi >= -1e-9 and fj >= -1e-9 and fi <= gnx + 1e-9 and fj <= gny + 1e-9:
+            fi = min(max(fi, 0.0), gnx - 1.0)
+            fj = min(max(fj, 0.0), gny - 1.0)
+        else:
+            return -1
+    c = int(fj) * gnx + int(fi)
+    for m in range(cell_start[c], cell_start[c + 1]):
+        t = cell_tris[m]
+        a = tris[t, 0]
+        b = tris[t, 1]
+        d = tris[t, 2]
+        if (orient(vx[a], vy[a], vx[b], vy[b], x, y) >= -tol
+                and orient(vx[b], vy[b], vx[d], vy[d], x, y) >= -tol
+                and orient(vx[d], vy[d], vx[a], vy[a], x, y) >= -tol):
+            return t
+    return -1
 
 
 @njit(cache=True)
@@ -76,29 +104,7 @@ def bucket_locate(vx, vy, tris, cell_start, cell_tris, gx0, gy0, inv_cs, gnx, gn
     n = px.shape[0]
     out = np.empty(n, dtype=np.int64)
     for i in range(n):
-        x = px[i]
-        y = py[i]
-        out[i] = -1
-        fi = (x - gx0) * inv_cs
-        fj = (y - gy0) * inv_cs
-        if not (fi >= 0.0 and fj >= 0.0 and fi < gnx and fj < gny):
-            # outside the grid; allow the closing boundary (x == max) through clipping
-            if fi >= -1e-9 and fj >= -1e-9 and fi <= gnx + 1e-9 and fj <= gny + 1e-9:
-                fi = min(max(fi, 0.0), gnx - 1.0)
-                fj = min(max(fj, 0.0), gny - 1.0)
-            else:
-                continue
-        c = int(fj) * gnx + int(fi)
-        for m in range(cell_start[c], cell_start[c + 1]):
-            t = cell_tris[m]
-            a = tris[t, 0]
-            b = tris[t, 1]
-            d = tris[t, 2]
-            if (orient(vx[a], vy[a], vx[b], vy[b], x, y) >= -tol
-                    and orient(vx[b], vy[b], vx[d], vy[d], x, y) >= -tol
-                    and orient(vx[d], vy[d], vx[a], vy[a], x, y) >= -tol):
-                out[i] = t
-                break
+        out[i] = bucket_locate1(vx, vy, tris, cell_start, cell_tris, gx0, gy0, inv_cs, gnx, gny, px[i], py[i], tol)
     return out
 
 
@@ -133,6 +139,37 @@ def _plane_z(vx, vy, vz, tris, grad, t, x, y):
 
 
 @njit(cache=True)
+def los_walk1(vx, vy, vz, tris, nbrs, grad, ax, ay, az, bx, by, bz, t, max_steps, ztol):
+    """:func:`los_walk` for one segment ``a -> b`` starting in triangle ``t``: 1, 0 or -2."""
+    if t < 0:
+        return 0
+    if az < _plane_z(vx, vy, vz, tris, grad, t, ax, ay) - ztol:
+        return 0
+    dx = bx - ax
+    dy = by - ay
+    if dx == 0.0 and dy == 0.0:
+        return 1 if bz >= _plane_z(vx, vy, vz, tris, grad, t, bx, by) - ztol else 0
+    for step in range(max_steps):
+        ex, s, u = exit_edge(vx, vy, tris, t, ax, ay, dx, dy)
+        if ex < 0:
+            return -2  # degenerate: gave up
+        if s >= 1.0:
+            # b lies in this triangle, before the exit edge
+            return 1 if bz >= _plane_z(vx, vy, vz, tris, grad, t, bx, by) - ztol else 0
+        vi = tris[t, (ex + 1) % 3]
+        vj = tris[t, (ex + 2) % 3]
+        z_edge = vz[vi] + u * (vz[vj] - vz[vi])
+        z_sight = az + s * (bz - az)
+        if z_edge > z_sight + ztol:
+            return 0
+        nb = nbrs[t, ex]
+        if nb < 0:
+            return 0  # the sight line leaves the TIN
+        t = nb
+    return -2
+
+
+@njit(cache=True)
 def los_walk(vx, vy, vz, tris, nbrs, grad, a_xyz, b_xyz, start, max_steps, ztol):
     """Line of sight along each segment a->b over the piecewise-planar TIN surface.
 
@@ -148,47 +185,37 @@ def los_walk(vx, vy, vz, tris, nbrs, grad, a_xyz, b_xyz, start, max_steps, ztol)
     n = a_xyz.shape[0]
     out = np.empty(n, dtype=np.int8)
     for i in range(n):
-        t = start[i]
-        if t < 0:
-            out[i] = 0
-            continue
-        ax = a_xyz[i, 0]
-        ay = a_xyz[i, 1]
-        az = a_xyz[i, 2]
-        bx = b_xyz[i, 0]
-        by = b_xyz[i, 1]
-        bz = b_xyz[i, 2]
-        if az < _plane_z(vx, vy, vz, tris, grad, t, ax, ay) - ztol:
-            out[i] = 0
-            continue
-        dx = bx - ax
-        dy = by - ay
-        if dx == 0.0 and dy == 0.0:
-            out[i] = 1 if bz >= _plane_z(vx, vy, vz, tris, grad, t, bx, by) - ztol else 0
-            continue
-        res = -2
-        for step in range(max_steps):
-            ex, s, u = exit_edge(vx, vy, tris, t, ax, ay, dx, dy)
-            if ex < 0:
-                break  # degenerate: gave up
-            if s >= 1.0:
-                # b lies in this triangle, before the exit edge
-                res = 1 if bz >= _plane_z(vx, vy, vz, tris, grad, t, bx, by) - ztol else 0
-                break
-            vi = tris[t, (ex + 1) % 3]
-            vj = tris[t, (ex + 2) % 3]
-            z_edge = vz[vi] + u * (vz[vj] - vz[vi])
-            z_sight = az + s * (bz - az)
-            if z_edge > z_sight + ztol:
-                res = 0
-                break
-            nb = nbrs[t, ex]
-            if nb < 0:
-                res = 0  # the sight line leaves the TIN
-                break
-            t = nb
-        out[i] = res
+        out[i] = los_walk1(vx, vy, vz, tris, nbrs, grad, a_xyz[i, 0], a_xyz[i, 1], a_xyz[i, 2],
+                           b_xyz[i, 0], b_xyz[i, 1], b_xyz[i, 2], start[i], max_steps, ztol)
     return out
+
+
+@njit(cache=True)
+def los_brute1(vx, vy, vz, edges, edge_border, ax, ay, az, bx, by, bz, za_ground, zb_ground, ztol, stol):
+    """:func:`los_brute` for one segment: 1 or 0."""
+    if not (az >= za_ground - ztol and bz >= zb_ground - ztol):
+        return 0  # NaN (outside) compares False too
+    dx = bx - ax
+    dy = by - ay
+    for e in range(edges.shape[0]):
+        p = edges[e, 0]
+        q = edges[e, 1]
+        exx = vx[q] - vx[p]
+        eyy = vy[q] - vy[p]
+        den = dx * eyy - dy * exx
+        if den == 0.0:
+            continue  # parallel: the terrain under a parallel edge is met at its end vertices
+        s = ((vx[p] - ax) * eyy - (vy[p] - ay) * exx) / den
+        u = ((vx[p] - ax) * dy - (vy[p] - ay) * dx) / den
+        if s < 0.0 or s > 1.0 or u < 0.0 or u > 1.0:
+            continue
+        if edge_border[e] and s > stol and s < 1.0 - stol:
+            return 0
+        z_edge = vz[p] + u * (vz[q] - vz[p])
+        z_sight = az + s * (bz - az)
+        if z_edge > z_sight + ztol:
+            return 0
+    return 1
 
 
 @njit(cache=True)
@@ -199,37 +226,6 @@ def los_brute(vx, vy, vz, edges, edge_border, a_xyz, b_xyz, za_ground, zb_ground
     n = a_xyz.shape[0]
     out = np.empty(n, dtype=np.int8)
     for i in range(n):
-        ax = a_xyz[i, 0]
-        ay = a_xyz[i, 1]
-        az = a_xyz[i, 2]
-        bx = b_xyz[i, 0]
-        by = b_xyz[i, 1]
-        bz = b_xyz[i, 2]
-        if not (az >= za_ground[i] - ztol and bz >= zb_ground[i] - ztol):
-            out[i] = 0  # NaN (outside) compares False too
-            continue
-        dx = bx - ax
-        dy = by - ay
-        ok = 1
-        for e in range(edges.shape[0]):
-            p = edges[e, 0]
-            q = edges[e, 1]
-            exx = vx[q] - vx[p]
-            eyy = vy[q] - vy[p]
-            den = dx * eyy - dy * exx
-            if den == 0.0:
-                continue  # parallel: the terrain under a parallel edge is met at its end vertices
-            s = ((vx[p] - ax) * eyy - (vy[p] - ay) * exx) / den
-            u = ((vx[p] - ax) * dy - (vy[p] - ay) * dx) / den
-            if s < 0.0 or s > 1.0 or u < 0.0 or u > 1.0:
-                continue
-            if edge_border[e] and s > stol and s < 1.0 - stol:
-                ok = 0
-                break
-            z_edge = vz[p] + u * (vz[q] - vz[p])
-            z_sight = az + s * (bz - az)
-            if z_edge > z_sight + ztol:
-                ok = 0
-                break
-        out[i] = ok
+        out[i] = los_brute1(vx, vy, vz, edges, edge_border, a_xyz[i, 0], a_xyz[i, 1], a_xyz[i, 2],
+                            b_xyz[i, 0], b_xyz[i, 1], b_xyz[i, 2], za_ground[i], zb_ground[i], ztol, stol)
     return out

@@ -10,12 +10,16 @@ from .tin import Tin
 
 __all__ = ["build_tin"]
 
-METHODS = ("vip", "greedy", "delaunay")
+MAX_CELL_ASPECT = 1e6  # dx/dy (or dy/dx) of a DEM's cells: up to here every builder's mesh passes the validity
+# check (points are triangulated in grid units, see triangulate.MAX_SPACING_RATIO); beyond it rounding in the
+# check's tolerances makes T-junctions, so such a DEM is refused before any work (resample it)
+METHODS = ("vip", "greedy", "delaunay", "robot")
 
 
 def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices: int | None = None,
               min_significance_m: float | None = None, max_error_m: float | None = None,
-              border: str = "line", backbone: float = 0.5, delaunay: bool = False) -> Tin:
+              border: str = "line", backbone: float = 0.5, delaunay: bool = False,
+              max_slope_deg: float | None = None) -> Tin:
     """Reduce and triangulate elevation data into a :class:`Tin`.
 
     ========== ================================================================================
@@ -28,7 +32,10 @@ def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices:
                until ``max_error_m`` and/or ``max_vertices``; its own triangles are kept, or
                with ``delaunay=True`` its vertices are re-triangulated as Delaunay in x, y
                (thesis 2.2's empty-circle condition; the vertical error grows, see
-               :func:`~.metrics.vertical_error` and the README's comparison table).
+               :func:`~.metrics.vertical_error` and the terrain table in docs/figures/terrain.md).
+    "robot"    keeps what robots use: the slope class at ``max_slope_deg`` (required), terrain
+               breaks, crests and drivable connectivity, vertical error as tie-breaker
+               (:mod:`~.robot`); ``max_vertices`` and/or ``max_error_m``.
     "delaunay" every point, Delaunay in x, y. The default (and only choice) for a
                :class:`PointCloud`; ``max_vertices`` smaller than the cloud is an error.
     ========== ================================================================================
@@ -42,10 +49,16 @@ def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices:
         method = "delaunay" if isinstance(dem, PointCloud) else "vip"
     if method not in METHODS:
         raise ArgumentError(f"unknown method {method!r}; expected one of {METHODS}")
+    if max_slope_deg is not None and method != "robot":
+        raise ArgumentError(f"max_slope_deg applies to method='robot', not {method!r}")
     if isinstance(dem, PointCloud):
         return _cloud_tin(dem, method, max_vertices)
     if not isinstance(dem, Dem):
         raise ArgumentError(f"dem: build_tin needs a Dem or PointCloud, got {type(dem).__name__}")
+    if len(dem.x) > 1 and len(dem.y) > 1 and max(dem.dx / dem.dy, dem.dy / dem.dx) > MAX_CELL_ASPECT:
+        raise DemFormatError(f"{dem.source}: cells of {dem.dx:g} x {dem.dy:g} m (aspect ratio "
+                             f"{max(dem.dx / dem.dy, dem.dy / dem.dx):.3g}); at most {MAX_CELL_ASPECT:g}: resample "
+                             "the DEM to cells closer to square")
     if method == "vip":
         if max_error_m is not None:
             raise ArgumentError("max_error_m applies to method='greedy'; VIP takes max_vertices or min_significance_m")
@@ -54,6 +67,13 @@ def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices:
         if min_significance_m is not None:
             raise ArgumentError("min_significance_m applies to method='vip'")
         return _greedy_tin(dem, max_vertices, max_error_m, delaunay)
+    if method == "robot":
+        if min_significance_m is not None:
+            raise ArgumentError("min_significance_m applies to method='vip'")
+        from .robot import robot_mesh
+
+        v, t = robot_mesh(dem, max_slope_deg, max_vertices, max_error_m)
+        return Tin(v, t, source=f"{dem.source} (robot, {max_slope_deg:g} deg)")
     if np.isnan(dem.z).any():
         raise DemFormatError(f"{dem.source}: {dem.n_nodata} NODATA cells; fill or crop them first")
     return Tin.from_points(dem.points(), source=f"{dem.source} (delaunay)")

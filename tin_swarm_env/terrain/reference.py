@@ -85,39 +85,88 @@ def line_of_sight_brute(tin, a_xyz, b_xyz, ztol: float | None = None) -> np.ndar
 
 
 def line_of_sight_dense(tin, a_xyz, b_xyz, n_samples: int = 2000):
-    """Dense sampling: min over ``n_samples`` points of (sight line - terrain) per ray.
-    Returns ``(n,)`` clearances in m (NaN where a sample falls outside the TIN)."""
+    """Dense sampling: min over ``n_samples`` points of (sight line - terrain) per ray, the terrain
+    height of each sample from the plane of the triangle holding it (:func:`height_brute`: every
+    triangle tested; no walk, no line-of-sight code). Returns ``(n,)`` clearances in m (NaN where a
+    sample falls outside the TIN)."""
     a = np.atleast_2d(np.asarray(a_xyz, dtype=np.float64))
     b = np.atleast_2d(np.asarray(b_xyz, dtype=np.float64))
     s = np.linspace(0.0, 1.0, n_samples)
     out = np.empty(len(a))
     for i in range(len(a)):
         p = a[i] + s[:, None] * (b[i] - a[i])
-        z = height_brute(tin, p[:, :2]) if tin.n_triangles < 64 else _height_fast(tin, p[:, :2])
-        out[i] = np.min(p[:, 2] - z)
+        out[i] = np.min(p[:, 2] - height_brute(tin, p[:, :2]))
     return out
 
 
-def _height_fast(tin, xy):
-    t = tin.locate(xy)
-    z = np.full(len(xy), np.nan)
-    ok = t >= 0
-    z[ok] = tin.height_in(xy[ok], t[ok])
-    return z
+def _clip_area(P, Q) -> float:
+    """Plan area of the intersection of two counter-clockwise triangles ``P``, ``Q`` ``(3, 2)``:
+    Sutherland-Hodgman, ``P`` clipped by each edge of ``Q``, then the shoelace formula."""
+    poly = [tuple(p) for p in P]
+    for k in range(3):
+        a, b = Q[k], Q[(k + 1) % 3]
+        ex, ey = b[0] - a[0], b[1] - a[1]
+
+        def side(p, a=a, ex=ex, ey=ey):  # > 0: left of a->b, inside Q
+            return ex * (p[1] - a[1]) - ey * (p[0] - a[0])
+
+        out = []
+        for i in range(len(poly)):
+            p, q = poly[i], poly[(i + 1) % len(poly)]
+            sp, sq = side(p), side(q)
+            if sp >= 0:
+                out.append(p)
+            if (sp >= 0) != (sq >= 0):
+                t = sp / (sp - sq)
+                out.append((p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])))
+        poly = out
+        if len(poly) < 3:
+            return 0.0
+    x = np.array([p[0] for p in poly])
+    y = np.array([p[1] for p in poly])
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def _inside_edge(p, a, b, delta) -> bool:
+    """Whether point ``p`` lies on segment ``a -> b`` (within ``delta`` m of its line) strictly
+    between its ends (more than ``delta`` from each)."""
+    e = b - a
+    length = float(np.hypot(*e))
+    t = float(np.dot(p - a, e)) / length  # m along the edge
+    off = abs(float(e[0] * (p[1] - a[1]) - e[1] * (p[0] - a[0]))) / length  # m off its line
+    return off <= delta and delta < t < length - delta
 
 
 def single_surface_brute(vertices, triangles) -> np.ndarray:
-    """Every pair of triangles tested (T^2/2 pairs, no grid): ``(T, T)`` int64 upper-triangular
-    matrix of :func:`~tin_swarm_env.terrain.validity.pair_status` codes (0 OK, 1 overlap in plan,
-    2 T-junction), 0 for pairs sharing an edge and on and below the diagonal."""
-    from .validity import on_line_tolerance, pair_status
-
+    """Every pair of triangles tested (T^2/2 pairs, no grid), from the coordinates alone
+    (independent of :func:`~tin_swarm_env.terrain.validity.pair_status`): ``(T, T)`` int64
+    upper-triangular matrix of codes 0 OK, 1 OVERLAP (the interiors overlap in plan: the
+    intersection found by clipping one triangle by the other has an area above ``delta`` times the
+    longer triangle's longest edge), 2 T_JUNCTION (a corner of one lies inside an edge of the
+    other, within ``delta`` of it, and is not a corner of it); 0 for pairs sharing an edge and on
+    and below the diagonal. ``delta``: 1e-9 of the plan extent (the validity check's tolerance)."""
     v = np.asarray(vertices, dtype=np.float64)
     tri = np.asarray(triangles, dtype=np.int64)
-    a, b = np.triu_indices(len(tri), k=1)
-    shared = (tri[a][:, :, None] == tri[b][:, None, :]).any(axis=2).sum(axis=1)
+    xy = v[:, :2]
+    delta = 1e-9 * float(max(np.ptp(xy[:, 0]), np.ptp(xy[:, 1]), 1e-300))
     out = np.zeros((len(tri), len(tri)), dtype=np.int64)
-    out[a, b] = np.where(shared == 2, 0, pair_status(v, tri, a, b, on_line_tolerance(v)))
+    for i in range(len(tri)):
+        for j in range(i + 1, len(tri)):
+            A, B = tri[i], tri[j]
+            if len(set(A.tolist()) & set(B.tolist())) == 2:
+                continue
+            P, Q = xy[A], xy[B]
+            longest = max(float(np.hypot(*(T[(k + 1) % 3] - T[k]))) for T in (P, Q) for k in range(3))
+            if _clip_area(P, Q) > delta * longest:
+                out[i, j] = 1
+                continue
+            for X, Y, Yi in ((P, Q, B), (Q, P, A)):
+                for c in range(3):
+                    corner_idx = (A if X is P else B)[c]
+                    if corner_idx in Yi:
+                        continue
+                    if any(_inside_edge(X[c], Y[k], Y[(k + 1) % 3], delta) for k in range(3)):
+                        out[i, j] = 2
     return out
 
 

@@ -13,8 +13,9 @@ cell its bounding box touches); a pair is tested once, in the first cell of the 
 two triangles' cell ranges. On a mesh of ordinary triangles a cell holds a few triangles, so
 the work is O(T) after the grid's O(T log T) sort. Each pair gets a separating-axis test on
 the six edge lines and a T-junction test of each corner against the other's edges, in a
-compiled kernel (:func:`scan_pairs`); :func:`pair_status` is the same test in plain numpy and
-:func:`tin_swarm_env.terrain.reference.single_surface_brute` tests all T^2 pairs with it.
+compiled kernel (:func:`scan_pairs`); :func:`pair_status` is the same test in plain numpy;
+:func:`tin_swarm_env.terrain.reference.single_surface_brute` tests all T^2 pairs independently
+(clipping one triangle by the other, corners against edges).
 Tolerance: a point within ``1e-9`` of the plan extent of a line counts as on it.
 """
 

@@ -5,12 +5,12 @@ from .locomotion import BLOCKED_BORDER, BLOCKED_STEEP, FELL_INTO, MOVED
 from .params import BatteryParams, RobotParams, SensorParams, WorldParams
 from .sensing import BreakContacts, Contacts, SensorReadings, nearest_k
 from .spawn import spawn_positions
-from .state import ACTIVE, DONE, EMPTY, FELL, STATUS_NAMES, Entities, Reason, WorldState
+from .state import Entities, Reason, WorldState
 from .world import StepEvents, World, flat_tin
 
 __all__ = [
-    "ACTIVE", "DONE", "BLOCKED_BORDER", "BLOCKED_STEEP", "EMPTY", "FELL", "FELL_INTO", "MOVED", "Reason",
-    "STATUS_NAMES",
+    "BLOCKED_BORDER", "BLOCKED_STEEP", "FELL_INTO", "MOVED", "Reason",
+
     "BatteryParams", "BreakContacts", "Contacts", "Entities", "RobotParams", "SensorParams", "SensorReadings",
     "StepEvents", "World", "WorldParams", "WorldState", "flat_tin", "nearest_k", "spawn_positions",
 ]

@@ -1,4 +1,4 @@
-"""The thesis's four artificial potential fields (3.3), as batched pure math.
+"""The artificial potential fields of thesis 3.3 and an asset field, as batched pure math (:data:`FIELDS`).
 
 The thesis gives shapes, not formulas; these are ours. Every field is a force ``-grad U`` of a
 potential ``U`` (returned too, for plots and for the finite-difference tests), evaluated on

@@ -94,15 +94,21 @@ class BatteryParams:
 
         idle_w * dt + sensing_w * dt + drive_j_per_m * distance + climb_j_per_m * max(dz, 0)
 
-    At zero the robot stops for good (status EMPTY). The step that empties the battery still
-    moves the robot; the charge is clipped at 0 and never increases.
+    At zero the robot stops for good (status ``Reason.BATTERY``). The step that empties the battery
+    still moves the robot; the charge is clipped at 0 and never increases.
+
+    capacity_j        charge of a full battery
+    idle_w            power drawn while switched on
+    sensing_w         power drawn by the sensor
+    drive_j_per_m     energy per metre driven
+    climb_j_per_m     energy per metre climbed (~ 20 kg * 9.81 m/s^2)
     """
 
     capacity_j: float = 50_000.0
     idle_w: float = 2.0
     sensing_w: float = 3.0
     drive_j_per_m: float = 20.0
-    climb_j_per_m: float = 200.0  # ~ 20 kg * 9.81 m/s^2
+    climb_j_per_m: float = 200.0
 
     def __post_init__(self):
         _positive(self, "capacity_j")

@@ -1,4 +1,8 @@
-"""A slow, obvious per-robot reference for the batched sensing (tests and benches)."""
+"""A slow, obvious per-robot reference for the batched sensing (tests and benches).
+
+Independent of the code it checks: line of sight and entity heights come from the brute-force
+terrain references (every edge tested, barycentric heights: :mod:`tin_swarm_env.terrain.reference`),
+never from :meth:`Tin.line_of_sight` or :meth:`Tin.height_at`."""
 
 from __future__ import annotations
 
@@ -6,7 +10,8 @@ import math
 
 import numpy as np
 
-from .state import ACTIVE, EMPTY
+from ..terrain.reference import height_brute, line_of_sight_brute
+from .state import Reason
 
 __all__ = ["reference_sense"]
 
@@ -26,7 +31,7 @@ def reference_sense(w, s):
     fov = math.radians(sp.fov_deg) / 2 + 1e-12
     z = s.heights + sp.height_m
     for i in range(s.n_robots):
-        if s.status[i] != ACTIVE:
+        if s.status[i] != Reason.NONE:
             continue
 
         def sees(xy, zt, i=i):
@@ -39,16 +44,16 @@ def reference_sense(w, s):
             if not sp.check_los:
                 return True
             a = np.array([[s.positions[i, 0], s.positions[i, 1], z[i]]])
-            return bool(w.tin.line_of_sight(a, np.array([[xy[0], xy[1], zt]]))[0])
+            return bool(line_of_sight_brute(w.tin, a, np.array([[xy[0], xy[1], zt]]))[0])
 
         K = sp.max_candidates
-        others = [j != i and s.status[j] in (ACTIVE, EMPTY) for j in range(s.n_robots)]
+        others = [j != i and s.status[j] in (Reason.NONE, Reason.BATTERY) for j in range(s.n_robots)]
         for j in _nearest_in_range(s.positions[i], s.positions, others, sp.range_m, K):
             if sees(s.positions[j], z[j]):
                 robots.add((i, j))
         for ents, out in ((s.targets, targets), (s.assets, assets)):
             for j in _nearest_in_range(s.positions[i], ents.positions, [True] * len(ents), sp.range_m, K):
-                zt = w.tin.height_at(ents.positions[j])[0] + P.entity_height_m
+                zt = height_brute(w.tin, ents.positions[j:j + 1])[0] + P.entity_height_m
                 if sees(ents.positions[j], zt):
                     out.add((i, j))
         for j, seg in enumerate(w.breaks.segments):

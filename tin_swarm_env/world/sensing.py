@@ -1,40 +1,43 @@
-"""Sensing, batched over all robots through spatial indexes (no all-pairs work).
+"""Sensing, batched over all robots through compiled uniform grids (no all-pairs work).
 
 A robot *sees* another robot, a threat/target or an asset when all of these hold:
 
-* it is ACTIVE (robots out of battery sense nothing but are still seen; fallen robots and
-  robots the task took off the terrain (DONE) are gone and are not seen);
+* it is active (``Reason.NONE``; robots out of battery sense nothing but are still seen; fallen robots and
+  robots the task took off the terrain (``Reason.ARRIVED``) are gone and are not seen);
 * the horizontal distance is at most ``range_m``;
 * the bearing relative to its heading lies within ``±fov_deg / 2``;
 * with ``check_los``, the sight line from its sensor (ground + ``height_m``) to the other's
   sensor (robots) or to ``entity_height_m`` above the ground (entities) clears the TIN
   (exact walk, :meth:`~tin_swarm_env.terrain.Tin.line_of_sight`).
 
-* it is among the observer's ``max_candidates`` nearest robots (or entities) within range: only
-  those are checked for field of view and line of sight (a bound, documented in
-  :class:`~tin_swarm_env.world.params.SensorParams`, that keeps memory and work at robots x
-  ``max_candidates`` however densely robots are packed; the observations' K nearest visible
-  slots need far fewer).
+* it is among the observer's ``max_candidates`` nearest robots (or entities) within range
+  (ties: the lower index): only those are checked for field of view and line of sight (a
+  bound, documented in :class:`~tin_swarm_env.world.params.SensorParams`, that keeps memory and
+  work at robots x ``max_candidates`` however densely robots are packed; the observations' K
+  nearest visible slots need far fewer).
 
-Candidates come from KD-trees (``scipy.spatial.cKDTree.query`` with ``k = max_candidates`` and
-``distance_upper_bound = range_m``), so the work grows with robots x ``max_candidates``, not
-robots².
-Terrain breaks are sensed all round (the robot's scan of the terrain it stands on): every
-break segment within ``range_m`` of the robot, found through a KD-tree over pieces of the
-segments no longer than the range.
+Candidates come from a uniform grid of cell side ``range_m`` rebuilt every call in O(n)
+(:mod:`.grid`); the per-observer work (candidates, field of view, line of sight, breaks) runs
+in numba ``prange`` loops over observers (:mod:`.sense_kernels`), bit-identical for any thread
+count (``NUMBA_NUM_THREADS`` / ``numba.set_num_threads``). Terrain breaks are sensed all round
+(the robot's scan of the terrain it stands on): every break segment within ``range_m`` of the
+robot, found through a static grid whose cells list the segments that can lie within range.
+Contacts are ordered by observer, then distance (ties: lower index).
 """
 
 from __future__ import annotations
 
+import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
-from scipy.spatial import cKDTree
 
-from ..terrain.breaks import closest_on_segments
+from . import sense_kernels as SK
+from .grid import grid_build
 
-__all__ = ["Contacts", "BreakContacts", "SensorReadings", "BreakIndex", "sense", "nearest_k", "nearest_candidates"]
+__all__ = ["Contacts", "BreakContacts", "SensorReadings", "BreakIndex", "sense", "nearest_k"]
 
 
 @njit(cache=True)
@@ -80,18 +83,57 @@ def nearest_k_reference(observer, key, n, k):
     return out
 
 
+@njit(cache=True)
+def _first_k(start, n, k):
+    """Rows ``start[i]:start[i+1]`` (already nearest first) -> ``(n, k)`` of the first k row
+    positions, -1 where fewer."""
+    out = np.full((n, k), -1, dtype=np.int64)
+    for i in range(n):
+        m = min(start[i + 1] - start[i], k)
+        for s in range(m):
+            out[i, s] = start[i] + s
+    return out
+
+
+@njit(cache=True)
+def _gather_first_k(start, target, dist, extra, n, k):
+    """The CSR fast path of ``nearest``: ``(target (n, k) -1, dist (n, k) inf, extra (n, k, ...)
+    0)`` from rows ``start[i]:start[i+1]`` already nearest first; ``extra`` is ``(P,)`` (bearings)
+    or ``(P, 2)`` (closest points)."""
+    idx = np.full((n, k), -1, dtype=np.int64)
+    d = np.full((n, k), np.inf)
+    ex = np.zeros((n, k) + extra.shape[1:])
+    for i in range(n):
+        m = min(start[i + 1] - start[i], k)
+        for s in range(m):
+            p = start[i] + s
+            idx[i, s] = target[p]
+            d[i, s] = dist[p]
+            ex[i, s] = extra[p]
+    return idx, d, ex
+
+
+def _rows(obj, n, k):
+    """Row positions of each observer's k nearest contacts (CSR fast path when known)."""
+    if obj.start is not None and len(obj.start) == n + 1:
+        return _first_k(obj.start, n, k) if k else np.full((n, 0), -1, dtype=np.int64)
+    return nearest_k(obj.observer, obj.distance_m, n, k)
+
+
 @dataclass
 class Contacts:
     """Ordered (observer, target) pairs: observer i sees target j.
 
     observer (P,) int64, target (P,) int64, distance_m (P,), bearing_rad (P,) relative to the
-    observer's heading, in [-pi, pi).
+    observer's heading, in [-pi, pi). ``start (n + 1,)`` (optional): when the pairs are grouped
+    by observer, nearest first, observer i's are ``start[i]:start[i + 1]``.
     """
 
     observer: np.ndarray
     target: np.ndarray
     distance_m: np.ndarray
     bearing_rad: np.ndarray
+    start: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.observer)
@@ -99,7 +141,9 @@ class Contacts:
     def nearest(self, n: int, k: int):
         """``(target_idx (n, k) -1 if none, distance_m (n, k) inf, bearing_rad (n, k) 0)``,
         nearest first."""
-        rows = nearest_k(self.observer, self.distance_m, n, k)
+        if self.start is not None and len(self.start) == n + 1:
+            return _gather_first_k(self.start, self.target, self.distance_m, self.bearing_rad, n, k)
+        rows = _rows(self, n, k)
         ok = rows >= 0
         r = np.where(ok, rows, 0)
         idx = np.where(ok, self.target[r] if len(self) else -1, -1)
@@ -113,12 +157,14 @@ class Contacts:
 
 @dataclass
 class BreakContacts:
-    """(robot, break) pairs within range: distance and the closest point of the segment."""
+    """(robot, break) pairs within range: distance and the closest point of the segment;
+    ``start`` as in :class:`Contacts`."""
 
     observer: np.ndarray
     break_idx: np.ndarray
     distance_m: np.ndarray
     closest: np.ndarray  # (P, 2) m
+    start: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.observer)
@@ -126,7 +172,9 @@ class BreakContacts:
     def nearest(self, n: int, k: int):
         """``(break_idx (n, k), distance_m (n, k), closest (n, k, 2))``, nearest first; -1/inf/0
         where fewer breaks are in range."""
-        rows = nearest_k(self.observer, self.distance_m, n, k)
+        if self.start is not None and len(self.start) == n + 1:
+            return _gather_first_k(self.start, self.break_idx, self.distance_m, self.closest, n, k)
+        rows = _rows(self, n, k)
         ok = rows >= 0
         r = np.where(ok, rows, 0)
         if len(self) == 0:
@@ -150,139 +198,90 @@ class SensorReadings:
 
 
 class BreakIndex:
-    """KD-tree over pieces (no longer than ``piece_m``) of the break segments."""
+    """A static grid over the break segments: each cell (side ``>= piece_m``, the sensor
+    range) lists every segment that can lie within ``piece_m`` of a point in it
+    (:func:`~.sense_kernels.break_grid`), over the bounds given (the TIN's)."""
 
-    def __init__(self, breaks, piece_m: float):
+    def __init__(self, breaks, piece_m: float, bounds=None):
         self.breaks = breaks
-        a = breaks.segments[:, 0, :2]
-        b = breaks.segments[:, 1, :2]
-        L = np.hypot(*(b - a).T) if len(a) else np.zeros(0)
-        n_pieces = np.maximum(np.ceil(L / piece_m), 1).astype(np.int64)
-        seg = np.repeat(np.arange(len(a)), n_pieces)
-        first = np.repeat(np.cumsum(n_pieces) - n_pieces, n_pieces)
-        j = np.arange(len(seg)) - first
-        t = (j + 0.5) / np.repeat(n_pieces, n_pieces)
-        mid = a[seg] + t[:, None] * (b - a)[seg]
-        self.piece_seg = seg
-        self.half_len = float((L / n_pieces).max() / 2) if len(a) else 0.0
-        self.tree = cKDTree(mid) if len(mid) else None
-        self.a = a
-        self.ab = b - a
-
-    def query(self, xy, observers, range_m) -> BreakContacts:
-        if self.tree is None or len(observers) == 0:
-            z = np.zeros(0, dtype=np.int64)
-            return BreakContacts(z, z, np.zeros(0), np.zeros((0, 2)))
-        rt = cKDTree(xy[observers])
-        m = rt.sparse_distance_matrix(self.tree, range_m + self.half_len + 1e-9, output_type="ndarray")
-        obs = observers[m["i"]]
-        seg = self.piece_seg[m["j"]]
-        key = np.unique(obs * np.int64(len(self.a)) + seg)
-        obs, seg = key // len(self.a), key % len(self.a)
-        closest, d = closest_on_segments(xy[obs], self.a[seg], self.a[seg] + self.ab[seg])
-        ok = d <= range_m
-        return BreakContacts(obs[ok], seg[ok], d[ok], closest[ok])
+        seg = breaks.segments
+        self.ax, self.ay = (np.ascontiguousarray(seg[:, 0, c]) for c in (0, 1))
+        self.bx, self.by = (np.ascontiguousarray(seg[:, 1, c]) for c in (0, 1))
+        self.range_m = float(piece_m)
+        if bounds is None:
+            xy = seg[..., :2].reshape(-1, 2)
+            bounds = (*xy.min(axis=0), *xy.max(axis=0)) if len(xy) else (0.0, 0.0, 1.0, 1.0)
+        self.grid = SK.break_grid(self.ax, self.ay, self.bx, self.by, self.range_m, *map(float, bounds))
 
 
-def nearest_candidates(tree_xy, query_xy, range_m, k, *, query_idx, tree_idx=None, self_idx=None):
-    """For each query point, its at most ``k`` nearest tree points within ``range_m`` (nearest
-    first): ``(observer (P,), target (P,))`` int64, observers from ``query_idx (m,)``, targets
-    from ``tree_idx (N,)`` (default: tree row numbers). With ``self_idx (m,)`` a target equal to
-    the observer's own index is left out (and one more neighbour asked for). Memory O(m * k)."""
-    n_tree = len(tree_xy)
-    extra = 1 if self_idx is not None else 0
-    kq = min(k + extra, n_tree)
-    if kq == 0 or len(query_xy) == 0:
-        z = np.zeros(0, dtype=np.int64)
-        return z, z
-    _, j = cKDTree(tree_xy).query(query_xy, k=kq, distance_upper_bound=range_m * (1 + 1e-9))
-    j = np.asarray(j, dtype=np.int64).reshape(len(query_xy), kq)  # n_tree where fewer in range
-    ok = j < n_tree
-    tgt = np.where(ok, j, 0)
-    if tree_idx is not None:
-        tgt = tree_idx[tgt]
-    if self_idx is not None:
-        ok &= tgt != self_idx[:, None]
-        ok &= np.cumsum(ok, axis=1) <= k  # self was not among them: keep k
-    obs = np.broadcast_to(np.asarray(query_idx, dtype=np.int64)[:, None], ok.shape)
-    return obs[ok], tgt[ok]
+def _empty_contacts(n) -> Contacts:
+    z = np.zeros(0, dtype=np.int64)
+    return Contacts(z, z, np.zeros(0), np.zeros(0), np.zeros(n + 1, dtype=np.int64))
 
 
-def _bearing(dx, dy, heading):
-    return (np.arctan2(dy, dx) - heading + np.pi) % (2 * np.pi) - np.pi
+_SCRATCH = threading.local()  # per thread: slot buffers reused across calls (never returned to callers)
 
 
-def _in_fov(bearing, fov_deg):
-    return np.abs(bearing) <= np.radians(fov_deg) / 2 + 1e-12
+def _slots(n, k, which):
+    """``(idx, dist, bear, vis, cnt)``: per observer K candidate slots (only ``[:cnt]`` is read;
+    ``cnt`` zeroed here, the kernels write every slot they later read). Reused across calls
+    of the same thread and size: no allocation per step."""
+    cache = getattr(_SCRATCH, "slots", None)
+    if cache is None:
+        cache = _SCRATCH.slots = {}
+    key = (n, k, which)
+    buf = cache.get(key)
+    if buf is None:
+        if len(cache) > 12:
+            cache.clear()
+        buf = cache[key] = (np.empty((n, k), dtype=np.int64), np.empty((n, k)), np.empty((n, k)),
+                            np.empty((n, k), dtype=np.int8), np.empty(n, dtype=np.int64))
+    buf[4][:] = 0
+    return buf
 
 
-def _contacts(obs, tgt, dx, dy, headings, fov_deg):
-    d = np.hypot(dx, dy)
-    b = _bearing(dx, dy, headings[obs])
-    ok = _in_fov(b, fov_deg)
-    return Contacts(obs[ok], tgt[ok], d[ok], b[ok])
+def _entities(tin, ent, params, r):
+    """``(ex, ey, ez, grid)`` of the entities (ez: their sight point's height)."""
+    if len(ent) == 0:
+        z = np.zeros(0)
+        return z, z, z, grid_build(z, z, np.zeros(0, dtype=np.bool_), r)
+    ex = np.ascontiguousarray(ent.positions[:, 0])
+    ey = np.ascontiguousarray(ent.positions[:, 1])
+    ez = tin.height_in(ent.positions, ent.tri_idx) + params.entity_height_m
+    return ex, ey, ez, grid_build(ex, ey, np.ones(len(ent), dtype=np.bool_), r)
 
 
 def sense(tin, break_index: BreakIndex, state, params) -> SensorReadings:
-    """What every robot senses in ``state`` (see the module docstring)."""
+    """What every robot senses in ``state`` (see the module docstring): two parallel passes
+    over the robots (:func:`~.sense_kernels.sense_pass1`, :func:`~.sense_kernels.sense_pass2`)."""
     sp = params.sensor
-    r = sp.range_m
-    pos, head = state.positions, state.headings
-    present = np.flatnonzero(state.present)
-    act_idx = np.flatnonzero(state.active)
-    sensor_z = state.heights + sp.height_m
-    robots = _sense_robots(tin, state, present, act_idx, sensor_z, sp)
-    targets = _sense_entities(tin, state.targets, pos, head, sensor_z, state.tri_idx, act_idx, params)
-    assets = _sense_entities(tin, state.assets, pos, head, sensor_z, state.tri_idx, act_idx, params)
-    breaks = break_index.query(pos, act_idx, r)
-    tri = state.tri_idx
-    return SensorReadings(robots=robots, targets=targets, assets=assets, breaks=breaks,
+    r = float(sp.range_m)
+    n = state.n_robots
+    k = int(sp.max_candidates)
+    x = np.ascontiguousarray(state.positions[:, 0])
+    y = np.ascontiguousarray(state.positions[:, 1])
+    head = np.ascontiguousarray(state.headings, dtype=np.float64)
+    active = np.ascontiguousarray(state.active)
+    present = np.ascontiguousarray(state.present)
+    tri = np.ascontiguousarray(state.tri_idx, dtype=np.int64)
+    sz = np.ascontiguousarray(state.heights + sp.height_m)
+    half_fov = math.radians(sp.fov_deg) / 2 + 1e-12
+    T = SK.terrain_arrays(tin)
+    G = grid_build(x, y, present, r)
+    R = _slots(n, k, 0)
+    TG = (_entities(tin, state.targets, params, r), *_slots(n, k, 1))
+    AS = (_entities(tin, state.assets, params, r), *_slots(n, k, 2))
+    bi = break_index
+    if r > bi.range_m:
+        raise ValueError(f"BreakIndex built for range {bi.range_m} m, asked for {r} m")
+    B = (bi.ax, bi.ay, bi.bx, bi.by, bi.grid)
+    bcnt = np.zeros(n, dtype=np.int64)
+    los = bool(sp.check_los)
+    SK.sense_pass1(T, x, y, head, tri, sz, active, present, G, r, half_fov, los, R, TG, AS, B, bcnt)
+    obs, seg, d, c, start = SK.sense_pass2(T, x, y, tri, sz, active, G, r, los, R, B, bcnt)
+    robots = Contacts(*SK.compact(R[0], R[1], R[2], R[3], R[4]))
+    targets = Contacts(*SK.compact(*TG[1:])) if len(state.targets) else _empty_contacts(n)
+    assets = Contacts(*SK.compact(*AS[1:])) if len(state.assets) else _empty_contacts(n)
+    return SensorReadings(robots=robots, targets=targets, assets=assets, breaks=BreakContacts(obs, seg, d, c, start),
                           tilt_rad=tin.sensor_tilt_in(tri, head), slope_deg=tin.slope_deg[tri],
                           aspect_deg=tin.aspect_deg[tri])
-
-
-def _sense_robots(tin, state, present, act_idx, sensor_z, sp) -> Contacts:
-    """Each active observer's nearest present robots in range, within FOV, in sight."""
-    pos, n = state.positions, state.n_robots
-    if len(present) < 2 or len(act_idx) == 0:
-        z = np.zeros(0, dtype=np.int64)
-        return Contacts(z, z, np.zeros(0), np.zeros(0))
-    obs, tgt = nearest_candidates(pos[present], pos[act_idx], sp.range_m, sp.max_candidates, self_idx=act_idx,
-                                  tree_idx=present, query_idx=act_idx)
-    dx, dy = pos[tgt, 0] - pos[obs, 0], pos[tgt, 1] - pos[obs, 1]
-    in_range = np.hypot(dx, dy) <= sp.range_m
-    robots = _contacts(obs[in_range], tgt[in_range], dx[in_range], dy[in_range], state.headings, sp.fov_deg)
-    del obs, tgt, dx, dy, in_range
-    if sp.check_los and len(robots):
-        # sight is symmetric: test each unordered pair once
-        lo, hi = np.minimum(robots.observer, robots.target), np.maximum(robots.observer, robots.target)
-        key, inv = np.unique(lo * np.int64(n) + hi, return_inverse=True)
-        del lo, hi
-        a_i, b_i = key // n, key % n
-        A = np.column_stack([pos[a_i], sensor_z[a_i]])
-        B = np.column_stack([pos[b_i], sensor_z[b_i]])
-        vis = tin.line_of_sight(A, B, hint=state.tri_idx[a_i])[inv.ravel()]
-        robots = Contacts(robots.observer[vis], robots.target[vis], robots.distance_m[vis], robots.bearing_rad[vis])
-    return robots
-
-
-def _sense_entities(tin, ent, pos, head, sensor_z, tri_idx, act_idx, params) -> Contacts:
-    sp = params.sensor
-    empty = Contacts(np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0))
-    if len(ent) == 0 or len(act_idx) == 0:
-        return empty
-    obs, tgt = nearest_candidates(ent.positions, pos[act_idx], sp.range_m, sp.max_candidates,
-                                  query_idx=act_idx)
-    dx = ent.positions[tgt, 0] - pos[obs, 0]
-    dy = ent.positions[tgt, 1] - pos[obs, 1]
-    in_range = np.hypot(dx, dy) <= sp.range_m
-    c = _contacts(obs[in_range], tgt[in_range], dx[in_range], dy[in_range], head, sp.fov_deg)
-    if sp.check_los and len(c):
-        ez = tin.height_in(ent.positions[c.target], ent.tri_idx[c.target]) + params.entity_height_m
-        A = np.column_stack([pos[c.observer], sensor_z[c.observer]])
-        B = np.column_stack([ent.positions[c.target], ez])
-        vis = tin.line_of_sight(A, B, hint=tri_idx[c.observer])
-        c = Contacts(c.observer[vis], c.target[vis], c.distance_m[vis], c.bearing_rad[vis])
-    # order by observer then distance, for stable downstream use
-    o = np.lexsort((c.distance_m, c.observer))
-    return Contacts(c.observer[o], c.target[o], c.distance_m[o], c.bearing_rad[o])

@@ -6,7 +6,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..errors import ArgumentError
 from ..terrain import Tin
@@ -14,9 +13,11 @@ from . import locomotion
 from .battery import drain
 from .entities import make_entities, move_entities
 from .params import WorldParams
+from .grid import grid_build
 from .placement import check_placement
+from .sense_kernels import collision_counts, terrain_arrays
 from .sensing import BreakIndex, SensorReadings, sense
-from .state import ACTIVE, DONE, EMPTY, FELL, Entities, WorldState, is_present
+from .state import Entities, Reason, WorldState, is_present
 
 __all__ = ["World", "StepEvents", "flat_tin"]
 
@@ -58,7 +59,7 @@ class World:
         self.steep = np.ascontiguousarray(self.tin.slope_deg > self.params.robot.max_slope_deg)
         self.breaks = self.tin.breaks(max_slope_deg=self.params.robot.max_slope_deg,
                                       break_angle_deg=self.params.break_angle_deg)
-        self.break_index = BreakIndex(self.breaks, piece_m=self.params.sensor.range_m)
+        self.break_index = BreakIndex(self.breaks, piece_m=self.params.sensor.range_m, bounds=self.tin.bounds)
 
     # -- reset --------------------------------------------------------------------------
     def reset(self, rng: np.random.Generator | int | None, robot_positions, headings=None, *,
@@ -113,28 +114,24 @@ class World:
         c = self.check_commands(state, commands)
         P = self.params
         s = state.copy()
-        pos, tri, head, speeds, ev = locomotion.move(self.tin, self.steep, s.positions, s.tri_idx, s.headings,
-                                                     s.status, c, P.robot, P.dt_s)
-        heights = self.tin.height_in(pos, tri)
-        moved = np.hypot(*(pos - s.positions).T)
-        climb = heights - s.heights
+        # locomotion.move (the numpy reference) fused into one parallel pass with heights and distances
+        pos, tri, head, speeds, ev, heights, moved, climb = locomotion.move_kernel(
+            terrain_arrays(self.tin), self.steep, np.ascontiguousarray(s.positions), np.ascontiguousarray(s.tri_idx),
+            np.ascontiguousarray(s.headings), np.ascontiguousarray(s.heights), s.status == Reason.NONE, c,
+            float(P.robot.max_speed_mps), float(P.robot.max_climb_deg), math.radians(P.robot.turn_rate_dps) * P.dt_s,
+            float(P.dt_s))
         new_batt = drain(s.battery_j, s.status, moved, climb, P.battery, P.dt_s)
         energy = s.battery_j - new_batt
         fell = ev == locomotion.FELL_INTO
         status = s.status.copy()
-        status[fell] = FELL
-        emptied = (status == ACTIVE) & (new_batt <= 0.0)
-        status[emptied] = EMPTY
-        # collisions among robots still on the terrain
-        present = np.flatnonzero(is_present(status))
-        coll = np.zeros(s.n_robots, dtype=np.int64)
-        pairs = np.zeros((0, 2), dtype=np.int64)
-        if len(present) > 1:
-            pp = cKDTree(pos[present]).query_pairs(2 * P.robot.radius_m, output_type="ndarray")
-            pairs = present[pp] if len(pp) else pairs
-            d = np.hypot(*(pos[pairs[:, 0]] - pos[pairs[:, 1]]).T)
-            pairs = pairs[d < 2 * P.robot.radius_m]
-            coll = np.bincount(pairs.ravel(), minlength=s.n_robots).astype(np.int64)
+        status[fell] = Reason.FELL
+        emptied = (status == Reason.NONE) & (new_batt <= 0.0)
+        status[emptied] = Reason.BATTERY
+        # collisions among robots still on the terrain: a grid of cell = the collision diameter
+        present = is_present(status)
+        x, y = np.ascontiguousarray(pos[:, 0]), np.ascontiguousarray(pos[:, 1])
+        diameter = 2 * P.robot.radius_m
+        coll, pairs = collision_counts(x, y, present, grid_build(x, y, present, diameter), diameter)
         turn_sd = math.radians(P.entity_turn_sd_deg)
         targets = move_entities(self.tin, self.steep, s.targets, P.entity_speed_mps, turn_sd, P.dt_s, s.rng)
         assets = move_entities(self.tin, self.steep, s.assets, P.entity_speed_mps, turn_sd, P.dt_s, s.rng)
@@ -145,12 +142,12 @@ class World:
                                emptied=emptied, collisions=coll, collision_pairs=pairs)
 
     def retire(self, state: WorldState, mask) -> WorldState:
-        """A copy of ``state`` with the robots in ``mask`` taken off the terrain (status DONE):
+        """A copy of ``state`` with the robots in ``mask`` taken off the terrain (status ``Reason.ARRIVED``):
         the task is over for them (e.g. they arrived); they no longer move, sense, are seen or
-        collide. Fallen robots stay FELL."""
+        collide. Fallen robots stay ``Reason.FELL``."""
         s = state.copy()
-        m = np.asarray(mask, dtype=bool) & (s.status != FELL)
-        s.status[m] = DONE
+        m = np.asarray(mask, dtype=bool) & (s.status != Reason.FELL)
+        s.status[m] = Reason.ARRIVED
         return s
 
     def sense(self, state: WorldState) -> SensorReadings:

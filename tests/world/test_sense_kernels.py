@@ -1,0 +1,215 @@
+"""The parallel sensing, collision and locomotion kernels: bit-identical for any thread count
+and to the same loops run as plain Python (``py_func``, the serial reference), on random swarms."""
+
+import math
+from contextlib import contextmanager
+
+import numba
+import numpy as np
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from tin_swarm_env.world import BatteryParams, RobotParams, SensorParams, World, WorldParams, spawn_positions
+from tin_swarm_env.world import locomotion as L
+from tin_swarm_env.world import sense_kernels as SK
+from tin_swarm_env.world import sensing
+from tin_swarm_env.world import world as world_mod
+from tin_swarm_env.world.grid import grid_build, grid_cells
+from tin_swarm_env.world.state import Reason
+
+THREADS = min(2, numba.config.NUMBA_NUM_THREADS)
+
+
+@contextmanager
+def threads(k):
+    old = numba.get_num_threads()
+    numba.set_num_threads(k)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(old)
+
+
+@contextmanager
+def plain_python(monkeypatch):
+    """Every parallel kernel of a world step and sensing replaced by its uncompiled loop."""
+    with monkeypatch.context() as m:
+        m.setattr(world_mod, "collision_counts", SK.collision_counts.py_func)
+        for name in ("sense_pass1", "sense_pass2", "collision_counts"):
+            m.setattr(SK, name, getattr(SK, name).py_func)
+        m.setattr(L, "move_walk", L.move_walk.py_func)
+        m.setattr(L, "move_kernel", L.move_kernel.py_func)
+        yield
+
+
+def _world(random_tin, seed, sensor, k_ent=3, n=30):
+    rng = np.random.default_rng(seed)
+    p = WorldParams(robot=RobotParams(max_slope_deg=25.0, max_climb_deg=40.0, radius_m=8.0),
+                    sensor=SensorParams(**sensor), battery=BatteryParams(), break_angle_deg=10.0)
+    w = World(random_tin(seed, 40, zscale=60), p)
+    if (~w.steep).sum() == 0:
+        return None, None, None
+    pos = spawn_positions(w.tin, w.steep, n, rng)
+    ents = spawn_positions(w.tin, w.steep, 2 * k_ent, rng)
+    s = w.reset(rng, pos, targets=ents[:k_ent], assets=ents[k_ent:], targets_mobile=True)
+    s.status[rng.random(n) < 0.15] = Reason.FELL
+    s.status[rng.random(n) < 0.15] = Reason.BATTERY
+    return w, s, rng
+
+
+def _flat(readings):
+    """Every array of a SensorReadings, in a fixed order."""
+    out = []
+    for part in (readings.robots, readings.targets, readings.assets, readings.breaks):
+        out += [np.asarray(getattr(part, f)) for f in part.__dataclass_fields__]
+    return out + [readings.tilt_rad, readings.slope_deg, readings.aspect_deg]
+
+
+def _flat_step(state, events):
+    return [state.positions, state.headings, state.tri_idx, state.heights, state.battery_j, state.status,
+            state.collisions, events.collisions, events.collision_pairs, events.motion_event]
+
+
+def _assert_same(a, b):
+    assert len(a) == len(b)
+    for x, y in zip(a, b, strict=True):
+        assert x.dtype == y.dtype and x.shape == y.shape
+        assert x.tobytes() == y.tobytes()  # bit for bit (NaN and -0.0 included)
+
+
+def _run(w, s, cmds):
+    out = []
+    for c in cmds:
+        s, ev = w.step(s, c)
+        out += _flat_step(s, ev) + _flat(w.sense(s))
+    return out
+
+
+@settings(max_examples=12)
+@given(st.integers(0, 10_000), st.integers(2, 40), st.floats(30, 400), st.floats(30, 360), st.booleans(),
+       st.integers(1, 12))
+def test_step_and_sensing_are_bit_identical_for_1_and_2_threads_and_plain_python(random_tin, seed, n, range_m, fov,
+                                                                                 los, k):
+    sensor = {"range_m": range_m, "fov_deg": fov, "check_los": los, "max_candidates": k}
+    w, s, rng = _world(random_tin, seed, sensor, n=n)
+    assume(w is not None)  # a random TIN with no drivable triangle has nowhere to spawn
+    cmds = rng.uniform(-1.2, 1.2, (3, n, 2))
+    with threads(1):
+        one = _run(w, s, cmds)
+    with threads(THREADS):
+        two = _run(w, s, cmds)
+    _assert_same(one, two)
+    with pytest.MonkeyPatch.context() as mp, plain_python(mp):
+        ref = _run(w, s, cmds[:1])
+    _assert_same(one[:len(ref)], ref)
+
+
+def test_mutual_sight_is_walked_once_and_copied_to_both_slots():
+    """Two robots facing each other across a ridge and two in the open: each pair's two
+    slots agree, and equal the Tin's own line of sight."""
+    v = np.array([[0, 0, 0], [100, 0, 0], [100, 100, 0], [0, 100, 0], [50, 0, 30], [50, 100, 30]], float)
+    from tin_swarm_env.terrain import Tin
+
+    tin = Tin(v, [[0, 4, 5], [0, 5, 3], [4, 1, 2], [4, 2, 5]])
+    robot = RobotParams(max_slope_deg=60.0, max_climb_deg=60.0)
+    w = World(tin, WorldParams(robot=robot, sensor=SensorParams(range_m=150)))
+    pos = np.array([[10, 20], [90, 20], [10, 80], [30, 80]], float)
+    s = w.reset(0, pos, headings=np.array([0.0, math.pi, 0.0, math.pi]))
+    seen = w.sense(s).robots.as_set()
+    z = s.heights + w.params.sensor.height_m
+    los = tin.line_of_sight(np.column_stack([pos[[0, 2]], z[[0, 2]]]), np.column_stack([pos[[1, 3]], z[[1, 3]]]))
+    assert not los[0] and los[1]
+    assert {(2, 3), (3, 2)} <= seen and not {(0, 1), (1, 0)} & seen
+
+
+@settings(max_examples=30)
+@given(st.integers(0, 10_000), st.integers(0, 200), st.floats(0.5, 300))
+def test_grid_blocks_hold_every_point_within_the_cell_size(seed, n, cell):
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(-500, 500, (n, 2)) * rng.uniform(0.01, 1)
+    use = rng.random(n) < 0.8
+    x0, y0, inv, nx, ny, start, items, gx, gy = grid_build(xy[:, 0].copy(), xy[:, 1].copy(), use, cell)
+    assert sorted(items.tolist()) == np.flatnonzero(use).tolist()
+    assert nx * ny <= 4 * use.sum() + 64 and 1 / inv >= cell * (1 - 1e-12)
+    for c in range(nx * ny):  # index order inside a cell; coordinates carried along
+        assert list(items[start[c]:start[c + 1]]) == sorted(items[start[c]:start[c + 1]])
+    np.testing.assert_array_equal(gx, xy[items, 0])
+    for q in rng.uniform(-600, 600, (20, 2)):
+        lo_x, hi_x, lo_y, hi_y = grid_cells(x0, y0, inv, nx, ny, q[0], q[1])
+        got = {int(items[m]) for cy in range(lo_y, hi_y + 1) for cx in range(lo_x, hi_x + 1)
+               for m in range(start[cy * nx + cx], start[cy * nx + cx + 1])}
+        near = np.flatnonzero(use & (np.hypot(*(xy - q).T) <= cell))
+        assert set(near.tolist()) <= got
+
+
+@settings(max_examples=30)
+@given(st.integers(0, 10_000), st.integers(0, 120), st.floats(0.1, 50))
+def test_collision_counts_equal_all_pairs(seed, n, diameter):
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(0, 100, (n, 2))
+    xy[: n // 3] = np.round(xy[: n // 3])  # exact ties and duplicates
+    present = rng.random(n) < 0.8
+    x, y = xy[:, 0].copy(), xy[:, 1].copy()
+    coll, pairs = SK.collision_counts(x, y, present, grid_build(x, y, present, diameter), diameter)
+    d = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
+    touch = (d < diameter) & present[:, None] & present[None, :] & ~np.eye(n, dtype=bool)
+    np.testing.assert_array_equal(coll, touch.sum(axis=1))
+    np.testing.assert_array_equal(pairs.reshape(-1, 2), np.argwhere(np.triu(touch)))
+
+
+def test_break_contacts_are_nearest_first_and_complete(random_tin):
+    w, s, _ = _world(random_tin, 5, {"range_m": 150.0}, n=25)
+    b = w.sense(s).breaks
+    seg = w.breaks.segments[:, :, :2]
+    for i in range(s.n_robots):
+        rows = slice(b.start[i], b.start[i + 1])
+        assert np.all(b.observer[rows] == i)
+        assert np.all(np.diff(b.distance_m[rows]) >= 0)
+        if s.status[i] != 0:
+            assert b.start[i + 1] == b.start[i]
+            continue
+        _, d = sensing_closest(s.positions[i], seg)
+        assert set(b.break_idx[rows].tolist()) == set(np.flatnonzero(d <= 150.0).tolist())
+
+
+def sensing_closest(p, seg):
+    from tin_swarm_env.terrain.breaks import closest_on_segments
+
+    return closest_on_segments(p, seg[:, 0], seg[:, 1])
+
+
+def test_contacts_nearest_fast_path_equals_the_sort(random_tin):
+    w, s, _ = _world(random_tin, 11, {"range_m": 300.0}, n=40)
+    r = w.sense(s)
+    for part in (r.robots, r.targets, r.breaks):
+        rows_fast = sensing._rows(part, s.n_robots, 4)
+        rows_sort = sensing.nearest_k(part.observer, part.distance_m, s.n_robots, 4)
+        np.testing.assert_array_equal(rows_fast, rows_sort)
+        slow = type(part)(*(getattr(part, f) for f in part.__dataclass_fields__ if f != "start"))  # no CSR
+        for a, b in zip(part.nearest(s.n_robots, 4), slow.nearest(s.n_robots, 4), strict=True):
+            np.testing.assert_array_equal(a, b)
+
+
+@settings(max_examples=15)
+@given(st.integers(0, 10_000), st.integers(1, 60))
+def test_fused_move_kernel_equals_the_numpy_locomotion(random_tin, seed, n):
+    """World.step's fused pass against locomotion.move (the numpy reference): positions,
+    triangles, events and speeds bit for bit, headings to rounding (numpy's vectorised atan2)."""
+    w, s, rng = _world(random_tin, seed, {"range_m": 60.0}, n=n)
+    assume(w is not None)
+    P = w.params
+    T = SK.terrain_arrays(w.tin)
+    events = set()
+    for _ in range(4):
+        c = rng.uniform(-1.5, 1.5, (n, 2)) * rng.uniform(0, 30)
+        ref = L.move(w.tin, w.steep, s.positions, s.tri_idx, s.headings, s.status, c, P.robot, P.dt_s)
+        got = L.move_kernel(T, w.steep, s.positions, s.tri_idx, s.headings, s.heights, s.active, c,
+                            P.robot.max_speed_mps, P.robot.max_climb_deg, math.radians(P.robot.turn_rate_dps) * P.dt_s,
+                            P.dt_s)
+        for k in (0, 1, 3, 4):
+            np.testing.assert_array_equal(got[k], ref[k])
+        np.testing.assert_allclose(got[2], ref[2], rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(got[5], w.tin.height_in(ref[0], ref[1]))
+        events |= set(got[4].tolist())
+        s, _ = w.step(s, c)

@@ -1,0 +1,52 @@
+"""Mirror-equivariant policies: ``pi(o) = clip((g(o) + M g(M o)) / 2)``.
+
+The world has a mirror symmetry (:mod:`tin_swarm_env.env.observation`: reflecting the body frame's
+y axis maps observations by :meth:`~tin_swarm_env.env.observation.ObsLayout.mirror` and actions by
+:func:`~tin_swarm_env.env.observation.mirror_action`). A network ``f`` trained without it learns
+whichever side its first successes took; averaging it with its mirror image gives a policy that
+turns both ways alike: with ``g`` the network's output before its clip to [-1, 1], ``vx`` is the
+mean of ``g_x(o)`` and ``g_x(M o)``, ``vy`` half the difference of ``g_y(o)`` and ``g_y(M o)``, then
+clipped. (Averaging before the clip is what a Gaussian policy trained with the symmetry built in
+does: its mean is the average and SB3 clips its deterministic action;
+:func:`tin_swarm_env.adapters.sb3.mirror_policy_class`.) It is equivariant exactly, not to a
+tolerance: ``pi(M o) == M pi(o)`` bit for bit, because ``M`` only flips signs (``M M o == o``),
+float addition commutes, ``b - a == -(a - b)`` and the clip is odd. Where ``o`` is its own mirror
+image (a wall straight ahead, nothing else in view) the policy drives straight (``vy = 0``);
+memory, or any asymmetry in view, breaks that tie.
+
+A policy file asks for it with ``"symmetry": "mirror"`` (:mod:`tin_swarm_env.policies.learned`;
+``"none"``, the default, is the network alone). The shield, when there is one, filters the
+averaged action. It is mirror-equivariant (every cut is a projection on sensed geometry) but for
+one tie: a command exactly backwards (``vy == 0``) into the blind sector is turned toward the left
+edge of the field of view in both images (:func:`~tin_swarm_env.policies.base.into_view`). A mirror
+policy gives ``vy == 0`` exactly where both images saturate ``vy`` alike, so this tie does occur;
+it is a fixed tie-break, not a side learned from data.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..env.observation import ACTION_PARITY, ObsLayout
+
+__all__ = ["SYMMETRIES", "mirror_signs", "symmetrize"]
+
+SYMMETRIES = ("none", "mirror")
+
+
+def mirror_signs(layout) -> np.ndarray:
+    """``(d,)`` float64 signs of the reflection for ``layout`` (an :class:`ObsLayout` or its
+    ``to_dict()``, as a policy file records it)."""
+    lay = layout if isinstance(layout, ObsLayout) else ObsLayout.from_dict(layout)
+    return lay.mirror_signs().astype(np.float64)
+
+
+def symmetrize(f, x, signs) -> np.ndarray:
+    """``(f(x) + M f(M x)) / 2`` (no clip) for observations ``x (n, d)``: ``f`` maps ``(m, d)`` float64 to
+    ``(m, 2)`` and is called once, on ``x`` and its mirror image stacked (row ``i`` of the result
+    never depends on another row, so this equals two separate calls). Returns ``(n, 2)`` float64."""
+    x = np.asarray(x, dtype=np.float64)
+    n = len(x)
+    both = np.asarray(f(np.concatenate([x, x * signs])), dtype=np.float64)
+    a, b = both[:n], both[n:]
+    return (a + b * np.asarray(ACTION_PARITY)) / 2

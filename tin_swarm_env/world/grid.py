@@ -1,0 +1,92 @@
+"""A compiled uniform grid for neighbour candidates, rebuilt in O(n) every step.
+
+Points are binned into square cells of side at least the query radius (the sensor range, or
+the collision diameter), so every point within the radius of a query point lies in the 3 x 3
+cells around it. The grid covers the bounding box of the points it holds; when that box would
+need more than ``4 n + 64`` cells the side grows (fewer, larger cells: still correct, only
+slower). Within a cell, points keep their index order (a counting sort), so whoever reads the
+grid sees the same candidates in the same order on any thread count.
+
+:func:`grid_build` is serial (it is O(n) and far cheaper than the queries); queries run inside
+the callers' parallel loops (:func:`grid_cells`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+__all__ = ["grid_build", "grid_cells"]
+
+
+@njit(cache=True)
+def grid_build(x, y, use, min_cell):
+    """Bin the points ``(x[i], y[i])`` with ``use[i]`` into a grid with cells of side
+    ``>= min_cell``. Returns ``(x0, y0, inv_cs, nx, ny, start (nx*ny + 1,), items (m,), gx (m,), gy (m,))``:
+    the points of cell ``c = cy * nx + cx`` are ``items[start[c]:start[c + 1]]``, in index order,
+    and ``gx``/``gy`` their coordinates in that order (read contiguously by the queries)."""
+    n = x.shape[0]
+    m = 0
+    x0 = np.inf
+    y0 = np.inf
+    x1 = -np.inf
+    y1 = -np.inf
+    for i in range(n):
+        if use[i]:
+            m += 1
+            x0 = min(x0, x[i])
+            y0 = min(y0, y[i])
+            x1 = max(x1, x[i])
+            y1 = max(y1, y[i])
+    if m == 0:
+        z = np.zeros(0)
+        e = np.zeros(0, dtype=np.int64)
+        return 0.0, 0.0, 1.0 / max(min_cell, 1e-9), 1, 1, np.zeros(2, dtype=np.int64), e, z, z
+    cs = max(min_cell, 1e-9)
+    max_cells = 4 * m + 64
+    while True:
+        nx = int((x1 - x0) / cs) + 1
+        ny = int((y1 - y0) / cs) + 1
+        if nx * ny <= max_cells:
+            break
+        cs *= 2.0
+    inv = 1.0 / cs
+    start = np.zeros(nx * ny + 1, dtype=np.int64)
+    cell = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        if use[i]:
+            cx = min(int((x[i] - x0) * inv), nx - 1)
+            cy = min(int((y[i] - y0) * inv), ny - 1)
+            c = cy * nx + cx
+            cell[i] = c
+            start[c + 1] += 1
+    for c in range(nx * ny):
+        start[c + 1] += start[c]
+    fill = start[:-1].copy()
+    items = np.empty(m, dtype=np.int64)
+    gx = np.empty(m)
+    gy = np.empty(m)
+    for i in range(n):
+        if use[i]:
+            c = cell[i]
+            items[fill[c]] = i
+            gx[fill[c]] = x[i]
+            gy[fill[c]] = y[i]
+            fill[c] += 1
+    return x0, y0, inv, nx, ny, start, items, gx, gy
+
+
+@njit(cache=True, inline="always")
+def grid_cells(x0, y0, inv, nx, ny, px, py):
+    """The 3 x 3 block of cells around ``(px, py)``, clipped to the grid:
+    ``(cx_lo, cx_hi, cy_lo, cy_hi)`` inclusive, empty (lo > hi) when the point is more than one
+    cell outside."""
+    fx = math.floor((px - x0) * inv)
+    fy = math.floor((py - y0) * inv)
+    cx_lo = int(max(fx - 1.0, 0.0)) if fx - 1.0 < nx else nx
+    cx_hi = int(min(fx + 1.0, nx - 1.0)) if fx + 1.0 >= 0.0 else -1
+    cy_lo = int(max(fy - 1.0, 0.0)) if fy - 1.0 < ny else ny
+    cy_hi = int(min(fy + 1.0, ny - 1.0)) if fy + 1.0 >= 0.0 else -1
+    return cx_lo, cx_hi, cy_lo, cy_hi

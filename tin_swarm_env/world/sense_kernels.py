@@ -1,0 +1,407 @@
+"""The compiled, parallel sensing kernels (numba ``prange`` over observers).
+
+Every observer's outputs are computed by one thread from inputs read in a fixed order (grid
+cells in index order, candidates sorted by (distance, index)), and nothing is summed across
+threads, so the results are bit-identical for any thread count and to the same functions run
+as plain Python (``kernel.py_func``: the serial reference loops the tests compare against).
+Per-observer results land in fixed ``(n, K)`` slot arrays and are compacted serially (an O(n)
+prefix sum) into the observer-major contact lists of :mod:`.sensing`.
+
+``T``, the terrain tuple of :func:`terrain_arrays`, carries what the triangle walks read.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from ..terrain._kernels import bucket_locate1, los_brute1, los_walk1, walk_locate1
+from .grid import grid_cells
+
+__all__ = ["terrain_arrays", "sense_pass1", "sense_pass2", "compact", "break_grid", "collision_counts", "sight1"]
+
+
+def terrain_arrays(tin):
+    """The arrays the compiled walks read, as one tuple (built once per TIN and cached on it)."""
+    T = tin.__dict__.get("_world_kernel_arrays")
+    if T is None:
+        b = tin._bucket
+        tol, ztol = tin.tolerances
+        vx, vy = tin.xy_columns
+        border = np.ascontiguousarray(tin.edge_triangles[:, 1] < 0)
+        T = (vx, vy, np.ascontiguousarray(tin.vertices[:, 2]), tin.triangles, tin.neighbors,
+             np.ascontiguousarray(tin.planes[:, :2]), b["start"], b["tris"], float(b["x0"]), float(b["y0"]),
+             float(b["inv_cs"]), int(b["nx"]), int(b["ny"]), np.ascontiguousarray(tin.edges), border,
+             float(tol), float(ztol), int(tin.n_triangles + 3))
+        tin.__dict__["_world_kernel_arrays"] = T
+    return T
+
+
+@njit(cache=True)
+def _locate(T, x, y, hint):
+    vx, vy, vz, tris, nbrs, grad, bs, bt, bx0, by0, binv, bnx, bny, edges, border, tol, ztol, ms = T
+    t = -1
+    if hint >= 0:
+        t = walk_locate1(vx, vy, tris, nbrs, x, y, hint, ms, tol)
+    if t < 0:
+        t = bucket_locate1(vx, vy, tris, bs, bt, bx0, by0, binv, bnx, bny, x, y, tol)
+    return t
+
+
+@njit(cache=True)
+def _ground(T, x, y):
+    """Terrain height at (x, y) (NaN outside), through the bucket grid."""
+    vx, vy, vz, tris, nbrs, grad, bs, bt, bx0, by0, binv, bnx, bny, edges, border, tol, ztol, ms = T
+    t = bucket_locate1(vx, vy, tris, bs, bt, bx0, by0, binv, bnx, bny, x, y, tol)
+    if t < 0:
+        return np.nan
+    a = tris[t, 0]
+    return vz[a] + grad[t, 0] * (x - vx[a]) + grad[t, 1] * (y - vy[a])
+
+
+@njit(cache=True)
+def sight1(T, ax, ay, az, bx, by, bz, ta):
+    """Line of sight a -> b (``ta`` the triangle holding a): as :meth:`Tin.line_of_sight` does
+    it, the walk starts in the triangle the segment enters and falls back to the brute force."""
+    vx, vy, vz, tris, nbrs, grad, bs, bt, bx0, by0, binv, bnx, bny, edges, border, tol, ztol, ms = T
+    dx = bx - ax
+    dy = by - ay
+    length = math.hypot(dx, dy)
+    if length > 0 and ta >= 0:
+        f = min(1e-6 / length, 1e-3)
+        t2 = _locate(T, ax + dx * f, ay + dy * f, ta)
+        if t2 >= 0:
+            ta = t2
+    r = los_walk1(vx, vy, vz, tris, nbrs, grad, ax, ay, az, bx, by, bz, ta, ms, ztol)
+    if r < 0:
+        r = los_brute1(vx, vy, vz, edges, border, ax, ay, az, bx, by, bz, _ground(T, ax, ay), _ground(T, bx, by),
+                       ztol, 1e-9)
+    return r
+
+
+@njit(cache=True, inline="always")
+def _insert(idx, dist, i, cnt, k, j, d):
+    """Insert (d, j) into row i's sorted buffer of at most k, ordered by (distance, index)."""
+    if cnt == k and (d > dist[i, k - 1] or (d == dist[i, k - 1] and j > idx[i, k - 1])):
+        return cnt
+    p = cnt if cnt < k else k - 1
+    while p > 0 and (dist[i, p - 1] > d or (dist[i, p - 1] == d and idx[i, p - 1] > j)):
+        if p < k:
+            dist[i, p] = dist[i, p - 1]
+            idx[i, p] = idx[i, p - 1]
+        p -= 1
+    dist[i, p] = d
+    idx[i, p] = j
+    return min(cnt + 1, k)
+
+
+@njit(cache=True, inline="always")
+def _bearing(dx, dy, heading):
+    return (math.atan2(dy, dx) - heading + math.pi) % (2 * math.pi) - math.pi
+
+
+@njit(cache=True, inline="always")
+def _near_row(i, qx, qy, x0, y0, inv, nx, ny, start, items, gx, gy, skip, range_m, r2, idx, dist):
+    """Row ``i``: the at most K nearest grid points (a :func:`~.grid.grid_build` grid, unpacked)
+    within ``range_m`` of ``(qx, qy)`` (point ``skip`` left out), nearest first, ties to the
+    lower index; returns how many."""
+    k = idx.shape[1]
+    c = 0
+    cx_lo, cx_hi, cy_lo, cy_hi = grid_cells(x0, y0, inv, nx, ny, qx, qy)
+    for cy in range(cy_lo, cy_hi + 1):
+        for m in range(start[cy * nx + cx_lo], start[cy * nx + cx_hi + 1]):
+            dx = gx[m] - qx
+            dy = gy[m] - qy
+            d2 = dx * dx + dy * dy
+            if d2 > r2:
+                continue
+            j = items[m]
+            if j == skip:
+                continue
+            d = math.sqrt(d2)
+            if d <= range_m:
+                c = _insert(idx, dist, i, c, k, j, d)
+    return c
+
+
+@njit(cache=True, inline="always")
+def _entity_row(T, i, px, py, sz, head, tri, ex, ey, ez, x0, y0, inv, nx, ny, start, items, gx, gy, range_m, r2,
+                half_fov, check_los, idx, dist, bear, vis, cnt):
+    if ex.shape[0] == 0:
+        cnt[i] = 0
+        return
+    c = _near_row(i, px[i], py[i], x0, y0, inv, nx, ny, start, items, gx, gy, -1, range_m, r2, idx, dist)
+    for s in range(c):
+        j = idx[i, s]
+        b = _bearing(ex[j] - px[i], ey[j] - py[i], head[i])
+        bear[i, s] = b
+        v = 1 if abs(b) <= half_fov else 0
+        if v and check_los:
+            v = sight1(T, px[i], py[i], sz[i], ex[j], ey[j], ez[j], tri[i])
+        vis[i, s] = v
+    cnt[i] = c
+
+
+@njit(cache=True, inline="always")
+def _break_cell(x0, y0, inv, nx, ny, x, y):
+    fx = math.floor((x - x0) * inv)
+    fy = math.floor((y - y0) * inv)
+    if fx < 0 or fy < 0 or fx >= nx or fy >= ny:
+        return -1
+    return int(fy) * nx + int(fx)
+
+
+@njit(cache=True, parallel=True)
+def sense_pass1(T, px, py, head, tri, sz, active, present, G, range_m, half_fov, check_los, R, TG, AS, B, bcnt):
+    """First parallel pass over the robots (in grid order, for locality): each active
+    observer's robot candidates (``R = (idx, dist, bear, vis, cnt)``, (n, K) slots; out of view
+    marked ``-1 - j``), its targets and assets (``TG``/``AS``: ``(ex, ey, ez, grid)`` and the
+    slots, in sight already) and how many break segments lie in range (``bcnt``; ``B`` the
+    break arrays and grid). Collision-free: every row is written by its own iteration only."""
+    r_idx, r_dist, r_bear, r_vis, r_cnt = R
+    t_E, t_idx, t_dist, t_bear, t_vis, t_cnt = TG
+    tx, ty, tz, TGG = t_E
+    tx0, ty0, tinv, tnx, tny, tstart, titems, tgx, tgy = TGG
+    a_E, a_idx, a_dist, a_bear, a_vis, a_cnt = AS
+    ax_, ay_, az_, AGG = a_E
+    ax0, ay0, ainv, anx, any_, astart, aitems, agx, agy = AGG
+    bax, bay, bbx, bby, BG = B
+    bx0, by0, binv, bnx, bny, bstart, bitems = BG
+    x0, y0, inv, nx, ny, start, items, gx, gy = G
+    r2 = (range_m * (1.0 + 1e-9)) ** 2
+    for q in prange(items.shape[0]):
+        i = items[q]
+        if not active[i]:
+            continue
+        c = _near_row(i, px[i], py[i], x0, y0, inv, nx, ny, start, items, gx, gy, i, range_m, r2, r_idx, r_dist)
+        for s in range(c):
+            j = r_idx[i, s]
+            b = _bearing(px[j] - px[i], py[j] - py[i], head[i])
+            r_bear[i, s] = b
+            r_vis[i, s] = 0
+            if not abs(b) <= half_fov:
+                r_idx[i, s] = -1 - j  # in range but out of view: keeps its slot, marked negative
+        r_cnt[i] = c
+        _entity_row(T, i, px, py, sz, head, tri, tx, ty, tz, tx0, ty0, tinv, tnx, tny, tstart, titems, tgx, tgy,
+                    range_m, r2, half_fov, check_los, t_idx, t_dist, t_bear, t_vis, t_cnt)
+        _entity_row(T, i, px, py, sz, head, tri, ax_, ay_, az_, ax0, ay0, ainv, anx, any_, astart, aitems, agx, agy,
+                    range_m, r2, half_fov, check_los, a_idx, a_dist, a_bear, a_vis, a_cnt)
+        cell = _break_cell(bx0, by0, binv, bnx, bny, px[i], py[i])
+        lo, hi = (bstart[cell], bstart[cell + 1]) if cell >= 0 else (0, bax.shape[0])
+        m = 0
+        for w in range(lo, hi):
+            e = bitems[w] if cell >= 0 else w
+            if _closest(px[i], py[i], bax[e], bay[e], bbx[e], bby[e])[2] <= range_m:
+                m += 1
+        bcnt[i] = m
+
+
+@njit(cache=True)
+def _mutual(idx, cnt, j, i):
+    """Slot of ``i`` among ``j``'s in-view candidates, or -1."""
+    for s in range(cnt[j]):
+        if idx[j, s] == i:
+            return s
+    return -1
+
+
+@njit(cache=True, parallel=True)
+def sense_pass2(T, px, py, tri, sz, active, G, range_m, check_los, R, B, bcnt):
+    """Second parallel pass: line of sight of every in-view robot slot (``R``'s ``vis``) and
+    the break contacts. Sight is symmetric: a pair is walked once, from its lower index to its
+    higher; when both see each other in view, the lower-index observer writes both slots (the
+    other skips it), so each slot has exactly one writer. Breaks: ``(observer, break,
+    distance, closest (P, 2), start (n + 1,))``, observer-major, nearest first (ties: lower index)."""
+    r_idx, r_dist, r_bear, r_vis, r_cnt = R
+    bax, bay, bbx, bby, BG = B
+    bx0, by0, binv, bnx, bny, bstart, bitems = BG
+    items = G[6]
+    n = px.shape[0]
+    off = np.zeros(n + 1, dtype=np.int64)
+    for i in range(n):
+        off[i + 1] = off[i] + bcnt[i]
+    tot = off[n]
+    obs = np.empty(tot, dtype=np.int64)
+    seg = np.empty(tot, dtype=np.int64)
+    dist = np.empty(tot)
+    closest = np.empty((tot, 2))
+    for q in prange(items.shape[0]):
+        i = items[q]
+        if not active[i]:
+            continue
+        for s in range(r_cnt[i]):
+            j = r_idx[i, s]
+            if j < 0:
+                continue
+            if not check_los:
+                r_vis[i, s] = 1
+                continue
+            m = _mutual(r_idx, r_cnt, j, i)
+            if j < i and m >= 0:
+                continue  # j walks it and writes this slot
+            lo = min(i, j)
+            hi = max(i, j)
+            v = sight1(T, px[lo], py[lo], sz[lo], px[hi], py[hi], sz[hi], tri[lo])
+            r_vis[i, s] = v
+            if m >= 0:
+                r_vis[j, m] = v
+        if bcnt[i] == 0:
+            continue
+        cell = _break_cell(bx0, by0, binv, bnx, bny, px[i], py[i])
+        lo, hi = (bstart[cell], bstart[cell + 1]) if cell >= 0 else (0, bax.shape[0])
+        p0 = off[i]
+        m = 0
+        for w in range(lo, hi):
+            e = bitems[w] if cell >= 0 else w
+            cx, cy, d = _closest(px[i], py[i], bax[e], bay[e], bbx[e], bby[e])
+            if d <= range_m:
+                p = p0 + m  # insertion by (distance, index)
+                while p > p0 and (dist[p - 1] > d or (dist[p - 1] == d and seg[p - 1] > e)):
+                    dist[p] = dist[p - 1]
+                    seg[p] = seg[p - 1]
+                    closest[p, 0] = closest[p - 1, 0]
+                    closest[p, 1] = closest[p - 1, 1]
+                    p -= 1
+                dist[p] = d
+                seg[p] = e
+                closest[p, 0] = cx
+                closest[p, 1] = cy
+                m += 1
+        for p in range(p0, p0 + m):
+            obs[p] = i
+    return obs, seg, dist, closest, off
+
+
+@njit(cache=True)
+def compact(idx, dist, bear, keep, cnt):
+    """The kept slots ``(observer, target, distance, bearing)`` flattened observer-major, and
+    ``start (n + 1,)`` offsets: row i's contacts are ``start[i]:start[i + 1]``, nearest first."""
+    n = idx.shape[0]
+    start = np.zeros(n + 1, dtype=np.int64)
+    for i in range(n):
+        m = 0
+        for s in range(cnt[i]):
+            if idx[i, s] >= 0 and keep[i, s]:
+                m += 1
+        start[i + 1] = start[i] + m
+    tot = start[n]
+    obs = np.empty(tot, dtype=np.int64)
+    tgt = np.empty(tot, dtype=np.int64)
+    d = np.empty(tot)
+    b = np.empty(tot)
+    for i in range(n):
+        p = start[i]
+        for s in range(cnt[i]):
+            if idx[i, s] >= 0 and keep[i, s]:
+                obs[p] = i
+                tgt[p] = idx[i, s]
+                d[p] = dist[i, s]
+                b[p] = bear[i, s]
+                p += 1
+    return obs, tgt, d, b, start
+
+
+# -- terrain breaks ----------------------------------------------------------------------------
+
+@njit(cache=True)
+def break_grid(ax, ay, bx, by, range_m, x0, y0, x1, y1):
+    """A grid over ``[x0, x1] x [y0, y1]`` with cells of side ``>= range_m`` (more when that would
+    exceed 4 cells per segment plus 4096); each cell lists (in index order) every segment whose
+    bounding box, grown by ``range_m``, overlaps it: all segments within range of any point of
+    the cell. Returns ``(x0, y0, inv_cs, nx, ny, start, items)``."""
+    nseg = ax.shape[0]
+    cs = max(range_m, 1e-9)
+    while True:
+        nx = int((x1 - x0) / cs) + 1
+        ny = int((y1 - y0) / cs) + 1
+        if nx * ny <= 4 * nseg + 4096:
+            break
+        cs *= 2.0
+    inv = 1.0 / cs
+    start = np.zeros(nx * ny + 1, dtype=np.int64)
+    for pass_ in range(2):
+        if pass_ == 1:
+            for c in range(nx * ny):
+                start[c + 1] += start[c]
+            fill = start[:-1].copy()
+            items = np.empty(start[nx * ny], dtype=np.int64)
+        for e in range(nseg):
+            lx = int(max(math.floor((min(ax[e], bx[e]) - range_m - x0) * inv), 0.0))
+            hx = int(min(math.floor((max(ax[e], bx[e]) + range_m - x0) * inv), nx - 1.0))
+            ly = int(max(math.floor((min(ay[e], by[e]) - range_m - y0) * inv), 0.0))
+            hy = int(min(math.floor((max(ay[e], by[e]) + range_m - y0) * inv), ny - 1.0))
+            for cy in range(ly, hy + 1):
+                for cx in range(lx, hx + 1):
+                    c = cy * nx + cx
+                    if pass_ == 0:
+                        start[c + 1] += 1
+                    else:
+                        items[fill[c]] = e
+                        fill[c] += 1
+    return x0, y0, inv, nx, ny, start, items
+
+
+@njit(cache=True, inline="always")
+def _closest(px, py, ax, ay, bx, by):
+    """Closest point of segment a -> b to p and its distance (as ``breaks.closest_on_segments``)."""
+    abx = bx - ax
+    aby = by - ay
+    L2 = max(abx * abx + aby * aby, 1e-300)
+    u = min(max(((px - ax) * abx + (py - ay) * aby) / L2, 0.0), 1.0)
+    cx = ax + u * abx
+    cy = ay + u * aby
+    ddx = px - cx
+    ddy = py - cy
+    return cx, cy, math.sqrt(ddx * ddx + ddy * ddy)
+
+
+# -- collisions -----------------------------------------------------------------------------
+
+@njit(cache=True, parallel=True)
+def collision_counts(px, py, present, G, diameter):
+    """Per robot, the present robots closer than ``diameter`` (``(n,)`` int64; grid ``G`` of the
+    present robots with cells >= ``diameter``), and the pairs ``(C, 2)`` with i < j in (i, j)
+    order (a serial pass over the few robots that touch one)."""
+    x0, y0, inv, nx, ny, start, items, gx, gy = G
+    n = px.shape[0]
+    coll = np.zeros(n, dtype=np.int64)
+    higher = np.zeros(n, dtype=np.int64)
+    for q in prange(items.shape[0]):
+        i = items[q]
+        cx_lo, cx_hi, cy_lo, cy_hi = grid_cells(x0, y0, inv, nx, ny, px[i], py[i])
+        c = 0
+        h = 0
+        for cy in range(cy_lo, cy_hi + 1):
+            for m in range(start[cy * nx + cx_lo], start[cy * nx + cx_hi + 1]):
+                j = items[m]
+                if j != i and math.hypot(gx[m] - px[i], gy[m] - py[i]) < diameter:
+                    c += 1
+                    if j > i:
+                        h += 1
+        coll[i] = c
+        higher[i] = h
+    tot = 0
+    for i in range(n):
+        tot += higher[i]
+    pairs = np.empty((tot, 2), dtype=np.int64)
+    p = 0
+    for i in range(n):
+        if higher[i] == 0:
+            continue
+        cx_lo, cx_hi, cy_lo, cy_hi = grid_cells(x0, y0, inv, nx, ny, px[i], py[i])
+        p0 = p
+        for cy in range(cy_lo, cy_hi + 1):
+            for m in range(start[cy * nx + cx_lo], start[cy * nx + cx_hi + 1]):
+                j = items[m]
+                if j > i and math.hypot(gx[m] - px[i], gy[m] - py[i]) < diameter:
+                    q = p
+                    while q > p0 and pairs[q - 1, 1] > j:  # sorted by j
+                        pairs[q, 0] = i
+                        pairs[q, 1] = pairs[q - 1, 1]
+                        q -= 1
+                    pairs[q, 0] = i
+                    pairs[q, 1] = j
+                    p += 1
+    return coll, pairs
