@@ -97,7 +97,7 @@ def test_fields_subset_and_random_policy():
 
 from tin_swarm_env.apps.rollout import rollout  # noqa: E402
 from tin_swarm_env.env.observation import ObsLayout  # noqa: E402
-from tin_swarm_env.policies.apf import BugMemory, bug_update  # noqa: E402
+from tin_swarm_env.policies.bug import BugMemory, BugParams, bug_update, odometry  # noqa: E402
 from tin_swarm_env.policies.base import decode, keep_clear  # noqa: E402
 from tin_swarm_env.world.fields import FieldParams as FP  # noqa: E402
 from tin_swarm_env.world.fields import follow_field  # noqa: E402
@@ -138,10 +138,14 @@ def _obs(layout, R, target_xy, breaks=(), robots=(), speed=1.0):
 
 
 def _step(mem, obs, layout, R, params=None):
+    """One step of the boundary search; returns the side each robot follows (0 none)."""
     params = FP() if params is None else params
     d = decode(obs, layout, R)
+    rows = np.arange(len(obs))
+    q, moved = odometry(mem, rows, d, 1.0)
     pull = d.rel_t / np.hypot(*d.rel_t[0])
-    return bug_update(mem, np.arange(len(obs)), d, pull, params, 8.0)
+    return bug_update(mem, rows, d, pull, params, BugParams(), togo=d.dist, q=q, moved=moved, crowd_m=8.0,
+                      range_m=R)[2]
 
 
 def test_bug_memory_chooses_the_side_toward_the_target_either_way():
@@ -149,11 +153,11 @@ def test_bug_memory_chooses_the_side_toward_the_target_either_way():
     cliff = (5.0, 0.0, -1.0, 0.0, 50.0)  # a cliff edge 5 m ahead, running across
     for ty, want in ((30.0, 1), (-30.0, -1)):  # target ahead-left: follow it on the right (turn left)
         mem = BugMemory.empty(1)
-        slot = _step(mem, _obs(layout, R, (100.0, ty), [cliff]), layout, R)
-        assert mem.side[0] == want and slot[0] == 0
+        side = _step(mem, _obs(layout, R, (100.0, ty), [cliff]), layout, R)
+        assert mem.side[0] == want and side[0] == want
     # the pull away from the cliff: not blocked, nothing to follow
     mem = BugMemory.empty(1)
-    assert _step(mem, _obs(layout, R, (-100.0, 10.0), [cliff]), layout, R)[0] == -1 and mem.side[0] == 0
+    assert _step(mem, _obs(layout, R, (-100.0, 10.0), [cliff]), layout, R)[0] == 0 and mem.side[0] == 0
 
 
 def test_bug_memory_turns_back_at_the_border_and_when_stalled():
@@ -226,37 +230,19 @@ def test_crowding_resolves_robots_do_not_push_into_each_other():
     assert out.collisions.sum() / env.n <= 0.55
 
 
-def _round(phi_deg, dist_m=5.0):
-    """A cliff edge seen at ``dist_m`` in direction ``phi_deg`` (body frame), its safe side toward the robot."""
-    c, s = math.cos(math.radians(phi_deg)), math.sin(math.radians(phi_deg))
-    return (dist_m * c, dist_m * s, -c, -s, 50.0)
-
-
-def test_bug_memory_turns_back_once_at_a_dead_end():
-    # the followed edge wraps round the robot (a pocket): the direction of travel along it
-    # (edge direction + 90 deg for side +1) turns counter-clockwise in 30 deg steps while the
-    # target (bearing 16.7 deg) comes no nearer; once the counted turn exceeds
-    # dead_end_turn_deg the robot turns back, and keeps that side (no second dead-end turn)
+def test_bug_memory_an_end_on_both_sides_shows_the_target_unreachable():
+    # following with the cliff on its right (heading +y), the border ahead: the boundary ends
+    # on this side, it turns back; the border ahead the other way too: unreachable, it stops
     layout, R = ObsLayout(), 60.0
-    p = FP(dead_end_turn_deg=270.0)
-    bearing = math.degrees(math.atan2(30.0, 100.0))
+    cliff = (5.0, 0.0, -1.0, 0.0, 50.0)
     mem = BugMemory.empty(1)
-    flips = []
-    for k in range(20):
-        phi = 30.0 * k
-        _step(mem, _obs(layout, R, (100.0, 30.0), [_round(phi)]), layout, R, p)
-        if k == 0:
-            assert mem.side[0] == 1 and not mem.kept[0]
-        if mem.side[0] != 1 and not flips:
-            flips.append(phi)
-            assert mem.side[0] == -1 and mem.kept[0]
-    want = next(30.0 * k for k in range(20) if 30.0 * k + 90.0 - bearing > 270.0)
-    assert flips == [want]
-    # the same turn while the robot gets nearer the target is progress: no turn back
-    mem = BugMemory.empty(1)
-    for k in range(12):
-        _step(mem, _obs(layout, R, (100.0 - 5 * k, 30.0), [_round(30.0 * k)]), layout, R, p)
-        assert mem.side[0] == 1 and not mem.kept[0]
+    _step(mem, _obs(layout, R, (100.0, 30.0), [cliff]), layout, R)
+    _step(mem, _obs(layout, R, (100.0, 30.0), [cliff, (0.0, 6.0, 0.0, -1.0, 0.0)]), layout, R)
+    assert mem.side[0] == -1 and mem.ended_first[0] and not mem.unreachable[0]
+    _step(mem, _obs(layout, R, (100.0, 30.0), [cliff]), layout, R)
+    assert mem.side[0] == -1 and not mem.unreachable[0]
+    _step(mem, _obs(layout, R, (100.0, 30.0), [cliff, (0.0, -6.0, 0.0, 1.0, 0.0)]), layout, R)
+    assert mem.side[0] == 0 and mem.ended_other[0] and mem.unreachable[0]
 
 
 # -- gaps between break ends (a narrow pass lined with break fragments) -----------------------
@@ -273,7 +259,7 @@ def _gap_obs(points, normals, target):
 
 
 def test_pass_gap_takes_a_gap_between_two_break_ends_and_nothing_else():
-    from tin_swarm_env.policies.apf import pass_gap
+    from tin_swarm_env.policies.bug import pass_gap
     up = [0.0, 1.0]
     # a straight cliff along y = -5 with a 6 m gap (x in [-3, 3]); the robot 5 m above the gap
     g = pass_gap(_gap_obs([[-3.0, -5.0], [3.0, -5.0]], [up, up], [0.0, -100.0]), 3.0, 8.0)

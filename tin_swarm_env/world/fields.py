@@ -67,7 +67,6 @@ class FieldParams:
     follow_engage_m: float = 8.0
     follow_hold_m: float = 5.0
     stall_steps: int = 20
-    dead_end_turn_deg: float = 450.0
     asset_gain: float = 0.5
     asset_range_m: float = 10.0
     fields: tuple[str, ...] = FIELDS
@@ -77,7 +76,7 @@ class FieldParams:
         if unknown:
             raise ParameterError(f"unknown field(s) {sorted(unknown)}; the fields are {', '.join(FIELDS)}")
         for k in ("robot_range_m", "target_range_m", "break_range_m", "break_decay_m", "follow_engage_m",
-                  "follow_hold_m", "stall_steps", "dead_end_turn_deg", "asset_range_m"):
+                  "follow_hold_m", "stall_steps", "asset_range_m"):
             if not getattr(self, k) > 0:
                 raise ParameterError(f"FieldParams.{k} must be > 0, got {getattr(self, k)}")
 

@@ -1,0 +1,441 @@
+"""The boundary-following layer of :class:`~tin_swarm_env.policies.APFPolicy`: per-robot memory,
+odometry and the bug rules (the rule itself, and why it is complete, is written once, in the
+:mod:`tin_swarm_env.policies.apf` module docstring). Everything here is batched over robot rows.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from ..world.fields import FieldParams, away_from, facing
+from .base import DecodedObs
+
+__all__ = ["BugMemory", "BugParams", "bug_update", "odometry", "pass_gap"]
+
+
+@dataclass(frozen=True)
+class BugParams:
+    """Constants of the boundary-following rules (the module docstring of
+    :mod:`tin_swarm_env.policies.apf` says what each does).
+
+    margin_m        a robot leaves a boundary only where its distance to go is this much under the
+                    distance at which it met the boundary; a new meeting starts a fresh search only
+                    this much nearer than the last one (else the robot takes up its search again)
+    line_m          on the m-line: within this of it, or crossed it since the last step
+    leave_gain      off the m-line, a robot leaves where its distance to go is this share under
+                    the distance at H
+    home_m          back within this of the hit point, after ``home_arc_m`` or more of boundary
+                    driven from it: the robot has gone round the whole boundary
+    home_arc_m
+    first_budget    along the first side, the search turns back (to try the other side) once the
+                    robot's distance to go has grown, summed over its way from H, by this many
+                    times the distance to go at H (at least ``min_budget`` sensor ranges); the
+                    budget doubles at every turn (the lost-cow search)
+    min_budget
+    split           where the boundary lies square across the way to the target (the cosine between
+                    the pull and the tangent of either side under this), the side its heading
+                    already leans to (robots arriving together take the same side)
+    stall_crowded   a robot stalled with robots near counts this many times ``stall_steps`` before
+                    it gives up the side (with none near: ``stall_steps``)
+    """
+
+    margin_m: float = 2.0
+    line_m: float = 1.0
+    leave_gain: float = 0.2
+    home_m: float = 5.0
+    home_arc_m: float = 30.0
+    first_budget: float = 2.0
+    min_budget: float = 1.0
+    split: float = 0.05
+    stall_crowded: int = 4
+
+    def __post_init__(self):
+        for f in fields(self):
+            if not getattr(self, f.name) > 0:
+                raise ValueError(f"BugParams.{f.name} must be > 0, got {getattr(self, f.name)!r}")
+
+
+_FLOAT2 = ("last_rel", "last_act", "hit", "wall_pt", "last_q", "t_hit")
+_SPEC = {"seen": bool, "psi": float, "last_rel": float, "last_act": float, "side": np.int8, "fside": np.int8,
+         "first": np.int8, "hit": float, "rec": float, "arc": float, "budget": float, "ended_first": bool,
+         "ended_other": bool, "unreachable": bool, "stall": np.int64, "wall": float, "on_border": bool,
+         "gap": np.int8, "wall_pt": float, "has_pt": bool, "mside": np.int8, "far": bool, "last_q": float, "t_hit": float, "passed": bool, "climb": float, "last_togo": float, "probed": bool}
+
+
+@dataclass
+class BugMemory:
+    """What each robot remembers between steps, arrays over robot rows (``n`` rows, grown lazily).
+
+    Odometry (the robot's own frame ``F``: its heading at its first step is F's x axis):
+
+    seen         (n,)   bool   it has acted at least once
+    psi          (n,)   rad    its heading in ``F`` (:func:`odometry`)
+    last_rel     (n, 2) m      the vector to its target last step, body frame
+    last_act     (n, 2)        its command last step, body frame
+
+    Boundary search:
+
+    side         (n,)   int8   0: heading for its target; +1 following a boundary (a dangerous break)
+                               with it on the robot's right, -1 on its left
+    fside        (n,)   int8   the side of the current search (kept while it heads for the target)
+    first        (n,)   int8   the side the current search started on
+    hit          (n, 2) m      the hit point H (where the search started), in ``F`` relative to the target
+    rec          (n,)   m      distance to go at H (inf before the first search)
+    arc          (n,)   m      boundary driven from H, signed: + along the first side's direction
+    budget       (n,)   m      how far from H (in ``arc``) it goes before it turns back (doubles per turn)
+    ended_first  (n,)   bool   the boundary ended (the terrain's border, a pinch) on the first side
+    ended_other  (n,)   bool   ... on the other side
+    unreachable  (n,)   bool   it has shown its target unreachable from where it is (it stops)
+    stall        (n,)   int    steps following without moving
+    wall         (n,)   rad    direction in ``F`` from the followed break to the robot, last step
+    on_border    (n,)   bool   the break it followed last step was the terrain's border
+    gap          (n,)   int8   0: no gap tried; 1: driving through one; 2: tried one in this search
+    wall_pt      (n, 2) m      the followed break's closest point last seen, in ``F`` relative to the target
+    has_pt       (n,)   bool   ``wall_pt`` holds a point (the robot is following)
+    mside        (n,)   int8   the side of the line from its target to H (the m-line) it was on last step
+    far          (n,)   bool   it has been more than ``4 home_m`` from H since it last passed H
+    last_q       (n, 2) m      its position last step, in ``F`` relative to the target
+    t_hit        (n, 2)        its direction of travel along the boundary when it left H (first side), in ``F``
+    passed       (n,)   bool   it has not turned back since it last passed H (or set off from it)
+    climb        (n,)   m      how much its distance to go has grown, summed, since it last set off from H
+                               (or passed it) on this side: the search's budget is spent in it
+    last_togo    (n,)   m      its distance to go last step
+    probed       (n,)   bool   it left this search on a clear view that proved wrong (no second such leave)
+    """
+
+    seen: np.ndarray
+    psi: np.ndarray
+    last_rel: np.ndarray
+    last_act: np.ndarray
+    side: np.ndarray
+    fside: np.ndarray
+    first: np.ndarray
+    hit: np.ndarray
+    rec: np.ndarray
+    arc: np.ndarray
+    budget: np.ndarray
+    ended_first: np.ndarray
+    ended_other: np.ndarray
+    unreachable: np.ndarray
+    stall: np.ndarray
+    wall: np.ndarray
+    on_border: np.ndarray
+    gap: np.ndarray
+    wall_pt: np.ndarray
+    has_pt: np.ndarray
+    mside: np.ndarray
+    far: np.ndarray
+    last_q: np.ndarray
+    t_hit: np.ndarray
+    passed: np.ndarray
+    climb: np.ndarray
+    last_togo: np.ndarray
+    probed: np.ndarray
+
+    @classmethod
+    def empty(cls, n: int) -> BugMemory:
+        out = {k: np.zeros((n, 2) if k in _FLOAT2 else n, dtype=t) for k, t in _SPEC.items()}
+        out["rec"][:] = np.inf
+        return cls(**out)
+
+    def grow(self, n: int) -> BugMemory:
+        """This memory with at least ``n`` rows (new rows empty)."""
+        if n <= len(self.side):
+            return self
+        e = BugMemory.empty(n - len(self.side))
+        return BugMemory(**{k: np.concatenate([getattr(self, k), getattr(e, k)]) for k in _SPEC})
+
+
+def _wrap(a):
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+def _norm(v):
+    return np.sqrt(np.sum(v * v, axis=-1))
+
+
+def _rot(psi, v):
+    """``v (n, 2)`` rotated by ``psi (n,)`` (counter-clockwise)."""
+    c, s = np.cos(psi), np.sin(psi)
+    return np.stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1]], axis=-1)
+
+
+def odometry(mem: BugMemory, rows, d: DecodedObs, step_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Advance the robots' heading ``psi`` in their own frame from what the observation gives, and
+    return ``(q (m, 2), moved (m,))``: each robot's position relative to its target in its frame
+    ``F`` and the distance it moved last step.
+
+    The robot moved last step along its own command (body frame of then), by the speed the
+    observation reports (``own.speed``, a fraction of top speed, times ``step_m``): ``delta``. Its
+    target (a fixed point) was at ``last_rel`` then, so it is at ``last_rel - delta`` in the old
+    body frame and at ``rel_t`` in the new one: the heading turned by the angle between the two.
+    The position is then ``q = -R(psi) rel_t``: exact up to the observation's float32 rounding, as
+    long as the target stands still (a mobile target drags the frame along)."""
+    a = mem.last_act[rows]
+    an = _norm(a)
+    moved = np.where(an > 1e-9, d.speed * step_m, 0.0)
+    delta = a / np.maximum(an, 1e-9)[:, None] * moved[:, None]
+    v = mem.last_rel[rows] - delta
+    ok = mem.seen[rows] & d.has_t & (_norm(v) > 0.5) & (d.dist > 0.5)
+    turn = _wrap(np.arctan2(v[:, 1], v[:, 0]) - np.arctan2(d.rel_t[:, 1], d.rel_t[:, 0]))
+    psi = mem.psi[rows] + np.where(ok, turn, 0.0)
+    mem.psi[rows] = psi
+    mem.last_rel[rows] = d.rel_t
+    mem.seen[rows] |= d.has_t
+    return -_rot(psi, d.rel_t), np.where(mem.seen[rows], moved, 0.0)
+
+
+def _followed(seen, dist_b, ang, following, last_ang, hold_m, v_ok, v_ang):
+    """The break slot each robot follows (-1 none, ``K`` the remembered point): among the
+    dangerous breaks it sees from their safe side (``seen (n, K)``), the nearest whose direction
+    to the robot ``ang (n, K)`` (in the robot's frame) lies within 120 degrees of last step's
+    ``last_ang (n,)`` for a robot already following; when none does, the point it followed last
+    (``v_ok (n,)``, direction ``v_ang (n,)``), so that it goes round the end of a break that has
+    dropped out of its slots; else the nearest of all, and the nearest of all whenever one is
+    closer than ``hold_m / 2``."""
+    k_n = seen.shape[1]
+    cont = seen & (np.abs(_wrap(ang - last_ang[:, None])) < 2 * np.pi / 3) & following[:, None]
+    v_cont = v_ok & following & (np.abs(_wrap(v_ang - last_ang)) < 2 * np.pi / 3)
+    close = (seen & (dist_b < hold_m / 2)).any(axis=-1)
+    pick = np.where((cont.any(axis=-1) & ~close)[:, None], cont, seen)
+    k = np.argmin(np.where(pick, dist_b, np.inf), axis=-1)
+    k = np.where(seen.any(axis=-1), k, -1)
+    return np.where(~cont.any(axis=-1) & ~close & v_cont, k_n, k)
+
+
+def _sensed(d: DecodedObs, pull, params: FieldParams) -> dict:
+    """Per break slot ``(m, K)``: ``dist`` (m), ``e`` (unit vector from the break to the robot,
+    ``(m, K, 2)``), ``facing`` (dangerous, seen from the safe side), ``into`` (facing, within
+    ``follow_engage_m`` and the pull points into it); per robot ``blocked (m,)``."""
+    rel = d.b_rel
+    dist = _norm(rel)
+    face = facing(rel, d.b_normal, d.b_danger)
+    e = away_from(rel, d.b_normal)
+    into = face & (dist < params.follow_engage_m) & (np.einsum("nj,nkj->nk", pull, e) < 0)
+    return {"dist": dist, "e": e, "facing": face, "into": into, "blocked": into.any(axis=-1) & d.has_t}
+
+
+def _start_side(s: dict, pull, rows, split: float) -> tuple[np.ndarray, np.ndarray]:
+    """For each robot, the nearest blocking break slot ``(m,)`` and the side ``(m,)`` (+1 / -1)
+    whose tangent points more toward the pull; when the break lies nearly square across it
+    (|cos| < ``split``), the side its heading (body x) already leans to."""
+    rows_i = np.arange(len(pull))
+    kb = np.argmin(np.where(s["into"], s["dist"], np.inf), axis=-1)
+    eb = s["e"][rows_i, kb]
+    tb = np.stack([eb[:, 1], -eb[:, 0]], axis=-1)
+    pn = pull / np.maximum(_norm(pull), 1e-12)[:, None]
+    score = np.sum(tb * pn, axis=-1)
+    score = np.where(np.abs(score) < split, tb[:, 0], score)
+    return kb, np.where(score >= 0, 1, -1)
+
+
+def _cross(a, b):
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def _closes(q, pi, pj, g, depth_m):
+    """``(n,)``: point ``q (n, 2)`` lies in the cone from the robot (the origin) through the gap
+    ``pi``-``pj`` and at most ``depth_m`` beyond the gap's line (``g`` its normal, away from the robot)."""
+    in_cone = (_cross(pi, q) * _cross(pi, pj) > 0) & (_cross(pj, q) * _cross(pj, pi) > 0)
+    depth = np.sum((q - pi) * g, axis=-1)
+    return in_cone & (depth > -0.5) & (depth < depth_m)
+
+
+def pass_gap(d: DecodedObs, width_m: float, reach_m: float, end_deg: float = 5.0) -> dict:
+    """A gap between two dangerous breaks that the robot can drive through toward its target,
+    read from the break slots of the decoded observation ``d`` (:func:`decode`). A pair of slots
+    ``i, j`` (closest points ``p_i``, ``p_j``, body frame) bounds a gap when:
+
+    * both are dangerous breaks seen from their safe side, and both are break *ends*: the robot
+      stands past the end of each, so the direction from the closest point to the robot is more
+      than ``end_deg`` off the break's normal (square in front of a wall the two are the same;
+      two pieces of one straight wall show one point seen square on and one end);
+    * they are at least ``width_m`` apart and their midpoint lies within ``reach_m``;
+    * the robot and its target lie on opposite sides of the line through ``p_i`` and ``p_j``;
+    * nothing sensed closes it: neither the corner where the two breaks' lines would meet (were
+      they to run on) nor a third slot's closest point lies in the cone from the robot through
+      the gap, beyond its line (a third point: within ``width_m`` beyond).
+
+    Only closest points are sensed (``K_b`` of them), so a wall hidden behind the slots can make
+    a gap that is none; the caller keeps the edge cut, which stops the robot a body diameter off
+    any break it then senses. Returns ``has (n,)`` bool, ``aim (n, 2)`` (unit: toward the gap's
+    midpoint plus the gap's normal toward the target side, so the robot drives through it) and
+    ``slots (n, 2)`` (the pair; -1 where none); the nearest gap (by midpoint) wins."""
+    rel, nrm = d.b_rel, d.b_normal
+    n, k = rel.shape[:2]
+    face = facing(rel, nrm, d.b_danger)
+    e = away_from(rel, nrm)
+    end = face & (np.sum(e * nrm, axis=-1) < np.cos(np.radians(end_deg)))
+    rel_t = d.rel_t
+    best = np.full(n, np.inf)
+    aim = np.zeros((n, 2))
+    slots = np.full((n, 2), -1)
+    for i in range(k):
+        for j in range(i + 1, k):
+            pi, pj = rel[:, i], rel[:, j]
+            w = pj - pi
+            width = np.sqrt(np.sum(w * w, axis=-1))
+            mid = 0.5 * (pi + pj)
+            mid_d = np.sqrt(np.sum(mid * mid, axis=-1))
+            c_robot, c_target = _cross(w, -pi), _cross(w, rel_t - pi)
+            ok = (end[:, i] & end[:, j] & (width >= width_m) & (mid_d < reach_m) & (c_robot * c_target < 0)
+                  & d.has_t)
+            g = np.stack([-w[:, 1], w[:, 0]], axis=-1) / np.maximum(width, 1e-9)[:, None] * np.sign(c_target)[:, None]
+            # the corner where the two breaks' lines meet, if they were to run on to it
+            ni, nj = nrm[:, i], nrm[:, j]
+            det = _cross(ni, nj)
+            bi, bj = np.sum(ni * pi, axis=-1), np.sum(nj * pj, axis=-1)
+            par = np.abs(det) < 1e-6
+            sd = np.where(par, 1.0, det)
+            corner = np.stack([(bi * nj[:, 1] - bj * ni[:, 1]) / sd, (ni[:, 0] * bj - nj[:, 0] * bi) / sd], axis=-1)
+            ok &= par | ~_closes(corner, pi, pj, g, np.inf)
+            for m in range(k):
+                if m in (i, j):
+                    continue
+                ok &= ~(face[:, m] & _closes(rel[:, m], pi, pj, g, width_m))
+            take = ok & (mid_d < best)
+            best = np.where(take, mid_d, best)
+            a = mid / np.maximum(mid_d, 1e-9)[:, None] + g
+            aim = np.where(take[:, None], a / np.maximum(np.sqrt(np.sum(a * a, axis=-1)), 1e-9)[:, None], aim)
+            slots = np.where(take[:, None], np.array([i, j]), slots)
+    return {"has": np.isfinite(best), "aim": aim, "slots": slots}
+
+
+def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, bp: BugParams, *, togo, q, moved,
+               crowd_m: float, range_m: float, gap=None, home: bool = True):
+    """One step of the boundary search for the robots in ``rows`` (decoded observations ``d``,
+    attraction ``pull (m, 2)``, distance to go ``togo (m,)``, position ``q (m, 2)`` and distance
+    moved last step ``moved (m,)`` from :func:`odometry`); updates ``mem`` in place and returns
+    what each robot follows: ``(rel (m, 2), normal (m, 2), side (m,))``, the closest point of the
+    followed break (or the remembered one) in the body frame, its normal and the side (0 none),
+    for :func:`~tin_swarm_env.world.fields.follow_field`. The rules are the
+    :mod:`~tin_swarm_env.policies.apf` module docstring's; ``gap (m,)`` marks robots driving
+    through a gap (:func:`pass_gap`: not blocked, they keep their side), ``home=False`` (a mobile
+    target, whose frame drifts) turns the whole-circuit test off."""
+    m = len(rows)
+    ri = np.arange(m)
+    side, first = mem.side[rows].astype(np.int64), mem.first[rows].astype(np.int64)
+    following = side != 0
+    # the boundary driven since the hit point, signed (+ along the first side's direction)
+    arc = mem.arc[rows] + np.where(following, np.where(side == first, 1.0, -1.0) * moved, 0.0)
+    hit, rec, budget = mem.hit[rows], mem.rec[rows], mem.budget[rows]
+    ended_f, ended_o, unreach = mem.ended_first[rows], mem.ended_other[rows], mem.unreachable[rows]
+    s = _sensed(d, pull, params)
+    blocked = s["blocked"] & ~unreach
+    through = np.zeros(m, dtype=bool) if gap is None else np.asarray(gap, dtype=bool)
+    blocked &= ~through
+    # round the whole boundary: back at the hit point, heading on out, after driving round it (passing
+    # H on the way back from a turn, the robot's boundary coordinate starts again from 0 there)
+    to_h = _norm(q - hit)
+    far = (mem.far[rows] | (to_h > 4 * bp.home_m)) & following
+    step = q - mem.last_q[rows]  # last step's move, and its closest approach to H
+    sl = np.sum(step * step, axis=-1)
+    u = np.clip(np.sum((hit - mem.last_q[rows]) * step, axis=-1) / np.maximum(sl, 1e-12), 0.0, 1.0)
+    near = following & (_norm(mem.last_q[rows] + u[:, None] * step - hit) < bp.home_m)
+    out_now = np.where(side == first, 1.0, -1.0)
+    same_way = np.sum(step * mem.t_hit[rows], axis=-1) * out_now > 0.5 * np.sqrt(sl)
+    passed = mem.passed[rows]
+    circuit = near & far & passed & same_way & (np.abs(arc) > bp.home_arc_m) & home
+    back = near & ~passed  # on its way back from a turn: it passes H and goes on to the other side
+    arc = np.where(back, 0.0, arc)
+    far &= ~back
+    passed |= back
+    rise = np.where(mem.seen[rows] & following & passed, np.maximum(togo - mem.last_togo[rows], 0.0), 0.0)
+    climb = np.where(back, 0.0, mem.climb[rows] + rise)
+    # leave (Bug2): on the m-line (the line from H to the target), the way to the target clear, and
+    # nearer than where it met the boundary
+    hn = hit / np.maximum(_norm(hit), 1e-9)[:, None]
+    off = q[:, 0] * hn[:, 1] - q[:, 1] * hn[:, 0]  # signed distance from the m-line
+    mside = np.where(off >= 0, 1, -1)
+    on_line = (np.abs(off) < bp.line_m) | (mside != mem.mside[rows]) | (togo < (1.0 - bp.leave_gain) * rec)
+    # ... or (DistBug's range rule) where it sees the way to the target clear of dangerous breaks
+    # as far as it senses and the clear stretch would bring it nearer than H
+    ut = d.rel_t / np.maximum(d.dist, 1e-9)[:, None]
+    along = np.einsum("nkj,nj->nk", d.b_rel, ut)
+    across = np.abs(d.b_rel[..., 0] * ut[:, None, 1] - d.b_rel[..., 1] * ut[:, None, 0])
+    reach = np.minimum(range_m, d.dist)
+    in_way = s["facing"] & (along > 0) & (along < reach[:, None]) & (across < params.follow_hold_m)
+    clear = ~in_way.any(axis=-1) & ~mem.probed[rows] & (togo - reach < rec - bp.margin_m)
+    leave = following & ~blocked & ~through & (togo < rec - bp.margin_m) & on_line
+    leave |= following & ~blocked & ~through & clear
+    side = np.where(leave, 0, side)
+    # meet a boundary: a fresh search when nearer than the last hit point, else take the last one up again
+    met = (side == 0) & blocked & ~leave
+    fresh = met & (togo < rec - bp.margin_m)
+    probed = mem.probed[rows] | (met & ~fresh)
+    kb, start = _start_side(s, pull, rows, bp.split)
+    side = np.where(fresh, start, np.where(met, mem.fside[rows], side))
+    first = np.where(fresh, start, first)
+    hit = np.where(fresh[:, None], q, hit)
+    rec = np.where(fresh, togo, rec)
+    arc = np.where(fresh, 0.0, arc)
+    budget = np.where(fresh, np.maximum(bp.first_budget * togo, bp.min_budget * range_m), budget)
+    ended_f &= ~fresh
+    ended_o &= ~fresh
+    following = side != 0
+    # the followed break: it continues last step's (directions in the robot's frame)
+    psi = mem.psi[rows]
+    k_n = d.b_rel.shape[1]
+    ang = np.arctan2(s["e"][..., 1], s["e"][..., 0]) + psi[:, None]
+    last_wall = np.where(fresh, ang[ri, np.minimum(kb, k_n - 1)], mem.wall[rows])
+    seen = s["facing"] & (s["dist"] < params.break_range_m)
+    v_rel = _rot(-psi, mem.wall_pt[rows] - q)  # the remembered point, body frame
+    v_d = _norm(v_rel)
+    v_ok = mem.has_pt[rows] & ~fresh & (v_d > 1e-6) & (v_d < params.break_range_m)
+    v_e = -v_rel / np.maximum(v_d, 1e-6)[:, None]
+    v_ang = np.arctan2(v_e[:, 1], v_e[:, 0]) + psi
+    kf = _followed(seen, s["dist"], ang, following, last_wall, params.follow_hold_m, v_ok, v_ang)
+    virtual = kf == k_n
+    has_wall = (kf >= 0) & ~virtual
+    kc = np.clip(kf, 0, k_n - 1)
+    ef = np.where(virtual[:, None], v_e, s["e"][ri, kc])
+    f_rel = np.where(virtual[:, None], v_rel, d.b_rel[ri, kc])
+    f_nrm = np.where(virtual[:, None], v_e, d.b_normal[ri, kc])
+    t_right = np.stack([ef[:, 1], -ef[:, 0]], axis=-1)  # tangent with the break on the right
+    # the boundary ends on this side: the terrain's border, or a pinch the robot cannot pass
+    on_border = has_wall & d.b_border[ri, kc]
+    ahead = np.einsum("nj,nkj->nk", side[:, None] * t_right, -s["e"]) > 0.3
+    border_ahead = (d.b_border & s["facing"] & ahead & (s["dist"] < params.follow_engage_m)).any(axis=-1)
+    r_d = _norm(d.r_rel)
+    crowded = ((d.r_valid > 0.5) & (r_d < crowd_m)).any(axis=-1)
+    stall = np.where(following & (d.speed < 0.05), mem.stall[rows] + 1, 0)
+    stuck = stall >= np.where(crowded, bp.stall_crowded * params.stall_steps, params.stall_steps)
+    ends = following & ~fresh & (border_ahead | (on_border & ~mem.on_border[rows]) | stuck)
+    out = np.where(side == first, 1, -1)  # +1: heading out along the first side
+    ended_f |= ends & (out == 1)
+    ended_o |= ends & (out == -1)
+    other_ended = np.where(out == 1, ended_o, ended_f)
+    over = following & ~ends & ~fresh & (climb > budget) & ~other_ended
+    turn = (ends & ~other_ended) | over
+    budget = np.where(over, 2.0 * budget, budget)
+    unreach |= (ends & other_ended) | circuit
+    side = np.where(turn, -side, side)
+    side = np.where(unreach, 0, side)
+    stall = np.where(turn | (side == 0), 0, stall)
+    # write back
+    mem.side[rows] = side
+    mem.fside[rows] = np.where(side != 0, side, mem.fside[rows])
+    mem.first[rows] = first
+    mem.hit[rows], mem.rec[rows], mem.arc[rows], mem.budget[rows] = hit, rec, arc, budget
+    mem.ended_first[rows], mem.ended_other[rows], mem.unreachable[rows] = ended_f, ended_o, unreach
+    mem.stall[rows] = stall
+    mem.far[rows] = far & ~fresh
+    mem.passed[rows] = (passed | fresh) & ~turn
+    mem.climb[rows] = np.where(fresh | turn, 0.0, climb)
+    mem.probed[rows] = probed & ~fresh
+    mem.last_togo[rows] = togo
+    mem.last_q[rows] = q
+    # the direction it sets off in from H (first side): the tangent of the followed break
+    t_now = _rot(psi, side[:, None] * t_right)
+    mem.t_hit[rows] = np.where(fresh[:, None], t_now, mem.t_hit[rows])
+    mem.on_border[rows] = on_border
+    off = q[:, 0] * hn[:, 1] - q[:, 1] * hn[:, 0]
+    mem.mside[rows] = np.where(fresh, 0, np.where(off >= 0, 1, -1))
+    mem.wall[rows] = np.where(has_wall, ang[ri, kc], np.where(virtual, v_ang, last_wall))
+    mem.gap[rows] = np.where((side == 0) | fresh, 0, mem.gap[rows])
+    mem.wall_pt[rows] = np.where(has_wall[:, None], q + _rot(psi, d.b_rel[ri, kc]), mem.wall_pt[rows])
+    mem.has_pt[rows] = (side != 0) & (has_wall | virtual)
+    on = (side != 0) & (kf >= 0)
+    return np.where(on[:, None], f_rel, 0.0), np.where(on[:, None], f_nrm, 0.0), np.where(on, side, 0)
