@@ -548,7 +548,8 @@ def _keep(w, e, ea_v, eb_v, flip, vx, vy, m, V, nx, ny, dist, parent, ehead, lin
     of other roots on its edge, the edge's end vertices and Steiner nodes. Exact: the interval
     is cut at every point where the set of other windows covering it changes and where w's
     distance may cross one of theirs (:func:`_add_crossings`), so the comparison has one sign
-    on each piece; each cut point and each piece's midpoint is tested (``buf``: scratch room)."""
+    on each piece; each cut point and each piece's midpoint is tested (``buf``: scratch room),
+    after 5 evenly spaced points (where most windows that are kept win: a shortcut)."""
     u0 = wf[w, 0]
     u1 = wf[w, 1]
     rx = wf[w, 2]
@@ -567,6 +568,10 @@ def _keep(w, e, ea_v, eb_v, flip, vx, vy, m, V, nx, ny, dist, parent, ehead, lin
     ay = vy[ea_v]
     dx = vx[eb_v] - ax
     dy = vy[eb_v] - ay
+    for q in range(5):  # most windows that are kept win at one of 5 evenly spaced points: no cut points
+        if _better_at(c0 + (c1 - c0) * q / 4, rx, ry, rd, root, e, ea_v, eb_v, ax, ay, dx, dy, dist, parent, ehead,
+                      links, wf, wi):
+            return True
     buf[0] = c0
     buf[1] = c1
     n = 2
