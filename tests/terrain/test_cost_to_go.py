@@ -243,8 +243,14 @@ def test_agrees_with_a_dense_grid_dijkstra(random_tin, seed):
     both = clear & np.isfinite(d)
     assume(both.sum() > 50)
     assert np.all(d[both] <= dg[both] * 1.03 + 3 * cell)
-    assert np.all(d[both] >= dg[both] / 1.03 - 3 * cell)
-    far = both & (dg > 300)
+    # shorter than the grid allows: a passage the grid cannot follow (narrower than about two cells,
+    # seed 1945 has one); there the exact visibility graph decides (0.5 %, as in the test below)
+    short = both & (d < dg / 1.03 - 3 * cell)
+    if short.any():
+        q = np.column_stack([X[short], Y[short]])[:40]
+        exact = reference.cost_to_go_visibility_brute(tin, goal, passable, q)
+        np.testing.assert_allclose(d[short][:40], exact, rtol=0.005)
+    far = both & ~short & (dg > 300)
     if far.any():
         assert np.all(np.abs(d[far] / dg[far] - 1) <= 0.03 + 3 * cell / dg[far])
 
@@ -253,7 +259,8 @@ def test_agrees_with_a_dense_grid_dijkstra(random_tin, seed):
 @given(st.integers(0, 10_000), st.integers(0, 3))
 def test_agrees_with_the_exact_visibility_graph(random_tin, seed, m):
     """Against the exact field (visibility graph over every vertex, brute force): the window
-    propagation is exact but for windows dropped between test points; allow 0.5 %."""
+    propagation is exact (windows are dropped only where others are at least as short at every
+    point); allow 0.5 % (the regression cases below hold to 1e-9)."""
     tin, passable, goal, rng = obstacle_case(random_tin, seed, n=20, n_discs=3)
     ctg = cost_to_go(tin, goal, passable, steiner_per_edge=m)
     q = rng.uniform(0, 1000, (150, 2))
