@@ -334,7 +334,6 @@ def _snap(vx, vy, tris, nbrs, passable, t, x, y, tol):
 # [t, k, root, accepted]; t == -1 marks a *spawn* event of vertex ``root`` instead.
 
 _REL = 1e-14  # a window must improve some test value by this relative amount to be kept
-_NTEST = 4  # a window is compared with the others at _NTEST + 1 evenly spaced points and at the nodes
 _UEPS = 1e-12  # interval parameters this close to 0/1 reach the edge's end vertex
 
 
@@ -488,30 +487,75 @@ def _spawn(rx, ry, rd, root, t, vx, vy, tris, nbrs, passable, tri_nodes, nx, ny,
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _keep(w, e, ea_v, eb_v, flip, ax, ay, bx, by, m, V, nx, ny, dist, parent, ehead, links, wf, wi):
-    """Whether window w beats every other root at some test point of its interval: _NTEST + 1
-    evenly spaced points and the nodes inside it, each compared with the accepted windows of
-    other roots covering it (values are compared, not whole functions, so a window better only
-    between test points may be dropped: an approximation, never an error)."""
+def _better_at(c, rx, ry, rd, root, e, ea_v, eb_v, ax, ay, dx, dy, dist, parent, ehead, links, wf, wi):
+    """Whether root r's straight path (length ``rd + |x - r|``) beats, by :data:`_REL`, every
+    accepted window of another root covering the point x at canonical parameter c of edge e,
+    and the edge's end vertex there."""
+    x = ax + c * dx
+    y = ay + c * dy
+    best = _edge_best(e, c, x, y, root, ehead, links, wf, wi)
+    if c <= 0.0 and parent[ea_v] != root:
+        best = min(best, dist[ea_v])
+    if c >= 1.0 and parent[eb_v] != root:
+        best = min(best, dist[eb_v])
+    return rd + _hyp(x - rx, y - ry) < best * (1.0 - _REL)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _add_crossings(buf, n, c0, c1, ax, ay, dx, dy, rx, ry, rd, sx, sy, sd):
+    """Append to ``buf[n:]`` the parameters c in (c0, c1) where the two distance functions
+    ``rd + |P(c) - r|`` and ``sd + |P(c) - s|`` along the edge ``P(c) = a + c d`` may cross
+    (the roots of the squared equation, a superset, and its extremum for near-tangent cases);
+    returns the new count."""
+    k = sd - rd  # |P - r| - |P - s| = k  =>  (al + be c)^2 = 4 k^2 |P - s|^2
+    wx = ax - rx
+    wy = ay - ry
+    zx = ax - sx
+    zy = ay - sy
+    al = _norm2(wx, wy) - _norm2(zx, zy) - k * k
+    be = 2.0 * (dx * (sx - rx) + dy * (sy - ry))
+    k4 = 4.0 * k * k
+    qa = be * be - k4 * _norm2(dx, dy)
+    qb = 2.0 * al * be - 2.0 * k4 * (dx * zx + dy * zy)
+    qc = al * al - k4 * _norm2(zx, zy)
+    r0 = np.nan
+    r1 = np.nan
+    r2 = np.nan
+    if qa != 0.0:
+        r2 = -qb / (2.0 * qa)
+        disc = qb * qb - 4.0 * qa * qc
+        if disc >= 0.0:
+            sq = np.sqrt(disc)
+            r0 = (-qb - sq) / (2.0 * qa)
+            r1 = (-qb + sq) / (2.0 * qa)
+    elif qb != 0.0:
+        r0 = -qc / qb
+    if c0 < r0 < c1:
+        buf[n] = r0
+        n += 1
+    if c0 < r1 < c1:
+        buf[n] = r1
+        n += 1
+    if c0 < r2 < c1:
+        buf[n] = r2
+        n += 1
+    return n
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _keep(w, e, ea_v, eb_v, flip, vx, vy, m, V, nx, ny, dist, parent, ehead, links, wf, wi, buf):
+    """Whether window w beats every other root somewhere on its interval: the accepted windows
+    of other roots on its edge, the edge's end vertices and Steiner nodes. Exact: the interval
+    is cut at every point where the set of other windows covering it changes and where w's
+    distance may cross one of theirs (:func:`_add_crossings`), so the comparison has one sign
+    on each piece; each cut point and each piece's midpoint is tested (``buf``: scratch room),
+    after 5 evenly spaced points (where most windows that are kept win: a shortcut)."""
     u0 = wf[w, 0]
     u1 = wf[w, 1]
     rx = wf[w, 2]
     ry = wf[w, 3]
     rd = wf[w, 4]
     root = wi[w, 2]
-    for q in range(_NTEST + 1):
-        u = u0 + (u1 - u0) * q / _NTEST
-        x = ax + u * (bx - ax)
-        y = ay + u * (by - ay)
-        c = 1.0 - u if flip else u
-        val = rd + _hyp(x - rx, y - ry)
-        best = _edge_best(e, c, x, y, root, ehead, links, wf, wi)
-        if c <= 0.0 and parent[ea_v] != root:
-            best = min(best, dist[ea_v])
-        if c >= 1.0 and parent[eb_v] != root:
-            best = min(best, dist[eb_v])
-        if val < best * (1.0 - _REL):
-            return True
     c0 = 1.0 - u1 if flip else u0
     c1 = 1.0 - u0 if flip else u1
     for i in range(m):
@@ -520,6 +564,41 @@ def _keep(w, e, ea_v, eb_v, flip, ax, ay, bx, by, m, V, nx, ny, dist, parent, eh
             u = V + e * m + i
             if parent[u] != root and rd + _hyp(nx[u] - rx, ny[u] - ry) < dist[u] * (1.0 - _REL):
                 return True
+    ax = vx[ea_v]
+    ay = vy[ea_v]
+    dx = vx[eb_v] - ax
+    dy = vy[eb_v] - ay
+    for q in range(5):  # most windows that are kept win at one of 5 evenly spaced points: no cut points
+        if _better_at(c0 + (c1 - c0) * q / 4, rx, ry, rd, root, e, ea_v, eb_v, ax, ay, dx, dy, dist, parent, ehead,
+                      links, wf, wi):
+            return True
+    buf[0] = c0
+    buf[1] = c1
+    n = 2
+    x = ehead[e]
+    while x >= 0:
+        if wi[x, 2] != root and wf[x, 7] >= c0 - _UEPS and wf[x, 6] <= c1 + _UEPS:
+            if c0 < wf[x, 6] < c1:
+                buf[n] = wf[x, 6]
+                n += 1
+            if c0 < wf[x, 7] < c1:
+                buf[n] = wf[x, 7]
+                n += 1
+            n = _add_crossings(buf, n, c0, c1, ax, ay, dx, dy, rx, ry, rd, wf[x, 2], wf[x, 3], wf[x, 4])
+        x = links[x, 0]
+    for i in range(1, n):  # insertion sort: a handful of cut points
+        v = buf[i]
+        j = i - 1
+        while j >= 0 and buf[j] > v:
+            buf[j + 1] = buf[j]
+            j -= 1
+        buf[j + 1] = v
+    for i in range(n):
+        if _better_at(buf[i], rx, ry, rd, root, e, ea_v, eb_v, ax, ay, dx, dy, dist, parent, ehead, links, wf, wi):
+            return True
+        if i + 1 < n and buf[i + 1] > buf[i] and _better_at(0.5 * (buf[i] + buf[i + 1]), rx, ry, rd, root, e, ea_v,
+                                                            eb_v, ax, ay, dx, dy, dist, parent, ehead, links, wf, wi):
+            return True
     return False
 
 
@@ -591,8 +670,9 @@ def windows(nx, ny, vx, vy, tris, nbrs, te, ea, vorig, passable, tri_nodes, star
         pend = np.zeros(V, dtype=np.bool_)
         stack = np.empty(V, dtype=np.int64)
         st = np.zeros(4, dtype=np.int64)  # records, heap size, stacked corners, full
+        buf = np.empty(5 * cap + 8)  # _keep's cut points: at most 5 per accepted window on an edge, + 2
         _propagate(nx, ny, vx, vy, tris, nbrs, te, ea, vorig, passable, tri_nodes, start, node_tris, corner, goal_tris,
-                   gx, gy, m, dist, parent, wf, wi, links, heap, ehead, phead, spawned, pend, stack, st)
+                   gx, gy, m, dist, parent, wf, wi, links, heap, ehead, phead, spawned, pend, stack, st, buf)
         if not st[3]:
             n = st[0]
             return dist, parent, wf[:n], wi[:n]
@@ -601,7 +681,7 @@ def windows(nx, ny, vx, vy, tris, nbrs, te, ea, vorig, passable, tri_nodes, star
 
 @njit(cache=True, error_model="numpy", _nrt=False)
 def _propagate(nx, ny, vx, vy, tris, nbrs, te, ea, vorig, passable, tri_nodes, start, node_tris, corner, goal_tris,
-               gx, gy, m, dist, parent, wf, wi, links, heap, ehead, phead, spawned, pend, stack, st):
+               gx, gy, m, dist, parent, wf, wi, links, heap, ehead, phead, spawned, pend, stack, st, buf):
     """The loop of :func:`windows` over the work arrays it allocates (``st[3]`` set when the
     window arrays run out of room: the results are then void). Compiled without reference
     counting (``_nrt=False``: it allocates nothing), which would otherwise cost about as much
@@ -642,8 +722,7 @@ def _propagate(nx, ny, vx, vy, tris, nbrs, te, ea, vorig, passable, tri_nodes, s
         flip = ea[e] != vorig[A]
         ea_v = B if flip else A
         eb_v = A if flip else B
-        if not _keep(w, e, ea_v, eb_v, flip, vx[A], vy[A], vx[B], vy[B], m, V, nx, ny, dist, parent, ehead, links,
-                     wf, wi):
+        if not _keep(w, e, ea_v, eb_v, flip, vx, vy, m, V, nx, ny, dist, parent, ehead, links, wf, wi, buf):
             continue
         rx = wf[w, 2]
         ry = wf[w, 3]
@@ -764,9 +843,38 @@ def tri_windows(wf, wi, vx, vy, tris, T):
     return start, geo, root
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def _twins(u, twin, dist, best, arg):
+    """The best of (best, arg) and the distances of u and of every copy of its vertex."""
+    w = u
+    while True:
+        if dist[w] < best:
+            best = dist[w]
+            arg = w
+        w = twin[w]
+        if w == u:
+            return best, arg
+
+
+@njit(cache=True, error_model="numpy")
+def twins(vorig):
+    """``(V2,)`` int64: for each vertex of :func:`split_fans`' output, the next copy of the same
+    original vertex (circular; itself for a vertex that is no pinch)."""
+    n = vorig.shape[0]
+    twin = np.arange(n)
+    last = np.arange(n)  # per original vertex: the newest copy so far (copies follow their original)
+    for i in range(n):
+        v = vorig[i]
+        if v != i:
+            twin[i] = twin[last[v]]
+            twin[last[v]] = i
+            last[v] = i
+    return twin
+
+
 @njit(cache=True, error_model="numpy")
 def query(nx, ny, dist, parent, tri_nodes, passable, goal_tri, gx, gy, vx, vy, tris, nbrs, wstart, wgeo, wroot,
-          px, py, tidx, tol, eps_m):
+          px, py, tidx, tol, eps_m, twin):
     """Distance ``(n,)``, first-leg unit direction ``(n, 2)`` and source ``(n,)`` at each point.
     Long (~70 lines) on purpose: the three candidate kinds (windows, nodes, the goal) are taken in
     one compiled pass per point, with no per-candidate function call.
@@ -774,7 +882,9 @@ def query(nx, ny, dist, parent, tri_nodes, passable, goal_tri, gx, gy, vx, vy, t
     ``tidx[i]`` is the triangle holding point i (-1 outside). Candidates, all lengths of
     drivable paths: ``|p - node_j| + dist[j]`` over the triangle's boundary nodes (the triangle
     is convex), ``|p - goal|`` when the goal lies on it, and ``|p - r| + rd`` for each window
-    into it (:func:`tri_windows`) whose wedge holds p. ``src[i]``: where the straight first leg
+    into it (:func:`tri_windows`) whose wedge holds p; at a pinch vertex (within ``eps_m``), the
+    value of every fan's copy of it (``twin``: the next copy of each vertex, circular; itself
+    where it has none): the point belongs to all its fans. ``src[i]``: where the straight first leg
     ends (a node, :data:`GOAL`, or :data:`NONE` where ``inf``). Direction: toward that point,
     or up its parent chain past points within ``eps_m`` of ``p``.
     """
@@ -815,12 +925,15 @@ def query(nx, ny, dist, parent, tri_nodes, passable, goal_tri, gx, gy, vx, vy, t
                             and _orient(rx, ry, wgeo[a, 5], wgeo[a, 6], x, y) >= -lim1):
                         best = c
                         arg = wroot[a]
+            for k in range(3):
+                u = tris[t, k]
+                if twin[u] != u and _norm2(nx[u] - x, ny[u] - y) <= eps_m * eps_m:
+                    best, arg = _twins(u, twin, dist, best, arg)
         else:  # on a vertex of an impassable triangle that passable ground touches
             for k in range(3):
                 u = tris[t, k]
-                if _norm2(nx[u] - x, ny[u] - y) <= eps_m * eps_m and dist[u] < best:
-                    best = dist[u]
-                    arg = u
+                if _norm2(nx[u] - x, ny[u] - y) <= eps_m * eps_m:
+                    best, arg = _twins(u, twin, dist, best, arg)
         out[i] = best
         if best == np.inf:
             continue

@@ -25,19 +25,20 @@ across passable triangles. A root opens a window on each edge of its triangles; 
 pushed through the next triangle (its wedge of rays clipped to the two other edges, one or two
 children; impassable ground stops it); windows are processed by their smallest distance, so a
 corner's distance is final when it opens its own windows (its shadow); contiguous pieces of
-one root split by a vertex are merged one triangle later; a window is dropped when another
-root's windows are at least as short at 5 evenly spaced points of its interval and at its nodes
-(the only approximation: a window better just between those points is lost). Visibility is
-never tested by walking: it is carried by the wedges. Nodes are the TIN vertices plus
-``steiner_per_edge`` points per edge, each with the straight distance to the best root whose
-window covers it (``parent``: that root). A query point ``p`` in triangle ``t`` takes the
+one root split by a vertex are merged one triangle later; a window is dropped when other
+roots' windows (or the edge's nodes) are at least as short at every point of its interval,
+tested exactly: at each point where the set of windows covering it or the order of the
+distances changes, and between (:func:`._ctg_kernels._keep`). Visibility is never tested by
+walking: it is carried by the wedges. Nodes are the TIN vertices plus ``steiner_per_edge``
+points per edge, each with the straight distance to the best root whose window covers it (``parent``: that root). A query point ``p`` in triangle ``t`` takes the
 cheapest of ``|p - r| + D[r]`` over the windows into ``t`` whose wedge holds ``p`` (the straight
 segment to the root, exact), ``|p - node_j| + D[node_j]`` over ``t``'s nodes (``t`` is convex) and
-``|p - goal|`` on the goal's triangles: O(1) candidates, no walk. Every value is the length of a
-real drivable path, so never below the true distance; against the exact visibility-graph field
-(tests) it is exact at >= 95 % of points and within 0.5 % everywhere. ``any_angle=False`` is
-the plain Steiner graph (Lanthier, Maheshwari and Sack 1997: Dijkstra over the nodes, two nodes
-neighbours when on one passable triangle), kept as a reference: 2-8 % too long on flat TINs.
+``|p - goal|`` on the goal's triangles (on a pinch vertex, the best of its fans' copies: the
+point belongs to each fan): O(1) candidates, no walk. Every value is the length of a real
+drivable path, so never below the true distance; against the exact visibility-graph field
+(tests) it agrees to rounding. ``any_angle=False`` is the plain Steiner graph (Lanthier,
+Maheshwari and Sack 1997: Dijkstra over the nodes, two nodes neighbours when on one passable
+triangle), kept as a reference: 2-8 % too long on flat TINs.
 Why not the alternatives:
 
 * triangle-centroid hops measure a path around a cliff end 5-20 % long and cannot run along a
@@ -101,6 +102,7 @@ class CostToGo:
         xs, ys = tin.xy_columns
         vx, vy = xs[vorig], ys[vorig]
         self._tris, self._vx, self._vy, self._vorig = tris, vx, vy, vorig
+        self._twin = K.twins(vorig)
         nx, ny, self._tri_nodes, start, node_tris = K.build_nodes(vx, vy, tris, te, n_edges, m, self.passable)
         self._nx, self._ny = nx, ny
         self._start, self._node_tris = start, node_tris
@@ -206,7 +208,8 @@ class CostToGo:
         tin = self.tin
         return K.query(self._nx, self._ny, self.node_distance, self._parent, self._tri_nodes, self.passable,
                        self.goal_triangles, self.goal_xy[0], self.goal_xy[1], self._vx, self._vy, self._tris,
-                       tin.neighbors, self._wstart, self._wgeo, self._wroot, px, py, t, tin.tolerances[0], self._eps_m)
+                       tin.neighbors, self._wstart, self._wgeo, self._wroot, px, py, t, tin.tolerances[0], self._eps_m,
+                       self._twin)
 
     @property
     def _eps_m(self) -> float:

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["locate_brute", "line_of_sight_brute", "line_of_sight_dense", "height_brute", "single_surface_brute",
-           "on_passable_brute", "cost_to_go_graph_brute", "cost_to_go_grid",
+           "on_passable_brute", "crosses_impassable_brute", "cost_to_go_graph_brute", "cost_to_go_grid",
            "cost_to_go_visibility_brute", "fan_labels_brute", "pinch_vertices_brute"]
 
 
@@ -296,12 +296,62 @@ def _pinch_ok(tin, lab, pinches, a, b, fa, fb, va, vb) -> np.ndarray:
     return ok
 
 
+def crosses_impassable_brute(tin, passable, a, b, tol_m: float = 1e-9) -> np.ndarray:
+    """``(k,)`` bool: whether each segment ``a -> b`` (``(k, 2)`` each) runs through the open
+    interior of an impassable triangle over a stretch longer than ``1e-12`` of its length
+    (every impassable triangle tested exactly: the part of the segment more than ``tol_m``
+    inside all three edge lines) or along an edge with no passable side. Running along an edge
+    with passable ground on one side, or through a vertex, is not crossing.
+    Exact where sampling is not: a sliver of impassable ground narrower than the sample step
+    is still seen."""
+    a = np.atleast_2d(np.asarray(a, dtype=np.float64))
+    b = np.atleast_2d(np.asarray(b, dtype=np.float64))
+    v = tin.vertices[tin.triangles[~np.asarray(passable, dtype=bool)], :2]  # (Ti, 3, 2) CCW
+    out = np.zeros(len(a), dtype=bool)
+    if len(v) == 0:
+        return out
+    for s0 in range(0, len(a), 256):
+        pa, pb = a[s0:s0 + 256, None], b[s0:s0 + 256, None]  # (c, 1, 2)
+        lo = np.zeros((len(pa), len(v)))
+        hi = np.ones((len(pa), len(v)))
+        for k in range(3):
+            p, q = v[None, :, k], v[None, :, (k + 1) % 3]  # (1, Ti, 2)
+            e = q - p
+            L = np.maximum(np.hypot(e[..., 0], e[..., 1]), 1e-300)
+            o0 = (e[..., 0] * (pa[..., 1] - p[..., 1]) - e[..., 1] * (pa[..., 0] - p[..., 0])) / L - tol_m
+            o1 = (e[..., 0] * (pb[..., 1] - p[..., 1]) - e[..., 1] * (pb[..., 0] - p[..., 0])) / L - tol_m
+            do = o1 - o0  # signed distance inside this edge line (less tol_m) is o0 + s * do, s in [0, 1]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                cut = -o0 / do
+            lo = np.where(do > 0, np.maximum(lo, cut), lo)
+            hi = np.where(do < 0, np.minimum(hi, cut), hi)
+            hi = np.where((do == 0) & (o0 <= 0), -1.0, hi)  # parallel, outside
+        out[s0:s0 + 256] = (hi - lo > 1e-12).any(axis=1)
+    et = tin.edge_triangles
+    side_ok = (et >= 0) & np.asarray(passable, dtype=bool)[np.maximum(et, 0)]
+    closed = tin.edges[~side_ok.any(axis=1)]  # edges with no passable side
+    if len(closed):
+        p, q = tin.vertices[closed[:, 0], :2][None], tin.vertices[closed[:, 1], :2][None]  # (1, Ec, 2)
+        e = q - p
+        L = np.maximum(np.hypot(e[..., 0], e[..., 1]), 1e-300)
+        pa, pb = a[:, None], b[:, None]
+        da = (e[..., 0] * (pa[..., 1] - p[..., 1]) - e[..., 1] * (pa[..., 0] - p[..., 0])) / L
+        db = (e[..., 0] * (pb[..., 1] - p[..., 1]) - e[..., 1] * (pb[..., 0] - p[..., 0])) / L
+        ta = np.sum((pa - p) * e, axis=-1) / (L * L)  # the segment's ends along the edge, 0..1 on it
+        tb = np.sum((pb - p) * e, axis=-1) / (L * L)
+        overlap = np.minimum(np.maximum(ta, tb), 1.0) - np.maximum(np.minimum(ta, tb), 0.0)
+        on_line = (np.abs(da) <= tol_m) & (np.abs(db) <= tol_m)
+        out |= (on_line & (overlap * L > 1e-12 * np.maximum(np.hypot(*(b - a).T), 1e-300)[:, None])).any(axis=1)
+    return out
+
+
 def cost_to_go_visibility_brute(tin, goal_xy, passable, xy, n_samples: int = 200) -> np.ndarray:
     """The exact shortest drivable path lengths ``(n,)`` m from points ``xy`` ``(n, 2)`` to the goal:
     Dijkstra on the visibility graph of the goal and *every* TIN vertex, one node per passable fan
     (a shortest path in a polygonal domain is straight between bends at vertices), a segment
     counting as visible when ``n_samples`` points along it lie on passable ground
-    (:func:`on_passable_brute`) and it obeys the pinch rule (it never passes from one fan of a
+    (:func:`on_passable_brute`: inside the TIN), it crosses no impassable triangle
+    (:func:`crosses_impassable_brute`, exact: samples alone step over slivers) and it obeys the pinch rule (it never passes from one fan of a
     vertex to another: :func:`_pinch_ok`). Slow (O(V^2) segments): for small TINs. ``inf``
     where the goal cannot be reached."""
     from scipy.sparse.csgraph import dijkstra
@@ -319,6 +369,7 @@ def cost_to_go_visibility_brute(tin, goal_xy, passable, xy, n_samples: int = 200
     def seen(a, b, ia, ib):  # (k, 2), (k, 2), node ids (k,) (-1: a query point) -> (k,) bool
         seg = a[:, None] + s * (b - a)[:, None]
         on = on_passable_brute(tin, seg.reshape(-1, 2), passable, tol=1e-9).reshape(len(a), -1).all(axis=1)
+        on &= ~crosses_impassable_brute(tin, passable, a, b)
         va = np.where(ia >= 0, nv[np.maximum(ia, 0)], -1)
         vb = np.where(ib >= 0, nv[np.maximum(ib, 0)], -1)
         return on & _pinch_ok(tin, lab, pinches, a, b, nf[np.maximum(ia, 0)], nf[np.maximum(ib, 0)], va, vb)
