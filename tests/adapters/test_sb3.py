@@ -303,3 +303,51 @@ def test_adapter_episode_length_counts_the_robot_s_own_steps_and_return_its_own_
     assert r0 == pytest.approx(ret0, abs=1e-4) and r0b == pytest.approx(ret0b, abs=1e-4)
     assert r0 < -50  # the fall penalty is in the first return, not the second
     assert r0b > -50
+
+
+def test_the_mirror_policy_is_equivariant_and_exports_to_the_same_actions(tmp_path):
+    """MirrorActorCriticPolicy (train --symmetry mirror): the Gaussian's mean and the value are
+    mirror-equivariant / invariant on random observations, log-probabilities of mirrored actions
+    are equal, and the exported policy file (``"symmetry": "mirror"``) gives model.predict's
+    deterministic actions."""
+    torch = pytest.importorskip("torch")
+    from stable_baselines3 import PPO
+
+    from tin_swarm_env.adapters.sb3 import export_sb3_policy, mirror_policy_class
+    from tin_swarm_env.env.observation import mirror_action
+    from tin_swarm_env.policies import load_policy
+
+    vec = tse.adapters.make_sb3_vec_env("cliff_goal", n_robots=4, n_envs=1, seed=0, max_cycles=30)
+    lay = vec.envs[0].layout
+    model = PPO(mirror_policy_class(), vec, n_steps=32, batch_size=64, n_epochs=1, seed=0, device="cpu",
+                policy_kwargs={"net_arch": [16, 16], "mirror_signs": lay.mirror_signs().tolist()})
+    model.learn(64)
+    with torch.no_grad():
+        model.policy.action_net.weight.mul_(300.0)  # outputs beyond [-1, 1]: the clip is exercised
+    rng = np.random.default_rng(0)
+    o = rng.uniform(-1, 1, (300, lay.size)).astype(np.float32)
+    mo = lay.mirror(o)
+    pol = model.policy
+    with torch.no_grad():
+        m, v = pol.mirror_mean_value(torch.as_tensor(o))
+        mm, vm = pol.mirror_mean_value(torch.as_tensor(mo))
+        a = torch.as_tensor(rng.uniform(-1, 1, (300, 2)).astype(np.float32))
+        _, lp, _ = pol.evaluate_actions(torch.as_tensor(o), a)
+        _, lpm, _ = pol.evaluate_actions(torch.as_tensor(mo), torch.as_tensor(mirror_action(a.numpy())))
+    np.testing.assert_allclose(mm.numpy(), mirror_action(m.numpy()), atol=1e-5)
+    np.testing.assert_allclose(vm.numpy(), v.numpy(), atol=1e-5)
+    np.testing.assert_allclose(lpm.numpy(), lp.numpy(), rtol=1e-5, atol=1e-4)
+    # the plain actor inside is not equivariant (the averaging does the work)
+    with torch.no_grad():
+        raw = pol.action_net(pol.mlp_extractor.forward_actor(torch.as_tensor(o)))
+        raw_m = pol.action_net(pol.mlp_extractor.forward_actor(torch.as_tensor(mo)))
+    assert np.abs(raw_m.numpy() - mirror_action(raw.numpy())).max() > 0.1
+    d = export_sb3_policy(model, tmp_path / "mirror", vec)
+    file_pol = load_policy(d, vec.envs[0])
+    assert file_pol.symmetry == "mirror"
+    want, _ = model.predict(o, deterministic=True)
+    got = file_pol.act_batch(o)
+    np.testing.assert_allclose(got, want, atol=1e-5)
+    assert np.any(np.abs(got) == 1.0) and np.any(np.abs(got) < 1.0)
+    with pytest.raises(TinSwarmError, match="mirror_signs of length 59"):
+        PPO(mirror_policy_class(), vec, policy_kwargs={"mirror_signs": [1.0]}, device="cpu")

@@ -173,7 +173,7 @@ def test_cli_train_exposes_the_imitation_options():
 
     ns = build_parser().parse_args(["train", "cliff_goal,ramp", "--bc-episodes", "3", "--dagger-rounds", "2",
                                     "--recurrent", "false", "--timesteps", "0"])
-    assert (ns.scenario, ns.bc_episodes, ns.dagger_rounds, ns.recurrent, ns.timesteps) == ("cliff_goal,ramp", 3, 2,
+    assert (ns.scenario, ns.bc_episodes, ns.dagger_rounds, ns.recurrent, ns.total_timesteps) == ("cliff_goal,ramp", 3, 2,
                                                                                           False, 0)
 
 
@@ -263,3 +263,43 @@ def test_recurrent_training_runs_and_exports_a_recurrent_policy_file(tmp_path, c
     pol = load_policy(tmp_path / "r" / "policy", env)
     assert isinstance(pol, RecurrentPolicy) and pol.hidden_size == 8 and pol.shield == "safety_cut"
     assert "exported the pickle-free policy" in capsys.readouterr().out
+
+
+def test_mirror_samples_add_the_mirror_image_of_every_sample():
+    from tin_swarm_env.apps.imitation import Demos
+    from tin_swarm_env.apps.train import fit_set
+    from tin_swarm_env.env.observation import ObsLayout
+
+    lay = ObsLayout()
+    rng = np.random.default_rng(0)
+    d = Demos(rng.uniform(-1, 1, (5, lay.size)).astype(np.float32), rng.uniform(-1, 1, (5, 2)).astype(np.float32),
+              rng.normal(size=5).astype(np.float32), arrived=0.75, fell=0.1, episodes=3)
+    m = d.mirrored(lay)
+    np.testing.assert_array_equal(m.obs, d.obs * lay.mirror_signs())
+    np.testing.assert_array_equal(m.actions, d.actions * [1, -1])
+    np.testing.assert_array_equal(m.returns, d.returns)
+    assert fit_set(d, Args(), lay) is d
+    both = fit_set(d, Args(mirror_samples=True), lay)
+    assert len(both) == 10 and (both.arrived, both.fell, both.episodes) == (0.75, 0.1, 3)
+    np.testing.assert_array_equal(both.obs[5:], m.obs)
+
+
+def test_symmetry_mirror_trains_imitates_and_exports_an_equivariant_policy(tmp_path):
+    pytest.importorskip("torch")
+    from tin_swarm_env.apps.train import train
+    from tin_swarm_env.env.observation import mirror_action
+    from tin_swarm_env.policies import load_policy
+
+    with pytest.raises(ArgumentError, match="--symmetry must be one of"):
+        check_args(Args(symmetry="left"))
+    with pytest.raises(ArgumentError, match="--symmetry mirror is for the MLP"):
+        check_args(Args(symmetry="mirror", recurrent=True))
+    train(Args(scenario="cliff_goal", n_robots=3, n_envs=1, max_cycles=15, total_timesteps=48, n_steps=16,
+               batch_size=48, n_epochs=1, net_arch="16", bc_episodes=1, bc_epochs=2, value_epochs=1, eval_every=0,
+               eval_episodes=1, symmetry="mirror", out_dir=str(tmp_path / "m"), progress_bar=False))
+    env = tse.parallel_env(scenario="cliff_goal", n_robots=3)
+    for stage in ("policy_imitation", "policy"):
+        pol = load_policy(tmp_path / "m" / stage, env)
+        assert pol.symmetry == "mirror"
+        o = np.random.default_rng(0).uniform(-1, 1, (50, env.layout.size)).astype(np.float32)
+        np.testing.assert_array_equal(pol.act_batch(env.layout.mirror(o)), mirror_action(pol.act_batch(o)))

@@ -15,6 +15,7 @@ import pytest
 
 from tin_swarm_env.errors import ScenarioError
 from tin_swarm_env.scenario import scenario_from_dict
+from tin_swarm_env.scenario.config import SOURCE_KEYS
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -67,6 +68,11 @@ def test_scenario_keys_page_lists_exactly_the_keys_the_parser_takes(table):
     assert known <= set(documented), known - set(documented)
     for key, default in documented.items():
         if default in (None, ()) or (table, key) == ("", "name"):
+            continue
+        if table == "terrain" and key not in ("source", *SOURCE_KEYS["flat"]):
+            # the other [terrain] keys are read by other sources only (a flat plane refuses them):
+            # each must be read by at least one source
+            assert any(key in keys for keys in SOURCE_KEYS.values()), key
             continue
         doc = {"terrain": {"source": "flat"}, "targets": {"positions": [[1.0, 1.0]]}}
         where = doc.setdefault(table, {}) if table else doc

@@ -185,13 +185,19 @@ BAD = {
     "no_hidden": (lambda j: j["network"].pop("hidden_size"), None, r"missing key 'network\.hidden_size'"),
     "head_start": (lambda j: j["network"].update(hidden_size=9), None,
                    r"'network\.layer_sizes' must start at hidden_size 9"),
-    "input": (lambda j: j["network"].update(input_size=60), None, r"weights\.npz.*'cell_W_ih' has shape \(32, 59\)"),
+    "input": (lambda j: j["network"].update(input_size=60), None,
+              r"policy\.json: key 'observation\.size' \(59\) differs from the cell's 'network\.input_size' \(60\)"),
+    "input_both": (lambda j: (j["network"].update(input_size=60), j["observation"].update(size=60)), None,
+                   r"weights\.npz.*'cell_W_ih' has shape \(32, 59\)"),
     "type": (lambda j: j["network"].update(type="transformer"), None, r"'network\.type' is 'transformer'"),
     "missing_array": (None, lambda a: a.pop("cell_W_hh"), r"weights\.npz: missing array 'cell_W_hh'"),
     "shape": (None, lambda a: a.update(cell_b_ih=np.zeros(31)), r"weights\.npz: array 'cell_b_ih' has shape \(31,\)"),
     "nan": (None, lambda a: a["cell_W_hh"].__setitem__((0, 0), np.nan), r"'cell_W_hh' holds NaN"),
     "extra": (None, lambda a: a.update(W7=np.zeros(2)), r"unexpected \['W7'\]"),
     "gru_arrays": (lambda j: j["network"].update(cell="gru"), None, r"'cell_W_ih' has shape \(32, 59\).*gru"),
+    "huge": (lambda j: j["network"].update(hidden_size=3000, layer_sizes=[3000, 12, 2]), None,
+             r"policy\.json.*lstm cell.*'network\.hidden_size' 3000.*beyond the limits"),
+    "large_weight": (None, lambda a: a["cell_W_ih"].__setitem__((0, 0), 1e9), r"'cell_W_ih'.*magnitude 1e\+09"),
 }
 
 

@@ -1,5 +1,5 @@
 """The mirror-equivariant policy option (policies/symmetry.py, ``"symmetry": "mirror"`` in a policy
-file): pi(M o) == M pi(o) on random observations, exactly for the network and to float rounding
+file, ``clip((g(o) + M g(M o)) / 2)``): pi(M o) == M pi(o) on random observations, exactly for the network and to float rounding
 through the shield; the option round-trips through the file and a bad value is refused by name."""
 
 from __future__ import annotations
@@ -40,6 +40,16 @@ def _layers(d, seed, scale=3.0):
             (rng.normal(0, scale, (2, 24)), rng.normal(0, 1, 2))]
 
 
+def _net(layers, x):
+    """The network before its clip, plain numpy (tanh after every layer but the last)."""
+    x = np.asarray(x, dtype=np.float64)
+    for i, (W, b) in enumerate(layers):
+        x = x @ W.T + b
+        if i < len(layers) - 1:
+            x = np.tanh(x)
+    return x
+
+
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_the_mirror_policy_is_equivariant_exactly(tmp_path, seed):
     e = _env()
@@ -52,10 +62,12 @@ def test_the_mirror_policy_is_equivariant_exactly(tmp_path, seed):
     mo = lay.mirror(o)
     a, am = sym.act_batch(o), sym.act_batch(mo)
     np.testing.assert_array_equal(am, mirror_action(a))  # bit for bit: sign flips and commuting sums
-    # it is the average of the network and its mirror image, computed here with two separate calls
-    f, fm = plain.act_batch(o).astype(np.float64), plain.act_batch(mo).astype(np.float64)
-    np.testing.assert_allclose(a, (f + mirror_action(fm)) / 2, atol=1e-7)
-    assert np.any(np.abs(f) == 1.0)  # the output clipping was exercised
+    # it is the clipped average of the network and its mirror image, the network computed here by hand
+    g, gm = _net(layers, o), _net(layers, mo)
+    np.testing.assert_allclose(a, np.clip((g + mirror_action(gm)) / 2, -1, 1), atol=1e-6)
+    assert np.any(np.abs(g) > 1.0) and np.any(np.abs(a) == 1.0)  # the output clipping was exercised
+    f = plain.act_batch(o)
+    np.testing.assert_allclose(f, np.clip(g, -1, 1), atol=1e-6)
     # the plain network is not equivariant (so the assertion above has power)
     assert np.abs(plain.act_batch(mo) - mirror_action(f)).max() > 0.1
     # a self-mirrored observation drives straight
@@ -115,3 +127,22 @@ def test_symmetrize_calls_the_network_once_on_both_images():
     np.testing.assert_array_equal(out, x[:, :2])  # f is already equivariant: unchanged
     out = symmetrize(lambda x: np.column_stack([x[:, 2], x[:, 2]]), x, signs)  # vy from an even field: cancels
     np.testing.assert_array_equal(out, np.column_stack([x[:, 2], np.zeros(2)]))
+
+
+def test_apf_with_its_memory_is_mirror_equivariant_over_an_episode():
+    """Why mirrored demonstrations (train --mirror-samples) are APF's own labels: an APF fed the
+    mirror images of another's observations acts as its mirror image, memory included."""
+    from tin_swarm_env.policies import APFPolicy
+
+    e = _env()
+    lay = e.layout
+    a, b = APFPolicy(e), APFPolicy(e)
+    obs = e.reset_arrays(seed=1)
+    for _ in range(150):
+        x = a.act_batch(obs)
+        np.testing.assert_allclose(b.act_batch(lay.mirror(obs)), mirror_action(x), atol=1e-6)
+        obs, *_ = e.step_arrays(x)
+    o = _random_obs(lay, 1000, 3)
+    a, b = APFPolicy(e), APFPolicy(e)
+    for _ in range(3):
+        np.testing.assert_allclose(b.act_batch(lay.mirror(o)), mirror_action(a.act_batch(o)), atol=1e-6)

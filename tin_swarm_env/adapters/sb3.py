@@ -38,7 +38,7 @@ import numpy as np
 from ..errors import ArgumentError, require
 from ..world.state import Reason
 
-__all__ = ["TinSwarmVecEnv", "make_sb3_vec_env", "export_sb3_policy"]  # noqa: F822 (lazy, see __getattr__)
+__all__ = ["TinSwarmVecEnv", "make_sb3_vec_env", "export_sb3_policy", "mirror_policy_class"]  # noqa: F822 (lazy)
 
 
 def _vecenv_base():
@@ -218,6 +218,10 @@ def export_sb3_policy(model, path, env_or_layout, scenario: str | None = None, e
     pol = model.policy
     where = f"model {type(model).__name__}.policy"
     layers, activation = _actor_head(pol, where)
+    if hasattr(pol, "mirror_mean_value"):  # trained equivariant: the file must average the same way
+        if symmetry != "none" and symmetry != "mirror":
+            raise ArgumentError(f"{where} is mirror-equivariant; it exports with symmetry 'mirror', not {symmetry!r}")
+        symmetry = "mirror"
     cell = _lstm_cell(pol.lstm_actor, where) if hasattr(pol, "lstm_actor") else None
     src = env_or_layout.envs[0] if hasattr(env_or_layout, "envs") else env_or_layout  # our VecEnv: a copy
     layout = getattr(src, "layout", src)
@@ -277,6 +281,83 @@ def _lstm_cell(lstm, where: str):
 
     return "lstm", {"cell_W_ih": get("weight_ih_l0"), "cell_W_hh": get("weight_hh_l0"),
                     "cell_b_ih": get("bias_ih_l0"), "cell_b_hh": get("bias_hh_l0")}
+
+
+_MIRROR = None
+
+
+def mirror_policy_class():
+    """``MirrorActorCriticPolicy``: SB3's ``ActorCriticPolicy`` (MlpPolicy) made mirror-equivariant
+    by construction, for PPO/A2C with ``policy_kwargs={"mirror_signs": layout.mirror_signs().tolist()}``
+    (``apps/train.py --symmetry mirror``). Every evaluation runs the networks on the observations
+    and their mirror images in one batch: the Gaussian's mean is ``(g(o) + M g(M o)) / 2`` (``g``
+    the actor network, ``M`` :func:`~tin_swarm_env.env.observation.mirror_action` on the output)
+    and the value ``(v(o) + v(M o)) / 2``; the state-independent std is the same for both sides
+    (a sign flip does not change a variance), so ``pi(M a | M o) = pi(a | o)`` for every sample
+    PPO draws, and its deterministic action, clipped, is what a policy file with
+    ``"symmetry": "mirror"`` and the same weights computes (:func:`export_sb3_policy` writes it so)."""
+    global _MIRROR
+    if _MIRROR is not None:
+        return _MIRROR
+    policies = require("stable_baselines3", "train", "The mirror-equivariant SB3 policy").common.policies
+    import torch as th
+
+    from ..env.observation import ACTION_PARITY
+
+    class MirrorActorCriticPolicy(policies.ActorCriticPolicy):
+        def __init__(self, *args, mirror_signs=None, **kwargs):
+            super().__init__(*args, **kwargs)
+            d = int(np.prod(self.observation_space.shape))
+            if mirror_signs is None or len(mirror_signs) != d:
+                raise ArgumentError(f"MirrorActorCriticPolicy needs mirror_signs of length {d} "
+                                    "(ObsLayout.mirror_signs()), got "
+                                    f"{None if mirror_signs is None else len(mirror_signs)}")
+            if type(self.action_dist).__name__ != "DiagGaussianDistribution":
+                raise ArgumentError("MirrorActorCriticPolicy: only a diagonal Gaussian actor (no gSDE)")
+            self.mirror_signs = [float(x) for x in mirror_signs]
+            self.register_buffer("_signs", th.as_tensor(self.mirror_signs, dtype=th.float32))
+            self.register_buffer("_parity", th.as_tensor(ACTION_PARITY, dtype=th.float32))
+
+        def _get_constructor_parameters(self):
+            return {**super()._get_constructor_parameters(), "mirror_signs": self.mirror_signs}
+
+        def mirror_mean_value(self, obs):
+            """``(mean (n, 2), value (n, 1))``, both averaged with the mirror image."""
+            obs = obs.float()
+            n = obs.shape[0]
+            features = self.extract_features(th.cat([obs, obs * self._signs]))
+            if self.share_features_extractor:
+                latent_pi, latent_vf = self.mlp_extractor(features)
+            else:
+                latent_pi = self.mlp_extractor.forward_actor(features[0])
+                latent_vf = self.mlp_extractor.forward_critic(features[1])
+            mean, value = self.action_net(latent_pi), self.value_net(latent_vf)
+            return (mean[:n] + mean[n:] * self._parity) / 2, (value[:n] + value[n:]) / 2
+
+        def _dist(self, mean):
+            return self.action_dist.proba_distribution(mean, self.log_std)
+
+        def forward(self, obs, deterministic=False):
+            mean, values = self.mirror_mean_value(obs)
+            dist = self._dist(mean)
+            actions = dist.get_actions(deterministic=deterministic)
+            log_prob = dist.log_prob(actions)
+            return actions.reshape((-1, *self.action_space.shape)), values, log_prob
+
+        def evaluate_actions(self, obs, actions):
+            mean, values = self.mirror_mean_value(obs)
+            dist = self._dist(mean)
+            return values, dist.log_prob(actions), dist.entropy()
+
+        def get_distribution(self, obs):
+            return self._dist(self.mirror_mean_value(obs)[0])
+
+        def predict_values(self, obs):
+            return self.mirror_mean_value(obs)[1]
+
+    MirrorActorCriticPolicy.__qualname__ = "MirrorActorCriticPolicy"
+    _MIRROR = MirrorActorCriticPolicy
+    return MirrorActorCriticPolicy
 
 
 def __getattr__(name):

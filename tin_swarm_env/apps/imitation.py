@@ -63,6 +63,18 @@ class Demos:
     def __len__(self) -> int:
         return len(self.obs)
 
+    def mirrored(self, layout) -> Demos:
+        """The mirror images of these samples (:meth:`~tin_swarm_env.env.observation.ObsLayout.mirror`,
+        :func:`~tin_swarm_env.env.observation.mirror_action`): the teacher's action in the
+        mirrored world, since the teacher is mirror-equivariant (APF is, memory included, on
+        random observations and over an episode: tests/policies/test_symmetry.py; a teacher whose
+        tie-breaks pick one side would not be). Returns equal; ``episodes`` 0, so ``demos + demos.mirrored(l)``
+        keeps the driving policy's shares and episode count."""
+        from ..env.observation import mirror_action
+
+        return Demos(layout.mirror(self.obs), mirror_action(self.actions), self.returns.copy(), self.arrived,
+                     self.fell, 0)
+
 
 def _discounted(rewards, live, gamma):
     """Returns-to-go ``(T, n)`` of per-step ``rewards (T, n)`` over the steps each robot was
@@ -166,12 +178,17 @@ def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=No
 
 
 def actor_mean(policy, obs_t):
-    """The Gaussian mean of SB3 ``ActorCriticPolicy`` ``policy`` for a torch batch ``(B, d)``."""
+    """The Gaussian mean of SB3 ``ActorCriticPolicy`` ``policy`` for a torch batch ``(B, d)``
+    (averaged with the mirror image for a mirror-equivariant policy)."""
+    if hasattr(policy, "mirror_mean_value"):
+        return policy.mirror_mean_value(obs_t)[0]
     features = policy.extract_features(obs_t, policy.pi_features_extractor)
     return policy.action_net(policy.mlp_extractor.forward_actor(features))
 
 
 def _value(policy, obs_t):
+    if hasattr(policy, "mirror_mean_value"):
+        return policy.mirror_mean_value(obs_t)[1][:, 0]
     features = policy.extract_features(obs_t, policy.vf_features_extractor)
     return policy.value_net(policy.mlp_extractor.forward_critic(features))[:, 0]
 

@@ -20,7 +20,12 @@ Read top to bottom: arguments, environment, imitation, evaluation, training, sav
   (DAgger's mixture, so early rounds stay near the teacher's states). ``--stall-steps S``: a robot
   whose distance to go has not improved for S steps contributes no more samples that episode. Then the
   critic is warmed up on the rollouts' discounted returns (``--value-epochs``) and the policy's
-  exploration std set to ``--bc-std`` before PPO fine-tuning.
+  exploration std set to ``--bc-std`` before PPO fine-tuning. ``--mirror-samples``: every fit also
+  sees each sample's mirror image (observation and APF's action reflected,
+  :meth:`~tin_swarm_env.apps.imitation.Demos.mirrored`), so the clone learns both sides alike.
+  ``--symmetry mirror``: the actor and critic are mirror-equivariant by construction
+  (:func:`~tin_swarm_env.adapters.sb3.mirror_policy_class`) in imitation and PPO alike, and the
+  exported file says ``"symmetry": "mirror"`` (:mod:`tin_swarm_env.policies.symmetry`).
 * ``--total-timesteps`` of PPO afterwards; 0 is refused without imitation (it would save an
   untrained model). ``--recurrent``: sb3-contrib's RecurrentPPO (MlpLstmPolicy, ``--lstm-hidden`` units,
   then ``--net-arch``); no imitation for it (imitation fits an MLP actor); it is exported as a
@@ -53,6 +58,7 @@ from ..errors import ArgumentError, require
 from ..policies.learned import SHIELDS, ShieldedPolicy
 from ..scenario.config import MAX_ROBOTS
 from .args import check_args as check_fields, opt
+from ..policies.symmetry import SYMMETRIES
 from ..world.state import Reason
 from .evaluate import EVAL_SEED0
 from .policy_factory import SB3Policy
@@ -119,6 +125,9 @@ class Args:
     bc_lr: float = opt(1e-3, "imitation learning rate", lo=0, lo_open=True, hi=1)
     bc_batch_size: int = opt(4096, "imitation minibatch size", **_POS)
     bc_std: float = opt(0.3, "the Gaussian std PPO starts from after imitation", lo=0, lo_open=True, hi=10)
+    mirror_samples: bool = opt(False, "imitation fits on every sample and its mirror image (both sides alike)")
+    symmetry: str = opt("none", "mirror: a mirror-equivariant actor and critic (exported with symmetry mirror)",
+                        choices=SYMMETRIES)
     value_epochs: int = opt(10, "critic warm-up epochs on the imitation rollouts' returns (0: none)", **_NONNEG)
     eval_every: int = opt(20_000, "timesteps between evaluations (0: none)", **_NONNEG)
     eval_episodes: int = opt(3, "episodes per scenario in each evaluation", **_POS)
@@ -174,6 +183,9 @@ def check_args(args: Args) -> None:
     if args.batch_size > args.n_steps * args.n_robots * args.n_envs * len(scenarios_of(args)) and args.total_timesteps:
         raise ArgumentError(f"--batch-size {args.batch_size} is more than one rollout holds (--n-steps x robots x "
                             f"copies = {args.n_steps * args.n_robots * args.n_envs * len(scenarios_of(args))})")
+    if args.symmetry != "none" and args.recurrent:
+        raise ArgumentError("--symmetry mirror is for the MLP policy; RecurrentPPO has no mirror-equivariant "
+                            "policy here")
 
 
 class RecurrentSB3Policy:
@@ -270,6 +282,11 @@ def _model(args: Args, vec, tb):
         return RecurrentPPO("MlpLstmPolicy", vec, **kw)
     from stable_baselines3 import PPO
 
+    if args.symmetry == "mirror":
+        from ..adapters.sb3 import mirror_policy_class
+
+        kw["policy_kwargs"]["mirror_signs"] = vec.envs[0].layout.mirror_signs().tolist()
+        return PPO(mirror_policy_class(), vec, **kw)
     return PPO("MlpPolicy", vec, **kw)
 
 
@@ -279,11 +296,23 @@ def _has(*modules) -> bool:
     return all(importlib.util.find_spec(m) is not None for m in modules)
 
 
-def imitate(model, args: Args, log=print) -> dict:
+def fit_set(demos, args: Args, layout):
+    """What imitation fits on: ``demos``, and with ``--mirror-samples`` their mirror images too
+    (:meth:`~tin_swarm_env.apps.imitation.Demos.mirrored`)."""
+    return demos + demos.mirrored(layout) if args.mirror_samples else demos
+
+
+def imitate(model, args: Args, log=print, layout=None) -> dict:
     """Behaviour cloning then DAgger into ``model.policy`` (see the module docstring), then the
     critic warm-up and the exploration std. Returns a summary (samples, MSEs, the driving
-    policies' arrival per round)."""
+    policies' arrival per round). ``layout``: the observation layout (for ``--mirror-samples``;
+    default: the first scenario's)."""
     from .imitation import TorchActor, collect, fit_actor, fit_value
+
+    if args.mirror_samples and layout is None:
+        from ..env import parallel_env
+
+        layout = parallel_env(scenario=scenarios_of(args)[0], n_robots=args.bc_robots or args.n_robots).layout
 
     scen, n_rob = scenarios_of(args), args.bc_robots or None
     kw = {"n_robots": n_rob, "max_cycles": args.max_cycles or None, "gamma": args.gamma,
@@ -291,7 +320,8 @@ def imitate(model, args: Args, log=print) -> dict:
     fit = {"epochs": args.bc_epochs, "batch_size": args.bc_batch_size, "lr": args.bc_lr, "std": args.bc_std}
     base = args.seed * 1000
     demos = collect(scen, args.bc_episodes, base, **kw)
-    mse = fit_actor(model.policy, demos.obs, demos.actions, seed=args.seed, **fit)
+    fs = fit_set(demos, args, layout)
+    mse = fit_actor(model.policy, fs.obs, fs.actions, seed=args.seed, **fit)
     info = {"bc_samples": len(demos), "apf_arrived": demos.arrived, "rounds": [{"mse": mse}]}
     log(f"BC: {len(demos)} samples from {demos.episodes} APF episodes (APF arrived {demos.arrived:.0%}, fell "
         f"{demos.fell:.0%}); actor MSE {mse:.4f}")
@@ -301,12 +331,14 @@ def imitate(model, args: Args, log=print) -> dict:
         new = collect(scen, n_dag, base + args.bc_episodes + r * n_dag, learner=TorchActor(model.policy), beta=beta,
                       **kw)
         demos = demos + new
-        mse = fit_actor(model.policy, demos.obs, demos.actions, seed=args.seed + r + 1, **fit)
+        fs = fit_set(demos, args, layout)
+        mse = fit_actor(model.policy, fs.obs, fs.actions, seed=args.seed + r + 1, **fit)
         info["rounds"].append({"learner_arrived": new.arrived, "learner_fell": new.fell, "mse": mse})
         log(f"DAgger round {r + 1} (beta {beta:.2f}): the learner drove {n_dag} episodes (arrived "
             f"{new.arrived:.0%}, fell {new.fell:.0%}); {len(demos)} samples; actor MSE {mse:.4f}")
     if args.value_epochs:
-        info["value_mse"] = fit_value(model.policy, demos.obs, demos.returns, epochs=args.value_epochs,
+        fs = fit_set(demos, args, layout)
+        info["value_mse"] = fit_value(model.policy, fs.obs, fs.returns, epochs=args.value_epochs,
                                       batch_size=args.bc_batch_size, lr=args.bc_lr, seed=args.seed)
         log(f"value warm-up on {len(demos)} returns: MSE {info['value_mse']:.3f}")
     return info
@@ -370,7 +402,7 @@ def train(args: Args) -> Path:
         print(f"resuming {out} from {path.name}: {model.num_timesteps} of {args.total_timesteps} timesteps done")
     else:
         model = _model(args, vec, tb)
-        imitation = imitate(model, args) if _imitating(args) else None
+        imitation = imitate(model, args, layout=vec.envs[0].layout) if _imitating(args) else None
         if imitation is not None and args.total_timesteps:  # the imitation stage alone, before PPO changes it
             from ..adapters.sb3 import export_sb3_policy
 

@@ -7,6 +7,8 @@ from .base import DecodedObs, Policy, SafetyShield, decode, safety_cut, unwrap_e
 from .geodesic import GeodesicPolicy
 from .learned import MLPPolicy, ShieldedPolicy, load_policy, save_policy
 from .random import RandomPolicy
+from .recurrent import RecurrentPolicy
 
 __all__ = ["APFPolicy", "RandomPolicy", "GeodesicPolicy", "apf_forces", "MLPPolicy", "ShieldedPolicy", "load_policy",
-           "save_policy", "Policy", "DecodedObs", "decode", "SafetyShield", "safety_cut", "unwrap_env"]
+           "save_policy", "Policy", "DecodedObs", "decode", "SafetyShield", "safety_cut", "unwrap_env",
+           "RecurrentPolicy"]

@@ -15,7 +15,7 @@ One step, ``x`` the observation and ``(h, c)`` the state (``c`` only for an LSTM
           c' = f c + i g;  h' = o tanh(c')
     GRU:  r, z = sigmoid(split(W_ih x + b_ih + W_hh h + b_hh)[:2])
           n = tanh(W_in x + b_in + r (W_hn h + b_hn));  h' = (1 - z) n + z h
-    action = head(h')   (the MLP of learned.py, activation after every layer but the last, clipped)
+    action = clip(head(h'))   (the MLP of learned.py: activation after every layer but the last)
 
 **Memory per robot.** Rows are robots, as :class:`~tin_swarm_env.policies.APFPolicy`'s:
 ``act_batch`` row ``i`` is robot ``i`` (or ``rows[i]``), ``act`` gives each agent name a row the
@@ -25,7 +25,7 @@ RecurrentPPO zeroes it at an episode start; each call advances the state of the 
 
 **Symmetry** (``"symmetry": "mirror"``, :mod:`tin_swarm_env.policies.symmetry`): the policy keeps
 two states per robot, one fed the observations and one their mirror images, and averages the
-two streams' actions (``vy`` of the mirrored one negated). It is then equivariant over whole
+two streams' head outputs (``vy`` of the mirrored one negated) before the clip. It is then equivariant over whole
 histories, exactly: a mirrored episode gives mirrored actions at every step.
 """
 
@@ -36,6 +36,7 @@ import numpy as np
 from ..env.observation import ACTION_PARITY
 from ..errors import ArgumentError, PolicyFileError
 from .base import SafetyShield, act_dict
+from .network import ACTIVATIONS, MAX_ABS_WEIGHT, MAX_LAYER_WIDTH, MAX_PARAMETERS, SHIELDS, dense
 from .symmetry import SYMMETRIES, mirror_signs
 
 __all__ = ["RecurrentPolicy", "CELLS", "CELL_ARRAYS", "check_cell", "recurrent_network"]
@@ -60,10 +61,11 @@ def _pos_int(net, key, jname):
     return v
 
 
-def check_cell(net: dict, arrays: dict, jname: str, wname: str) -> tuple[int, dict]:
-    """Check the cell part of a recurrent ``network`` entry and its arrays; returns
-    ``(input_size, {name: float64 array})``. Raises :class:`PolicyFileError` naming the file and
-    the key or array."""
+def check_cell(net: dict, arrays: dict | None, jname: str, wname: str) -> tuple[int, dict]:
+    """Check the cell part of a recurrent ``network`` entry and its arrays (``arrays`` None: the
+    entry alone, against the size limits of :mod:`~tin_swarm_env.policies.network`, before the
+    weights are read); returns ``(input_size, {name: float64 array})``. Raises
+    :class:`PolicyFileError` naming the file and the key or array."""
     cell = net.get("cell")
     if "cell" not in net:
         raise PolicyFileError(f"{jname}: missing key 'network.cell'")
@@ -75,8 +77,14 @@ def check_cell(net: dict, arrays: dict, jname: str, wname: str) -> tuple[int, di
         raise PolicyFileError(f"{jname}: key 'network.layer_sizes' must start at hidden_size {H} (the head reads "
                               f"the cell's output), got {sizes}")
     G = CELLS[cell]
+    if max(d, G * H) > MAX_LAYER_WIDTH or G * H * (d + H + 2) > MAX_PARAMETERS:
+        raise PolicyFileError(f"{jname}: a {cell} cell with 'network.input_size' {d} and 'network.hidden_size' {H} "
+                              f"is beyond the limits: at most {MAX_LAYER_WIDTH} gate units and {MAX_PARAMETERS:,} "
+                              "parameters")
     shapes = {"cell_W_ih": (G * H, d), "cell_W_hh": (G * H, H), "cell_b_ih": (G * H,), "cell_b_hh": (G * H,)}
     out = {}
+    if arrays is None:
+        return d, out
     for k, shape in shapes.items():
         if k not in arrays:
             raise PolicyFileError(f"{wname}: missing array {k!r} (a {cell} cell needs {list(shapes)})")
@@ -89,6 +97,9 @@ def check_cell(net: dict, arrays: dict, jname: str, wname: str) -> tuple[int, di
         a = a.astype(np.float64)
         if not np.all(np.isfinite(a)):
             raise PolicyFileError(f"{wname}: array {k!r} holds NaN or infinite values")
+        if np.abs(a).max(initial=0.0) > MAX_ABS_WEIGHT:
+            raise PolicyFileError(f"{wname}: array {k!r} holds a value of magnitude {np.abs(a).max():.3g}; at most "
+                                  f"{MAX_ABS_WEIGHT:g}")
         out[k] = np.ascontiguousarray(a)
     return d, out
 
@@ -100,9 +111,7 @@ def expit(x):
 
 def cell_step(cell: str, w: dict, x, h, c):
     """One step of the cell for a batch: ``x (n, d)``, ``h, c (n, H)`` -> ``(h', c')`` (``c`` is
-    unused, and returned as is, for a GRU). Plain numpy over :func:`~.learned.dense`."""
-    from .learned import dense
-
+    unused, and returned as is, for a GRU). Plain numpy over :func:`~.network.dense`."""
     H = h.shape[1]
     gi, gh = dense(x, w["cell_W_ih"], w["cell_b_ih"]), dense(h, w["cell_W_hh"], w["cell_b_hh"])
     if cell == "lstm":
@@ -126,8 +135,6 @@ class RecurrentPolicy:
     def __init__(self, cell: str, cell_weights: dict, layers, activation: str = "tanh",
                  action_transform: str = "clip", *, layout: dict, scenario: str = "", training: dict | None = None,
                  source: str = "<memory>", shield: str = "none", env=None, symmetry: str = "none"):
-        from .learned import ACTIVATIONS, SHIELDS
-
         if cell not in CELLS:
             raise ArgumentError(f"{source}: cell {cell!r} is not one of {sorted(CELLS)}")
         if activation not in ACTIVATIONS:
@@ -195,16 +202,18 @@ class RecurrentPolicy:
         a = self._head(h)
         if self._signs is not None:
             a = (a[:n] + a[n:] * np.asarray(ACTION_PARITY)) / 2
-        return a.astype(np.float32)
+        return np.clip(a, -1.0, 1.0).astype(np.float32)
 
     def _head(self, x) -> np.ndarray:
-        from .learned import dense
-
         for i, (W, b) in enumerate(self.layers):
             x = dense(x, W, b)
             if i < len(self.layers) - 1:
                 x = self._act(x)
-        return np.clip(x, -1.0, 1.0)
+        bad = ~np.isfinite(x).all(axis=1)
+        if bad.any():  # finite weights whose products overflow: the file is at fault, not the robot
+            raise PolicyFileError(f"{self.source}: the network's output is not finite (NaN or inf) for row "
+                                  f"{int(np.flatnonzero(bad)[0])}: its weights overflow float64")
+        return x
 
     def act_batch(self, obs, rows=None) -> np.ndarray:
         a = self.net_batch(obs, rows)

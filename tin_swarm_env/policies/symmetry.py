@@ -1,15 +1,18 @@
-"""Mirror-equivariant policies: ``pi(o) = (f(o) + M f(M o)) / 2``.
+"""Mirror-equivariant policies: ``pi(o) = clip((g(o) + M g(M o)) / 2)``.
 
 The world has a mirror symmetry (:mod:`tin_swarm_env.env.observation`: reflecting the body frame's
 y axis maps observations by :meth:`~tin_swarm_env.env.observation.ObsLayout.mirror` and actions by
 :func:`~tin_swarm_env.env.observation.mirror_action`). A network ``f`` trained without it learns
 whichever side its first successes took; averaging it with its mirror image gives a policy that
-turns both ways alike: ``vx`` is the mean of ``f_x(o)`` and ``f_x(M o)``, ``vy`` half the
-difference of ``f_y(o)`` and ``f_y(M o)``. It is equivariant exactly, not to a tolerance:
-``pi(M o) == M pi(o)`` bit for bit, because ``M`` only flips signs (``M M o == o``), float addition
-commutes and ``b - a == -(a - b)``. Where ``o`` is its own mirror image (a wall straight ahead,
-nothing else in view) the policy drives straight (``vy = 0``); memory, or any asymmetry in view,
-breaks that tie.
+turns both ways alike: with ``g`` the network's output before its clip to [-1, 1], ``vx`` is the
+mean of ``g_x(o)`` and ``g_x(M o)``, ``vy`` half the difference of ``g_y(o)`` and ``g_y(M o)``, then
+clipped. (Averaging before the clip is what a Gaussian policy trained with the symmetry built in
+does: its mean is the average and SB3 clips its deterministic action;
+:func:`tin_swarm_env.adapters.sb3.mirror_policy_class`.) It is equivariant exactly, not to a
+tolerance: ``pi(M o) == M pi(o)`` bit for bit, because ``M`` only flips signs (``M M o == o``),
+float addition commutes, ``b - a == -(a - b)`` and the clip is odd. Where ``o`` is its own mirror
+image (a wall straight ahead, nothing else in view) the policy drives straight (``vy = 0``);
+memory, or any asymmetry in view, breaks that tie.
 
 A policy file asks for it with ``"symmetry": "mirror"`` (:mod:`tin_swarm_env.policies.learned`;
 ``"none"``, the default, is the network alone). The shield, when there is one, filters the
@@ -39,7 +42,7 @@ def mirror_signs(layout) -> np.ndarray:
 
 
 def symmetrize(f, x, signs) -> np.ndarray:
-    """``(f(x) + M f(M x)) / 2`` for observations ``x (n, d)``: ``f`` maps ``(m, d)`` float64 to
+    """``(f(x) + M f(M x)) / 2`` (no clip) for observations ``x (n, d)``: ``f`` maps ``(m, d)`` float64 to
     ``(m, 2)`` and is called once, on ``x`` and its mirror image stacked (row ``i`` of the result
     never depends on another row, so this equals two separate calls). Returns ``(n, 2)`` float64."""
     x = np.asarray(x, dtype=np.float64)

@@ -28,6 +28,7 @@ Contacts are ordered by observer, then distance (ties: lower index).
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -94,6 +95,24 @@ def _first_k(start, n, k):
     return out
 
 
+@njit(cache=True)
+def _gather_first_k(start, target, dist, extra, n, k):
+    """The CSR fast path of ``nearest``: ``(target (n, k) -1, dist (n, k) inf, extra (n, k, ...)
+    0)`` from rows ``start[i]:start[i+1]`` already nearest first; ``extra`` is ``(P,)`` (bearings)
+    or ``(P, 2)`` (closest points)."""
+    idx = np.full((n, k), -1, dtype=np.int64)
+    d = np.full((n, k), np.inf)
+    ex = np.zeros((n, k) + extra.shape[1:])
+    for i in range(n):
+        m = min(start[i + 1] - start[i], k)
+        for s in range(m):
+            p = start[i] + s
+            idx[i, s] = target[p]
+            d[i, s] = dist[p]
+            ex[i, s] = extra[p]
+    return idx, d, ex
+
+
 def _rows(obj, n, k):
     """Row positions of each observer's k nearest contacts (CSR fast path when known)."""
     if obj.start is not None and len(obj.start) == n + 1:
@@ -122,6 +141,8 @@ class Contacts:
     def nearest(self, n: int, k: int):
         """``(target_idx (n, k) -1 if none, distance_m (n, k) inf, bearing_rad (n, k) 0)``,
         nearest first."""
+        if self.start is not None and len(self.start) == n + 1:
+            return _gather_first_k(self.start, self.target, self.distance_m, self.bearing_rad, n, k)
         rows = _rows(self, n, k)
         ok = rows >= 0
         r = np.where(ok, rows, 0)
@@ -151,6 +172,8 @@ class BreakContacts:
     def nearest(self, n: int, k: int):
         """``(break_idx (n, k), distance_m (n, k), closest (n, k, 2))``, nearest first; -1/inf/0
         where fewer breaks are in range."""
+        if self.start is not None and len(self.start) == n + 1:
+            return _gather_first_k(self.start, self.break_idx, self.distance_m, self.closest, n, k)
         rows = _rows(self, n, k)
         ok = rows >= 0
         r = np.where(ok, rows, 0)
@@ -196,10 +219,25 @@ def _empty_contacts(n) -> Contacts:
     return Contacts(z, z, np.zeros(0), np.zeros(0), np.zeros(n + 1, dtype=np.int64))
 
 
-def _slots(n, k):
-    """``(idx, dist, bear, vis, cnt)``: per observer K candidate slots (only ``[:cnt]`` is read)."""
-    return (np.empty((n, k), dtype=np.int64), np.empty((n, k)), np.empty((n, k)), np.zeros((n, k), dtype=np.int8),
-            np.zeros(n, dtype=np.int64))
+_SCRATCH = threading.local()  # per thread: slot buffers reused across calls (never returned to callers)
+
+
+def _slots(n, k, which):
+    """``(idx, dist, bear, vis, cnt)``: per observer K candidate slots (only ``[:cnt]`` is read;
+    ``cnt`` zeroed here, the kernels write every slot they later read). Reused across calls
+    of the same thread and size: no allocation per step."""
+    cache = getattr(_SCRATCH, "slots", None)
+    if cache is None:
+        cache = _SCRATCH.slots = {}
+    key = (n, k, which)
+    buf = cache.get(key)
+    if buf is None:
+        if len(cache) > 12:
+            cache.clear()
+        buf = cache[key] = (np.empty((n, k), dtype=np.int64), np.empty((n, k)), np.empty((n, k)),
+                            np.empty((n, k), dtype=np.int8), np.empty(n, dtype=np.int64))
+    buf[4][:] = 0
+    return buf
 
 
 def _entities(tin, ent, params, r):
@@ -230,9 +268,9 @@ def sense(tin, break_index: BreakIndex, state, params) -> SensorReadings:
     half_fov = math.radians(sp.fov_deg) / 2 + 1e-12
     T = SK.terrain_arrays(tin)
     G = grid_build(x, y, present, r)
-    R = _slots(n, k)
-    TG = (_entities(tin, state.targets, params, r), *_slots(n, k))
-    AS = (_entities(tin, state.assets, params, r), *_slots(n, k))
+    R = _slots(n, k, 0)
+    TG = (_entities(tin, state.targets, params, r), *_slots(n, k, 1))
+    AS = (_entities(tin, state.assets, params, r), *_slots(n, k, 2))
     bi = break_index
     if r > bi.range_m:
         raise ValueError(f"BreakIndex built for range {bi.range_m} m, asked for {r} m")
