@@ -213,6 +213,21 @@ def limits_table() -> str:
             ("rendered frame width (`render_width`, `--render-width`)",
              f"{RENDER_WIDTH_PX[0]}..{RENDER_WIDTH_PX[1]} px", "RENDER_WIDTH_PX"),
             ("cells of a procedural terrain's grid", f"at most {MAX_CELLS:,}", "MAX_CELLS")]
+    from tin_swarm_env.apps.media import MAX_FRAMES, MAX_ROBOT_FRAMES
+    from tin_swarm_env.policies import learned as L
+    from tin_swarm_env.scenario.config import MAX_CYCLES, MAX_FLAT_AREA_M2, MAX_SCENARIO_BYTES
+    from tin_swarm_env.scenario.generators import MAX_GRID_CELLS
+    from tin_swarm_env.terrain.build import MAX_CELL_ASPECT
+
+    rows += [("cells of a generated terrain's grid", f"at most {MAX_GRID_CELLS:,}", "MAX_GRID_CELLS"),
+             ("a DEM's cell aspect ratio (dx/dy)", f"at most {MAX_CELL_ASPECT:g}", "MAX_CELL_ASPECT"),
+             ("steps per episode (`max_cycles`)", f"at most {MAX_CYCLES:,}", "MAX_CYCLES"),
+             ("a flat plane's area", f"at most {MAX_FLAT_AREA_M2:g} m^2", "MAX_FLAT_AREA_M2"),
+             ("a scenario file", f"at most {MAX_SCENARIO_BYTES:,} bytes", "MAX_SCENARIO_BYTES"),
+             ("`policy.json`", f"at most {L.MAX_JSON_BYTES:,} bytes, nested {L.MAX_JSON_DEPTH} deep", "MAX_JSON_BYTES"),
+             ("a policy network", f"{L.MAX_LAYERS} layers of {L.MAX_LAYER_WIDTH} units, {L.MAX_PARAMETERS:,} "
+              f"parameters, weights within {L.MAX_ABS_WEIGHT:g}", "MAX_PARAMETERS"),
+             ("GIF/MP4 frames; robots x frames", f"{MAX_FRAMES:,}; {MAX_ROBOT_FRAMES:,}", "MAX_ROBOT_FRAMES")]
     out = ["| what | limit | constant |", "|---|---|---|"] + [f"| {a} | {b} | `{c}` |" for a, b, c in rows]
     return HEADER + "\n".join(out) + "\n"
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import pickle
 import shutil
 
@@ -327,3 +328,62 @@ def test_dense_kernel_equals_its_plain_version_and_numpy(n, d, m, seed):
     assert got.shape == (n, m) and got.dtype == np.float64
     np.testing.assert_allclose(got, dense.py_func(x, W, b), rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(got, x @ W.T + b, rtol=1e-12, atol=1e-12)
+
+
+# -- limits, checked before the weights are read ------------------------------------------------------------
+def _small(tmp_path, name="small"):
+    e = env()
+    rng = np.random.default_rng(0)
+    layers = [(rng.normal(size=(8, e.layout.size)), np.zeros(8)), (rng.normal(size=(2, 8)), np.zeros(2))]
+    return save_policy(tmp_path / name, layers, layout=e.layout, scenario="flat"), e
+
+
+def test_json_nested_too_deep_is_refused_before_parsing(tmp_path):
+    from tin_swarm_env.policies.learned import MAX_JSON_DEPTH
+
+    p, e = _small(tmp_path)
+    (p / "policy.json").write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(PolicyFileError, match=rf"policy\.json: JSON nested 100000 deep; at most {MAX_JSON_DEPTH}"):
+        load_policy(p, e)
+    (p / "policy.json").write_text('{"a": "' + "[" * 1000 + '"}')  # brackets inside a string do not count
+    with pytest.raises(PolicyFileError, match="key 'format'"):
+        load_policy(p, e)
+
+
+def test_oversized_files_layers_and_weights_are_refused_naming_the_file(tmp_path):
+    from tin_swarm_env.policies.learned import MAX_ABS_WEIGHT, MAX_JSON_BYTES
+
+    p, e = _small(tmp_path)
+    meta = json.loads((p / "policy.json").read_text())
+    (p / "policy.json").write_text(json.dumps({**meta, "training": {"x": "a" * MAX_JSON_BYTES}}))
+    with pytest.raises(PolicyFileError, match=r"policy\.json: [\d,]+ bytes; a policy file has at most"):
+        load_policy(p, e)
+    wide = {**meta, "network": {**meta["network"], "layer_sizes": [e.layout.size, 2_000_000, 2]}}
+    (p / "policy.json").write_text(json.dumps(wide))
+    with pytest.raises(PolicyFileError, match=r"layer_sizes.*beyond the limits: at most \d+ layers of 4096 units"):
+        load_policy(p, e)
+    (p / "policy.json").write_text(json.dumps(meta))
+    # a small compressed file whose header claims a 20000 x 20000 array: refused from the header, never inflated
+    np.savez_compressed(p / "weights.npz", W0=np.zeros((8, e.layout.size)), b0=np.zeros(8),
+                        W1=np.zeros((20_000, 20_000), dtype=np.uint8), b1=np.zeros(2))
+    assert (p / "weights.npz").stat().st_size < 1_000_000
+    with pytest.raises(PolicyFileError, match=r"weights\.npz: array 'W1' has shape \(20000, 20000\)"):
+        load_policy(p, e)
+    np.savez(p / "weights.npz", W0=np.full((8, e.layout.size), 1e308), b0=np.zeros(8), W1=np.zeros((2, 8)),
+             b1=np.zeros(2))
+    with pytest.raises(PolicyFileError, match=r"array 'W0' holds a value of magnitude 1e\+308; at most "
+                       + re.escape(f"{MAX_ABS_WEIGHT:g}")):
+        load_policy(p, e)
+
+
+def test_a_network_whose_output_overflows_blames_the_policy_not_a_robot():
+    e = env()
+    pol = MLPPolicy([(np.full((4, e.layout.size), 1e200), np.zeros(4)), (np.full((2, 4), 1e200), np.zeros(2))],
+                    "identity", layout=e.layout.to_dict(), source="big/policy")
+    with pytest.raises(PolicyFileError, match=r"big/policy: the network's output is not finite .* row 0"):
+        pol.act_batch(np.ones((3, e.layout.size)))
+
+
+def test_load_policy_names_a_path_of_the_wrong_type():
+    with pytest.raises(TinSwarmError, match=r"load_policy\(path=\.\.\.\): path must be"):
+        load_policy(None, env())

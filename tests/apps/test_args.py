@@ -1,0 +1,79 @@
+"""Options declared once (``apps/args.py``): each ``Args`` field's help and accepted range live beside
+the field; ``--help`` shows both for every option; an ``Args`` built in code or from the command line
+is checked before any work, naming ``--option``."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from tin_swarm_env.apps.args import accepts, check_args, opt
+from tin_swarm_env.apps.cli import build_parser, main
+from tin_swarm_env.errors import ArgumentError
+
+
+@dataclasses.dataclass
+class Toy:
+    rate: float = opt(0.5, "a rate", lo=0, lo_open=True, hi=1)
+    count: int = opt(3, "a count", lo=1)
+    mode: str = opt("a", "a mode", choices=("a", "b"))
+    maybe: int | None = opt(None, "optional", lo=0)
+    arch: str = opt("8", "widths", check=lambda v: None if v.isdigit() else "digits only")
+
+    def __post_init__(self):
+        check_args(self)
+
+
+@pytest.mark.parametrize("kw, match", [
+    ({"rate": 0}, r"--rate must be a finite number > 0 and <= 1, got 0"),
+    ({"rate": 1.5}, r"--rate must be a finite number > 0 and <= 1, got 1.5"),
+    ({"rate": float("nan")}, r"--rate must be a finite number > 0 and <= 1, got nan"),
+    ({"rate": "0.5"}, r"--rate must be a finite number"),
+    ({"count": 0}, r"--count must be an integer >= 1, got 0"), ({"count": 2.0}, "--count must be an integer"),
+    ({"count": True}, "--count must be an integer"), ({"mode": "c"}, "--mode must be one of a, b, got 'c'"),
+    ({"maybe": -1}, "--maybe must be an integer >= 0"), ({"arch": "x"}, "--arch 'x': digits only"),
+])
+def test_check_args_names_the_option_and_what_it_accepts(kw, match):
+    with pytest.raises(ArgumentError, match=match):
+        Toy(**kw)
+
+
+def test_check_args_normalises_numbers():
+    t = Toy(rate=1, maybe=None)
+    assert t.rate == 1.0 and type(t.rate) is float
+    assert accepts(dataclasses.fields(Toy)[0]) == "> 0 and <= 1"
+
+
+def test_train_help_explains_every_option():
+    from tin_swarm_env.apps.train import Args
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command").choices["train"]
+    helps = {a.dest: a.help for a in sub._actions}
+    for f in dataclasses.fields(Args):
+        assert helps.get(f.name), f"--{f.name} has no help"
+        assert f.metadata["help"] in helps[f.name]
+        if accepts(f) and not f.metadata.get("choices"):
+            assert f"[{accepts(f)}]" in helps[f.name]
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["--gamma", "2"], "--gamma must be a finite number > 0 and <= 1, got 2.0"),
+    (["--clip-range", "-1"], "--clip-range must be a finite number > 0"),
+    (["--max-minutes", "-1"], "--max-minutes must be a finite number >= 0"),
+    (["--eval-episodes", "0"], "--eval-episodes must be an integer >= 1"),
+    (["--batch-size", "0"], "--batch-size must be an integer >= 2"),
+    (["--n-steps", "0"], "--n-steps must be an integer >= 1"),
+    (["--torch-threads", "0"], "--torch-threads must be an integer >= 1"),
+    (["--net-arch", "abc"], "--net-arch 'abc': give hidden layer widths"),
+    (["--net-arch", "0,0"], "--net-arch '0,0': give hidden layer widths"),
+    (["--net-arch", "64,99999"], "--net-arch '64,99999'"),
+    (["--shield", "magic"], "--shield must be one of none, safety_cut"),
+    (["--learning-rate", "inf"], "--learning-rate must be a finite number > 0"),
+    (["--batch-size", "4096", "--n-steps", "8", "--n-robots", "2", "--n-envs", "1"], "more than one rollout holds"),
+])
+def test_bad_train_options_stop_before_training(argv, match, capsys, tmp_path):
+    assert main(["train", "flat", "--out-dir", str(tmp_path / "run"), *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and match in err[0], err
+    assert not (tmp_path / "run").exists()  # nothing was started
