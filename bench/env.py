@@ -1,19 +1,24 @@
 """Environment throughput on the jacksboro DEM. Run by hand:
 
-    python bench/env.py [--steps 30]
+    python bench/env.py [--steps 30] [--out docs/figures/env.md]
 
-For 100 and 1 000 robots, in one process and on the same terrain and density: the world step
-alone (step + sensing), the env's batched array path (``step_arrays``: world + observations +
-rewards), and the PettingZoo dict API (``step`` with per-agent dicts), as agent-steps per second;
-the API's overhead is the difference. Then the time to draw a 500-robot frame (``rgb_array``,
-terrain background already drawn) against the step time of 500 robots.
+For 100, 1 000 and 10 000 robots, in one process and on the same terrain and density, with 1
+and 2 numba threads: the world step alone (step + sensing), the env's batched array path
+(``step_arrays``: world + observations + rewards), and the PettingZoo dict API (``step`` with
+per-agent dicts), as agent-steps per second; the API's overhead is the difference. Then the
+time to draw a 500-robot frame (``rgb_array``, terrain background already drawn) against the
+step time of 500 robots. The table also goes to ``--out`` with the command and load average.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import os
+import sys
 import time
+
+import numba
 
 import numpy as np
 
@@ -42,36 +47,57 @@ def rate(fn, steps):
     return (time.perf_counter() - t) / steps
 
 
-def measure(n, steps):
-    """Seconds per step: world step + sensing, the batched env path, the dict API."""
+def measure(n, steps, threads):
+    """Per numba thread count: seconds per step of world step + sensing, the batched env
+    path, the dict API."""
     env = tse.parallel_env(scenario=config(n))
     rng = np.random.default_rng(0)
     acts = rng.uniform(-1, 1, (n, 2)).astype(np.float32)
-    env.reset_arrays(seed=0)
-    w = env.world
-    state = {"s": env.world_state}
-
-    def world_step():
-        s, _ = w.step(state["s"], acts)
-        w.sense(s)
-        state["s"] = s
-
     dacts = {a: acts[i] for i, a in enumerate(env.possible_agents)}
-    t_world = rate(world_step, steps)
-    env.reset_arrays(seed=0)
-    t_batch = rate(lambda: env.step_arrays(acts), steps)
-    env.reset(seed=0)
-    t_dict = rate(lambda: env.step({a: dacts[a] for a in env.agents}), steps)
-    return t_world, t_batch, t_dict
+    out = {}
+    for k in threads:
+        numba.set_num_threads(k)
+        env.reset_arrays(seed=0)
+        w = env.world
+        state = {"s": env.world_state}
+
+        def world_step():
+            s, _ = w.step(state["s"], acts)
+            w.sense(s)
+            state["s"] = s
+
+        t_world = rate(world_step, steps)
+        env.reset_arrays(seed=0)
+        t_batch = rate(lambda: env.step_arrays(acts), steps)
+        env.reset(seed=0)
+        t_dict = rate(lambda: env.step({a: dacts[a] for a in env.agents}), steps)
+        out[k] = (t_world, t_batch, t_dict)
+    return out
 
 
-def main(steps: int):
-    print("agent-steps per second (higher is better); the same terrain, density and actions for each path\n")
-    print(f"{'robots':>7s} {'world step':>12s} {'batched env':>12s} {'dict API':>12s} {'batched/world':>14s}")
-    for n in (100, 1000):
-        t_world, t_batch, t_dict = measure(n, steps)
-        print(f"{n:7d} {n / t_world:12.3e} {n / t_batch:12.3e} {n / t_dict:12.3e} {t_world / t_batch:14.0%}")
+def main(steps: int, out: str | None):
+    lines = []
 
+    def emit(line=""):
+        print(line, flush=True)
+        lines.append(line)
+
+    load = os.getloadavg()
+    threads = sorted({1, min(2, numba.config.NUMBA_NUM_THREADS)})
+    emit(f"# Environment throughput (`python bench/env.py --steps {steps}`)\n")
+    emit(f"Load average at start {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} on {os.cpu_count()} cores. "
+         "Agent-steps per second (higher is better); the same terrain (jacksboro, ~20k triangles), density "
+         "(~10 robots within the 60 m range) and actions for each path.\n")
+    emit("| robots | threads | world step | batched env | dict API | batched/world | dict/batched |")
+    emit("|---:|---:|---:|---:|---:|---:|---:|")
+    for n in (100, 1000, 10_000):
+        res = measure(n, steps if n <= 1000 else max(3, steps // 5), threads)
+        for k in threads:
+            t_world, t_batch, t_dict = res[k]
+            emit(f"| {n} | {k} | {n / t_world:.3e} | {n / t_batch:.3e} | {n / t_dict:.3e} | "
+                 f"{t_world / t_batch:.0%} | {t_batch / t_dict:.0%} |")
+
+    numba.set_num_threads(threads[-1])
     n = 500
     env = tse.parallel_env(scenario=config(n), render_mode="rgb_array")
     env.reset(seed=0)
@@ -81,11 +107,21 @@ def main(steps: int):
     t_bg = time.perf_counter() - t0
     t_draw = rate(env.render, steps)
     t_step = rate(lambda: env.step(acts), steps)
-    print(f"\n500 robots: drawing a frame {t_draw * 1e3:.2f} ms vs a step {t_step * 1e3:.2f} ms "
-          f"({t_draw / t_step:.0%} of the step); the terrain background once: {t_bg * 1e3:.0f} ms")
+    emit(f"\n500 robots: drawing a frame {t_draw * 1e3:.2f} ms vs a step {t_step * 1e3:.2f} ms "
+         f"({t_draw / t_step:.0%} of the step); the terrain background once: {t_bg * 1e3:.0f} ms")
+    load = os.getloadavg()
+    emit(f"\nLoad average at the end {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f}.")
+    if out:
+        os.makedirs(os.path.dirname(out) or ".", exist_ok=True)
+        with open(out + ".tmp", "w") as f:
+            f.write("\n".join(lines) + "\n")
+        os.replace(out + ".tmp", out)
+        print(f"wrote {out}", file=sys.stderr)
 
 
 if __name__ == "__main__":
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--steps", type=int, default=30)
-    main(p.parse_args().steps)
+    p.add_argument("--out", default="docs/figures/env.md", help="Markdown file for the table ('' for none)")
+    a = p.parse_args()
+    main(a.steps, a.out or None)

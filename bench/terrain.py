@@ -8,7 +8,7 @@ mirrored, a generated terrain), VIP, greedy and the robot builder at 2 %, 5 % an
 against the full-resolution surface (:func:`tin_swarm_env.terrain.robot.full_surface`: every cell
 centre a vertex, two triangles per cell, SW-NE diagonals) and prints: slope-class agreement at
 random points; cost-to-go agreement (within 5 %) from random goals; line-of-sight agreement on
-clear-cut rays; vertical RMS; build time. ``--write`` writes the tables to docs/figures/terrain.md.
+clear-cut rays; vertical RMS; build time. ``--write`` writes the tables to docs/figures/terrain_robot.md.
 
 Prints, per method and vertex budget: triangles, max and RMS vertical error against every DEM
 cell, build time, bytes per triangle, and the line-of-sight fidelity (share of random
@@ -399,10 +399,10 @@ def robot_tables(fractions=(0.02, 0.05, 0.10), seed=0, write=False):
     if write:
         from pathlib import Path
 
-        out = Path(__file__).resolve().parents[1] / "docs" / "figures" / "terrain.md"
+        out = Path(__file__).resolve().parents[1] / "docs" / "figures" / "terrain_robot.md"
         out.parent.mkdir(parents=True, exist_ok=True)
         tmp = out.with_suffix(".md.tmp")
-        tmp.write_text("# What robots use: VIP, greedy and robot TINs\n\n" + text)
+        tmp.write_text(text)
         tmp.replace(out)
         print(f"wrote {out}")
 
@@ -410,7 +410,7 @@ def robot_tables(fractions=(0.02, 0.05, 0.10), seed=0, write=False):
 if __name__ == "__main__":
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--robot", action="store_true", help="only the robot tables (slope, cost-to-go, LOS)")
-    p.add_argument("--write", action="store_true", help="with --robot: write docs/figures/terrain.md")
+    p.add_argument("--write", action="store_true", help="with --robot: write docs/figures/terrain_robot.md")
     p.add_argument("--sizes", default="1000,2000,5000,10000,20000")
     p.add_argument("--rays", type=int, default=10_000)
     p.add_argument("--queries", type=int, default=100_000)

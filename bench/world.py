@@ -1,143 +1,230 @@
 """World-step throughput on the real jacksboro DEM. Run by hand:
 
-    python bench/world.py [--steps 20] [--quick]
+    python bench/world.py [--quick] [--out docs/figures/world.md]
 
-Prints robot-steps per second of one world step plus sensing (robots, targets, breaks, with
-line of sight) for 100, 1 000 and 10 000 robots on a ~20k-triangle greedy TIN of jacksboro, at
-a fixed density (about 10 robots within sensor range of each robot); then how the cost grows
-with robots at that density, and with TIN size at 1 000 robots (least-squares exponents of
-log time against log size); and the batched sensing against the per-robot reference loop at
-100 robots, in the same process; and the memory of one sensing call (tracemalloc peak) at
-10 000 robots at that density and packed 10x denser (bounded neighbours per robot keep the
-dense one within about the default's).
+One world step plus sensing (robots, targets, breaks, with line of sight) on a ~20k-triangle
+greedy TIN of jacksboro, robots packed so that about 10 lie within sensor range of each
+(``robots seen/robot`` says how many were seen after field of view and line of sight). Prints,
+in one process:
 
-    python bench/world.py --memory-only      # just the memory figures
+1. time per stage at 1 000 and 10 000 robots: move (locomotion walk, battery, collisions),
+   neighbours (grid and candidate search, field of view), robots seen (line of sight to robots
+   and targets), breaks (break search), observation (the env's encoder), reward (distance to
+   go and the reward terms). A stage's time is the marginal cost of switching it on;
+2. robot-steps per second (step + sensing) at 100 / 1 000 / 10 000 / 100 000 robots with 1 and
+   2 numba threads (``numba.set_num_threads``), and the memory of the 100 000-robot row;
+3. how the cost grows with robots (at that density) and with TIN size (at 1 000 robots):
+   least-squares exponents of log time against log size.
+
+The tables also go to ``--out`` (default ``docs/figures/world.md``) with the command and the
+load average; on a shared machine compare the rows of one run, not runs.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
+import os
+import resource
+import sys
 import time
-import tracemalloc
 
+import numba
 import numpy as np
 
 import tin_swarm_env as tse
+from tin_swarm_env.env.observation import ObsLayout, build_observations
+from tin_swarm_env.env.reward import compute_rewards, distance_to_go
+from tin_swarm_env.scenario import load_scenario
 from tin_swarm_env.world import World, WorldParams, spawn_positions
-from tin_swarm_env.world.reference import reference_sense
+from tin_swarm_env.world.sensing import BreakIndex
 
 NEIGHBOURS_IN_RANGE = 10
 
 
 def make_state(world, n, rng, neighbours=NEIGHBOURS_IN_RANGE):
     r = world.params.sensor.range_m
-    area = n * math.pi * r * r / neighbours
-    side = math.sqrt(area)
+    side = math.sqrt(n * math.pi * r * r / neighbours)
     x0, y0, x1, y1 = world.tin.bounds
     cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
-    region = (cx - side / 2, cy - side / 2, cx + side / 2, cy + side / 2)
+    region = (max(cx - side / 2, x0), max(cy - side / 2, y0), min(cx + side / 2, x1), min(cy + side / 2, y1))
     pos = spawn_positions(world.tin, world.steep, n, rng, region=region)
     tg = spawn_positions(world.tin, world.steep, max(1, n // 50), rng, region=region)
     return world.reset(rng, pos, targets=tg, targets_mobile=True)
 
 
 def time_steps(world, state, steps, rng):
+    """(seconds per step + sense, robots seen per robot)."""
     n = state.n_robots
     cmds = rng.uniform(-1, 1, (steps, n, 2))
     world.sense(world.step(state, cmds[0])[0])  # warm-up (compilation, caches)
-    t = time.perf_counter()
     s = state
     n_seen = 0
+    t = time.perf_counter()
     for k in range(steps):
         s, _ = world.step(s, cmds[k])
-        r = world.sense(s)
-        n_seen += len(r.robots)
-    dt = (time.perf_counter() - t) / steps
-    return dt, n_seen / steps / n
+        n_seen += len(world.sense(s).robots)
+    return (time.perf_counter() - t) / steps, n_seen / steps / n
 
 
-def sensing_memory(world, n, neighbours, rng):
-    """(tracemalloc peak bytes of one world.sense call, robots seen per robot) at n robots."""
-    st = make_state(world, n, rng, neighbours)
-    world.sense(st)  # warm-up: compilation and cached indexes are not the call's memory
-    tracemalloc.start()
-    r = world.sense(st)
-    peak = tracemalloc.get_traced_memory()[1]
-    tracemalloc.stop()
-    return peak, len(r.robots) / n
+def best_of(fn, reps):
+    fn()
+    best = math.inf
+    for _ in range(reps):
+        t = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t)
+    return best
 
 
-def print_memory(world, n=10_000):
-    rng = np.random.default_rng(4)
-    base, seen0 = sensing_memory(world, n, NEIGHBOURS_IN_RANGE, rng)
-    dense, seen1 = sensing_memory(world, n, 10 * NEIGHBOURS_IN_RANGE, rng)
-    print(f"\nsensing memory at {n} robots (tracemalloc peak of one sense call):")
-    print(f"  default density ({NEIGHBOURS_IN_RANGE} robots in range): {base / 2**20:7.1f} MiB, "
-          f"{seen0:.1f} robots seen per robot")
-    print(f"  10x denser      ({10 * NEIGHBOURS_IN_RANGE} robots in range): {dense / 2**20:7.1f} MiB, "
-          f"{seen1:.1f} robots seen per robot")
-    print(f"  dense / default: {dense / base:.2f}x")
+def no_breaks(world):
+    """The same world with no break segments (to time the break search by difference)."""
+    w = World(world.tin, world.params)
+
+    class _Empty:
+        segments = np.zeros((0, 2, 3))
+
+    w.break_index = BreakIndex(_Empty, piece_m=world.params.sensor.range_m, bounds=world.tin.bounds)
+    return w
+
+
+def stages(tin, n, reps, rng):
+    """Marginal seconds per stage at n robots (best of ``reps``)."""
+    P = WorldParams()
+    full = World(tin, P)
+    st = make_state(full, n, rng)
+    cmds = rng.uniform(-1, 1, (n, 2))
+    nolos = World(tin, dataclasses.replace(P, sensor=dataclasses.replace(P.sensor, check_los=False)))
+    bare = no_breaks(nolos)
+    bare_los = no_breaks(full)
+    cfg = load_scenario("cliff_goal")
+    tidx = np.arange(n) % len(st.targets)
+    live = np.ones(n, dtype=bool)
+    readings = full.sense(st)
+    new, ev = full.step(st, cmds)
+    d0 = distance_to_go(st, tidx, (None,) * len(st.targets))
+    layout = ObsLayout()
+    t_move = best_of(lambda: full.step(st, cmds), reps)
+    t_nb = best_of(lambda: bare.sense(st), reps)
+    t_los = best_of(lambda: bare_los.sense(st), reps)
+    t_all = best_of(lambda: full.sense(st), reps)
+    t_obs = best_of(lambda: build_observations(full, st, readings, tidx, live, layout), reps)
+    t_rew = best_of(lambda: compute_rewards(cfg, d0, distance_to_go(new, tidx, (None,) * len(new.targets)), new, ev,
+                                            tidx, live), reps)
+    return {"move": t_move, "neighbours": t_nb, "robots seen": max(t_los - t_nb, 0.0),
+            "breaks": max(t_all - t_los, 0.0), "observation": t_obs, "reward": t_rew}
 
 
 def fit_exponent(x, y):
     return float(np.polyfit(np.log(x), np.log(y), 1)[0])
 
 
-def main(steps: int, quick: bool, memory_only: bool = False):
+def nbytes(obj):
+    """Bytes of the numpy arrays an object (dataclass, tuple) holds, one level down."""
+    total = 0
+    for v in (obj.__dict__.values() if hasattr(obj, "__dict__") else obj):
+        if isinstance(v, np.ndarray):
+            total += v.nbytes
+        elif hasattr(v, "__dict__") and not isinstance(v, np.random.Generator):
+            total += nbytes(v)
+    return total
+
+
+def main(quick: bool, out: str | None):
+    lines = []
+
+    def emit(s=""):
+        print(s, flush=True)
+        lines.append(s)
+
+    load = os.getloadavg()
     rng = np.random.default_rng(0)
     dem = tse.terrain.sample_dem("jacksboro")
     tin = tse.terrain.build_tin(dem, method="greedy", max_vertices=10_100)
     params = WorldParams()
     world = World(tin, params)
-    if memory_only:
-        print_memory(world)
-        return
-    print(f"{tin!r}; sensor range {params.sensor.range_m} m, fov {params.sensor.fov_deg} deg, "
-          f"line of sight on; {len(world.breaks)} break segments\n")
-    print(f"{'robots':>7s} {'step+sense ms':>14s} {'robot-steps/s':>14s} {'robots seen/robot':>18s}")
-    sizes = (100, 1000, 10_000)
-    growth = (100, 300, 1000, 3000, 10_000) if not quick else (100, 1000, 3000)
-    times = {}
-    for n in sorted(set(sizes) | set(growth)):
-        st = make_state(world, n, rng)
-        dt, seen = time_steps(world, st, steps if n <= 3000 else max(3, steps // 4), rng)
-        times[n] = dt
-        if n in sizes:
-            print(f"{n:7d} {dt * 1e3:14.2f} {n / dt:14.3e} {seen:18.1f}")
-    g = list(growth)
-    print(f"\ncost vs robots at fixed density ({g[0]}..{g[-1]}): time ~ n^{fit_exponent(g, [times[n] for n in g]):.2f}")
+    threads = sorted({1, min(2, numba.config.NUMBA_NUM_THREADS)})
+    cmd = "python bench/world.py" + (" --quick" if quick else "")
+    emit(f"# World step throughput (`{cmd}`)\n")
+    emit(f"Load average at start {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} (1 / 5 / 15 min) on "
+         f"{os.cpu_count()} cores; numba {numba.__version__}, threading layer "
+         f"{numba.config.THREADING_LAYER}, {numba.config.NUMBA_NUM_THREADS} threads at most. {tin!r}; sensor range "
+         f"{params.sensor.range_m} m, fov {params.sensor.fov_deg} deg, line of sight on; {len(world.breaks)} break "
+         f"segments; robots packed ~{NEIGHBOURS_IN_RANGE} within range of each.\n")
 
+    reps = 3 if quick else 7
+    emit("## Time per stage (ms per step, marginal cost of each stage, best of "
+         f"{reps})\n")
+    emit("| robots | threads | " + " | ".join(("move", "neighbours", "robots seen", "breaks", "observation", "reward"))
+         + " | total | robot-steps/s |")
+    emit("|---:|---:|" + "---:|" * 8)
+    for n in (1000, 10_000):
+        for k in threads:
+            numba.set_num_threads(k)
+            t = stages(tin, n, reps if n <= 1000 else max(2, reps // 2), np.random.default_rng(1))
+            tot = sum(t.values())
+            emit(f"| {n} | {k} | " + " | ".join(f"{v * 1e3:.2f}" for v in t.values())
+                 + f" | {tot * 1e3:.2f} | {n / tot:.3e} |")
+
+    emit("\n## Robot-steps per second, world step + sensing\n")
+    emit("| robots | " + " | ".join(f"{k} thread{'s' if k > 1 else ''}" for k in threads)
+         + " | speed-up | robots seen/robot |")
+    emit("|---:|" + "---:|" * (len(threads) + 2))
+    steps_for = {100: 100, 1000: 40, 10_000: 8, 100_000: 3}
+    if quick:
+        steps_for = {100: 40, 1000: 15, 10_000: 4, 100_000: 2}
+    times = {}
+    mem = ""
+    for n, steps in steps_for.items():
+        rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        st = make_state(world, n, np.random.default_rng(2))
+        row = {}
+        for k in threads:
+            numba.set_num_threads(k)
+            row[k], seen = time_steps(world, st, steps, np.random.default_rng(3))
+        times[n] = row
+        emit(f"| {n} | " + " | ".join(f"{n / row[k]:.3e}" for k in threads)
+             + f" | {row[threads[0]] / row[threads[-1]]:.2f}x | {seen:.1f} |")
+        if n == 100_000:
+            s1, _ = world.step(st, np.zeros((n, 2)))
+            r1 = world.sense(s1)
+            rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+            mem = (f"\n100 000 robots: state {nbytes(s1) / 2**20:.1f} MiB, one step's sensor readings "
+                   f"{sum(nbytes(getattr(r1, p)) for p in ('robots', 'targets', 'assets', 'breaks')) / 2**20:.1f} MiB; "
+                   f"process peak RSS {rss1 / 1024:.0f} MiB ({(rss1 - rss0) / 1024:.0f} MiB more than before the row).")
+    emit(mem)
+    k = threads[-1]
+    numba.set_num_threads(k)
+    g = [n for n in times if n <= 10_000]
+    emit(f"\n## Growth ({k} threads)\n")
+    emit(f"- cost vs robots at fixed density ({g[0]}..{g[-1]}): time ~ n^"
+         f"{fit_exponent(g, [times[n][k] for n in g]):.2f}")
     tri_counts, tri_times = [], []
-    for nv in ((1300, 2600, 5100, 10_100, 20_100, 40_100) if not quick else (2600, 10_100, 40_100)):
+    for nv in ((2600, 10_100, 40_100) if quick else (1300, 2600, 5100, 10_100, 20_100, 40_100)):
         t2 = tse.terrain.build_tin(dem, method="greedy", max_vertices=nv)
         w2 = World(t2, params)
         st = make_state(w2, 1000, np.random.default_rng(1))
-        dt, _ = time_steps(w2, st, steps, np.random.default_rng(2))
+        dt, _ = time_steps(w2, st, 15 if quick else 40, np.random.default_rng(2))
         tri_counts.append(t2.n_triangles)
         tri_times.append(dt)
-        print(f"  {t2.n_triangles:6d} triangles, 1000 robots: {dt * 1e3:7.2f} ms/step")
-    print(f"cost vs TIN size at 1000 robots ({tri_counts[0]}..{tri_counts[-1]} triangles): "
-          f"time ~ T^{fit_exponent(tri_counts, tri_times):.2f}")
-
-    st = make_state(world, 100, np.random.default_rng(3))
-    world.sense(st)
-    t = time.perf_counter()
-    for _ in range(5):
-        world.sense(st)
-    t_batch = (time.perf_counter() - t) / 5
-    t = time.perf_counter()
-    reference_sense(world, st)
-    t_ref = time.perf_counter() - t
-    print(f"\nsensing, 100 robots: batched {t_batch * 1e3:.2f} ms, per-robot reference loop {t_ref * 1e3:.0f} ms "
-          f"({t_ref / t_batch:.0f}x)")
-    print_memory(world)
+        emit(f"  - {t2.n_triangles} triangles, 1000 robots: {dt * 1e3:.2f} ms/step")
+    emit(f"- cost vs TIN size at 1000 robots ({tri_counts[0]}..{tri_counts[-1]} triangles): time ~ T^"
+         f"{fit_exponent(tri_counts, tri_times):.2f}")
+    load = os.getloadavg()
+    emit(f"\nLoad average at the end {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f}.")
+    if out:
+        os.makedirs(os.path.dirname(out) or ".", exist_ok=True)
+        tmp = out + ".tmp"
+        with open(tmp, "w") as f:
+            f.write("\n".join(lines) + "\n")
+        os.replace(tmp, out)
+        print(f"\nwrote {out}", file=sys.stderr)
 
 
 if __name__ == "__main__":
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--steps", type=int, default=20)
-    p.add_argument("--quick", action="store_true")
-    p.add_argument("--memory-only", action="store_true")
+    p.add_argument("--quick", action="store_true", help="fewer steps and TIN sizes (about a minute)")
+    p.add_argument("--out", default="docs/figures/world.md", help="Markdown file for the tables ('' for none)")
     a = p.parse_args()
-    main(a.steps, a.quick, a.memory_only)
+    main(a.quick, a.out or None)

@@ -2,6 +2,7 @@
 
 import importlib.util
 import os
+import tempfile
 from pathlib import Path
 
 os.environ.setdefault("MPLBACKEND", "Agg")
@@ -9,6 +10,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
+from hypothesis.configuration import set_hypothesis_home_dir
 
 settings.register_profile(
     "ci", max_examples=60, deadline=None, derandomize=True,
@@ -16,6 +18,8 @@ settings.register_profile(
 )
 settings.register_profile("dev", max_examples=200, deadline=None)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+# hypothesis keeps caches (e.g. its character tables) in ./.hypothesis: keep them out of the repository
+set_hypothesis_home_dir(Path(tempfile.gettempdir()) / "tin_swarm_env_hypothesis")
 
 
 def _random_tin(seed: int, n: int = 30, zscale: float = 50.0):

@@ -6,8 +6,11 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
-from tin_swarm_env.adapters.rllib import ENV_NAME, SHARED_POLICY, ppo_config, rllib_env_creator
+pytest.importorskip("ray", reason="the rllib extra: pip install 'tin_swarm_env[rllib]'")
+
+from tin_swarm_env.adapters.rllib import ENV_NAME, SHARED_POLICY, ppo_config, rllib_env_creator  # noqa: E402
 
 
 def test_agents_stay_in_order_and_shrink_render_works_episode_ends_once():

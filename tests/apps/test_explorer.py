@@ -65,6 +65,7 @@ def test_explore_cli_writes_a_png_that_is_not_blank(tmp_path):
 
 
 def test_run_writes_an_mp4_and_record_video_parallel_works(tmp_path):
+    pytest.importorskip("imageio_ffmpeg", reason="the video extra: pip install 'tin_swarm_env[video]'")
     out = tmp_path / "flat.mp4"
     assert main(["run", "flat", "--robots", "4", "--max-cycles", "40", "--mp4", str(out), "--quiet"]) == 0
     import imageio.v2 as iio

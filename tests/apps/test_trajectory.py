@@ -113,3 +113,22 @@ def test_rollout_reports_stalled_robots_beside_the_reasons():
     assert out.stalled.tolist() == [True] * 4 and not out.looping.any()
     sh = out.shares()
     assert sh["timed_out"] == 1.0 and sh["stalled"] == 1.0 and sh["looping"] == 0.0 and sh["arrived"] == 0.0
+
+
+def test_eval_and_run_tables_carry_the_stalled_and_looping_columns():
+    from tin_swarm_env.apps.evaluate import METRICS, episode_metrics
+    from tin_swarm_env.apps.rollout import Outcome
+    from tin_swarm_env.apps.run import EpisodeStats, format_table
+    from tin_swarm_env.world.state import Reason as R
+
+    o = Outcome(seed=0, reasons=np.array([R.ARRIVED, R.TIMEOUT, R.TIMEOUT, R.TIMEOUT], np.int8),
+                steps=np.array([10, 50, 50, 50]), returns=np.zeros(4), collisions=np.zeros(4, int),
+                battery_left=np.ones(4), n_steps=50, seconds=0.0, stalled=np.array([False, True, False, False]),
+                looping=np.array([False, False, True, False]))
+    m = episode_metrics(o)
+    assert m["stalled"].tolist() == [0, 1, 0, 0] and m["looping"].tolist() == [0, 0, 1, 0]
+    assert {"stalled", "looping"} <= {k for k, _, _ in METRICS}
+    assert o.shares() == {"arrived": 0.25, "fell": 0.0, "battery": 0.0, "timed_out": 0.75, "stalled": 0.25,
+                          "looping": 0.25}
+    table = format_table([EpisodeStats.from_outcome(1, o)])
+    assert "| timed out | stalled | looping |" in table and "| 3 | 1 | 1 |" in table

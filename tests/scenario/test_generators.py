@@ -591,3 +591,19 @@ def test_fork_and_trap_are_solvable_by_cost_to_go_on_the_greedy_tin(family):
             d = ctg.distance_at(t.spawn_centre[None])[0]
             assert d > 1.05 * np.linalg.norm(t.targets[0] - t.spawn_centre), (seed, t.params)
     assert misses <= 1
+
+
+@pytest.mark.parametrize("family", ["fork", "trap"])
+def test_fork_and_trap_sides_are_exact_mirror_images(family):
+    """Without noise, ``side="right"`` is ``side="left"`` reflected across the direction of travel
+    (going north: the columns reversed), dead ends and opening included; so neither side is easier."""
+    for seed in range(4):
+        kw = dict(heading="north", noise_m=0.0, size_m=240.0, cell_m=2.0)
+        a = gen.FAMILIES[family](np.random.default_rng(seed), side="left", **kw)
+        b = gen.FAMILIES[family](np.random.default_rng(seed), side="right", **kw)
+        assert np.array_equal(a.dem.z[:, ::-1], b.dem.z)
+        flip = np.array([240.0, 0.0])  # x -> 240 - x
+        assert np.allclose(flip + [-1, 1] * a.passes, b.passes)
+        assert np.allclose(flip + [-1, 1] * a.dead_ends, b.dead_ends)
+        assert np.allclose(flip + [-1, 1] * a.targets, b.targets)
+        assert (a.detour_side, b.detour_side) == ("left", "right")

@@ -63,3 +63,13 @@ def test_nearest_break():
     assert j[1] == -1 and np.isinf(d[1])
     with pytest.raises(ValueError, match="max_slope_deg"):
         tin.breaks(max_slope_deg=0)
+
+
+def test_closest_on_segments_clamps_to_the_end_points():
+    from tin_swarm_env.terrain.breaks import closest_on_segments
+
+    a, b = np.array([0.0, 0.0]), np.array([10.0, 0.0])
+    pts = np.array([[-3.0, 4.0], [4.0, -2.0], [13.0, 4.0], [10.0, 0.0]])
+    c, d = closest_on_segments(pts, a, b)
+    np.testing.assert_array_equal(c, [[0.0, 0.0], [4.0, 0.0], [10.0, 0.0], [10.0, 0.0]])
+    np.testing.assert_array_equal(d, [5.0, 2.0, 5.0, 0.0])

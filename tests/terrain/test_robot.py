@@ -248,3 +248,100 @@ def test_error_bound_reproduces_every_sample(rows, cols, dx, dy, slope, max_erro
     p = R.sample_points(dem)
     assert np.array_equal(tin.slope_at(p[:, :2]) > slope, R.full_surface_slope_deg(dem) > slope)
     assert np.all(np.abs(tin.height_at(p[:, :2]) - p[:, 2]) <= max_error_m + 1e-9)
+
+
+# -- the data-dependent flips ------------------------------------------------------------------
+
+
+def _setup(dem, slope, fsw=3.0, fdw=1.0):
+    rows, cols = dem.shape
+    cells = np.arange(rows * cols)
+    ni, nj = (cells // cols).astype(float), (cells % cols).astype(float)
+    vx, vy = nj * dem.dx, ni * dem.dy
+    sp = R.sample_points(dem)
+    steep_f = R.full_surface_slope_deg(dem) > slope
+    weight = np.where(steep_f, fdw, fsw)
+    tan_s = np.tan(np.radians(slope))
+    return (vx, vy, dem.z.ravel(), ni, nj, rows, cols, sp[:, 0] - dem.x[0], sp[:, 1] - dem.y[0], sp[:, 2], steep_f,
+            weight, tan_s)
+
+
+def test_triangle_cost_matches_numpy_reference():
+    rng = np.random.default_rng(4)
+    dem = grid_dem(rng.uniform(0, 20, (8, 9)))
+    args = _setup(dem, 25.0)
+    vx, vy, vz, _, _, _, _, sx, sy, sz, steep_f, weight, tan_s = args
+    keep = np.flatnonzero(rng.random(dem.z.size) < 0.4)
+    keep = np.union1d(keep, [0, 8, 63, 71])
+    tin = Tin.from_points(dem.points()[keep])
+    for t in range(tin.n_triangles):
+        p, q, r = keep[tin.triangles[t]]
+        got = R.triangle_cost(p, q, r, *args, 0.7, 2.0)
+        a, b, c = np.array([vx[[p, q, r]], vy[[p, q, r]]]).T
+        w = [(b[0] - a[0]) * (sy - a[1]) - (b[1] - a[1]) * (sx - a[0]),
+             (c[0] - b[0]) * (sy - b[1]) - (c[1] - b[1]) * (sx - b[0]),
+             (a[0] - c[0]) * (sy - c[1]) - (a[1] - c[1]) * (sx - c[0])]
+        inside = (w[0] >= 0) & (w[1] >= 0) & (w[2] >= 0)
+        gx, gy, c0 = tin.planes[t]
+        zt = gx * (sx + dem.x[0]) + gy * (sy + dem.y[0]) + c0
+        wrong = inside & ((tin.slope_deg[t] > 25.0) != steep_f)
+        want = np.sum(0.7 * np.abs(zt - sz)[inside] / 2.0) + np.sum(weight[wrong])
+        assert np.isclose(got, want, rtol=1e-9, atol=1e-9)
+
+
+def test_flip_puts_the_diagonal_where_the_class_is_right():
+    # one square: flat but for its NE corner; both full-surface halves (SW-NE diagonal) are 45 deg,
+    # the other diagonal leaves a flat (drivable) half
+    dem = grid_dem([[0.0, 0.0], [0.0, 10.0]])
+    vx, vy, vz, ni, nj, rows, cols, sx, sy, sz, steep_f, weight, tan_s = args = _setup(dem, 20.0)
+    tris = np.array([[0, 1, 2], [1, 3, 2]], dtype=np.int64)  # SW SE NW, SE NE NW: the NW-SE diagonal
+    nbrs = np.array([[1, -1, -1], [-1, 0, -1]], dtype=np.int64)
+    n = R.flip_edges(tris, nbrs, *args, 1.0, 1.0, np.cos(np.radians(5.0)), 3)
+    assert n == 1
+    assert {frozenset(t) for t in tris.tolist()} == {frozenset((0, 1, 3)), frozenset((0, 3, 2))}
+    tin = Tin(dem.points(), tris)
+    assert sample_classes_agree(tin, dem, 20.0)
+    # the neighbours were rewired: each new triangle sees the other across the SW-NE edge
+    assert sorted(nbrs[0].tolist()).count(1) == 1 and sorted(nbrs[1].tolist()).count(0) == 1
+
+
+def test_flips_never_raise_the_cost_and_keep_a_valid_tin():
+    rng = np.random.default_rng(5)
+    dem = grid_dem(np.cumsum(rng.normal(0, 4, (20, 24)), axis=0))
+    args = _setup(dem, 20.0)
+    keep = np.union1d(np.flatnonzero(rng.random(dem.z.size) < 0.25), [0, 23, 456, 479])
+    tin = Tin.from_points(dem.points()[keep])
+    tris = keep[tin.triangles]
+    nbrs = tin.neighbors.copy()
+
+    def total(tr):
+        return sum(R.triangle_cost(p, q, r, *args, 1.0, 3.0) for p, q, r in tr)
+
+    before = total(tris)
+    n = R.flip_edges(tris, nbrs, *args, 1.0, 3.0, np.cos(np.radians(5.0)), 2)
+    assert n > 0 and total(tris) < before
+    out = Tin(dem.points(), tris)  # validity checks run on construction
+    assert np.isclose(out.areas.sum(), tin.areas.sum())
+    assert np.array_equal(nbrs, out.neighbors)  # the kernel's rewiring is the adjacency of the result
+    assert min_angle_deg(out) >= min(5.0, min_angle_deg(tin)) - 1e-9
+
+
+def min_angle_deg(tin):
+    p = tin.vertices[tin.triangles, :2]
+    out = []
+    for k in range(3):
+        u, w = p[:, (k + 1) % 3] - p[:, k], p[:, (k + 2) % 3] - p[:, k]
+        cs = np.sum(u * w, axis=1) / np.linalg.norm(u, axis=1) / np.linalg.norm(w, axis=1)
+        out.append(np.degrees(np.arccos(np.clip(cs, -1, 1))))
+    return float(np.min(out))
+
+
+def test_a_budget_filled_before_the_error_bound_builds_as_the_budget_alone():
+    # a scenario passes both keys: greedy insertion fills the budget first, the flips then run unguarded
+    rng = np.random.default_rng(6)
+    dem = grid_dem(np.cumsum(rng.normal(0, 3, (25, 30)), axis=1))
+    a = build_tin(dem, method="robot", max_vertices=150, max_slope_deg=15)
+    b = build_tin(dem, method="robot", max_vertices=150, max_error_m=0.01, max_slope_deg=15)
+    assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.triangles, b.triangles)
+    greedy = build_tin(dem, method="greedy", max_vertices=150)
+    assert not np.array_equal(np.sort(a.triangles, axis=1), np.sort(greedy.triangles, axis=1))  # flipped

@@ -218,3 +218,18 @@ def test_slope_and_aspect_at_points_follow_their_triangles(random_tin):
     inside = np.array([contains(tin, ti, p, tol=-1e-3) for ti, p in zip(t, xy)])
     np.testing.assert_array_equal(tin.aspect_at(xy)[inside], tin.aspect_deg[t[inside]])
     np.testing.assert_array_equal(tin.slope_at(xy)[inside], tin.slope_deg[t[inside]])
+
+
+def test_the_walk_itself_finds_points_on_shared_and_border_edges():
+    """The walk's tolerance: a point on an edge is inside both triangles, so the walk stops in the
+    first one it tries (it never steps across an edge the point lies on, which would leave the TIN
+    at a border edge or give up going back and forth); only then is no fallback needed."""
+    tin = Tin(np.array([[0, 0, 0], [10, 0, 0], [10, 10, 0], [0, 10, 0]], float), [[0, 1, 2], [0, 2, 3]])
+    pts = np.array([[5.0, 5.0], [5.0, 0.0], [10.0, 5.0], [0.0, 5.0], [5.0, 10.0], [2.0, 1.0]])
+    want = [[0, 1], [0], [0], [1], [1], [0]]
+    vx, vy = tin.xy_columns
+    for hint in (0, 1):
+        got = K.walk_locate(vx, vy, tin.triangles, tin.neighbors, pts[:, 0], pts[:, 1],
+                            np.full(len(pts), hint, np.int64), tin.n_triangles + 3, tin.tolerances[0])
+        assert all(int(g) in w for g, w in zip(got, want)), (hint, got)
+        assert got[0] == hint  # on the shared diagonal: stays where it started

@@ -11,7 +11,7 @@ from tin_swarm_env.errors import TinFormatError, TinStructureError
 from tin_swarm_env.terrain import Tin, load_tin
 from tin_swarm_env.terrain import tin as tin_module
 from tin_swarm_env.terrain.reference import single_surface_brute
-from tin_swarm_env.terrain.validity import OK, OVERLAP, T_JUNCTION, on_line_tolerance, scan_pairs
+from tin_swarm_env.terrain.validity import OK, OVERLAP, T_JUNCTION, on_line_tolerance, pair_status, scan_pairs
 
 SQ = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]
 
@@ -110,6 +110,11 @@ def test_grid_scan_agrees_with_all_pairs_brute_force(random_tin, seed, n, how):
         nbrs = None  # refused earlier, at the adjacency build: not the subject
     assume(nbrs is not None)
     brute = single_surface_brute(v, tri)
+    # the plain-numpy pair test agrees with the independent brute force on every pair not sharing an edge
+    pa, pb = np.triu_indices(len(tri), k=1)
+    shared = (tri[pa][:, :, None] == tri[pb][:, None, :]).any(axis=2).sum(axis=1)
+    pa, pb = pa[shared < 2], pb[shared < 2]
+    np.testing.assert_array_equal(pair_status(v, tri, pa, pb, on_line_tolerance(v)), brute[pa, pb])
     code, a, b, k, j = _scan(v, tri, nbrs)
     assert (code != OK) == bool(brute.any())
     if code != OK:

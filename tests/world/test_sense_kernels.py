@@ -39,6 +39,7 @@ def plain_python(monkeypatch):
         for name in ("sense_pass1", "sense_pass2", "collision_counts"):
             m.setattr(SK, name, getattr(SK, name).py_func)
         m.setattr(L, "move_walk", L.move_walk.py_func)
+        m.setattr(L, "move_kernel", L.move_kernel.py_func)
         yield
 
 
@@ -184,3 +185,27 @@ def test_contacts_nearest_fast_path_equals_the_sort(random_tin):
         rows_fast = sensing._rows(part, s.n_robots, 4)
         rows_sort = sensing.nearest_k(part.observer, part.distance_m, s.n_robots, 4)
         np.testing.assert_array_equal(rows_fast, rows_sort)
+
+
+@settings(max_examples=15)
+@given(st.integers(0, 10_000), st.integers(1, 60))
+def test_fused_move_kernel_equals_the_numpy_locomotion(random_tin, seed, n):
+    """World.step's fused pass against locomotion.move (the numpy reference): positions,
+    triangles, events and speeds bit for bit, headings to rounding (numpy's vectorised atan2)."""
+    w, s, rng = _world(random_tin, seed, {"range_m": 60.0}, n=n)
+    assume(w is not None)
+    P = w.params
+    T = SK.terrain_arrays(w.tin)
+    events = set()
+    for _ in range(4):
+        c = rng.uniform(-1.5, 1.5, (n, 2)) * rng.uniform(0, 30)
+        ref = L.move(w.tin, w.steep, s.positions, s.tri_idx, s.headings, s.status, c, P.robot, P.dt_s)
+        got = L.move_kernel(T, w.steep, s.positions, s.tri_idx, s.headings, s.heights, s.active, c,
+                            P.robot.max_speed_mps, P.robot.max_climb_deg, math.radians(P.robot.turn_rate_dps) * P.dt_s,
+                            P.dt_s)
+        for k in (0, 1, 3, 4):
+            np.testing.assert_array_equal(got[k], ref[k])
+        np.testing.assert_allclose(got[2], ref[2], rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(got[5], w.tin.height_in(ref[0], ref[1]))
+        events |= set(got[4].tolist())
+        s, _ = w.step(s, c)

@@ -409,3 +409,12 @@ def test_batched_sensing_with_few_candidates_equals_the_per_robot_loop(random_ti
                                              "max_candidates": k}, 6)
     assume(out is not None)
     w, s, got, ref = out
+
+
+def test_the_state_counts_collisions_over_the_episode_and_the_events_per_step():
+    w = World(None, params())
+    s = w.reset(0, [[100.0, 100.0], [100.5, 100.0], [200.0, 200.0]], headings=[0.0, 0.0, 0.0])
+    for step in (1, 2):
+        s, ev = w.step(s, np.zeros((3, 2)))  # robots 0 and 1 stand 0.5 m apart (radius 0.5 m: touching)
+        assert ev.collisions.tolist() == [1, 1, 0]
+        assert s.collisions.tolist() == [step, step, 0]

@@ -30,6 +30,7 @@ import argparse
 import os
 import sys
 import time
+from pathlib import Path
 
 from .._atomic import check_outputs
 from ..errors import ArgumentError, TinSwarmError
@@ -142,6 +143,13 @@ def _cmd_run(args) -> int:
         raise ArgumentError(f"--mp4 {args.mp4}: the file name must end in .mp4")
     check_outputs({"--summary": args.summary, "--gif": args.gif, "--mp4": args.mp4},
                   inputs=(*_scenario_inputs(args.scenario), args.policy))
+    if args.gif or args.mp4:
+        from ..scenario.config import load_scenario
+        from .media import check_animation
+
+        cfg = load_scenario(args.scenario)
+        check_animation(args.robots or cfg.robots.count, args.max_cycles or cfg.max_cycles, args.frame_every,
+                        "--gif" if args.gif else "--mp4")
     with ExitStack() as stack:  # frames go to disk as they are drawn; .part files removed on any error
         writers = [stack.enter_context(FrameWriter(p)) for p in (args.gif, args.mp4) if p]
         every = args.frame_every if writers else 0
@@ -172,7 +180,14 @@ def _cmd_train(args) -> int:
     from .args import dataclass_from_namespace
     from .train import Args, train
 
-    train(dataclass_from_namespace(Args, args, total_timesteps=args.timesteps))
+    a = dataclass_from_namespace(Args, args)
+    if a.resume:
+        from .checkpoint import read_args
+
+        saved = read_args(Path(a.resume)).get("scenario")
+        if saved != a.scenario:
+            raise ArgumentError(f"--resume {a.resume}: that run trained on {saved!r}, not {a.scenario!r}")
+    train(a)
     return 0
 
 
@@ -334,9 +349,7 @@ def _add_train_eval_build(sub) -> None:
 
     t = sub.add_parser("train", help="train PPO (apps/train.py, = agents/train_sb3.py; needs the [train] extra)",
                        formatter_class=_Formatter)
-    t.add_argument("scenario", help="built-in scenario name or a .toml path")
-    t.add_argument("--timesteps", type=int, default=200_000, help="total environment steps (all robots)")
-    add_dataclass_args(t, TrainArgs, skip=("scenario", "total_timesteps"))
+    add_dataclass_args(t, TrainArgs, positional=("scenario",), rename={"total_timesteps": "timesteps"})
     t.set_defaults(func=_cmd_train)
     e = sub.add_parser("eval", help="random, APF and saved policies on the same scenarios and seeds",
                        formatter_class=_Formatter)

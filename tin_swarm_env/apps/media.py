@@ -79,6 +79,24 @@ class _GifStream:
         self.fh.write(b";")
 
 
+MAX_FRAMES = 10_000  # frames of one GIF/MP4: ~100 KB each at the default width, so at most ~1 GB of file
+MAX_ROBOT_FRAMES = 20_000_000  # robots x frames drawn: each frame draws every robot (~1 us each), ~20 s at most
+
+
+def check_animation(robots: int, steps: int, every: int, option: str = "--gif") -> int:
+    """Refuse, before any work, an animation of more than :data:`MAX_FRAMES` frames or
+    :data:`MAX_ROBOT_FRAMES` robots x frames (``steps`` steps, a frame every ``every``); returns
+    the frame count. The message names ``option`` and what to lower."""
+    frames = steps // max(every, 1) + 1
+    if frames > MAX_FRAMES:
+        raise ArgumentError(f"{option}: {steps} steps with a frame every {every} make {frames:,} frames; at most "
+                            f"{MAX_FRAMES:,} (raise --frame-every or lower --max-cycles)")
+    if robots * frames > MAX_ROBOT_FRAMES:
+        raise ArgumentError(f"{option}: {robots:,} robots x {frames:,} frames = {robots * frames:,} robot-frames to "
+                            f"draw; at most {MAX_ROBOT_FRAMES:,} (fewer robots, fewer steps or a larger --frame-every)")
+    return frames
+
+
 class FrameWriter:
     """``with FrameWriter(path) as w: w.add(frame (H, W, 3) uint8)...``: a GIF (any suffix but
     .png/.mp4), the last frame as PNG (``.png``) or an H.264 MP4 (``.mp4``, the [video] extra),

@@ -56,6 +56,8 @@ import numpy as np
 
 from ..errors import ArgumentError, require
 from ..policies.learned import SHIELDS, ShieldedPolicy
+from ..scenario.config import MAX_ROBOTS
+from .args import check_args as check_fields, opt
 from ..policies.symmetry import SYMMETRIES
 from ..world.state import Reason
 from .evaluate import EVAL_SEED0
@@ -65,47 +67,83 @@ from .rollout import rollout
 __all__ = ["Args", "train", "evaluate_model", "plot_curve", "scenarios_of", "run_dir", "RecurrentSB3Policy"]
 
 
+def _net_arch(spec: str) -> list[int]:
+    """``"64,64"`` -> ``[64, 64]``: hidden layer widths, each 1..MAX_LAYER_WIDTH (the policy file's limit)."""
+    from ..policies.learned import MAX_LAYER_WIDTH, MAX_LAYERS
+
+    parts = [p.strip() for p in str(spec).split(",") if p.strip()]
+    if not parts or not all(p.isdigit() and 1 <= int(p) <= MAX_LAYER_WIDTH for p in parts) or len(parts) >= MAX_LAYERS:
+        raise ArgumentError(f"--net-arch {spec!r}: give hidden layer widths separated by commas (e.g. 64,64), "
+                            f"each 1..{MAX_LAYER_WIDTH}, at most {MAX_LAYERS - 1} layers")
+    return [int(p) for p in parts]
+
+
+def _arch_msg(spec):
+    try:
+        _net_arch(spec)
+    except ArgumentError as exc:
+        return str(exc).split(": ", 1)[1]
+    return None
+
+
+_NONNEG = {"lo": 0}
+_POS = {"lo": 1}
+
+
 @dataclass
 class Args:
-    scenario: str = "cliff_goal"  # built-in name or TOML path; several, comma-separated: a mix
-    n_robots: int = 8  # robots per environment copy (parameter sharing: each is one sub-env)
-    n_envs: int = 2  # environment copies in the VecEnv (per scenario of a mix)
-    max_cycles: int = 0  # 0: the scenario's
-    total_timesteps: int = 200_000  # PPO timesteps after imitation (0 only with imitation)
-    max_minutes: float = 0.0  # stop early after this much wall-clock time (0: no limit)
-    seed: int = 0
-    learning_rate: float = 3e-4
-    n_steps: int = 256  # per sub-env per rollout
-    batch_size: int = 512
-    n_epochs: int = 5
-    gamma: float = 0.99
-    gae_lambda: float = 0.95
-    ent_coef: float = 0.0
-    clip_range: float = 0.2
-    net_arch: str = "64,64"
-    recurrent: bool = False  # sb3-contrib RecurrentPPO (MlpLstmPolicy)
-    lstm_hidden: int = 256  # --recurrent: LSTM units (RecurrentPPO's default)
-    bc_episodes: int = 0  # behaviour cloning: APF-driven episodes (0: no imitation)
-    dagger_rounds: int = 0  # DAgger rounds after BC (the learner drives, APF labels)
-    dagger_episodes: int = 0  # episodes per DAgger round (0: as many as bc_episodes)
-    dagger_beta: float = 0.0  # round r (from 0): APF drives each robot-step with probability beta**(r+1)
-    stall_steps: int = 0  # imitation keeps no samples of a robot stuck this many steps (0: keep all)
-    bc_robots: int = 0  # robots per imitation episode (0: the scenario's count)
-    bc_epochs: int = 30  # passes over the data per fit
-    bc_lr: float = 1e-3
-    bc_batch_size: int = 4096
-    bc_std: float = 0.3  # the Gaussian std PPO starts from after imitation
-    mirror_samples: bool = False  # imitation fits on every sample and its mirror image (both sides alike)
-    symmetry: str = "none"  # "mirror": a mirror-equivariant actor and critic (exported with "symmetry": "mirror")
-    value_epochs: int = 10  # critic warm-up on the imitation rollouts' returns (0: none)
-    eval_every: int = 20_000  # timesteps between evaluations (0: none)
-    eval_episodes: int = 3
-    stop_at_arrival: float = 0.0  # stop once an evaluation reaches this arrival share (0: never)
-    checkpoint_every: int = 50_000
-    out_dir: str = ""  # "": runs/<algo>_<scenarios>_s<seed>
-    progress_bar: bool = True
-    shield: str = "none"  # "safety_cut": learn and act through the policy-file shield (exported with it)
-    torch_threads: int = 1  # more than 1 on a busy 2-core machine makes PPO ~10x slower (threads spin-wait)
+    """``tin-swarm train`` / ``agents/train_sb3.py``: every option, its help and what it accepts."""
+
+    scenario: str = opt("cliff_goal", "built-in name or TOML path; several, comma-separated: a mix")
+    n_robots: int = opt(8, "robots per environment copy (parameter sharing: each is one sub-env)", lo=1,
+                        hi=MAX_ROBOTS)
+    n_envs: int = opt(2, "environment copies in the VecEnv (per scenario of a mix)", lo=1, hi=1024)
+    max_cycles: int = opt(0, "steps per episode (0: the scenario's)", lo=0)
+    total_timesteps: int = opt(200_000, "PPO timesteps after imitation (0 only with imitation)", lo=0)
+    max_minutes: float = opt(0.0, "stop early after this much wall-clock time (0: no limit)", lo=0)
+    seed: int = opt(0, "training seed (copies seed + c; imitation seed * 1000 + k)", lo=0,
+                    hi=EVAL_SEED0 // 1000 - 1)
+    learning_rate: float = opt(3e-4, "Adam learning rate", lo=0, lo_open=True, hi=1)
+    n_steps: int = opt(256, "PPO rollout length per sub-env", **_POS)
+    batch_size: int = opt(512, "PPO minibatch size", lo=2)
+    n_epochs: int = opt(5, "PPO passes over each rollout", lo=1, hi=1000)
+    gamma: float = opt(0.99, "discount factor", lo=0, lo_open=True, hi=1)
+    gae_lambda: float = opt(0.95, "GAE lambda", lo=0, hi=1)
+    ent_coef: float = opt(0.0, "entropy bonus coefficient", lo=0)
+    clip_range: float = opt(0.2, "PPO clip range", lo=0, lo_open=True, hi=10)
+    net_arch: str = opt("64,64", "hidden layer widths of actor and critic, comma-separated", check=_arch_msg)
+    recurrent: bool = opt(False, "sb3-contrib RecurrentPPO (MlpLstmPolicy); no imitation")
+    lstm_hidden: int = opt(256, "--recurrent: LSTM units (RecurrentPPO's default)", lo=1, hi=4096)
+    bc_episodes: int = opt(0, "behaviour cloning: APF-driven episodes (0: no imitation)", **_NONNEG)
+    dagger_rounds: int = opt(0, "DAgger rounds after BC (the learner drives, APF labels)", **_NONNEG)
+    dagger_episodes: int = opt(0, "episodes per DAgger round (0: as many as --bc-episodes)", **_NONNEG)
+    dagger_beta: float = opt(0.0, "round r (from 0): APF drives each robot-step with probability beta**(r+1)",
+                             lo=0, hi=1, hi_open=True)
+    stall_steps: int = opt(0, "imitation keeps no samples of a robot stuck this many steps (0: keep all)", **_NONNEG)
+    bc_robots: int = opt(0, "robots per imitation episode (0: the scenario's count)", lo=0, hi=MAX_ROBOTS)
+    bc_epochs: int = opt(30, "passes over the imitation data per fit", **_POS)
+    bc_lr: float = opt(1e-3, "imitation learning rate", lo=0, lo_open=True, hi=1)
+    bc_batch_size: int = opt(4096, "imitation minibatch size", **_POS)
+    bc_std: float = opt(0.3, "the Gaussian std PPO starts from after imitation", lo=0, lo_open=True, hi=10)
+    mirror_samples: bool = opt(False, "imitation fits on every sample and its mirror image (both sides alike)")
+    symmetry: str = opt("none", "mirror: a mirror-equivariant actor and critic (exported with symmetry mirror)",
+                        choices=SYMMETRIES)
+    value_epochs: int = opt(10, "critic warm-up epochs on the imitation rollouts' returns (0: none)", **_NONNEG)
+    eval_every: int = opt(20_000, "timesteps between evaluations (0: none)", **_NONNEG)
+    eval_episodes: int = opt(3, "episodes per scenario in each evaluation", **_POS)
+    stop_at_arrival: float = opt(0.0, "stop once an evaluation reaches this arrival share (0: never)", lo=0, hi=1)
+    checkpoint_every: int = opt(50_000, "timesteps between checkpoints (what --resume continues from)", **_POS)
+    out_dir: str = opt("", "run directory (empty: runs/<algo>_<scenarios>_s<seed>)")
+    progress_bar: bool = opt(True, "show a progress bar (needs rich and tqdm)")
+    shield: str = opt("none", "safety_cut: learn and act through the policy-file shield (exported with it)",
+                      choices=SHIELDS)
+    torch_threads: int = opt(1, "torch threads; more than 1 on a busy 2-core machine makes PPO ~10x slower",
+                             lo=1, hi=256)
+    resume: str = opt("", "continue the killed run in this directory from its last checkpoint, with the "
+                          "arguments it was started with (the other options are not used)")
+
+    def __post_init__(self):
+        check_fields(self)
 
 
 def scenarios_of(args: Args) -> list[str]:
@@ -130,10 +168,9 @@ def run_dir(args: Args) -> Path:
 
 
 def check_args(args: Args) -> None:
-    """Refuse arguments that would train nothing or cannot be combined (naming the option)."""
-    for name in ("bc_episodes", "dagger_rounds", "dagger_episodes", "total_timesteps", "bc_robots"):
-        if getattr(args, name) < 0:
-            raise ArgumentError(f"--{name.replace('_', '-')} must be >= 0, got {getattr(args, name)}")
+    """Refuse arguments that would train nothing or cannot be combined (naming the option; each
+    option's own range is checked by ``Args`` itself)."""
+    check_fields(args)  # again: fields may have been changed after construction
     if args.total_timesteps == 0 and not _imitating(args):
         raise ArgumentError("--timesteps 0 without imitation would save an untrained model; give a positive "
                             "--timesteps, or --bc-episodes N to train by imitation only")
@@ -143,18 +180,12 @@ def check_args(args: Args) -> None:
         raise ArgumentError(f"--dagger-beta must be in [0, 1), got {args.dagger_beta}")
     if args.recurrent and _imitating(args):
         raise ArgumentError("--recurrent cannot be combined with --bc-episodes (imitation fits an MLP actor)")
-    if args.shield not in SHIELDS:
-        raise ArgumentError(f"--shield must be one of {list(SHIELDS)}, got {args.shield!r}")
-    if args.symmetry not in SYMMETRIES:
-        raise ArgumentError(f"--symmetry must be one of {list(SYMMETRIES)}, got {args.symmetry!r}")
+    if args.batch_size > args.n_steps * args.n_robots * args.n_envs * len(scenarios_of(args)) and args.total_timesteps:
+        raise ArgumentError(f"--batch-size {args.batch_size} is more than one rollout holds (--n-steps x robots x "
+                            f"copies = {args.n_steps * args.n_robots * args.n_envs * len(scenarios_of(args))})")
     if args.symmetry != "none" and args.recurrent:
         raise ArgumentError("--symmetry mirror is for the MLP policy; RecurrentPPO has no mirror-equivariant "
                             "policy here")
-    if args.lstm_hidden < 1:
-        raise ArgumentError(f"--lstm-hidden must be >= 1, got {args.lstm_hidden}")
-    if args.seed < 0 or args.seed * 1000 + 1000 >= EVAL_SEED0:
-        raise ArgumentError(f"--seed must be in [0, {EVAL_SEED0 // 1000 - 1}] (seeds from {EVAL_SEED0} are "
-                            "evaluation seeds)")
 
 
 class RecurrentSB3Policy:
@@ -202,30 +233,45 @@ def _eval_row(model, args, rows, t0, timesteps, logger=None) -> dict:
     return row
 
 
-def _callbacks(args: Args, out: Path, rows: list, t0: float, num_envs: int):
+def _callbacks(args: Args, out: Path, rows: list, t0: float, vec, ckpt_extra, next_eval: int | None = None):
     """Periodic evaluation (appending to ``rows``), the wall-clock limit, the arrival target and
-    checkpoints."""
-    from stable_baselines3.common.callbacks import BaseCallback, CallbackList, CheckpointCallback
+    checkpoints every ``checkpoint_every`` timesteps (:func:`~.checkpoint.write_checkpoint`)."""
+    from stable_baselines3.common.callbacks import BaseCallback
 
-    class EvalAndClock(BaseCallback):
+    from .checkpoint import write_checkpoint
+
+    class EvalClockCheckpoint(BaseCallback):
         def __init__(self):
             super().__init__()
-            self.next_eval = args.eval_every if rows else 0  # imitation already evaluated at 0
+            self.next_eval = next_eval if next_eval is not None else (args.eval_every if rows else 0)
+            self.next_ckpt = None
 
         def _on_step(self) -> bool:
+            if self.next_ckpt is None:
+                self.next_ckpt = (self.num_timesteps // args.checkpoint_every + 1) * args.checkpoint_every
             if args.eval_every and self.num_timesteps >= self.next_eval:
                 row = _eval_row(self.model, args, rows, t0, self.num_timesteps, self.logger)
                 self.next_eval += args.eval_every
                 if args.stop_at_arrival and row["arrived"] >= args.stop_at_arrival:
                     return False
+            if self.num_timesteps >= self.next_ckpt:
+                write_checkpoint(out, self.model, vec, ckpt_extra(rows, self.next_eval))
+                self.next_ckpt += args.checkpoint_every
             return not (args.max_minutes and time.perf_counter() - t0 > 60 * args.max_minutes)
 
-    return CallbackList([EvalAndClock(), CheckpointCallback(
-        max(args.checkpoint_every // num_envs, 1), str(out / "checkpoints"), name_prefix="ppo")])
+    return EvalClockCheckpoint()
+
+
+def _model_class(args: Args):
+    if args.recurrent:
+        return require("sb3_contrib", "train", "--recurrent (RecurrentPPO from sb3-contrib)").RecurrentPPO
+    from stable_baselines3 import PPO
+
+    return PPO
 
 
 def _model(args: Args, vec, tb):
-    arch = [int(x) for x in args.net_arch.split(",") if x]
+    arch = _net_arch(args.net_arch)
     kw = dict(learning_rate=args.learning_rate, n_steps=args.n_steps, batch_size=args.batch_size,
               n_epochs=args.n_epochs, gamma=args.gamma, gae_lambda=args.gae_lambda, ent_coef=args.ent_coef,
               clip_range=args.clip_range, policy_kwargs={"net_arch": arch}, seed=args.seed, device="cpu",
@@ -298,37 +344,80 @@ def imitate(model, args: Args, log=print, layout=None) -> dict:
     return info
 
 
+def _resumed(args: Args) -> tuple[Args, tuple | None]:
+    """For ``--resume DIR``: the run's saved arguments (all of them: the run continues as it was
+    started) and its last complete checkpoint (None: start it anew)."""
+    from .checkpoint import last_checkpoint, read_args
+
+    run = Path(args.resume)
+    saved = read_args(run)
+    known = {f.name for f in dataclasses.fields(Args)}
+    unknown = sorted(set(saved) - known)
+    if unknown:
+        raise ArgumentError(f"--resume {run}: {run / 'args.json'} has unknown arguments {unknown}")
+    try:
+        new = Args(**{**saved, "out_dir": str(run), "resume": ""})
+    except ArgumentError as exc:
+        raise ArgumentError(f"--resume {run}: its args.json: {exc}") from None
+    return new, last_checkpoint(run)
+
+
 def train(args: Args) -> Path:
     """Imitate (optional), train, evaluate, save and export (see the module docstring); returns
-    the path of ``model.zip`` (the pickle-free policy is its sibling ``policy/``)."""
+    the path of ``model.zip`` (the pickle-free policy is its sibling ``policy/``). With
+    ``args.resume`` a killed run continues from its last checkpoint (:mod:`.checkpoint`)."""
+    ckpt = None
+    if args.resume:
+        args, ckpt = _resumed(args)
     check_args(args)
     torch = require("torch", "train", "Training with Stable-Baselines3")
     require("stable_baselines3", "train", "Training with Stable-Baselines3")
     from ..adapters import make_sb3_vec_env
+    from .checkpoint import restore_rng, write_args, write_checkpoint
 
     torch.set_num_threads(args.torch_threads)
     out = run_dir(args)
     out.mkdir(parents=True, exist_ok=True)
+    if ckpt is None:
+        write_args(out, dataclasses.asdict(args))
     scen = scenarios_of(args)
     # every robot of every copy is one SB3 sub-environment; a mix holds n_envs copies of each scenario
     kw = {"max_cycles": args.max_cycles} if args.max_cycles else {}
     vec = make_sb3_vec_env(scen if len(scen) > 1 else scen[0], n_robots=args.n_robots,
                            n_envs=args.n_envs * len(scen), seed=args.seed, shield=args.shield, **kw)
     rows, t0 = [], time.perf_counter()
-    model = _model(args, vec, str(out / "tb") if _has("tensorboard") else None)
-    imitation = imitate(model, args, layout=vec.envs[0].layout) if _imitating(args) else None
-    if imitation is not None and args.total_timesteps:  # the imitation stage alone, before PPO changes it
-        from ..adapters.sb3 import export_sb3_policy
+    tb = str(out / "tb") if _has("tensorboard") else None
 
-        export_sb3_policy(model, out / "policy_imitation", vec, scenario=args.scenario, shield=args.shield,
-                          extra={"imitation": imitation, "args": dataclasses.asdict(args), "stage": "imitation"})
-    if imitation is not None and args.eval_every:
-        row = _eval_row(model, args, rows, t0, 0)
-        print(f"after imitation: arrived {row['arrived']:.0%}, fell {row['fell']:.0%} ({row['minutes']:.1f} min)")
+    def extra(rows_now, next_eval):
+        return {"eval_rows": rows_now, "minutes": (time.perf_counter() - t0) / 60, "next_eval": next_eval,
+                "imitation": imitation}
+
+    next_eval = None
+    if ckpt is not None:
+        path, state = ckpt
+        model = _model_class(args).load(path / "model.zip", env=vec, device="cpu", tensorboard_log=tb)
+        restore_rng(path, state, vec)
+        rows, imitation, next_eval = list(state["eval_rows"]), state["imitation"], state["next_eval"]
+        t0 -= 60 * state["minutes"]
+        print(f"resuming {out} from {path.name}: {model.num_timesteps} of {args.total_timesteps} timesteps done")
+    else:
+        model = _model(args, vec, tb)
+        imitation = imitate(model, args, layout=vec.envs[0].layout) if _imitating(args) else None
+        if imitation is not None and args.total_timesteps:  # the imitation stage alone, before PPO changes it
+            from ..adapters.sb3 import export_sb3_policy
+
+            export_sb3_policy(model, out / "policy_imitation", vec, scenario=args.scenario, shield=args.shield,
+                              extra={"imitation": imitation, "args": dataclasses.asdict(args), "stage": "imitation"})
+        if imitation is not None and args.eval_every:
+            row = _eval_row(model, args, rows, t0, 0)
+            print(f"after imitation: arrived {row['arrived']:.0%}, fell {row['fell']:.0%} ({row['minutes']:.1f} min)")
+        if imitation is not None:
+            write_checkpoint(out, model, vec, extra(rows, args.eval_every if rows else 0))
     solved = bool(rows) and args.stop_at_arrival and rows[-1]["arrived"] >= args.stop_at_arrival
-    if args.total_timesteps and not solved:
-        model.learn(total_timesteps=args.total_timesteps, callback=_callbacks(args, out, rows, t0, vec.num_envs),
-                    progress_bar=args.progress_bar and _has("rich", "tqdm"))
+    remaining = args.total_timesteps - model.num_timesteps
+    if remaining > 0 and not solved:
+        model.learn(total_timesteps=remaining, callback=_callbacks(args, out, rows, t0, vec, extra, next_eval),
+                    progress_bar=args.progress_bar and _has("rich", "tqdm"), reset_num_timesteps=ckpt is None)
     if not rows or rows[-1]["timesteps"] != model.num_timesteps:
         _eval_row(model, args, rows, t0, model.num_timesteps)
     _save(model, args, out, rows, t0, vec, imitation)
@@ -342,7 +431,10 @@ def _save(model, args: Args, out: Path, rows: list, t0: float, vec, imitation) -
     from .. import __version__
     from ..scenario import load_scenario
 
-    model.save(out / "model.zip")
+    from .._atomic import atomic_path
+
+    with atomic_path(out / "model.zip") as tmp:
+        model.save(tmp)
     files = {}
     for s in scenarios_of(args):
         try:
@@ -354,8 +446,9 @@ def _save(model, args: Args, out: Path, rows: list, t0: float, vec, imitation) -
     meta = {"args": dataclasses.asdict(args), "scenario_file": first["file"], "scenario_toml": first["toml"],
             "scenarios": files, "timesteps": int(model.num_timesteps), "minutes": (time.perf_counter() - t0) / 60,
             "imitation": imitation, "final_eval": rows[-1], "eval_seed0": EVAL_SEED0, "tin_swarm_env": __version__}
-    (out / "model.json").write_text(json.dumps(meta, indent=2))
-    with open(out / "eval.csv", "w", newline="") as fh:
+    with atomic_path(out / "model.json") as tmp:
+        Path(tmp).write_text(json.dumps(meta, indent=2))
+    with atomic_path(out / "eval.csv") as tmp, open(tmp, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)

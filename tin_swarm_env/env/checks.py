@@ -23,7 +23,10 @@ ENV_ARGS = ("scenario", "n_robots", "max_cycles", "render_mode", "sensor_cones",
 
 def _kind(value) -> str:
     """A short description of ``value`` for messages (its type, and its repr when short)."""
-    r = repr(value)
+    try:
+        r = " ".join(repr(value).split())
+    except Exception:  # noqa: BLE001 (a repr that fails: the type is enough)
+        r = "?" * 61
     return f"{type(value).__name__} {r}" if len(r) <= 60 else f"a {type(value).__name__}"
 
 
@@ -87,8 +90,8 @@ def check_env_kwargs(kwargs: dict, where: str, allowed: tuple = ENV_ARGS) -> Non
 
 
 def _bad_action(agent: str, act) -> ArgumentError:
-    a = np.asarray(act) if isinstance(act, (list, tuple, np.ndarray)) else None
     try:
+        a = np.asarray(act) if isinstance(act, (list, tuple, np.ndarray)) else None
         what = f"shape {a.shape} of {a.dtype}" if a is not None and a.dtype.kind != "O" else _kind(act)
     except Exception:  # noqa: BLE001 (an exotic object: its type is enough)
         what = type(act).__name__

@@ -32,6 +32,8 @@ __all__ = ["TinSwarmEnv", "parallel_env", "raw_env", "env", "RENDER_WIDTH_PX", "
 RENDER_WIDTH_PX = (64, 4096)  # the frame widths render() draws
 DEFAULT_RENDER_WIDTH_PX = 640  # render_width when none is given (the CLI's --render-width too)
 
+_REASON_LABEL = {int(r): r.label for r in Reason}  # Reason code -> infos[agent]["reason"]
+
 
 def _check_args(n_robots, max_cycles, render_width) -> None:
     """The constructor's numbers: ArgumentError naming the argument (an integer in range)."""
@@ -223,6 +225,22 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         return self._target_idx.copy()
 
     @property
+    def rng_state(self) -> dict | None:
+        """The state of the episode generator (``np.random.Generator.bit_generator.state``, plain
+        data; None before the first reset). Setting it makes the next ``reset(seed=None)`` continue
+        from there (training checkpoints save and restore it)."""
+        return None if self._np_random is None else self._np_random.bit_generator.state
+
+    @rng_state.setter
+    def rng_state(self, state: dict) -> None:
+        g = np.random.default_rng()
+        try:
+            g.bit_generator.state = state
+        except (TypeError, ValueError, KeyError) as exc:
+            raise ArgumentError(f"rng_state: not a generator state ({exc})") from None
+        self._np_random = g
+
+    @property
     def steps(self) -> int:
         """Steps taken in this episode."""
         return self._steps
@@ -353,13 +371,14 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         live_before = np.flatnonzero(self._live)
         obs, rew, term, trunc, reasons = self.step_arrays(arr)
         names = self.possible_agents
-        observations = {names[i]: obs[i] for i in live_before}
-        rewards = {names[i]: float(rew[i]) for i in live_before}
-        terminations = {names[i]: bool(term[i]) for i in live_before}
-        truncations = {names[i]: bool(trunc[i]) for i in live_before}
-        infos = {names[i]: {"distance_to_go_m": float(self._dist[i]),
-                            **({"reason": Reason(int(reasons[i])).label} if reasons[i] else {})} for i in live_before}
-        self.agents = [names[i] for i in np.flatnonzero(self._live)]
+        live = [names[i] for i in live_before.tolist()]  # dicts built from whole-array conversions
+        observations = dict(zip(live, obs[live_before]))
+        rewards = dict(zip(live, rew[live_before].tolist()))
+        terminations = dict(zip(live, term[live_before].tolist()))
+        truncations = dict(zip(live, trunc[live_before].tolist()))
+        infos = {a: {"distance_to_go_m": d, "reason": _REASON_LABEL[r]} if r else {"distance_to_go_m": d}
+                 for a, d, r in zip(live, self._dist[live_before].tolist(), reasons[live_before].tolist())}
+        self.agents = [names[i] for i in np.flatnonzero(self._live).tolist()]
         if self.render_mode == "human":
             self.render()
         return observations, rewards, terminations, truncations, infos

@@ -10,6 +10,9 @@ from .tin import Tin
 
 __all__ = ["build_tin"]
 
+MAX_CELL_ASPECT = 1e6  # dx/dy (or dy/dx) of a DEM's cells: up to here every builder's mesh passes the validity
+# check (points are triangulated in grid units, see triangulate.MAX_SPACING_RATIO); beyond it rounding in the
+# check's tolerances makes T-junctions, so such a DEM is refused before any work (resample it)
 METHODS = ("vip", "greedy", "delaunay", "robot")
 
 
@@ -52,6 +55,10 @@ def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices:
         return _cloud_tin(dem, method, max_vertices)
     if not isinstance(dem, Dem):
         raise ArgumentError(f"dem: build_tin needs a Dem or PointCloud, got {type(dem).__name__}")
+    if len(dem.x) > 1 and len(dem.y) > 1 and max(dem.dx / dem.dy, dem.dy / dem.dx) > MAX_CELL_ASPECT:
+        raise DemFormatError(f"{dem.source}: cells of {dem.dx:g} x {dem.dy:g} m (aspect ratio "
+                             f"{max(dem.dx / dem.dy, dem.dy / dem.dx):.3g}); at most {MAX_CELL_ASPECT:g}: resample "
+                             "the DEM to cells closer to square")
     if method == "vip":
         if max_error_m is not None:
             raise ArgumentError("max_error_m applies to method='greedy'; VIP takes max_vertices or min_significance_m")

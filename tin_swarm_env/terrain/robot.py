@@ -1,49 +1,57 @@
-"""A TIN built for robots: refine where the slope class (drivable / too steep) is wrong.
+"""A TIN built for robots: the slope class (drivable / too steep), breaks and sight lines kept.
 
-``build_tin(dem, method="robot", max_vertices=N or max_error_m=E, max_slope_deg=S)``.
+``build_tin(dem, method="robot", max_vertices=N and/or max_error_m=E, max_slope_deg=S)``.
 
-Reference surface
------------------
+Reference surface and error
+---------------------------
 The surface a robot would see at full resolution is :func:`full_surface`: every cell centre a
 vertex, each grid square split along its south-west -> north-east diagonal (two triangles per
-cell). Its triangles are the *samples* of the error measure: each has a class (slope > S:
-too steep) and a centroid height. All samples have the same plan area, so a share of samples
-is a share of the map.
+cell). Each of its triangles holds one *sample* (:func:`sample_points`: an interior point off
+every line through two grid nodes, so no TIN edge hides it on a boundary) with that
+triangle's class (slope > S) and height. All samples stand for the same plan area. The robot
+error of a TIN triangle (:func:`triangle_cost`) sums over its samples ``weight`` when its class
+differs (a drivable sample under a too-steep triangle weighs ``false_steep_weight`` = 3: that
+is the thin steep sliver that cuts drivable ground into pieces; the other way 1: it only
+shortens paths) plus ``vertical_weight x |dz| / (tan S x cell)``, vertical error as the
+tie-breaker.
 
-Method (a batched Garland-Heckbert greedy insertion on a robot error)
---------------------------------------------------------------------
-1. Seed: the four corners; ``seed_fraction`` of the vertex budget from plain greedy
-   insertion on vertical error (:func:`~.greedy.greedy_mesh`, Garland and Heckbert 1995,
-   "Fast polygonal approximation of terrains and height fields", via pydelatin), which places
-   the breaks of the surface (cliff tops and feet, valley floors) first; and ``crest_fraction``
-   of the budget as *crest* nodes: cells higher than the mean of both neighbours on a row,
-   column or diagonal profile, ranked by that height (VIP significance, Chen and Guevara 1987,
-   restricted to convex cells), so the ridges that hide things from a robot's line of sight
-   are vertices.
-2. Repeat: Delaunay in x, y (scipy/Qhull) over the chosen cells; assign every sample to the
-   TIN triangle holding its centroid (:func:`raster_samples`, a compiled scan of each
-   triangle's bounding box of grid squares: O(samples) per round); score each TIN triangle by
-   its *misclassified* samples (a sample on drivable ground under a too-steep TIN triangle
-   counts ``false_steep_weight`` = 3, the other way 1: false steep cuts drivable ground into
-   pieces, false drivable only shortens paths) plus ``vertical_weight`` x its largest vertical
-   error in units of ``cell``-scale slope at S (the tie-breaker); insert, in the best
-   ``batch_fraction`` x V triangles, the not-yet-kept corner of their worst sample's grid
-   triangle with the largest vertical error (:func:`score_triangles`).
-3. Stop at ``max_vertices``, or (``max_error_m``) when no sample is misclassified and every
-   vertical error is at most ``max_error_m``, or when no triangle has a cell left to add.
+Method
+------
+1. Vertices by greedy insertion on vertical error (Garland and Heckbert 1995, "Fast polygonal
+   approximation of terrains and height fields", via pydelatin: :func:`~.greedy.greedy_mesh`):
+   it places cliff feet and tops, valley floors and crests first, the breaks and the sight
+   lines. When it fills ``max_vertices`` (the default ``seed_fraction`` = 1, unless
+   ``max_error_m`` stops it first) its own triangles go to step 3.
+2. Otherwise (``max_error_m`` reached first, or ``seed_fraction`` < 1) a batched greedy insertion on
+   the robot error: the rest of the budget, after ``crest_fraction`` of it on *crest* cells
+   (:func:`crest_score`: higher than both neighbours on a row, column or diagonal profile, the
+   ridges that hide things), goes in rounds: Delaunay in x, y (scipy/Qhull, on a copy sheared
+   by ``SHEAR`` so a square with all four corners kept is split SW-NE like the full surface);
+   every sample to its TIN triangle (:func:`raster_samples`); per triangle, the corner of its
+   worst sample's grid triangle with the largest vertical error is a candidate
+   (:func:`score_triangles`); the ``batch_fraction`` x V best triangles by misclassified weight
+   get theirs. It stops at ``max_vertices``, or when no sample is misclassified and every
+   vertical error at a sample is at most ``max_error_m`` (then the TIN has the full surface's
+   class at every sample: a cliff band is bounded by TIN edges), or when nothing is left to add.
+3. Data-dependent edge flips (Dyn, Levin and Rippa 1990, "Data dependent triangulations for
+   piecewise linear interpolation"), ``flip_passes`` sweeps (:func:`flip_edges`): the diagonal
+   of each convex quadrilateral goes where the robot error of the two triangles
+   (``flip_vertical_weight`` for the vertical term) is lower, never making an angle below
+   ``MIN_FLIP_ANGLE_DEG`` (no new slivers). When step 2 met ``max_error_m`` the flips are kept
+   only if the bound still holds.
 
-Delaunay re-triangulation (not greedy's own triangles) is what keeps the thin steep slivers
-away: an empty-circle triangulation has no needle spanning a valley floor.
+Cost: greedy insertion (C++), then one scan of the samples for the triangle costs and, per
+sweep, two triangle costs per interior edge (each a scan of the samples in a triangle's rows):
+O(rows x cols) per sweep, compiled (numba). Step 2 adds per round a Delaunay of V points and a
+scan of the samples. Measured against greedy at the same vertex count: ``docs/figures/terrain_robot.md``
+(``python bench/terrain.py --robot --write``).
 
-Cost: one greedy run (pydelatin, C++), then per round a Delaunay of V points (O(V log V)) and
-O(rows x cols) numpy/compiled work; with the default batch the vertex count grows by half
-per round, so a handful of rounds. Memory: a few arrays of 2 x rows x cols.
-
-Limits (measured in ``docs/figures/terrain.md``, ``bench/terrain.py``): on a DEM whose slope
-field is noisy at the cell scale (jacksboro at 20 deg: the two halves of 14% of its cells
-have different classes, 36% of its cells touch both classes), no TIN with a tenth of the
-cells reproduces the full surface's class everywhere; a 3x3 majority filter of the class map
-itself agrees at 89%.
+Limits: on a DEM whose slope field is noisy at the cell scale (jacksboro at 20 deg: the two
+halves of 14 % of its cells have different classes, 36 % of its cells touch both classes) no
+TIN with a tenth of the cells reproduces the full surface's classes or drivable distances: the
+same full surface with the *other* diagonal in every cell agrees with it on slope class at
+about 90 % of points and on cost-to-go (within 5 %) at about 45 % (bench/terrain.py, row
+"other diagonal").
 """
 
 from __future__ import annotations
@@ -55,9 +63,9 @@ from ..errors import ArgumentError, DemFormatError
 from .dem import Dem
 
 __all__ = ["robot_mesh", "full_surface", "full_surface_triangles", "full_surface_slope_deg", "sample_points",
-           "raster_samples", "score_triangles", "crest_score"]
+           "raster_samples", "score_triangles", "crest_score", "triangle_cost", "flip_edges"]
 
-SEED_FRACTION = 0.8  # of max_vertices, from plain greedy insertion (vertical error)
+SEED_FRACTION = 1.0  # of max_vertices, from plain greedy insertion (vertical error)
 CREST_FRACTION = 0.05  # of max_vertices, crest cells (line of sight)
 BATCH_FRACTION = 0.5  # vertices inserted per round, as a fraction of the current count
 FALSE_STEEP_WEIGHT = 3.0  # a drivable sample under a too-steep TIN triangle
@@ -68,6 +76,10 @@ FALSE_DRIVABLE_WEIGHT = 1.0  # a too-steep sample under a drivable TIN triangle
 SAMPLE_NEAR, SAMPLE_FAR = 0.30901699, 0.63819660
 SHEAR = 1e-3  # cells of x shift per row, for the triangulation only
 VERTICAL_WEIGHT = 0.1  # per cell-scale vertical error (tie-breaker)
+FLIP_PASSES = 1  # sweeps of data-dependent edge flips after the last insertion
+FLIP_VERTICAL_WEIGHT = 1.0  # per cell-scale vertical error, in the flips' cost
+MIN_FLIP_GAIN = 0.25  # a pair of triangles costing less is not worth a flip (cost: one misclassified sample = 1)
+MIN_FLIP_ANGLE_DEG = 5.0  # a flip may not make a triangle with a smaller angle (no slivers)
 
 
 def full_surface_triangles(shape: tuple[int, int]) -> np.ndarray:
@@ -215,7 +227,8 @@ def _check_dem(dem: Dem) -> None:
 def robot_mesh(dem: Dem, max_slope_deg: float, max_vertices: int | None = None, max_error_m: float | None = None,
                *, seed_fraction: float = SEED_FRACTION, crest_fraction: float = CREST_FRACTION,
                batch_fraction: float = BATCH_FRACTION, false_steep_weight: float = FALSE_STEEP_WEIGHT,
-               vertical_weight: float = VERTICAL_WEIGHT, false_drivable_weight: float = FALSE_DRIVABLE_WEIGHT):
+               vertical_weight: float = VERTICAL_WEIGHT, false_drivable_weight: float = FALSE_DRIVABLE_WEIGHT,
+               flip_passes: int = FLIP_PASSES, flip_vertical_weight: float = FLIP_VERTICAL_WEIGHT):
     """Vertices ``(V, 3)`` m and triangles ``(T, 3)`` of the robot TIN of ``dem`` (module docstring)."""
     _check_dem(dem)
     if max_slope_deg is None or not (np.isfinite(max_slope_deg) and 0 < max_slope_deg < 90):
@@ -254,28 +267,27 @@ def robot_mesh(dem: Dem, max_slope_deg: float, max_vertices: int | None = None, 
     keep = np.zeros(n_cells, dtype=bool)
     keep[[0, cols - 1, n_cells - cols, n_cells - 1]] = True
     n_seed = int(seed_fraction * budget)
+    greedy_tri = None
     if n_seed >= 4 or max_error_m is not None:
         kw = {"max_vertices": max(4, n_seed)} if max_vertices is not None else {}
-        v, _ = greedy_mesh(dem, max_error_m=max_error_m, **kw)
+        v, greedy_tri = greedy_mesh(dem, max_error_m=max_error_m, **kw)
         jj = np.rint((v[:, 0] - dem.x[0]) / dx).astype(np.int64)
         ii = np.rint((v[:, 1] - dem.y[0]) / dy).astype(np.int64)
+        greedy_tri = (ii * cols + jj)[greedy_tri]
         keep[ii * cols + jj] = True
-    n_crest = int(crest_fraction * budget)
+    if greedy_tri is not None and max_vertices is not None and len(v) >= budget:
+        # the whole budget from greedy insertion: its own triangles, then the flips
+        idx = np.flatnonzero(keep)
+        return _finish(dem, idx, greedy_tri, None, flip_passes, flip_vertical_weight, None, ni, nj, vx, vy,
+                       sx, sy, sz, steep_f, weight, tan_s, cell_err, None)
+    n_crest = min(int(crest_fraction * budget), budget - int(keep.sum()))
     if n_crest > 0:
         cs = crest_score(z).ravel()
         cs[keep] = 0.0
         top = np.argpartition(-cs, min(n_crest, n_cells - 1))[:n_crest]
         keep[top[cs[top] > 0]] = True
-    while True:
-        idx = np.flatnonzero(keep)
-        if len(idx) > budget:  # the seeds overshot a tiny budget: keep the corners and the first ones
-            idx = idx[:budget]
-        # Delaunay of a slightly sheared copy: a grid square with its four corners kept is then
-        # split along SW-NE like the full surface, not as Qhull breaks the co-circular tie
-        tri = idx[Delaunay(np.column_stack([vx[idx] - SHEAR * dx * ni[idx], vy[idx]]),
-                           qhull_options="Qbb Qc Qz Q12").simplices]
-        if len(idx) >= budget:
-            break
+
+    def stats(tri):
         owner = raster_samples(ni, nj, tri, rows, cols)
         q = np.stack([vx[tri], vy[tri], zf[tri]], -1)
         n = np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
@@ -284,9 +296,23 @@ def robot_mesh(dem: Dem, max_slope_deg: float, max_vertices: int | None = None, 
         gx, gy = np.where(flat, 0.0, -n[:, 0] / nz), np.where(flat, 0.0, -n[:, 1] / nz)
         c0 = q[:, 0, 2] - gx * q[:, 0, 0] - gy * q[:, 0, 1]
         steep_t = np.hypot(gx, gy) > tan_s
-        best, cell, wrong, err = score_triangles(owner, gx, gy, c0, steep_t, sx, sy, sz, steep_f, weight, nodes,
-                                                 vx, vy, zf, keep, vertical_weight, cell_err)
+        return score_triangles(owner, gx, gy, c0, steep_t, sx, sy, sz, steep_f, weight, nodes, vx, vy, zf, keep,
+                               vertical_weight, cell_err)
+
+    reached = False  # the loop ended with every sample classified right and within max_error_m
+    while True:
+        idx = np.flatnonzero(keep)
+        if len(idx) > budget:  # the seeds overshot a tiny budget: keep the corners and the first ones
+            idx = idx[:budget]
+        # Delaunay of a slightly sheared copy: a grid square with its four corners kept is then
+        # split along SW-NE like the full surface, not as Qhull breaks the co-circular tie
+        d = Delaunay(np.column_stack([vx[idx] - SHEAR * dx * ni[idx], vy[idx]]), qhull_options="Qbb Qc Qz Q12")
+        tri = idx[d.simplices]
+        if len(idx) >= budget:
+            break
+        best, cell, wrong, err = stats(tri)
         if max_error_m is not None and not wrong.any() and err.max() <= max_error_m:
+            reached = True
             break
         ok = cell >= 0
         if max_error_m is not None:  # error-bounded: only triangles that break a bound
@@ -298,5 +324,165 @@ def robot_mesh(dem: Dem, max_slope_deg: float, max_vertices: int | None = None, 
         add = np.unique(cell[cand], return_index=True)[1]
         add = cell[cand][np.sort(add)][: max(1, min(int(batch_fraction * len(idx)), budget - len(idx)))]
         keep[add] = True
+    return _finish(dem, idx, tri, d.neighbors.astype(np.int64), flip_passes, flip_vertical_weight,
+                   max_error_m if reached else None, ni, nj,
+                   vx, vy, sx, sy, sz, steep_f, weight, tan_s, cell_err, stats)
+
+
+def _finish(dem, idx, tri, nbrs, flip_passes, flip_vertical_weight, max_error_m, ni, nj, vx, vy, sx, sy, sz, steep_f,
+            weight, tan_s, cell_err, stats):
+    """The flips (:func:`flip_edges`) and the vertices/triangles to return; ``nbrs`` None: computed.
+    ``max_error_m`` not None: the bound the triangles meet, kept (flips undone when they break it)."""
+    rows, cols = dem.shape
+    zf = dem.z.ravel()
+    if flip_passes > 0:
+        if nbrs is None:
+            from .tin import _neighbors
+
+            tri_f, _ = _ccw(tri, np.zeros_like(tri), vx, vy)
+            nbrs = _neighbors(tri_f, vx, dem.source)
+        else:
+            tri_f, nbrs = _ccw(tri, nbrs, vx, vy)
+        flip_edges(tri_f, nbrs, vx, vy, zf, ni, nj, rows, cols, sx, sy, sz, steep_f, weight, tan_s,
+                   flip_vertical_weight, cell_err, np.cos(np.radians(MIN_FLIP_ANGLE_DEG)), flip_passes)
+        if max_error_m is None:
+            tri = tri_f
+        else:  # keep the flips only where they keep the bound the loop reached
+            _, _, wrong, err = stats(tri_f)
+            if not wrong.any() and err.max() <= max_error_m:
+                tri = tri_f
     xyz = np.column_stack([dem.x[idx % cols], dem.y[idx // cols], zf[idx]])
     return xyz, np.searchsorted(idx, tri)
+
+
+def _ccw(tri, nbrs, vx, vy):
+    """Copies of ``tri`` and its neighbours with every triangle counter-clockwise in x, y."""
+    tri, nbrs = tri.copy(), nbrs.copy()
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    cw = (vx[b] - vx[a]) * (vy[c] - vy[a]) - (vy[b] - vy[a]) * (vx[c] - vx[a]) < 0
+    tri[cw] = tri[cw][:, [0, 2, 1]]
+    nbrs[cw] = nbrs[cw][:, [0, 2, 1]]
+    return tri, nbrs
+
+
+@njit(cache=True)
+def triangle_cost(p, q, r, vx, vy, vz, ni, nj, rows, cols, sx, sy, sz, steep_f, weight, tan_s, vw, cell_err):
+    """Robot error of the triangle (p, q, r) (cells, CCW) over the samples inside it:
+    ``sum(weight * misclassified + vw * |dz| / cell_err)``; ``inf`` when not counter-clockwise."""
+    ax, ay, bx, by, cx, cy = vx[p], vy[p], vx[q], vy[q], vx[r], vy[r]
+    if (bx - ax) * (cy - ay) - (by - ay) * (cx - ax) <= 0:
+        return np.inf
+    ux, uy, uz = bx - ax, by - ay, vz[q] - vz[p]
+    wx, wy, wz = cx - ax, cy - ay, vz[r] - vz[p]
+    nz = ux * wy - uy * wx
+    gx, gy = -(uy * wz - uz * wy) / nz, -(uz * wx - ux * wz) / nz
+    steep = gx * gx + gy * gy > tan_s * tan_s
+    i0, i1 = int(min(ni[p], ni[q], ni[r])), int(max(ni[p], ni[q], ni[r]))
+    j0, j1 = int(min(nj[p], nj[q], nj[r])), int(max(nj[p], nj[q], nj[r]))
+    c = 0.0
+    for i in range(i0, min(i1, rows - 1)):
+        for k in range(2):
+            # the columns where the row of samples k crosses the triangle (index space), one cell of slack;
+            # the exact test below decides
+            fi = i + (SAMPLE_NEAR if k == 0 else SAMPLE_FAR)
+            off = SAMPLE_FAR if k == 0 else SAMPLE_NEAR
+            lo, hi = _row_span(ni[p], nj[p], ni[q], nj[q], ni[r], nj[r], fi)
+            ja, jb = max(j0, int(np.floor(lo - off)) - 1), min(j1, int(np.ceil(hi - off)) + 1, cols - 2)
+            for j in range(ja, jb + 1):
+                s = 2 * (i * (cols - 1) + j) + k
+                px, py = sx[s], sy[s]
+                if ((bx - ax) * (py - ay) - (by - ay) * (px - ax) >= 0
+                        and (cx - bx) * (py - by) - (cy - by) * (px - bx) >= 0
+                        and (ax - cx) * (py - cy) - (ay - cy) * (px - cx) >= 0):
+                    c += vw * abs(vz[p] + gx * (px - ax) + gy * (py - ay) - sz[s]) / cell_err
+                    if steep != steep_f[s]:
+                        c += weight[s]
+    return c
+
+
+@njit(cache=True)
+def _row_span(ai, aj, bi, bj, ci, cj, fi):
+    """(lo, hi): the column range where the line row = fi crosses triangle a, b, c (index space);
+    lo > hi when it misses."""
+    lo, hi = np.inf, -np.inf
+    for pi, pj, qi, qj in ((ai, aj, bi, bj), (bi, bj, ci, cj), (ci, cj, ai, aj)):
+        if (pi <= fi <= qi) or (qi <= fi <= pi):
+            if pi == qi:
+                x0, x1 = min(pj, qj), max(pj, qj)
+            else:
+                x0 = x1 = pj + (fi - pi) * (qj - pj) / (qi - pi)
+            lo, hi = min(lo, x0), max(hi, x1)
+    return lo, hi
+
+
+@njit(cache=True)
+def _max_cos(ax, ay, bx, by, cx, cy):
+    """The cosine of the smallest angle of a triangle."""
+    best = -1.0
+    for px, py, qx, qy, rx, ry in ((ax, ay, bx, by, cx, cy), (bx, by, cx, cy, ax, ay), (cx, cy, ax, ay, bx, by)):
+        ux, uy, wx, wy = qx - px, qy - py, rx - px, ry - py
+        best = max(best, (ux * wx + uy * wy) / np.sqrt((ux * ux + uy * uy) * (wx * wx + wy * wy)))
+    return best
+
+
+@njit(cache=True)
+def flip_edges(tris, nbrs, vx, vy, vz, ni, nj, rows, cols, sx, sy, sz, steep_f, weight, tan_s, vw, cell_err,
+               max_cos, passes):
+    """Data-dependent edge flips, in place: each interior edge of a convex quadrilateral is
+    flipped when the two new triangles have a lower :func:`triangle_cost` and no angle below
+    ``arccos(max_cos)`` (no slivers); ``passes`` sweeps over the triangles. ``tris`` CCW,
+    ``nbrs[t, k]`` the triangle opposite vertex k. Returns the number of flips."""
+    nt = tris.shape[0]
+    cost = np.empty(nt)
+    for t in range(nt):
+        cost[t] = triangle_cost(tris[t, 0], tris[t, 1], tris[t, 2], vx, vy, vz, ni, nj, rows, cols, sx, sy, sz,
+                                steep_f, weight, tan_s, vw, cell_err)
+    n_flips = 0
+    for _ in range(passes):
+        changed = 0
+        for t1 in range(nt):
+            for k1 in range(3):
+                t2 = nbrs[t1, k1]
+                if t2 < t1 or cost[t1] + cost[t2] < MIN_FLIP_GAIN:  # each edge once; nothing to gain
+                    continue
+                c, a, b = tris[t1, k1], tris[t1, (k1 + 1) % 3], tris[t1, (k1 + 2) % 3]
+                k2 = -1
+                for kk in range(3):
+                    if nbrs[t2, kk] == t1:
+                        k2 = kk
+                if k2 < 0:
+                    continue
+                d = tris[t2, k2]
+                # the new triangles (c, a, d) and (d, b, c) must be CCW (a convex quadrilateral)
+                if ((vx[a] - vx[c]) * (vy[d] - vy[c]) - (vy[a] - vy[c]) * (vx[d] - vx[c]) <= 0
+                        or (vx[b] - vx[d]) * (vy[c] - vy[d]) - (vy[b] - vy[d]) * (vx[c] - vx[d]) <= 0):
+                    continue
+                if (_max_cos(vx[c], vy[c], vx[a], vy[a], vx[d], vy[d]) > max_cos
+                        or _max_cos(vx[d], vy[d], vx[b], vy[b], vx[c], vy[c]) > max_cos):
+                    continue
+                n1 = triangle_cost(c, a, d, vx, vy, vz, ni, nj, rows, cols, sx, sy, sz, steep_f, weight, tan_s, vw,
+                                   cell_err)
+                n2 = triangle_cost(d, b, c, vx, vy, vz, ni, nj, rows, cols, sx, sy, sz, steep_f, weight, tan_s, vw,
+                                   cell_err)
+                if n1 + n2 < cost[t1] + cost[t2] - 1e-9:
+                    na, nb = nbrs[t1, (k1 + 1) % 3], nbrs[t1, (k1 + 2) % 3]  # across b-c, c-a
+                    mb, ma = nbrs[t2, (k2 + 1) % 3], nbrs[t2, (k2 + 2) % 3]  # across a-d, d-b
+                    tris[t1, 0], tris[t1, 1], tris[t1, 2] = c, a, d
+                    nbrs[t1, 0], nbrs[t1, 1], nbrs[t1, 2] = mb, t2, nb
+                    tris[t2, 0], tris[t2, 1], tris[t2, 2] = d, b, c
+                    nbrs[t2, 0], nbrs[t2, 1], nbrs[t2, 2] = na, t1, ma
+                    if mb >= 0:
+                        for kk in range(3):
+                            if nbrs[mb, kk] == t2:
+                                nbrs[mb, kk] = t1
+                    if na >= 0:
+                        for kk in range(3):
+                            if nbrs[na, kk] == t1:
+                                nbrs[na, kk] = t2
+                    cost[t1], cost[t2] = n1, n2
+                    changed += 1
+                    break  # t1 is a new triangle: its edges next sweep
+        n_flips += changed
+        if changed == 0:
+            break
+    return n_flips

@@ -8,7 +8,17 @@ import numpy as np
 
 from ..errors import TinStructureError
 
-__all__ = ["delaunay_triangles"]
+__all__ = ["delaunay_triangles", "MAX_SPACING_RATIO"]
+
+MAX_SPACING_RATIO = 10.0  # beyond this ratio of typical x and y point spacings (a DEM's cell aspect ratio),
+# Qhull's Delaunay of the raw coordinates makes needle triangles whose corners lie on other triangles' edges
+# to within rounding (T-junctions): such points are triangulated with y rescaled to the x spacing
+
+
+def _spacing(v: np.ndarray) -> float:
+    """The typical gap between the distinct values of ``v`` (median; 0 when all equal)."""
+    d = np.diff(np.unique(v))
+    return float(np.median(d)) if len(d) else 0.0
 
 
 def delaunay_triangles(points, *, source: str = "<points>") -> np.ndarray:
@@ -31,6 +41,11 @@ def delaunay_triangles(points, *, source: str = "<points>") -> np.ndarray:
     xy = p[:, :2]
     # Qhull is happiest near the origin: shift (not scale) to keep the Delaunay test exact
     xy = xy - xy.min(axis=0)
+    sx, sy = _spacing(xy[:, 0]), _spacing(xy[:, 1])
+    if sx > 0 and sy > 0 and max(sx / sy, sy / sx) > MAX_SPACING_RATIO:
+        # a positive scaling keeps every triangle's orientation and incidences: the triangulation of the
+        # rescaled points is a valid one of the originals, made of well-shaped triangles in grid units
+        xy = xy * np.array([1.0 / sx, 1.0 / sy])
     try:
         d = Delaunay(xy, qhull_options="Qbb Qc Qz Q12")
     except QhullError as exc:

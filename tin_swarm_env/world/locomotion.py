@@ -28,13 +28,42 @@ import numpy as np
 from numba import njit, prange
 
 from ..terrain import exit_edge
+from ..terrain._kernels import bucket_locate1, walk_locate1
 from .state import Reason
 
 __all__ = ["MOVED", "BLOCKED_BORDER", "BLOCKED_STEEP", "FELL_INTO", "body_to_world", "move", "turn_toward",
-           "uphill_factor", "walk", "move_walk"]
+           "uphill_factor", "walk", "move_walk", "move_kernel"]
 
 MOVED, BLOCKED_BORDER, BLOCKED_STEEP, FELL_INTO, STUCK = 0, 1, 2, 3, -2
 _PULLBACK_M = 1e-3
+
+
+@njit(cache=True)
+def move_walk1(vx, vy, tris, nbrs, grad, steep, ax, ay, t, dx, dy, max_steps):
+    """One robot's walk of ``(dx, dy)`` from ``(ax, ay)`` in triangle ``t``: ``(x, y, tri,
+    event)`` (see :func:`move_walk`); ``(ax, ay, t, STUCK)`` when no exit edge was found."""
+    if dx == 0.0 and dy == 0.0:
+        return ax, ay, t, MOVED
+    length = math.sqrt(dx * dx + dy * dy)
+    ds_pull = _PULLBACK_M / length
+    t0 = t
+    s_in = 0.0  # where the segment entered t
+    for _ in range(max_steps):
+        ex, s, _u = exit_edge(vx, vy, tris, t, ax, ay, dx, dy)
+        if ex < 0:
+            break
+        if s >= 1.0:
+            return ax + dx, ay + dy, t, MOVED
+        nb = nbrs[t, ex]
+        if nb >= 0 and steep[nb] and grad[nb, 0] * dx + grad[nb, 1] * dy < 0.0:
+            s_fall = min(s + ds_pull, 1.0)
+            return ax + s_fall * dx, ay + s_fall * dy, nb, FELL_INTO
+        if nb < 0 or steep[nb]:
+            s_stop = max(min(s - ds_pull, s), s_in, 0.0)
+            return ax + s_stop * dx, ay + s_stop * dy, t, (BLOCKED_BORDER if nb < 0 else BLOCKED_STEEP)
+        s_in = max(s, s_in)
+        t = nb
+    return ax, ay, t0, STUCK
 
 
 @njit(cache=True, parallel=True)
@@ -50,45 +79,105 @@ def move_walk(vx, vy, tris, nbrs, grad, steep, pos, tri, disp, max_steps):
     out_tri = tri.copy()
     event = np.zeros(n, dtype=np.int8)
     for i in prange(n):  # one robot per iteration, nothing shared: any thread count, same result
-        dx = disp[i, 0]
-        dy = disp[i, 1]
-        if dx == 0.0 and dy == 0.0:
-            continue
-        ax = pos[i, 0]
-        ay = pos[i, 1]
-        length = math.sqrt(dx * dx + dy * dy)
-        ds_pull = _PULLBACK_M / length
-        t = tri[i]
-        s_in = 0.0  # where the segment entered t
-        ev = STUCK
-        for _ in range(max_steps):
-            ex, s, _u = exit_edge(vx, vy, tris, t, ax, ay, dx, dy)
-            if ex < 0:
-                break
-            if s >= 1.0:
-                out_pos[i, 0] = ax + dx
-                out_pos[i, 1] = ay + dy
-                ev = MOVED
-                break
-            nb = nbrs[t, ex]
-            if nb >= 0 and steep[nb] and grad[nb, 0] * dx + grad[nb, 1] * dy < 0.0:
-                s_fall = min(s + ds_pull, 1.0)
-                out_pos[i, 0] = ax + s_fall * dx
-                out_pos[i, 1] = ay + s_fall * dy
-                t = nb
-                ev = FELL_INTO
-                break
-            if nb < 0 or steep[nb]:
-                s_stop = max(min(s - ds_pull, s), s_in, 0.0)
-                out_pos[i, 0] = ax + s_stop * dx
-                out_pos[i, 1] = ay + s_stop * dy
-                ev = BLOCKED_BORDER if nb < 0 else BLOCKED_STEEP
-                break
-            s_in = max(s, s_in)
-            t = nb
-        out_tri[i] = t if ev != STUCK else tri[i]
+        x, y, t, ev = move_walk1(vx, vy, tris, nbrs, grad, steep, pos[i, 0], pos[i, 1], tri[i], disp[i, 0],
+                                 disp[i, 1], max_steps)
+        out_pos[i, 0] = x
+        out_pos[i, 1] = y
+        out_tri[i] = t
         event[i] = ev
     return out_pos, out_tri, event
+
+
+@njit(cache=True, parallel=True)
+def move_kernel(T, steep, pos, tri, head, heights, active, cmd, max_speed, max_climb_deg, max_turn, dt):
+    """:func:`move` fused into one parallel pass, plus the new ground heights, distances driven
+    and climbs: ``(pos (n, 2), tri, head, speeds, events, heights, moved, climb)``. ``T`` is
+    :func:`~.sense_kernels.terrain_arrays`. The numpy functions of this module (:func:`move`)
+    are its reference; each robot is computed by one iteration from its own inputs only."""
+    vx, vy, vz, tris, nbrs, grad, bs, bt, bx0, by0, binv, bnx, bny, edges, border, tol, ztol, ms = T
+    n = pos.shape[0]
+    out_pos = np.empty((n, 2))
+    out_tri = np.empty(n, dtype=np.int64)
+    out_head = np.empty(n)
+    speeds = np.empty(n)
+    event = np.empty(n, dtype=np.int8)
+    out_h = np.empty(n)
+    moved = np.empty(n)
+    climb = np.empty(n)
+    two_pi = 2 * math.pi
+    for i in prange(n):
+        px = pos[i, 0]
+        py = pos[i, 1]
+        t0 = tri[i]
+        h = head[i]
+        # 1. body-frame command -> world velocity (clipped to the square, then the disc)
+        c0 = min(max(cmd[i, 0], -1.0), 1.0)
+        c1 = min(max(cmd[i, 1], -1.0), 1.0)
+        nrm = max(math.hypot(c0, c1), 1.0)
+        c0 = c0 / nrm
+        c1 = c1 / nrm
+        ch = math.cos(h)
+        sh = math.sin(h)
+        vxw = max_speed * (ch * c0 - sh * c1)
+        vyw = max_speed * (sh * c0 + ch * c1)
+        if not active[i]:
+            vxw = 0.0
+            vyw = 0.0
+        # 2. uphill pitch slows
+        sp = math.hypot(vxw, vyw)
+        rise = (grad[t0, 0] * vxw + grad[t0, 1] * vyw) / max(sp, 1e-300)
+        pitch = math.degrees(math.atan(max(rise, 0.0)))
+        f = min(max(1.0 - pitch / max_climb_deg, 0.0), 1.0) * dt
+        dx = vxw * f
+        dy = vyw * f
+        # 3. the walk, starting in the triangle the motion enters
+        x, y, t, ev = px, py, t0, MOVED
+        length = math.hypot(dx, dy)
+        if length > 0:
+            g = min(1e-6 / length, 1e-3)
+            qx = px + dx * g
+            qy = py + dy * g
+            ta = -1
+            if 0 <= t0 < tris.shape[0]:
+                ta = walk_locate1(vx, vy, tris, nbrs, qx, qy, t0, ms, tol)
+            if ta < 0:
+                ta = bucket_locate1(vx, vy, tris, bs, bt, bx0, by0, binv, bnx, bny, qx, qy, tol)
+            if ta < 0:
+                ev = BLOCKED_BORDER
+            elif steep[ta]:
+                if grad[ta, 0] * dx + grad[ta, 1] * dy < 0:
+                    x, y, t, ev = qx, qy, ta, FELL_INTO
+                else:
+                    ev = BLOCKED_STEEP
+            else:
+                x, y, t, ev = move_walk1(vx, vy, tris, nbrs, grad, steep, px, py, ta, dx, dy, ms)
+                if ev == STUCK:  # degenerate geometry: nudge 1 um toward the start triangle's centroid
+                    cx = (vx[tris[ta, 0]] + vx[tris[ta, 1]] + vx[tris[ta, 2]]) / 3.0
+                    cy = (vy[tris[ta, 0]] + vy[tris[ta, 1]] + vy[tris[ta, 2]]) / 3.0
+                    ddx = cx - px
+                    ddy = cy - py
+                    dn = max(math.hypot(ddx, ddy), 1e-300)
+                    x, y, t, ev = move_walk1(vx, vy, tris, nbrs, grad, steep, px + 1e-6 * ddx / dn,
+                                             py + 1e-6 * ddy / dn, ta, dx, dy, ms)
+                    if ev == STUCK:  # give up: stay put this step
+                        x, y, t, ev = px, py, t0, BLOCKED_BORDER
+        out_pos[i, 0] = x
+        out_pos[i, 1] = y
+        out_tri[i] = t
+        event[i] = ev
+        mv = math.hypot(x - px, y - py)
+        speeds[i] = mv / dt
+        moved[i] = mv
+        # 4. heading turns toward the commanded motion
+        if sp > 0:
+            diff = (math.atan2(vyw, vxw) - h + math.pi) % two_pi - math.pi
+            h = h + min(max(diff, -max_turn), max_turn)
+        out_head[i] = (h + math.pi) % two_pi - math.pi
+        a = tris[t, 0]
+        z = vz[a] + grad[t, 0] * (x - vx[a]) + grad[t, 1] * (y - vy[a])
+        out_h[i] = z
+        climb[i] = z - heights[i]
+    return out_pos, out_tri, out_head, speeds, event, out_h, moved, climb
 
 
 def walk(tin, steep, positions, tri_idx, disp):

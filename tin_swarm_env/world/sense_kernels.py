@@ -114,12 +114,13 @@ def _near_row(i, qx, qy, x0, y0, inv, nx, ny, start, items, gx, gy, skip, range_
         for m in range(start[cy * nx + cx_lo], start[cy * nx + cx_hi + 1]):
             dx = gx[m] - qx
             dy = gy[m] - qy
-            if dx * dx + dy * dy > r2:  # a safe prefilter; the exact test is the hypot below
+            d2 = dx * dx + dy * dy
+            if d2 > r2:
                 continue
             j = items[m]
             if j == skip:
                 continue
-            d = math.hypot(dx, dy)
+            d = math.sqrt(d2)
             if d <= range_m:
                 c = _insert(idx, dist, i, c, k, j, d)
     return c

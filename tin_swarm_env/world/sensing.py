@@ -28,6 +28,7 @@ Contacts are ordered by observer, then distance (ties: lower index).
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -196,10 +197,25 @@ def _empty_contacts(n) -> Contacts:
     return Contacts(z, z, np.zeros(0), np.zeros(0), np.zeros(n + 1, dtype=np.int64))
 
 
-def _slots(n, k):
-    """``(idx, dist, bear, vis, cnt)``: per observer K candidate slots (only ``[:cnt]`` is read)."""
-    return (np.empty((n, k), dtype=np.int64), np.empty((n, k)), np.empty((n, k)), np.zeros((n, k), dtype=np.int8),
-            np.zeros(n, dtype=np.int64))
+_SCRATCH = threading.local()  # per thread: slot buffers reused across calls (never returned to callers)
+
+
+def _slots(n, k, which):
+    """``(idx, dist, bear, vis, cnt)``: per observer K candidate slots (only ``[:cnt]`` is read;
+    ``cnt`` zeroed here, the kernels write every slot they later read). Reused across calls
+    of the same thread and size: no allocation per step."""
+    cache = getattr(_SCRATCH, "slots", None)
+    if cache is None:
+        cache = _SCRATCH.slots = {}
+    key = (n, k, which)
+    buf = cache.get(key)
+    if buf is None:
+        if len(cache) > 12:
+            cache.clear()
+        buf = cache[key] = (np.empty((n, k), dtype=np.int64), np.empty((n, k)), np.empty((n, k)),
+                            np.empty((n, k), dtype=np.int8), np.empty(n, dtype=np.int64))
+    buf[4][:] = 0
+    return buf
 
 
 def _entities(tin, ent, params, r):
@@ -230,9 +246,9 @@ def sense(tin, break_index: BreakIndex, state, params) -> SensorReadings:
     half_fov = math.radians(sp.fov_deg) / 2 + 1e-12
     T = SK.terrain_arrays(tin)
     G = grid_build(x, y, present, r)
-    R = _slots(n, k)
-    TG = (_entities(tin, state.targets, params, r), *_slots(n, k))
-    AS = (_entities(tin, state.assets, params, r), *_slots(n, k))
+    R = _slots(n, k, 0)
+    TG = (_entities(tin, state.targets, params, r), *_slots(n, k, 1))
+    AS = (_entities(tin, state.assets, params, r), *_slots(n, k, 2))
     bi = break_index
     if r > bi.range_m:
         raise ValueError(f"BreakIndex built for range {bi.range_m} m, asked for {r} m")

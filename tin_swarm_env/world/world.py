@@ -15,7 +15,7 @@ from .entities import make_entities, move_entities
 from .params import WorldParams
 from .grid import grid_build
 from .placement import check_placement
-from .sense_kernels import collision_counts
+from .sense_kernels import collision_counts, terrain_arrays
 from .sensing import BreakIndex, SensorReadings, sense
 from .state import Entities, Reason, WorldState, is_present
 
@@ -114,11 +114,12 @@ class World:
         c = self.check_commands(state, commands)
         P = self.params
         s = state.copy()
-        pos, tri, head, speeds, ev = locomotion.move(self.tin, self.steep, s.positions, s.tri_idx, s.headings,
-                                                     s.status, c, P.robot, P.dt_s)
-        heights = self.tin.height_in(pos, tri)
-        moved = np.hypot(*(pos - s.positions).T)
-        climb = heights - s.heights
+        # locomotion.move (the numpy reference) fused into one parallel pass with heights and distances
+        pos, tri, head, speeds, ev, heights, moved, climb = locomotion.move_kernel(
+            terrain_arrays(self.tin), self.steep, np.ascontiguousarray(s.positions), np.ascontiguousarray(s.tri_idx),
+            np.ascontiguousarray(s.headings), np.ascontiguousarray(s.heights), s.status == Reason.NONE, c,
+            float(P.robot.max_speed_mps), float(P.robot.max_climb_deg), math.radians(P.robot.turn_rate_dps) * P.dt_s,
+            float(P.dt_s))
         new_batt = drain(s.battery_j, s.status, moved, climb, P.battery, P.dt_s)
         energy = s.battery_j - new_batt
         fell = ev == locomotion.FELL_INTO

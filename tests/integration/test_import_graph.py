@@ -1,0 +1,108 @@
+"""No import circle inside the package: the graph of which module imports which (every import
+statement, module-level or inside a function, read with ``ast``; package ``__init__`` re-exports
+left out) has no cycle. Before this test, scenario/config.py and scenario/generators.py imported
+each other (one of them inside a function)."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+PKG = Path(__file__).resolve().parents[2] / "tin_swarm_env"
+
+
+def _modules() -> dict[str, Path]:
+    out = {}
+    for p in PKG.rglob("*.py"):
+        parts = p.relative_to(PKG.parent).with_suffix("").parts
+        out[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = p
+    return out
+
+
+def import_graph() -> dict[str, set[str]]:
+    """``{module: modules of the package it imports}`` over the non-``__init__`` modules."""
+    mods = _modules()
+    graph = {}
+    for name, path in mods.items():
+        if path.name == "__init__.py":
+            continue
+        package = name.split(".")[:-1]
+        deps = set()
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.ImportFrom):
+                base = ".".join(package[: len(package) - node.level + 1] + [node.module or ""]).rstrip(".") \
+                    if node.level else node.module
+                targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in mods else base for a in node.names]
+            elif isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            else:
+                continue
+            deps |= {t for t in targets if t in mods and t != name and mods[t].name != "__init__.py"}
+        graph[name] = deps
+    return graph
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one module (Tarjan, iterative)."""
+    index, low, stack, on, out, counter = {}, {}, [], set(), [], [0]
+    for root in graph:
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = counter[0]
+        counter[0] += 1
+        stack.append(root)
+        on.add(root)
+        while work:
+            v, it = work[-1]
+            w = next(it, None)
+            if w is None:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[v])
+                if low[v] == index[v]:
+                    comp = []
+                    while True:
+                        x = stack.pop()
+                        on.discard(x)
+                        comp.append(x)
+                        if x == v:
+                            break
+                    if len(comp) > 1:
+                        out.append(sorted(comp))
+            elif w not in index:
+                index[w] = low[w] = counter[0]
+                counter[0] += 1
+                stack.append(w)
+                on.add(w)
+                work.append((w, iter(sorted(graph[w]))))
+            elif w in on:
+                low[v] = min(low[v], index[w])
+    return out
+
+
+def test_the_cycle_finder_finds_a_circle_and_a_longer_one():
+    assert cycles({"a": {"b"}, "b": {"a"}, "c": set()}) == [["a", "b"]]
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": set()}) == []
+
+
+def test_the_graph_sees_relative_and_lazy_imports():
+    g = import_graph()
+    assert "tin_swarm_env.scenario.generators" in g["tin_swarm_env.scenario.config"]  # from .generators import
+    assert "tin_swarm_env.scenario.generators" in g["tin_swarm_env.scenario.build"]  # inside a function
+    assert "tin_swarm_env.terrain.dem" in g["tin_swarm_env.scenario.generators"] or \
+        "tin_swarm_env.errors" in g["tin_swarm_env.scenario.generators"]
+
+
+# Circles known when this test was written, each to be removed from here when it is broken up (the one
+# there was, policies/learned.py <-> policies/recurrent.py, is: both import policies/network.py).
+KNOWN: list = []
+
+
+def test_no_module_of_the_package_imports_itself_through_others():
+    found = cycles(import_graph())
+    assert [c for c in found if c not in KNOWN] == []
+    scenario = [c for c in found if any(m.startswith("tin_swarm_env.scenario.") for m in c)]
+    assert scenario == []
+    assert "tin_swarm_env.scenario.config" not in import_graph()["tin_swarm_env.scenario.generators"]
