@@ -84,8 +84,8 @@ def main(steps: int, out: str | None):
 
     load = os.getloadavg()
     threads = sorted({1, min(2, numba.config.NUMBA_NUM_THREADS)})
-    emit(f"# Environment throughput (`python bench/env.py --steps {steps}`)\n")
-    emit(f"Load average at start {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} on {os.cpu_count()} cores. "
+    emit(f"Measured with `python bench/env.py --steps {steps}` in one run. Load average at start "
+         f"{load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} on {os.cpu_count()} cores. "
          "Agent-steps per second (higher is better); the same terrain (jacksboro, ~20k triangles), density "
          "(~10 robots within the 60 m range) and actions for each path.\n")
     emit("| robots | threads | world step | batched env | dict API | batched/world | dict/batched |")

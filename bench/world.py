@@ -146,16 +146,16 @@ def main(quick: bool, out: str | None):
     world = World(tin, params)
     threads = sorted({1, min(2, numba.config.NUMBA_NUM_THREADS)})
     cmd = "python bench/world.py" + (" --quick" if quick else "")
-    emit(f"# World step throughput (`{cmd}`)\n")
-    emit(f"Load average at start {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} (1 / 5 / 15 min) on "
+    emit(f"Measured with `{cmd}` in one run. Load average at start {load[0]:.2f} / {load[1]:.2f} / "
+         f"{load[2]:.2f} (1 / 5 / 15 min) on "
          f"{os.cpu_count()} cores; numba {numba.__version__}, threading layer "
          f"{numba.config.THREADING_LAYER}, {numba.config.NUMBA_NUM_THREADS} threads at most. {tin!r}; sensor range "
          f"{params.sensor.range_m} m, fov {params.sensor.fov_deg} deg, line of sight on; {len(world.breaks)} break "
          f"segments; robots packed ~{NEIGHBOURS_IN_RANGE} within range of each.\n")
 
     reps = 3 if quick else 7
-    emit("## Time per stage (ms per step, marginal cost of each stage, best of "
-         f"{reps})\n")
+    emit(f"**Time per stage** (ms per step; a stage's time is the marginal cost of switching it on; "
+         f"best of {reps})\n")
     emit("| robots | threads | " + " | ".join(("move", "neighbours", "robots seen", "breaks", "observation", "reward"))
          + " | total | robot-steps/s |")
     emit("|---:|---:|" + "---:|" * 8)
@@ -167,7 +167,7 @@ def main(quick: bool, out: str | None):
             emit(f"| {n} | {k} | " + " | ".join(f"{v * 1e3:.2f}" for v in t.values())
                  + f" | {tot * 1e3:.2f} | {n / tot:.3e} |")
 
-    emit("\n## Robot-steps per second, world step + sensing\n")
+    emit("\n**Robot-steps per second**, world step + sensing with line of sight\n")
     emit("| robots | " + " | ".join(f"{k} thread{'s' if k > 1 else ''}" for k in threads)
          + " | speed-up | robots seen/robot |")
     emit("|---:|" + "---:|" * (len(threads) + 2))
@@ -197,7 +197,7 @@ def main(quick: bool, out: str | None):
     k = threads[-1]
     numba.set_num_threads(k)
     g = [n for n in times if n <= 10_000]
-    emit(f"\n## Growth ({k} threads)\n")
+    emit(f"\n**Growth** ({k} threads)\n")
     emit(f"- cost vs robots at fixed density ({g[0]}..{g[-1]}): time ~ n^"
          f"{fit_exponent(g, [times[n][k] for n in g]):.2f}")
     tri_counts, tri_times = [], []

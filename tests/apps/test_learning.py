@@ -173,7 +173,7 @@ def test_cli_train_exposes_the_imitation_options():
 
     ns = build_parser().parse_args(["train", "cliff_goal,ramp", "--bc-episodes", "3", "--dagger-rounds", "2",
                                     "--recurrent", "false", "--timesteps", "0"])
-    assert (ns.scenario, ns.bc_episodes, ns.dagger_rounds, ns.recurrent, ns.timesteps) == ("cliff_goal,ramp", 3, 2,
+    assert (ns.scenario, ns.bc_episodes, ns.dagger_rounds, ns.recurrent, ns.total_timesteps) == ("cliff_goal,ramp", 3, 2,
                                                                                           False, 0)
 
 

@@ -112,7 +112,8 @@ def test_mutual_sight_is_walked_once_and_copied_to_both_slots():
     from tin_swarm_env.terrain import Tin
 
     tin = Tin(v, [[0, 4, 5], [0, 5, 3], [4, 1, 2], [4, 2, 5]])
-    w = World(tin, WorldParams(robot=RobotParams(max_slope_deg=60.0, max_climb_deg=60.0), sensor=SensorParams(range_m=150)))
+    robot = RobotParams(max_slope_deg=60.0, max_climb_deg=60.0)
+    w = World(tin, WorldParams(robot=robot, sensor=SensorParams(range_m=150)))
     pos = np.array([[10, 20], [90, 20], [10, 80], [30, 80]], float)
     s = w.reset(0, pos, headings=np.array([0.0, math.pi, 0.0, math.pi]))
     seen = w.sense(s).robots.as_set()
@@ -185,6 +186,9 @@ def test_contacts_nearest_fast_path_equals_the_sort(random_tin):
         rows_fast = sensing._rows(part, s.n_robots, 4)
         rows_sort = sensing.nearest_k(part.observer, part.distance_m, s.n_robots, 4)
         np.testing.assert_array_equal(rows_fast, rows_sort)
+        slow = type(part)(*(getattr(part, f) for f in part.__dataclass_fields__ if f != "start"))  # no CSR
+        for a, b in zip(part.nearest(s.n_robots, 4), slow.nearest(s.n_robots, 4), strict=True):
+            np.testing.assert_array_equal(a, b)
 
 
 @settings(max_examples=15)

@@ -36,8 +36,8 @@ loaded for, so a shielded policy needs ``load_policy(path, env)``.
 state per robot reset with the episode (:mod:`tin_swarm_env.policies.recurrent` describes it).
 
 ``"symmetry": "mirror"`` makes the network mirror-equivariant, ``clip((g(o) + M g(M o)) / 2)``
-with ``g`` the network before its clip (:mod:`tin_swarm_env.policies.symmetry`), before the shield; it needs the layout's named fields,
-which every policy file records.
+with ``g`` the network before its clip (:mod:`tin_swarm_env.policies.symmetry`), before the
+shield; it needs the layout's named fields, which every policy file records.
 """
 
 from __future__ import annotations
@@ -49,10 +49,12 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from numba import njit
 
 from ..errors import ArgumentError, PolicyFileError
 from .base import SafetyShield, act_dict, unwrap_env
+from .network import (ACTIVATIONS, MAX_ABS_WEIGHT, MAX_JSON_BYTES, MAX_JSON_DEPTH, MAX_LAYER_WIDTH,  # noqa: F401
+                      MAX_LAYERS, MAX_PARAMETERS, MAX_WEIGHTS_BYTES, SHIELDS, dense)
+from .recurrent import RecurrentPolicy, check_cell, recurrent_network
 from .symmetry import SYMMETRIES, mirror_signs, symmetrize
 
 __all__ = ["MLPPolicy", "ShieldedPolicy", "save_policy", "load_policy", "FORMAT", "VERSION", "ACTIVATIONS",
@@ -62,47 +64,9 @@ FORMAT = "tin_swarm_env.policy"
 VERSION = 1
 POLICY_JSON = "policy.json"
 WEIGHTS = "weights.npz"
-ACTIVATIONS = {
-    "tanh": np.tanh,
-    "relu": lambda x: np.maximum(x, 0.0),
-    "elu": lambda x: np.where(x > 0, x, np.expm1(np.minimum(x, 0.0))),
-    "leaky_relu": lambda x: np.where(x > 0, x, 0.01 * x),
-    "identity": lambda x: x,
-}
 ACTION_TRANSFORMS = ("clip",)
 NETWORK_TYPES = ("mlp", "recurrent")  # "recurrent": a memory cell before the MLP (policies/recurrent.py)
-
-
-@njit(cache=True, fastmath={"reassoc", "contract"})
-def dense(x, W, b):
-    """One layer, ``x @ W.T + b``: ``x (n, d)``, ``W (m, d)``, ``b (m,)`` float64 -> ``(n, m)``.
-
-    Compiled single-threaded loops instead of BLAS: for the few robots of one env step, a
-    multi-threaded BLAS whose threads wait for a busy core (a second job, pytest -n 2, a training
-    run beside the evaluation) took 26-31 ms per forward pass of a 59-256-256-2 network on the
-    2-core machine, this 1 ms; it is as fast as BLAS at 2 000 robots there, and its sums do not
-    depend on a thread count. ``dense.py_func`` is the plain reference (tests/policies/test_learned.py)."""
-    n, d = x.shape
-    m = W.shape[0]
-    out = np.empty((n, m))
-    for i in range(n):
-        for j in range(m):
-            s = b[j]
-            for k in range(d):
-                s += x[i, k] * W[j, k]
-            out[i, j] = s
-    return out
-SHIELDS = ("none", "safety_cut")
 ACTION_SIZE = 2
-
-# Limits checked before anything is read into memory (a policy file is data from anywhere):
-MAX_JSON_BYTES = 1_000_000  # policy.json: metadata and the layout's element names, a few KB in practice
-MAX_JSON_DEPTH = 64  # nesting of policy.json (deeper would exhaust the parser's recursion)
-MAX_LAYERS = 16  # linear layers of the MLP
-MAX_LAYER_WIDTH = 4096  # units per layer: a 4096-wide float64 layer is 128 MB at most
-MAX_PARAMETERS = 20_000_000  # weights and biases in all: 160 MB of float64 (the shipped net has ~20 000)
-MAX_WEIGHTS_BYTES = 8 * MAX_PARAMETERS + 1_000_000  # weights.npz on disk (uncompressed arrays + headers)
-MAX_ABS_WEIGHT = 1e6  # trained weights are O(1-100); beyond this a forward pass can overflow to NaN/inf
 
 
 def _layout_dict(layout) -> dict:
@@ -219,8 +183,6 @@ def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str
     network = {"type": "mlp", "layer_sizes": sizes, "activation": activation, "action_transform": action_transform}
     obs_size = sizes[0] if sizes else 0
     if cell is not None:
-        from .recurrent import recurrent_network
-
         name, cw = cell
         cw = {k: np.asarray(v, dtype=np.float64) for k, v in cw.items()}
         obs_size = int(cw["cell_W_ih"].shape[1]) if "cell_W_ih" in cw else 0
@@ -315,8 +277,6 @@ def load_policy(path, env):
     _check_env(meta, env, str(jpath))
     net = meta["network"]
     if net["type"] == "recurrent":
-        from .recurrent import RecurrentPolicy, check_cell
-
         _, cw = check_cell(net, arrays, str(jpath), str(wpath))
         return RecurrentPolicy(net["cell"], cw, layers, net["activation"], net["action_transform"],
                                layout=meta["observation"]["layout"], scenario=meta["scenario"],
@@ -423,8 +383,6 @@ def _validate(meta, arrays: dict | None, jname: str, wname: str) -> list:
         raise PolicyFileError(f"{jname}: key 'network.action_transform' is {tr!r}; known: {list(ACTION_TRANSFORMS)}")
     in_size, what = sizes[0], "the first layer size"
     if net["type"] == "recurrent":  # the cell reads the observation; the head (layer_sizes) reads the cell
-        from .recurrent import check_cell
-
         in_size, cell = check_cell(net, arrays, jname, wname)
         what = "the cell's 'network.input_size'"
         if arrays is not None:

@@ -36,6 +36,7 @@ import numpy as np
 from ..env.observation import ACTION_PARITY
 from ..errors import ArgumentError, PolicyFileError
 from .base import SafetyShield, act_dict
+from .network import ACTIVATIONS, MAX_ABS_WEIGHT, MAX_LAYER_WIDTH, MAX_PARAMETERS, SHIELDS, dense
 from .symmetry import SYMMETRIES, mirror_signs
 
 __all__ = ["RecurrentPolicy", "CELLS", "CELL_ARRAYS", "check_cell", "recurrent_network"]
@@ -62,11 +63,9 @@ def _pos_int(net, key, jname):
 
 def check_cell(net: dict, arrays: dict | None, jname: str, wname: str) -> tuple[int, dict]:
     """Check the cell part of a recurrent ``network`` entry and its arrays (``arrays`` None: the
-    entry alone, against the size limits of :mod:`~tin_swarm_env.policies.learned`, before the
+    entry alone, against the size limits of :mod:`~tin_swarm_env.policies.network`, before the
     weights are read); returns ``(input_size, {name: float64 array})``. Raises
     :class:`PolicyFileError` naming the file and the key or array."""
-    from .learned import MAX_ABS_WEIGHT, MAX_LAYER_WIDTH, MAX_PARAMETERS
-
     cell = net.get("cell")
     if "cell" not in net:
         raise PolicyFileError(f"{jname}: missing key 'network.cell'")
@@ -112,9 +111,7 @@ def expit(x):
 
 def cell_step(cell: str, w: dict, x, h, c):
     """One step of the cell for a batch: ``x (n, d)``, ``h, c (n, H)`` -> ``(h', c')`` (``c`` is
-    unused, and returned as is, for a GRU). Plain numpy over :func:`~.learned.dense`."""
-    from .learned import dense
-
+    unused, and returned as is, for a GRU). Plain numpy over :func:`~.network.dense`."""
     H = h.shape[1]
     gi, gh = dense(x, w["cell_W_ih"], w["cell_b_ih"]), dense(h, w["cell_W_hh"], w["cell_b_hh"])
     if cell == "lstm":
@@ -138,8 +135,6 @@ class RecurrentPolicy:
     def __init__(self, cell: str, cell_weights: dict, layers, activation: str = "tanh",
                  action_transform: str = "clip", *, layout: dict, scenario: str = "", training: dict | None = None,
                  source: str = "<memory>", shield: str = "none", env=None, symmetry: str = "none"):
-        from .learned import ACTIVATIONS, SHIELDS
-
         if cell not in CELLS:
             raise ArgumentError(f"{source}: cell {cell!r} is not one of {sorted(CELLS)}")
         if activation not in ACTIVATIONS:
@@ -210,8 +205,6 @@ class RecurrentPolicy:
         return np.clip(a, -1.0, 1.0).astype(np.float32)
 
     def _head(self, x) -> np.ndarray:
-        from .learned import dense
-
         for i, (W, b) in enumerate(self.layers):
             x = dense(x, W, b)
             if i < len(self.layers) - 1:

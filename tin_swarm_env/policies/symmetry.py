@@ -10,9 +10,9 @@ clipped. (Averaging before the clip is what a Gaussian policy trained with the s
 does: its mean is the average and SB3 clips its deterministic action;
 :func:`tin_swarm_env.adapters.sb3.mirror_policy_class`.) It is equivariant exactly, not to a
 tolerance: ``pi(M o) == M pi(o)`` bit for bit, because ``M`` only flips signs (``M M o == o``),
-float addition commutes, ``b - a == -(a - b)`` and the clip is odd. Where ``o`` is its own mirror image (a wall straight ahead,
-nothing else in view) the policy drives straight (``vy = 0``); memory, or any asymmetry in view,
-breaks that tie.
+float addition commutes, ``b - a == -(a - b)`` and the clip is odd. Where ``o`` is its own mirror
+image (a wall straight ahead, nothing else in view) the policy drives straight (``vy = 0``);
+memory, or any asymmetry in view, breaks that tie.
 
 A policy file asks for it with ``"symmetry": "mirror"`` (:mod:`tin_swarm_env.policies.learned`;
 ``"none"``, the default, is the network alone). The shield, when there is one, filters the

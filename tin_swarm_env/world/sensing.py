@@ -95,6 +95,24 @@ def _first_k(start, n, k):
     return out
 
 
+@njit(cache=True)
+def _gather_first_k(start, target, dist, extra, n, k):
+    """The CSR fast path of ``nearest``: ``(target (n, k) -1, dist (n, k) inf, extra (n, k, ...)
+    0)`` from rows ``start[i]:start[i+1]`` already nearest first; ``extra`` is ``(P,)`` (bearings)
+    or ``(P, 2)`` (closest points)."""
+    idx = np.full((n, k), -1, dtype=np.int64)
+    d = np.full((n, k), np.inf)
+    ex = np.zeros((n, k) + extra.shape[1:])
+    for i in range(n):
+        m = min(start[i + 1] - start[i], k)
+        for s in range(m):
+            p = start[i] + s
+            idx[i, s] = target[p]
+            d[i, s] = dist[p]
+            ex[i, s] = extra[p]
+    return idx, d, ex
+
+
 def _rows(obj, n, k):
     """Row positions of each observer's k nearest contacts (CSR fast path when known)."""
     if obj.start is not None and len(obj.start) == n + 1:
@@ -123,6 +141,8 @@ class Contacts:
     def nearest(self, n: int, k: int):
         """``(target_idx (n, k) -1 if none, distance_m (n, k) inf, bearing_rad (n, k) 0)``,
         nearest first."""
+        if self.start is not None and len(self.start) == n + 1:
+            return _gather_first_k(self.start, self.target, self.distance_m, self.bearing_rad, n, k)
         rows = _rows(self, n, k)
         ok = rows >= 0
         r = np.where(ok, rows, 0)
@@ -152,6 +172,8 @@ class BreakContacts:
     def nearest(self, n: int, k: int):
         """``(break_idx (n, k), distance_m (n, k), closest (n, k, 2))``, nearest first; -1/inf/0
         where fewer breaks are in range."""
+        if self.start is not None and len(self.start) == n + 1:
+            return _gather_first_k(self.start, self.break_idx, self.distance_m, self.closest, n, k)
         rows = _rows(self, n, k)
         ok = rows >= 0
         r = np.where(ok, rows, 0)
