@@ -4,7 +4,7 @@
                                                  [--out docs/figures/mutants.md]
 
 Each mutant is one realistic, hand-written change to one line of ``terrain/``, ``world/``,
-``env/`` or ``policies/learned.py`` (a sign flip, an off-by-one, swapped axes, a wrong
+``env/`` or ``policies/learned.py`` (and ``policies/network.py``, its layers) (a sign flip, an off-by-one, swapped axes, a wrong
 comparison, a dropped term) with the few fast test files that should notice it. The script copies
 the package once into a temporary directory, runs every selected test file once on the
 unmutated copy (they must pass), then for each mutant writes the change into the copy, runs its
@@ -212,8 +212,8 @@ MUTANTS = [
       LEARNED),
     M("learned-no-clip", "policies/learned.py", "return np.clip(a, -1.0, 1.0).astype(np.float32)",
       "return a.astype(np.float32)", LEARNED),
-    M("learned-dense-bias", "policies/learned.py", "            s = b[j]\n", "            s = 0.0\n", LEARNED),
-    M("learned-relu-leaky", "policies/learned.py", '"relu": lambda x: np.maximum(x, 0.0)',
+    M("learned-dense-bias", "policies/network.py", "            s = b[j]\n", "            s = 0.0\n", LEARNED),
+    M("learned-relu-leaky", "policies/network.py", '"relu": lambda x: np.maximum(x, 0.0)',
       '"relu": lambda x: np.maximum(x, 0.01 * x)', LEARNED),
     M("learned-nan-accepted", "policies/learned.py", "if not np.all(np.isfinite(a)):", "if np.all(np.isnan(a)):",
       LEARNED),

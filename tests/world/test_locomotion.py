@@ -105,3 +105,17 @@ def test_robots_that_are_not_active_do_not_move():
     out = move(tin, np.zeros(tin.n_triangles, bool), pos, tin.locate(pos), np.array([0.3, 0.3]),
                np.array([Reason.NONE, Reason.FELL], np.int8), np.ones((2, 2)), RobotParams(), 1.0)
     assert not np.array_equal(out[0][0], pos[0]) and np.array_equal(out[0][1], pos[1]) and out[3][1] == 0.0
+
+
+def test_a_robot_standing_on_a_cliff_edge_falls_driving_over_it_and_stays_driving_away():
+    """The motion starts exactly on the edge of a too-steep triangle (the branch before the walk):
+    a 10 m plateau (x <= 10), a cliff to the floor at x = 11, the floor beyond. Standing on the
+    plateau's edge, driving east (down the cliff) is a fall; driving west (away from it) is not."""
+    xy = np.array([[0, 0], [10, 0], [10, 10], [0, 10], [11, 0], [11, 10], [20, 0], [20, 10]], float)
+    z = np.where(xy[:, 0] <= 10, 10.0, 0.0)
+    w = World(Tin.from_points(np.column_stack([xy, z])),
+              WorldParams(robot=RobotParams(max_speed_mps=1.0, max_slope_deg=30.0), dt_s=1.0))
+    s = w.reset(0, [[10.0, 3.0], [10.0, 7.0]], headings=[0.0, math.pi])
+    s, ev = w.step(s, [[1.0, 0.0], [1.0, 0.0]])
+    assert s.status.tolist() == [Reason.FELL, Reason.NONE]
+    np.testing.assert_allclose(s.positions[1], [9.0, 7.0], atol=1e-9)
