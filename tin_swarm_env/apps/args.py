@@ -133,10 +133,13 @@ def _converter(t):
     return conv if t in (int, float) else t
 
 
-def add_dataclass_args(parser: argparse.ArgumentParser, cls, skip=(), positional=(), rename: dict | None = None) -> None:
+def add_dataclass_args(parser: argparse.ArgumentParser, cls, skip=(), positional=(), rename: dict | None = None,
+                       cli: dict | None = None) -> None:
     """Add one option per field of dataclass ``cls`` (except the names in ``skip``): ``--field-name``,
     or a positional argument for the names in ``positional``, ``rename`` maps a field to another
-    option name. The help is the field's text, what it accepts and its default."""
+    option name, ``cli`` maps a field to more ``add_argument`` keywords for this parser alone
+    (``{"models": {"action": "append"}}``: the caller joins the list). The help is the field's
+    text, what it accepts and its default."""
     hints = typing.get_type_hints(cls)
     rename = rename or {}
     for f in dataclasses.fields(cls):
@@ -149,7 +152,7 @@ def add_dataclass_args(parser: argparse.ArgumentParser, cls, skip=(), positional
         text = md.get("help", t.__name__) + (f" [{rng}]" if rng and not md.get("choices") else "")
         if md.get("choices") and t is str:
             text += f" [{' | '.join(map(str, md['choices']))}]"
-        extra = dict(md.get("cli", {}))
+        extra = {**md.get("cli", {}), **(cli or {}).get(f.name, {})}
         if f.name in positional:
             parser.add_argument(f.name, help=text, **({"type": _converter(t)} if t in (int, float) else {}), **extra)
             continue
@@ -158,6 +161,8 @@ def add_dataclass_args(parser: argparse.ArgumentParser, cls, skip=(), positional
             parser.add_argument(*names, dest=f.name, action="store_true", help=text, **extra)
             continue
         kw = {"type": _converter(t)} if t in (int, float, bool, str) and "action" not in extra else {}
+        if extra.get("action") == "append":  # repeated options collect into a list (the caller joins it)
+            default = []
         parser.add_argument(*names, dest=f.name, default=default, help=text, **kw, **extra)
 
 

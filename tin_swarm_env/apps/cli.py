@@ -192,11 +192,10 @@ def _cmd_train(args) -> int:
 
 
 def _cmd_eval(args) -> int:
+    from .args import dataclass_from_namespace
     from .evaluate import Args, evaluate
 
-    evaluate(Args(scenarios=",".join(args.scenarios), seeds=args.seeds, robots=args.robots,
-                  models=",".join(args.model), policies=args.policies, out=args.out or "",
-                  trust_pickle=args.trust_pickle, seed_offset=args.seed_offset))
+    evaluate(dataclass_from_namespace(Args, args, scenarios=",".join(args.scenarios), models=",".join(args.models)))
     return 0
 
 
@@ -344,7 +343,7 @@ def _add_explore_and_scenarios(sub) -> None:
 
 def _add_train_eval_build(sub) -> None:
     from .args import add_dataclass_args
-    from .evaluate import EVAL_SEED0
+    from .evaluate import Args as EvalArgs
     from .train import Args as TrainArgs
 
     t = sub.add_parser("train", help="train PPO (apps/train.py, = agents/train_sb3.py; needs the [train] extra)",
@@ -353,19 +352,8 @@ def _add_train_eval_build(sub) -> None:
     t.set_defaults(func=_cmd_train)
     e = sub.add_parser("eval", help="random, APF and saved policies on the same scenarios and seeds",
                        formatter_class=_Formatter)
-    e.add_argument("scenarios", nargs="+", help="built-in scenario names or .toml paths")
-    e.add_argument("--seeds", type=_POS, default=20, help="episodes (seeds) per scenario and policy")
-    e.add_argument("--robots", type=_NONNEG, default=0, help="robots per episode (0: the scenario's)")
-    e.add_argument("--model", action="append", default=[],
-                   help="a pickle-free policy directory, or an SB3 .zip with --trust-pickle (repeatable)")
-    e.add_argument("--trust-pickle", action="store_true",
-                   help="allow SB3 .zip models: they are pickles and loading one runs any code it holds")
-    e.add_argument("--policies", default="random,apf,geodesic",
-                   help="built-in policies to evaluate as well (random, apf, geodesic: the map-knowing reference)")
-    e.add_argument("--seed-offset", type=_NONNEG, default=EVAL_SEED0,
-                   help=f"evaluation seeds are SEED_OFFSET .. SEED_OFFSET + SEEDS - 1 (training uses seeds below "
-                        f"{EVAL_SEED0})")
-    e.add_argument("--out", default=None, help="writes OUT.md, OUT.csv and OUT.png (default: runs/eval_<scenarios>)")
+    add_dataclass_args(e, EvalArgs, positional=("scenarios",), rename={"models": "model"},
+                       cli={"scenarios": {"nargs": "+"}, "models": {"action": "append", "metavar": "MODEL"}})
     e.set_defaults(func=_cmd_eval)
     b = sub.add_parser("build-tin", help="reduce a DEM to a TIN and write it (.tin or .npz)",
                        formatter_class=_Formatter)

@@ -32,6 +32,7 @@ import numpy as np
 
 from ..errors import ArgumentError
 from ..world.state import Reason
+from .args import check_args, opt
 from .rollout import Outcome, rollout
 
 __all__ = ["Args", "METRICS", "EVAL_SEED0", "evaluate", "check_args", "default_out", "episode_metrics", "ci95",
@@ -47,14 +48,24 @@ METRICS = [("arrived", "arrived", "{:.1%}"), ("fell", "fell", "{:.1%}"), ("timed
 
 @dataclass
 class Args:
-    scenarios: str = "cliff_goal,ramp"
-    seeds: int = 20
-    robots: int = 0  # 0: the scenario's count
-    models: str = ""  # comma-separated [label=]path: policy directories, or SB3 .zip with trust_pickle
-    policies: str = "random,apf,geodesic"
-    out: str = ""  # "": runs/eval_<scenarios>
-    seed_offset: int = EVAL_SEED0  # evaluation seeds: seed_offset .. seed_offset + seeds - 1
-    trust_pickle: bool = False  # allow SB3 .zip models (loading one runs code from the file)
+    """``tin-swarm eval`` / ``agents/evaluate.py``: every option, its help and what it accepts."""
+
+    scenarios: str = opt("cliff_goal,ramp", "built-in scenario names or .toml paths (comma-separated; on the "
+                         "command line, space-separated)", nargs="+")
+    seeds: int = opt(20, "episodes (seeds) per scenario and policy", lo=1)
+    robots: int = opt(0, "robots per episode (0: the scenario's)", lo=0)
+    models: str = opt("", "a pickle-free policy directory ([label=]path), or an SB3 .zip with --trust-pickle "
+                      "(comma-separated; tin-swarm eval: --model, repeatable)")
+    policies: str = opt("random,apf,geodesic", "built-in policies to evaluate as well (random, apf, geodesic: the "
+                        "map-knowing reference; comma-separated, empty: none)")
+    out: str = opt("", "writes OUT.md, OUT.csv and OUT.png (empty: runs/eval_<scenarios>)")
+    seed_offset: int = opt(EVAL_SEED0, "evaluation seeds are SEED_OFFSET .. SEED_OFFSET + SEEDS - 1 (training "
+                           "uses the seeds below EVAL_SEED0)", lo=0)
+    trust_pickle: bool = opt(False, "allow SB3 .zip models: they are pickles and loading one runs any code it "
+                             "holds", flag=True)
+
+    def __post_init__(self):
+        check_args(self)
 
 
 def episode_metrics(o: Outcome) -> dict:
