@@ -109,6 +109,7 @@ def test_rollout_agrees_with_the_dict_api_infos():
     pol = tse.policies.APFPolicy(env)
     o = rollout(env, pol, seed=1)
     obs, _ = env.reset(seed=1)
+    pol.reset()  # the policy keeps per-robot memory: reset it with the env (as rollout does)
     got, ret = {}, dict.fromkeys(env.possible_agents, 0.0)
     while env.agents:
         obs, rew, _, _, infos = env.step(pol.act(obs))
