@@ -54,7 +54,7 @@ CASES = [
      "without --trust-pickle"),
     ("`eval flat --model missing/`", "cli", ["eval", "flat", "--model", "{d}/missing", "--seeds", "1"],
      "no such file or directory"),
-    ("`eval flat --seeds 0`", "cli", ["eval", "flat", "--seeds", "0"], "--seeds: must be >= 1"),
+    ("`eval flat --seeds 0`", "cli", ["eval", "flat", "--seeds", "0"], "--seeds must be an integer >= 1"),
     ("`eval flat --policies apf,ppo`", "cli", ["eval", "flat", "--policies", "apf,ppo"], "unknown ['ppo']"),
     ("`run flat --fields ''`", "cli", ["run", "flat", "--fields", "", *FLAT], "no field named"),
     ("`run flat --fields robot,wind`", "cli", ["run", "flat", "--fields", "robot,wind", *FLAT], "unknown field"),

@@ -32,7 +32,8 @@ import numpy as np
 
 from ..errors import ArgumentError
 from ..world.state import Reason
-from .args import check_args, opt
+from .args import check_args as check_fields
+from .args import opt
 from .rollout import Outcome, rollout
 
 __all__ = ["Args", "METRICS", "EVAL_SEED0", "evaluate", "check_args", "default_out", "episode_metrics", "ci95",
@@ -65,7 +66,7 @@ class Args:
                              "holds", flag=True)
 
     def __post_init__(self):
-        check_args(self)
+        check_fields(self)
 
 
 def episode_metrics(o: Outcome) -> dict:
