@@ -16,14 +16,14 @@ from pathlib import Path
 
 from tin_swarm_env.env.observation import ObsLayout
 from tin_swarm_env.policies import save_policy
-from tin_swarm_env.policies.learned import POLICY_JSON, WEIGHTS, _read_weights, _validate
+from tin_swarm_env.policies.learned import POLICY_JSON, WEIGHTS, read_weights, validate_policy
 from tin_swarm_env.policies.symmetry import SYMMETRIES
 
 
 def main(a):
     src = Path(a.src)
     meta = json.loads((src / POLICY_JSON).read_text(encoding="utf-8"))
-    layers = _validate(meta, _read_weights(src / WEIGHTS), str(src / POLICY_JSON), str(src / WEIGHTS))
+    layers = validate_policy(meta, read_weights(src / WEIGHTS), str(src / POLICY_JSON), str(src / WEIGHTS))
     if meta["network"].get("type", "mlp") != "mlp":
         raise SystemExit(f"{src}: only MLP policy files are re-exported here (network.type {meta['network']['type']!r})")
     ObsLayout.from_dict(meta["observation"]["layout"])  # the mirror needs a layout this version reads

@@ -111,14 +111,14 @@ def split_throughput(args, rollouts: int) -> dict:
     import torch
 
     from tin_swarm_env.adapters import make_sb3_vec_env
-    from tin_swarm_env.apps.train import _model, scenarios_of
+    from tin_swarm_env.apps.train import build_model, scenarios_of
 
     torch.set_num_threads(args.torch_threads)
     scen = scenarios_of(args)
     kw = {"max_cycles": args.max_cycles} if args.max_cycles else {}
     vec = make_sb3_vec_env(scen if len(scen) > 1 else scen[0], n_robots=args.n_robots,
                            n_envs=args.n_envs * len(scen), seed=args.seed, shield=args.shield, **kw)
-    model = _model(args, vec, None)
+    model = build_model(args, vec, None)
     per_rollout = args.n_steps * vec.num_envs
     model.learn(total_timesteps=per_rollout)  # warm-up
     t = {"collect": 0.0, "step_wait": 0.0, "update": 0.0}

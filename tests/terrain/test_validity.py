@@ -105,7 +105,7 @@ def test_grid_scan_agrees_with_all_pairs_brute_force(random_tin, seed, n, how):
     assume(not np.any(np.abs(cross) < 1e-6))  # Tin drops zero-area triangles before its check: not the subject
     tri[cross < 0] = tri[cross < 0][:, [0, 2, 1]]
     try:
-        nbrs = tin_module._neighbors(tri, v, "t")
+        nbrs = tin_module.triangle_neighbors(tri, v, "t")
     except TinStructureError:
         nbrs = None  # refused earlier, at the adjacency build: not the subject
     assume(nbrs is not None)

@@ -270,7 +270,7 @@ def _model_class(args: Args):
     return PPO
 
 
-def _model(args: Args, vec, tb):
+def build_model(args: Args, vec, tb):
     arch = _net_arch(args.net_arch)
     kw = dict(learning_rate=args.learning_rate, n_steps=args.n_steps, batch_size=args.batch_size,
               n_epochs=args.n_epochs, gamma=args.gamma, gae_lambda=args.gae_lambda, ent_coef=args.ent_coef,
@@ -401,7 +401,7 @@ def train(args: Args) -> Path:
         t0 -= 60 * state["minutes"]
         print(f"resuming {out} from {path.name}: {model.num_timesteps} of {args.total_timesteps} timesteps done")
     else:
-        model = _model(args, vec, tb)
+        model = build_model(args, vec, tb)
         imitation = imitate(model, args, layout=vec.envs[0].layout) if _imitating(args) else None
         if imitation is not None and args.total_timesteps:  # the imitation stage alone, before PPO changes it
             from ..adapters.sb3 import export_sb3_policy

@@ -197,7 +197,7 @@ def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str
         meta["shield"] = shield
     if symmetry != "none":
         meta["symmetry"] = symmetry
-    _validate(meta, arrays, str(p / POLICY_JSON), str(p / WEIGHTS))
+    validate_policy(meta, arrays, str(p / POLICY_JSON), str(p / WEIGHTS))
     if p.exists() and not (p.is_dir() and (p / POLICY_JSON).is_file()):
         raise PolicyFileError(f"{p}: exists and is not a policy directory; refusing to replace it")
     if not p.parent.is_dir():
@@ -271,9 +271,9 @@ def load_policy(path, env):
         raise PolicyFileError(f"{jpath}:{exc.lineno}: not valid JSON ({exc.msg})") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise PolicyFileError(f"{jpath}: cannot be read ({exc})") from None
-    _validate(meta, None, str(jpath), str(wpath))  # sizes and limits before the weights are read
-    arrays = _read_weights(wpath, meta["network"]["layer_sizes"])
-    layers = _validate(meta, arrays, str(jpath), str(wpath))
+    validate_policy(meta, None, str(jpath), str(wpath))  # sizes and limits before the weights are read
+    arrays = read_weights(wpath, meta["network"]["layer_sizes"])
+    layers = validate_policy(meta, arrays, str(jpath), str(wpath))
     _check_env(meta, env, str(jpath))
     net = meta["network"]
     if net["type"] == "recurrent":
@@ -319,7 +319,7 @@ def _npz_shapes(wpath: Path) -> dict:
     return out
 
 
-def _read_weights(wpath: Path, sizes=None) -> dict:
+def read_weights(wpath: Path, sizes=None) -> dict:
     try:
         if sizes is not None:  # every array's size from its header, against what the layer sizes allow
             for k, (shape, dtype) in _npz_shapes(wpath).items():
@@ -353,7 +353,7 @@ def _get(d, key, typ, where):
     return v
 
 
-def _validate(meta, arrays: dict | None, jname: str, wname: str) -> list:
+def validate_policy(meta, arrays: dict | None, jname: str, wname: str) -> list:
     """Check a policy description and its weights (``arrays``; None: the description alone);
     return ``[(W, b), ...]`` float64."""
     if not isinstance(meta, dict):

@@ -63,7 +63,7 @@ import numpy as np
 
 from ..errors import ArgumentError
 from . import _ctg_kernels as K
-from .tin import Tin, _as_xy
+from .tin import Tin, as_xy
 
 __all__ = ["CostToGo", "cost_to_go", "pinch_vertices", "DEFAULT_STEINER_PER_EDGE"]
 
@@ -190,7 +190,7 @@ class CostToGo:
 
     def query(self, xy, tri_idx=None) -> tuple[np.ndarray, np.ndarray]:
         """Both at once: ``(distance (n,) m, direction (n, 2))``."""
-        pts = _as_xy(xy, "xy")
+        pts = as_xy(xy, "xy")
         px = np.ascontiguousarray(pts[:, 0])
         py = np.ascontiguousarray(pts[:, 1])
         tin = self.tin

@@ -337,10 +337,10 @@ def _finish(dem, idx, tri, nbrs, flip_passes, flip_vertical_weight, max_error_m,
     zf = dem.z.ravel()
     if flip_passes > 0:
         if nbrs is None:
-            from .tin import _neighbors
+            from .tin import triangle_neighbors
 
             tri_f, _ = _ccw(tri, np.zeros_like(tri), vx, vy)
-            nbrs = _neighbors(tri_f, vx, dem.source)
+            nbrs = triangle_neighbors(tri_f, vx, dem.source)
         else:
             tri_f, nbrs = _ccw(tri, nbrs, vx, vy)
         flip_edges(tri_f, nbrs, vx, vy, zf, ni, nj, rows, cols, sx, sy, sz, steep_f, weight, tan_s,

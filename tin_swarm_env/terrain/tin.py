@@ -60,7 +60,7 @@ class Tin:
         self.source = source
         self.vertices = v
         self.triangles = tri
-        self.neighbors = _neighbors(tri, v, source)
+        self.neighbors = triangle_neighbors(tri, v, source)
         bucket = _build_bucket(v, tri)
         check_single_surface(v, tri, self.neighbors, bucket, source)
         self.__dict__["_bucket"] = bucket  # the cached point-location grid, built once
@@ -217,7 +217,7 @@ class Tin:
         Without hints, a uniform bucket grid over triangle bounding boxes answers in O(1)
         expected time. Points on a shared edge get either triangle.
         """
-        pts = _as_xy(xy, "xy")
+        pts = as_xy(xy, "xy")
         px = np.ascontiguousarray(pts[:, 0])
         py = np.ascontiguousarray(pts[:, 1])
         tol = self._tol[0]
@@ -241,7 +241,7 @@ class Tin:
                                b["x0"], b["y0"], b["inv_cs"], b["nx"], b["ny"], px, py, self._tol[0])
 
     def _located(self, xy, hint, what):
-        pts = _as_xy(xy, "xy")
+        pts = as_xy(xy, "xy")
         t = self.locate(pts, hint)
         if np.any(t < 0):
             i = int(np.flatnonzero(t < 0)[0])
@@ -355,7 +355,7 @@ class Tin:
 # -- helpers ---------------------------------------------------------------------------------
 
 
-def _as_xy(xy, name) -> np.ndarray:
+def as_xy(xy, name) -> np.ndarray:
     a = np.asarray(xy, dtype=np.float64)
     if a.ndim == 1 and a.shape[0] == 2:
         a = a[None, :]
@@ -379,7 +379,7 @@ def _as_xyz(p, name) -> np.ndarray:
     return np.ascontiguousarray(a)
 
 
-def _neighbors(tri: np.ndarray, v: np.ndarray, source: str) -> np.ndarray:
+def triangle_neighbors(tri: np.ndarray, v: np.ndarray, source: str) -> np.ndarray:
     """Adjacency by sorting directed edges; checks the TIN is a manifold with consistent
     orientation (each edge used once in each direction at most)."""
     T = len(tri)
