@@ -117,7 +117,50 @@ CASES = [
      lambda d: tse.parallel_env(scenario="flat", render_width=100_000), "render_width must be"),
     ("`parallel_env(max_cycles=2.5)`", "call", lambda d: tse.parallel_env(scenario="flat", max_cycles=2.5),
      "max_cycles must be an integer"),
+    ("`parallel_env(scenario=None)`", "call", lambda d: tse.parallel_env(scenario=None),
+     "scenario must be a built-in scenario name"),
+    ("`env.step([1, 2])` (not a dict)", "call", lambda d: _env().step([1, 2]), "actions must be a dict"),
+    ("`env.step(None)`", "call", lambda d: _env().step(None), "actions must be a dict"),
+    ("`env.step` with a complex action", "call", lambda d: _step_all(np.array([1 + 1j, 0])),
+     "the action of robot_0 must be 2 real numbers"),
+    ("`env.step` with a NaN action", "call", lambda d: _step_all(np.array([np.nan, 0.0])),
+     "the action of robot_0 is not finite"),
+    ("`env.step({'robot_99': ...})`", "call", lambda d: _env().step({"robot_99": np.zeros(2)}),
+     "unknown agent 'robot_99'"),
+    ("`env.reset(seed=-1)`", "call", lambda d: tse.parallel_env(scenario="flat", n_robots=2).reset(seed=-1),
+     "seed must be None or an integer >= 0"),
+    ("`env.reset(seed=1.5)`", "call", lambda d: tse.parallel_env(scenario="flat", n_robots=2).reset(seed=1.5),
+     "seed must be None or an integer >= 0"),
+    ("`env.reset(seed=\"abc\")`", "call", lambda d: tse.parallel_env(scenario="flat", n_robots=2).reset(seed="abc"),
+     "seed must be None or an integer >= 0"),
+    ("`train flat --gamma 2`", "cli", ["train", "flat", "--gamma", "2"], "--gamma must be a finite number > 0"),
+    ("`train flat --clip-range -1`", "cli", ["train", "flat", "--clip-range", "-1"], "--clip-range must be"),
+    ("`train flat --max-minutes -1`", "cli", ["train", "flat", "--max-minutes", "-1"], "--max-minutes must be"),
+    ("`train flat --eval-episodes 0`", "cli", ["train", "flat", "--eval-episodes", "0"],
+     "--eval-episodes must be an integer >= 1"),
+    ("`train flat --batch-size 0`", "cli", ["train", "flat", "--batch-size", "0"], "--batch-size must be"),
+    ("`train flat --net-arch abc`", "cli", ["train", "flat", "--net-arch", "abc"], "--net-arch 'abc'"),
+    ("`robots = 5` (not a table)", "load", "robots = 5\n" + BASE + GOAL, "'robots' must be a table"),
+    ("`[terrain] method = \"magic\"`", "load",
+     'task = "goal"\n[terrain]\nsource = "procedural"\nrecipe = "cliff_goal"\nmethod = "magic"\n',
+     "TerrainSpec.method must be one of"),
+    ("`[terrain] families = []`", "load", 'task = "goal"\n[terrain]\nsource = "generated"\nfamilies = []\n',
+     "'families' is empty"),
+    ("a generated terrain 90 km wide", "load",
+     'task = "goal"\n[terrain]\nsource = "generated"\nfamilies = ["fork"]\nranges = {fork = {size_m = [90000, 90000]}}\n',
+     "fork.size_m: range [90000, 90000] must have lo <= hi within"),
 ]
+
+
+def _env():
+    env = tse.parallel_env(scenario="flat", n_robots=2)
+    env.reset(seed=0)
+    return env
+
+
+def _step_all(action):
+    env = _env()
+    return env.step({a: action for a in env.agents})
 
 
 @pytest.fixture

@@ -62,6 +62,8 @@ def _cmd_build_tin(args) -> int:
         kw["max_error_m"] = args.max_error_m
     if args.min_significance_m is not None:
         kw["min_significance_m"] = args.min_significance_m
+    if args.max_slope_deg is not None:
+        kw["max_slope_deg"] = args.max_slope_deg
     if method in (None, "vip") and not kw and isinstance(dem, terrain.Dem):
         kw["max_vertices"] = 5000
     t0 = time.perf_counter()
@@ -345,6 +347,7 @@ def _add_train_eval_build(sub) -> None:
     from .args import add_dataclass_args
     from .evaluate import Args as EvalArgs
     from .train import Args as TrainArgs
+    from ..terrain.build import METHODS
 
     t = sub.add_parser("train", help="train PPO (apps/train.py, = agents/train_sb3.py; needs the [train] extra)",
                        formatter_class=_Formatter)
@@ -359,11 +362,14 @@ def _add_train_eval_build(sub) -> None:
                        formatter_class=_Formatter)
     b.add_argument("dem", help="DEM file (.xyz/.txt/.asc/.npy/.npz/.tif) or sample:jacksboro")
     b.add_argument("-o", "--output", required=True, help="output .tin (thesis text) or .npz")
-    b.add_argument("--method", choices=["vip", "greedy", "delaunay"], default=None,
-                   help="reduction (default: greedy with --max-error-m, else vip; delaunay for point clouds)")
+    b.add_argument("--method", choices=list(METHODS), default=None,
+                   help="reduction (default: greedy with --max-error-m, else vip; delaunay for point clouds; robot "
+                        "needs --max-slope-deg)")
     b.add_argument("--max-vertices", type=_POS, default=None, help="vertex budget (vip default: 5000)")
     b.add_argument("--max-error-m", type=float, default=None, help="greedy: largest vertical error kept (m)")
     b.add_argument("--min-significance-m", type=float, default=None, help="vip: drop points less significant")
+    b.add_argument("--max-slope-deg", type=float, default=None,
+                   help="robot: the robots' steepest drivable slope, whose class the TIN keeps (deg)")
     b.add_argument("--png", default=None, help="also draw the TIN coloured by slope")
     b.set_defaults(func=_cmd_build_tin)
 
