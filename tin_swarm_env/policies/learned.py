@@ -53,7 +53,7 @@ import numpy as np
 from ..errors import ArgumentError, PolicyFileError
 from .base import SafetyShield, act_dict, unwrap_env
 from .network import (ACTIVATIONS, MAX_ABS_WEIGHT, MAX_JSON_BYTES, MAX_JSON_DEPTH, MAX_LAYER_WIDTH,  # noqa: F401
-                      MAX_LAYERS, MAX_PARAMETERS, MAX_WEIGHTS_BYTES, SHIELDS, dense)
+                      MAX_LAYERS, MAX_PARAMETERS, MAX_WEIGHTS_BYTES, SHIELDS, checked_array, dense)
 from .recurrent import RecurrentPolicy, check_cell, recurrent_network
 from .symmetry import SYMMETRIES, mirror_signs, symmetrize
 
@@ -416,18 +416,7 @@ def _check_weights(arrays: dict, sizes: list, wname: str) -> list:
     for i in range(len(sizes) - 1):
         pair = []
         for k, shape in (("W", (sizes[i + 1], sizes[i])), ("b", (sizes[i + 1],))):
-            a = np.asarray(arrays[f"{k}{i}"])
-            if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
-                raise PolicyFileError(f"{wname}: array '{k}{i}' holds {a.dtype} values; expected real numbers")
-            if a.shape != shape:
-                raise PolicyFileError(f"{wname}: array '{k}{i}' has shape {a.shape}; layer sizes {sizes} need {shape}")
-            a = a.astype(np.float64)
-            if not np.all(np.isfinite(a)):
-                raise PolicyFileError(f"{wname}: array '{k}{i}' holds NaN or infinite values")
-            if np.abs(a).max(initial=0.0) > MAX_ABS_WEIGHT:
-                raise PolicyFileError(f"{wname}: array '{k}{i}' holds a value of magnitude {np.abs(a).max():.3g}; at "
-                                      f"most {MAX_ABS_WEIGHT:g} (larger weights overflow the forward pass)")
-            pair.append(a)
+            pair.append(checked_array(arrays[f"{k}{i}"], f"{k}{i}", shape, wname, f"layer sizes {sizes} need"))
         layers.append(tuple(pair))
     return layers
 

@@ -9,8 +9,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..errors import PolicyFileError
+
 __all__ = ["ACTIVATIONS", "SHIELDS", "dense", "MAX_JSON_BYTES", "MAX_JSON_DEPTH", "MAX_LAYERS", "MAX_LAYER_WIDTH",
-           "MAX_PARAMETERS", "MAX_WEIGHTS_BYTES", "MAX_ABS_WEIGHT"]
+           "MAX_PARAMETERS", "MAX_WEIGHTS_BYTES", "MAX_ABS_WEIGHT", "checked_array"]
 
 ACTIVATIONS = {
     "tanh": np.tanh,
@@ -52,3 +54,22 @@ MAX_LAYER_WIDTH = 4096  # units per layer: a 4096-wide float64 layer is 128 MB a
 MAX_PARAMETERS = 20_000_000  # weights and biases in all: 160 MB of float64 (the shipped net has ~20 000)
 MAX_WEIGHTS_BYTES = 8 * MAX_PARAMETERS + 1_000_000  # weights.npz on disk (uncompressed arrays + headers)
 MAX_ABS_WEIGHT = 1e6  # trained weights are O(1-100); beyond this a forward pass can overflow to NaN/inf
+
+
+def checked_array(a, name: str, shape: tuple, wname: str, need: str) -> np.ndarray:
+    """One weights array of a policy file, checked: real numbers of ``shape`` (``need`` says what
+    asks for it, e.g. ``"layer sizes [59, 64, 2] need"``), finite and at most
+    :data:`MAX_ABS_WEIGHT` in magnitude; returned as contiguous float64. Raises
+    :class:`~tin_swarm_env.errors.PolicyFileError` naming ``wname`` and the array."""
+    a = np.asarray(a)
+    if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
+        raise PolicyFileError(f"{wname}: array {name!r} holds {a.dtype} values; expected real numbers")
+    if a.shape != shape:
+        raise PolicyFileError(f"{wname}: array {name!r} has shape {a.shape}; {need} {shape}")
+    a = a.astype(np.float64)
+    if not np.all(np.isfinite(a)):
+        raise PolicyFileError(f"{wname}: array {name!r} holds NaN or infinite values")
+    if np.abs(a).max(initial=0.0) > MAX_ABS_WEIGHT:
+        raise PolicyFileError(f"{wname}: array {name!r} holds a value of magnitude {np.abs(a).max():.3g}; at most "
+                              f"{MAX_ABS_WEIGHT:g} (larger weights overflow the forward pass)")
+    return np.ascontiguousarray(a)

@@ -36,7 +36,7 @@ import numpy as np
 from ..env.observation import ACTION_PARITY
 from ..errors import ArgumentError, PolicyFileError
 from .base import SafetyShield, act_dict
-from .network import ACTIVATIONS, MAX_ABS_WEIGHT, MAX_LAYER_WIDTH, MAX_PARAMETERS, SHIELDS, dense
+from .network import ACTIVATIONS, MAX_LAYER_WIDTH, MAX_PARAMETERS, SHIELDS, checked_array, dense
 from .symmetry import SYMMETRIES, mirror_signs
 
 __all__ = ["RecurrentPolicy", "CELLS", "CELL_ARRAYS", "check_cell", "recurrent_network"]
@@ -88,19 +88,8 @@ def check_cell(net: dict, arrays: dict | None, jname: str, wname: str) -> tuple[
     for k, shape in shapes.items():
         if k not in arrays:
             raise PolicyFileError(f"{wname}: missing array {k!r} (a {cell} cell needs {list(shapes)})")
-        a = np.asarray(arrays[k])
-        if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
-            raise PolicyFileError(f"{wname}: array {k!r} holds {a.dtype} values; expected real numbers")
-        if a.shape != shape:
-            raise PolicyFileError(f"{wname}: array {k!r} has shape {a.shape}; a {cell} cell with input_size {d} "
-                                  f"and hidden_size {H} needs {shape}")
-        a = a.astype(np.float64)
-        if not np.all(np.isfinite(a)):
-            raise PolicyFileError(f"{wname}: array {k!r} holds NaN or infinite values")
-        if np.abs(a).max(initial=0.0) > MAX_ABS_WEIGHT:
-            raise PolicyFileError(f"{wname}: array {k!r} holds a value of magnitude {np.abs(a).max():.3g}; at most "
-                                  f"{MAX_ABS_WEIGHT:g}")
-        out[k] = np.ascontiguousarray(a)
+        out[k] = checked_array(arrays[k], k, shape, wname,
+                               f"a {cell} cell with input_size {d} and hidden_size {H} needs")
     return d, out
 
 
