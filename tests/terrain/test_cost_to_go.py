@@ -6,7 +6,7 @@ from unittest import mock
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 import tin_swarm_env as tse
@@ -257,6 +257,7 @@ def test_agrees_with_a_dense_grid_dijkstra(random_tin, seed):
 
 @settings(max_examples=15, deadline=None)
 @given(st.integers(0, 10_000), st.integers(0, 3))
+@example(3156, 0)  # every query point unreachable: nothing finite to compare
 def test_agrees_with_the_exact_visibility_graph(random_tin, seed, m):
     """Against the exact field (visibility graph over every vertex, brute force): the window
     propagation is exact (windows are dropped only where others are at least as short at every
@@ -270,7 +271,9 @@ def test_agrees_with_the_exact_visibility_graph(random_tin, seed, m):
     f = np.isfinite(d)
     assert np.all(d[f] >= ref[f] * (1 - 1e-9) - 1e-6)  # every value is a real path
     assert np.all(d[f] <= ref[f] * 1.005 + 1e-6)
-    assert np.mean(np.abs(d[f] - ref[f]) <= 1e-6 * ref[f] + 1e-6) > 0.95  # and nearly all exact
+    # and nearly all exact (a goal walled in with no query point reachable leaves nothing to compare:
+    # the unreachable pattern was checked above)
+    assert not f.any() or np.mean(np.abs(d[f] - ref[f]) <= 1e-6 * ref[f] + 1e-6) > 0.95
 
 
 @pytest.mark.parametrize("seed, m", [(189, 0), (189, 1), (5, 1), (95, 3), (109, 1)])
