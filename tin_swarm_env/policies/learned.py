@@ -55,7 +55,7 @@ from .base import SafetyShield, act_dict, unwrap_env
 from .network import (ACTIVATIONS, MAX_ABS_WEIGHT, MAX_JSON_BYTES, MAX_JSON_DEPTH, MAX_LAYER_WIDTH,  # noqa: F401
                       MAX_LAYERS, MAX_PARAMETERS, MAX_WEIGHTS_BYTES, SHIELDS, checked_array, dense)
 from .recurrent import RecurrentPolicy, check_cell, recurrent_network
-from .symmetry import SYMMETRIES, mirror_signs, symmetrize
+from .symmetry import SYMMETRIES, file_options, symmetrize
 
 __all__ = ["MLPPolicy", "ShieldedPolicy", "save_policy", "load_policy", "FORMAT", "VERSION", "ACTIVATIONS",
            "SHIELDS"]
@@ -97,18 +97,8 @@ class MLPPolicy:
         self.training = dict(training or {})
         self.source = source
         self.obs_size = self.layers[0][0].shape[1]
-        if shield not in SHIELDS:
-            raise ArgumentError(f"{source}: shield {shield!r} is not one of {list(SHIELDS)}")
-        self.shield = shield
-        if symmetry not in SYMMETRIES:
-            raise ArgumentError(f"{source}: symmetry {symmetry!r} is not one of {list(SYMMETRIES)}")
-        self.symmetry = symmetry
-        self._signs = mirror_signs(layout) if symmetry == "mirror" else None
-        self.shield_cut = None  # the SafetyShield applied to the network's actions, or None
-        if shield == "safety_cut":
-            if env is None:
-                raise ArgumentError(f"{source}: a shielded policy needs the env it acts in (load_policy(path, env))")
-            self.shield_cut = SafetyShield(env)
+        self.shield, self.symmetry = shield, symmetry
+        self._signs, self.shield_cut = file_options(shield, symmetry, layout, env, source)
 
     def act_batch(self, obs) -> np.ndarray:
         a = self.net_batch(obs)

@@ -35,9 +35,9 @@ import numpy as np
 
 from ..env.observation import ACTION_PARITY
 from ..errors import ArgumentError, PolicyFileError
-from .base import SafetyShield, act_dict
-from .network import ACTIVATIONS, MAX_LAYER_WIDTH, MAX_PARAMETERS, SHIELDS, checked_array, dense
-from .symmetry import SYMMETRIES, mirror_signs
+from .base import act_dict
+from .network import ACTIVATIONS, MAX_LAYER_WIDTH, MAX_PARAMETERS, checked_array, dense
+from .symmetry import file_options
 
 __all__ = ["RecurrentPolicy", "CELLS", "CELL_ARRAYS", "check_cell", "recurrent_network"]
 
@@ -137,17 +137,8 @@ class RecurrentPolicy:
         self.activation, self.action_transform = activation, action_transform
         self._act = ACTIVATIONS[activation]
         self.layout, self.scenario, self.training, self.source = layout, scenario, dict(training or {}), source
-        if shield not in SHIELDS:
-            raise ArgumentError(f"{source}: shield {shield!r} is not one of {list(SHIELDS)}")
-        if symmetry not in SYMMETRIES:
-            raise ArgumentError(f"{source}: symmetry {symmetry!r} is not one of {list(SYMMETRIES)}")
         self.shield, self.symmetry = shield, symmetry
-        self._signs = mirror_signs(layout) if symmetry == "mirror" else None
-        self.shield_cut = None  # the SafetyShield applied to the network's actions, or None
-        if shield == "safety_cut":
-            if env is None:
-                raise ArgumentError(f"{source}: a shielded policy needs the env it acts in (load_policy(path, env))")
-            self.shield_cut = SafetyShield(env)
+        self._signs, self.shield_cut = file_options(shield, symmetry, layout, env, source)
         self.reset()
 
     # -- memory --------------------------------------------------------------------------------

@@ -28,8 +28,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..env.observation import ACTION_PARITY, ObsLayout
+from ..errors import ArgumentError
+from .base import SafetyShield
+from .network import SHIELDS
 
-__all__ = ["SYMMETRIES", "mirror_signs", "symmetrize"]
+__all__ = ["SYMMETRIES", "mirror_signs", "symmetrize", "file_options"]
 
 SYMMETRIES = ("none", "mirror")
 
@@ -50,3 +53,17 @@ def symmetrize(f, x, signs) -> np.ndarray:
     both = np.asarray(f(np.concatenate([x, x * signs])), dtype=np.float64)
     a, b = both[:n], both[n:]
     return (a + b * np.asarray(ACTION_PARITY)) / 2
+
+
+def file_options(shield: str, symmetry: str, layout, env, source: str):
+    """A policy file's ``shield`` and ``symmetry`` options, checked: returns ``(signs, shield_cut)``,
+    the mirror signs (None without symmetry) and the :class:`SafetyShield` applied to the
+    network's actions (None without a shield). Shared by the MLP and recurrent policies."""
+    if shield not in SHIELDS:
+        raise ArgumentError(f"{source}: shield {shield!r} is not one of {list(SHIELDS)}")
+    if symmetry not in SYMMETRIES:
+        raise ArgumentError(f"{source}: symmetry {symmetry!r} is not one of {list(SYMMETRIES)}")
+    signs = mirror_signs(layout) if symmetry == "mirror" else None
+    if shield == "safety_cut" and env is None:
+        raise ArgumentError(f"{source}: a shielded policy needs the env it acts in (load_policy(path, env))")
+    return signs, (SafetyShield(env) if shield == "safety_cut" else None)
