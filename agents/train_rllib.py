@@ -45,6 +45,7 @@ class Args:
     lr: float = opt(3e-4, "Adam learning rate", lo=0, lo_open=True)
     gamma: float = opt(0.99, "discount", lo=0, hi=1)
     seed: int = opt(0, "seed (training seeds stay far below EVAL_SEED0)", lo=0, hi=999_999)
+    torch_threads: int = opt(0, "torch threads of the driver, where the learner runs (0: torch's default)", lo=0)
     num_cpus: int = opt(0, "CPUs of a local Ray instance (0: all); ignored with RAY_ADDRESS", lo=0)
     out_dir: str = opt("runs/rllib", "run directory: checkpoint/, progress.csv, run.json, policy/")
 
@@ -62,6 +63,7 @@ def build_config(args: Args):
 
 def main(args: Args):
     import ray
+    import torch
 
     from tin_swarm_env.adapters.rllib import NODE_METRIC
 
@@ -74,6 +76,8 @@ def main(args: Args):
                       f"{node['Resources'].get('CPU', 0):g} CPU", flush=True)
     else:
         ray.init(num_cpus=args.num_cpus or None, include_dashboard=False, log_to_driver=False)
+    if args.torch_threads:
+        torch.set_num_threads(args.torch_threads)
     algo = build_config(args).build_algo()
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -82,7 +86,7 @@ def main(args: Args):
     for it in range(1, args.iterations + 1):
         r = algo.train()
         er = r.get("env_runners", {})
-        row = {"iteration": it, "env_steps": r.get("num_env_steps_sampled_lifetime", 0),
+        row = {"iteration": it, "env_steps": int(r.get("num_env_steps_sampled_lifetime", 0)),
                "episode_return_mean": er.get("episode_return_mean", float("nan")),
                "seconds": time.perf_counter() - t0}
         rows.append(row)
