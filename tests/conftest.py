@@ -46,6 +46,37 @@ def jacksboro():
     return sample_dem("jacksboro")
 
 
+def _cliff_tin(width=0.5, top=100.0):
+    """Plateau at `top` m for x <= 100, a cliff face one triangle pair wide (x 100..100+width),
+    floor at 0 m up to x = 200; y in [0, 100]."""
+    from tin_swarm_env.terrain import Tin
+
+    xs = [0.0, 100.0, 100.0 + width, 200.0]
+    zs = [top, top, 0.0, 0.0]
+    return Tin.from_points(np.array([(x, y, z) for x, z in zip(xs, zs) for y in (0.0, 100.0)]))
+
+
+@pytest.fixture(scope="session")
+def cliff_tin():
+    """``cliff_tin(width=0.5, top=100.0)``: a plateau (x <= 100), a cliff face ``width`` m wide, a floor to x = 200."""
+    return _cliff_tin
+
+
+def _world_params(**kw):
+    from tin_swarm_env.world import BatteryParams, RobotParams, SensorParams, WorldParams
+
+    robot = RobotParams(**kw.pop("robot", {}))
+    sensor = SensorParams(**kw.pop("sensor", {}))
+    battery = BatteryParams(**kw.pop("battery", {}))
+    return WorldParams(robot=robot, sensor=sensor, battery=battery, **kw)
+
+
+@pytest.fixture(scope="session")
+def world_params():
+    """``world_params(robot={...}, sensor={...}, battery={...}, **world_keys)``: a WorldParams from plain dicts."""
+    return _world_params
+
+
 def _load_helper(name: str):
     """Import the helper module tests/<name>.py by its path (the suite runs in importlib mode, so
     tests/ is not on sys.path; test files get helpers through the fixtures below, never by import)."""
