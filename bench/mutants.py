@@ -51,10 +51,11 @@ ENV = ("tests/env/test_reward.py", "tests/env/test_tin_swarm.py::test_arrival_te
        "tests/env/test_tin_swarm.py::test_driving_off_the_cliff_terminates_with_reason_fell",
        "tests/integration/test_geodesic.py::test_reward_is_the_decrease_of_the_distance_to_go")
 LOCO = ("tests/world/test_locomotion.py", "tests/world/test_world.py")
-WORLD = ("tests/world/test_world.py", "tests/world/test_locomotion.py", "tests/world/test_battery.py")
+WORLD = ("tests/world/test_world.py", "tests/world/test_locomotion.py", "tests/world/test_battery.py",
+         "tests/world/test_sensing.py", "tests/world/test_entities.py")
 FIELDS = ("tests/world/test_fields.py",)
-TIN = ("tests/terrain/test_tin.py", "tests/terrain/test_tin_queries.py")
-QUERIES = ("tests/terrain/test_tin_queries.py",)
+TIN = ("tests/terrain/test_tin.py", "tests/terrain/test_kernels.py")
+QUERIES = ("tests/terrain/test_tin.py", "tests/terrain/test_kernels.py")
 BREAKS = ("tests/terrain/test_breaks.py",)
 VALIDITY = ("tests/terrain/test_validity.py", "tests/terrain/test_tin.py")
 DEM_IO = ("tests/terrain/test_dem_io.py",)

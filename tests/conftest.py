@@ -39,6 +39,22 @@ def random_tin():
     return _random_tin
 
 
+def _random_rays(tin, rng, n, height=(0.0, 30.0)):
+    x0, y0, x1, y1 = tin.bounds
+    a = rng.uniform([x0, y0], [x1, y1], (n, 2))
+    b = rng.uniform([x0, y0], [x1, y1], (n, 2))
+    ha = tin.height_at(a) + rng.uniform(*height, n)
+    hb = tin.height_at(b) + rng.uniform(*height, n)
+    return np.column_stack([a, ha]), np.column_stack([b, hb])
+
+
+@pytest.fixture(scope="session")
+def random_rays():
+    """``random_rays(tin, rng, n, height=(0.0, 30.0))``: n random (a, b) end points inside the TIN's bounds,
+    each ``height`` metres above the ground (uniform)."""
+    return _random_rays
+
+
 @pytest.fixture(scope="session")
 def jacksboro():
     from tin_swarm_env.terrain import sample_dem
@@ -78,9 +94,10 @@ def world_params():
 
 
 def _load_helper(name: str):
-    """Import the helper module tests/<name>.py by its path (the suite runs in importlib mode, so
+    """Import the helper module tests/helpers/<name>.py by its path (the suite runs in importlib mode, so
     tests/ is not on sys.path; test files get helpers through the fixtures below, never by import)."""
-    spec = importlib.util.spec_from_file_location(f"_tin_swarm_tests_{name}", Path(__file__).parent / f"{name}.py")
+    path = Path(__file__).parent / "helpers" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"_tin_swarm_tests_{name}", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -146,3 +163,28 @@ def env_with_k_robots():
                                 n_robots=n_robots)
 
     return make
+
+
+def _obs_row(layout, R, target_xy, breaks=(), robots=(), speed=1.0):
+    """One hand-built observation row (body frame): target at ``target_xy`` m; breaks as
+    (closest x, y, normal x, y, drop_m); robots as (x, y)."""
+    o = np.zeros(layout.size)
+    own = layout.own
+    d = np.hypot(*target_xy)
+    o[own["speed"]] = speed
+    o[own["target_valid"]] = 1
+    o[own["target_dir"]] = np.asarray(target_xy) / d
+    o[own["target_dist"]] = d / (d + R)
+    b = layout.breaks.start
+    for k, (x, y, nx, ny, drop) in enumerate(breaks):
+        o[b + 8 * k: b + 8 * k + 8] = [1, x / R, y / R, nx, ny, drop / (abs(drop) + 10), np.hypot(x, y) / R, 1]
+    r = layout.robots.start
+    for k, (x, y) in enumerate(robots):
+        o[r + 4 * k: r + 4 * k + 4] = [1, x / R, y / R, np.hypot(x, y) / R]
+    return o[None]
+
+
+@pytest.fixture(scope="session")
+def obs_row():
+    """``obs_row(layout, R, target_xy, breaks=(), robots=(), speed=1.0)``: one hand-built body-frame observation row."""
+    return _obs_row

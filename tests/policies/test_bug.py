@@ -1,4 +1,5 @@
-"""APF's boundary search on hand-built terrains (small DEM arrays, mirrored): a U trap opening to
+"""The boundary search under APF (policies/bug.py). Its memory and gap finder step by step on
+hand-built observations; then on hand-built terrains (small DEM arrays, mirrored): a U trap opening to
 either side, a comb (dead-end bays before the one pass), ten robots queued along one wall toward
 one pass, a fork with a dead-end ramp into a walled pocket; and the odometry the search rests on.
 
@@ -7,14 +8,20 @@ step here: 2 m/s, 0.5 s)."""
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
 import tin_swarm_env as tse
-from tin_swarm_env.apps.rollout import rollout
+from tin_swarm_env.apps.rollout import rollout  # noqa: E402
+from tin_swarm_env.env.observation import ObsLayout  # noqa: E402
 from tin_swarm_env.policies import APFPolicy
+from tin_swarm_env.policies.base import decode  # noqa: E402
+from tin_swarm_env.policies.bug import BugMemory, BugParams, bug_update, odometry  # noqa: E402
 from tin_swarm_env.scenario import scenario_from_dict
-from tin_swarm_env.world.state import Reason
+from tin_swarm_env.world.fields import FieldParams as FP  # noqa: E402
+from tin_swarm_env.world.state import Reason  # noqa: E402
 
 CELL = 4.0
 
@@ -138,3 +145,109 @@ def test_odometry_recovers_the_heading_from_the_observation_alone():
     err = (pol.memory.psi - (env.world_state.headings - h0) + np.pi) % (2 * np.pi) - np.pi
     assert live.sum() >= 3 and np.abs(err[live]).max() < 1e-4
     assert np.abs(env.world_state.headings - h0)[live].max() > 0.1  # they did turn
+
+
+def _step(mem, obs, layout, R, params=None):
+    """One step of the boundary search; returns the side each robot follows (0 none)."""
+    params = FP() if params is None else params
+    d = decode(obs, layout, R)
+    rows = np.arange(len(obs))
+    q, moved = odometry(mem, rows, d, 1.0)
+    pull = d.rel_t / np.hypot(*d.rel_t[0])
+    return bug_update(mem, rows, d, pull, params, BugParams(), togo=d.dist, q=q, moved=moved, crowd_m=8.0,
+                      range_m=R)[2]
+
+
+def test_bug_memory_chooses_the_side_toward_the_target_either_way(obs_row):
+    layout, R = ObsLayout(), 60.0
+    cliff = (5.0, 0.0, -1.0, 0.0, 50.0)  # a cliff edge 5 m ahead, running across
+    for ty, want in ((30.0, 1), (-30.0, -1)):  # target ahead-left: follow it on the right (turn left)
+        mem = BugMemory.empty(1)
+        side = _step(mem, obs_row(layout, R, (100.0, ty), [cliff]), layout, R)
+        assert mem.side[0] == want and side[0] == want
+    # the pull away from the cliff: not blocked, nothing to follow
+    mem = BugMemory.empty(1)
+    assert _step(mem, obs_row(layout, R, (-100.0, 10.0), [cliff]), layout, R)[0] == 0 and mem.side[0] == 0
+
+
+def test_bug_memory_turns_back_at_the_border_and_when_stalled(obs_row):
+    layout, R = ObsLayout(), 60.0
+    cliff = (5.0, 0.0, -1.0, 0.0, 50.0)
+    mem = BugMemory.empty(1)
+    _step(mem, obs_row(layout, R, (100.0, 30.0), [cliff]), layout, R)
+    assert mem.side[0] == 1  # heading along +y with the cliff on its right
+    # the border (zero drop) lies ahead along the cliff, 6 m away: turn back
+    border = (0.0, 6.0, 0.0, -1.0, 0.0)
+    _step(mem, obs_row(layout, R, (100.0, 30.0), [cliff, border]), layout, R)
+    assert mem.side[0] == -1
+    # a cliff (not the border) ahead is a corner to follow round: no turn
+    mem = BugMemory.empty(1)
+    _step(mem, obs_row(layout, R, (100.0, 30.0), [cliff]), layout, R)
+    _step(mem, obs_row(layout, R, (100.0, 30.0), [cliff, (0.0, 6.0, 0.0, -1.0, 40.0)]), layout, R)
+    assert mem.side[0] == 1
+    # standing still while following, no robot near, for stall_steps steps: turn back
+    p = FP(stall_steps=5)
+    mem = BugMemory.empty(1)
+    for _ in range(5):
+        _step(mem, obs_row(layout, R, (100.0, 30.0), [cliff], speed=0.0), layout, R, p)
+    assert mem.side[0] == -1
+    # ... but not when a robot stands next to it (a queue, not a dead end)
+    mem = BugMemory.empty(1)
+    for _ in range(10):
+        _step(mem, obs_row(layout, R, (100.0, 30.0), [cliff], robots=[(0.0, 2.0)], speed=0.0), layout, R, p)
+    assert mem.side[0] == 1
+
+
+def test_bug_memory_an_end_on_both_sides_shows_the_target_unreachable(obs_row):
+    # following with the cliff on its right (heading +y), the border ahead: the boundary ends
+    # on this side, it turns back; the border ahead the other way too: unreachable, it stops
+    layout, R = ObsLayout(), 60.0
+    cliff = (5.0, 0.0, -1.0, 0.0, 50.0)
+    mem = BugMemory.empty(1)
+    _step(mem, obs_row(layout, R, (100.0, 30.0), [cliff]), layout, R)
+    _step(mem, obs_row(layout, R, (100.0, 30.0), [cliff, (0.0, 6.0, 0.0, -1.0, 0.0)]), layout, R)
+    assert mem.side[0] == -1 and mem.ended_first[0] and not mem.unreachable[0]
+    _step(mem, obs_row(layout, R, (100.0, 30.0), [cliff]), layout, R)
+    assert mem.side[0] == -1 and not mem.unreachable[0]
+    _step(mem, obs_row(layout, R, (100.0, 30.0), [cliff, (0.0, -6.0, 0.0, 1.0, 0.0)]), layout, R)
+    assert mem.side[0] == 0 and mem.ended_other[0] and mem.unreachable[0]
+
+
+def _gap_obs(points, normals, target):
+    """Decoded-observation stand-in: dangerous break slots at ``points`` with ``normals`` (body
+    frame, robot at the origin) and the target at ``target``."""
+    k = len(points)
+    nrm = np.array([normals], dtype=float)
+    return SimpleNamespace(b_rel=np.array([points], dtype=float), b_normal=nrm / np.hypot(nrm[..., :1], nrm[..., 1:]),
+                           b_danger=np.ones((1, k), dtype=bool), rel_t=np.array([target], dtype=float),
+                           has_t=np.array([True]))
+
+
+def test_pass_gap_takes_a_gap_between_two_break_ends_and_nothing_else():
+    from tin_swarm_env.policies.bug import pass_gap
+    up = [0.0, 1.0]
+    # a straight cliff along y = -5 with a 6 m gap (x in [-3, 3]); the robot 5 m above the gap
+    g = pass_gap(_gap_obs([[-3.0, -5.0], [3.0, -5.0]], [up, up], [0.0, -100.0]), 3.0, 8.0)
+    assert g["has"][0] and sorted(g["slots"][0]) == [0, 1]
+    np.testing.assert_allclose(g["aim"][0], [0.0, -1.0], atol=1e-12)  # straight through its middle
+    # the same gap seen off-centre: the aim points between the two ends, through the gap
+    g = pass_gap(_gap_obs([[-1.0, -5.0], [5.0, -5.0]], [up, up], [0.0, -100.0]), 3.0, 8.0)
+    a = g["aim"][0]
+    assert g["has"][0] and a[1] < 0 and -1.0 / 5.0 < a[0] / -a[1] < 5.0 / 5.0
+    # narrower than width_m, or the target on the robot's side, or too far: no gap
+    assert not pass_gap(_gap_obs([[-1.0, -5.0], [1.0, -5.0]], [up, up], [0.0, -100.0]), 3.0, 8.0)["has"][0]
+    assert not pass_gap(_gap_obs([[-3.0, -5.0], [3.0, -5.0]], [up, up], [0.0, 100.0]), 3.0, 8.0)["has"][0]
+    assert not pass_gap(_gap_obs([[-3.0, -9.0], [3.0, -9.0]], [up, up], [0.0, -100.0]), 3.0, 8.0)["has"][0]
+    # one straight wall in three pieces: the point seen square on lies between the two ends
+    g = pass_gap(_gap_obs([[0.0, -5.0], [-3.0, -5.0], [3.0, -5.0]], [up, up, up], [0.0, -100.0]), 3.0, 8.0)
+    assert not g["has"][0]
+    # two pieces of one wall meeting at a vertex: one is seen square on, so it is no gap
+    assert not pass_gap(_gap_obs([[0.0, -5.0], [4.0, -5.0]], [up, up], [0.0, -100.0]), 3.0, 8.0)["has"][0]
+    # a concave corner (a wall along y = -5 meeting one along x = 6 at (6, -5)), seen from
+    # inside: the two closest points seen are ends, but the corner where their lines meet (6.6,
+    # -5.7) lies in the cone through the gap and closes it
+    g = pass_gap(_gap_obs([[2.0, -5.2], [5.8, 2.0]], [[0.1, 1.0], [-1.0, -0.1]], [60.0, -100.0]), 3.0, 8.0)
+    assert not g["has"][0]
+    # ... while two ends whose lines meet away from the gap (at (7.9, -5)) leave it open
+    g = pass_gap(_gap_obs([[-3.0, -5.0], [3.0, -6.0]], [up, [-0.2, 0.98]], [0.0, -100.0]), 3.0, 8.0)
+    assert g["has"][0]

@@ -10,9 +10,10 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from tin_swarm_env.world import BatteryParams, RobotParams, SensorParams, World, WorldParams, sensing, spawn_positions
+from tin_swarm_env.world import BatteryParams, RobotParams, SensorParams, World, WorldParams, spawn_positions
 from tin_swarm_env.world import locomotion as L
 from tin_swarm_env.world import sense_kernels as SK
+from tin_swarm_env.world import sensing
 from tin_swarm_env.world import world as world_mod
 from tin_swarm_env.world.grid import grid_build, grid_cells
 from tin_swarm_env.world.state import Reason
