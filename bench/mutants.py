@@ -66,7 +66,7 @@ LEARNED = tuple(f"tests/policies/test_learned.py::{t}" for t in (  # the torch-f
     "test_layout_mismatch_is_refused_naming_both", "test_edited_json_is_refused_naming_file_and_key",
     "test_edited_weights_are_refused_naming_the_file", "test_missing_or_unreadable_files_are_named",
     "test_save_is_atomic_and_replaces_only_a_policy_directory", "test_shield_filters_through_the_safety_cut",
-    "test_dense_kernel_equals_its_plain_version_and_numpy"))
+    )) + ("tests/policies/test_network.py",)
 SB3 = ("tests/adapters/test_sb3.py::test_adapter_episode_length_counts_the_robot_s_own_steps_and_return_its_own_rewards",)
 
 M = Mutant

@@ -55,6 +55,41 @@ def random_rays():
     return _random_rays
 
 
+def _disc_obstacles(tin, rng, n_discs):
+    """Impassable: triangles touching one of ``n_discs`` random discs (radius 60-180 m)."""
+    c = rng.uniform(150, 850, (n_discs, 2))
+    r = rng.uniform(60, 180, n_discs)
+    pts = tin.vertices[tin.triangles, :2]  # (T, 3, 2)
+    cen = pts.mean(axis=1, keepdims=True)
+    probe = np.concatenate([pts, cen], axis=1)  # (T, 4, 2)
+    d = np.linalg.norm(probe[:, :, None, :] - c[None, None], axis=-1)  # (T, 4, n)
+    return ~(d < r).any(axis=(1, 2))
+
+
+@pytest.fixture(scope="session")
+def disc_obstacles():
+    """``disc_obstacles(tin, rng, n_discs)``: the passable mask with triangles touching random discs removed."""
+    return _disc_obstacles
+
+
+def _obstacle_case(random_tin, seed, n=40, n_discs=3):
+    """A random TIN (``random_tin(seed, n)``), discs of impassable triangles, a goal on a passable one:
+    ``(tin, passable, goal, rng)``."""
+    tin = random_tin(seed, n)
+    rng = np.random.default_rng(seed)
+    passable = _disc_obstacles(tin, rng, n_discs)
+    ok = np.flatnonzero(passable)
+    t = int(rng.choice(ok)) if len(ok) else 0
+    goal = rng.dirichlet(np.ones(3)) @ tin.vertices[tin.triangles[t], :2]
+    return tin, passable, goal, rng
+
+
+@pytest.fixture(scope="session")
+def obstacle_case():
+    """``obstacle_case(random_tin, seed, n=40, n_discs=3)``: ``(tin, passable, goal, rng)`` on a random TIN."""
+    return _obstacle_case
+
+
 @pytest.fixture(scope="session")
 def jacksboro():
     from tin_swarm_env.terrain import sample_dem
