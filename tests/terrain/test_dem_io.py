@@ -169,15 +169,6 @@ def test_topobathy_sample():
         sample_dem("everest")
 
 
-def test_metres_per_degree_known_values():
-    m_lon, m_lat = metres_per_degree(0.0)
-    assert m_lon == pytest.approx(111319.5, abs=1.0)
-    assert m_lat == pytest.approx(110574.3, abs=1.0)
-    m_lon, m_lat = metres_per_degree(45.0)
-    assert m_lon == pytest.approx(78846.8, abs=1.0)
-    assert m_lat == pytest.approx(111131.8, abs=1.0)
-
-
 def test_geotiff_projected_and_geographic(tmp_path):
     rasterio = pytest.importorskip("rasterio", reason="the geo extra")
     from rasterio.transform import from_origin
