@@ -59,6 +59,7 @@ def test_train_help_explains_every_option():
 
 @pytest.mark.parametrize("argv, match", [
     (["--gamma", "2"], "--gamma must be a finite number > 0 and <= 1, got 2.0"),
+    (["--timesteps", "-1"], "--timesteps must be an integer >= 0, got -1"),  # the option as `train` spells it
     (["--clip-range", "-1"], "--clip-range must be a finite number > 0"),
     (["--max-minutes", "-1"], "--max-minutes must be a finite number >= 0"),
     (["--eval-episodes", "0"], "--eval-episodes must be an integer >= 1"),

@@ -45,7 +45,7 @@ def test_every_option_has_help_and_help_runs(name, capsys):
     assert actions
     for a in actions:
         assert isinstance(a.help, str) and a.help.strip() and a.help != argparse.SUPPRESS, (name, a.dest)
-        if a.default not in (None, False, [], "") and a.option_strings:
+        if not (a.default is None or a.default is False or a.default in ([], "")) and a.option_strings:
             assert f"(default: {a.default})" in text, (name, a.dest)
     with pytest.raises(SystemExit) as exc:
         main([name, "--help"])

@@ -23,12 +23,13 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import re
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import ArgumentError, TinSwarmError
-from .args import add_dataclass_args, dataclass_from_namespace
+from .args import add_dataclass_args, dataclass_from_namespace, option_name
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
@@ -102,12 +103,27 @@ class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
         return super()._get_help_string(action)
 
 
+def _cli_names(msg: str, rename: dict) -> str:
+    """``msg`` with each renamed field's option (``--total-timesteps``) written as the subcommand
+    spells it (``--timesteps``)."""
+    for f, new in rename.items():
+        msg = re.sub(rf"(?<![\w-]){re.escape(option_name(f))}(?![\w-])", option_name(new), msg)
+    return msg
+
+
 def _runner(cmd: Command, name: str):
-    """The ``func`` of a parsed subcommand: build its ``Args`` (checked there) and run it."""
+    """The ``func`` of a parsed subcommand: build its ``Args`` (checked there) and run it; an error
+    names the options as this subcommand spells them."""
     def run(ns: argparse.Namespace) -> int:
-        cls = cmd.load(cmd.args)
-        a = dataclass_from_namespace(cls, ns, **(_eval_lists(ns) if name == "eval" else {}))
-        return cmd.load(cmd.run)(a)
+        try:
+            cls = cmd.load(cmd.args)
+            a = dataclass_from_namespace(cls, ns, **(_eval_lists(ns) if name == "eval" else {}))
+            return cmd.load(cmd.run)(a)
+        except ArgumentError as exc:
+            msg = _cli_names(str(exc), cmd.rename)
+            if msg == str(exc):
+                raise
+            raise ArgumentError(msg) from exc
     return run
 
 
