@@ -89,9 +89,11 @@ def _eval(a) -> int:
     return 0
 
 
-def _eval_lists(ns: argparse.Namespace) -> dict:
-    """``eval``'s space-separated scenarios and repeated ``--model`` joined as ``Args`` holds them."""
-    return {"scenarios": ",".join(ns.scenarios), "models": ",".join(ns.models)}
+def _joined(cmd: Command, ns: argparse.Namespace) -> dict:
+    """The arguments given several times or as several words (``nargs="+"``, ``action="append"`` in
+    ``cmd.cli``: eval's scenarios and ``--model``) joined with commas, as their ``Args`` field holds them."""
+    return {k: ",".join(getattr(ns, k)) for k, kw in cmd.cli.items()
+            if kw.get("nargs") == "+" or kw.get("action") == "append"}
 
 
 class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
@@ -111,13 +113,13 @@ def _cli_names(msg: str, rename: dict) -> str:
     return msg
 
 
-def _runner(cmd: Command, name: str):
+def _runner(cmd: Command):
     """The ``func`` of a parsed subcommand: build its ``Args`` (checked there) and run it; an error
     names the options as this subcommand spells them."""
     def run(ns: argparse.Namespace) -> int:
         try:
             cls = cmd.load(cmd.args)
-            a = dataclass_from_namespace(cls, ns, **(_eval_lists(ns) if name == "eval" else {}))
+            a = dataclass_from_namespace(cls, ns, **_joined(cmd, ns))
             return cmd.load(cmd.run)(a)
         except ArgumentError as exc:
             msg = _cli_names(str(exc), cmd.rename)
@@ -142,7 +144,7 @@ def build_parser() -> argparse.ArgumentParser:
         sp = sub.add_parser(name, help=cmd.help, description=f"{cmd.help[0].upper()}{cmd.help[1:]}.",
                             formatter_class=_Formatter)
         add_dataclass_args(sp, cls, positional=cmd.positional, rename=cmd.rename, cli=cmd.cli)
-        sp.set_defaults(func=_runner(cmd, name))
+        sp.set_defaults(func=_runner(cmd))
     return p
 
 
