@@ -2,6 +2,7 @@
 ``scenarios --copy``, ``build-tin`` and the train options."""
 
 import argparse
+import dataclasses
 import subprocess
 import sys
 
@@ -9,7 +10,8 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
-from tin_swarm_env.apps.cli import build_parser, main
+from tin_swarm_env.apps.args import accepts
+from tin_swarm_env.apps.cli import COMMANDS, build_parser, main
 from tin_swarm_env.env.tin_swarm import DEFAULT_RENDER_WIDTH_PX
 from tin_swarm_env.terrain import load_tin
 
@@ -100,18 +102,52 @@ def _subparsers(p):
     return act.choices
 
 
-def test_every_option_of_every_subcommand_has_help_and_shows_its_default():
+SUBCOMMANDS = ("run", "scenarios", "explore", "train", "eval", "build-tin")
+
+
+def test_the_parser_has_every_subcommand_and_shows_defaults():
     p = build_parser()
-    assert isinstance(p.formatter_class, type) and issubclass(p.formatter_class, argparse.ArgumentDefaultsHelpFormatter)
-    for name, sp in _subparsers(p).items():
-        assert issubclass(sp.formatter_class, argparse.ArgumentDefaultsHelpFormatter), name
-        text = sp.format_help()
-        for a in sp._actions:
-            if isinstance(a, argparse._HelpAction):
-                continue
-            assert a.help and a.help != argparse.SUPPRESS, (name, a.dest)
-            if a.default not in (None, False, []) and a.option_strings:
-                assert f"(default: {a.default})" in " ".join(text.split()), (name, a.dest)
+    assert tuple(_subparsers(p)) == SUBCOMMANDS == tuple(COMMANDS)
+    assert issubclass(p.formatter_class, argparse.ArgumentDefaultsHelpFormatter)
+
+
+@pytest.mark.parametrize("name", SUBCOMMANDS)
+def test_every_option_has_help_and_help_runs(name, capsys):
+    """For each subcommand, read off the parser: every argument has a non-empty help text, every
+    non-empty default is shown, and ``tin-swarm NAME --help`` exits 0 listing every option."""
+    sp = _subparsers(build_parser())[name]
+    assert issubclass(sp.formatter_class, argparse.ArgumentDefaultsHelpFormatter), name
+    text = " ".join(sp.format_help().split())
+    actions = [a for a in sp._actions if not isinstance(a, argparse._HelpAction)]
+    assert actions
+    for a in actions:
+        assert isinstance(a.help, str) and a.help.strip() and a.help != argparse.SUPPRESS, (name, a.dest)
+        if not (a.default is None or a.default is False or a.default in ([], "")) and a.option_strings:
+            assert f"(default: {a.default})" in text, (name, a.dest)
+    with pytest.raises(SystemExit) as exc:
+        main([name, "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"usage: tin-swarm {name} ")
+    for a in actions:
+        for s in a.option_strings or [a.dest]:
+            assert s in out, (name, s)
+
+
+@pytest.mark.parametrize("name", SUBCOMMANDS)
+def test_options_are_generated_from_the_args_dataclass(name):
+    """No hand-written option: a subcommand's arguments are exactly the fields of its ``Args``, each
+    with the field's help text (and what it accepts)."""
+    cmd = COMMANDS[name]
+    fields = {f.name: f for f in dataclasses.fields(cmd.load(cmd.args))}
+    actions = {a.dest: a for a in _subparsers(build_parser())[name]._actions if not isinstance(a, argparse._HelpAction)}
+    assert set(actions) == set(fields)
+    for dest, a in actions.items():
+        f = fields[dest]
+        assert a.help.startswith(f.metadata["help"]), (name, dest)
+        if accepts(f) and not f.metadata.get("choices"):
+            assert f"[{accepts(f)}]" in a.help, (name, dest)
+        assert callable(cmd.load(cmd.run))
 
 
 def test_version_and_debug(capsys, monkeypatch):
