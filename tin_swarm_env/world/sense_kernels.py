@@ -18,6 +18,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..terrain._kernels import bucket_locate1, los_brute1, los_walk1, walk_locate1
+from .angles import wrap_pi
 from .grid import grid_cells
 
 __all__ = ["terrain_arrays", "sense_pass1", "sense_pass2", "compact", "break_grid", "collision_counts", "sight1"]
@@ -99,7 +100,7 @@ def _insert(idx, dist, i, cnt, k, j, d):
 
 @njit(cache=True, inline="always")
 def _bearing(dx, dy, heading):
-    return (math.atan2(dy, dx) - heading + math.pi) % (2 * math.pi) - math.pi
+    return wrap_pi(math.atan2(dy, dx) - heading)  # (atan2 - heading + pi) % 2pi - pi, bit for bit
 
 
 @njit(cache=True, inline="always")
@@ -359,6 +360,19 @@ def _closest(px, py, ax, ay, bx, by):
 
 # -- collisions -----------------------------------------------------------------------------
 
+@njit(cache=True, inline="always")
+def _touches(dx, dy, diameter, lo2, hi2):
+    """``math.hypot(dx, dy) < diameter``, decided by the squared distance when it is clearly
+    inside (``< lo2``) or outside (``> hi2``, a relative margin of 1e-6 on each side, far above
+    rounding), so ``hypot`` (a libm call) runs only near the boundary: the same answer."""
+    d2 = dx * dx + dy * dy
+    if d2 < lo2:
+        return True
+    if d2 > hi2:
+        return False
+    return math.hypot(dx, dy) < diameter
+
+
 @njit(cache=True, parallel=True)
 def collision_counts(px, py, present, G, diameter):
     """Per robot, the present robots closer than ``diameter`` (``(n,)`` int64; grid ``G`` of the
@@ -366,6 +380,13 @@ def collision_counts(px, py, present, G, diameter):
     order (a serial pass over the few robots that touch one)."""
     x0, y0, inv, nx, ny, start, items, gx, gy = G
     n = px.shape[0]
+    lo2 = -1.0  # outside [1e-100, 1e100] the squared distance may under/overflow: hypot always
+    hi2 = -1.0
+    if 1e-100 <= diameter <= 1e100:
+        lo2 = (diameter * (1.0 - 1e-6)) ** 2
+        hi2 = (diameter * (1.0 + 1e-6)) ** 2
+    if not hi2 > 0.0:
+        hi2 = math.inf
     coll = np.zeros(n, dtype=np.int64)
     higher = np.zeros(n, dtype=np.int64)
     for q in prange(items.shape[0]):
@@ -376,7 +397,7 @@ def collision_counts(px, py, present, G, diameter):
         for cy in range(cy_lo, cy_hi + 1):
             for m in range(start[cy * nx + cx_lo], start[cy * nx + cx_hi + 1]):
                 j = items[m]
-                if j != i and math.hypot(gx[m] - px[i], gy[m] - py[i]) < diameter:
+                if j != i and _touches(gx[m] - px[i], gy[m] - py[i], diameter, lo2, hi2):
                     c += 1
                     if j > i:
                         h += 1
@@ -395,7 +416,7 @@ def collision_counts(px, py, present, G, diameter):
         for cy in range(cy_lo, cy_hi + 1):
             for m in range(start[cy * nx + cx_lo], start[cy * nx + cx_hi + 1]):
                 j = items[m]
-                if j > i and math.hypot(gx[m] - px[i], gy[m] - py[i]) < diameter:
+                if j > i and _touches(gx[m] - px[i], gy[m] - py[i], diameter, lo2, hi2):
                     q = p
                     while q > p0 and pairs[q - 1, 1] > j:  # sorted by j
                         pairs[q, 0] = i
