@@ -25,12 +25,8 @@ TWO_PI = 2 * math.pi
 def wrap_pi(a):
     """``(a + pi) % (2 * pi) - pi``, bit for bit: in [-pi, pi] (pi only where ``x + 2 pi`` rounds up)."""
     x = a + math.pi
-    if 0.0 <= x < TWO_PI:
-        m = x
-    elif TWO_PI <= x < 2.0 * TWO_PI:
-        m = x - TWO_PI
-    elif -TWO_PI < x < 0.0:
-        m = x + TWO_PI
-    else:
-        return x % TWO_PI - math.pi
-    return m - math.pi
+    if -TWO_PI < x < 2.0 * TWO_PI:  # written as selects (no data-dependent branch): see the module docstring
+        m = x - TWO_PI if x >= TWO_PI else x
+        m = m + TWO_PI if m < 0.0 else m
+        return m - math.pi
+    return x % TWO_PI - math.pi

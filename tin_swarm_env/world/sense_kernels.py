@@ -19,7 +19,7 @@ from numba import njit, prange
 
 from ..terrain._kernels import bucket_locate1, los_brute1, los_walk1, walk_locate1
 from .angles import wrap_pi
-from .grid import grid_cells
+from .grid import SENSE_REACH, grid_block, grid_cells
 
 __all__ = ["terrain_arrays", "sense_pass1", "sense_pass2", "compact", "break_grid", "collision_counts", "sight1"]
 
@@ -40,7 +40,7 @@ def terrain_arrays(tin):
     return T
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _locate(T, x, y, hint):
     vx, vy, vz, tris, nbrs, grad, bs, bt, bx0, by0, binv, bnx, bny, edges, border, tol, ztol, ms = T
     t = -1
@@ -51,7 +51,7 @@ def _locate(T, x, y, hint):
     return t
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _ground(T, x, y):
     """Terrain height at (x, y) (NaN outside), through the bucket grid."""
     vx, vy, vz, tris, nbrs, grad, bs, bt, bx0, by0, binv, bnx, bny, edges, border, tol, ztol, ms = T
@@ -62,7 +62,7 @@ def _ground(T, x, y):
     return vz[a] + grad[t, 0] * (x - vx[a]) + grad[t, 1] * (y - vy[a])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def sight1(T, ax, ay, az, bx, by, bz, ta):
     """Line of sight a -> b (``ta`` the triangle holding a): as :meth:`Tin.line_of_sight` does
     it, the walk starts in the triangle the segment enters and falls back to the brute force."""
@@ -105,12 +105,12 @@ def _bearing(dx, dy, heading):
 
 @njit(cache=True, inline="always")
 def _near_row(i, qx, qy, x0, y0, inv, nx, ny, start, items, gx, gy, skip, range_m, r2, idx, dist):
-    """Row ``i``: the at most K nearest grid points (a :func:`~.grid.grid_build` grid, unpacked)
-    within ``range_m`` of ``(qx, qy)`` (point ``skip`` left out), nearest first, ties to the
+    """Row ``i``: the at most K nearest grid points (a :func:`~.grid.grid_build` grid of cells
+    ``>= range_m / SENSE_REACH`` (:func:`~.grid.sense_cell`), unpacked) within ``range_m`` of ``(qx, qy)`` (point ``skip`` left out), nearest first, ties to the
     lower index; returns how many."""
     k = idx.shape[1]
     c = 0
-    cx_lo, cx_hi, cy_lo, cy_hi = grid_cells(x0, y0, inv, nx, ny, qx, qy)
+    cx_lo, cx_hi, cy_lo, cy_hi = grid_block(x0, y0, inv, nx, ny, qx, qy, SENSE_REACH)
     for cy in range(cy_lo, cy_hi + 1):
         for m in range(start[cy * nx + cx_lo], start[cy * nx + cx_hi + 1]):
             dx = gx[m] - qx
@@ -275,24 +275,28 @@ def sense_pass2(T, px, py, tri, sz, active, G, range_m, check_los, R, B, bcnt):
     return obs, seg, dist, closest, off
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def compact(idx, dist, bear, keep, cnt):
     """The kept slots ``(observer, target, distance, bearing)`` flattened observer-major, and
-    ``start (n + 1,)`` offsets: row i's contacts are ``start[i]:start[i + 1]``, nearest first."""
+    ``start (n + 1,)`` offsets: row i's contacts are ``start[i]:start[i + 1]``, nearest first.
+    Rows are counted and copied in parallel (each by its own iteration); the prefix sum is serial."""
     n = idx.shape[0]
-    start = np.zeros(n + 1, dtype=np.int64)
-    for i in range(n):
+    rows = np.empty(n, dtype=np.int64)
+    for i in prange(n):
         m = 0
         for s in range(cnt[i]):
             if idx[i, s] >= 0 and keep[i, s]:
                 m += 1
-        start[i + 1] = start[i] + m
+        rows[i] = m
+    start = np.zeros(n + 1, dtype=np.int64)
+    for i in range(n):
+        start[i + 1] = start[i] + rows[i]
     tot = start[n]
     obs = np.empty(tot, dtype=np.int64)
     tgt = np.empty(tot, dtype=np.int64)
     d = np.empty(tot)
     b = np.empty(tot)
-    for i in range(n):
+    for i in prange(n):
         p = start[i]
         for s in range(cnt[i]):
             if idx[i, s] >= 0 and keep[i, s]:
