@@ -21,7 +21,7 @@ from ..terrain._kernels import bucket_locate1, los_brute1, los_walk1, walk_locat
 from .angles import wrap_pi
 from .grid import SENSE_REACH, grid_block, grid_cells
 
-__all__ = ["terrain_arrays", "sense_pass1", "sense_pass2", "compact", "break_grid", "collision_counts", "sight1"]
+__all__ = ["terrain_arrays", "sense_pass1", "sense_pass2", "compact", "compact_parallel", "PARALLEL_COMPACT_ROWS", "break_grid", "collision_counts", "sight1"]
 
 
 def terrain_arrays(tin):
@@ -199,11 +199,16 @@ def sense_pass1(T, px, py, head, tri, sz, active, present, G, range_m, half_fov,
         bcnt[i] = m
 
 
-@njit(cache=True)
-def _mutual(idx, cnt, j, i):
-    """Slot of ``i`` among ``j``'s in-view candidates, or -1."""
+@njit(cache=True, inline="always")
+def _mutual(idx, dist, cnt, j, i, d):
+    """Slot of ``i`` among ``j``'s in-view candidates, or -1. ``d`` is their distance: ``j``'s row
+    is sorted by (distance, index) and holds the same ``d`` for ``i`` (the squared differences
+    are the same numbers either way round), so the scan stops at the first farther slot."""
     for s in range(cnt[j]):
-        if idx[j, s] == i:
+        dj = dist[j, s]
+        if dj > d:
+            return -1
+        if dj == d and idx[j, s] == i:
             return s
     return -1
 
@@ -239,7 +244,7 @@ def sense_pass2(T, px, py, tri, sz, active, G, range_m, check_los, R, B, bcnt):
             if not check_los:
                 r_vis[i, s] = 1
                 continue
-            m = _mutual(r_idx, r_cnt, j, i)
+            m = _mutual(r_idx, r_dist, r_cnt, j, i, r_dist[i, s])
             if j < i and m >= 0:
                 continue  # j walks it and writes this slot
             lo = min(i, j)
@@ -275,37 +280,66 @@ def sense_pass2(T, px, py, tri, sz, active, G, range_m, check_los, R, B, bcnt):
     return obs, seg, dist, closest, off
 
 
-@njit(cache=True, parallel=True)
-def compact(idx, dist, bear, keep, cnt):
-    """The kept slots ``(observer, target, distance, bearing)`` flattened observer-major, and
-    ``start (n + 1,)`` offsets: row i's contacts are ``start[i]:start[i + 1]``, nearest first.
-    Rows are counted and copied in parallel (each by its own iteration); the prefix sum is serial."""
-    n = idx.shape[0]
-    rows = np.empty(n, dtype=np.int64)
-    for i in prange(n):
-        m = 0
-        for s in range(cnt[i]):
-            if idx[i, s] >= 0 and keep[i, s]:
-                m += 1
-        rows[i] = m
+@njit(cache=True, inline="always")
+def _kept(idx, keep, cnt, i):
+    m = 0
+    for s in range(cnt[i]):
+        if idx[i, s] >= 0 and keep[i, s]:
+            m += 1
+    return m
+
+
+@njit(cache=True, inline="always")
+def _copy_kept(idx, dist, bear, keep, cnt, i, p, obs, tgt, d, b):
+    for s in range(cnt[i]):
+        if idx[i, s] >= 0 and keep[i, s]:
+            obs[p] = i
+            tgt[p] = idx[i, s]
+            d[p] = dist[i, s]
+            b[p] = bear[i, s]
+            p += 1
+
+
+@njit(cache=True)
+def _compact_out(rows):
+    n = rows.shape[0]
     start = np.zeros(n + 1, dtype=np.int64)
     for i in range(n):
         start[i + 1] = start[i] + rows[i]
     tot = start[n]
-    obs = np.empty(tot, dtype=np.int64)
-    tgt = np.empty(tot, dtype=np.int64)
-    d = np.empty(tot)
-    b = np.empty(tot)
-    for i in prange(n):
-        p = start[i]
-        for s in range(cnt[i]):
-            if idx[i, s] >= 0 and keep[i, s]:
-                obs[p] = i
-                tgt[p] = idx[i, s]
-                d[p] = dist[i, s]
-                b[p] = bear[i, s]
-                p += 1
+    return start, np.empty(tot, dtype=np.int64), np.empty(tot, dtype=np.int64), np.empty(tot), np.empty(tot)
+
+
+@njit(cache=True)
+def compact(idx, dist, bear, keep, cnt):
+    """The kept slots ``(observer, target, distance, bearing)`` flattened observer-major, and
+    ``start (n + 1,)`` offsets: row i's contacts are ``start[i]:start[i + 1]``, nearest first."""
+    n = idx.shape[0]
+    rows = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        rows[i] = _kept(idx, keep, cnt, i)
+    start, obs, tgt, d, b = _compact_out(rows)
+    for i in range(n):
+        _copy_kept(idx, dist, bear, keep, cnt, i, start[i], obs, tgt, d, b)
     return obs, tgt, d, b, start
+
+
+@njit(cache=True, parallel=True)
+def compact_parallel(idx, dist, bear, keep, cnt):
+    """:func:`compact` with the rows counted and copied in parallel (each row by its own
+    iteration, the prefix sum serial): the same arrays. Worth two thread start-ups only for
+    many rows (:data:`PARALLEL_COMPACT_ROWS`)."""
+    n = idx.shape[0]
+    rows = np.empty(n, dtype=np.int64)
+    for i in prange(n):
+        rows[i] = _kept(idx, keep, cnt, i)
+    start, obs, tgt, d, b = _compact_out(rows)
+    for i in prange(n):
+        _copy_kept(idx, dist, bear, keep, cnt, i, start[i], obs, tgt, d, b)
+    return obs, tgt, d, b, start
+
+
+PARALLEL_COMPACT_ROWS = 4096  # below this many observers, compact serially (a parallel region costs ~10 us)
 
 
 # -- terrain breaks ----------------------------------------------------------------------------

@@ -279,7 +279,8 @@ def sense(tin, break_index: BreakIndex, state, params) -> SensorReadings:
     los = bool(sp.check_los)
     SK.sense_pass1(T, x, y, head, tri, sz, active, present, G, r, half_fov, los, R, TG, AS, B, bcnt)
     obs, seg, d, c, start = SK.sense_pass2(T, x, y, tri, sz, active, G, r, los, R, B, bcnt)
-    robots = Contacts(*SK.compact(R[0], R[1], R[2], R[3], R[4]))
+    compact = SK.compact_parallel if n >= SK.PARALLEL_COMPACT_ROWS else SK.compact
+    robots = Contacts(*compact(R[0], R[1], R[2], R[3], R[4]))
     targets = Contacts(*SK.compact(*TG[1:])) if len(state.targets) else _empty_contacts(n)
     assets = Contacts(*SK.compact(*AS[1:])) if len(state.assets) else _empty_contacts(n)
     return SensorReadings(robots=robots, targets=targets, assets=assets, breaks=BreakContacts(obs, seg, d, c, start),
