@@ -50,6 +50,7 @@ import numpy as np
 from ..env import parallel_env
 from ..errors import ArgumentError, PlacementError
 from ..policies import APFPolicy
+from ..scenario.config import MAX_ROBOTS
 from ..world.fields import FIELDS, fields_at
 from .args import check_args, opt
 from .run import fields_problem
@@ -473,7 +474,7 @@ class Args:
                      check=_robot_problem)
     fields: str | None = opt(None, "fields switched on, comma-separated, e.g. robot,target,break (default: all of "
                              + ",".join(FIELDS) + ")", check=fields_problem)
-    robots: int | None = opt(None, "number of robots (default: the scenario's)", lo=1)
+    robots: int | None = opt(None, "number of robots (default: the scenario's)", lo=1, hi=MAX_ROBOTS)
     steps: int = opt(0, "APF steps to take before drawing", lo=0)
     seed: int = opt(0, "reset seed", lo=0)
     cost_to_go: bool = opt(False, "overlay contours of the selected robot's target's cost-to-go (m of drivable path)",
