@@ -419,7 +419,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
                                   decorations=self._render_decorations, name=self.config.name)
             if self.render_mode == "human":
                 _warn_if_no_display()  # once per viewer
-        img = self._viewer.frame(self._wstate)
+        img = self._viewer.frame(self._wstate, final=not self._live.any())  # last frame: active = timed out
         if self.render_mode == "rgb_array":
             return img
         self._viewer.show(img)
