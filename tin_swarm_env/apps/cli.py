@@ -239,7 +239,7 @@ def _cmd_explore(args) -> int:
         from .._atomic import atomic_path
 
         with atomic_path(args.png) as tmp:
-            ex.fig.savefig(tmp, format="png")
+            ex.save_png(tmp)
         print(f"wrote {args.png}")
         ex.close()
     else:

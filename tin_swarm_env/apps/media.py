@@ -180,7 +180,7 @@ class FrameWriter:
         self.path, self.fps, self.n_frames = path, fps, 0
         self.kind = frame_kind(path)
         if self.kind in ("mp4", "webp"):
-            what = f"Writing {self.kind.upper()} video ({path})"
+            what = f"{path}: writing a .{self.kind} file"
             require("imageio", "video", what)
             self._iio = require("imageio.v2", "video", what)
             self._ffmpeg = require("imageio_ffmpeg", "video", what)
