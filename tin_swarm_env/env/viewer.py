@@ -154,7 +154,7 @@ class Viewer:
         self._decorations = decorations
         if decorations:
             _scale_bar(ax, x1 - x0, y1 - y0)
-        self._backgrounds = {}  # legend entries -> the background image with that legend
+        self._background = (None, None)  # (legend entries, the background image with that legend)
         self._disc3 = _disc(3)
         self._disc5 = _disc(5)
         self._ring_target = _ring(5, 6)
@@ -168,15 +168,15 @@ class Viewer:
     def background(self, entries: tuple = ()) -> np.ndarray:
         """``(H, W, 3)`` uint8: the terrain (with the legend of ``entries`` when decorated)."""
         key = tuple(entries) if self._decorations else ()
-        if key not in self._backgrounds:
+        if self._background[0] != key:  # one kept: the legend changes a few times per episode
             old = self._ax.get_legend()
             if old is not None:
                 old.remove()
             if key:
                 _legend(self._ax, key, self._max_slope_deg)
             self._canvas.draw()
-            self._backgrounds[key] = np.asarray(self._canvas.buffer_rgba())[..., :3].copy()
-        return self._backgrounds[key]
+            self._background = (key, np.asarray(self._canvas.buffer_rgba())[..., :3].copy())
+        return self._background[1]
 
     def legend_entries(self, state) -> tuple:
         """What the legend of a frame of ``state`` lists (see the module docstring)."""
