@@ -19,6 +19,7 @@ pixels wide; a 200-robot, 900-step jacksboro run then writes a GIF under 10 MB (
 from __future__ import annotations
 
 import io
+import os
 import struct
 from contextlib import ExitStack
 
@@ -162,8 +163,7 @@ def check_animation(robots: int, steps: int, every: int, option: str = "--gif") 
 def frame_kind(path) -> str:
     """``"gif"``, ``"png"``, ``"mp4"`` or ``"webp"`` from ``path``'s suffix (:data:`SUFFIXES`);
     any other suffix is an ArgumentError naming it."""
-    p = str(path)
-    suffix = p[p.rfind("."):].lower() if "." in p.rsplit("/", 1)[-1] else ""
+    suffix = os.path.splitext(os.path.basename(os.fspath(path)))[1].lower()
     if suffix not in SUFFIXES:
         raise ArgumentError(f"{path}: cannot write frames as {suffix or 'a file without a suffix'!r}; the suffix "
                             f"picks the format: " + ", ".join(f"{k} ({v})" for k, v in SUFFIXES.items()))
