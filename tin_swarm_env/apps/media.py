@@ -34,8 +34,8 @@ __all__ = ["FrameWriter", "save_gif", "save_mp4", "FRAME_EVERY", "GIF_WIDTH_PX",
 FRAME_EVERY = 5  # steps between frames of `tin-swarm run --gif/--mp4` (--frame-every)
 GIF_WIDTH_PX = 640  # frame width of `tin-swarm run --gif/--mp4` (--render-width)
 TRANSPARENT = 255  # the GIF palette index of "unchanged since the last frame"
-SUFFIXES = {".gif": "an animated GIF", ".png": "the last frame as PNG", ".mp4": "an H.264 MP4 (the [video] extra)",
-            ".webp": "an animated, lossless WebP (the [video] extra)"}
+SUFFIXES = {".gif": "an animated GIF", ".png": "the last frame as PNG", ".mp4": "H.264 video, the [video] extra",
+            ".webp": "lossless animated WebP, the [video] extra"}
 
 
 def gif_palette_image():
@@ -165,8 +165,9 @@ def frame_kind(path) -> str:
     any other suffix is an ArgumentError naming it."""
     suffix = os.path.splitext(os.path.basename(os.fspath(path)))[1].lower()
     if suffix not in SUFFIXES:
-        raise ArgumentError(f"{path}: cannot write frames as {suffix or 'a file without a suffix'!r}; the suffix "
-                            f"picks the format: " + ", ".join(f"{k} ({v})" for k, v in SUFFIXES.items()))
+        what = f"the suffix {suffix!r} is not a format written here" if suffix else "the file name has no suffix"
+        raise ArgumentError(f"{path}: {what}; the suffix picks the format: "
+                            + ", ".join(f"{k} ({v})" for k, v in SUFFIXES.items()))
     return suffix[1:]
 
 
