@@ -1,11 +1,17 @@
-"""tin-swarm build-tin."""
+"""The command line (apps/cli.py): help and defaults on every option, --version, --debug,
+``scenarios --copy``, ``build-tin`` and the train options."""
 
+import argparse
+import dataclasses
 import subprocess
 import sys
 
 import numpy as np
+import pytest
 
-from tin_swarm_env.apps.cli import main
+import tin_swarm_env as tse
+from tin_swarm_env.apps.args import accepts
+from tin_swarm_env.apps.cli import COMMANDS, build_parser, main
 from tin_swarm_env.env.tin_swarm import DEFAULT_RENDER_WIDTH_PX
 from tin_swarm_env.terrain import load_tin
 
@@ -84,3 +90,90 @@ def test_run_jacksboro_with_200_robots_finishes_and_writes_a_gif(tmp_path):
     arrived, fell, dead, timed_out = map(int, cells[3:7])
     assert arrived + fell + dead + timed_out == 200 and arrived > 0
     assert gif.stat().st_size > 10_000
+
+
+def test_cli_train_exposes_the_imitation_options():
+    ns = build_parser().parse_args(["train", "cliff_goal,ramp", "--bc-episodes", "3", "--dagger-rounds", "2",
+                                    "--recurrent", "false", "--timesteps", "0"])
+    got = (ns.scenario, ns.bc_episodes, ns.dagger_rounds, ns.recurrent, ns.total_timesteps)
+    assert got == ("cliff_goal,ramp", 3, 2, False, 0)
+
+
+def _subparsers(p):
+    act = next(a for a in p._actions if isinstance(a, argparse._SubParsersAction))
+    return act.choices
+
+
+SUBCOMMANDS = ("run", "scenarios", "explore", "train", "eval", "build-tin")
+
+
+def test_the_parser_has_every_subcommand_and_shows_defaults():
+    p = build_parser()
+    assert tuple(_subparsers(p)) == SUBCOMMANDS == tuple(COMMANDS)
+    assert issubclass(p.formatter_class, argparse.ArgumentDefaultsHelpFormatter)
+
+
+@pytest.mark.parametrize("name", SUBCOMMANDS)
+def test_every_option_has_help_and_help_runs(name, capsys):
+    """For each subcommand, read off the parser: every argument has a non-empty help text, every
+    non-empty default is shown, and ``tin-swarm NAME --help`` exits 0 listing every option."""
+    sp = _subparsers(build_parser())[name]
+    assert issubclass(sp.formatter_class, argparse.ArgumentDefaultsHelpFormatter), name
+    text = " ".join(sp.format_help().split())
+    actions = [a for a in sp._actions if not isinstance(a, argparse._HelpAction)]
+    assert actions
+    for a in actions:
+        assert isinstance(a.help, str) and a.help.strip() and a.help != argparse.SUPPRESS, (name, a.dest)
+        if not (a.default is None or a.default is False or a.default in ([], "")) and a.option_strings:
+            assert f"(default: {a.default})" in text, (name, a.dest)
+    with pytest.raises(SystemExit) as exc:
+        main([name, "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"usage: tin-swarm {name} ")
+    for a in actions:
+        for s in a.option_strings or [a.dest]:
+            assert s in out, (name, s)
+
+
+@pytest.mark.parametrize("name", SUBCOMMANDS)
+def test_options_are_generated_from_the_args_dataclass(name):
+    """No hand-written option: a subcommand's arguments are exactly the fields of its ``Args``, each
+    with the field's help text (and what it accepts)."""
+    cmd = COMMANDS[name]
+    fields = {f.name: f for f in dataclasses.fields(cmd.load(cmd.args))}
+    actions = {a.dest: a for a in _subparsers(build_parser())[name]._actions if not isinstance(a, argparse._HelpAction)}
+    assert set(actions) == set(fields)
+    for dest, a in actions.items():
+        f = fields[dest]
+        assert a.help.startswith(f.metadata["help"]), (name, dest)
+        if accepts(f) and not f.metadata.get("choices"):
+            assert f"[{accepts(f)}]" in a.help, (name, dest)
+        assert callable(cmd.load(cmd.run))
+
+
+def test_version_and_debug(capsys, monkeypatch):
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0 and capsys.readouterr().out.strip() == f"tin-swarm {tse.__version__}"
+    assert main(["run", "atlantis", "--quiet"]) == 2
+    with pytest.raises(tse.errors.ScenarioError):
+        main(["--debug", "run", "atlantis", "--quiet"])
+    monkeypatch.setenv("TIN_SWARM_DEBUG", "1")
+    with pytest.raises(tse.errors.ScenarioError):
+        main(["run", "atlantis", "--quiet"])
+
+
+def test_scenarios_copy_writes_the_builtin_and_refuses_to_overwrite(tmp_path, capsys):
+    from tin_swarm_env.scenario.config import SCENARIO_DIR, load_scenario
+
+    ramp = (SCENARIO_DIR / "ramp.toml").read_bytes()
+    assert main(["scenarios", "--copy", "ramp", str(tmp_path)]) == 0  # into a directory: ramp.toml
+    assert (tmp_path / "ramp.toml").read_bytes() == ramp
+    dest = tmp_path / "mine.toml"
+    dest.write_text("keep me")
+    assert main(["scenarios", "--copy", "ramp", str(dest)]) == 2
+    assert dest.read_text() == "keep me" and "--force" in capsys.readouterr().err
+    assert main(["scenarios", "--copy", "ramp", str(dest), "--force"]) == 0
+    assert dest.read_bytes() == ramp
+    assert load_scenario(dest).name == "mine"  # the name comes from the file (no name key in the built-ins)

@@ -1,5 +1,6 @@
 """tin_swarm_v0: PettingZoo conformance, determinism, spaces, and tests of meaning."""
 
+import inspect
 import math
 import warnings
 
@@ -316,3 +317,28 @@ def test_compiled_observations_equal_the_numpy_reference(scenario):
         assert a.dtype == b.dtype == np.float32
         np.testing.assert_allclose(a, b, atol=2e-7)
         assert np.any(a[:, env.layout.robots] != 0)
+
+
+def test_parallel_env_has_the_constructor_s_typed_signature():
+    from tin_swarm_env.env.tin_swarm import TinSwarmEnv, parallel_env
+
+    want = dict(inspect.signature(TinSwarmEnv.__init__).parameters)
+    want.pop("self")
+    got = dict(inspect.signature(parallel_env).parameters)
+    assert list(got) == list(want)
+    for k in want:
+        assert (got[k].default, got[k].annotation, got[k].kind) == (want[k].default, want[k].annotation,
+                                                                     want[k].kind), k
+
+
+def test_human_render_without_a_display_warns(monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    env = tse.parallel_env(scenario="flat", n_robots=2, render_mode="human", render_width=64)
+    env.reset(seed=0)
+    with pytest.warns(UserWarning, match="no display"):
+        env.render()
+    env.close()
