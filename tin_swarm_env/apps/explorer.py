@@ -506,7 +506,7 @@ class FieldExplorer:
         ax.set_ylim(y0, y1)
         ax.tick_params(labelsize=6)
         who = "the first target" if self.robot is None else f"robot_{self.robot}'s target"
-        ax.set_title(f"cost-to-go to {who}, whole terrain (grey: none)", fontsize=8)
+        ax.set_title(f"cost-to-go to {who} (grey: unreachable)", fontsize=8)
 
     def show(self):
         import matplotlib.pyplot as plt
