@@ -1,4 +1,7 @@
-"""``tin-swarm scenarios`` (apps/scenarios.py): the listing and ``--copy``."""
+"""``tin-swarm scenarios`` (apps/scenarios.py): the built-ins listed, ``--copy`` writes one and refuses to
+overwrite without ``--force``."""
+
+from __future__ import annotations
 
 from tin_swarm_env.apps.cli import main
 from tin_swarm_env.apps.scenarios import Args, scenarios

@@ -1,5 +1,5 @@
-"""ObsLayout is the observation's one description (env/observation.py): offsets, names, scales, decoders, saving;
-and its mirror symmetry."""
+"""The observation (env/observation.py): ObsLayout as its one description (offsets, names, scales,
+decoders, saving), the compiled observation against the numpy reference, and its mirror symmetry."""
 
 import json
 import math
@@ -372,3 +372,20 @@ def test_the_mirrored_world_observes_the_mirrored_observation(tmp_path, seed):
             assert seen[[n.startswith(f"{part}[0].{f}") for n in names]].all(), f"{part}[0].{f} never seen"
     for name in ("own.tilt", "own.uphill[1]", "own.target_dir[1]", "breaks[0].ny"):
         assert seen[list(names).index(name)], name
+
+
+@pytest.mark.parametrize("scenario", ["cliff_goal", "containment", "flat"])
+def test_compiled_observations_equal_the_numpy_reference(scenario):
+    from tin_swarm_env.env.observation import build_observations
+    from tin_swarm_env.env.reference import build_observations_reference
+
+    env = tse.parallel_env(scenario=scenario, n_robots=30)
+    env.reset(seed=2)
+    rng = np.random.default_rng(1)
+    for _ in range(40):
+        env.step_arrays(rng.uniform(-1, 1, (30, 2)))
+        args = (env.world, env.world_state, env.sensed(), env.target_assignment, env.live_mask, env.layout)
+        a, b = build_observations(*args), build_observations_reference(*args)
+        assert a.dtype == b.dtype == np.float32
+        np.testing.assert_allclose(a, b, atol=2e-7)
+        assert np.any(a[:, env.layout.robots] != 0)

@@ -302,23 +302,6 @@ def test_pickle_round_trip():
     np.testing.assert_array_equal(o1["robot_0"], o2["robot_0"])
 
 
-@pytest.mark.parametrize("scenario", ["cliff_goal", "containment", "flat"])
-def test_compiled_observations_equal_the_numpy_reference(scenario):
-    from tin_swarm_env.env.observation import build_observations
-    from tin_swarm_env.env.reference import build_observations_reference
-
-    env = tse.parallel_env(scenario=scenario, n_robots=30)
-    env.reset(seed=2)
-    rng = np.random.default_rng(1)
-    for _ in range(40):
-        env.step_arrays(rng.uniform(-1, 1, (30, 2)))
-        args = (env.world, env.world_state, env.sensed(), env.target_assignment, env.live_mask, env.layout)
-        a, b = build_observations(*args), build_observations_reference(*args)
-        assert a.dtype == b.dtype == np.float32
-        np.testing.assert_allclose(a, b, atol=2e-7)
-        assert np.any(a[:, env.layout.robots] != 0)
-
-
 def test_parallel_env_has_the_constructor_s_typed_signature():
     from tin_swarm_env.env.tin_swarm import TinSwarmEnv, parallel_env
 

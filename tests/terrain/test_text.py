@@ -19,3 +19,17 @@ def test_the_shared_line_tokenizer_skips_comments_and_blank_lines_and_reads_comm
     p.write_text("1 2 3\n1 2\n")
     with pytest.raises(DemFormatError, match=r"t\.xyz:2: expected 3 numbers 'x y z', found 2: '1 2'"):
         list(numeric_rows(p, "x y z", DemFormatError))
+
+
+def test_a_word_where_a_number_belongs_is_named_with_its_line_and_the_caller_s_error(tmp_path):
+    from tin_swarm_env.errors import TinFormatError
+    from tin_swarm_env.terrain._text import numeric_rows
+
+    p = tmp_path / "m.tin"
+    p.write_text("0 0 1\n1 0 1\n0 one 1\n")
+    rows = numeric_rows(p, "x y z", TinFormatError)
+    assert next(rows)[:2] == (1, [0.0, 0.0, 1.0])  # rows come one at a time, before the bad line is read
+    with pytest.raises(TinFormatError, match=r"m\.tin:3: not a number in '0 one 1'"):
+        list(rows)
+    p.write_text("1 2 inf -inf\n")
+    assert [v for _, v, _ in numeric_rows(p, "a b c d", TinFormatError)] == [[1.0, 2.0, np.inf, -np.inf]]

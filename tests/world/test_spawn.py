@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import tin_swarm_env as tse
 from tin_swarm_env.errors import ArgumentError, PlacementError
 from tin_swarm_env.terrain import Tin
 from tin_swarm_env.world.spawn import spawn_positions
@@ -46,3 +47,24 @@ def test_impossible_or_bad_requests_are_named():
     with pytest.raises(ArgumentError, match=r"groups must be 2 integers in 0\.\.0"):
         spawn_positions(SQUARE, steep, 2, np.random.default_rng(0), groups=[0, 1])
     assert spawn_positions(SQUARE, steep, 0, np.random.default_rng(0)).shape == (0, 2)
+
+
+def test_spawn_positions_with_groups_respect_their_allowed_triangles():
+    w = tse.world.World(tse.terrain.build_tin(tse.scenario.terrains.make_dem("ridge", {}), method="delaunay"))
+    tin = w.tin
+    cx = tin.vertices[tin.triangles, 0].mean(axis=1)
+    allowed = np.array([cx < 80, cx > 120])  # (2, T): west for group 0, east for group 1
+    groups = np.array([0, 1, 1, 0, 1, 0, 0])
+    pos = spawn_positions(tin, w.steep, 7, np.random.default_rng(0), min_separation_m=2.0, allowed=allowed,
+                          groups=groups)
+    t = tin.locate(pos)
+    assert np.all(allowed[groups, t]) and not w.steep[t].any()
+    d = np.hypot(*(pos[:, None] - pos[None]).transpose(2, 0, 1))
+    assert d[np.triu_indices(7, 1)].min() >= 2.0
+    # without allowed/groups the draw is the plain one (the same stream gives the same points)
+    a = spawn_positions(tin, w.steep, 9, np.random.default_rng(4), min_separation_m=2.0)
+    b = spawn_positions(tin, w.steep, 9, np.random.default_rng(4), min_separation_m=2.0,
+                        allowed=np.ones(tin.n_triangles, bool))
+    np.testing.assert_array_equal(a, b)
+    with pytest.raises(PlacementError, match="assigned target can be reached"):
+        spawn_positions(tin, w.steep, 3, np.random.default_rng(0), allowed=np.zeros(tin.n_triangles, bool))
