@@ -89,13 +89,6 @@ def _eval(a) -> int:
     return 0
 
 
-def _joined(cmd: Command, ns: argparse.Namespace) -> dict:
-    """The arguments given several times or as several words (``nargs="+"``, ``action="append"`` in
-    ``cmd.cli``: eval's scenarios and ``--model``) joined with commas, as their ``Args`` field holds them."""
-    return {k: ",".join(getattr(ns, k)) for k, kw in cmd.cli.items()
-            if kw.get("nargs") == "+" or kw.get("action") == "append"}
-
-
 class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
     """Help with every option's default shown (``(default: ...)``), empty defaults left out."""
 
@@ -119,7 +112,7 @@ def _runner(cmd: Command):
     def run(ns: argparse.Namespace) -> int:
         try:
             cls = cmd.load(cmd.args)
-            a = dataclass_from_namespace(cls, ns, **_joined(cmd, ns))
+            a = dataclass_from_namespace(cls, ns)
             return cmd.load(cmd.run)(a)
         except ArgumentError as exc:
             msg = _cli_names(str(exc), cmd.rename)
