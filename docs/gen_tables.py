@@ -13,6 +13,7 @@ differs from a fresh generation; ``TIN_SWARM_WRITE_DOCS=1`` (with that test) or
 - scenario keys: the config dataclasses; each key's text is the ``name  description`` line of its
   class's docstring, and a key without one is an error.
 - limits: the named constants behind the checks of bad input.
+- suite splits: :data:`tin_swarm_env.apps.suite.SPLITS`, the standard evaluation suite's maps.
 """
 
 from __future__ import annotations
@@ -232,11 +233,20 @@ def limits_table() -> str:
     return HEADER + "\n".join(out) + "\n"
 
 
+# -- the standard evaluation suite ---------------------------------------------------------------------
+
+def suite_splits_table() -> str:
+    from tin_swarm_env.apps.suite import splits_markdown
+
+    return HEADER + splits_markdown()
+
+
 TABLES = {
     "docs/generated/observation.md": observation_table,
     "docs/generated/reasons.md": reasons_table,
     "docs/generated/scenario_keys.md": scenario_keys_table,
     "docs/generated/limits.md": limits_table,
+    "docs/generated/suite_splits.md": suite_splits_table,
 }
 
 

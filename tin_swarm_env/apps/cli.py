@@ -6,6 +6,7 @@
     tin-swarm explore SCENARIO [--png OUT.png] [--robot I|all] [--fields ...] [--steps K] [--cost-to-go]
     tin-swarm train SCENARIO --timesteps N [any field of apps.train.Args: --n-robots 8 ...]
     tin-swarm eval SCENARIO... [--seeds K] [--model DIR]... [--trust-pickle] [--out OUT]
+    tin-swarm eval --suite standard [--model [NAME=]DIR]... [--quick] [--out OUT]
     tin-swarm build-tin DEM -o OUT.tin [--method vip|greedy|delaunay] [--max-vertices N]
                         [--max-error-m E] [--min-significance-m S] [--png OUT.png]
 
@@ -196,8 +197,10 @@ def _cmd_train(args) -> int:
 def _cmd_eval(args) -> int:
     from .args import dataclass_from_namespace
     from .evaluate import Args, evaluate
+    from .suite import run_suite
 
-    evaluate(dataclass_from_namespace(Args, args, scenarios=",".join(args.scenarios), models=",".join(args.models)))
+    a = dataclass_from_namespace(Args, args, scenarios=",".join(args.scenarios), models=",".join(args.models))
+    (run_suite if a.suite else evaluate)(a)
     return 0
 
 
@@ -356,7 +359,7 @@ def _add_train_eval_build(sub) -> None:
     e = sub.add_parser("eval", help="random, APF and saved policies on the same scenarios and seeds",
                        formatter_class=_Formatter)
     add_dataclass_args(e, EvalArgs, positional=("scenarios",), rename={"models": "model"},
-                       cli={"scenarios": {"nargs": "+"}, "models": {"action": "append", "metavar": "MODEL"}})
+                       cli={"scenarios": {"nargs": "*"}, "models": {"action": "append", "metavar": "MODEL"}})
     e.set_defaults(func=_cmd_eval)
     b = sub.add_parser("build-tin", help="reduce a DEM to a TIN and write it (.tin or .npz)",
                        formatter_class=_Formatter)
