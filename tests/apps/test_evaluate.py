@@ -182,3 +182,11 @@ def test_bar_plot_writes_a_png(tmp_path):
     p = bar_plot(_rows(), tmp_path / "b.png")
     assert p == Path(tmp_path / "b.png") and p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert np.all([not f.name.endswith(".part.png") for f in tmp_path.iterdir()])
+
+
+def test_the_script_takes_scenarios_comma_separated():
+    from tin_swarm_env.apps.args import parse_dataclass
+
+    a = parse_dataclass(Args, ["--scenarios", "flat,ramp", "--seeds", "2", "--suite", "standard", "--quick"])
+    assert (a.scenarios, a.seeds, a.suite, a.quick) == ("flat,ramp", 2, "standard", True)
+

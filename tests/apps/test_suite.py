@@ -47,14 +47,19 @@ def test_quick_suite_prints_one_leaderboard_row_per_policy_and_the_files(tmp_pat
     assert _table_rows(md.split("Per map")[0]) == ["random", "apf", "geodesic", "shipped"]
 
 
-def test_the_suite_is_deterministic_for_a_policy(tmp_path):
+def test_the_suite_is_deterministic_for_a_policy(tmp_path, monkeypatch):
     got = []
     for k in range(2):
+        if k == 1:  # the second run "goes over" its budget: the file says so
+            monkeypatch.setattr(S, "BUDGET_S", 0.0)
         rows = S.run_suite(Args(scenarios="", suite="standard", quick=True, policies="random,apf",
                                 out=str(tmp_path / f"r{k}")))
         got.append([{key: repr(v) for key, v in r.items() if key != "seconds"} for r in rows])  # nan == nan
         assert rows.files[0].is_file()
     assert got[0] == got[1]
+    assert "Over the budget" not in (tmp_path / "r0.md").read_text()
+    assert re.search(r"Over the budget of 0 s for one policy: random took \d+ s, apf took \d+ s\.",
+                     (tmp_path / "r1.md").read_text())
     maps = [[{k: v for k, v in r.items() if k != "seconds"} for r in csv.DictReader(open(tmp_path / f"r{k}_maps.csv"))]
             for k in range(2)]
     assert maps[0] == maps[1]

@@ -65,7 +65,7 @@ class Args:
     """``tin-swarm eval`` / ``agents/evaluate.py``: every option, its help and what it accepts."""
 
     scenarios: str = opt(DEFAULT_SCENARIOS, "built-in scenario names or .toml paths (comma-separated; on the "
-                         "command line, space-separated; none with --suite)", nargs="*")
+                         "command line, space-separated; none with --suite)")
     seeds: int = opt(20, "episodes (seeds) per scenario and policy", lo=1)
     robots: int = opt(0, "robots per episode (0: the scenario's)", lo=0)
     models: str = opt("", "a pickle-free policy directory ([label=]path), or an SB3 .zip with --trust-pickle "
