@@ -142,4 +142,3 @@ def test_a_str_field_given_as_several_words_or_a_repeated_option_holds_them_comm
     assert (w.names, w.tags, w.pair) == ("x,y", "p,q", ["m", "n"])
     assert parse_dataclass(Words, []).names == "a"
     assert parse_dataclass(EvalArgs, ["--scenarios", "cliff_goal,generated"]).scenarios == "cliff_goal,generated"
-    assert parse_dataclass(EvalArgs, ["--scenarios", "cliff_goal", "ramp"]).scenarios == "cliff_goal,ramp"
