@@ -12,7 +12,7 @@ Policies: the APF baseline with all its fields, the APF without the break field 
 "poor ending": falls), :class:`~tin_swarm_env.policies.GeodesicPolicy` (knows the map: an upper
 bound, not a baseline) and uniform random actions. Terrains: every built-in goal scenario
 (``jacksboro`` with its 200 robots and 900 steps), the four canyon terrains of
-``tests/canyons.py`` (pass left or right, travelling east or west) and, with ``--generated K``
+``tests/helpers/canyons.py`` (pass left or right, travelling east or west) and, with ``--generated K``
 (default 50, 0 leaves them out), one row per generated family (:data:`ALL_FAMILIES`) over K
 held-out seeds (``EVAL_SEED0`` on, never used in training), APF and GeodesicPolicy only. A
 terrain whose env cannot be built is reported as a skipped row with the error.
@@ -42,7 +42,7 @@ from tin_swarm_env.scenario.generators import ALL_FAMILIES
 from tin_swarm_env.world.state import Reason
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT / "tests" / "helpers"))
 from canyons import VARIANTS, canyon_config  # noqa: E402
 
 POLICIES = {

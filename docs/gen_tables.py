@@ -13,6 +13,7 @@ differs from a fresh generation; ``TIN_SWARM_WRITE_DOCS=1`` (with that test) or
 - scenario keys: the config dataclasses; each key's text is the ``name  description`` line of its
   class's docstring, and a key without one is an error.
 - limits: the named constants behind the checks of bad input.
+- cli: every ``tin-swarm`` subcommand's arguments, read off :func:`tin_swarm_env.apps.cli.build_parser`.
 """
 
 from __future__ import annotations
@@ -232,11 +233,51 @@ def limits_table() -> str:
     return HEADER + "\n".join(out) + "\n"
 
 
+# -- the command line ---------------------------------------------------------------------------------
+
+def _md_text(text: str) -> str:
+    """Plain help text as a Markdown table cell: the characters Markdown would read escaped."""
+    text = text.replace("\\", "\\\\").replace("<", "&lt;")
+    for ch in "*_|`[]":
+        text = text.replace(ch, "\\" + ch)
+    return text
+
+
+def cli_table() -> str:
+    """Every argument of every ``tin-swarm`` subcommand, read off the parser (which is generated from
+    each command's ``Args`` dataclass: the help text and what it accepts are the field's)."""
+    import argparse
+
+    from tin_swarm_env.apps.cli import COMMANDS, build_parser
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction)).choices
+    out = []
+    for name, cmd in COMMANDS.items():
+        mod = cmd.args.split(":")[0]
+        out += [f"### tin-swarm {name}", "", f"{_md_text(cmd.help[0].upper() + cmd.help[1:])} "
+                f"(`{mod}.Args` in `tin_swarm_env/apps/{mod}.py`).", "",
+                "| argument | default | what it is (and accepts) |", "|---|---|---|"]
+        for a in sub[name]._actions:
+            if isinstance(a, argparse._HelpAction):
+                continue
+            if a.option_strings:
+                meta = a.metavar if a.metavar is not None else a.dest.upper()
+                meta = " ".join(meta) if isinstance(meta, tuple) else meta
+                arg = ", ".join(a.option_strings) + ("" if a.nargs == 0 else f" {meta}")
+                default = "" if a.default is None or a.default is False or a.default in ("", []) else f"`{a.default}`"
+            else:
+                arg, default = a.dest.upper() + (" ..." if a.nargs == "+" else ""), ""
+            out.append(f"| `{arg}` | {default} | {_md_text(' '.join(a.help.split()))} |")
+        out.append("")
+    return HEADER + "\n".join(out).rstrip() + "\n"
+
+
 TABLES = {
     "docs/generated/observation.md": observation_table,
     "docs/generated/reasons.md": reasons_table,
     "docs/generated/scenario_keys.md": scenario_keys_table,
     "docs/generated/limits.md": limits_table,
+    "docs/generated/cli.md": cli_table,
 }
 
 

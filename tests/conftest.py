@@ -39,6 +39,57 @@ def random_tin():
     return _random_tin
 
 
+def _random_rays(tin, rng, n, height=(0.0, 30.0)):
+    x0, y0, x1, y1 = tin.bounds
+    a = rng.uniform([x0, y0], [x1, y1], (n, 2))
+    b = rng.uniform([x0, y0], [x1, y1], (n, 2))
+    ha = tin.height_at(a) + rng.uniform(*height, n)
+    hb = tin.height_at(b) + rng.uniform(*height, n)
+    return np.column_stack([a, ha]), np.column_stack([b, hb])
+
+
+@pytest.fixture(scope="session")
+def random_rays():
+    """``random_rays(tin, rng, n, height=(0.0, 30.0))``: n random (a, b) end points inside the TIN's bounds,
+    each ``height`` metres above the ground (uniform)."""
+    return _random_rays
+
+
+def _disc_obstacles(tin, rng, n_discs):
+    """Impassable: triangles touching one of ``n_discs`` random discs (radius 60-180 m)."""
+    c = rng.uniform(150, 850, (n_discs, 2))
+    r = rng.uniform(60, 180, n_discs)
+    pts = tin.vertices[tin.triangles, :2]  # (T, 3, 2)
+    cen = pts.mean(axis=1, keepdims=True)
+    probe = np.concatenate([pts, cen], axis=1)  # (T, 4, 2)
+    d = np.linalg.norm(probe[:, :, None, :] - c[None, None], axis=-1)  # (T, 4, n)
+    return ~(d < r).any(axis=(1, 2))
+
+
+@pytest.fixture(scope="session")
+def disc_obstacles():
+    """``disc_obstacles(tin, rng, n_discs)``: the passable mask with triangles touching random discs removed."""
+    return _disc_obstacles
+
+
+def _obstacle_case(random_tin, seed, n=40, n_discs=3):
+    """A random TIN (``random_tin(seed, n)``), discs of impassable triangles, a goal on a passable one:
+    ``(tin, passable, goal, rng)``."""
+    tin = random_tin(seed, n)
+    rng = np.random.default_rng(seed)
+    passable = _disc_obstacles(tin, rng, n_discs)
+    ok = np.flatnonzero(passable)
+    t = int(rng.choice(ok)) if len(ok) else 0
+    goal = rng.dirichlet(np.ones(3)) @ tin.vertices[tin.triangles[t], :2]
+    return tin, passable, goal, rng
+
+
+@pytest.fixture(scope="session")
+def obstacle_case():
+    """``obstacle_case(random_tin, seed, n=40, n_discs=3)``: ``(tin, passable, goal, rng)`` on a random TIN."""
+    return _obstacle_case
+
+
 @pytest.fixture(scope="session")
 def jacksboro():
     from tin_swarm_env.terrain import sample_dem
@@ -46,10 +97,42 @@ def jacksboro():
     return sample_dem("jacksboro")
 
 
+def _cliff_tin(width=0.5, top=100.0):
+    """Plateau at `top` m for x <= 100, a cliff face one triangle pair wide (x 100..100+width),
+    floor at 0 m up to x = 200; y in [0, 100]."""
+    from tin_swarm_env.terrain import Tin
+
+    xs = [0.0, 100.0, 100.0 + width, 200.0]
+    zs = [top, top, 0.0, 0.0]
+    return Tin.from_points(np.array([(x, y, z) for x, z in zip(xs, zs) for y in (0.0, 100.0)]))
+
+
+@pytest.fixture(scope="session")
+def cliff_tin():
+    """``cliff_tin(width=0.5, top=100.0)``: a plateau (x <= 100), a cliff face ``width`` m wide, a floor to x = 200."""
+    return _cliff_tin
+
+
+def _world_params(**kw):
+    from tin_swarm_env.world import BatteryParams, RobotParams, SensorParams, WorldParams
+
+    robot = RobotParams(**kw.pop("robot", {}))
+    sensor = SensorParams(**kw.pop("sensor", {}))
+    battery = BatteryParams(**kw.pop("battery", {}))
+    return WorldParams(robot=robot, sensor=sensor, battery=battery, **kw)
+
+
+@pytest.fixture(scope="session")
+def world_params():
+    """``world_params(robot={...}, sensor={...}, battery={...}, **world_keys)``: a WorldParams from plain dicts."""
+    return _world_params
+
+
 def _load_helper(name: str):
-    """Import the helper module tests/<name>.py by its path (the suite runs in importlib mode, so
+    """Import the helper module tests/helpers/<name>.py by its path (the suite runs in importlib mode, so
     tests/ is not on sys.path; test files get helpers through the fixtures below, never by import)."""
-    spec = importlib.util.spec_from_file_location(f"_tin_swarm_tests_{name}", Path(__file__).parent / f"{name}.py")
+    path = Path(__file__).parent / "helpers" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"_tin_swarm_tests_{name}", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -115,3 +198,28 @@ def env_with_k_robots():
                                 n_robots=n_robots)
 
     return make
+
+
+def _obs_row(layout, R, target_xy, breaks=(), robots=(), speed=1.0):
+    """One hand-built observation row (body frame): target at ``target_xy`` m; breaks as
+    (closest x, y, normal x, y, drop_m); robots as (x, y)."""
+    o = np.zeros(layout.size)
+    own = layout.own
+    d = np.hypot(*target_xy)
+    o[own["speed"]] = speed
+    o[own["target_valid"]] = 1
+    o[own["target_dir"]] = np.asarray(target_xy) / d
+    o[own["target_dist"]] = d / (d + R)
+    b = layout.breaks.start
+    for k, (x, y, nx, ny, drop) in enumerate(breaks):
+        o[b + 8 * k: b + 8 * k + 8] = [1, x / R, y / R, nx, ny, drop / (abs(drop) + 10), np.hypot(x, y) / R, 1]
+    r = layout.robots.start
+    for k, (x, y) in enumerate(robots):
+        o[r + 4 * k: r + 4 * k + 4] = [1, x / R, y / R, np.hypot(x, y) / R]
+    return o[None]
+
+
+@pytest.fixture(scope="session")
+def obs_row():
+    """``obs_row(layout, R, target_xy, breaks=(), robots=(), speed=1.0)``: one hand-built body-frame observation row."""
+    return _obs_row

@@ -49,3 +49,58 @@ def test_a_tiny_mappo_experiment_runs(tmp_path):
     exp.run()
     assert exp.n_iters_performed == 2 and exp.total_frames == 120
     assert any(not (a == b.detach()).all() for a, b in zip(before, exp.policy.parameters()))  # it trained
+
+
+def _tiny_experiment(tmp_path, share=True, scenario="RAMP"):
+    from benchmarl.algorithms import MappoConfig
+    from benchmarl.experiment import Experiment, ExperimentConfig
+    from benchmarl.models.mlp import MlpConfig
+
+    cfg = ExperimentConfig.get_from_yaml()
+    cfg.max_n_frames, cfg.on_policy_collected_frames_per_batch, cfg.on_policy_n_envs_per_worker = 60, 60, 1
+    cfg.evaluation, cfg.render, cfg.loggers, cfg.create_json = False, False, [], False
+    cfg.save_folder, cfg.share_policy_params = str(tmp_path), share
+    model = MlpConfig.get_from_yaml()
+    model.num_cells = [16, 16]
+    task = TinSwarmTask[scenario].get_task(config={"n_robots": 3, "max_cycles": 40})
+    return Experiment(task=task, algorithm_config=MappoConfig.get_from_yaml(), model_config=model,
+                      critic_model_config=model, seed=0, config=cfg)
+
+
+def test_export_gives_the_torch_actors_deterministic_actions(tmp_path):
+    import json
+
+    import numpy as np
+    import torch
+
+    import tin_swarm_env as tse
+    from tin_swarm_env.adapters.benchmarl import actor_mean_layers, deterministic_actions, export_actor
+    from tin_swarm_env.policies.export import real_observations
+    from tin_swarm_env.policies.learned import load_policy
+
+    exp = _tiny_experiment(tmp_path)
+    mlp = next(m for m in exp.group_policies["robot"].modules() if type(m).__name__ == "MultiAgentMLP")
+    with torch.no_grad():  # an untrained actor's means are small: scale the last layer so tanh saturates too
+        mlp.params["4", "weight"].mul_(50.0)
+    layers, activation, squash = actor_mean_layers(exp)
+    assert [W.shape for W, _ in layers] == [(16, 59), (16, 16), (2, 16)] and (activation, squash) == ("tanh", "tanh")
+    env = tse.parallel_env(scenario="ramp", n_robots=3, max_cycles=40)
+    obs = real_observations(env, seeds=(0, 1), steps=30, every=3)
+    torch_act = deterministic_actions(exp)(obs.astype(np.float32))
+    assert torch_act.shape == (len(obs), 2) and (np.abs(torch_act) > 0.99).any() and (np.abs(torch_act) < 0.9).any()
+    # the deterministic action is tanh of the Gaussian's mean (the first half of the MLP's output)
+    mean = np.tanh(np.tanh(obs @ layers[0][0].T + layers[0][1]) @ layers[1][0].T + layers[1][1]) @ layers[2][0].T
+    np.testing.assert_allclose(torch_act, np.tanh(mean + layers[2][1]), atol=1e-5)
+    gap = export_actor(exp, tmp_path / "policy", env, obs=obs, scenario="ramp", extra={"note": "untrained"})
+    assert gap < 1e-5
+    np.testing.assert_allclose(load_policy(tmp_path / "policy", env).act_batch(obs), torch_act, atol=1e-5)
+    meta = json.loads((tmp_path / "policy" / "policy.json").read_text())
+    assert meta["training"]["library"] == "benchmarl" and meta["training"]["note"] == "untrained"
+
+
+def test_export_refuses_one_network_per_robot(tmp_path):
+    from tin_swarm_env.adapters.benchmarl import actor_mean_layers
+    from tin_swarm_env.errors import ArgumentError
+
+    with pytest.raises(ArgumentError, match="one MLP per robot"):
+        actor_mean_layers(_tiny_experiment(tmp_path, share=False))

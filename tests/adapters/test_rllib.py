@@ -65,3 +65,60 @@ def test_one_rllib_ppo_iteration_runs_locally(tmp_path):
     by_node = r.stdout.split("iteration 1: env steps by Ray node: ")[1].splitlines()[0].split(", ")
     assert len(by_node) == 1 and int(by_node[0].split()[1]) == steps >= 400
     assert (tmp_path / "rl" / "progress.csv").exists()
+    # the RLModule was exported and checked against itself (export_module raises on a gap)
+    assert "exported" in r.stdout and "numpy vs RLModule actions differ by at most" in r.stdout
+    import tin_swarm_env as tse
+    from tin_swarm_env.policies.learned import load_policy
+
+    pol = load_policy(tmp_path / "rl" / "policy", tse.parallel_env(scenario="flat", n_robots=4))
+    assert pol.training["library"] == "rllib" and pol.training["iterations"] == 1
+
+
+def _tiny_module(**model_config):
+    import torch
+    from ray.rllib.algorithms.ppo.torch.default_ppo_torch_rl_module import DefaultPPOTorchRLModule
+    from ray.rllib.core.rl_module.rl_module import RLModuleSpec
+
+    import tin_swarm_env as tse
+
+    env = tse.parallel_env(scenario="ramp", n_robots=3, max_cycles=40)
+    torch.manual_seed(0)
+    spec = RLModuleSpec(module_class=DefaultPPOTorchRLModule, observation_space=env.observation_space("robot_0"),
+                        action_space=env.action_space("robot_0"), model_config={"fcnet_hiddens": [16, 16],
+                                                                                 **model_config})
+    return spec.build(), env
+
+
+@pytest.mark.parametrize("vf_share_layers", [True, False])
+def test_export_gives_the_modules_deterministic_actions(tmp_path, vf_share_layers):
+    import torch
+
+    from tin_swarm_env.adapters.rllib import deterministic_actions, export_module, module_mean_layers
+    from tin_swarm_env.policies.export import real_observations
+    from tin_swarm_env.policies.learned import load_policy
+
+    module, env = _tiny_module(vf_share_layers=vf_share_layers)
+    with torch.no_grad():  # an untrained module's means are small: scale the head so the clip matters too
+        module.pi.net.mlp[0].weight.mul_(10.0)
+    layers, activation = module_mean_layers(module)
+    assert [W.shape for W, _ in layers] == [(16, 59), (16, 16), (2, 16)] and activation == "tanh"
+    obs = real_observations(env, seeds=(0, 1), steps=30, every=3)
+    act = deterministic_actions(module, env.action_space("robot_0"))(obs.astype(np.float32))
+    assert (np.abs(act) == 1.0).any() and (np.abs(act) < 0.9).any()  # clipped and inner actions
+    # the deterministic action is the Gaussian's mean (the first half of pi's output), clipped to [-1, 1]
+    h = np.tanh(np.tanh(obs @ layers[0][0].T + layers[0][1]) @ layers[1][0].T + layers[1][1])
+    np.testing.assert_allclose(act, np.clip(h @ layers[2][0].T + layers[2][1], -1, 1), atol=1e-5)
+    gap = export_module(module, tmp_path / "policy", env, obs=obs, scenario="ramp")
+    assert gap < 1e-5
+    np.testing.assert_allclose(load_policy(tmp_path / "policy", env).act_batch(obs), act, atol=1e-5)
+
+
+def test_export_refuses_a_head_with_another_activation(tmp_path):
+    from tin_swarm_env.adapters.rllib import module_mean_layers
+    from tin_swarm_env.errors import ArgumentError
+
+    module, _ = _tiny_module(head_fcnet_hiddens=[8], head_fcnet_activation="relu")
+    with pytest.raises(ArgumentError, match="one activation"):
+        module_mean_layers(module)
+    module, _ = _tiny_module(head_fcnet_hiddens=[8], head_fcnet_activation="tanh")
+    assert [W.shape for W, _ in module_mean_layers(module)[0]] == [(16, 59), (16, 16), (8, 16), (2, 8)]

@@ -12,7 +12,7 @@ from stable_baselines3 import PPO  # noqa: E402
 from stable_baselines3.common.vec_env import VecEnv  # noqa: E402
 
 import tin_swarm_env as tse  # noqa: E402
-from tin_swarm_env.errors import TinSwarmError  # noqa: E402
+from tin_swarm_env.errors import ArgumentError, TinSwarmError  # noqa: E402
 
 
 def vec(**kw):
@@ -351,3 +351,11 @@ def test_the_mirror_policy_is_equivariant_and_exports_to_the_same_actions(tmp_pa
     assert np.any(np.abs(got) == 1.0) and np.any(np.abs(got) < 1.0)
     with pytest.raises(TinSwarmError, match="mirror_signs of length 59"):
         PPO(mirror_policy_class(), vec, policy_kwargs={"mirror_signs": [1.0]}, device="cpu")
+
+
+def test_a_scenario_mix_alternates_copies_and_needs_one_robot_count():
+    v = tse.adapters.make_sb3_vec_env(["flat", "cliff_goal"], n_robots=3, n_envs=4, seed=0, max_cycles=20)
+    assert [e.config.name for e in v.envs] == ["flat", "cliff_goal", "flat", "cliff_goal"]
+    assert v.num_envs == 12 and v.reset().shape == (12, v.observation_space.shape[0])
+    with pytest.raises(ArgumentError, match="robots"):
+        tse.adapters.make_sb3_vec_env(["flat", "hill"], n_envs=2, seed=0)  # 20 and 30 robots

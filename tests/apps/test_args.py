@@ -59,6 +59,7 @@ def test_train_help_explains_every_option():
 
 @pytest.mark.parametrize("argv, match", [
     (["--gamma", "2"], "--gamma must be a finite number > 0 and <= 1, got 2.0"),
+    (["--timesteps", "-1"], "--timesteps must be an integer >= 0, got -1"),  # the option as `train` spells it
     (["--clip-range", "-1"], "--clip-range must be a finite number > 0"),
     (["--max-minutes", "-1"], "--max-minutes must be a finite number >= 0"),
     (["--eval-episodes", "0"], "--eval-episodes must be an integer >= 1"),
@@ -77,3 +78,45 @@ def test_bad_train_options_stop_before_training(argv, match, capsys, tmp_path):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and match in err[0], err
     assert not (tmp_path / "run").exists()  # nothing was started
+
+
+def test_opt_refuses_an_option_without_help():
+    for text in ("", "   ", None):
+        with pytest.raises(TypeError, match="help text"):
+            opt(1, text)
+
+
+@pytest.mark.parametrize("module, kw, match", [
+    ("run", {"episodes": 0}, "--episodes must be an integer >= 1, got 0"),
+    ("run", {"robots": 100_001}, "--robots must be an integer >= 1 and <= 100000"),
+    ("run", {"render_width": 63}, "--render-width must be an integer >= 64 and <= 4096, got 63"),
+    ("run", {"seed": -1}, "--seed must be an integer >= 0"),
+    ("run", {"fields": "robot,wind"}, r"--fields 'robot,wind': unknown field\(s\) \['wind'\]"),
+    ("run", {"fields": " , "}, "--fields ' , ': no field named"),
+    ("run", {"mp4": "a.gif"}, "--mp4 'a.gif': the file name must end in .mp4"),
+    ("run", {"quiet": "yes"}, "--quiet must be true or false"),
+    ("explorer", {"robot": "x"}, "--robot 'x': give a robot index >= 0 or 'all'"),
+    ("explorer", {"robot": "-2"}, "--robot '-2'"),
+    ("explorer", {"steps": -1}, "--steps must be an integer >= 0"),
+    ("build_tin", {"output": "t.tin", "method": "VIP"}, "--method must be one of vip, greedy, delaunay, robot"),
+    ("build_tin", {"output": "t.tin", "max_slope_deg": 0}, "--max-slope-deg must be a finite number > 0 and < 90"),
+    ("build_tin", {"output": "t.tin", "min_significance_m": float("inf")}, "--min-significance-m must be a finite"),
+    ("build_tin", {"output": ""}, "--output '': is required"),
+    ("scenarios", {"copy": ["ramp"]}, "--copy \\['ramp'\\]: give NAME DEST"),
+])
+def test_every_command_args_is_checked_when_built_in_code(module, kw, match):
+    import importlib
+
+    cls = importlib.import_module(f"tin_swarm_env.apps.{module}").Args
+    with pytest.raises(ArgumentError, match=match):
+        cls(**kw)
+
+
+def test_command_args_accept_good_values():
+    from tin_swarm_env.apps import build_tin, explorer, run, scenarios
+
+    assert run.Args(fields=" robot, target ", robots=3).robots == 3
+    assert explorer.Args(robot="ALL").robot_index is None and explorer.Args(robot=" 7").robot_index == 7
+    assert build_tin.Args(output="t.tin", max_error_m=1).max_error_m == 1.0  # normalised to a float
+    assert scenarios.Args(copy=["ramp", "x.toml"], force=True).force
+    assert run.parse_fields(" robot, target ") == ("robot", "target") and run.parse_fields(None, "d") == "d"

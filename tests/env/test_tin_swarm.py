@@ -1,5 +1,6 @@
 """tin_swarm_v0: PettingZoo conformance, determinism, spaces, and tests of meaning."""
 
+import inspect
 import math
 import warnings
 
@@ -301,18 +302,26 @@ def test_pickle_round_trip():
     np.testing.assert_array_equal(o1["robot_0"], o2["robot_0"])
 
 
-@pytest.mark.parametrize("scenario", ["cliff_goal", "containment", "flat"])
-def test_compiled_observations_equal_the_numpy_reference(scenario):
-    from tin_swarm_env.env.observation import build_observations
-    from tin_swarm_env.env.reference import build_observations_reference
+def test_parallel_env_has_the_constructor_s_typed_signature():
+    from tin_swarm_env.env.tin_swarm import TinSwarmEnv, parallel_env
 
-    env = tse.parallel_env(scenario=scenario, n_robots=30)
-    env.reset(seed=2)
-    rng = np.random.default_rng(1)
-    for _ in range(40):
-        env.step_arrays(rng.uniform(-1, 1, (30, 2)))
-        args = (env.world, env.world_state, env.sensed(), env.target_assignment, env.live_mask, env.layout)
-        a, b = build_observations(*args), build_observations_reference(*args)
-        assert a.dtype == b.dtype == np.float32
-        np.testing.assert_allclose(a, b, atol=2e-7)
-        assert np.any(a[:, env.layout.robots] != 0)
+    want = dict(inspect.signature(TinSwarmEnv.__init__).parameters)
+    want.pop("self")
+    got = dict(inspect.signature(parallel_env).parameters)
+    assert list(got) == list(want)
+    for k in want:
+        assert (got[k].default, got[k].annotation, got[k].kind) == (want[k].default, want[k].annotation,
+                                                                     want[k].kind), k
+
+
+def test_human_render_without_a_display_warns(monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    env = tse.parallel_env(scenario="flat", n_robots=2, render_mode="human", render_width=64)
+    env.reset(seed=0)
+    with pytest.warns(UserWarning, match="no display"):
+        env.render()
+    env.close()

@@ -1,5 +1,5 @@
 """scenarios/canyon_left.toml and canyon_right.toml (the held-out canyons of the learned-policy
-evaluation) are exactly tests/canyons.py's eastward variants: same TIN, same observations."""
+evaluation) are exactly tests/helpers/canyons.py's eastward variants: same TIN, same observations."""
 
 from __future__ import annotations
 

@@ -15,7 +15,7 @@ import pytest
 
 from tin_swarm_env.errors import ScenarioError
 from tin_swarm_env.scenario import scenario_from_dict
-from tin_swarm_env.scenario.config import SOURCE_KEYS
+from tin_swarm_env.scenario.config import COMMON_TERRAIN_KEYS, SOURCE_KEYS
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -69,7 +69,7 @@ def test_scenario_keys_page_lists_exactly_the_keys_the_parser_takes(table):
     for key, default in documented.items():
         if default in (None, ()) or (table, key) == ("", "name"):
             continue
-        if table == "terrain" and key not in ("source", *SOURCE_KEYS["flat"]):
+        if table == "terrain" and key not in (*COMMON_TERRAIN_KEYS, *SOURCE_KEYS["flat"]):
             # the other [terrain] keys are read by other sources only (a flat plane refuses them):
             # each must be read by at least one source
             assert any(key in keys for keys in SOURCE_KEYS.values()), key

@@ -4,10 +4,9 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
-from tin_swarm_env.errors import PlacementError, ScenarioError
+from tin_swarm_env.errors import ScenarioError
 from tin_swarm_env.policies import APFPolicy
 from tin_swarm_env.scenario import RewardWeights, load_scenario, scenario_from_dict
-from tin_swarm_env.world import spawn_positions
 
 
 def _pit_asc(path, pit_xy=(60.0, 50.0), pit_r=15.0, depth=20.0):
@@ -56,27 +55,6 @@ def test_robots_spawn_only_where_their_target_can_be_reached(tmp_path):
         in_pit = np.hypot(pos[:, 0] - 60, pos[:, 1] - 50) <= 15
         assert np.array_equal(in_pit, env.target_assignment == 1)
         assert np.all(np.isfinite(env.distance_to_go()))
-
-
-def test_spawn_positions_with_groups_respect_their_allowed_triangles():
-    w = tse.world.World(tse.terrain.build_tin(tse.scenario.terrains.make_dem("ridge", {}), method="delaunay"))
-    tin = w.tin
-    cx = tin.vertices[tin.triangles, 0].mean(axis=1)
-    allowed = np.array([cx < 80, cx > 120])  # (2, T): west for group 0, east for group 1
-    groups = np.array([0, 1, 1, 0, 1, 0, 0])
-    pos = spawn_positions(tin, w.steep, 7, np.random.default_rng(0), min_separation_m=2.0, allowed=allowed,
-                          groups=groups)
-    t = tin.locate(pos)
-    assert np.all(allowed[groups, t]) and not w.steep[t].any()
-    d = np.hypot(*(pos[:, None] - pos[None]).transpose(2, 0, 1))
-    assert d[np.triu_indices(7, 1)].min() >= 2.0
-    # without allowed/groups the draw is the plain one (the same stream gives the same points)
-    a = spawn_positions(tin, w.steep, 9, np.random.default_rng(4), min_separation_m=2.0)
-    b = spawn_positions(tin, w.steep, 9, np.random.default_rng(4), min_separation_m=2.0,
-                        allowed=np.ones(tin.n_triangles, bool))
-    np.testing.assert_array_equal(a, b)
-    with pytest.raises(PlacementError, match="assigned target can be reached"):
-        spawn_positions(tin, w.steep, 3, np.random.default_rng(0), allowed=np.zeros(tin.n_triangles, bool))
 
 
 def test_cliff_goal_robots_must_detour_and_apf_brings_the_distance_down():

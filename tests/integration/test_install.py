@@ -95,3 +95,66 @@ def test_the_wheel_ships_license_py_typed_and_project_urls(installed):
     meta = (dist / "METADATA").read_text()
     assert "Project-URL: Repository, https://" in meta
     assert "](bench/figures" not in meta  # no relative image links in the long description
+
+
+def _requirement_closure(names) -> set[str]:
+    """Every distribution ``names`` need, transitively, read from the installed metadata (markers
+    evaluated for this interpreter, no extras); normalised names."""
+    import importlib.metadata as md
+    import re
+
+    from packaging.requirements import Requirement
+
+    norm = lambda n: re.sub(r"[-_.]+", "-", n).lower()  # noqa: E731
+    seen, todo = set(), [Requirement(n) for n in names]
+    while todo:
+        req = todo.pop()
+        if req.marker is not None and not req.marker.evaluate({"extra": ""}):
+            continue
+        if norm(req.name) in seen:
+            continue
+        seen.add(norm(req.name))
+        try:
+            todo += [Requirement(r) for r in md.requires(req.name) or []]
+        except md.PackageNotFoundError:
+            pass
+    return seen
+
+
+LEARNING = {"torch", "torchrl", "stable-baselines3", "sb3-contrib", "ray", "benchmarl", "tensordict"}
+
+
+def _pyproject() -> dict:
+    try:
+        import tomllib
+    except ImportError:  # Python 3.10
+        import tomli as tomllib
+    return tomllib.loads((ROOT / "pyproject.toml").read_text())
+
+
+def test_the_core_install_has_no_torch():
+    """``pip install -e .`` (the core dependencies and all they need) brings no torch and no learning
+    library; those come with the extras."""
+    core = _pyproject()["project"]["dependencies"]
+    needed = _requirement_closure(core)
+    assert {"numpy", "numba", "llvmlite", "pettingzoo", "gymnasium", "matplotlib"} <= needed  # followed transitively
+    assert not needed & LEARNING, sorted(needed & LEARNING)
+    extras = _pyproject()["project"]["optional-dependencies"]
+    assert "torch" in _requirement_closure(extras["train"])  # the walk does see torch where it is
+
+
+def test_the_cpu_torch_command_is_the_test_command_with_the_pinned_cpu_wheel_first():
+    """docs/quickstart.md's CPU-only route installs the torch version constraints.txt pins from the
+    PyTorch CPU index, then runs the README's test command unchanged."""
+    import re
+
+    (pin,) = re.findall(r"^torch==(\S+)$", (ROOT / "constraints.txt").read_text(), flags=re.M)
+    readme = (ROOT / "README.md").read_text()
+    tests = readme.split("--8<-- [start:tests] -->\n", 1)[1].split("```bash\n", 1)[1].split("\n```", 1)[0]
+    venv = "python3 -m venv .venv && "
+    assert tests.startswith(venv)
+    cpu = (venv + f".venv/bin/pip install -q torch=={pin} --index-url https://download.pytorch.org/whl/cpu && "
+           + tests[len(venv):])
+    quick = (ROOT / "docs" / "quickstart.md").read_text()
+    assert f"```bash\n{cpu}\n```" in quick
+    assert f"pip install torch=={pin} --index-url https://download.pytorch.org/whl/cpu\n" in quick

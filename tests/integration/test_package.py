@@ -1,5 +1,6 @@
-"""The package root is lazy, registration happens on PettingZoo's import, one Reason enum,
-one episode loop (rollout), the env's read-only views, and no second copy of a setting."""
+"""Across the package: the root is lazy and registration waits for PettingZoo's import, no raw
+Reason numbers or env internals outside env/, the env's read-only views, reset options, and no
+second copy of a setting."""
 
 import re
 import subprocess
@@ -11,7 +12,6 @@ import pytest
 
 import tin_swarm_env as tse
 from tin_swarm_env import Reason
-from tin_swarm_env.apps.rollout import rollout
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -40,34 +40,6 @@ def test_env_subpackage_is_not_shadowed_and_registration_waits_for_pettingzoo():
     assert tse.env.Reason is Reason and tse.adapters and tse.policies and tse.terrain
 
 
-def test_on_import_runs_callbacks_once_after_the_module_executed(tmp_path, monkeypatch):
-    from tin_swarm_env._registration import _on_import
-
-    (tmp_path / "tse_probe_mod.py").write_text("VALUE = 41\nVALUE += 1\n")
-    monkeypatch.syspath_prepend(str(tmp_path))
-    seen = []
-    _on_import("tse_probe_mod", lambda m: seen.append(m.VALUE))
-    assert seen == []
-    import tse_probe_mod  # noqa: F401
-
-    assert seen == [42]
-    _on_import("tse_probe_mod", lambda m: seen.append(-m.VALUE))  # already imported: at once
-    assert seen == [42, -42]
-    from tin_swarm_env._registration import _PostImportFinder
-
-    assert not any(isinstance(f, _PostImportFinder) for f in sys.meta_path)  # steps aside when done
-
-
-def test_reason_codes_and_labels():
-    assert [int(r) for r in Reason] == [0, 1, 2, 3, 4]
-    assert [r.label for r in Reason][1:] == ["arrived", "fell", "battery", "max_cycles"]
-    import tin_swarm_env.world as world
-    import tin_swarm_env.world.state as state
-
-    for alias in ("ACTIVE", "DONE", "FELL", "EMPTY", "STATUS_NAMES"):  # robot status is a Reason code, no aliases
-        assert not hasattr(world, alias) and not hasattr(state, alias), alias
-
-
 def test_no_raw_reason_numbers_and_no_env_internals_outside_env():
     bad = []
     for d in ("tin_swarm_env", "agents", "bench"):
@@ -79,46 +51,6 @@ def test_no_raw_reason_numbers_and_no_env_internals_outside_env():
                     r"env\.(wstate|live|readings|target_idx)\b", text):
                 bad.append(f"{p}: env internals")
     assert bad == []
-
-
-class Standstill:
-    def __init__(self):
-        self.resets = 0
-
-    def reset(self):
-        self.resets += 1
-
-    def act_batch(self, obs):
-        return np.zeros((len(obs), 2), np.float32)
-
-
-def test_rollout_of_a_standstill_times_every_robot_out():
-    env = tse.parallel_env(scenario="flat", n_robots=4, max_cycles=7)
-    pol = Standstill()
-    o = rollout(env, pol, seed=3)
-    assert pol.resets == 1
-    assert o.n_steps == 7 and np.all(o.steps == 7)
-    assert np.all(o.reasons == Reason.TIMEOUT)
-    assert o.counts() == {"arrived": 0, "fell": 0, "battery": 0, "max_cycles": 4}
-    assert np.all(o.battery_left < 1) and np.all(o.battery_left > 0.99)  # idle and sensing drain a little
-    np.testing.assert_allclose(o.returns, -(2.0 + 3.0) * 0.5 * 7 / 1000)  # energy_per_kj = -1, 5 W for 3.5 s
-
-
-def test_rollout_agrees_with_the_dict_api_infos():
-    env = tse.parallel_env(scenario="ramp", n_robots=6)
-    pol = tse.policies.APFPolicy(env)
-    o = rollout(env, pol, seed=1)
-    obs, _ = env.reset(seed=1)
-    pol.reset()  # the policy keeps per-robot memory: reset it with the env (as rollout does)
-    got, ret = {}, dict.fromkeys(env.possible_agents, 0.0)
-    while env.agents:
-        obs, rew, _, _, infos = env.step(pol.act(obs))
-        for a, r in rew.items():
-            ret[a] += r
-        got.update({a: (i["reason"], env.steps) for a, i in infos.items() if "reason" in i})
-    assert [got[a][0] for a in env.possible_agents] == [Reason(int(r)).label for r in o.reasons]
-    assert [got[a][1] for a in env.possible_agents] == o.steps.tolist()
-    np.testing.assert_allclose([ret[a] for a in env.possible_agents], o.returns, rtol=1e-5)
 
 
 def test_env_views_are_copies_and_read_only():

@@ -2,7 +2,6 @@
 TINs, the compiled kernels against their plain references and a dense-grid Dijkstra."""
 
 import math
-from unittest import mock
 
 import numpy as np
 import pytest
@@ -28,17 +27,6 @@ def grid_tin(nx=10, ny=10, step=10.0):
             cells += [(c, r), (c, r)]
     tin = Tin(v, tris)
     return tin, np.array(cells)
-
-
-def disc_obstacles(tin, rng, n_discs):
-    """Impassable: triangles touching one of ``n_discs`` random discs (radius 60-180 m)."""
-    c = rng.uniform(150, 850, (n_discs, 2))
-    r = rng.uniform(60, 180, n_discs)
-    pts = tin.vertices[tin.triangles, :2]  # (T, 3, 2)
-    cen = pts.mean(axis=1, keepdims=True)
-    probe = np.concatenate([pts, cen], axis=1)  # (T, 4, 2)
-    d = np.linalg.norm(probe[:, :, None, :] - c[None, None], axis=-1)  # (T, 4, n)
-    return ~(d < r).any(axis=(1, 2))
 
 
 def has_pinch(tin, passable):
@@ -172,18 +160,8 @@ def test_outside_points_and_bad_arguments():
 # -- properties on random TINs with obstacles ---------------------------------------------
 
 
-def obstacle_case(random_tin, seed, n=40, n_discs=3):
-    tin = random_tin(seed, n)
-    rng = np.random.default_rng(seed)
-    passable = disc_obstacles(tin, rng, n_discs)
-    ok = np.flatnonzero(passable)
-    t = int(rng.choice(ok)) if len(ok) else 0
-    goal = rng.dirichlet(np.ones(3)) @ tin.vertices[tin.triangles[t], :2]
-    return tin, passable, goal, rng
-
-
 @given(st.integers(0, 10_000))
-def test_never_below_straight_line_and_triangle_inequality(random_tin, seed):
+def test_never_below_straight_line_and_triangle_inequality(obstacle_case, random_tin, seed):
     tin, passable, goal, rng = obstacle_case(random_tin, seed)
     ctg = cost_to_go(tin, goal, passable)
     q = rng.uniform(0, 1000, (400, 2))
@@ -201,7 +179,7 @@ def test_never_below_straight_line_and_triangle_inequality(random_tin, seed):
 
 
 @given(st.integers(0, 10_000))
-def test_every_path_link_is_drivable_and_sums_up(random_tin, seed):
+def test_every_path_link_is_drivable_and_sums_up(obstacle_case, random_tin, seed):
     """Any-angle values are lengths of real paths: each node's parent link is a segment on
     passable ground (checked by dense sampling against every triangle) and its length adds up."""
     tin, passable, goal, _ = obstacle_case(random_tin, seed, n=25)
@@ -218,7 +196,7 @@ def test_every_path_link_is_drivable_and_sums_up(random_tin, seed):
 
 @settings(max_examples=8)
 @given(st.integers(0, 10_000))
-def test_agrees_with_a_dense_grid_dijkstra(random_tin, seed):
+def test_agrees_with_a_dense_grid_dijkstra(obstacle_case, random_tin, seed):
     """Tolerance: the grid's 32 move directions overestimate a straight leg by <= 1.3 %, and a
     grid path keeps cell centres on passable ground, so it bends up to about one cell wide of
     each obstacle corner (absolute slack 3 cells); ours overestimates by Theta*'s rare detours.
@@ -258,7 +236,7 @@ def test_agrees_with_a_dense_grid_dijkstra(random_tin, seed):
 @settings(max_examples=15, deadline=None)
 @given(st.integers(0, 10_000), st.integers(0, 3))
 @example(3156, 0)  # every query point unreachable: nothing finite to compare
-def test_agrees_with_the_exact_visibility_graph(random_tin, seed, m):
+def test_agrees_with_the_exact_visibility_graph(obstacle_case, random_tin, seed, m):
     """Against the exact field (visibility graph over every vertex, brute force): the window
     propagation is exact (windows are dropped only where others are at least as short at every
     point); allow 0.5 % (the regression cases below hold to 1e-9)."""
@@ -277,7 +255,7 @@ def test_agrees_with_the_exact_visibility_graph(random_tin, seed, m):
 
 
 @pytest.mark.parametrize("seed, m", [(189, 0), (189, 1), (5, 1), (95, 3), (109, 1)])
-def test_exact_against_the_visibility_graph_on_former_failures(random_tin, seed, m):
+def test_exact_against_the_visibility_graph_on_former_failures(obstacle_case, random_tin, seed, m):
     """Seed 189: a corner's window into a triangle was dropped because the other roots' windows
     beat it at the 5 evenly spaced test points, while on a stretch between them (covered by no
     other window) it was the only path: up to 3.4 % too long there; the window test is now exact
@@ -327,10 +305,12 @@ def test_corners_are_reflex_or_pinched_boundary_vertices():
 
 
 @given(st.integers(0, 10_000))
-def test_a_step_along_direction_lowers_distance_by_the_step(random_tin, seed):
-    tin, passable, goal, rng = obstacle_case(random_tin, seed)
+def test_a_step_along_direction_lowers_distance_by_the_step(obstacle_case, random_tin, seed):
+    tin, passable, goal, _ = obstacle_case(random_tin, seed)
     ctg = cost_to_go(tin, goal, passable)
-    q = rng.uniform(0, 1000, (400, 2))
+    # query points from their own stream: the case's rng repeats the stream of the TIN's vertices,
+    # so its draws can land exactly on vertices, where any step leaves the triangle (seed 1904: 10 %)
+    q = np.random.default_rng([seed, 1]).uniform(0, 1000, (400, 2))
     d, u = ctg.query(q)
     fin = np.isfinite(d) & (np.abs(u).sum(axis=1) > 0)
     assume(fin.sum() > 10)
@@ -348,7 +328,7 @@ def test_a_step_along_direction_lowers_distance_by_the_step(random_tin, seed):
 
 
 @given(st.integers(0, 10_000), st.integers(1, 6))
-def test_split_fans_matches_the_connected_components_reference(random_tin, seed, n_discs):
+def test_split_fans_matches_the_connected_components_reference(obstacle_case, random_tin, seed, n_discs):
     """split_fans against scipy's connected components of the corners: the same pinch vertices,
     and two passable corners share a vertex id after the split iff they share a fan."""
     tin, passable, _, _ = obstacle_case(random_tin, seed, n=25, n_discs=n_discs)
@@ -366,71 +346,11 @@ def test_split_fans_matches_the_connected_components_reference(random_tin, seed,
 
 
 @given(st.integers(0, 10_000))
-def test_plain_graph_matches_scipy_dijkstra(random_tin, seed):
+def test_plain_graph_matches_scipy_dijkstra(obstacle_case, random_tin, seed):
     tin, passable, goal, _ = obstacle_case(random_tin, seed, n=25)
     ctg = cost_to_go(tin, goal, passable, steiner_per_edge=2, any_angle=False)
     ref = reference.cost_to_go_graph_brute(ctg)
     np.testing.assert_allclose(ctg.node_distance, ref, rtol=1e-12, atol=1e-9)
-
-
-@settings(max_examples=10)
-@given(st.integers(0, 10_000), st.booleans())
-def test_compiled_kernels_match_py_func(random_tin, seed, any_angle):
-    tin, passable, goal, rng = obstacle_case(random_tin, seed, n=20)
-    ctg = cost_to_go(tin, goal, passable, steiner_per_edge=1, any_angle=any_angle)
-    gt = np.flatnonzero(ctg.goal_triangles)
-    if any_angle:
-        te, n_edges = K.triangle_edges(tin.triangles, tin.neighbors)
-        for a, b in zip(K.split_fans(tin.triangles, tin.neighbors, passable, tin.n_vertices),
-                        K.split_fans.py_func(tin.triangles, tin.neighbors, passable, tin.n_vertices)):
-            np.testing.assert_array_equal(a, b)
-        corner = K.corners(ctg._vx, ctg._vy, ctg._tris, tin.neighbors, passable)
-        np.testing.assert_array_equal(corner, K.corners.py_func(ctg._vx, ctg._vy, ctg._tris, tin.neighbors,
-                                                                passable))
-        args = (ctg._nx, ctg._ny, ctg._vx, ctg._vy, ctg._tris, tin.neighbors, te,
-                K.edge_starts(tin.triangles, te, n_edges), ctg._vorig, ctg.passable, ctg._tri_nodes, ctg._start,
-                ctg._node_tris, corner, gt, goal[0], goal[1], 1)
-        fn = K.windows
-    else:
-        seeds = np.unique(ctg._tri_nodes[gt].ravel())
-        sd = np.hypot(*(ctg.node_xy[seeds] - goal).T)
-        args = (ctg._nx, ctg._ny, ctg._tri_nodes, ctg._start, ctg._node_tris, seeds, sd)
-        fn = K.dijkstra
-    with mock.patch.object(K, "_propagate", K._propagate.py_func):  # windows' loop in Python too
-        plain = fn.py_func(*args)
-    for a, b in zip(fn(*args), plain):
-        np.testing.assert_array_equal(a, b)
-    if any_angle:  # a window kernel that runs out of room starts again with twice the room: same answer
-        for a, b in zip(fn(*args, 3), plain):
-            np.testing.assert_array_equal(a, b)
-    q = rng.uniform(-10, 1010, (200, 2))
-    t = tin.locate(q)
-    qargs = (ctg._nx, ctg._ny, ctg.node_distance, ctg._parent, ctg._tri_nodes, ctg.passable, ctg.goal_triangles,
-             goal[0], goal[1], ctg._vx, ctg._vy, ctg._tris, tin.neighbors, ctg._wstart, ctg._wgeo, ctg._wroot,
-             q[:, 0].copy(), q[:, 1].copy(), t, tin._tol[0], 1e-6, ctg._twin)
-    for a, b in zip(K.query(*qargs), K.query.py_func(*qargs)):
-        np.testing.assert_array_equal(a, b)
-    # the query against a brute-force search of the triangle's candidates: the answer is the
-    # plain minimum over the triangle's nodes, or a cheaper straight segment to the source the
-    # query names (a node or the goal) that is drivable (dense samples) and adds up
-    d, _, src = K.query(*qargs)
-    tb = reference.locate_brute(tin, q)
-    s = np.linspace(0, 1, 41)[:, None]
-    for i in np.flatnonzero(tb >= 0):
-        if not passable[tb[i]]:
-            continue
-        nodes = ctg._tri_nodes[tb[i]]
-        direct = np.hypot(*(goal - q[i])) if ctg.goal_triangles[tb[i]] else np.inf
-        plain = min(np.min(np.hypot(*(ctg.node_xy[nodes] - q[i]).T) + ctg.node_distance[nodes]), direct)
-        if not any_angle or plain == np.inf:
-            assert d[i] == pytest.approx(plain, rel=1e-12, abs=1e-9)
-            continue
-        assert d[i] <= plain * (1 + 1e-12)
-        end = goal if src[i] == K.GOAL else ctg.node_xy[src[i]]
-        dend = 0.0 if src[i] == K.GOAL else ctg.node_distance[src[i]]
-        assert d[i] == pytest.approx(np.hypot(*(end - q[i])) + dend, rel=1e-12)
-        seg = q[i] + s * (end - q[i])
-        assert reference.on_passable_brute(tin, seg, passable, tol=1e-6).all()
 
 
 def test_jacksboro_field_is_finite_on_most_passable_ground(jacksboro):

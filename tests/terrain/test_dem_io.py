@@ -169,15 +169,6 @@ def test_topobathy_sample():
         sample_dem("everest")
 
 
-def test_metres_per_degree_known_values():
-    m_lon, m_lat = metres_per_degree(0.0)
-    assert m_lon == pytest.approx(111319.5, abs=1.0)
-    assert m_lat == pytest.approx(110574.3, abs=1.0)
-    m_lon, m_lat = metres_per_degree(45.0)
-    assert m_lon == pytest.approx(78846.8, abs=1.0)
-    assert m_lat == pytest.approx(111131.8, abs=1.0)
-
-
 def test_geotiff_projected_and_geographic(tmp_path):
     rasterio = pytest.importorskip("rasterio", reason="the geo extra")
     from rasterio.transform import from_origin
@@ -272,19 +263,6 @@ def test_elevations_that_would_overflow_the_planes_are_refused_by_every_method(t
     for kw in ({"method": "delaunay"}, {"method": "vip", "max_vertices": 16}):
         with pytest.raises(TinStructureError, match=r"huge\.npy.*coordinate beyond 1e\+15 m"):
             build_tin(dem, **kw)
-
-
-def test_the_shared_line_tokenizer_skips_comments_and_blank_lines_and_reads_commas(tmp_path):
-    from tin_swarm_env.terrain._text import numeric_rows
-
-    p = tmp_path / "t.xyz"
-    p.write_text("# header\n\n1,2, 3  # c\n  4 5 nan\n")
-    rows = [(i, v) for i, v, _ in numeric_rows(p, "x y z", DemFormatError)]
-    assert rows[0] == (3, [1.0, 2.0, 3.0]) and rows[1][0] == 4 and rows[1][1][:2] == [4.0, 5.0]
-    assert np.isnan(rows[1][1][2]) and len(rows) == 2
-    p.write_text("1 2 3\n1 2\n")
-    with pytest.raises(DemFormatError, match=r"t\.xyz:2: expected 3 numbers 'x y z', found 2: '1 2'"):
-        list(numeric_rows(p, "x y z", DemFormatError))
 
 
 def test_build_tin_and_sample_dem_name_a_wrong_argument():

@@ -2,7 +2,10 @@
 
 import numpy as np
 
-from tin_swarm_env.world import BatteryParams
+from tin_swarm_env.world import (
+    BatteryParams,
+    World,
+)
 from tin_swarm_env.world.battery import drain
 from tin_swarm_env.world.state import Reason
 
@@ -20,3 +23,21 @@ def test_each_term_by_hand_descents_draw_no_climb_energy_and_inactive_robots_dra
     # 3-5: fell, empty, arrived: nothing drawn
     got = drain(charge, status, dist, climb, P, 0.5)
     assert got.tolist() == [357.5, 457.5, 0.0, 500.0, 0.0, 500.0]
+
+
+def test_battery_never_increases_and_an_empty_robot_never_moves_again(world_params):
+    bp = {"capacity_j": 100.0, "idle_w": 1.0, "sensing_w": 1.0, "drive_j_per_m": 10.0, "climb_j_per_m": 0.0}
+    w = World(None, world_params(battery=bp, robot={"max_speed_mps": 1.0}, dt_s=1.0))
+    s = w.reset(0, [[100, 100], [200, 100]], headings=[0.0, 0.0])
+    rng = np.random.default_rng(0)
+    prev = s.battery_j.copy()
+    history = []
+    for _ in range(20):
+        s, ev = w.step(s, rng.uniform(-1, 1, (2, 2)))
+        assert np.all(s.battery_j <= prev) and np.all(s.battery_j >= 0)
+        prev = s.battery_j.copy()
+        history.append((s.status.copy(), s.positions.copy()))
+    assert np.all(s.status == Reason.BATTERY) and np.all(s.battery_j == 0)
+    first_empty = next(k for k, (st_, _) in enumerate(history) if st_[0] == Reason.BATTERY)
+    for st_, p in history[first_empty:]:
+        np.testing.assert_array_equal(p[0], history[first_empty][1][0])

@@ -11,6 +11,7 @@ from tin_swarm_env.world.fields import (
     FieldParams,
     break_field,
     facing,
+    follow_field,  # noqa: E402
     height_field,
     robot_field,
     target_field,
@@ -198,3 +199,16 @@ def test_break_field_on_a_grid_pushes_back_from_a_cliff_edge():
     assert f[0, 0] < -0.5 and abs(f[0, 1]) < 1e-9  # 5 m from the edge: pushed west, hard
     # 40 m away the border (west, 60 m off) and the cliff are both beyond the 15 m range
     np.testing.assert_allclose(f[1], [0.0, 0.0])
+
+
+def test_follow_field_hand_values():
+    # break 5 m east (normal west), hold 5 m, step 0 -> straight along it: north for side +1
+    rel, n, pull = np.array([[5.0, 0.0]]), np.array([[-1.0, 0.0]]), np.array([[1.0, 0.0]])
+    np.testing.assert_allclose(pull + follow_field(pull, rel, n, np.array([1]), 5.0, 0.0), [[0.0, 1.0]], atol=1e-12)
+    np.testing.assert_allclose(pull + follow_field(pull, rel, n, np.array([-1]), 5.0, 0.0), [[0.0, -1.0]],
+                               atol=1e-12)
+    np.testing.assert_allclose(follow_field(pull, rel, n, np.array([0]), 5.0, 0.0), [[0.0, 0.0]])
+    # 10 m away: turned toward the break by 1 rad; a 2 m step at 10 m adds asin(0.1)
+    b = 1 + math.asin(0.1)
+    np.testing.assert_allclose(pull + follow_field(pull, 2 * rel, n, np.array([1]), 5.0, 2.0),
+                               [[math.sin(b), math.cos(b)]], atol=1e-12)

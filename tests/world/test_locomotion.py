@@ -10,9 +10,22 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 from tin_swarm_env.terrain import Tin
-from tin_swarm_env.world import BatteryParams, RobotParams, SensorParams, World, WorldParams
+from tin_swarm_env.world import (
+    BLOCKED_BORDER,
+    BLOCKED_STEEP,
+    FELL_INTO,
+    BatteryParams,
+    RobotParams,
+    SensorParams,
+    World,
+    WorldParams,
+    spawn_positions,
+)
+from tin_swarm_env.world import locomotion as L
 from tin_swarm_env.world.locomotion import body_to_world, move, turn_toward, uphill_factor
 from tin_swarm_env.world.state import Reason
 
@@ -119,3 +132,104 @@ def test_a_robot_standing_on_a_cliff_edge_falls_driving_over_it_and_stays_drivin
     s, ev = w.step(s, [[1.0, 0.0], [1.0, 0.0]])
     assert s.status.tolist() == [Reason.FELL, Reason.NONE]
     np.testing.assert_allclose(s.positions[1], [9.0, 7.0], atol=1e-9)
+
+
+def test_driving_down_into_a_cliff_falls_and_up_into_it_is_blocked(world_params, cliff_tin):
+    w = World(cliff_tin(width=5.0), world_params(robot={"max_speed_mps": 2.0}, dt_s=1.0))
+    s = w.reset(0, [[99.0, 50.0], [106.0, 50.0]], headings=[0.0, math.pi])
+    s, ev = w.step(s, [[1.0, 0.0], [1.0, 0.0]])  # both drive forward, toward the cliff face
+    assert ev.motion_event.tolist() == [FELL_INTO, BLOCKED_STEEP]
+    assert s.status.tolist() == [Reason.FELL, Reason.NONE]
+    assert ev.fell.tolist() == [True, False]
+    assert 100.0 < s.positions[0, 0] < 100.01  # just inside the cliff triangle
+    assert s.positions[1, 0] == pytest.approx(105.001)  # 1 mm before the foot of the cliff
+    assert not w.steep[s.tri_idx[1]]
+    s2, ev = w.step(s, [[1.0, 0.0], [1.0, 0.0]])
+    np.testing.assert_array_equal(s2.positions, s.positions)  # fallen: gone; blocked: stays
+
+
+@pytest.mark.parametrize("speed", [10.0, 1000.0])
+def test_no_tunnelling_through_a_one_triangle_wide_cliff(world_params, cliff_tin, speed):
+    w = World(cliff_tin(width=0.05), world_params(robot={"max_speed_mps": speed}, dt_s=1.0))
+    x0 = 99.9
+    s = w.reset(0, [[x0, 50.0], [100.2, 50.0]], headings=[0.0, math.pi])
+    s, ev = w.step(s, [[1.0, 0.0], [1.0, 0.0]])
+    assert ev.motion_event.tolist() == [FELL_INTO, BLOCKED_STEEP]
+    assert s.positions[0, 0] < 100.05 and s.positions[1, 0] > 100.05
+
+
+def test_border_blocks(world_params):
+    w = World(None, world_params(robot={"max_speed_mps": 5.0}, dt_s=1.0, flat_size_m=(10.0, 10.0)))
+    s = w.reset(0, [[8.0, 5.0]], headings=[0.0])
+    s, ev = w.step(s, [[1.0, 0.0]])
+    assert ev.motion_event[0] == BLOCKED_BORDER
+    assert s.positions[0, 0] == pytest.approx(10.0 - 1e-3) and s.status[0] == Reason.NONE
+
+
+def test_uphill_slows_by_pitch_and_downhill_does_not(world_params):
+    g = math.tan(math.radians(15))
+    xy = np.array([[0, 0], [100, 0], [100, 100], [0, 100]], float)
+    tin = Tin.from_points(np.column_stack([xy, g * xy[:, 0]]))  # rises to the east at 15 deg
+    w = World(tin, world_params(robot={"max_speed_mps": 2.0, "max_climb_deg": 45.0}, dt_s=1.0))
+    s = w.reset(0, [[50, 30], [50, 60], [50, 90]], headings=[0.0, math.pi, math.pi / 2])
+    s, ev = w.step(s, np.array([[1.0, 0.0]] * 3))
+    np.testing.assert_allclose(ev.moved_m, [2.0 * (1 - 15 / 45), 2.0, 2.0])
+    np.testing.assert_allclose(ev.climb_m, [g * 2.0 * (1 - 15 / 45), -g * 2.0, 0.0], atol=1e-12)
+
+
+def test_heading_turns_toward_motion_at_most_the_turn_rate(world_params):
+    w = World(None, world_params(robot={"turn_rate_dps": 90.0}, dt_s=0.5))
+    s = w.reset(0, [[100, 100], [200, 200]], headings=[0.0, 0.0])
+    s, _ = w.step(s, [[0.0, 1.0], [1.0, 0.0]])  # robot 0 moves left (north): turns 45 deg
+    np.testing.assert_allclose(s.headings, [math.radians(45), 0.0])
+    np.testing.assert_allclose(s.positions[0], [100, 101])  # moved north, body-left of east
+    s, _ = w.step(s, [[0.0, 0.0], [-1.0, 0.0]])
+    assert s.headings[0] == pytest.approx(math.radians(45))  # no motion, no turn
+    assert abs(s.headings[1]) == pytest.approx(math.radians(45))
+
+
+def test_commands_clipped_to_the_unit_disc(world_params):
+    w = World(None, world_params(robot={"max_speed_mps": 2.0}, dt_s=1.0))
+    s = w.reset(0, [[100, 100]], headings=[0.0])
+    s, ev = w.step(s, [[5.0, 5.0]])
+    assert ev.moved_m[0] == pytest.approx(2.0)
+
+
+def substep_reference(w, p0, d, n_sub=4000):
+    """Walk the displacement in tiny steps with brute-force location; return the event."""
+    from tin_swarm_env.terrain.reference import locate_brute
+
+    pts = p0 + np.linspace(0, 1, n_sub)[1:, None] * d
+    tri = locate_brute(w.tin, pts)
+    for t in tri:
+        if t < 0:
+            return BLOCKED_BORDER
+        if w.steep[t]:
+            g = w.tin.planes[t, :2]
+            return FELL_INTO if g @ d < 0 else BLOCKED_STEEP
+    return L.MOVED
+
+
+@settings(max_examples=30)
+@given(st.integers(0, 10_000))
+def test_locomotion_walk_matches_substepping(world_params, random_tin, seed):
+    tin = random_tin(seed, 30, zscale=150)
+    w = World(tin, world_params(robot={"max_slope_deg": 15.0, "max_climb_deg": 80.0}))
+    assume((~w.steep).sum() > 0)
+    rng = np.random.default_rng(seed)
+    pos = spawn_positions(w.tin, w.steep, 20, rng)
+    disp = rng.normal(0, 150, (20, 2))
+    # spawn draws the same numbers as random_tin's points: some robots sit exactly on vertices
+    tri = w.tin.locate(pos)
+    p, t, ev = L.walk(tin, w.steep, pos, tri, disp)
+    grad = np.ascontiguousarray(tin.planes[:, :2])
+    args = (tin._vx, tin._vy, tin.triangles, tin.neighbors, grad, w.steep, pos, tri, disp, tin.n_triangles + 3)
+    k = L.move_walk(*args)
+    for a, b in zip(k, L.move_walk.py_func(*args)):
+        np.testing.assert_array_equal(a, b)
+    for i in range(20):
+        ref = substep_reference(w, pos[i], disp[i])
+        assert ev[i] == ref, (i, ev[i], ref)
+        if ev[i] == L.MOVED:
+            np.testing.assert_allclose(p[i], pos[i] + disp[i])
+        assert (not w.steep[t[i]]) or ev[i] == FELL_INTO

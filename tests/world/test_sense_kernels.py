@@ -10,12 +10,11 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from tin_swarm_env.world import BatteryParams, RobotParams, SensorParams, World, WorldParams, spawn_positions
+from tin_swarm_env.world import BatteryParams, RobotParams, SensorParams, World, WorldParams, sensing, spawn_positions
 from tin_swarm_env.world import locomotion as L
 from tin_swarm_env.world import sense_kernels as SK
-from tin_swarm_env.world import sensing
 from tin_swarm_env.world import world as world_mod
-from tin_swarm_env.world.grid import grid_build, grid_cells
+from tin_swarm_env.world.grid import grid_build
 from tin_swarm_env.world.state import Reason
 
 THREADS = min(2, numba.config.NUMBA_NUM_THREADS)
@@ -121,26 +120,6 @@ def test_mutual_sight_is_walked_once_and_copied_to_both_slots():
     los = tin.line_of_sight(np.column_stack([pos[[0, 2]], z[[0, 2]]]), np.column_stack([pos[[1, 3]], z[[1, 3]]]))
     assert not los[0] and los[1]
     assert {(2, 3), (3, 2)} <= seen and not {(0, 1), (1, 0)} & seen
-
-
-@settings(max_examples=30)
-@given(st.integers(0, 10_000), st.integers(0, 200), st.floats(0.5, 300))
-def test_grid_blocks_hold_every_point_within_the_cell_size(seed, n, cell):
-    rng = np.random.default_rng(seed)
-    xy = rng.uniform(-500, 500, (n, 2)) * rng.uniform(0.01, 1)
-    use = rng.random(n) < 0.8
-    x0, y0, inv, nx, ny, start, items, gx, gy = grid_build(xy[:, 0].copy(), xy[:, 1].copy(), use, cell)
-    assert sorted(items.tolist()) == np.flatnonzero(use).tolist()
-    assert nx * ny <= 4 * use.sum() + 64 and 1 / inv >= cell * (1 - 1e-12)
-    for c in range(nx * ny):  # index order inside a cell; coordinates carried along
-        assert list(items[start[c]:start[c + 1]]) == sorted(items[start[c]:start[c + 1]])
-    np.testing.assert_array_equal(gx, xy[items, 0])
-    for q in rng.uniform(-600, 600, (20, 2)):
-        lo_x, hi_x, lo_y, hi_y = grid_cells(x0, y0, inv, nx, ny, q[0], q[1])
-        got = {int(items[m]) for cy in range(lo_y, hi_y + 1) for cx in range(lo_x, hi_x + 1)
-               for m in range(start[cy * nx + cx], start[cy * nx + cx + 1])}
-        near = np.flatnonzero(use & (np.hypot(*(xy - q).T) <= cell))
-        assert set(near.tolist()) <= got
 
 
 @settings(max_examples=30)

@@ -17,6 +17,11 @@ stay in the batch masked out (``("robot", "mask")`` False, zero observation and 
 True): BenchMARL's algorithms do not read the mask, so those steps are terminal zero-reward
 samples for the critic, as in BenchMARL's own PettingZoo tasks with ``done_on_any=False``.
 
+:func:`export_actor` writes an experiment's trained actor (its deterministic action,
+``tanh`` of the Gaussian's mean) as a pickle-free policy file
+(:mod:`tin_swarm_env.policies.export`) and checks it against the torch actor;
+``agents/train_benchmarl.py`` trains MAPPO and exports it.
+
 Needs the ``[benchmarl]`` extra (benchmarl 1.5.2, which pins torchrl < 0.12).
 """
 
@@ -31,7 +36,7 @@ from torchrl.data import Composite  # noqa: E402
 
 from .torchrl import make_torchrl_env  # noqa: E402
 
-__all__ = ["TinSwarmTask", "TinSwarmTaskClass"]
+__all__ = ["TinSwarmTask", "TinSwarmTaskClass", "actor_mean_layers", "deterministic_actions", "export_actor"]
 
 
 class TinSwarmTaskClass(TaskClass):
@@ -115,3 +120,89 @@ class TinSwarmTask(Task):
 
     def get_task(self, config: dict | None = None) -> TinSwarmTaskClass:
         return TinSwarmTaskClass(name=self.name, config=dict(config or {}))
+
+
+# -- export ---------------------------------------------------------------------------------
+
+_ACTIVATIONS = {"Tanh": "tanh", "ReLU": "relu", "ELU": "elu", "LeakyReLU": "leaky_relu"}
+
+
+def actor_mean_layers(experiment, group: str = "robot") -> tuple[list, str, str]:
+    """``(layers, activation, squash)`` of ``experiment``'s actor for ``group``: the ``(W, b)``
+    numpy pairs of its MLP (BenchMARL ``Mlp`` over torchrl's ``MultiAgentMLP`` with shared
+    parameters), the last layer cut to the rows of the Gaussian's mean (``NormalParamExtractor``
+    splits the output in ``loc, scale`` halves), the hidden activation's name in the policy-file
+    format, and ``"tanh"`` for a ``TanhNormal`` actor (``"clip"`` otherwise). Refuses what the file
+    format cannot hold exactly (per-robot parameters, a normalisation layer, another activation)."""
+    import torch
+    from torchrl.modules import TanhNormal
+
+    actor = experiment.group_policies[group]
+    mlps = [m for m in actor.modules() if type(m).__name__ == "MultiAgentMLP"]
+    if len(mlps) != 1:
+        raise ArgumentError(f"group {group!r}: expected one MultiAgentMLP in the actor (BenchMARL's MlpConfig), "
+                            f"found {len(mlps)}")
+    mlp = mlps[0]
+    if not mlp.share_params:
+        raise ArgumentError("the actor has one MLP per robot (share_policy_params=False); a policy file holds "
+                            "one network for all robots")
+    net = mlp._empty_net
+    kinds = [type(m).__name__ for m in net]
+    linear = [i for i, m in enumerate(net) if isinstance(m, torch.nn.Linear)]
+    acts = {kinds[i] for i in range(len(kinds)) if i not in linear}
+    if len(acts) != 1 or next(iter(acts)) not in _ACTIVATIONS or kinds[-1] != "Linear" or \
+            len(kinds) != 2 * len(linear) - 1:
+        raise ArgumentError(f"the actor's MLP {kinds} is not Linear layers with one activation of "
+                            f"{sorted(_ACTIVATIONS)} between them")
+    params = mlp.params
+    layers = [(params[str(i), "weight"].detach().cpu().double().numpy().copy(),
+               params[str(i), "bias"].detach().cpu().double().numpy().copy()) for i in linear]
+    W, b = layers[-1]
+    half = W.shape[0] // 2
+    layers[-1] = (W[:half], b[:half])
+    dist = getattr(actor, "distribution_class", None)
+    if dist is None:
+        dist = next((getattr(m, "distribution_class") for m in actor.modules() if hasattr(m, "distribution_class")),
+                    None)
+    return layers, _ACTIVATIONS[next(iter(acts))], "tanh" if dist is TanhNormal else "clip"
+
+
+def deterministic_actions(experiment, group: str = "robot"):
+    """``f(obs (n, d) float32) -> (n, 2)``: the torch actor's deterministic actions
+    (``ExplorationType.DETERMINISTIC``, as BenchMARL evaluates), one robot per row."""
+    import torch
+    from tensordict import TensorDict
+    from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+    actor = experiment.group_policies[group]
+    n_agents = len(experiment.group_map[group])
+
+    def act(obs):
+        x = torch.as_tensor(obs, dtype=torch.float32)
+        n = x.shape[0]
+        pad = -n % n_agents  # the actor takes whole swarms: (envs, n_agents, d); the padding rows are dropped
+        x = torch.cat([x, x.new_zeros(pad, x.shape[1])]).reshape(-1, n_agents, x.shape[1])
+        td = TensorDict({(group, "observation"): x}, batch_size=[x.shape[0]])
+        with torch.no_grad(), set_exploration_type(ExplorationType.DETERMINISTIC):
+            return actor(td)[group, "action"].reshape(-1, 2)[:n].double().numpy()
+
+    return act
+
+
+def export_actor(experiment, path, env, *, obs, scenario: str, extra: dict | None = None,
+                 group: str = "robot", tol: float = 1e-5) -> float:
+    """Write ``experiment``'s actor as the policy directory ``path`` for ``env`` (a tin_swarm
+    env, whose observation layout the file records), then check the file's actions against the
+    torch actor's deterministic actions on ``obs (n, d)``; returns the largest difference and
+    raises if it exceeds ``tol``."""
+    from ..policies.base import unwrap_env
+    from ..policies.export import export_actor as write, max_action_gap
+
+    layers, activation, squash = actor_mean_layers(experiment, group)
+    write(path, layers, activation, squash=squash, layout=unwrap_env(env).layout, scenario=scenario,
+          extra={"library": "benchmarl", **(extra or {})})
+    gap = max_action_gap(path, env, deterministic_actions(experiment, group), obs)
+    if not gap <= tol:
+        raise ArgumentError(f"{path}: the exported policy's actions differ from the torch actor's by {gap:.3g} "
+                            f"(> {tol:g}) on {len(obs)} observations")
+    return gap

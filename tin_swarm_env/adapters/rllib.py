@@ -15,6 +15,11 @@ whole ``Dict`` observation space and fails with a cryptic Dict-encoder error.
     from tin_swarm_env.adapters.rllib import ppo_config
     algo = ppo_config("cliff_goal", n_robots=8).training(lr=3e-4).build_algo()
     algo.train()
+
+:func:`export_module` writes the shared RLModule's deterministic action (the Gaussian's mean,
+clipped to the action box as RLlib's ``normalize_actions`` unsquashing does on ``[-1, 1]``) as a
+pickle-free policy file (:mod:`tin_swarm_env.policies.export`) and checks it against the module;
+``agents/train_rllib.py --export`` does it after training.
 """
 
 from __future__ import annotations
@@ -22,7 +27,8 @@ from __future__ import annotations
 from ..errors import ArgumentError, require
 
 __all__ = ["RLlibTinSwarmEnv", "rllib_env_creator", "ppo_config",  # noqa: F822 (lazy, see __getattr__)
-           "ENV_NAME", "SHARED_POLICY", "NODE_METRIC"]
+           "ENV_NAME", "SHARED_POLICY", "NODE_METRIC", "module_mean_layers", "deterministic_actions",
+           "export_module"]
 
 ENV_NAME = "tin_swarm_v0"
 SHARED_POLICY = "shared"
@@ -129,6 +135,81 @@ def _count_steps_by_node(*, env_runner=None, metrics_logger=None, samples=(), **
     if metrics_logger is not None:
         node = ray.get_runtime_context().get_node_id()
         metrics_logger.log_value((NODE_METRIC, node), sum(len(e) for e in samples), reduce="sum")
+
+
+# -- export ---------------------------------------------------------------------------------
+
+_ACTIVATIONS = {"Tanh": "tanh", "ReLU": "relu", "ELU": "elu", "LeakyReLU": "leaky_relu"}
+
+
+def module_mean_layers(module) -> tuple[list, str]:
+    """``(layers, activation)`` of a PPO RLModule's mean action network (RLlib's default
+    ``DefaultPPOTorchRLModule``): the ``(W, b)`` numpy pairs of its actor encoder (the shared one
+    with ``vf_share_layers``) then its ``pi`` head, the head's last layer cut to the Gaussian's mean
+    (``TorchDiagGaussian`` reads ``loc, log_std`` halves; with ``free_log_std`` it outputs the mean
+    alone), and the activation's name in the policy-file format. Refuses what the file format
+    cannot hold exactly (layer norms, two different activations, a non-MLP encoder)."""
+    import torch
+
+    enc = module.encoder
+    actor = getattr(enc, "actor_encoder", None) or getattr(enc, "encoder", None)
+    if actor is None or not hasattr(module, "pi"):
+        raise ArgumentError(f"{type(module).__name__}: not an actor-critic MLP RLModule (no encoder / pi head)")
+    seq = [m for part in (actor, module.pi) for m in part.modules() if not list(m.children())]
+    kinds = [type(m).__name__ for m in seq]
+    acts = {k for k in kinds if k != "Linear"}
+    ok = (kinds and kinds[-1] == "Linear" and len(acts) <= 1 and acts <= set(_ACTIVATIONS)
+          and all((k == "Linear") == (i % 2 == 0) for i, k in enumerate(kinds)))
+    if not ok:
+        raise ArgumentError(f"the RLModule's actor {kinds} is not Linear layers with one activation of "
+                            f"{sorted(_ACTIVATIONS)} between them (set head_fcnet_activation to the same "
+                            "activation as fcnet_activation, no layer norm)")
+    layers = [(m.weight.detach().cpu().double().numpy().copy(), m.bias.detach().cpu().double().numpy().copy())
+              for m in seq if isinstance(m, torch.nn.Linear)]
+    W, b = layers[-1]
+    if W.shape[0] == 4:  # loc, log_std
+        layers[-1] = (W[:2], b[:2])
+    elif W.shape[0] != 2:
+        raise ArgumentError(f"the pi head has {W.shape[0]} outputs; a Gaussian over 2 actions has 4 (or 2 with "
+                            "free_log_std)")
+    return layers, _ACTIVATIONS[next(iter(acts))] if acts else "identity"
+
+
+def deterministic_actions(module, action_space):
+    """``f(obs (n, d) float32) -> (n, 2)``: the module's deterministic actions as an env runner
+    sends them: ``forward_inference``, the inference distribution's deterministic sample, then
+    RLlib's ``unsquash_action`` to ``action_space`` (``normalize_actions=True``, its default)."""
+    import numpy as np
+    import torch
+    from ray.rllib.core.columns import Columns
+    from ray.rllib.utils.spaces.space_utils import unsquash_action
+
+    def act(obs):
+        with torch.no_grad():
+            out = module.forward_inference({Columns.OBS: torch.as_tensor(obs, dtype=torch.float32)})
+            dist = module.get_inference_action_dist_cls().from_logits(out[Columns.ACTION_DIST_INPUTS])
+            a = dist.to_deterministic().sample().double().numpy()
+        return np.stack([unsquash_action(row, action_space) for row in a])
+
+    return act
+
+
+def export_module(module, path, env, *, obs, scenario: str, extra: dict | None = None, tol: float = 1e-5) -> float:
+    """Write ``module``'s mean action network as the policy directory ``path`` for ``env`` (a
+    tin_swarm env), then check the file's actions against :func:`deterministic_actions` on
+    ``obs (n, d)``; returns the largest difference and raises if it exceeds ``tol``."""
+    from ..policies.base import unwrap_env
+    from ..policies.export import export_actor as write, max_action_gap
+
+    layers, activation = module_mean_layers(module)
+    write(path, layers, activation, squash="clip", layout=unwrap_env(env).layout, scenario=scenario,
+          extra={"library": "rllib", **(extra or {})})
+    space = env.action_space(env.possible_agents[0])
+    gap = max_action_gap(path, env, deterministic_actions(module, space), obs)
+    if not gap <= tol:
+        raise ArgumentError(f"{path}: the exported policy's actions differ from the RLModule's by {gap:.3g} "
+                            f"(> {tol:g}) on {len(obs)} observations")
+    return gap
 
 
 def __getattr__(name):

@@ -26,15 +26,19 @@ __all__ = ["opt", "check_args", "add_dataclass_args", "parse_dataclass", "datacl
 
 
 def opt(default, help: str, *, lo: float | None = None, hi: float | None = None, lo_open: bool = False,
-        hi_open: bool = False, choices: tuple | None = None, check=None, flag: bool = False, **cli):
+        hi_open: bool = False, choices: tuple | None = None, check=None, flag: bool = False, short: str | None = None,
+        **cli):
     """A dataclass field with its help text and what it accepts, written once.
 
     ``lo``/``hi`` (``lo_open``/``hi_open``: that end excluded) bound a number; ``choices`` lists
     the accepted values (strings compare case-sensitively); ``check(value)`` returns an error
     message (or None) for anything else a value must satisfy; ``flag`` makes a bool a switch;
-    ``cli`` goes to ``argparse.add_argument`` (``nargs``, ``metavar``...)."""
+    ``short`` is a one-letter alias (``"-o"``); ``cli`` goes to ``argparse.add_argument``
+    (``nargs``, ``metavar``, ``required``...)."""
+    if not isinstance(help, str) or not help.strip():
+        raise TypeError("opt(): every option needs a help text")
     md = {"help": help, "lo": lo, "hi": hi, "lo_open": lo_open, "hi_open": hi_open, "choices": choices,
-          "check": check, "flag": flag, "cli": cli}
+          "check": check, "flag": flag, "short": short, "cli": cli}
     if isinstance(default, (list, dict, set)):
         return dataclasses.field(default_factory=lambda: type(default)(default), metadata=md)
     return dataclasses.field(default=default, metadata=md)
@@ -156,7 +160,7 @@ def add_dataclass_args(parser: argparse.ArgumentParser, cls, skip=(), positional
         if f.name in positional:
             parser.add_argument(f.name, help=text, **({"type": _converter(t)} if t in (int, float) else {}), **extra)
             continue
-        names = [option_name(rename.get(f.name, f.name))]
+        names = ([md["short"]] if md.get("short") else []) + [option_name(rename.get(f.name, f.name))]
         if md.get("flag"):
             parser.add_argument(*names, dest=f.name, action="store_true", help=text, **extra)
             continue

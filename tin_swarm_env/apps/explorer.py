@@ -51,8 +51,10 @@ from ..env import parallel_env
 from ..errors import ArgumentError, PlacementError
 from ..policies import APFPolicy
 from ..world.fields import FIELDS, fields_at
+from .args import check_args, opt
+from .run import fields_problem
 
-__all__ = ["FieldExplorer"]
+__all__ = ["FieldExplorer", "Args", "explore"]
 
 PICK_FRACTION = 0.03  # a press within this share of the heatmap's width picks a robot or a target
 
@@ -452,3 +454,68 @@ class FieldExplorer:
         if self._timer is not None:
             self._timer.stop()
         plt.close(self.fig)
+
+
+# -- tin-swarm explore -------------------------------------------------------------------------------
+
+def _robot_problem(s: str) -> str | None:
+    t = s.strip().lower()
+    return None if t == "all" or (t.isdigit() and t.isascii()) else "give a robot index >= 0 or 'all'"
+
+
+@dataclasses.dataclass
+class Args:
+    """``tin-swarm explore``: every option, its help and what it accepts (checked when built)."""
+
+    scenario: str = opt("ramp", "built-in scenario name or a .toml path")
+    png: str | None = opt(None, "draw into this file instead of opening a window")
+    robot: str = opt("0", "robot index whose field is shown, or 'all' (every robot and break a source)",
+                     check=_robot_problem)
+    fields: str | None = opt(None, "fields switched on, comma-separated, e.g. robot,target,break (default: all of "
+                             + ",".join(FIELDS) + ")", check=fields_problem)
+    robots: int | None = opt(None, "number of robots (default: the scenario's)", lo=1)
+    steps: int = opt(0, "APF steps to take before drawing", lo=0)
+    seed: int = opt(0, "reset seed", lo=0)
+    cost_to_go: bool = opt(False, "overlay contours of the selected robot's target's cost-to-go (m of drivable path)",
+                           flag=True)
+
+    def __post_init__(self):
+        check_args(self)
+
+    @property
+    def robot_index(self) -> int | None:
+        """``--robot`` as an index, None for ``all``."""
+        return None if self.robot.strip().lower() == "all" else int(self.robot)
+
+
+def explore(a: Args) -> int:
+    """``tin-swarm explore``: the explorer after ``a.steps`` APF steps, in a window or into ``a.png``."""
+    import os
+
+    import matplotlib
+
+    from .._atomic import atomic_path, check_outputs
+    from ..scenario.config import load_scenario
+    from .run import parse_fields
+
+    fields = parse_fields(a.fields, FIELDS)
+    robot = a.robot_index
+    n = a.robots or load_scenario(a.scenario).robots.count
+    if robot is not None and robot >= n:
+        raise ArgumentError(f"--robot {robot}: the scenario has robots 0..{n - 1}")
+    check_outputs({"--png": a.png}, inputs=(a.scenario,) if os.path.isfile(a.scenario) else ())
+    if a.png:
+        matplotlib.use("Agg")
+    ex = FieldExplorer(a.scenario, robot=robot, fields=fields, n_robots=a.robots, seed=a.seed,
+                       cost_to_go=a.cost_to_go)
+    for _ in range(a.steps):
+        ex.next_step(draw=False)
+    ex.redraw()
+    if a.png:
+        with atomic_path(a.png) as tmp:
+            ex.fig.savefig(tmp, format="png")
+        print(f"wrote {a.png}")
+        ex.close()
+    else:
+        ex.show()
+    return 0

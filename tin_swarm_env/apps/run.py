@@ -1,24 +1,88 @@
-"""Run a policy on a scenario for some episodes: the engine of ``tin-swarm run``.
+"""Run a policy on a scenario for some episodes: ``tin-swarm run`` (:class:`Args`, :func:`run`).
 
 Per episode it counts robots that arrived, fell, ran out of battery or were cut off by
 ``max_cycles`` (and of these the stalled and looping ones, :mod:`~.trajectory`), collisions, the
 mean battery left and the steps taken (one :func:`~.rollout.rollout` per episode), shows a
-progress bar and formats a Markdown table.
+progress bar and formats a Markdown table. :class:`Args` holds every option of ``tin-swarm run``
+(its help text and what it accepts, checked when it is built); :func:`run` does the command: it
+checks the policy and the output paths before the first step, prints the table, writes the
+``--summary`` file and streams the first episode's frames to ``--gif``/``--mp4``.
 """
 
 from __future__ import annotations
 
+import os
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from ..env import parallel_env
-from ..env.tin_swarm import DEFAULT_RENDER_WIDTH_PX
+from ..env.tin_swarm import DEFAULT_RENDER_WIDTH_PX, RENDER_WIDTH_PX
+from ..scenario.config import MAX_ROBOTS
+from ..world.fields import FIELDS
 from ..world.state import Reason
+from .args import check_args, opt
 from .policy_factory import make_policy
 from .rollout import Outcome, rollout
 
-__all__ = ["EpisodeStats", "run_episodes", "format_table"]
+__all__ = ["Args", "run", "EpisodeStats", "run_episodes", "format_table", "parse_fields", "fields_problem"]
+
+
+def fields_problem(spec: str | None) -> str | None:
+    """What is wrong with a ``--fields`` value (comma-separated APF field names), or None."""
+    if spec is None:
+        return None
+    names = [f.strip() for f in spec.split(",") if f.strip()]
+    if not names:
+        return f"no field named; choose from {','.join(FIELDS)} (leave the option out for all of them)"
+    bad = sorted(set(names) - set(FIELDS))
+    if bad:
+        return f"unknown field(s) {bad}; choose from {','.join(FIELDS)}"
+    return None
+
+
+def parse_fields(spec: str | None, default=None):
+    """``"robot,target"`` -> ``("robot", "target")``; ``default`` when ``spec`` is None (a value
+    :func:`fields_problem` refuses raises ``ArgumentError`` naming ``--fields``)."""
+    from ..errors import ArgumentError
+
+    if spec is None:
+        return default
+    msg = fields_problem(spec)
+    if msg:
+        raise ArgumentError(f"--fields {spec!r}: {msg}")
+    return tuple(f.strip() for f in spec.split(",") if f.strip())
+
+
+def _mp4_problem(path: str | None) -> str | None:
+    return None if path is None or path.lower().endswith(".mp4") else "the file name must end in .mp4"
+
+
+@dataclass
+class Args:
+    """``tin-swarm run``: every option, its help and what it accepts (checked when built)."""
+
+    scenario: str = opt("flat", "built-in scenario name (tin-swarm scenarios) or a .toml path")
+    robots: int | None = opt(None, "number of robots (default: the scenario's)", lo=1, hi=MAX_ROBOTS)
+    policy: str = opt("apf", "apf, random, geodesic (the map-knowing reference; any case), a pickle-free policy "
+                      "directory, or an SB3 .zip with --trust-pickle")
+    trust_pickle: bool = opt(False, "allow --policy MODEL.zip: SB3 files are pickles and loading one runs any code "
+                             "it holds", flag=True)
+    episodes: int = opt(1, "episodes to run (seeds SEED, SEED+1, ...)", lo=1)
+    seed: int = opt(0, "seed of the first episode", lo=0)
+    fields: str | None = opt(None, "APF fields to use, comma-separated, e.g. robot,target,height (default: all of "
+                             + ",".join(FIELDS) + ")", check=fields_problem)
+    gif: str | None = opt(None, "write the first episode as a GIF (or its last frame, for a .png path)")
+    mp4: str | None = opt(None, "write the first episode as an MP4 video (the [video] extra)", check=_mp4_problem)
+    frame_every: int = opt(5, "steps between GIF/MP4 frames", lo=1)
+    render_width: int = opt(DEFAULT_RENDER_WIDTH_PX, "width of GIF/MP4 frames in pixels", lo=RENDER_WIDTH_PX[0],
+                            hi=RENDER_WIDTH_PX[1])
+    max_cycles: int | None = opt(None, "steps per episode (default: the scenario's)", lo=1)
+    summary: str | None = opt(None, "also write the table to this Markdown file")
+    quiet: bool = opt(False, "no progress bar", flag=True)
+
+    def __post_init__(self):
+        check_args(self)
 
 
 @dataclass
@@ -112,3 +176,45 @@ def format_table(stats) -> str:
                      f"{m['collisions']:.1f} | "
                      f"{m['mean_battery_left']:.1%} | {m['steps']:.0f} | {m['episode_return']:.1f} |")
     return "\n".join(lines)
+
+
+def run(a: Args) -> int:
+    """``tin-swarm run``: check the policy and every output path, run ``a.episodes`` episodes,
+    print the table (and write ``--summary``), stream the first episode to ``--gif``/``--mp4``."""
+    from contextlib import ExitStack
+
+    from .._atomic import atomic_path, check_outputs
+    from .media import FrameWriter, check_animation
+    from .policy_factory import check_policy_spec
+
+    fields = parse_fields(a.fields)
+    check_policy_spec(a.policy, a.trust_pickle)
+    check_outputs({"--summary": a.summary, "--gif": a.gif, "--mp4": a.mp4},
+                  inputs=(*((a.scenario,) if os.path.isfile(a.scenario) else ()), a.policy))
+    if a.gif or a.mp4:
+        from ..scenario.config import load_scenario
+
+        cfg = load_scenario(a.scenario)
+        check_animation(a.robots or cfg.robots.count, a.max_cycles or cfg.max_cycles, a.frame_every,
+                        "--gif" if a.gif else "--mp4")
+    with ExitStack() as stack:  # frames go to disk as they are drawn; .part files removed on any error
+        writers = [stack.enter_context(FrameWriter(p)) for p in (a.gif, a.mp4) if p]
+
+        def on_frame(frame):
+            for w in writers:
+                w.add(frame)
+
+        stats, _ = run_episodes(a.scenario, policy=a.policy, robots=a.robots, episodes=a.episodes, seed=a.seed,
+                                fields=fields, frames_every=a.frame_every if writers else 0, max_cycles=a.max_cycles,
+                                progress=not a.quiet, render_width=a.render_width, on_frame=on_frame,
+                                trust_pickle=a.trust_pickle)
+        table = format_table(stats)
+        print(f"scenario {a.scenario}, policy {a.policy}" + (f", fields {','.join(fields)}" if fields else ""))
+        print(table)
+        if a.summary:
+            with atomic_path(a.summary) as tmp, open(tmp, "w") as fh:
+                fh.write(f"# tin-swarm run {a.scenario} ({a.policy})\n\n{table}\n")
+            print(f"wrote {a.summary}")
+    for w in writers:
+        print(f"wrote {w.path} ({w.n_frames} frames)")
+    return 0

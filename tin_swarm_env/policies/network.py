@@ -31,7 +31,7 @@ def dense(x, W, b):
     multi-threaded BLAS whose threads wait for a busy core (a second job, pytest -n 2, a training
     run beside the evaluation) took 26-31 ms per forward pass of a 59-256-256-2 network on the
     2-core machine, this 1 ms; it is as fast as BLAS at 2 000 robots there, and its sums do not
-    depend on a thread count. ``dense.py_func`` is the plain reference (tests/policies/test_learned.py)."""
+    depend on a thread count. ``dense.py_func`` is the plain reference (tests/policies/test_network.py)."""
     n, d = x.shape
     m = W.shape[0]
     out = np.empty((n, m))

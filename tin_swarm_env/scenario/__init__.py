@@ -25,10 +25,11 @@ from .config import (
     load_scenario,
     scenario_from_dict,
 )
+from .mirror import mirror_scenario
 
 __all__ = [
     "SCENARIO_DIR", "EntitiesSpec", "ObservationSpec", "RewardWeights", "RobotsSpec", "ScenarioConfig",
     "ScenarioError", "Stage", "TerrainSpec", "assignments", "build_stage", "build_tin_for", "build_world",
-    "initial_state", "list_scenarios", "place_entities", "spawn_reachable", "load_scenario", "reaches_region",
-    "scenario_from_dict", "target_field",
+    "initial_state", "list_scenarios", "place_entities", "spawn_reachable", "load_scenario", "mirror_scenario",
+    "reaches_region", "scenario_from_dict", "target_field",
 ]

@@ -29,6 +29,7 @@ from .. import terrain as T
 from ..errors import ArgumentError, PlacementError, ScenarioError
 from ..world import World, WorldState, spawn_positions
 from .config import ScenarioConfig
+from ._reflect import dem_bounds, mirror_task, mirror_tin
 from .terrains import make_dem
 
 __all__ = ["Stage", "build_tin_for", "build_world", "build_stage", "target_field", "reaches_region",
@@ -38,6 +39,9 @@ __all__ = ["Stage", "build_tin_for", "build_world", "build_stage", "target_field
 @functools.lru_cache(maxsize=16)
 def _cached_tin(key: str):
     spec = json.loads(key)
+    if spec["mirror"]:  # the reflection of the cached original (:mod:`.mirror`)
+        tin = _cached_tin(json.dumps({**spec, "mirror": ""}, sort_keys=True))
+        return None if tin is None else mirror_tin(tin, spec["mirror"])
     where = spec.pop("_where")
     base = Path(spec.pop("_base"))
     spec.pop("_stamp")
@@ -90,13 +94,15 @@ def _file_stamp(path: Path) -> list[int] | None:
 
 def build_tin_for(cfg: ScenarioConfig):
     """The scenario's TIN (None for a flat plane), built once per process and reused while the
-    DEM/TIN file it comes from keeps its modification time and size (an edited file is re-read)."""
+    DEM/TIN file it comes from keeps its modification time and size (an edited file is re-read);
+    ``[terrain] mirror`` reflects it (:func:`~.mirror.mirror_tin`, over its own bounds)."""
     t = cfg.terrain
     base = Path(cfg.base_dir).resolve()
     stamp = _file_stamp(base / t.path) if t.source in ("dem", "tin") else None
     key = json.dumps({"source": t.source, "recipe": t.recipe, "path": t.path, "method": t.method,
                       "max_vertices": t.max_vertices, "max_error_m": t.max_error_m, "params": t.params,
                       "max_slope_deg": cfg.world.robot.max_slope_deg if t.method == "robot" else None,
+                      "mirror": t.mirror,
                       "_where": cfg.source, "_base": str(base), "_stamp": stamp}, sort_keys=True)
     return _cached_tin(key)
 
@@ -196,15 +202,19 @@ def _generated_stage(cfg: ScenarioConfig, rng: np.random.Generator) -> Stage:
     max_slope = cfg.world.robot.max_slope_deg
     made = {}
 
-    def solvable(task) -> bool:
-        world = World(_mesh(task.dem, t.method, t.max_vertices, t.max_error_m, max_slope), cfg.world)
+    def solvable(drawn) -> bool:  # meshed as drawn, then reflected with its task when [terrain] mirror asks
+        tin = mirror_tin(_mesh(drawn.dem, t.method, t.max_vertices, t.max_error_m, max_slope), t.mirror,
+                         dem_bounds(drawn.dem))
+        task = mirror_task(drawn, t.mirror)
+        world = World(tin, cfg.world)
         fields = tuple(T.cost_to_go(world.tin, g, ~world.steep) for g in task.targets)
-        made["task"], made["world"], made["fields"] = task, world, fields
+        made["drawn"], made["task"], made["world"], made["fields"] = drawn, task, world, fields
         return all(reaches_region(f, task.spawn_region) for f in fields)
 
-    task = generate(rng, t.families or ALL_FAMILIES, t.ranges, max_slope_deg=max_slope, solvable=solvable,
-                    where=f"{cfg.source} [terrain]")
-    assert made["task"] is task  # generate returns the draw the check accepted last
+    drawn = generate(rng, t.families or ALL_FAMILIES, t.ranges, max_slope_deg=max_slope, solvable=solvable,
+                     where=f"{cfg.source} [terrain]")
+    assert made["drawn"] is drawn  # generate returns the draw the check accepted last
+    task = made["task"]
     return Stage(made["world"], np.asarray(task.targets, dtype=float).reshape(-1, 2), task.spawn_region,
                  made["fields"], task)
 

@@ -57,6 +57,7 @@ except ModuleNotFoundError:  # Python 3.10: the same parser from PyPI
 from ..errors import ParameterError, ScenarioError, check_fields, check_range
 from ..world import BatteryParams, RobotParams, SensorParams, WorldParams
 from .generators import ALL_FAMILIES, family_weights, validate_ranges
+from ._reflect import MIRRORS
 
 __all__ = ["ScenarioError", "TerrainSpec", "RobotsSpec", "EntitiesSpec", "RewardWeights", "ObservationSpec",
            "ScenarioConfig", "load_scenario", "scenario_from_dict", "SCENARIO_DIR", "list_scenarios",
@@ -102,6 +103,9 @@ class TerrainSpec:
     ranges          generated: per-family parameter ranges, ``{family = {parameter = [lo, hi] or choices}}``
     resample        generated: "reset" (a new terrain on every ``reset(seed)``) or "once" (one, from
                     the scenario's seed)
+    mirror          "" (as built), "ns" (north-south flip), "ew" (east-west flip) or "both": the terrain
+                    reflected across its middle (:mod:`tin_swarm_env.scenario.mirror`); the file's
+                    positions are in the reflected frame (``mirror_scenario`` reflects them too)
     """
 
     source: str = "flat"
@@ -115,6 +119,7 @@ class TerrainSpec:
     families: tuple[str, ...] | dict = ()
     ranges: dict = field(default_factory=dict)
     resample: str = "reset"
+    mirror: str = ""
 
     def __post_init__(self):  # types normalised (lists -> tuples), then the values (see _check_terrain)
         if isinstance(self.families, (list, dict)) and not self.families:
@@ -307,7 +312,9 @@ MAX_SCENARIO_BYTES = 1_000_000  # a scenario file is a few hundred bytes of sett
 MAX_FLAT_AREA_M2 = 1e10  # a flat plane up to 100 km x 100 km: spawn and sensing grids scale with the area
 MAX_CYCLES = 10_000_000  # steps per episode: far beyond any task; keeps step counters and budgets sane
 
-# which [terrain] keys each source reads (any other key set away from its default is an error, not ignored)
+# which [terrain] keys each source reads (any other key set away from its default is an error, not ignored);
+# every source reads these too
+COMMON_TERRAIN_KEYS = ("source", "mirror")
 SOURCE_KEYS = {
     "flat": ("size_m",),
     "procedural": ("recipe", "params", "method", "max_vertices", "max_error_m"),
@@ -329,9 +336,11 @@ def _check_terrain(t: TerrainSpec) -> None:
     defaults = TerrainSpec.__dataclass_fields__
     for key, f in defaults.items():
         default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
-        if key != "source" and key not in SOURCE_KEYS[t.source] and getattr(t, key) != default:
+        if key not in COMMON_TERRAIN_KEYS and key not in SOURCE_KEYS[t.source] and getattr(t, key) != default:
             raise ParameterError(f"TerrainSpec.{key} does not apply to source = {t.source!r} (it reads "
                                  f"{', '.join(SOURCE_KEYS[t.source]) or 'no other key'}); remove it")
+    if t.mirror not in MIRRORS:
+        raise ParameterError(f"TerrainSpec.mirror must be one of {', '.join(map(repr, MIRRORS))}, got {t.mirror!r}")
     if t.method not in METHODS:
         raise ParameterError(f"TerrainSpec.method must be one of {', '.join(METHODS)}, got {t.method!r}")
     check_fields(t, {"max_vertices": {"lo": 0, "integer": True}, "max_error_m": _NONNEG})
@@ -469,7 +478,7 @@ def scenario_from_dict(d: dict, source: str = "<dict>", base_dir: str = ".") -> 
     if src not in SOURCE_KEYS:
         raise ScenarioError(f"{source} [terrain]: 'source' must be one of {', '.join(SOURCE_KEYS)}, got {_short(src)}")
     for k in terrain_t:
-        if k != "source" and k in TerrainSpec.__dataclass_fields__ and k not in SOURCE_KEYS[src]:
+        if k not in COMMON_TERRAIN_KEYS and k in TerrainSpec.__dataclass_fields__ and k not in SOURCE_KEYS[src]:
             raise ScenarioError(f"{source} [terrain]: '{k}' does not apply to source = {src!r} (it reads "
                                 f"{', '.join(SOURCE_KEYS[src]) or 'no other key'}); remove it")
     if "families" in terrain_t:  # a list or a table: checked by _families

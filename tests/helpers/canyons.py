@@ -41,4 +41,4 @@ def canyon_config(side: str = "left", travel: str = "east", trench: bool = False
                     "params": params},
         "robots": {"count": robots, "spawn_region": [x0, 160.0, x1, 240.0], "max_slope_deg": 30.0},
         "targets": {"positions": [[x(330.0), 200.0]], "arrival_radius_m": 8.0},
-    }, source=f"tests/canyons.py ({side}, {travel}{', trench' if trench else ''})")
+    }, source=f"tests/helpers/canyons.py ({side}, {travel}{', trench' if trench else ''})")

@@ -1,4 +1,4 @@
-"""Golden figures on the real jacksboro DEM (matplotlib's sample).
+"""build_tin (terrain/build.py): golden figures on the real jacksboro DEM (matplotlib's sample).
 
 If one of these changes, a reduction changed: check bench/terrain.py and update on purpose.
 
@@ -49,14 +49,3 @@ def test_jacksboro_golden(jacksboro, kw, nv, nt, emax, erms):
     edges = np.sort(tin.triangles[:, [[0, 1], [1, 2], [2, 0]]].reshape(-1, 2), axis=1)
     _, uses = np.unique(edges, axis=0, return_counts=True)
     assert nt == 2 * nv - int((uses == 1).sum()) - 2
-
-
-def test_greedy_error_equals_hmm_own_figure(jacksboro):
-    """Our scaled TIN has exactly the vertical error pydelatin/hmm reports for itself."""
-    from pydelatin import Delatin
-
-    for n in (1000, 10000):
-        d = Delatin(np.ascontiguousarray(jacksboro.z[::-1], dtype=np.float32), width=403, height=344,
-                    max_error=0.0, max_points=n)
-        st, _ = vertical_error(build_tin(jacksboro, method="greedy", max_vertices=n), jacksboro)
-        assert st.max_m == pytest.approx(d.error, rel=1e-5)
