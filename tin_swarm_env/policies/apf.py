@@ -231,8 +231,8 @@ class APFPolicy:
                                         p.break_decay_m)
         togo = np.abs(d.dist - self.shield.standoff_m)
         rel, nrm, side = bug_update(mem, rows, d, pull, self.params, self.bug, togo=togo, q=q, moved=moved,
-                                    crowd_m=2 * self.params.robot_range_m, range_m=self.shield.range_m, gap=has, home=self.static_target,
-                                    pass_m=self.shield.pass_m, step_m=self.shield.step_m)
+                                    crowd_m=2 * self.params.robot_range_m, range_m=self.shield.range_m, gap=has,
+                                    home=self.static_target, pass_m=self.shield.pass_m, step_m=self.shield.step_m)
         f["follow"] = follow_field(pull, rel, nrm, side, self.params.follow_hold_m, self.shield.step_m)
         mag = np.sqrt(np.sum(pull * pull, axis=-1, keepdims=True))
         f["follow"] = np.where(has[:, None], mag * g["aim"] - pull, f["follow"])

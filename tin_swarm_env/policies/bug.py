@@ -63,7 +63,8 @@ _FLOAT2 = ("last_rel", "last_act", "hit", "wall_pt", "last_q", "t_hit")
 _SPEC = {"seen": bool, "psi": float, "last_rel": float, "last_act": float, "side": np.int8, "fside": np.int8,
          "first": np.int8, "hit": float, "rec": float, "arc": float, "budget": float, "ended_first": bool,
          "ended_other": bool, "unreachable": bool, "stall": np.int64, "wall": float, "on_border": bool,
-         "gap": np.int8, "wall_pt": float, "has_pt": bool, "mside": np.int8, "far": bool, "last_q": float, "t_hit": float, "passed": bool, "climb": float, "last_togo": float, "probed": bool, "v_steps": np.int64}
+         "gap": np.int8, "wall_pt": float, "has_pt": bool, "mside": np.int8, "far": bool, "last_q": float,
+         "t_hit": float, "passed": bool, "climb": float, "last_togo": float, "probed": bool, "v_steps": np.int64}
 
 
 @dataclass
