@@ -4,9 +4,9 @@ Points are binned into square cells of side at least ``radius / reach``, so ever
 the radius of a query point lies in the ``(2 reach + 1)^2`` cells around it (:func:`grid_block`):
 collisions use cells of the collision diameter and the 3 x 3 block (:func:`grid_cells`),
 sensing cells of half the sensor range and the 5 x 5 block (:data:`SENSE_REACH`, :func:`sense_cell`),
-which holds about 30 % fewer candidates to reject. The grid covers the bounding box of the points it holds; when that box would
-need more than ``4 n + 64`` cells the side grows (fewer, larger cells: still correct, only
-slower). Within a cell, points keep their index order (a counting sort), so whoever reads the
+which holds about 30 % fewer candidates to reject. The grid covers the bounding box of the points
+it holds; when that box would need more than ``4 n + 64`` cells the side grows (fewer, larger
+cells: still correct, only slower). Within a cell, points keep their index order (a counting sort), so whoever reads the
 grid sees the same candidates in the same order on any thread count.
 
 :func:`grid_build` is serial (it is O(n) and far cheaper than the queries); queries run inside
@@ -22,7 +22,8 @@ from numba import njit
 
 __all__ = ["SENSE_REACH", "grid_block", "grid_build", "grid_cells", "sense_cell"]
 
-SENSE_REACH = 2  # sensing grids: cells of range / 2, queries scan the 5 x 5 block (6.25 r^2 against 9 r^2 for 3 x 3 of r)
+# sensing grids: cells of range / 2, queries scan the 5 x 5 block (6.25 r^2 against 9 r^2 for 3 x 3 of r)
+SENSE_REACH = 2
 
 
 @njit(cache=True)

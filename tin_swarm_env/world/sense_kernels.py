@@ -21,7 +21,8 @@ from ..terrain._kernels import bucket_locate1, los_brute1, los_walk1, walk_locat
 from .angles import wrap_pi
 from .grid import SENSE_REACH, grid_block, grid_cells
 
-__all__ = ["terrain_arrays", "sense_pass1", "sense_pass2", "compact", "compact_parallel", "PARALLEL_COMPACT_ROWS", "break_grid", "collision_counts", "sight1"]
+__all__ = ["terrain_arrays", "sense_pass1", "sense_pass2", "compact", "compact_parallel", "PARALLEL_COMPACT_ROWS",
+           "break_grid", "collision_counts", "sight1"]
 
 
 def terrain_arrays(tin):
@@ -106,8 +107,8 @@ def _bearing(dx, dy, heading):
 @njit(cache=True, inline="always")
 def _near_row(i, qx, qy, x0, y0, inv, nx, ny, start, items, gx, gy, skip, range_m, r2, idx, dist):
     """Row ``i``: the at most K nearest grid points (a :func:`~.grid.grid_build` grid of cells
-    ``>= range_m / SENSE_REACH`` (:func:`~.grid.sense_cell`), unpacked) within ``range_m`` of ``(qx, qy)`` (point ``skip`` left out), nearest first, ties to the
-    lower index; returns how many."""
+    ``>= range_m / SENSE_REACH`` (:func:`~.grid.sense_cell`), unpacked) within ``range_m`` of ``(qx, qy)``
+    (point ``skip`` left out), nearest first, ties to the lower index; returns how many."""
     k = idx.shape[1]
     c = 0
     cx_lo, cx_hi, cy_lo, cy_hi = grid_block(x0, y0, inv, nx, ny, qx, qy, SENSE_REACH)
