@@ -11,7 +11,8 @@ stalled and looping robots (:mod:`tin_swarm_env.apps.trajectory`), contacts per 
 Policies: the APF baseline with all its fields, the APF without the break field (the thesis's
 "poor ending": falls), :class:`~tin_swarm_env.policies.GeodesicPolicy` (knows the map: an upper
 bound, not a baseline) and uniform random actions. Terrains: every built-in goal scenario
-(``jacksboro`` with its 200 robots and 900 steps), the four canyon terrains of
+(``jacksboro`` with its 200 robots and 900 steps), the DEM-file scenarios ``scenarios/canyon_left.toml``,
+``canyon_right.toml`` and ``valley.toml``, the four canyon terrains of
 ``tests/helpers/canyons.py`` (pass left or right, travelling east or west) and, with ``--generated K``
 (default 50, 0 leaves them out), one row per generated family (:data:`ALL_FAMILIES`) over K
 held-out seeds (``EVAL_SEED0`` on, never used in training), APF and GeodesicPolicy only. A
@@ -53,6 +54,7 @@ POLICIES = {
 }
 GENERATED_POLICIES = ("apf", "geodesic (knows the map)")  # the generated rows: the baseline and the bound
 GOAL_SCENARIOS = ("cliff_goal", "ramp", "hill", "flat", "jacksboro")
+FILE_SCENARIOS = ("canyon_left", "canyon_right", "valley")  # scenarios/<name>.toml, the thesis's DEM-file maps
 QUICK = {"seeds": 2, "generated": 3, "jacksboro_seeds": 1}
 
 
@@ -79,6 +81,10 @@ def _rows(args) -> list[Row]:
         n = None if s == "jacksboro" else args.robots
         seeds = range(args.jacksboro_seeds if s == "jacksboro" else args.seeds)
         out.append(Row(s, lambda s=s, n=n: tse.parallel_env(scenario=s, n_robots=n), seeds))
+    for s in FILE_SCENARIOS:
+        path = str(ROOT / "scenarios" / f"{s}.toml")
+        out.append(Row(f"{s}.toml", lambda path=path: tse.parallel_env(scenario=path, n_robots=args.robots),
+                       range(args.seeds)))
     for side, travel in VARIANTS:
         def make(a=side, b=travel):
             return tse.parallel_env(scenario=canyon_config(a, b, robots=args.robots or 20))

@@ -14,6 +14,7 @@ differs from a fresh generation; ``TIN_SWARM_WRITE_DOCS=1`` (with that test) or
   class's docstring, and a key without one is an error.
 - limits: the named constants behind the checks of bad input.
 - cli: every ``tin-swarm`` subcommand's arguments, read off :func:`tin_swarm_env.apps.cli.build_parser`.
+- suite splits: :data:`tin_swarm_env.apps.suite.SPLITS`, the standard evaluation suite's maps.
 """
 
 from __future__ import annotations
@@ -233,6 +234,14 @@ def limits_table() -> str:
     return HEADER + "\n".join(out) + "\n"
 
 
+# -- the standard evaluation suite ---------------------------------------------------------------------
+
+def suite_splits_table() -> str:
+    from tin_swarm_env.apps.suite import splits_markdown
+
+    return HEADER + splits_markdown()
+
+
 # -- the command line ---------------------------------------------------------------------------------
 
 def _md_text(text: str) -> str:
@@ -277,6 +286,7 @@ TABLES = {
     "docs/generated/reasons.md": reasons_table,
     "docs/generated/scenario_keys.md": scenario_keys_table,
     "docs/generated/limits.md": limits_table,
+    "docs/generated/suite_splits.md": suite_splits_table,
     "docs/generated/cli.md": cli_table,
 }
 

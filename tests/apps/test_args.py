@@ -120,3 +120,25 @@ def test_command_args_accept_good_values():
     assert build_tin.Args(output="t.tin", max_error_m=1).max_error_m == 1.0  # normalised to a float
     assert scenarios.Args(copy=["ramp", "x.toml"], force=True).force
     assert run.parse_fields(" robot, target ") == ("robot", "target") and run.parse_fields(None, "d") == "d"
+
+
+@dataclasses.dataclass
+class Words:
+    names: str = opt("a", "names", nargs="+")
+    tags: str = opt("", "tags", action="append")
+    pair: list | None = opt(None, "two words", nargs=2)
+
+    def __post_init__(self):
+        check_args(self)
+
+
+def test_a_str_field_given_as_several_words_or_a_repeated_option_holds_them_comma_joined():
+    """The scripts' parser (``parse_dataclass``, e.g. agents/evaluate.py --scenarios) and the CLI both
+    join the words of a ``str`` field; a ``list`` field keeps its list."""
+    from tin_swarm_env.apps.args import parse_dataclass
+    from tin_swarm_env.apps.evaluate import Args as EvalArgs
+
+    w = parse_dataclass(Words, ["--names", "x", "y", "--tags", "p", "--tags", "q", "--pair", "m", "n"])
+    assert (w.names, w.tags, w.pair) == ("x,y", "p,q", ["m", "n"])
+    assert parse_dataclass(Words, []).names == "a"
+    assert parse_dataclass(EvalArgs, ["--scenarios", "cliff_goal,generated"]).scenarios == "cliff_goal,generated"

@@ -8,6 +8,7 @@ import sys
 
 import numpy as np
 
+from tin_swarm_env.apps.build_tin import VIP_DEFAULT_VERTICES, Args, build_tin
 from tin_swarm_env.apps.cli import main
 from tin_swarm_env.terrain import load_tin
 
@@ -40,3 +41,27 @@ def test_console_script_runs_on_the_sample(tmp_path):
     assert r.returncode == 0, r.stderr
     assert "triangles" in r.stdout
     assert load_tin(tmp_path / "j.npz").n_vertices == 2000
+
+
+def _plane(tmp_path, rows=5, cols=6):
+    x, y = np.meshgrid(np.arange(cols), np.arange(rows))
+    np.savez(tmp_path / "p.npz", z=2.0 * x + 3.0 * y)
+    return str(tmp_path / "p.npz")
+
+
+def test_a_plane_is_kept_exactly(tmp_path, capsys):
+    """A plane: greedy with no error allowed has zero vertical error; with no limit given the
+    default is VIP with its vertex budget, more than the 30 cells, so every cell becomes a vertex
+    and the 5 x 6 grid gives 2 * 4 * 5 triangles."""
+    dem = _plane(tmp_path)
+    assert build_tin(Args(dem=dem, output=str(tmp_path / "g.tin"), max_error_m=0)) == 0
+    out = capsys.readouterr().out
+    assert "method     greedy" in out and "max error  0.00 m" in out and "rms error  0.00 m" in out
+    assert load_tin(tmp_path / "g.tin").n_vertices < 30
+    assert VIP_DEFAULT_VERTICES > 30
+    assert build_tin(Args(dem=dem, output=str(tmp_path / "v.npz"))) == 0
+    out = capsys.readouterr().out
+    assert "method     vip" in out and "vertices   30" in out and "triangles  40" in out
+    tin = load_tin(tmp_path / "v.npz")
+    assert (tin.n_vertices, tin.n_triangles) == (30, 40)
+    np.testing.assert_allclose(tin.vertices[:, 2], 2 * tin.vertices[:, 0] + 3 * tin.vertices[:, 1])

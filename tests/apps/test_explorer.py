@@ -248,3 +248,43 @@ def test_selecting_a_robot_that_does_not_exist_names_it(ex):
 
     with pytest.raises(ArgumentError, match=rf"robot {ex.env.n}: the episode has robots 0\.\.{ex.env.n - 1}"):
         ex.select(ex.env.n)
+
+
+def test_the_png_has_no_controls_and_the_cost_to_go_over_the_whole_terrain_with_colour_bars(tmp_path):
+    from PIL import Image
+
+    ex = FieldExplorer("cliff_goal", robot=0, n_robots=4, grid=21, cost_to_go=True)
+    controls = list(ex.widget_axes)
+    assert len(controls) == 5
+    out = tmp_path / "x.png"
+    ex.save_png(out)
+    assert not set(controls) & set(ex.fig.axes)  # no check boxes or buttons in the picture
+    assert set(ex.fig.axes) == {ex.ax3d, ex.ax_surf, ex.ax_heat, ex.ax_heat_cbar, ex.ax_cost, ex.ax_cost_cbar}
+    x0, y0, x1, y1 = ex.env.tin.bounds
+    (im,) = ex.ax_cost.get_images()
+    np.testing.assert_allclose(im.get_extent(), (x0, x1, y0, y1))  # the whole terrain, not the robot's window
+    C = np.asarray(im.get_array().filled(np.nan))
+    X, Y, C_ref = ex.cost_to_go_map()
+    np.testing.assert_array_equal(np.isfinite(C), np.isfinite(C_ref))
+    np.testing.assert_allclose(C[np.isfinite(C)], C_ref[np.isfinite(C_ref)])
+    assert (X.min(), X.max(), Y.min(), Y.max()) == (x0, x1, y0, y1)
+    cols = np.flatnonzero(np.isfinite(C).any(axis=0))
+    assert cols[0] == 0 and cols[-1] == C.shape[1] - 1  # reachable ground from the left edge to the right
+    g = ex.target_of_selected()
+    j, i = np.unravel_index(np.nanargmin(C), C.shape)
+    assert np.hypot(X[j, i] - g[0], Y[j, i] - g[1]) < 2 * (x1 - x0) / C.shape[1]  # lowest at the target
+    assert im.colorbar is not None and im.colorbar.ax is ex.ax_cost_cbar and "m" in ex.ax_cost_cbar.get_ylabel()
+    (heat,) = ex.ax_heat.get_images()
+    assert heat.colorbar is not None and heat.colorbar.ax is ex.ax_heat_cbar  # the field's colour bar
+    img = np.asarray(Image.open(out).convert("RGB")).astype(float)
+    assert img.shape[0] > 400 and img.std() > 20
+    ex.close()
+
+
+def test_the_png_says_so_when_there_is_no_target(tmp_path):
+    ex = FieldExplorer("ramp", robot=0, n_robots=3, grid=11)
+    ex.env.reset(seed=0, options={"target_positions": np.zeros((0, 2))})
+    ex.save_png(tmp_path / "x.png")
+    assert ex.cost_to_go_map() is None and not ex.ax_cost.get_images()
+    assert "no target" in " ".join(t.get_text() for t in ex.ax_cost.texts)
+    ex.close()

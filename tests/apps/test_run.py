@@ -55,6 +55,8 @@ def test_run_errors_exit_2(tmp_path, capsys):
     assert "unknown field" in capsys.readouterr().err
     assert main(["run", "flat", "--gif", str(tmp_path / "no" / "x.gif"), "--max-cycles", "3", "--quiet"]) == 2
     assert not (tmp_path / "no").exists()
+    assert main(["run", "flat", "--gif", str(tmp_path / "x.avi"), "--max-cycles", "3", "--quiet"]) == 2
+    assert "'.avi'" in capsys.readouterr().err and not list(tmp_path.iterdir())  # the suffix picks the format
 
 
 def test_run_jacksboro_with_200_robots_finishes_and_writes_a_gif(tmp_path):

@@ -4,6 +4,17 @@ overwrite without ``--force``."""
 from __future__ import annotations
 
 from tin_swarm_env.apps.cli import main
+from tin_swarm_env.apps.scenarios import Args, scenarios
+from tin_swarm_env.scenario.config import list_scenarios
+
+
+def test_the_listing_is_one_line_per_builtin(capsys):
+    assert scenarios(Args()) == 0
+    lines = capsys.readouterr().out.splitlines()
+    builtin = list_scenarios()
+    assert [ln.split()[0] for ln in lines] == list(builtin)
+    for ln, (name, desc) in zip(lines, builtin.items()):
+        assert ln == f"{name:12s} {desc}"
 
 
 def test_scenarios_lists_the_builtins(capsys):

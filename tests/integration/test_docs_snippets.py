@@ -137,3 +137,62 @@ def test_ci_runs_the_readme_test_command_verbatim_then_builds_the_docs_strictly(
 def test_readme_is_short_and_its_main_job_is_the_run_command():
     assert len((ROOT / "README.md").read_bytes()) <= 15_000
     assert "tin-swarm run cliff_goal" in _readme_section("main-job")
+
+
+def cli_commands(text: str) -> list[str]:
+    """The ``tin-swarm`` commands written in a Markdown text: inline code spans and the lines of
+    ```bash blocks (continuations joined; each ``&&`` part) that start with ``tin-swarm`` (after any
+    ``.venv/bin/``), except a bare subcommand name, a placeholder (``tin-swarm COMMAND --help``), a
+    quoted message (``tin-swarm run: error: ...``) and synopses with ``[optional]`` parts or ``...``."""
+    spans = re.findall(r"`([^`\n]+)`", re.sub(r"```.*?```", "", text, flags=re.S))
+    for block in re.findall(r"```bash\n(.*?)```", text, flags=re.S):
+        spans += [part for line in block.replace("\\\n", " ").splitlines() for part in line.split("&&")]
+    out = []
+    for s in spans:
+        words = re.sub(r"^\S*/(?=tin-swarm )", "", s.strip()).split(" #")[0].split()
+        s = " ".join(words)
+        if words[:1] == ["tin-swarm"] and len(words) > 2 and words[1].islower() and not words[1].endswith(":") \
+                and "[" not in s and "..." not in s:
+            out.append(s)
+    return out
+
+
+def test_cli_commands_finds_spans_and_bash_lines():
+    md = ("run `tin-swarm run flat --robots 3`, not `tin-swarm run X [--gif G]` nor `tin-swarm eval`\n"
+          "`tin-swarm run: error: bad` is a message\n"
+          "```bash\npython3 -m venv .venv && .venv/bin/tin-swarm scenarios --copy a b   # copy\n"
+          "tin-swarm run flat \\\n    --quiet\n```\n")
+    assert cli_commands(md) == ["tin-swarm run flat --robots 3", "tin-swarm scenarios --copy a b",
+                                "tin-swarm run flat --quiet"]
+
+
+def test_every_cli_command_in_the_docs_parses():
+    """Each ``tin-swarm`` command written in README.md and docs/ names a subcommand and only options it
+    has, and one with arguments beyond a single option is accepted by the parser as written (files
+    are not opened), so renaming or dropping an option fails here."""
+    import argparse
+    import contextlib
+    import io
+    import shlex
+
+    from tin_swarm_env.apps.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices
+    found = 0
+    for page in [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]:
+        for cmd in cli_commands(page.read_text()):
+            where = f"{page.relative_to(ROOT)}: {cmd}"
+            argv = shlex.split(cmd)[1:]
+            assert argv[0] in sub, where
+            options = {s for a in sub[argv[0]]._actions for s in a.option_strings}
+            assert {w.split("=")[0] for w in argv if w.startswith("-")} <= options, where
+            if len(argv) > 2:
+                err = io.StringIO()
+                try:
+                    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+                        parser.parse_args(argv)
+                except SystemExit as exc:
+                    assert exc.code == 0 and "--help" in argv, f"{where}: {err.getvalue()}"
+            found += 1
+    assert found >= 10

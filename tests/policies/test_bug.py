@@ -251,3 +251,57 @@ def test_pass_gap_takes_a_gap_between_two_break_ends_and_nothing_else():
     # ... while two ends whose lines meet away from the gap (at (7.9, -5)) leave it open
     g = pass_gap(_gap_obs([[-3.0, -5.0], [3.0, -6.0]], [up, [-0.2, 0.98]], [0.0, -100.0]), 3.0, 8.0)
     assert g["has"][0]
+
+
+def _follow_step(mem, obs, layout, R):
+    """One step of the boundary search for one robot; returns the closest point it follows
+    (body frame, zeros when none) and its side."""
+    d = decode(obs, layout, R)
+    rows = np.arange(len(obs))
+    q, moved = odometry(mem, rows, d, 1.0)
+    pull = d.rel_t / np.hypot(*d.rel_t[0])
+    rel, _, side = bug_update(mem, rows, d, pull, FP(), BugParams(), togo=d.dist, q=q, moved=moved, crowd_m=8.0,
+                              range_m=R, pass_m=3.0, step_m=1.0)
+    return rel[0], side[0]
+
+
+@pytest.mark.parametrize("s", [1.0, -1.0], ids=["wall-right", "wall-left"])
+def test_a_follower_goes_round_its_own_end_not_across_the_gap(obs_row, s):
+    # following a cliff 5 m ahead (target ahead to the side s), the cliff drops out of the break
+    # slots and the only break seen is the end of another one, 5.9 m off across an open gap (more
+    # than pass_m from the followed point): the robot keeps to the point it followed (it goes round
+    # that end), it does not jump the gap to a break on its other side
+    layout, R = ObsLayout(), 60.0
+    mem = BugMemory.empty(1)
+    rel, side = _follow_step(mem, obs_row(layout, R, (100.0, 30.0 * s), [(5.0, 0.0, -1.0, 0.0, 50.0)]), layout, R)
+    assert side == s and np.allclose(rel, [5.0, 0.0])
+    mem.probed[:] = True  # it has used its one clear-view leave: the open view does not end the search here
+    other_end = (-2.0, 5.5 * s, 0.0, -1.0 * s, 50.0)
+    rel, side = _follow_step(mem, obs_row(layout, R, (100.0, 30.0 * s), [other_end]), layout, R)
+    assert side == s and np.allclose(rel, [5.0, 0.0], atol=1e-6), rel
+    # the same break seen square on (not an end: a wall it runs into) is taken up
+    mem2 = BugMemory.empty(1)
+    _follow_step(mem2, obs_row(layout, R, (100.0, 30.0 * s), [(5.0, 0.0, -1.0, 0.0, 50.0)]), layout, R)
+    mem2.probed[:] = True
+    wall = (0.0, 5.5 * s, 0.0, -1.0 * s, 50.0)
+    rel, side = _follow_step(mem2, obs_row(layout, R, (100.0, 30.0 * s), [wall]), layout, R)
+    assert side == s and np.allclose(rel, [0.0, 5.5 * s], atol=1e-6), rel
+
+
+@pytest.mark.parametrize("s", [1.0, -1.0], ids=["wall-right", "wall-left"])
+def test_taking_a_search_up_again_follows_the_break_that_blocks(obs_row, s):
+    # a search starts at a cliff ahead; the robot leaves on a clear view; then a wall square
+    # across its way blocks it again, not nearer than H: it takes the search up again (same side)
+    # along the wall that blocks it, not along a nearer break behind it that last step's
+    # direction to the old cliff happens to match
+    layout, R = ObsLayout(), 60.0
+    mem = BugMemory.empty(1)
+    target = (100.0, 30.0 * s)
+    _, side = _follow_step(mem, obs_row(layout, R, target, [(5.0, 0.0, -1.0, 0.0, 50.0)]), layout, R)
+    assert side == s
+    _, side = _follow_step(mem, obs_row(layout, R, target, []), layout, R)
+    assert side == 0 and mem.side[0] == 0  # it left
+    blocking = (4.0, 1.2 * s, -0.958, -0.287 * s, 50.0)
+    behind = (-1.0, -3.5 * s, 0.275, 0.962 * s, 50.0)  # nearer, beside and behind it
+    rel, side = _follow_step(mem, obs_row(layout, R, target, [behind, blocking]), layout, R)
+    assert side == s and np.allclose(rel, [4.0, 1.2 * s], atol=1e-6), rel

@@ -96,7 +96,8 @@ def test_step_and_sensing_are_bit_identical_for_1_and_2_threads_and_plain_python
     cmds = rng.uniform(-1.2, 1.2, (3, n, 2))
     with threads(1):
         one = _run(w, s, cmds)
-    with threads(THREADS):
+    with threads(THREADS), pytest.MonkeyPatch.context() as mp:
+        mp.setattr(world_mod, "SERIAL_BELOW", 0)  # small swarms run on one thread: here the parallel path
         two = _run(w, s, cmds)
     _assert_same(one, two)
     with pytest.MonkeyPatch.context() as mp, plain_python(mp):
@@ -192,3 +193,46 @@ def test_fused_move_kernel_equals_the_numpy_locomotion(random_tin, seed, n):
         np.testing.assert_array_equal(got[5], w.tin.height_in(ref[0], ref[1]))
         events |= set(got[4].tolist())
         s, _ = w.step(s, c)
+
+
+@settings(max_examples=20)
+@given(st.integers(0, 10_000), st.integers(0, 300), st.integers(1, 12))
+def test_parallel_compact_equals_the_serial_one(seed, n, k):
+    rng = np.random.default_rng(seed)
+    idx = rng.integers(-5, 50, (n, k))
+    dist = rng.uniform(0, 100, (n, k))
+    bear = rng.uniform(-3, 3, (n, k))
+    keep = (rng.random((n, k)) < 0.7).astype(np.int8)
+    cnt = rng.integers(0, k + 1, n)
+    want = SK.compact(idx, dist, bear, keep, cnt)
+    ref = SK.compact.py_func(idx, dist, bear, keep, cnt)
+    for kk in (1, THREADS):
+        with threads(kk):
+            got = SK.compact_parallel(idx, dist, bear, keep, cnt)
+        _assert_same(list(got), list(want))
+    _assert_same(list(ref), list(want))
+    rows = [(i, int(idx[i, s]), dist[i, s], bear[i, s]) for i in range(n) for s in range(cnt[i])
+            if idx[i, s] >= 0 and keep[i, s]]
+    assert [(int(a), int(b), c, d) for a, b, c, d in zip(*want[:4])] == rows
+
+
+def test_small_swarms_run_on_one_thread_and_large_ones_on_all(random_tin, monkeypatch):
+    """World.step and World.sense drop to one numba thread below SERIAL_BELOW robots (and
+    restore the count after), and keep every thread from SERIAL_BELOW on; the results are the same."""
+    w, s, rng = _world(random_tin, 3, {"range_m": 60.0}, n=20)
+    seen = []
+    kernel = L.move_kernel
+
+    def spy(*a):
+        seen.append(numba.get_num_threads())
+        return kernel(*a)
+
+    monkeypatch.setattr(L, "move_kernel", spy)
+    cmds = rng.uniform(-1, 1, (1, 20, 2))
+    with threads(THREADS):
+        small = _run(w, s, cmds)
+        assert seen == [1] and numba.get_num_threads() == THREADS
+        monkeypatch.setattr(world_mod, "SERIAL_BELOW", 20)
+        large = _run(w, s, cmds)
+        assert seen == [1, THREADS]
+    _assert_same(small, large)

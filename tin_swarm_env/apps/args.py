@@ -171,8 +171,17 @@ def add_dataclass_args(parser: argparse.ArgumentParser, cls, skip=(), positional
 
 
 def dataclass_from_namespace(cls, ns: argparse.Namespace, **override):
-    """An instance of ``cls`` from the parsed fields in ``ns`` (and ``override``)."""
-    kw = {f.name: getattr(ns, f.name) for f in dataclasses.fields(cls) if hasattr(ns, f.name)}
+    """An instance of ``cls`` from the parsed fields in ``ns`` (and ``override``). A ``str`` field
+    given as several words (``nargs="+"``) or as a repeated option (``action="append"``) holds them
+    joined with commas: ``eval a b --model x --model y`` -> ``scenarios="a,b"``, ``models="x,y"``."""
+    hints = typing.get_type_hints(cls)
+    kw = {}
+    for f in dataclasses.fields(cls):
+        if hasattr(ns, f.name):
+            v = getattr(ns, f.name)
+            if isinstance(v, list) and _base_type(hints[f.name])[0] is str:
+                v = ",".join(v)
+            kw[f.name] = v
     return cls(**{**kw, **override})
 
 

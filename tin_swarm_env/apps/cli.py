@@ -61,9 +61,10 @@ COMMANDS = {
                        "headless)", positional=("scenario",)),
     "train": Command("train:Args", "cli:_train", "train PPO (apps/train.py, = agents/train_sb3.py; needs the "
                      "[train] extra)", positional=("scenario",), rename={"total_timesteps": "timesteps"}),
-    "eval": Command("evaluate:Args", "cli:_eval", "random, APF and saved policies on the same scenarios and seeds",
+    "eval": Command("evaluate:Args", "cli:_eval", "random, APF and saved policies on the same scenarios and seeds "
+                    "(or --suite standard: the standard suite's leaderboard)",
                     positional=("scenarios",), rename={"models": "model"},
-                    cli={"scenarios": {"nargs": "+"}, "models": {"action": "append", "metavar": "MODEL"}}),
+                    cli={"scenarios": {"nargs": "*"}, "models": {"action": "append", "metavar": "MODEL"}}),
     "build-tin": Command("build_tin:Args", "build_tin:build_tin", "reduce a DEM to a TIN and write it (.tin or "
                          ".npz)", positional=("dem",)),
 }
@@ -84,16 +85,10 @@ def _train(a) -> int:
 
 def _eval(a) -> int:
     from .evaluate import evaluate
+    from .suite import run_suite
 
-    evaluate(a)
+    (run_suite if a.suite else evaluate)(a)
     return 0
-
-
-def _joined(cmd: Command, ns: argparse.Namespace) -> dict:
-    """The arguments given several times or as several words (``nargs="+"``, ``action="append"`` in
-    ``cmd.cli``: eval's scenarios and ``--model``) joined with commas, as their ``Args`` field holds them."""
-    return {k: ",".join(getattr(ns, k)) for k, kw in cmd.cli.items()
-            if kw.get("nargs") == "+" or kw.get("action") == "append"}
 
 
 class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
@@ -119,7 +114,7 @@ def _runner(cmd: Command):
     def run(ns: argparse.Namespace) -> int:
         try:
             cls = cmd.load(cmd.args)
-            a = dataclass_from_namespace(cls, ns, **_joined(cmd, ns))
+            a = dataclass_from_namespace(cls, ns)
             return cmd.load(cmd.run)(a)
         except ArgumentError as exc:
             msg = _cli_names(str(exc), cmd.rename)

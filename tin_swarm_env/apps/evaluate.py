@@ -19,7 +19,12 @@ so the interval is somewhat narrow).
 seeds below it. On ``"generated"`` (a new terrain drawn from each reset seed) the evaluation
 terrains are therefore never seen in training. Every option is checked before the first episode
 (:func:`check_args`). Writes ``out``.md and .csv and a bar plot ``out``.png (default ``out``:
-``runs/eval_<scenarios>``).
+``runs/eval_<scenarios>``), each file whole or not at all, and prints their paths at the end, one
+a line (``wrote PATH``); :func:`evaluate` returns the rows with the paths in ``.files``.
+
+**The standard suite** (``suite="standard"``, ``tin-swarm eval --suite standard --model DIR``):
+fixed maps, seeds, robots and steps instead of ``scenarios``/``seeds``/``robots``, one leaderboard
+row per policy (:mod:`~tin_swarm_env.apps.suite`).
 """
 
 from __future__ import annotations
@@ -36,8 +41,8 @@ from .args import check_args as check_fields
 from .args import opt
 from .rollout import Outcome, rollout
 
-__all__ = ["Args", "METRICS", "EVAL_SEED0", "evaluate", "check_args", "default_out", "episode_metrics", "ci95",
-           "markdown", "bar_plot", "parse_models", "policy_rows"]
+__all__ = ["Args", "METRICS", "EVAL_SEED0", "EvalRows", "evaluate", "check_args", "default_out", "episode_metrics",
+           "ci95", "markdown", "bar_figure", "bar_plot", "parse_models", "policy_rows", "write_text"]
 
 EVAL_SEED0 = 1_000_000  # evaluation seeds start here; training seeds stay below
 
@@ -47,12 +52,20 @@ METRICS = [("arrived", "arrived", "{:.1%}"), ("fell", "fell", "{:.1%}"), ("timed
            ("return", "return/robot", "{:.1f}")]
 
 
+DEFAULT_SCENARIOS = "cliff_goal,ramp"
+SUITE_NAMES = ("standard",)  # the suites of apps/suite.py (SUITES there)
+
+
+def _suite_name(v: str):
+    return None if v in ("", *SUITE_NAMES) else f"choose from {', '.join(SUITE_NAMES)} (or leave it out)"
+
+
 @dataclass
 class Args:
     """``tin-swarm eval`` / ``agents/evaluate.py``: every option, its help and what it accepts."""
 
-    scenarios: str = opt("cliff_goal,ramp", "built-in scenario names or .toml paths (comma-separated; on the "
-                         "command line, space-separated)", nargs="+")
+    scenarios: str = opt(DEFAULT_SCENARIOS, "built-in scenario names or .toml paths (comma-separated; on the "
+                         "command line, space-separated; none with --suite)")
     seeds: int = opt(20, "episodes (seeds) per scenario and policy", lo=1)
     robots: int = opt(0, "robots per episode (0: the scenario's)", lo=0)
     models: str = opt("", "a pickle-free policy directory ([label=]path), or an SB3 .zip with --trust-pickle "
@@ -64,6 +77,10 @@ class Args:
                            "uses the seeds below EVAL_SEED0)", lo=0)
     trust_pickle: bool = opt(False, "allow SB3 .zip models: they are pickles and loading one runs any code it "
                              "holds", flag=True)
+    suite: str = opt("", "run a fixed suite instead of SCENARIOS: 'standard' (its maps, seeds, robots and steps: "
+                     "tin_swarm_env/apps/suite.py), one leaderboard row per policy", check=_suite_name)
+    quick: bool = opt(False, "with --suite: a seconds-long version (one map per split, 1 seed, 3 robots, 60 steps)",
+                      flag=True)
 
     def __post_init__(self):
         check_fields(self)
@@ -139,7 +156,9 @@ def check_args(args: Args) -> tuple[list, list, Path]:
     check_range("eval", "seed_offset", args.seed_offset, 0, integer=True, exc=ArgumentError)
     scens = [s.strip() for s in args.scenarios.split(",") if s.strip()]
     if not scens:
-        raise ArgumentError("eval: give at least one scenario")
+        raise ArgumentError("eval: give at least one scenario (or --suite standard)")
+    if args.quick:
+        raise ArgumentError("--quick applies to --suite only")
     entries = [(p, p, None) for p in policy_rows(args.policies)]
     for label, path in parse_models(args.models):
         check_policy_spec(path, args.trust_pickle, option="--model")
@@ -154,9 +173,50 @@ def check_args(args: Args) -> tuple[list, list, Path]:
     return scens, entries, out
 
 
-def evaluate(args: Args) -> list[dict]:
+class EvalRows(list):
+    """The rows of an evaluation (a list of dicts), with ``files``: the paths it wrote."""
+
+    files: list[Path]
+
+    def __init__(self, rows=(), files=()):
+        super().__init__(rows)
+        self.files = [Path(f) for f in files]
+
+
+def write_text(path, text: str) -> Path:
+    """Write ``text`` to ``path`` whole or not at all (:func:`~tin_swarm_env._atomic.atomic_path`)."""
+    from .._atomic import atomic_path
+
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
+        fh.write(text)
+    return Path(path)
+
+
+def write_csv(path, rows: list[dict]) -> Path:
+    """The rows as CSV (the first row's keys as the header), whole or not at all."""
+    import io
+
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(rows[0]))
+    w.writeheader()
+    w.writerows(rows)
+    return write_text(path, buf.getvalue())
+
+
+def print_files(files) -> None:
+    """``wrote PATH``, one line per file written."""
+    for f in files:
+        print(f"wrote {f}", flush=True)
+
+
+def evaluate(args: Args) -> EvalRows:
     """Every (scenario, row) over ``args.seeds`` seeds; prints a line each, writes the
-    Markdown table, the CSV and the bar plot, returns the rows."""
+    Markdown table, the CSV and the bar plot, prints their paths; returns the rows with
+    ``.files``. A suite (``args.suite``) is run by :func:`tin_swarm_env.apps.suite.run_suite`
+    (``tin-swarm eval --suite`` and ``agents/evaluate.py`` call it)."""
+    if args.suite:
+        raise ArgumentError(f"--suite {args.suite}: run it with tin_swarm_env.apps.suite.run_suite(args) (evaluate() "
+                            "runs SCENARIOS)")
     from ..env import parallel_env
     from .policy_factory import make_policy
     from .run import progress_bar
@@ -185,14 +245,11 @@ def evaluate(args: Args) -> list[dict]:
                   f"fell {row['fell']:.1%}, timed out {row['timed_out']:.1%} (stalled {row['stalled']:.1%}, "
                   f"looping {row['looping']:.1%}), return {row['return']:.1f}", flush=True)
     md = markdown(rows)
-    out.with_suffix(".md").write_text(md + "\n")
-    with open(out.with_suffix(".csv"), "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    bar_plot(rows, out.with_suffix(".png"))
+    files = [write_text(out.with_suffix(".md"), md + "\n"), write_csv(out.with_suffix(".csv"), rows),
+             bar_plot(rows, out.with_suffix(".png"))]
     print(md)
-    return rows
+    print_files(files)
+    return EvalRows(rows, files)
 
 
 def markdown(rows) -> str:
@@ -210,24 +267,59 @@ def markdown(rows) -> str:
                                "half-width (Student t) over robot-episodes.")
 
 
-def bar_plot(rows, path):
+_PANELS = (("arrived", "arrival rate", True), ("fell", "falls", True), ("return", "return/robot", False))
+
+
+def bar_figure(rows):
+    """The bar plot of :func:`bar_plot` as a matplotlib Figure: arrival rate, falls (both on a
+    0-100 % axis, each bar labelled with its value) and return per robot, one group of bars per
+    scenario, one colour per policy, the legend beside the panels (outside every axes)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import PercentFormatter
 
     scen = list(dict.fromkeys(r["scenario"] for r in rows))
     pols = list(dict.fromkeys(r["policy"] for r in rows))
-    fig, axes = plt.subplots(1, 3, figsize=(11, 3.4), dpi=110)
-    for ax, (key, name) in zip(axes, (("arrived", "arrival rate"), ("fell", "falls"), ("return", "return/robot"))):
-        w = 0.8 / len(pols)
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), dpi=110, layout="constrained")
+    w = 0.8 / len(pols)
+    for ax, (key, name, rate) in zip(axes, _PANELS):
+        span = []
         for j, p in enumerate(pols):
-            vals = [next((r[key] for r in rows if r["scenario"] == s and r["policy"] == p), np.nan) for s in scen]
-            errs = [next((r[key + "_ci95"] for r in rows if r["scenario"] == s and r["policy"] == p), 0) for s in scen]
-            ax.bar(np.arange(len(scen)) + j * w, vals, w, yerr=errs, capsize=3, label=p)
-        ax.set_xticks(np.arange(len(scen)) + 0.4 - w / 2, scen)
+            got = [next((r for r in rows if r["scenario"] == s and r["policy"] == p), None) for s in scen]
+            vals = np.array([np.nan if r is None else r[key] for r in got], dtype=float)
+            errs = np.array([0.0 if r is None or np.isnan(r[key + "_ci95"]) else r[key + "_ci95"] for r in got])
+            bars = ax.bar(np.arange(len(scen)) + j * w, vals, w, yerr=errs, capsize=3, label=p, color=f"C{j % 10}")
+            if rate:
+                ax.bar_label(bars, labels=["" if np.isnan(v) else f"{v:.0%}" for v in vals], fontsize=6, padding=1)
+            span += [v for v in (vals - errs).tolist() + (vals + errs).tolist() if np.isfinite(v)]
+        if rate:  # a share: always the whole 0-100 % (all zeros included)
+            ax.set_ylim(0.0, 1.12)
+            ax.set_yticks(np.linspace(0, 1, 6))
+            ax.yaxis.set_major_formatter(PercentFormatter(1.0, decimals=0))
+        elif not span or max(span) == min(span):  # no spread: a fixed range round the value, not +-4 % of it
+            c = span[0] if span else 0.0
+            ax.set_ylim(min(c, 0.0) - 1.0, max(c, 0.0) + 1.0)
+        ax.axhline(0.0, color="0.3", lw=0.6)
+        ax.set_xticks(np.arange(len(scen)) + 0.4 - w / 2, scen, rotation=20 if len(scen) > 3 else 0, ha="right"
+                      if len(scen) > 3 else "center", fontsize=8)
         ax.set_title(name)
-    axes[0].legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside right upper", fontsize=8, title="policy", title_fontsize=8)
+    return fig
+
+
+def bar_plot(rows, path) -> Path:
+    """Write :func:`bar_figure` to ``path`` (PNG), whole or not at all; returns the path."""
+    import matplotlib.pyplot as plt
+
+    from .._atomic import atomic_path
+
+    fig = bar_figure(rows)
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format="png")
+    finally:
+        plt.close(fig)
+    return Path(path)

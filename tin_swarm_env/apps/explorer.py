@@ -38,7 +38,12 @@ source and the first target.
 
 Works in a desktop window (``FieldExplorer("ramp").show()``), in Jupyter with ipympl
 (``%matplotlib widget``), and headless: ``tin-swarm explore ramp --png out.png [--cost-to-go]``
-draws the same views into a file (Agg).
+(:meth:`FieldExplorer.save_png`) draws a picture without the controls (they do nothing in a
+file): the TIN, the selected robot's field (surface and heatmap with its colour bar) and the
+cost-to-go to its target over the whole terrain (:data:`COST_MAP_PX` cells across) with a
+colour bar in metres. The field heatmap covers the robot's neighbourhood only (1.2 sensor
+ranges around it: what it feels); the cost-to-go map is a separate panel over the terrain's
+bounds.
 """
 
 from __future__ import annotations
@@ -50,6 +55,7 @@ import numpy as np
 from ..env import parallel_env
 from ..errors import ArgumentError, PlacementError
 from ..policies import APFPolicy
+from ..scenario.config import MAX_ROBOTS
 from ..world.fields import FIELDS, fields_at
 from .args import check_args, opt
 from .run import fields_problem
@@ -57,6 +63,7 @@ from .run import fields_problem
 __all__ = ["FieldExplorer", "Args", "explore"]
 
 PICK_FRACTION = 0.03  # a press within this share of the heatmap's width picks a robot or a target
+COST_MAP_PX = 121  # cells across the whole-terrain cost-to-go map of the PNG
 
 
 class FieldExplorer:
@@ -85,6 +92,7 @@ class FieldExplorer:
         self.ax3d = self.fig.add_axes((0.05, 0.50, 0.70, 0.44), projection="3d")
         self.ax_surf = self.fig.add_axes((0.02, 0.07, 0.42, 0.40), projection="3d")
         self.ax_heat = self.fig.add_axes((0.50, 0.09, 0.35, 0.36))
+        self.ax_heat_cbar = self.fig.add_axes((0.86, 0.09, 0.012, 0.36))
         self.checks = CheckButtons(self.fig.add_axes((0.80, 0.72, 0.18, 0.22)), list(FIELDS),
                                    [f in self.fields for f in FIELDS])
         self.checks.on_clicked(self.toggle)
@@ -97,6 +105,8 @@ class FieldExplorer:
         self.btn_reset.on_clicked(lambda event: self.reset())
         self.btn_add = Button(self.fig.add_axes((0.80, 0.47, 0.18, 0.05)), "add robot")
         self.btn_add.on_clicked(lambda event: self._arm("robot"))
+        self.widget_axes = [w.ax for w in (self.checks, self.run_check, self.btn_next, self.btn_reset, self.btn_add)]
+        self.ax_cost = self.ax_cost_cbar = None  # the PNG's whole-terrain cost-to-go panel (save_png)
         self._status_text = self.fig.text(0.02, 0.01, "", fontsize=8)
         self.fig.canvas.mpl_connect("button_press_event", self._on_press)
         self.fig.canvas.mpl_connect("motion_notify_event", self._on_motion)
@@ -418,7 +428,10 @@ class FieldExplorer:
         h = self.ax_heat
         h.clear()
         self._ghost = None
-        h.imshow(U, origin="lower", extent=(X.min(), X.max(), Y.min(), Y.max()), cmap="viridis", aspect="auto")
+        im = h.imshow(U, origin="lower", extent=(X.min(), X.max(), Y.min(), Y.max()), cmap="viridis", aspect="auto")
+        self.ax_heat_cbar.clear()
+        self.fig.colorbar(im, cax=self.ax_heat_cbar).set_label("potential", fontsize=7)
+        self.ax_heat_cbar.tick_params(labelsize=6)
         step = max(1, self.grid // 15)
         h.quiver(X[::step, ::step], Y[::step, ::step], F[::step, ::step, 0], F[::step, ::step, 1], color="white",
                  scale=None)
@@ -442,6 +455,59 @@ class FieldExplorer:
         h.set_title(f"field felt by {who}: {', '.join(self.fields) or 'none'}{ctg} (step {env.steps})", fontsize=8)
         self._status_text.set_text(f"{env.n} robots, {len(s.targets)} targets, step {env.steps}: {self.status}")
         self.fig.canvas.draw_idle()
+
+    def cost_to_go_map(self, cells: int = COST_MAP_PX):
+        """``(X, Y, C)``: the cost-to-go (m) to the selected robot's target on a grid over the
+        whole terrain (``cells`` across the longer side; ``inf`` where unreachable), or None
+        without a target."""
+        x0, y0, x1, y1 = self.env.tin.bounds
+        long = max(x1 - x0, y1 - y0)
+        nx, ny = (max(2, round(cells * (b - a) / long)) for a, b in ((x0, x1), (y0, y1)))
+        X, Y = np.meshgrid(np.linspace(x0, x1, nx), np.linspace(y0, y1, ny))
+        C = self.compute_cost_to_go(X, Y)
+        return None if C is None else (X, Y, C)
+
+    def save_png(self, path):
+        """Write the picture (PNG) without the controls: they are taken off the figure (the
+        explorer is no longer interactive afterwards) and the cost-to-go over the whole terrain
+        takes their place, with a colour bar (m); see the module docstring."""
+        for ax in self.widget_axes:
+            ax.remove()
+        self.widget_axes = []
+        self.ax3d.set_position((0.0, 0.52, 0.52, 0.44))
+        self.ax_cost = self.fig.add_axes((0.58, 0.55, 0.30, 0.38))
+        self.ax_cost_cbar = self.fig.add_axes((0.90, 0.55, 0.012, 0.38))
+        self._draw_cost_map()
+        self.fig.savefig(path, format="png")
+
+    def _draw_cost_map(self):
+        from matplotlib import colormaps
+
+        ax, s = self.ax_cost, self.env.world_state
+        x0, y0, x1, y1 = self.env.tin.bounds
+        got = self.cost_to_go_map()
+        k = self._target_index()
+        if got is None:
+            ax.text(0.5, 0.5, "no target: no cost-to-go", ha="center", va="center", transform=ax.transAxes)
+            self.ax_cost_cbar.set_visible(False)
+        else:
+            X, Y, C = got
+            cmap = colormaps["magma_r"].with_extremes(bad=(0.85, 0.85, 0.85))
+            im = ax.imshow(np.where(np.isfinite(C), C, np.nan), origin="lower", extent=(x0, x1, y0, y1), cmap=cmap,
+                           aspect="equal", interpolation="nearest")
+            self.fig.colorbar(im, cax=self.ax_cost_cbar).set_label("cost-to-go (m of drivable path)", fontsize=7)
+            self.ax_cost_cbar.tick_params(labelsize=6)
+            g = s.targets.positions[k]
+            ax.plot(*g, "*", color="cyan", mec="k", ms=12)
+        on = s.present
+        ax.plot(s.positions[on, 0], s.positions[on, 1], ".", color="orange", ms=3)
+        if self.robot is not None:
+            ax.plot(*s.positions[self.robot], "o", color="orange", mec="k")
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
+        ax.tick_params(labelsize=6)
+        who = "the first target" if self.robot is None else f"robot_{self.robot}'s target"
+        ax.set_title(f"cost-to-go to {who} (grey: unreachable)", fontsize=8)
 
     def show(self):
         import matplotlib.pyplot as plt
@@ -473,7 +539,7 @@ class Args:
                      check=_robot_problem)
     fields: str | None = opt(None, "fields switched on, comma-separated, e.g. robot,target,break (default: all of "
                              + ",".join(FIELDS) + ")", check=fields_problem)
-    robots: int | None = opt(None, "number of robots (default: the scenario's)", lo=1)
+    robots: int | None = opt(None, "number of robots (default: the scenario's)", lo=1, hi=MAX_ROBOTS)
     steps: int = opt(0, "APF steps to take before drawing", lo=0)
     seed: int = opt(0, "reset seed", lo=0)
     cost_to_go: bool = opt(False, "overlay contours of the selected robot's target's cost-to-go (m of drivable path)",
@@ -513,7 +579,7 @@ def explore(a: Args) -> int:
     ex.redraw()
     if a.png:
         with atomic_path(a.png) as tmp:
-            ex.fig.savefig(tmp, format="png")
+            ex.save_png(tmp)
         print(f"wrote {a.png}")
         ex.close()
     else:

@@ -1,12 +1,25 @@
-"""Writing rendered frames as they come: an animated GIF (or the last frame as PNG) and an H.264
-MP4. Memory stays at one frame whatever the episode's length: :class:`FrameWriter` encodes each
-frame on arrival into a hidden ``.part`` file beside the output (renamed into place on success,
-removed on any error or Ctrl-C; see :mod:`tin_swarm_env._atomic`).
+"""Writing rendered frames as they come: an animated GIF (or the last frame as PNG), an H.264
+MP4 or an animated WebP. Memory stays at one frame whatever the episode's length:
+:class:`FrameWriter` encodes each frame on arrival into a hidden ``.part`` file beside the
+output (renamed into place on success, removed on any error or Ctrl-C; see
+:mod:`tin_swarm_env._atomic`).
+
+GIF: one fixed palette for every frame, the viewer's :data:`~tin_swarm_env.env.viewer.PALETTE`
+(every colour a rendered frame holds: the legend's marker colours, a grey ramp and the terrain's
+height x hillshade colours), each frame mapped to its nearest colour without dithering, so the
+legend's colours stay exactly what the legend says. After the first frame each frame stores only
+the rectangle that changed, its unchanged pixels transparent (they show the frame before): a
+frame of a run costs about what its moving robots and title cover, not the whole picture.
+
+Defaults (``tin-swarm run``): a frame every :data:`FRAME_EVERY` steps, :data:`GIF_WIDTH_PX`
+pixels wide; a 200-robot, 900-step jacksboro run then writes a GIF under 10 MB (measured in
+``docs/figures/media.md``; ``tests/apps/test_media.py`` bounds it).
 """
 
 from __future__ import annotations
 
 import io
+import os
 import struct
 from contextlib import ExitStack
 
@@ -15,9 +28,44 @@ import numpy as np
 from .._atomic import atomic_path
 from ..errors import ArgumentError, require
 
-__all__ = ["FrameWriter", "save_gif", "save_mp4", "GIF_COLORS"]
+__all__ = ["FrameWriter", "save_gif", "save_mp4", "FRAME_EVERY", "GIF_WIDTH_PX", "SUFFIXES", "gif_palette_image",
+           "TRANSPARENT", "palette_indices"]
 
-GIF_COLORS = 128  # adaptive palette size per GIF frame
+FRAME_EVERY = 5  # steps between frames of `tin-swarm run --gif/--mp4` (--frame-every)
+GIF_WIDTH_PX = 640  # frame width of `tin-swarm run --gif/--mp4` (--render-width)
+TRANSPARENT = 255  # the GIF palette index of "unchanged since the last frame"
+SUFFIXES = {".gif": "an animated GIF", ".png": "the last frame as PNG", ".mp4": "H.264 video, the [video] extra",
+            ".webp": "lossless animated WebP, the [video] extra"}
+
+
+def gif_palette_image():
+    """A P-mode Pillow image whose 256-entry palette is the viewer's :data:`PALETTE`, padded
+    (index :data:`TRANSPARENT` is never a frame colour)."""
+    from PIL import Image
+
+    from ..env.viewer import PALETTE
+
+    pal = np.zeros((256, 3), np.uint8)
+    pal[:len(PALETTE)] = PALETTE
+    pal[len(PALETTE):] = PALETTE[0]  # unused entries repeat a palette colour (never nearer than it)
+    img = Image.new("P", (1, 1))
+    img.putpalette(pal.ravel().tobytes())
+    return img
+
+
+def palette_indices(frame) -> np.ndarray:
+    """``(H, W)`` uint8: the index of each pixel's nearest :data:`PALETTE` colour (RGB distance;
+    exact for the palette's own colours, no dithering)."""
+    from ..env.viewer import PALETTE
+
+    f = np.asarray(frame)
+    if f.ndim != 3 or f.shape[2] != 3 or f.dtype != np.uint8:
+        raise ArgumentError(f"a frame is (H, W, 3) uint8, got {f.shape} {f.dtype}")
+    key = (f[..., 0].astype(np.int32) << 16) | (f[..., 1].astype(np.int32) << 8) | f[..., 2]
+    colors, inverse = np.unique(key.ravel(), return_inverse=True)
+    rgb = np.column_stack([colors >> 16, (colors >> 8) & 255, colors & 255]).astype(np.int32)
+    d = ((rgb[:, None, :] - PALETTE[None].astype(np.int32)) ** 2).sum(axis=2)
+    return d.argmin(axis=1).astype(np.uint8)[inverse].reshape(f.shape[:2])
 
 
 def _skip_blocks(b: bytes, i: int) -> int:
@@ -27,53 +75,68 @@ def _skip_blocks(b: bytes, i: int) -> int:
     return i + 1
 
 
-def _gif_frame_parts(img) -> tuple[int, int, bytes, bytes]:
-    """Encode one P-mode image with Pillow as a one-frame GIF and return ``(width, height,
-    color table bytes, image descriptor + data)`` with the table moved into the descriptor
-    (a local color table), so frames with their own palettes can be concatenated."""
+def _gif_image_block(idx: np.ndarray, left: int, top: int, palette_img) -> bytes:
+    """The image descriptor and LZW data of the ``(h, w)`` palette indices ``idx`` placed at
+    ``(left, top)``, encoded by Pillow, with no local colour table (the global one applies)."""
+    from PIL import Image
+
+    img = Image.frombytes("P", (idx.shape[1], idx.shape[0]), np.ascontiguousarray(idx, np.uint8).tobytes())
+    img.putpalette(palette_img.getpalette())
     buf = io.BytesIO()
-    img.save(buf, format="GIF")
+    img.save(buf, format="GIF", optimize=False)
     b = buf.getvalue()
-    w, h, flags = struct.unpack("<HHB", b[6:11])
     i = 13
-    table = b""
+    flags = b[10]
     if flags & 0x80:
-        n = 3 * 2 ** ((flags & 7) + 1)
-        table, i = b[i:i + n], i + n
+        i += 3 * 2 ** ((flags & 7) + 1)
     while b[i] == 0x21:  # extensions Pillow may write (graphic control, comment): dropped
         i = _skip_blocks(b, i + 2)
     if b[i] != 0x2C:
         raise RuntimeError("unexpected GIF layout from Pillow")  # pragma: no cover
     desc = bytearray(b[i:i + 10])
     i += 10
-    if desc[9] & 0x80:  # the frame already has a local table
-        n = 3 * 2 ** ((desc[9] & 7) + 1)
-        table, i = b[i:i + n], i + n
-    else:
-        desc[9] = (desc[9] & 0x40) | 0x80 | (flags & 7)
+    if desc[9] & 0x80:  # a local table: skipped (the indices are the global palette's)
+        i += 3 * 2 ** ((desc[9] & 7) + 1)
+    desc[1:5] = struct.pack("<HH", left, top)
+    desc[9] &= 0x40  # keep "interlaced" (never set by Pillow here), drop the local table
+    if b[i] != 8:
+        raise RuntimeError("unexpected GIF code size from Pillow")  # pragma: no cover
     end = _skip_blocks(b, i + 1)  # LZW minimum code size, then the data sub-blocks
-    return w, h, table, bytes(desc) + table + b[i:end]
+    return bytes(desc) + b[i:end]
 
 
 class _GifStream:
-    """An animated GIF written frame by frame (GIF89a, looping, a local palette per frame)."""
+    """An animated GIF written frame by frame (GIF89a, looping, one global palette; frames after
+    the first store the changed rectangle, unchanged pixels transparent)."""
 
     def __init__(self, fh, fps: float):
-        self.fh, self.delay_cs, self.size = fh, max(1, round(100 / fps)), None
+        self.fh, self.delay_cs, self.size, self._prev = fh, max(1, round(100 / fps)), None, None
+        self._pal = gif_palette_image()
 
     def add(self, frame):
-        from PIL import Image
-
-        img = Image.fromarray(frame).convert("P", palette=Image.Palette.ADAPTIVE, colors=GIF_COLORS)
-        w, h, _, body = _gif_frame_parts(img)
+        idx = palette_indices(frame)
+        h, w = idx.shape
         if self.size is None:
             self.size = (w, h)
-            self.fh.write(b"GIF89a" + struct.pack("<HHBBB", w, h, 0, 0, 0))
+            self.fh.write(b"GIF89a" + struct.pack("<HHBBB", w, h, 0xF7, 0, 0))  # global table, 256 colours
+            self.fh.write(bytes(self._pal.getpalette()[:768]))
             self.fh.write(b"!\xff\x0bNETSCAPE2.0\x03\x01\x00\x00\x00")  # loop forever
+            block = _gif_image_block(idx, 0, 0, self._pal)
         elif (w, h) != self.size:
             raise ArgumentError(f"GIF frames must all have one size: {self.size}, then {(w, h)}")
-        self.fh.write(b"!\xf9\x04\x04" + struct.pack("<H", self.delay_cs) + b"\x00\x00")  # delay, keep
-        self.fh.write(body)
+        else:
+            changed = idx != self._prev
+            rows, cols = np.flatnonzero(changed.any(axis=1)), np.flatnonzero(changed.any(axis=0))
+            if len(rows) == 0:
+                block = _gif_image_block(np.full((1, 1), TRANSPARENT, np.uint8), 0, 0, self._pal)
+            else:
+                r0, r1, c0, c1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
+                sub = np.where(changed[r0:r1, c0:c1], idx[r0:r1, c0:c1], TRANSPARENT).astype(np.uint8)
+                block = _gif_image_block(sub, int(c0), int(r0), self._pal)
+        self._prev = idx
+        # graphic control: disposal 1 (keep), transparent index TRANSPARENT, the delay
+        self.fh.write(b"!\xf9\x04\x05" + struct.pack("<HB", self.delay_cs, TRANSPARENT) + b"\x00")
+        self.fh.write(block)
 
     def close(self):
         self.fh.write(b";")
@@ -97,18 +160,31 @@ def check_animation(robots: int, steps: int, every: int, option: str = "--gif") 
     return frames
 
 
+def frame_kind(path) -> str:
+    """``"gif"``, ``"png"``, ``"mp4"`` or ``"webp"`` from ``path``'s suffix (:data:`SUFFIXES`);
+    any other suffix is an ArgumentError naming it."""
+    suffix = os.path.splitext(os.path.basename(os.fspath(path)))[1].lower()
+    if suffix not in SUFFIXES:
+        what = f"the suffix {suffix!r} is not a format written here" if suffix else "the file name has no suffix"
+        raise ArgumentError(f"{path}: {what}; the suffix picks the format: "
+                            + ", ".join(f"{k} ({v})" for k, v in SUFFIXES.items()))
+    return suffix[1:]
+
+
 class FrameWriter:
-    """``with FrameWriter(path) as w: w.add(frame (H, W, 3) uint8)...``: a GIF (any suffix but
-    .png/.mp4), the last frame as PNG (``.png``) or an H.264 MP4 (``.mp4``, the [video] extra),
-    written atomically, holding at most one frame in memory. ``n_frames`` counts the frames."""
+    """``with FrameWriter(path) as w: w.add(frame (H, W, 3) uint8)...``: by ``path``'s suffix a
+    GIF (``.gif``), the last frame as PNG (``.png``), an H.264 MP4 (``.mp4``) or a lossless
+    animated WebP (``.webp``; these two need imageio-ffmpeg, the [video] extra), written
+    atomically, holding at most one frame in memory. ``n_frames`` counts the frames."""
 
     def __init__(self, path, fps: float = 10):
         self.path, self.fps, self.n_frames = path, fps, 0
-        self.kind = next((k for k in ("png", "mp4") if str(path).lower().endswith("." + k)), "gif")
-        if self.kind == "mp4":
-            require("imageio", "video", "Writing MP4 video")
-            self._iio = require("imageio.v2", "video", "Writing MP4 video")
-            require("imageio_ffmpeg", "video", "Writing MP4 video")
+        self.kind = frame_kind(path)
+        if self.kind in ("mp4", "webp"):
+            what = f"{path}: writing a .{self.kind} file"
+            require("imageio", "video", what)
+            self._iio = require("imageio.v2", "video", what)
+            self._ffmpeg = require("imageio_ffmpeg", "video", what)
         self._stack = ExitStack()
         self._sink = self._last = None
 
@@ -124,12 +200,26 @@ class FrameWriter:
         self._stack.push(self._finish)
         return self
 
+    def _webp(self, frame):
+        """The WebP encoder (ffmpeg's libwebp_anim, lossless), started at the first frame's size."""
+        if self._sink is None:
+            h, w = frame.shape[:2]
+            self._sink = self._ffmpeg.write_frames(self._tmp, (w, h), fps=self.fps, codec="libwebp_anim",
+                                                   pix_fmt_out="bgra", output_params=["-f", "webp", "-loop", "0",
+                                                                                      "-lossless", "1"],
+                                                   macro_block_size=1)
+            self._sink.send(None)
+            self._stack.callback(self._sink.close)
+        self._sink.send(np.ascontiguousarray(frame))
+
     def add(self, frame) -> None:
         frame = np.asarray(frame)
         if self.kind == "png":
             self._last = frame
         elif self.kind == "gif":
             self._sink.add(frame)
+        elif self.kind == "webp":
+            self._webp(frame)
         else:
             h, w = frame.shape[:2]
             self._sink.append_data(frame[: h - h % 2, : w - w % 2])  # H.264 wants even sizes
@@ -154,7 +244,8 @@ class FrameWriter:
 
 def save_gif(frames, path, fps=10):
     """Write frames ``(H, W, 3) uint8`` as an animated GIF, or a single PNG when the path ends in
-    .png (the last frame), atomically (a list or any iterable: frames are encoded one by one)."""
+    .png (the last frame), or MP4/WebP by the suffix, atomically (a list or any iterable: frames
+    are encoded one by one)."""
     with FrameWriter(path, fps) as w:
         for f in frames:
             w.add(f)

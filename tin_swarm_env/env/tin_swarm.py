@@ -30,7 +30,7 @@ __all__ = ["TinSwarmEnv", "parallel_env", "raw_env", "env", "RENDER_WIDTH_PX", "
 
 
 RENDER_WIDTH_PX = (64, 4096)  # the frame widths render() draws
-DEFAULT_RENDER_WIDTH_PX = 640  # render_width when none is given (the CLI's --render-width too)
+DEFAULT_RENDER_WIDTH_PX = 640  # render_width when none is given (the CLI's: apps.media.GIF_WIDTH_PX)
 
 _REASON_LABEL = {int(r): r.label for r in Reason}  # Reason code -> infos[agent]["reason"]
 
@@ -107,8 +107,9 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     - ``render_mode``: None, "human" (matplotlib window) or "rgb_array" (HxWx3 uint8)
     - ``sensor_cones``: draw each robot's field of view when rendering [False]
     - ``render_width``: width of rendered frames in pixels [``DEFAULT_RENDER_WIDTH_PX``]
-    - ``render_decorations``: a title strip (scenario, step, arrived/fell counts), a legend and a
-      scale bar on rendered frames [True]; False for bare frames (training videos)
+    - ``render_decorations``: a title strip (scenario, step, robots arrived / fell / battery-empty /
+      active, on the last frame timed out), a legend, a scale bar and a height colour bar on rendered
+      frames [True] (:mod:`~tin_swarm_env.env.viewer`); False for bare frames (training videos)
 
     ``state()`` (for centralised critics): per robot x, y (scaled to the terrain's bounds), cos
     and sin of the heading, battery fraction and an active flag; per target x, y.
@@ -419,7 +420,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
                                   decorations=self._render_decorations, name=self.config.name)
             if self.render_mode == "human":
                 _warn_if_no_display()  # once per viewer
-        img = self._viewer.frame(self._wstate)
+        img = self._viewer.frame(self._wstate, final=not self._live.any())  # last frame: active = timed out
         if self.render_mode == "rgb_array":
             return img
         self._viewer.show(img)

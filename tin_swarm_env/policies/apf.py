@@ -34,8 +34,14 @@ The rules, each step:
 1. *Meet* a boundary: blocked while heading for the target. Nearer than ``rec - margin_m``: a
    fresh search (``H`` here, ``rec`` the distance to go here), on the side whose tangent points
    more toward the target; else it takes its last search up again (same ``H``, side, budget).
+   Either way it follows the break that blocks it (not the one it followed before it left).
 2. *Follow* (:func:`~tin_swarm_env.world.fields.follow_field`): it keeps ``follow_hold_m`` off
    the followed break, the break that continues last step's (:func:`~tin_swarm_env.policies.bug._followed`).
+   Another break seen at its *end* whose closest point lies more than a passable gap (``pass_m``)
+   from the point followed last step is across an open way: for half a turn round the point it
+   followed (``pi follow_hold_m`` of driving) the robot goes round that point instead, so it
+   turns into a ramp mouth or pass at the end of its wall even when that end has dropped out of
+   its ``K_b`` break slots (the nearest breaks, often seen from their unsafe side, crowd them).
 3. *Leave* when not blocked and nearer than ``rec - margin_m``, and either on the *m-line*
    (the line from ``H`` to the target: Bug2) or ``leave_gain`` nearer than ``rec``; or drive
    through a gap between two break ends that leads toward the target (:func:`~tin_swarm_env.policies.bug.pass_gap`).
@@ -225,7 +231,8 @@ class APFPolicy:
                                         p.break_decay_m)
         togo = np.abs(d.dist - self.shield.standoff_m)
         rel, nrm, side = bug_update(mem, rows, d, pull, self.params, self.bug, togo=togo, q=q, moved=moved,
-                                    crowd_m=2 * self.params.robot_range_m, range_m=self.shield.range_m, gap=has, home=self.static_target)
+                                    crowd_m=2 * self.params.robot_range_m, range_m=self.shield.range_m, gap=has,
+                                    home=self.static_target, pass_m=self.shield.pass_m, step_m=self.shield.step_m)
         f["follow"] = follow_field(pull, rel, nrm, side, self.params.follow_hold_m, self.shield.step_m)
         mag = np.sqrt(np.sum(pull * pull, axis=-1, keepdims=True))
         f["follow"] = np.where(has[:, None], mag * g["aim"] - pull, f["follow"])

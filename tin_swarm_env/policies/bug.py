@@ -14,6 +14,8 @@ from .base import DecodedObs
 
 __all__ = ["BugMemory", "BugParams", "bug_update", "odometry", "pass_gap"]
 
+END_DEG = 5.0  # a break's closest point is its end when the direction to the robot is this far off its normal
+
 
 @dataclass(frozen=True)
 class BugParams:
@@ -61,7 +63,8 @@ _FLOAT2 = ("last_rel", "last_act", "hit", "wall_pt", "last_q", "t_hit")
 _SPEC = {"seen": bool, "psi": float, "last_rel": float, "last_act": float, "side": np.int8, "fside": np.int8,
          "first": np.int8, "hit": float, "rec": float, "arc": float, "budget": float, "ended_first": bool,
          "ended_other": bool, "unreachable": bool, "stall": np.int64, "wall": float, "on_border": bool,
-         "gap": np.int8, "wall_pt": float, "has_pt": bool, "mside": np.int8, "far": bool, "last_q": float, "t_hit": float, "passed": bool, "climb": float, "last_togo": float, "probed": bool}
+         "gap": np.int8, "wall_pt": float, "has_pt": bool, "mside": np.int8, "far": bool, "last_q": float,
+         "t_hit": float, "passed": bool, "climb": float, "last_togo": float, "probed": bool, "v_steps": np.int64}
 
 
 @dataclass
@@ -103,6 +106,7 @@ class BugMemory:
                                (or passed it) on this side: the search's budget is spent in it
     last_togo    (n,)   m      its distance to go last step
     probed       (n,)   bool   it left this search on a clear view that proved wrong (no second such leave)
+    v_steps      (n,)   int    steps it has followed the remembered point (its break out of its slots)
     """
 
     seen: np.ndarray
@@ -133,6 +137,7 @@ class BugMemory:
     climb: np.ndarray
     last_togo: np.ndarray
     probed: np.ndarray
+    v_steps: np.ndarray
 
     @classmethod
     def empty(cls, n: int) -> BugMemory:
@@ -187,22 +192,27 @@ def odometry(mem: BugMemory, rows, d: DecodedObs, step_m: float) -> tuple[np.nda
     return -_rot(psi, d.rel_t), np.where(mem.seen[rows], moved, 0.0)
 
 
-def _followed(seen, dist_b, ang, following, last_ang, hold_m, v_ok, v_ang):
-    """The break slot each robot follows (-1 none, ``K`` the remembered point): among the
-    dangerous breaks it sees from their safe side (``seen (n, K)``), the nearest whose direction
-    to the robot ``ang (n, K)`` (in the robot's frame) lies within 120 degrees of last step's
-    ``last_ang (n,)`` for a robot already following; when none does, the point it followed last
-    (``v_ok (n,)``, direction ``v_ang (n,)``), so that it goes round the end of a break that has
-    dropped out of its slots; else the nearest of all, and the nearest of all whenever one is
-    closer than ``hold_m / 2``."""
+def _followed(seen, dist_b, ang, following, last_ang, hold_m, v_ok, v_ang, defer=None):
+    """The break slot each robot follows (-1 none, ``K`` the remembered point). For a robot
+    already following: among the dangerous breaks it sees from their safe side (``seen (n, K)``)
+    whose direction to the robot ``ang (n, K)`` (in the robot's frame) lies within 120 degrees of
+    last step's ``last_ang (n,)`` (*continuing*), the nearest that is not deferred (``defer (n, K)``:
+    another break's end across an open gap from the point it followed); when none is, the point
+    it followed last (``v_ok (n,)``, direction ``v_ang (n,)``), so that it goes round the end of a
+    break that has dropped out of its slots instead of jumping the gap; else the nearest
+    continuing break, else the nearest of all; and the nearest of all whenever one is closer
+    than ``hold_m / 2``."""
     k_n = seen.shape[1]
     cont = seen & (np.abs(_wrap(ang - last_ang[:, None])) < 2 * np.pi / 3) & following[:, None]
+    ok = cont if defer is None else cont & ~defer
     v_cont = v_ok & following & (np.abs(_wrap(v_ang - last_ang)) < 2 * np.pi / 3)
     close = (seen & (dist_b < hold_m / 2)).any(axis=-1)
-    pick = np.where((cont.any(axis=-1) & ~close)[:, None], cont, seen)
+    has_ok, has_cont = ok.any(axis=-1) & ~close, cont.any(axis=-1) & ~close
+    virtual = ~close & v_cont & ~has_ok
+    pick = np.where(has_ok[:, None], ok, np.where(has_cont[:, None], cont, seen))
     k = np.argmin(np.where(pick, dist_b, np.inf), axis=-1)
     k = np.where(seen.any(axis=-1), k, -1)
-    return np.where(~cont.any(axis=-1) & ~close & v_cont, k_n, k)
+    return np.where(virtual, k_n, k)
 
 
 def _sensed(d: DecodedObs, pull, params: FieldParams) -> dict:
@@ -243,7 +253,7 @@ def _closes(q, pi, pj, g, depth_m):
     return in_cone & (depth > -0.5) & (depth < depth_m)
 
 
-def pass_gap(d: DecodedObs, width_m: float, reach_m: float, end_deg: float = 5.0) -> dict:
+def pass_gap(d: DecodedObs, width_m: float, reach_m: float, end_deg: float = END_DEG) -> dict:
     """A gap between two dangerous breaks that the robot can drive through toward its target,
     read from the break slots of the decoded observation ``d`` (:func:`decode`). A pair of slots
     ``i, j`` (closest points ``p_i``, ``p_j``, body frame) bounds a gap when:
@@ -304,7 +314,8 @@ def pass_gap(d: DecodedObs, width_m: float, reach_m: float, end_deg: float = 5.0
 
 
 def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, bp: BugParams, *, togo, q, moved,
-               crowd_m: float, range_m: float, gap=None, home: bool = True):
+               crowd_m: float, range_m: float, gap=None, home: bool = True, pass_m: float = 0.0,
+               step_m: float = 1.0):
     """One step of the boundary search for the robots in ``rows`` (decoded observations ``d``,
     attraction ``pull (m, 2)``, distance to go ``togo (m,)``, position ``q (m, 2)`` and distance
     moved last step ``moved (m,)`` from :func:`odometry`); updates ``mem`` in place and returns
@@ -379,14 +390,21 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     psi = mem.psi[rows]
     k_n = d.b_rel.shape[1]
     ang = np.arctan2(s["e"][..., 1], s["e"][..., 0]) + psi[:, None]
-    last_wall = np.where(fresh, ang[ri, np.minimum(kb, k_n - 1)], mem.wall[rows])
+    # meeting a boundary (a fresh search or one taken up again), it follows the break that blocks it
+    last_wall = np.where(met, ang[ri, np.minimum(kb, k_n - 1)], mem.wall[rows])
     seen = s["facing"] & (s["dist"] < params.break_range_m)
     v_rel = _rot(-psi, mem.wall_pt[rows] - q)  # the remembered point, body frame
     v_d = _norm(v_rel)
-    v_ok = mem.has_pt[rows] & ~fresh & (v_d > 1e-6) & (v_d < params.break_range_m)
+    v_ok = mem.has_pt[rows] & ~met & (v_d > 1e-6) & (v_d < params.break_range_m)
     v_e = -v_rel / np.maximum(v_d, 1e-6)[:, None]
     v_ang = np.arctan2(v_e[:, 1], v_e[:, 0]) + psi
-    kf = _followed(seen, s["dist"], ang, following, last_wall, params.follow_hold_m, v_ok, v_ang)
+    # a break seen at its end whose closest point lies a passable gap (pass_m) from the point the
+    # robot followed: the way between the two is open, and the boundary it follows goes round its own
+    # end (which may have dropped out of its K_b slots); deferred for half a turn round that end
+    cand_end = np.sum(s["e"] * d.b_normal, axis=-1) < np.cos(np.radians(END_DEG))
+    young = mem.v_steps[rows] * step_m < np.pi * params.follow_hold_m
+    defer = (_norm(d.b_rel - v_rel[:, None, :]) > pass_m) & cand_end & (v_ok & young)[:, None] if pass_m else None
+    kf = _followed(seen, s["dist"], ang, following, last_wall, params.follow_hold_m, v_ok, v_ang, defer)
     virtual = kf == k_n
     has_wall = (kf >= 0) & ~virtual
     kc = np.clip(kf, 0, k_n - 1)
@@ -437,5 +455,6 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     mem.gap[rows] = np.where((side == 0) | fresh, 0, mem.gap[rows])
     mem.wall_pt[rows] = np.where(has_wall[:, None], q + _rot(psi, d.b_rel[ri, kc]), mem.wall_pt[rows])
     mem.has_pt[rows] = (side != 0) & (has_wall | virtual)
+    mem.v_steps[rows] = np.where(virtual & (side != 0), mem.v_steps[rows] + 1, 0)
     on = (side != 0) & (kf >= 0)
     return np.where(on[:, None], f_rel, 0.0), np.where(on[:, None], f_nrm, 0.0), np.where(on, side, 0)

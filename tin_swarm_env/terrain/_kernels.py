@@ -138,7 +138,7 @@ def _plane_z(vx, vy, vz, tris, grad, t, x, y):
     return vz[a] + grad[t, 0] * (x - vx[a]) + grad[t, 1] * (y - vy[a])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def los_walk1(vx, vy, vz, tris, nbrs, grad, ax, ay, az, bx, by, bz, t, max_steps, ztol):
     """:func:`los_walk` for one segment ``a -> b`` starting in triangle ``t``: 1, 0 or -2."""
     if t < 0:

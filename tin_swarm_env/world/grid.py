@@ -1,14 +1,16 @@
 """A compiled uniform grid for neighbour candidates, rebuilt in O(n) every step.
 
-Points are binned into square cells of side at least the query radius (the sensor range, or
-the collision diameter), so every point within the radius of a query point lies in the 3 x 3
-cells around it. The grid covers the bounding box of the points it holds; when that box would
-need more than ``4 n + 64`` cells the side grows (fewer, larger cells: still correct, only
-slower). Within a cell, points keep their index order (a counting sort), so whoever reads the
+Points are binned into square cells of side at least ``radius / reach``, so every point within
+the radius of a query point lies in the ``(2 reach + 1)^2`` cells around it (:func:`grid_block`):
+collisions use cells of the collision diameter and the 3 x 3 block (:func:`grid_cells`),
+sensing cells of half the sensor range and the 5 x 5 block (:data:`SENSE_REACH`, :func:`sense_cell`),
+which holds about 30 % fewer candidates to reject. The grid covers the bounding box of the points
+it holds; when that box would need more than ``4 n + 64`` cells the side grows (fewer, larger
+cells: still correct, only slower). Within a cell, points keep their index order (a counting sort), so whoever reads the
 grid sees the same candidates in the same order on any thread count.
 
 :func:`grid_build` is serial (it is O(n) and far cheaper than the queries); queries run inside
-the callers' parallel loops (:func:`grid_cells`).
+the callers' parallel loops (:func:`grid_block`, :func:`grid_cells`).
 """
 
 from __future__ import annotations
@@ -18,7 +20,10 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["grid_build", "grid_cells"]
+__all__ = ["SENSE_REACH", "grid_block", "grid_build", "grid_cells", "sense_cell"]
+
+# sensing grids: cells of range / 2, queries scan the 5 x 5 block (6.25 r^2 against 9 r^2 for 3 x 3 of r)
+SENSE_REACH = 2
 
 
 @njit(cache=True)
@@ -76,6 +81,28 @@ def grid_build(x, y, use, min_cell):
             gy[fill[c]] = y[i]
             fill[c] += 1
     return x0, y0, inv, nx, ny, start, items, gx, gy
+
+
+def sense_cell(range_m: float) -> float:
+    """The cell side of a sensing grid queried with :data:`SENSE_REACH`: a hair above
+    ``range_m / SENSE_REACH``, so a point exactly ``range_m`` away is at most ``SENSE_REACH``
+    cells off in each axis despite rounding in the cell index."""
+    return float(range_m) / SENSE_REACH * (1.0 + 1e-9)
+
+
+@njit(cache=True, inline="always")
+def grid_block(x0, y0, inv, nx, ny, px, py, reach):
+    """The ``(2 reach + 1)^2`` block of cells around ``(px, py)``, clipped to the grid:
+    ``(cx_lo, cx_hi, cy_lo, cy_hi)`` inclusive, empty (lo > hi) when the point is more than
+    ``reach`` cells outside. Holds every point within ``reach`` cell sides of ``(px, py)``."""
+    fx = math.floor((px - x0) * inv)
+    fy = math.floor((py - y0) * inv)
+    r = float(reach)
+    cx_lo = int(max(fx - r, 0.0)) if fx - r < nx else nx
+    cx_hi = int(min(fx + r, nx - 1.0)) if fx + r >= 0.0 else -1
+    cy_lo = int(max(fy - r, 0.0)) if fy - r < ny else ny
+    cy_hi = int(min(fy + r, ny - 1.0)) if fy + r >= 0.0 else -1
+    return cx_lo, cx_hi, cy_lo, cy_hi
 
 
 @njit(cache=True, inline="always")

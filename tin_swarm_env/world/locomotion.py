@@ -29,6 +29,7 @@ from numba import njit, prange
 
 from ..terrain import exit_edge
 from ..terrain._kernels import bucket_locate1, walk_locate1
+from .angles import wrap_pi
 from .state import Reason
 
 __all__ = ["MOVED", "BLOCKED_BORDER", "BLOCKED_STEEP", "FELL_INTO", "body_to_world", "move", "turn_toward",
@@ -104,7 +105,6 @@ def move_kernel(T, steep, pos, tri, head, heights, active, cmd, max_speed, max_c
     out_h = np.empty(n)
     moved = np.empty(n)
     climb = np.empty(n)
-    two_pi = 2 * math.pi
     for i in prange(n):
         px = pos[i, 0]
         py = pos[i, 1]
@@ -113,7 +113,8 @@ def move_kernel(T, steep, pos, tri, head, heights, active, cmd, max_speed, max_c
         # 1. body-frame command -> world velocity (clipped to the square, then the disc)
         c0 = min(max(cmd[i, 0], -1.0), 1.0)
         c1 = min(max(cmd[i, 1], -1.0), 1.0)
-        nrm = max(math.hypot(c0, c1), 1.0)
+        q2 = c0 * c0 + c1 * c1
+        nrm = 1.0 if q2 <= 0.999 else max(math.hypot(c0, c1), 1.0)  # inside the disc: hypot < 1 surely
         c0 = c0 / nrm
         c1 = c1 / nrm
         ch = math.cos(h)
@@ -170,9 +171,9 @@ def move_kernel(T, steep, pos, tri, head, heights, active, cmd, max_speed, max_c
         moved[i] = mv
         # 4. heading turns toward the commanded motion
         if sp > 0:
-            diff = (math.atan2(vyw, vxw) - h + math.pi) % two_pi - math.pi
+            diff = wrap_pi(math.atan2(vyw, vxw) - h)  # (atan2 - h + pi) % 2pi - pi, bit for bit
             h = h + min(max(diff, -max_turn), max_turn)
-        out_head[i] = (h + math.pi) % two_pi - math.pi
+        out_head[i] = wrap_pi(h)
         a = tris[t, 0]
         z = vz[a] + grad[t, 0] * (x - vx[a]) + grad[t, 1] * (y - vy[a])
         out_h[i] = z

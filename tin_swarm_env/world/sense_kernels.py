@@ -18,9 +18,11 @@ import numpy as np
 from numba import njit, prange
 
 from ..terrain._kernels import bucket_locate1, los_brute1, los_walk1, walk_locate1
-from .grid import grid_cells
+from .angles import wrap_pi
+from .grid import SENSE_REACH, grid_block, grid_cells
 
-__all__ = ["terrain_arrays", "sense_pass1", "sense_pass2", "compact", "break_grid", "collision_counts", "sight1"]
+__all__ = ["terrain_arrays", "sense_pass1", "sense_pass2", "compact", "compact_parallel", "PARALLEL_COMPACT_ROWS",
+           "break_grid", "collision_counts", "sight1"]
 
 
 def terrain_arrays(tin):
@@ -39,7 +41,7 @@ def terrain_arrays(tin):
     return T
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _locate(T, x, y, hint):
     vx, vy, vz, tris, nbrs, grad, bs, bt, bx0, by0, binv, bnx, bny, edges, border, tol, ztol, ms = T
     t = -1
@@ -50,7 +52,7 @@ def _locate(T, x, y, hint):
     return t
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _ground(T, x, y):
     """Terrain height at (x, y) (NaN outside), through the bucket grid."""
     vx, vy, vz, tris, nbrs, grad, bs, bt, bx0, by0, binv, bnx, bny, edges, border, tol, ztol, ms = T
@@ -61,7 +63,7 @@ def _ground(T, x, y):
     return vz[a] + grad[t, 0] * (x - vx[a]) + grad[t, 1] * (y - vy[a])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def sight1(T, ax, ay, az, bx, by, bz, ta):
     """Line of sight a -> b (``ta`` the triangle holding a): as :meth:`Tin.line_of_sight` does
     it, the walk starts in the triangle the segment enters and falls back to the brute force."""
@@ -99,17 +101,17 @@ def _insert(idx, dist, i, cnt, k, j, d):
 
 @njit(cache=True, inline="always")
 def _bearing(dx, dy, heading):
-    return (math.atan2(dy, dx) - heading + math.pi) % (2 * math.pi) - math.pi
+    return wrap_pi(math.atan2(dy, dx) - heading)  # (atan2 - heading + pi) % 2pi - pi, bit for bit
 
 
 @njit(cache=True, inline="always")
 def _near_row(i, qx, qy, x0, y0, inv, nx, ny, start, items, gx, gy, skip, range_m, r2, idx, dist):
-    """Row ``i``: the at most K nearest grid points (a :func:`~.grid.grid_build` grid, unpacked)
-    within ``range_m`` of ``(qx, qy)`` (point ``skip`` left out), nearest first, ties to the
-    lower index; returns how many."""
+    """Row ``i``: the at most K nearest grid points (a :func:`~.grid.grid_build` grid of cells
+    ``>= range_m / SENSE_REACH`` (:func:`~.grid.sense_cell`), unpacked) within ``range_m`` of ``(qx, qy)``
+    (point ``skip`` left out), nearest first, ties to the lower index; returns how many."""
     k = idx.shape[1]
     c = 0
-    cx_lo, cx_hi, cy_lo, cy_hi = grid_cells(x0, y0, inv, nx, ny, qx, qy)
+    cx_lo, cx_hi, cy_lo, cy_hi = grid_block(x0, y0, inv, nx, ny, qx, qy, SENSE_REACH)
     for cy in range(cy_lo, cy_hi + 1):
         for m in range(start[cy * nx + cx_lo], start[cy * nx + cx_hi + 1]):
             dx = gx[m] - qx
@@ -198,11 +200,16 @@ def sense_pass1(T, px, py, head, tri, sz, active, present, G, range_m, half_fov,
         bcnt[i] = m
 
 
-@njit(cache=True)
-def _mutual(idx, cnt, j, i):
-    """Slot of ``i`` among ``j``'s in-view candidates, or -1."""
+@njit(cache=True, inline="always")
+def _mutual(idx, dist, cnt, j, i, d):
+    """Slot of ``i`` among ``j``'s in-view candidates, or -1. ``d`` is their distance: ``j``'s row
+    is sorted by (distance, index) and holds the same ``d`` for ``i`` (the squared differences
+    are the same numbers either way round), so the scan stops at the first farther slot."""
     for s in range(cnt[j]):
-        if idx[j, s] == i:
+        dj = dist[j, s]
+        if dj > d:
+            return -1
+        if dj == d and idx[j, s] == i:
             return s
     return -1
 
@@ -238,7 +245,7 @@ def sense_pass2(T, px, py, tri, sz, active, G, range_m, check_los, R, B, bcnt):
             if not check_los:
                 r_vis[i, s] = 1
                 continue
-            m = _mutual(r_idx, r_cnt, j, i)
+            m = _mutual(r_idx, r_dist, r_cnt, j, i, r_dist[i, s])
             if j < i and m >= 0:
                 continue  # j walks it and writes this slot
             lo = min(i, j)
@@ -274,33 +281,66 @@ def sense_pass2(T, px, py, tri, sz, active, G, range_m, check_los, R, B, bcnt):
     return obs, seg, dist, closest, off
 
 
+@njit(cache=True, inline="always")
+def _kept(idx, keep, cnt, i):
+    m = 0
+    for s in range(cnt[i]):
+        if idx[i, s] >= 0 and keep[i, s]:
+            m += 1
+    return m
+
+
+@njit(cache=True, inline="always")
+def _copy_kept(idx, dist, bear, keep, cnt, i, p, obs, tgt, d, b):
+    for s in range(cnt[i]):
+        if idx[i, s] >= 0 and keep[i, s]:
+            obs[p] = i
+            tgt[p] = idx[i, s]
+            d[p] = dist[i, s]
+            b[p] = bear[i, s]
+            p += 1
+
+
+@njit(cache=True)
+def _compact_out(rows):
+    n = rows.shape[0]
+    start = np.zeros(n + 1, dtype=np.int64)
+    for i in range(n):
+        start[i + 1] = start[i] + rows[i]
+    tot = start[n]
+    return start, np.empty(tot, dtype=np.int64), np.empty(tot, dtype=np.int64), np.empty(tot), np.empty(tot)
+
+
 @njit(cache=True)
 def compact(idx, dist, bear, keep, cnt):
     """The kept slots ``(observer, target, distance, bearing)`` flattened observer-major, and
     ``start (n + 1,)`` offsets: row i's contacts are ``start[i]:start[i + 1]``, nearest first."""
     n = idx.shape[0]
-    start = np.zeros(n + 1, dtype=np.int64)
+    rows = np.empty(n, dtype=np.int64)
     for i in range(n):
-        m = 0
-        for s in range(cnt[i]):
-            if idx[i, s] >= 0 and keep[i, s]:
-                m += 1
-        start[i + 1] = start[i] + m
-    tot = start[n]
-    obs = np.empty(tot, dtype=np.int64)
-    tgt = np.empty(tot, dtype=np.int64)
-    d = np.empty(tot)
-    b = np.empty(tot)
+        rows[i] = _kept(idx, keep, cnt, i)
+    start, obs, tgt, d, b = _compact_out(rows)
     for i in range(n):
-        p = start[i]
-        for s in range(cnt[i]):
-            if idx[i, s] >= 0 and keep[i, s]:
-                obs[p] = i
-                tgt[p] = idx[i, s]
-                d[p] = dist[i, s]
-                b[p] = bear[i, s]
-                p += 1
+        _copy_kept(idx, dist, bear, keep, cnt, i, start[i], obs, tgt, d, b)
     return obs, tgt, d, b, start
+
+
+@njit(cache=True, parallel=True)
+def compact_parallel(idx, dist, bear, keep, cnt):
+    """:func:`compact` with the rows counted and copied in parallel (each row by its own
+    iteration, the prefix sum serial): the same arrays. Worth two thread start-ups only for
+    many rows (:data:`PARALLEL_COMPACT_ROWS`)."""
+    n = idx.shape[0]
+    rows = np.empty(n, dtype=np.int64)
+    for i in prange(n):
+        rows[i] = _kept(idx, keep, cnt, i)
+    start, obs, tgt, d, b = _compact_out(rows)
+    for i in prange(n):
+        _copy_kept(idx, dist, bear, keep, cnt, i, start[i], obs, tgt, d, b)
+    return obs, tgt, d, b, start
+
+
+PARALLEL_COMPACT_ROWS = 4096  # below this many observers, compact serially (a parallel region costs ~10 us)
 
 
 # -- terrain breaks ----------------------------------------------------------------------------
@@ -359,6 +399,19 @@ def _closest(px, py, ax, ay, bx, by):
 
 # -- collisions -----------------------------------------------------------------------------
 
+@njit(cache=True, inline="always")
+def _touches(dx, dy, diameter, lo2, hi2):
+    """``math.hypot(dx, dy) < diameter``, decided by the squared distance when it is clearly
+    inside (``< lo2``) or outside (``> hi2``, a relative margin of 1e-6 on each side, far above
+    rounding), so ``hypot`` (a libm call) runs only near the boundary: the same answer."""
+    d2 = dx * dx + dy * dy
+    if d2 < lo2:
+        return True
+    if d2 > hi2:
+        return False
+    return math.hypot(dx, dy) < diameter
+
+
 @njit(cache=True, parallel=True)
 def collision_counts(px, py, present, G, diameter):
     """Per robot, the present robots closer than ``diameter`` (``(n,)`` int64; grid ``G`` of the
@@ -366,6 +419,13 @@ def collision_counts(px, py, present, G, diameter):
     order (a serial pass over the few robots that touch one)."""
     x0, y0, inv, nx, ny, start, items, gx, gy = G
     n = px.shape[0]
+    lo2 = -1.0  # outside [1e-100, 1e100] the squared distance may under/overflow: hypot always
+    hi2 = -1.0
+    if 1e-100 <= diameter <= 1e100:
+        lo2 = (diameter * (1.0 - 1e-6)) ** 2
+        hi2 = (diameter * (1.0 + 1e-6)) ** 2
+    if not hi2 > 0.0:
+        hi2 = math.inf
     coll = np.zeros(n, dtype=np.int64)
     higher = np.zeros(n, dtype=np.int64)
     for q in prange(items.shape[0]):
@@ -376,7 +436,7 @@ def collision_counts(px, py, present, G, diameter):
         for cy in range(cy_lo, cy_hi + 1):
             for m in range(start[cy * nx + cx_lo], start[cy * nx + cx_hi + 1]):
                 j = items[m]
-                if j != i and math.hypot(gx[m] - px[i], gy[m] - py[i]) < diameter:
+                if j != i and _touches(gx[m] - px[i], gy[m] - py[i], diameter, lo2, hi2):
                     c += 1
                     if j > i:
                         h += 1
@@ -395,7 +455,7 @@ def collision_counts(px, py, present, G, diameter):
         for cy in range(cy_lo, cy_hi + 1):
             for m in range(start[cy * nx + cx_lo], start[cy * nx + cx_hi + 1]):
                 j = items[m]
-                if j > i and math.hypot(gx[m] - px[i], gy[m] - py[i]) < diameter:
+                if j > i and _touches(gx[m] - px[i], gy[m] - py[i], diameter, lo2, hi2):
                     q = p
                     while q > p0 and pairs[q - 1, 1] > j:  # sorted by j
                         pairs[q, 0] = i

@@ -16,8 +16,8 @@ A robot *sees* another robot, a threat/target or an asset when all of these hold
   work at robots x ``max_candidates`` however densely robots are packed; the observations' K
   nearest visible slots need far fewer).
 
-Candidates come from a uniform grid of cell side ``range_m`` rebuilt every call in O(n)
-(:mod:`.grid`); the per-observer work (candidates, field of view, line of sight, breaks) runs
+Candidates come from a uniform grid of cell side ``range_m / 2`` (a 5 x 5 block per query) rebuilt
+every call in O(n) (:mod:`.grid`); the per-observer work (candidates, field of view, line of sight, breaks) runs
 in numba ``prange`` loops over observers (:mod:`.sense_kernels`), bit-identical for any thread
 count (``NUMBA_NUM_THREADS`` / ``numba.set_num_threads``). Terrain breaks are sensed all round
 (the robot's scan of the terrain it stands on): every break segment within ``range_m`` of the
@@ -35,7 +35,7 @@ import numpy as np
 from numba import njit
 
 from . import sense_kernels as SK
-from .grid import grid_build
+from .grid import grid_build, sense_cell
 
 __all__ = ["Contacts", "BreakContacts", "SensorReadings", "BreakIndex", "sense", "nearest_k"]
 
@@ -244,11 +244,11 @@ def _entities(tin, ent, params, r):
     """``(ex, ey, ez, grid)`` of the entities (ez: their sight point's height)."""
     if len(ent) == 0:
         z = np.zeros(0)
-        return z, z, z, grid_build(z, z, np.zeros(0, dtype=np.bool_), r)
+        return z, z, z, grid_build(z, z, np.zeros(0, dtype=np.bool_), sense_cell(r))
     ex = np.ascontiguousarray(ent.positions[:, 0])
     ey = np.ascontiguousarray(ent.positions[:, 1])
     ez = tin.height_in(ent.positions, ent.tri_idx) + params.entity_height_m
-    return ex, ey, ez, grid_build(ex, ey, np.ones(len(ent), dtype=np.bool_), r)
+    return ex, ey, ez, grid_build(ex, ey, np.ones(len(ent), dtype=np.bool_), sense_cell(r))
 
 
 def sense(tin, break_index: BreakIndex, state, params) -> SensorReadings:
@@ -267,7 +267,7 @@ def sense(tin, break_index: BreakIndex, state, params) -> SensorReadings:
     sz = np.ascontiguousarray(state.heights + sp.height_m)
     half_fov = math.radians(sp.fov_deg) / 2 + 1e-12
     T = SK.terrain_arrays(tin)
-    G = grid_build(x, y, present, r)
+    G = grid_build(x, y, present, sense_cell(r))
     R = _slots(n, k, 0)
     TG = (_entities(tin, state.targets, params, r), *_slots(n, k, 1))
     AS = (_entities(tin, state.assets, params, r), *_slots(n, k, 2))
@@ -279,7 +279,8 @@ def sense(tin, break_index: BreakIndex, state, params) -> SensorReadings:
     los = bool(sp.check_los)
     SK.sense_pass1(T, x, y, head, tri, sz, active, present, G, r, half_fov, los, R, TG, AS, B, bcnt)
     obs, seg, d, c, start = SK.sense_pass2(T, x, y, tri, sz, active, G, r, los, R, B, bcnt)
-    robots = Contacts(*SK.compact(R[0], R[1], R[2], R[3], R[4]))
+    compact = SK.compact_parallel if n >= SK.PARALLEL_COMPACT_ROWS else SK.compact
+    robots = Contacts(*compact(R[0], R[1], R[2], R[3], R[4]))
     targets = Contacts(*SK.compact(*TG[1:])) if len(state.targets) else _empty_contacts(n)
     assets = Contacts(*SK.compact(*AS[1:])) if len(state.assets) else _empty_contacts(n)
     return SensorReadings(robots=robots, targets=targets, assets=assets, breaks=BreakContacts(obs, seg, d, c, start),
