@@ -26,13 +26,14 @@ from contextlib import ExitStack
 import numpy as np
 
 from .._atomic import atomic_path
+from ..env.tin_swarm import DEFAULT_RENDER_WIDTH_PX
 from ..errors import ArgumentError, require
 
 __all__ = ["FrameWriter", "save_gif", "save_mp4", "FRAME_EVERY", "GIF_WIDTH_PX", "SUFFIXES", "gif_palette_image",
            "TRANSPARENT", "palette_indices"]
 
 FRAME_EVERY = 5  # steps between frames of `tin-swarm run --gif/--mp4` (--frame-every)
-GIF_WIDTH_PX = 640  # frame width of `tin-swarm run --gif/--mp4` (--render-width)
+GIF_WIDTH_PX = DEFAULT_RENDER_WIDTH_PX  # frame width of `tin-swarm run --gif/--mp4` (--render-width)
 TRANSPARENT = 255  # the GIF palette index of "unchanged since the last frame"
 SUFFIXES = {".gif": "an animated GIF", ".png": "the last frame as PNG", ".mp4": "H.264 video, the [video] extra",
             ".webp": "lossless animated WebP, the [video] extra"}

@@ -30,7 +30,7 @@ __all__ = ["TinSwarmEnv", "parallel_env", "raw_env", "env", "RENDER_WIDTH_PX", "
 
 
 RENDER_WIDTH_PX = (64, 4096)  # the frame widths render() draws
-DEFAULT_RENDER_WIDTH_PX = 640  # render_width when none is given (the CLI's: apps.media.GIF_WIDTH_PX)
+DEFAULT_RENDER_WIDTH_PX = 640  # render_width when none is given (also the CLI's frame width, apps.media.GIF_WIDTH_PX)
 
 _REASON_LABEL = {int(r): r.label for r in Reason}  # Reason code -> infos[agent]["reason"]
 
