@@ -22,6 +22,7 @@ from ..scenario import (
 )
 from ..scenario.config import MAX_ROBOTS
 from ..world import Reason, World
+from ..world.world import serial_if_small
 from .checks import actions_from_dict, check_options, check_scenario_arg, check_seed, float_array
 from .observation import ObsLayout, build_observations
 from .reward import compute_rewards, distance_to_go
@@ -339,6 +340,10 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
             i = int(np.flatnonzero(bad)[0])
             raise ArgumentError(f"step_arrays(actions): the action of {self.possible_agents[i]} is not finite: "
                                 f"{a[i].tolist()}")
+        with serial_if_small(self.n):  # one thread for a small swarm, as the world's own kernels
+            return self._step_arrays(a)
+
+    def _step_arrays(self, a: np.ndarray):
         prev = self._wstate
         new, events = self._world.step(prev, a)
         live = self._live
