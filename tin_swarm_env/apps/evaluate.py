@@ -42,7 +42,7 @@ from .args import opt
 from .rollout import Outcome, rollout
 
 __all__ = ["Args", "METRICS", "EVAL_SEED0", "EvalRows", "evaluate", "check_args", "default_out", "episode_metrics",
-           "ci95", "markdown", "bar_figure", "bar_plot", "parse_models", "policy_rows", "write_text"]
+           "ci95", "markdown", "bar_figure", "bar_plot", "parse_models", "policy_rows", "policy_entries", "write_text"]
 
 EVAL_SEED0 = 1_000_000  # evaluation seeds start here; training seeds stay below
 
@@ -68,17 +68,18 @@ class Args:
                          "command line, space-separated; none with --suite)")
     seeds: int = opt(20, "episodes (seeds) per scenario and policy", lo=1)
     robots: int = opt(0, "robots per episode (0: the scenario's)", lo=0)
-    models: str = opt("", "a pickle-free policy directory ([label=]path), or an SB3 .zip with --trust-pickle "
-                      "(comma-separated; tin-swarm eval: --model, repeatable)")
+    models: str = opt("", "a pickle-free policy directory ([NAME=]path), or an SB3 .zip with --trust-pickle "
+                      "(repeatable, or comma-separated)")
     policies: str = opt("random,apf,geodesic", "built-in policies to evaluate as well (random, apf, geodesic: the "
                         "map-knowing reference; comma-separated, empty: none)")
-    out: str = opt("", "writes OUT.md, OUT.csv and OUT.png (empty: runs/eval_<scenarios>)")
-    seed_offset: int = opt(EVAL_SEED0, "evaluation seeds are SEED_OFFSET .. SEED_OFFSET + SEEDS - 1 (training "
-                           "uses the seeds below EVAL_SEED0)", lo=0)
+    out: str = opt("", "writes OUT.md, OUT.csv and OUT.png (empty: runs/eval_<scenarios>); with --suite OUT.md, "
+                   "OUT.csv and OUT_maps.csv (empty: runs/suite_<suite>[_quick])")
+    seed_offset: int = opt(EVAL_SEED0, f"evaluation seeds are SEED_OFFSET .. SEED_OFFSET + SEEDS - 1 (training "
+                           f"uses the seeds below EVAL_SEED0 = {EVAL_SEED0}, so the default is held out)", lo=0)
     trust_pickle: bool = opt(False, "allow SB3 .zip models: they are pickles and loading one runs any code it "
                              "holds", flag=True)
-    suite: str = opt("", "run a fixed suite instead of SCENARIOS: 'standard' (its maps, seeds, robots and steps: "
-                     "tin_swarm_env/apps/suite.py), one leaderboard row per policy", check=_suite_name)
+    suite: str = opt("", "run a fixed suite instead of SCENARIOS [one of: standard] (its maps, seeds, robots and "
+                     "steps: tin_swarm_env/apps/suite.py), one leaderboard row per policy", check=_suite_name)
     quick: bool = opt(False, "with --suite: a seconds-long version (one map per split, 1 seed, 3 robots, 60 steps)",
                       flag=True)
 
@@ -142,6 +143,25 @@ def default_out(scenarios) -> str:
     return str(Path("runs") / ("eval_" + "_".join(Path(s).stem for s in scenarios)))
 
 
+def policy_entries(args: Args, where: str = "eval") -> list[tuple[str, str, str | None]]:
+    """The rows to evaluate, checked: ``(label, spec, path or None)`` for each built-in policy of
+    ``args.policies`` then each ``args.models`` entry (its file checked, a .zip only with
+    ``trust_pickle``). ArgumentError when there is none or two rows share a label."""
+    from .policy_factory import check_policy_spec
+
+    entries = [(p, p, None) for p in policy_rows(args.policies)]
+    for label, path in parse_models(args.models):
+        check_policy_spec(path, args.trust_pickle, option="--model")
+        entries.append((label, label, path))
+    if not entries:
+        raise ArgumentError(f"{where}: nothing to evaluate (no --policies and no --model)")
+    labels = [e[0] for e in entries]
+    if len(set(labels)) != len(labels):
+        raise ArgumentError(f"--model: two rows named {sorted({x for x in labels if labels.count(x) > 1})}; "
+                            "label them NAME=DIR")
+    return entries
+
+
 def check_args(args: Args) -> tuple[list, list, Path]:
     """Everything an evaluation needs, checked before its first episode: returns ``(scenarios,
     entries, out)`` with ``entries`` the rows ``(label, spec, path or None)``. ArgumentError names
@@ -149,7 +169,6 @@ def check_args(args: Args) -> tuple[list, list, Path]:
     without trust_pickle, an output that cannot be written)."""
     from .._atomic import check_outputs
     from ..errors import check_range
-    from .policy_factory import check_policy_spec
 
     check_range("eval", "seeds", args.seeds, 1, integer=True, exc=ArgumentError)
     check_range("eval", "robots", args.robots, 0, integer=True, exc=ArgumentError)
@@ -159,12 +178,7 @@ def check_args(args: Args) -> tuple[list, list, Path]:
         raise ArgumentError("eval: give at least one scenario (or --suite standard)")
     if args.quick:
         raise ArgumentError("--quick applies to --suite only")
-    entries = [(p, p, None) for p in policy_rows(args.policies)]
-    for label, path in parse_models(args.models):
-        check_policy_spec(path, args.trust_pickle, option="--model")
-        entries.append((label, label, path))
-    if not entries:
-        raise ArgumentError("eval: nothing to evaluate (no --policies and no --model)")
+    entries = policy_entries(args, "eval")
     out = Path(args.out or default_out(scens))
     if not args.out:
         out.parent.mkdir(parents=True, exist_ok=True)

@@ -10,7 +10,10 @@ Every policy (random, APF, the geodesic reference, then each ``--model``) plays 
 (:data:`~tin_swarm_env.apps.evaluate.EVAL_SEED0`; training uses the seeds below it). The shipped
 policy (``agents/models/shared``, ``agents/reproduce_shared.sh``) trained on generated terrains of
 the canyon, mesa and hills families (the families there were when it was trained; fork and trap
-came later) and on ``cliff_goal`` and ``ramp``; everything else is held out from it. The splits
+came later) and on ``cliff_goal`` and ``ramp``; everything else is held out from it. The splits are
+named for that policy: one trained on another mix has seen other kinds of terrain (the BenchMARL
+MAPPO and RLlib PPO files, ``agents/models/mappo_benchmarl`` and ``ppo_rllib``, trained on every
+generated family, fork and trap included; their seeds: docs/figures/ecosystem_training.md). The splits
 (the table in the docs is :func:`splits_markdown` of :data:`SPLITS`):
 
 - **train seeds**: the training families on seeds never trained on (a new terrain per seed);
@@ -58,8 +61,8 @@ import numpy as np
 
 from ..errors import ArgumentError
 from ..world.state import Reason
-from .evaluate import (DEFAULT_SCENARIOS, EVAL_SEED0, Args, EvalRows, parse_models, policy_rows, print_files,
-                       write_csv, write_text)
+from .evaluate import (DEFAULT_SCENARIOS, EVAL_SEED0, Args, EvalRows, policy_entries, print_files, write_csv,
+                       write_text)
 
 __all__ = ["Map", "Split", "SPLITS", "SUITES", "BUDGET_S", "MIRROR_AXIS", "PLAYED", "QUICK", "splits_markdown", "map_config",
            "check_suite", "run_suite", "leaderboard", "leaderboard_markdown", "header_line"]
@@ -180,7 +183,6 @@ def check_suite(args: Args):
     not apply to a suite (scenarios, ``--seeds``, ``--robots``, ``--seed-offset``: the suite fixes them),
     a bad model or output, or a scenario file the suite reads that is missing."""
     from .._atomic import check_outputs
-    from .policy_factory import check_policy_spec
 
     if args.suite not in SUITES:
         raise ArgumentError(f"--suite {args.suite!r}: choose from {', '.join(SUITES)}")
@@ -197,16 +199,7 @@ def check_suite(args: Args):
     for s in splits:
         for m in s.maps:
             _scenario_path(m)
-    entries = [(p, p, None) for p in policy_rows(args.policies)]
-    for label, path in parse_models(args.models):
-        check_policy_spec(path, args.trust_pickle, option="--model")
-        entries.append((label, label, path))
-    if not entries:
-        raise ArgumentError("eval --suite: nothing to evaluate (no --policies and no --model)")
-    labels = [e[0] for e in entries]
-    if len(set(labels)) != len(labels):
-        raise ArgumentError(f"--model: two rows named {sorted({x for x in labels if labels.count(x) > 1})}; "
-                            "label them NAME=DIR")
+    entries = policy_entries(args, "eval --suite")
     out = Path(args.out or Path("runs") / f"suite_{args.suite}{'_quick' if args.quick else ''}")
     if not args.out:
         out.parent.mkdir(parents=True, exist_ok=True)
