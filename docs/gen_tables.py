@@ -15,6 +15,8 @@ differs from a fresh generation; ``TIN_SWARM_WRITE_DOCS=1`` (with that test) or
 - limits: the named constants behind the checks of bad input.
 - cli: every ``tin-swarm`` subcommand's arguments, read off :func:`tin_swarm_env.apps.cli.build_parser`.
 - suite splits: :data:`tin_swarm_env.apps.suite.SPLITS`, the standard evaluation suite's maps.
+- modules: every module of the package with the first sentence of its docstring (read with ``ast``,
+  nothing imported), the layout table of the contributing page.
 """
 
 from __future__ import annotations
@@ -281,6 +283,42 @@ def cli_table() -> str:
     return HEADER + "\n".join(out).rstrip() + "\n"
 
 
+# -- the package layout ---------------------------------------------------------------------------------
+
+def _first_sentence(doc: str | None) -> str:
+    """The docstring's first paragraph up to its first full stop (an empty docstring is an error)."""
+    para = " ".join((doc or "").strip().split("\n\n")[0].split())
+    if not para:
+        return ""
+    m = re.match(r"(.+?[.:;])(\s|$)", para)
+    return (m.group(1) if m else para).rstrip(":;.")
+
+
+def modules_table() -> str:
+    """Every module under ``tin_swarm_env/`` (sub-package order), its test file, and the first sentence
+    of its docstring: the package's layout as the code says it (a module without a docstring is an error)."""
+    import ast
+
+    pkg = ROOT / "tin_swarm_env"
+    out = ["| module | tests | what it is |", "|---|---|---|"]
+    paths = sorted(pkg.rglob("*.py"), key=lambda p: (len(p.relative_to(pkg).parts) > 1, str(p.relative_to(pkg))))
+    for path in paths:
+        rel = path.relative_to(pkg)
+        if "__pycache__" in rel.parts or "builtin" in rel.parts:
+            continue
+        doc = ast.get_docstring(ast.parse(path.read_text(encoding="utf-8")))
+        first = _first_sentence(doc)
+        if not first:
+            raise ValueError(f"tin_swarm_env/{rel}: no module docstring (the layout table needs its first sentence)")
+        if rel.name == "__init__.py":
+            test = ""
+        else:
+            test = "tests/" + "/".join((*rel.parts[:-1], f"test_{rel.stem.strip('_')}.py"))  # test_layout.py's rule
+            test = f"`{test}`"
+        out.append(f"| `{rel.as_posix()}` | {test} | {_cell(first)} |")
+    return HEADER + "\n".join(out) + "\n"
+
+
 TABLES = {
     "docs/generated/observation.md": observation_table,
     "docs/generated/reasons.md": reasons_table,
@@ -288,6 +326,7 @@ TABLES = {
     "docs/generated/limits.md": limits_table,
     "docs/generated/suite_splits.md": suite_splits_table,
     "docs/generated/cli.md": cli_table,
+    "docs/generated/modules.md": modules_table,
 }
 
 
