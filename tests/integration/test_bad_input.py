@@ -99,6 +99,8 @@ CASES = [
      "--robot '-1': give a robot index >= 0 or 'all'"),
     ("`explore flat --steps -5`", "cli", ["explore", "flat", "--steps", "-5", "--png", "{d}/e.png"],
      "--steps must be an integer >= 0, got -5"),
+    ("`explore flat --png e.pdf`", "cli", ["explore", "flat", "--png", "{d}/e.pdf"],
+     "the picture is written as PNG: give a .png path"),
     ("`scenarios --copy ramp EXISTING.toml`", "cli", ["scenarios", "--copy", "ramp", "{d}/ok.toml"], "--force"),
     ("`scenarios --copy atlantis x.toml`", "cli", ["scenarios", "--copy", "atlantis", "{d}/x.toml"],
      "unknown scenario 'atlantis'"),

@@ -529,12 +529,16 @@ def _robot_problem(s: str) -> str | None:
     return None if t == "all" or (t.isdigit() and t.isascii()) else "give a robot index >= 0 or 'all'"
 
 
+def _png_problem(path: str | None) -> str | None:
+    return None if path is None or path.lower().endswith(".png") else "the picture is written as PNG: give a .png path"
+
+
 @dataclasses.dataclass
 class Args:
     """``tin-swarm explore``: every option, its help and what it accepts (checked when built)."""
 
     scenario: str = opt("ramp", "built-in scenario name or a .toml path")
-    png: str | None = opt(None, "draw into this file instead of opening a window")
+    png: str | None = opt(None, "draw into this .png file instead of opening a window", check=_png_problem)
     robot: str = opt("0", "robot index whose field is shown, or 'all' (every robot and break a source)",
                      check=_robot_problem)
     fields: str | None = opt(None, "fields switched on, comma-separated, e.g. robot,target,break (default: all of "
