@@ -37,7 +37,7 @@ def test_run_writes_table_summary_and_gif(tmp_path, capsys):
     assert main(["run", "flat", "--robots", "6", "--episodes", "2", "--seed", "3", "--gif", str(gif),
                  "--summary", str(md), "--max-cycles", "60", "--quiet"]) == 0
     out = capsys.readouterr().out
-    assert "| episode | seed | robots | arrived | fell | battery-dead |" in out and "| mean |" in out
+    assert "| episode | seed | robots | arrived | fell | battery-empty |" in out and "| mean |" in out
     from PIL import Image
 
     im = Image.open(gif)

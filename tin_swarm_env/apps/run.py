@@ -165,7 +165,7 @@ def run_episodes(scenario, policy="apf", robots=None, episodes=1, seed=0, fields
 
 def format_table(stats) -> str:
     """A Markdown table of episode statistics, with a mean row when there are several."""
-    hdr = ("| episode | seed | robots | arrived | fell | battery-dead | timed out | stalled | looping | collisions | "
+    hdr = ("| episode | seed | robots | arrived | fell | battery-empty | timed out | stalled | looping | collisions | "
            "mean battery left | steps | return/robot |")
     lines = [hdr, "|" + "---:|" * 13]
     for s in stats:
