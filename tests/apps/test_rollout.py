@@ -48,3 +48,17 @@ def test_rollout_agrees_with_the_dict_api_infos():
     assert [got[a][0] for a in env.possible_agents] == [Reason(int(r)).label for r in o.reasons]
     assert [got[a][1] for a in env.possible_agents] == o.steps.tolist()
     np.testing.assert_allclose([ret[a] for a in env.possible_agents], o.returns, rtol=1e-5)
+
+
+def test_summary_counts_every_ending_and_the_median_arrival_step():
+    from tin_swarm_env.apps.rollout import Outcome
+
+    z = np.zeros(6)
+    o = Outcome(seed=0, reasons=np.array([1, 1, 1, 2, 3, 4], np.int8), steps=np.array([10, 30, 20, 5, 9, 50]),
+                returns=z, collisions=np.zeros(6, np.int64), battery_left=z, n_steps=50, seconds=0.0,
+                stalled=np.array([0, 0, 0, 0, 0, 1], bool))
+    assert str(o) == o.summary() == ("6 robots in 50 steps: 3 arrived, 1 fell, 1 battery-empty, 1 timed out "
+                                     "(1 stalled, 0 looping); median 20 steps to arrive")
+    none = Outcome(seed=0, reasons=np.full(2, 4, np.int8), steps=np.full(2, 7), returns=z[:2],
+                   collisions=np.zeros(2, np.int64), battery_left=z[:2], n_steps=7, seconds=0.0)
+    assert none.summary() == "2 robots in 7 steps: 0 arrived, 0 fell, 0 battery-empty, 2 timed out (0 stalled, 0 looping)"

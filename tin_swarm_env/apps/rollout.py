@@ -77,6 +77,18 @@ class Outcome:
         out["stalled"], out["looping"] = float(self.stalled.sum()) / n, float(self.looping.sum()) / n
         return out
 
+    def summary(self) -> str:
+        """One line: how many robots arrived, fell, ran out of battery or timed out (of which stalled
+        and looping), and the median step of arrival; also ``str(outcome)``."""
+        c = self.counts()
+        got = self.reasons == Reason.ARRIVED
+        med = f"; median {int(np.median(self.steps[got]))} steps to arrive" if got.any() else ""
+        return (f"{self.n_robots} robots in {self.n_steps} steps: {c['arrived']} arrived, {c['fell']} fell, "
+                f"{c['battery']} battery-empty, {c['max_cycles']} timed out ({int(self.stalled.sum())} stalled, "
+                f"{int(self.looping.sum())} looping){med}")
+
+    __str__ = summary
+
     def steps_to_arrive(self) -> float:
         """Mean step of arrival over the robots that arrived (NaN when none did)."""
         got = self.reasons == Reason.ARRIVED
