@@ -165,6 +165,10 @@ def add_dataclass_args(parser: argparse.ArgumentParser, cls, skip=(), positional
             parser.add_argument(*names, dest=f.name, action="store_true", help=text, **extra)
             continue
         kw = {"type": _converter(t)} if t in (int, float, bool, str) and "action" not in extra else {}
+        if t is bool and "action" not in extra:
+            kw["metavar"] = "{true,false}"
+        elif option_name(rename.get(f.name, f.name)) != option_name(f.name) and "metavar" not in extra:
+            kw["metavar"] = option_name(rename[f.name])[2:].replace("-", "_").upper()
         if extra.get("action") == "append":  # repeated options collect into a list (the caller joins it)
             default = []
         parser.add_argument(*names, dest=f.name, default=default, help=text, **kw, **extra)

@@ -1,4 +1,4 @@
-"""Training checkpoints that survive SIGKILL, and what ``tin-swarm train --resume DIR`` reads.
+"""Training checkpoints that survive SIGKILL, and what ``tin-swarm train SCENARIO --resume DIR`` reads.
 
 A run directory holds ``args.json`` (the run's arguments, written before any work) and
 ``checkpoints/step_<N>/`` directories, each complete or absent: a checkpoint is written into

@@ -59,8 +59,8 @@ COMMANDS = {
                          "start from"),
     "explore": Command("explorer:Args", "explorer:explore", "the field explorer (a window, or --png OUT.png "
                        "headless)", positional=("scenario",)),
-    "train": Command("train:Args", "cli:_train", "train PPO (apps/train.py, = agents/train_sb3.py; needs the "
-                     "[train] extra)", positional=("scenario",), rename={"total_timesteps": "timesteps"}),
+    "train": Command("train:Args", "cli:_train", "train a shared policy with PPO, optionally after imitation of "
+                     "APF, and export it as a policy file (needs the [train] extra)", positional=("scenario",), rename={"total_timesteps": "timesteps"}),
     "eval": Command("evaluate:Args", "cli:_eval", "random, APF and saved policies on the same scenarios and seeds "
                     "(or --suite standard: the standard suite's leaderboard)",
                     positional=("scenarios",), rename={"models": "model"},
@@ -95,6 +95,8 @@ class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
     """Help with every option's default shown (``(default: ...)``), empty defaults left out."""
 
     def _get_help_string(self, action):
+        if action.default is False and action.type is not None and action.option_strings:  # a true/false option
+            return super()._get_help_string(action)
         if action.default is None or action.default is False or action.default in ([], ""):
             return action.help
         return super()._get_help_string(action)
