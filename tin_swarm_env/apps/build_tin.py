@@ -9,10 +9,13 @@ and, with ``--png``, a picture coloured by slope.
 
 from __future__ import annotations
 
+import re
 import time
 from dataclasses import dataclass
 
+from ..errors import ArgumentError
 from ..terrain.build import METHODS
+from ..terrain.dem_io import SAMPLES
 from .args import check_args, opt
 
 __all__ = ["Args", "build_tin", "VIP_DEFAULT_VERTICES"]
@@ -30,7 +33,7 @@ class Args:
 
     dem: str = opt("sample:jacksboro", "DEM file (.xyz/.txt/.asc/.npy/.npz/.tif) or sample:jacksboro / "
                    "sample:topobathy")
-    output: str = opt("", "output .tin (thesis text) or .npz", check=_required, short="-o", required=True)
+    output: str = opt("", "output .tin or .txt (thesis text) or .npz", check=_required, short="-o", required=True)
     method: str | None = opt(None, "reduction (default: greedy with --max-error-m, else vip; delaunay for point "
                              "clouds; robot needs --max-slope-deg)", choices=METHODS)
     max_vertices: int | None = opt(None, f"vertex budget (vip default: {VIP_DEFAULT_VERTICES})", lo=4)
@@ -44,11 +47,22 @@ class Args:
         check_args(self)
 
 
+def _as_options(msg: str) -> str:
+    """A library message with ``build_tin``'s parameter names written as this command's options."""
+    for f in ("max_vertices", "max_error_m", "min_significance_m", "max_slope_deg"):
+        msg = re.sub(rf"(?<![\w-]){f}(?![\w])", "--" + f.replace("_", "-"), msg)
+    return msg.replace("method=", "--method ")
+
+
 def _load(spec: str):
     from .. import terrain
 
     if spec.startswith("sample:"):
-        return terrain.sample_dem(spec.split(":", 1)[1])
+        name = spec.split(":", 1)[1]
+        if name not in SAMPLES:
+            raise ArgumentError(f"DEM {spec!r}: unknown sample DEM; known: "
+                                + ", ".join(f"sample:{k}" for k in SAMPLES))
+        return terrain.sample_dem(name)
     return terrain.load_dem(spec)
 
 
@@ -68,7 +82,10 @@ def build_tin(a: Args) -> int:
     if method in (None, "vip") and not kw and isinstance(dem, terrain.Dem):
         kw["max_vertices"] = VIP_DEFAULT_VERTICES
     t0 = time.perf_counter()
-    tin = terrain.build_tin(dem, method=method, **kw)
+    try:
+        tin = terrain.build_tin(dem, method=method, **kw)
+    except (ArgumentError, ValueError) as e:  # the library names its parameters: say the options instead
+        raise type(e)(_as_options(str(e))) from None
     dt = time.perf_counter() - t0
     terrain.save_tin(tin, a.output)
     print(f"source     {dem!r}")
@@ -83,7 +100,7 @@ def build_tin(a: Args) -> int:
     print(f"wrote      {a.output}")
     if a.png:
         _plot_tin(tin, a.png)
-        print(f"picture    {a.png}")
+        print(f"wrote      {a.png}")
     return 0
 
 

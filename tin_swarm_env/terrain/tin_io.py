@@ -30,11 +30,12 @@ NPZ_FORMAT = "tin_swarm_env.tin/1"
 
 
 def save_tin(tin: Tin, path) -> Path:
-    """Write ``tin`` to ``path`` (``.tin`` text or ``.npz``), atomically. Returns the path."""
+    """Write ``tin`` to ``path`` (``.tin`` or ``.txt``: the thesis's text format; ``.npz``), atomically.
+    Returns the path."""
     p = Path(os.fspath(path))
     suffix = p.suffix.lower()
     if suffix not in (".tin", ".npz", ".txt"):
-        raise ArgumentError(f"path {p}: unknown TIN suffix {suffix!r}; expected .tin (thesis text) or .npz")
+        raise ArgumentError(f"path {p}: unknown TIN suffix {suffix!r}; expected .tin or .txt (thesis text) or .npz")
     with atomic_path(p) as tmp, open(tmp, "wb") as fh:
         if suffix == ".npz":
             np.savez(fh, vertices=tin.vertices, triangles=tin.triangles, format=np.array(NPZ_FORMAT))
