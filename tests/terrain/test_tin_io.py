@@ -9,7 +9,7 @@ from tin_swarm_env.errors import TinFormatError
 from tin_swarm_env.terrain import load_tin, save_tin
 
 
-@given(st.integers(0, 10_000), st.integers(3, 40), st.sampled_from([".tin", ".npz"]))
+@given(st.integers(0, 10_000), st.integers(3, 40), st.sampled_from([".tin", ".txt", ".npz"]))
 def test_round_trip_is_exact(random_tin, tmp_path_factory, seed, n, suffix):
     tin = random_tin(seed, n, zscale=1e3 * (seed % 7 + 1) / 3.0)
     p = tmp_path_factory.mktemp("rt") / f"t{suffix}"
