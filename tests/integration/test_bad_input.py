@@ -109,6 +109,7 @@ CASES = [
     ("`explore flat --png e.pdf`", "cli", ["explore", "flat", "--png", "{d}/e.pdf"],
      "the picture is written as PNG: give a .png path"),
     ("`scenarios --copy ramp EXISTING.toml`", "cli", ["scenarios", "--copy", "ramp", "{d}/ok.toml"], "--force"),
+    ("`scenarios --force` (no --copy)", "cli", ["scenarios", "--force"], "--force applies to --copy only"),
     ("`scenarios --copy atlantis x.toml`", "cli", ["scenarios", "--copy", "atlantis", "{d}/x.toml"],
      "unknown scenario 'atlantis'"),
     ("disk full while writing `--summary`", "cli", ["run", "flat", "--summary", "{d}/full.md", *FLAT],

@@ -453,7 +453,7 @@ class FieldExplorer:
         who = "all robots" if self.robot is None else f"robot_{self.robot}"
         ctg = ", cost-to-go (m, magenta)" if self.cost_values is not None else ""
         h.set_title(f"field felt by {who}: {', '.join(self.fields) or 'none'}{ctg} (step {env.steps})", fontsize=8)
-        self._status_text.set_text(f"{env.n} robots, {len(s.targets)} targets, step {env.steps}: {self.status}")
+        self._status_text.set_text(f"{env.n} robots, {len(s.targets)} target{'' if len(s.targets) == 1 else 's'}, step {env.steps}: {self.status}")
         self.fig.canvas.draw_idle()
 
     def cost_to_go_map(self, cells: int = COST_MAP_PX):

@@ -30,6 +30,8 @@ class Args:
 
     def __post_init__(self):
         check_args(self)
+        if self.force and not self.copy:
+            raise ArgumentError("--force applies to --copy only (it overwrites the copy's DEST)")
 
 
 def scenarios(a: Args) -> int:
