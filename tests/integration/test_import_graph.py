@@ -106,3 +106,39 @@ def test_no_module_of_the_package_imports_itself_through_others():
     scenario = [c for c in found if any(m.startswith("tin_swarm_env.scenario.") for m in c)]
     assert scenario == []
     assert "tin_swarm_env.scenario.config" not in import_graph()["tin_swarm_env.scenario.generators"]
+
+
+def private_imports() -> list[str]:
+    """``module: from X import _name`` for every private name (leading underscore) a module of the
+    package imports from another module of it; a private *module* (``from . import _kernels``) is
+    not a private name."""
+    mods = _modules()
+    out = []
+    for name, path in mods.items():
+        package = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if not isinstance(node, ast.ImportFrom) or node.module == "__future__":
+                continue
+            base = ".".join(package[: len(package) - node.level + 1] + [node.module or ""]).rstrip(".") \
+                if node.level else node.module
+            if not (base or "").startswith("tin_swarm_env"):
+                continue
+            for a in node.names:
+                if a.name.startswith("_") and not a.name.startswith("__") and f"{base}.{a.name}" not in mods:
+                    out.append(f"{name}: from {base} import {a.name}")
+    return out
+
+
+def test_no_module_imports_a_private_name_of_another():
+    assert private_imports() == []
+
+
+def test_the_private_import_finder_sees_one(tmp_path, monkeypatch):
+    pkg = tmp_path / "tin_swarm_env"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "sub" / "__init__.py").write_text("")
+    (pkg / "sub" / "_kernels.py").write_text("def _k(): pass\n")
+    (pkg / "sub" / "a.py").write_text("from __future__ import annotations\nfrom . import _kernels\nfrom ._kernels import _k\n")
+    monkeypatch.setitem(globals(), "PKG", pkg)  # _modules() reads the module global PKG
+    assert private_imports() == ["tin_swarm_env.sub.a: from tin_swarm_env.sub._kernels import _k"]

@@ -10,9 +10,9 @@ __all__ = ["make_sb3_vec_env", "TinSwarmVecEnv", "RLlibTinSwarmEnv", "rllib_env_
 
 def __getattr__(name):
     if name == "TinSwarmVecEnv":
-        from .sb3 import _vec_class
+        from .sb3 import vec_class
 
-        return _vec_class()
+        return vec_class()
     if name in ("RLlibTinSwarmEnv", "rllib_env_creator", "ppo_config"):
         from . import rllib
 

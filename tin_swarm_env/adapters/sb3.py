@@ -54,14 +54,14 @@ def make_sb3_vec_env(scenario="cliff_goal", n_robots=None, n_envs=1, seed=0, shi
     their copy before the env steps, so the policy learns in the shielded environment it will
     be deployed in (PPO keeps the unshielded action as the one taken: the shield is part of the
     environment)."""
-    cls = _vec_class()
+    cls = vec_class()
     return cls(scenario=scenario, n_robots=n_robots, n_envs=n_envs, seed=seed, shield=shield, **env_kwargs)
 
 
 _CLASS = None
 
 
-def _vec_class():
+def vec_class():
     """The ``TinSwarmVecEnv`` class, made on first use. Long because it is the whole class body:
     the class derives from SB3's ``VecEnv``, so it can only be defined once SB3 is imported."""
     global _CLASS
@@ -362,5 +362,5 @@ def mirror_policy_class():
 
 def __getattr__(name):
     if name == "TinSwarmVecEnv":
-        return _vec_class()
+        return vec_class()
     raise AttributeError(name)

@@ -12,13 +12,13 @@ from ..errors import ArgumentError
 from ..terrain import Dem, Tin
 
 __all__ = ["MIRRORS", "compose", "reflect_xy", "reflect_region", "mirror_tin", "mirror_dem", "mirror_task",
-           "dem_bounds"]
+           "dem_bounds", "axis_flips"]
 
 MIRRORS = ("", "ns", "ew", "both")
 _FLIPS = {"": (False, False), "ns": (False, True), "ew": (True, False), "both": (True, True)}  # (x, y) reflected
 
 
-def _flips(axis: str) -> tuple[bool, bool]:
+def axis_flips(axis: str) -> tuple[bool, bool]:
     if axis not in _FLIPS:
         raise ArgumentError(f"mirror axis must be one of {', '.join(repr(m) for m in MIRRORS)}, got {axis!r}")
     return _FLIPS[axis]
@@ -26,14 +26,14 @@ def _flips(axis: str) -> tuple[bool, bool]:
 
 def compose(a: str, b: str) -> str:
     """The reflection ``a`` then ``b`` as one: ``compose("ns", "ns") == ""``, ``compose("ns", "ew") == "both"``."""
-    fa, fb = _flips(a), _flips(b)
+    fa, fb = axis_flips(a), axis_flips(b)
     f = (fa[0] != fb[0], fa[1] != fb[1])
     return next(k for k, v in _FLIPS.items() if v == f)
 
 
 def reflect_xy(xy, axis: str, bounds) -> np.ndarray:
     """``(..., 2)`` points reflected by ``axis`` over ``bounds`` ``(xmin, ymin, xmax, ymax)`` m."""
-    fx, fy = _flips(axis)
+    fx, fy = axis_flips(axis)
     out = np.array(xy, dtype=np.float64)
     if out.shape[-1:] != (2,):
         raise ArgumentError(f"reflect_xy: points must have shape (..., 2), got {out.shape}")
@@ -58,7 +58,7 @@ def mirror_tin(tin: Tin, axis: str, bounds=None) -> Tin:
     """The TIN reflected by ``axis`` over ``bounds`` (default: its own): the same triangles with
     reflected vertices (the :class:`~tin_swarm_env.terrain.Tin` constructor turns them back
     counter-clockwise). ``axis=""`` returns ``tin`` itself."""
-    if not any(_flips(axis)):
+    if not any(axis_flips(axis)):
         return tin
     v = np.array(tin.vertices, dtype=np.float64)
     v[:, :2] = reflect_xy(v[:, :2], axis, tin.bounds if bounds is None else bounds)
@@ -68,7 +68,7 @@ def mirror_tin(tin: Tin, axis: str, bounds=None) -> Tin:
 def mirror_dem(dem: Dem, axis: str) -> Dem:
     """The grid reflected by ``axis`` over its own extent (rows and/or columns reversed; the
     coordinates stay, so ``z`` at ``(x, y)`` is the original's at the reflected point)."""
-    fx, fy = _flips(axis)
+    fx, fy = axis_flips(axis)
     z = dem.z[::-1] if fy else dem.z
     z = z[:, ::-1] if fx else z
     return Dem(z, dem.x, dem.y, source=f"{dem.source} (mirror {axis})") if (fx or fy) else dem
@@ -87,7 +87,7 @@ def mirror_task(task, axis: str):
     DEM's extent: the grid, spawn region, targets, passes and dead ends; a single flip swaps
     ``detour_side`` left/right. ``params`` and ``seed`` stay the drawn ones
     (:func:`~tin_swarm_env.scenario.generators.replay` rebuilds the original)."""
-    fx, fy = _flips(axis)
+    fx, fy = axis_flips(axis)
     if not (fx or fy):
         return task
     b = dem_bounds(task.dem)

@@ -34,7 +34,7 @@ import dataclasses
 import numpy as np
 
 from ..errors import ArgumentError
-from ._reflect import (MIRRORS, _flips, compose, dem_bounds, mirror_dem, mirror_task, mirror_tin, reflect_region,
+from ._reflect import (MIRRORS, axis_flips, compose, dem_bounds, mirror_dem, mirror_task, mirror_tin, reflect_region,
                        reflect_xy)
 from .build import build_tin_for
 
@@ -67,10 +67,10 @@ def mirror_scenario(cfg, axis: str = "ns"):
     (``[terrain] mirror`` composed with ``axis``) and its robots' spawn region, targets and assets
     (positions and regions) reflected over the same bounds (:func:`terrain_bounds`), so the task is
     the mirror image. The name gains ``" (mirror AXIS)"``."""
-    _flips(axis)
+    axis_flips(axis)
     t = cfg.terrain
     new_t = dataclasses.replace(t, mirror=compose(t.mirror, axis))
-    if t.source == "generated" or not any(_flips(axis)):
+    if t.source == "generated" or not any(axis_flips(axis)):
         robots, targets, assets = cfg.robots, cfg.targets, cfg.assets
     else:
         b = terrain_bounds(cfg)
