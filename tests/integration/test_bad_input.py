@@ -111,7 +111,7 @@ CASES = [
     ("`scenarios --copy ramp EXISTING.toml`", "cli", ["scenarios", "--copy", "ramp", "{d}/ok.toml"], "--force"),
     ("`scenarios --force` (no --copy)", "cli", ["scenarios", "--force"], "--force applies to --copy only"),
     ("`scenarios --copy atlantis x.toml`", "cli", ["scenarios", "--copy", "atlantis", "{d}/x.toml"],
-     "unknown scenario 'atlantis'"),
+     "--copy: unknown built-in scenario 'atlantis'; built-in: cliff_goal"),
     ("disk full while writing `--summary`", "cli", ["run", "flat", "--summary", "{d}/full.md", *FLAT],
      "No space left on device"),
     ("Ctrl-C during `run`", "cli", ["run", "flat", *FLAT], "interrupted"),

@@ -42,6 +42,9 @@ def scenarios(a: Args) -> int:
 
     if a.copy:
         name, dest = a.copy
+        known = list_scenarios()
+        if name not in known:  # (scenario_file's message also offers a .toml path, which --copy does not take)
+            raise ArgumentError(f"--copy: unknown built-in scenario {name!r}; built-in: {', '.join(sorted(known))}")
         src = scenario_file(name)
         if os.path.isdir(dest):
             dest = os.path.join(dest, src.name)
