@@ -9,14 +9,15 @@ and, with ``--png``, a picture coloured by slope.
 
 from __future__ import annotations
 
+import inspect
 import re
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 from ..errors import ArgumentError
 from ..terrain.build import METHODS
 from ..terrain.dem_io import SAMPLES
-from .args import check_args, opt
+from .args import check_args, opt, option_name
 
 __all__ = ["Args", "build_tin", "VIP_DEFAULT_VERTICES"]
 
@@ -48,10 +49,15 @@ class Args:
 
 
 def _as_options(msg: str) -> str:
-    """A library message with ``build_tin``'s parameter names written as this command's options."""
-    for f in ("max_vertices", "max_error_m", "min_significance_m", "max_slope_deg"):
-        msg = re.sub(rf"(?<![\w-]){f}(?![\w])", "--" + f.replace("_", "-"), msg)
-    return msg.replace("method=", "--method ")
+    """A library message with the names of ``build_tin``'s parameters that are also this command's
+    ``Args`` fields written as this command's options."""
+    from ..terrain import build_tin as library_build_tin
+
+    params = inspect.signature(library_build_tin).parameters
+    for f in fields(Args):
+        if f.name in params and f.name != "dem":  # (dem is the positional DEM argument, not an option)
+            msg = re.sub(rf"(?<![\w-]){f.name}(?![\w])", option_name(f.name), msg)
+    return msg.replace("--method=", "--method ")
 
 
 def _load(spec: str):

@@ -65,8 +65,8 @@ COMMANDS = {
                     "(or --suite standard: the standard suite's leaderboard)",
                     positional=("scenarios",), rename={"models": "model"},
                     cli={"scenarios": {"nargs": "*"}, "models": {"action": "append", "metavar": "MODEL"}}),
-    "build-tin": Command("build_tin:Args", "build_tin:build_tin", "reduce a DEM to a TIN and write it (.tin or "
-                         ".npz)", positional=("dem",)),
+    "build-tin": Command("build_tin:Args", "build_tin:build_tin", "reduce a DEM to a TIN and write it (.tin/.txt "
+                         "or .npz)", positional=("dem",)),
 }
 
 
