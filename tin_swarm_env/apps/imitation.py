@@ -1,11 +1,12 @@
-"""Imitation of the APF controller: behaviour cloning (BC) and DAgger into an SB3 actor-critic.
+"""Imitation of a teacher (APF, or the map-knowing GeodesicPolicy): behaviour cloning (BC) and
+DAgger into an SB3 actor-critic.
 
     demos = collect(["cliff_goal", "ramp"], episodes=10, seed=0)                 # APF drives
     fit_actor(model.policy, demos.obs, demos.actions)                             # BC
     demos += collect(..., learner=TorchActor(model.policy))                      # DAgger: the learner drives
     fit_actor(model.policy, demos.obs, demos.actions); fit_value(model.policy, demos.obs, demos.returns)
 
-**Labels.** Every step, :class:`~tin_swarm_env.policies.APFPolicy` (the teacher) is called on the
+**Labels.** Every step, the teacher (:class:`~tin_swarm_env.policies.APFPolicy` by default) is called on the
 observations of *all* robots of the episode, whoever drives, and its action for each live robot is
 the label of that robot's observation. APF has per-robot memory (its wall-following side, the
 Pledge turn counter, a stall counter: :class:`~tin_swarm_env.policies.apf.BugMemory`), so it must
@@ -15,6 +16,29 @@ learner's actions move the robots and the teacher's memory follows the learner's
 label is "what APF would do now, having seen what this robot has seen". (A label is therefore
 not always what APF would have done on its own trajectory: a robot the learner led into a dead
 end gets APF's turn-back rule, which is the correction DAgger wants.)
+
+**Teachers** (``teacher=``, :data:`TEACHERS`). ``"apf"`` (default): :class:`~tin_swarm_env.policies.APFPolicy`,
+which acts from the observation alone (what the student sees). ``"geodesic"``:
+:class:`~tin_swarm_env.policies.GeodesicPolicy`, a *privileged* teacher: it reads the map and the
+world state (the terrain's cost-to-go toward each robot's target, the robot's position and
+heading), so its label is the first leg of the shortest drivable path, which APF, trapped on
+forks, mesas and long walls, does not know. The student still sees only the observation (the
+samples are observations; only the labels come from the map). It labels the states the student
+visits under DAgger exactly as under BC: it is called on every robot every step, and its action
+for a robot depends on that robot's current state alone (its only memory is the per-target
+field cache, dropped at each reset), so a label is "what the shortest path says here".
+Symmetry with this teacher: the student should be mirror-equivariant by construction
+(``--symmetry mirror``), not fitted on mirrored samples (:meth:`Demos.mirrored`, refused with
+it in ``apps/train.py``). A mirrored sample claims that the teacher, in the mirror-image world, would
+act as the mirror image of its action; APF acts from the observation alone and is
+mirror-equivariant on any observation, so that holds for it. GeodesicPolicy's action is a
+function of the map, not of the observation; it is equivariant only between a map and its
+mirror image, and that mirror image is neither a map the robots drove on nor exactly the
+reflection of what the teacher computed (the greedy TIN of a reflected DEM is not the reflected
+TIN, and equal-length paths tie differently), so a mirrored label is a claim about a world nobody
+ran. An equivariant student gets the symmetry without such labels: fitting ``pi(o) = a`` fits
+``pi(M o) = M a`` with it, and where the map breaks the tie the observation history, not a
+reflected label, has to say which way.
 
 **Returns.** Each sample also carries its discounted return-to-go (``gamma``) under the policy that
 drove, for a short value warm-up (:func:`fit_value`) so that PPO fine-tuning starts from a critic
@@ -33,7 +57,23 @@ import numpy as np
 
 from ..errors import ArgumentError
 
-__all__ = ["Demos", "collect", "fit_actor", "fit_value", "TorchActor", "actor_mean"]
+__all__ = ["Demos", "TEACHERS", "make_teacher", "collect", "fit_actor", "fit_value", "TorchActor", "actor_mean"]
+
+TEACHERS = ("apf", "geodesic")  # the labelling policies of collect(teacher=...) (module docstring)
+
+
+def check_teacher(teacher: str, where: str = "teacher") -> str:
+    """``teacher`` if it is one of :data:`TEACHERS`; else ArgumentError naming ``where`` and the value."""
+    if teacher not in TEACHERS:
+        raise ArgumentError(f"{where} {teacher!r} is not a teacher; choose from {', '.join(TEACHERS)}")
+    return teacher
+
+
+def make_teacher(teacher: str, env):
+    """The labelling policy ``teacher`` (:data:`TEACHERS`) for ``env``: APFPolicy or GeodesicPolicy."""
+    from ..policies import APFPolicy, GeodesicPolicy
+
+    return {"apf": APFPolicy, "geodesic": GeodesicPolicy}[check_teacher(teacher)](env)
 
 
 @dataclass
@@ -41,7 +81,7 @@ class Demos:
     """Labelled samples of live robots.
 
     obs      (N, d) float32  observations
-    actions  (N, 2) float32  the teacher's (APF's) action for each
+    actions  (N, 2) float32  the teacher's action for each
     returns  (N,)   float32  discounted return-to-go from that step under the policy that drove
     arrived, fell: shares of the collected robot-episodes (the driving policy's), episodes: count
     """
@@ -68,7 +108,7 @@ class Demos:
         :func:`~tin_swarm_env.env.observation.mirror_action`): the teacher's action in the
         mirrored world, since the teacher is mirror-equivariant (APF is, memory included, on
         random observations and over an episode: tests/policies/test_symmetry.py; a teacher whose
-        tie-breaks pick one side would not be). Returns equal; ``episodes`` 0, so ``demos + demos.mirrored(l)``
+        tie-breaks pick one side would not be, nor is the map-knowing geodesic teacher: module docstring). Returns equal; ``episodes`` 0, so ``demos + demos.mirrored(l)``
         keeps the driving policy's shares and episode count."""
         from ..env.observation import mirror_action
 
@@ -136,18 +176,18 @@ def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=No
 
 def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=None, learner=None,
             gamma: float = 0.99, env_kwargs: dict | None = None, beta: float = 0.0, stall_steps: int = 0,
-            shield: str = "none") -> Demos:
+            shield: str = "none", teacher: str = "apf") -> Demos:
     """Run ``episodes`` episodes (cycling over ``scenarios``; see the module docstring), driven by
-    APF (``learner=None``: behaviour cloning data) or by ``learner`` (an object with
-    ``act_batch(obs (n, d)) -> (n, 2)``: DAgger data), every live robot-step labelled with APF's
-    action. ``n_robots``/``max_cycles`` None: the scenario's. ``beta`` (DAgger's mixing: the teacher
+    the teacher (``learner=None``: behaviour cloning data) or by ``learner`` (an object with
+    ``act_batch(obs (n, d)) -> (n, 2)``: DAgger data), every live robot-step labelled with the
+    teacher's action (``teacher``: one of :data:`TEACHERS`, checked before any episode runs). ``n_robots``/``max_cycles`` None: the scenario's. ``beta`` (DAgger's mixing: the teacher
     drives each robot-step with this probability; the draws come from ``default_rng(seed)``) and
     ``stall_steps`` (drop a stuck robot's later samples): see :func:`_episode`. ``shield="safety_cut"``:
     the learner acts through the policy-file shield (:mod:`tin_swarm_env.policies.learned`)."""
     from ..env import parallel_env
-    from ..policies import APFPolicy
     from ..world.state import Reason
 
+    check_teacher(teacher)
     if episodes < 1:
         raise ArgumentError(f"episodes must be >= 1, got {episodes}")
     if not 0.0 <= beta <= 1.0:
@@ -158,7 +198,7 @@ def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=No
     if max_cycles:
         kw["max_cycles"] = max_cycles
     envs = {s: parallel_env(scenario=s, n_robots=n_robots or None, **kw) for s in scenarios}
-    teachers = {s: APFPolicy(e) for s, e in envs.items()}
+    teachers = {s: make_teacher(teacher, e) for s, e in envs.items()}
     from ..policies.base import SafetyShield
 
     shields = {s: SafetyShield(e) if shield == "safety_cut" else None for s, e in envs.items()}

@@ -1,5 +1,5 @@
 """PPO (Stable-Baselines3) on tin_swarm scenarios, one shared policy for all robots, with an
-optional warm start by imitation of APF (behaviour cloning, then DAgger).
+optional warm start by imitation of a teacher (behaviour cloning, then DAgger).
 
     tin-swarm train cliff_goal --timesteps 200000
     python agents/train_sb3.py --scenario cliff_goal --total-timesteps 200000   # the same
@@ -11,18 +11,22 @@ Read top to bottom: arguments, environment, imitation, evaluation, training, sav
 * ``--scenario``: a built-in name, a TOML path, or several separated by commas (a mix: the
   VecEnv holds ``n_envs`` copies of each; imitation episodes cycle over them). ``"generated"``
   (a new seeded terrain at every reset) is just another name.
-* ``--bc-episodes N``: N episodes driven by :class:`~tin_swarm_env.policies.APFPolicy`, every live
-  robot-step labelled with its action; the actor's mean is fitted by MSE
+* ``--bc-episodes N``: N episodes driven by the teacher (``--teacher apf``, the default:
+  :class:`~tin_swarm_env.policies.APFPolicy`; ``--teacher geodesic``: the map-knowing
+  :class:`~tin_swarm_env.policies.GeodesicPolicy`, a privileged teacher whose student sees only
+  the observation), every live robot-step labelled with its action; the actor's mean is fitted by MSE
   (:mod:`tin_swarm_env.apps.imitation`). ``--dagger-rounds K``: K rounds in which the learner drives
-  ``--dagger-episodes`` episodes while APF runs alongside on the same observations (its per-robot
+  ``--dagger-episodes`` episodes while the teacher runs alongside on the same observations (APF's per-robot
   memory stays consistent) and labels them; the actor is refitted on everything so far.
-  ``--dagger-beta b``: in round r (from 0) APF drives each robot-step with probability b**(r+1)
+  ``--dagger-beta b``: in round r (from 0) the teacher drives each robot-step with probability b**(r+1)
   (DAgger's mixture, so early rounds stay near the teacher's states). ``--stall-steps S``: a robot
   whose distance to go has not improved for S steps contributes no more samples that episode. Then the
   critic is warmed up on the rollouts' discounted returns (``--value-epochs``) and the policy's
   exploration std set to ``--bc-std`` before PPO fine-tuning. ``--mirror-samples``: every fit also
   sees each sample's mirror image (observation and APF's action reflected,
-  :meth:`~tin_swarm_env.apps.imitation.Demos.mirrored`), so the clone learns both sides alike.
+  :meth:`~tin_swarm_env.apps.imitation.Demos.mirrored`), so the clone learns both sides alike
+  (refused with ``--teacher geodesic``, whose labels are not mirror-equivariant on the map driven:
+  use ``--symmetry mirror``; :mod:`tin_swarm_env.apps.imitation` says why).
   ``--symmetry mirror``: the actor and critic are mirror-equivariant by construction
   (:func:`~tin_swarm_env.adapters.sb3.mirror_policy_class`) in imitation and PPO alike, and the
   exported file says ``"symmetry": "mirror"`` (:mod:`tin_swarm_env.policies.symmetry`).
@@ -61,6 +65,7 @@ from .args import check_args as check_fields, opt
 from ..policies.symmetry import SYMMETRIES
 from ..world.state import Reason
 from .evaluate import EVAL_SEED0
+from .imitation import TEACHERS
 from .policy_factory import SB3Policy
 from .rollout import rollout
 
@@ -114,10 +119,12 @@ class Args:
     net_arch: str = opt("64,64", "hidden layer widths of actor and critic, comma-separated", check=_arch_msg)
     recurrent: bool = opt(False, "sb3-contrib RecurrentPPO (MlpLstmPolicy); no imitation")
     lstm_hidden: int = opt(256, "--recurrent: LSTM units (RecurrentPPO's default)", lo=1, hi=4096)
-    bc_episodes: int = opt(0, "behaviour cloning: APF-driven episodes (0: no imitation)", **_NONNEG)
-    dagger_rounds: int = opt(0, "DAgger rounds after BC (the learner drives, APF labels)", **_NONNEG)
+    bc_episodes: int = opt(0, "behaviour cloning: teacher-driven episodes (0: no imitation)", **_NONNEG)
+    teacher: str = opt("apf", "imitation's teacher: apf, or geodesic (knows the map; the student sees only the "
+                       "observation)", choices=TEACHERS)
+    dagger_rounds: int = opt(0, "DAgger rounds after BC (the learner drives, the teacher labels)", **_NONNEG)
     dagger_episodes: int = opt(0, "episodes per DAgger round (0: as many as --bc-episodes)", **_NONNEG)
-    dagger_beta: float = opt(0.0, "round r (from 0): APF drives each robot-step with probability beta**(r+1)",
+    dagger_beta: float = opt(0.0, "round r (from 0): the teacher drives each robot-step with probability beta**(r+1)",
                              lo=0, hi=1, hi_open=True)
     stall_steps: int = opt(0, "imitation keeps no samples of a robot stuck this many steps (0: keep all)", **_NONNEG)
     bc_robots: int = opt(0, "robots per imitation episode (0: the scenario's count)", lo=0, hi=MAX_ROBOTS)
@@ -178,6 +185,10 @@ def check_args(args: Args) -> None:
         raise ArgumentError("--dagger-rounds needs --bc-episodes (DAgger starts from a cloned policy)")
     if not 0.0 <= args.dagger_beta < 1.0:
         raise ArgumentError(f"--dagger-beta must be in [0, 1), got {args.dagger_beta}")
+    if args.teacher == "geodesic" and args.mirror_samples:
+        raise ArgumentError("--mirror-samples cannot be combined with --teacher geodesic: a mirrored label is the "
+                            "map-knowing teacher's action on a mirror-image map nobody ran (apps/imitation.py); "
+                            "use --symmetry mirror (a mirror-equivariant student) instead")
     if args.recurrent and _imitating(args):
         raise ArgumentError("--recurrent cannot be combined with --bc-episodes (imitation fits an MLP actor)")
     if args.batch_size > args.n_steps * args.n_robots * args.n_envs * len(scenarios_of(args)) and args.total_timesteps:
@@ -316,14 +327,16 @@ def imitate(model, args: Args, log=print, layout=None) -> dict:
 
     scen, n_rob = scenarios_of(args), args.bc_robots or None
     kw = {"n_robots": n_rob, "max_cycles": args.max_cycles or None, "gamma": args.gamma,
-          "stall_steps": args.stall_steps, "shield": args.shield}
+          "stall_steps": args.stall_steps, "shield": args.shield, "teacher": args.teacher}
     fit = {"epochs": args.bc_epochs, "batch_size": args.bc_batch_size, "lr": args.bc_lr, "std": args.bc_std}
     base = args.seed * 1000
     demos = collect(scen, args.bc_episodes, base, **kw)
+    who = args.teacher.upper() if args.teacher == "apf" else args.teacher
     fs = fit_set(demos, args, layout)
     mse = fit_actor(model.policy, fs.obs, fs.actions, seed=args.seed, **fit)
-    info = {"bc_samples": len(demos), "apf_arrived": demos.arrived, "rounds": [{"mse": mse}]}
-    log(f"BC: {len(demos)} samples from {demos.episodes} APF episodes (APF arrived {demos.arrived:.0%}, fell "
+    info = {"bc_samples": len(demos), "teacher": args.teacher, "teacher_arrived": demos.arrived,
+            "rounds": [{"mse": mse}]}
+    log(f"BC: {len(demos)} samples from {demos.episodes} {who} episodes ({who} arrived {demos.arrived:.0%}, fell "
         f"{demos.fell:.0%}); actor MSE {mse:.4f}")
     n_dag = args.dagger_episodes or args.bc_episodes
     for r in range(args.dagger_rounds):
