@@ -108,8 +108,8 @@ class Demos:
         :func:`~tin_swarm_env.env.observation.mirror_action`): the teacher's action in the
         mirrored world, since the teacher is mirror-equivariant (APF is, memory included, on
         random observations and over an episode: tests/policies/test_symmetry.py; a teacher whose
-        tie-breaks pick one side would not be, nor is the map-knowing geodesic teacher: module docstring). Returns equal; ``episodes`` 0, so ``demos + demos.mirrored(l)``
-        keeps the driving policy's shares and episode count."""
+        tie-breaks pick one side would not be, nor is the map-knowing geodesic teacher: module
+        docstring). Returns equal; ``episodes`` 0, so ``demos + demos.mirrored(l)`` keeps the driving policy's shares and episode count."""
         from ..env.observation import mirror_action
 
         return Demos(layout.mirror(self.obs), mirror_action(self.actions), self.returns.copy(), self.arrived,
@@ -180,7 +180,8 @@ def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=No
     """Run ``episodes`` episodes (cycling over ``scenarios``; see the module docstring), driven by
     the teacher (``learner=None``: behaviour cloning data) or by ``learner`` (an object with
     ``act_batch(obs (n, d)) -> (n, 2)``: DAgger data), every live robot-step labelled with the
-    teacher's action (``teacher``: one of :data:`TEACHERS`, checked before any episode runs). ``n_robots``/``max_cycles`` None: the scenario's. ``beta`` (DAgger's mixing: the teacher
+    teacher's action (``teacher``: one of :data:`TEACHERS`, checked before any episode runs).
+    ``n_robots``/``max_cycles`` None: the scenario's. ``beta`` (DAgger's mixing: the teacher
     drives each robot-step with this probability; the draws come from ``default_rng(seed)``) and
     ``stall_steps`` (drop a stuck robot's later samples): see :func:`_episode`. ``shield="safety_cut"``:
     the learner acts through the policy-file shield (:mod:`tin_swarm_env.policies.learned`)."""
