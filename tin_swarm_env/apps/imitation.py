@@ -109,7 +109,8 @@ class Demos:
         mirrored world, since the teacher is mirror-equivariant (APF is, memory included, on
         random observations and over an episode: tests/policies/test_symmetry.py; a teacher whose
         tie-breaks pick one side would not be, nor is the map-knowing geodesic teacher: module
-        docstring). Returns equal; ``episodes`` 0, so ``demos + demos.mirrored(l)`` keeps the driving policy's shares and episode count."""
+        docstring). Returns equal; ``episodes`` 0, so ``demos + demos.mirrored(l)`` keeps the
+        driving policy's shares and episode count."""
         from ..env.observation import mirror_action
 
         return Demos(layout.mirror(self.obs), mirror_action(self.actions), self.returns.copy(), self.arrived,
