@@ -57,7 +57,8 @@ import numpy as np
 
 from ..errors import ArgumentError
 
-__all__ = ["Demos", "TEACHERS", "make_teacher", "collect", "fit_actor", "fit_value", "TorchActor", "actor_mean"]
+__all__ = ["Demos", "Sequence", "TEACHERS", "make_teacher", "collect", "fit_actor", "fit_value", "TorchActor",
+           "actor_mean"]
 
 TEACHERS = ("apf", "geodesic")  # the labelling policies of collect(teacher=...) (module docstring)
 
@@ -84,6 +85,8 @@ class Demos:
     actions  (N, 2) float32  the teacher's action for each
     returns  (N,)   float32  discounted return-to-go from that step under the policy that drove
     arrived, fell: shares of the collected robot-episodes (the driving policy's), episodes: count
+    sequences: the episodes as :class:`Sequence` (``collect(sequences=True)``, for a recurrent
+               student; empty otherwise)
     """
 
     obs: np.ndarray
@@ -92,13 +95,14 @@ class Demos:
     arrived: float = 0.0
     fell: float = 0.0
     episodes: int = 0
+    sequences: tuple = ()
 
     def __add__(self, other: Demos) -> Demos:
         n = self.episodes + other.episodes
         w = self.episodes / max(n, 1)
         return Demos(np.concatenate([self.obs, other.obs]), np.concatenate([self.actions, other.actions]),
                      np.concatenate([self.returns, other.returns]), w * self.arrived + (1 - w) * other.arrived,
-                     w * self.fell + (1 - w) * other.fell, n)
+                     w * self.fell + (1 - w) * other.fell, n, tuple(self.sequences) + tuple(other.sequences))
 
     def __len__(self) -> int:
         return len(self.obs)
@@ -113,8 +117,25 @@ class Demos:
         driving policy's shares and episode count."""
         from ..env.observation import mirror_action
 
+        seqs = tuple(Sequence(layout.mirror(q.obs), mirror_action(q.labels), q.keep, q.live) for q in self.sequences)
         return Demos(layout.mirror(self.obs), mirror_action(self.actions), self.returns.copy(), self.arrived,
-                     self.fell, 0)
+                     self.fell, 0, seqs)
+
+
+@dataclass
+class Sequence:
+    """One episode, every step of every robot, for a recurrent student (``T`` steps, ``n`` robots):
+
+    obs     (T, n, d) float32  what each robot observed (after it ended: the env's zeros)
+    labels  (T, n, 2) float32  the teacher's action
+    keep    (T, n)    bool     the samples a fit learns from (live and not stalled: :func:`_episode`)
+    live    (T, n)    bool     the robot was live (its memory runs over these steps)
+    """
+
+    obs: np.ndarray
+    labels: np.ndarray
+    keep: np.ndarray
+    live: np.ndarray
 
 
 def _discounted(rewards, live, gamma):
@@ -131,14 +152,17 @@ def _discounted(rewards, live, gamma):
 STALL_EPS_M = 0.25  # a robot "makes progress" when its distance to go drops this much below its best
 
 
-def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=None, shield=None):
-    """One episode: ``(obs (N, d), labels (N, 2), returns (N,), reasons (n,))`` over the kept
+def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=None, shield=None,
+             sequences=False):
+    """One episode: ``(obs (N, d), labels (N, 2), returns (N,), reasons (n,), seq)`` over the kept
     live robot-steps. ``beta``: each live robot's action is the teacher's with this probability
     (per robot and step, drawn from ``rng``), else the learner's. ``stall_steps`` > 0: a robot's
     samples stop being kept once its distance to go (``env.distance_to_go()``) has not dropped
     :data:`STALL_EPS_M` below its best for that many steps (it is stuck; its steps would flood
     the data); it keeps driving and the teacher keeps seeing it. ``shield``: a callable
-    ``(actions, obs) -> actions`` the learner's actions pass through (the policy-file shield)."""
+    ``(actions, obs) -> actions`` the learner's actions pass through (the policy-file shield).
+    ``seq``: with ``sequences``, the episode as a :class:`Sequence` (every step of every robot, for
+    a recurrent student); else None."""
     from ..world.state import Reason
 
     obs = env.reset_arrays(seed=seed)
@@ -148,7 +172,7 @@ def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=No
     n = env.n
     reasons = np.full(n, int(Reason.NONE), dtype=np.int8)
     best, since = env.distance_to_go(), np.zeros(n, dtype=np.int64)
-    Os, A, R, L, K = [], [], [], [], []
+    O, A, R, L, K = [], [], [], [], []
     live = env.live_mask
     while live.any():
         label = teacher.act_batch(obs)  # every row, every step: the teacher's memory sees the whole stream
@@ -158,8 +182,8 @@ def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=No
         if learner is not None and beta > 0:
             act = np.where((rng.random(n) < beta)[:, None], label, act)
         keep = live & ((since < stall_steps) if stall_steps > 0 else True)
-        Os.append(obs[keep])
-        A.append(label[keep])
+        O.append(np.asarray(obs, dtype=np.float32))
+        A.append(np.asarray(label, dtype=np.float32))
         obs, rew, term, trunc, why = env.step_arrays(act)
         R.append(np.where(live, rew, 0.0))
         L.append(live)
@@ -171,13 +195,15 @@ def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=No
         best = np.where(better, d, best)
         since = np.where(better, 0, since + 1)
         live = env.live_mask
-    ret = _discounted(np.asarray(R), np.asarray(L), gamma)[np.asarray(K)]  # row-major: step by step, robot order
-    return np.concatenate(Os), np.concatenate(A), ret.astype(np.float32), reasons
+    O, A, L, K = np.stack(O), np.stack(A), np.stack(L), np.stack(K)  # (T, n, ...)
+    ret = _discounted(np.asarray(R), L, gamma)[K]  # row-major: step by step, robot order
+    seq = Sequence(O, A, K, L) if sequences else None
+    return O[K], A[K], ret.astype(np.float32), reasons, seq
 
 
 def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=None, learner=None,
             gamma: float = 0.99, env_kwargs: dict | None = None, beta: float = 0.0, stall_steps: int = 0,
-            shield: str = "none", teacher: str = "apf") -> Demos:
+            shield: str = "none", teacher: str = "apf", sequences: bool = False) -> Demos:
     """Run ``episodes`` episodes (cycling over ``scenarios``; see the module docstring), driven by
     the teacher (``learner=None``: behaviour cloning data) or by ``learner`` (an object with
     ``act_batch(obs (n, d)) -> (n, 2)``: DAgger data), every live robot-step labelled with the
@@ -185,7 +211,8 @@ def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=No
     ``n_robots``/``max_cycles`` None: the scenario's. ``beta`` (DAgger's mixing: the teacher
     drives each robot-step with this probability; the draws come from ``default_rng(seed)``) and
     ``stall_steps`` (drop a stuck robot's later samples): see :func:`_episode`. ``shield="safety_cut"``:
-    the learner acts through the policy-file shield (:mod:`tin_swarm_env.policies.learned`)."""
+    the learner acts through the policy-file shield (:mod:`tin_swarm_env.policies.learned`).
+    ``sequences``: also keep each episode whole (``Demos.sequences``, for a recurrent student)."""
     from ..env import parallel_env
     from ..world.state import Reason
 
@@ -204,16 +231,19 @@ def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=No
     from ..policies.base import SafetyShield
 
     shields = {s: SafetyShield(e) if shield == "safety_cut" else None for s, e in envs.items()}
-    parts, reasons = [], []
+    parts, reasons, seqs = [], [], []
     for k in range(episodes):
         s = scenarios[k % len(scenarios)]
-        o, a, r, why = _episode(envs[s], teachers[s], learner, seed + k, gamma, beta, stall_steps, rng, shields[s])
+        o, a, r, why, q = _episode(envs[s], teachers[s], learner, seed + k, gamma, beta, stall_steps, rng, shields[s],
+                                   sequences)
         parts.append((o, a, r))
         reasons.append(why)
+        if q is not None:
+            seqs.append(q)
     why = np.concatenate(reasons)
     return Demos(np.concatenate([p[0] for p in parts]).astype(np.float32),
                  np.concatenate([p[1] for p in parts]).astype(np.float32), np.concatenate([p[2] for p in parts]),
-                 float(np.mean(why == Reason.ARRIVED)), float(np.mean(why == Reason.FELL)), episodes)
+                 float(np.mean(why == Reason.ARRIVED)), float(np.mean(why == Reason.FELL)), episodes, tuple(seqs))
 
 
 # -- fitting an SB3 ActorCriticPolicy (torch) -------------------------------------------------
