@@ -39,6 +39,13 @@ TIN, and equal-length paths tie differently), so a mirrored label is a claim abo
 ran. An equivariant student gets the symmetry without such labels: fitting ``pi(o) = a`` fits
 ``pi(M o) = M a`` with it, and where the map breaks the tie the observation history, not a
 reflected label, has to say which way.
+What a privileged teacher cannot give a memoryless student (measured:
+``docs/figures/teacher_geodesic.md``): where the shortest way round is left on one map and right on
+another that look the same to the robot (a cliff across the way, the pass out of sight), the labels
+for one observation disagree, and a mean-squared-error fit learns their mean, for a mirror-equivariant
+student ``vy = 0``: straight on, into the cliff. The teacher's choice is a function of the map, not
+of anything the student sees; imitation can only give the student what the observation (and, for a
+recurrent student, its history) determines.
 
 **Returns.** Each sample also carries its discounted return-to-go (``gamma``) under the policy that
 drove, for a short value warm-up (:func:`fit_value`) so that PPO fine-tuning starts from a critic
