@@ -128,7 +128,7 @@ __all__ = ["GeneratedTask", "PARAMS", "ALL_FAMILIES", "DEFAULT_RANGES", "FAMILIE
 
 HEADINGS = {"north": (0.0, 1.0), "east": (1.0, 0.0), "south": (0.0, -1.0), "west": (-1.0, 0.0)}
 SIDES = ("left", "right", "both")
-MOUTH_CELLS = 2.0  # a pass's mouth (where it goes through the cliff) reaches this many cells either side of the cliff line
+MOUTH_CELLS = 2.0  # a pass's mouth (where it goes through the cliff): this many cells either side of the cliff line
 MARGIN_M = 4.0  # clear ground kept between a spawn region / target and the map edge or a cliff
 
 
