@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from tin_swarm_env.world import BatteryParams, RobotParams, SensorParams, World, WorldParams, sensing, spawn_positions
 from tin_swarm_env.world import locomotion as L
 from tin_swarm_env.world import sense_kernels as SK
+from tin_swarm_env.world import step_kernel as SPK
 from tin_swarm_env.world import world as world_mod
 from tin_swarm_env.world.grid import grid_build
 from tin_swarm_env.world.state import Reason
@@ -34,7 +35,8 @@ def threads(k):
 def plain_python(monkeypatch):
     """Every parallel kernel of a world step and sensing replaced by its uncompiled loop."""
     with monkeypatch.context() as m:
-        m.setattr(world_mod, "collision_counts", SK.collision_counts.py_func)
+        m.setattr(world_mod, "step_kernel", SPK.step_kernel.py_func)
+        m.setattr(SPK, "collision_counts", SK.collision_counts.py_func)
         for name in ("sense_pass1", "sense_pass2", "collision_counts"):
             m.setattr(SK, name, getattr(SK, name).py_func)
         m.setattr(L, "move_walk", L.move_walk.py_func)
@@ -197,23 +199,22 @@ def test_fused_move_kernel_equals_the_numpy_locomotion(random_tin, seed, n):
 
 @settings(max_examples=20)
 @given(st.integers(0, 10_000), st.integers(0, 300), st.integers(1, 12))
-def test_parallel_compact_equals_the_serial_one(seed, n, k):
+def test_compact_keeps_the_visible_slots_in_order_with_their_bearings(seed, n, k):
     rng = np.random.default_rng(seed)
-    idx = rng.integers(-5, 50, (n, k))
+    m = max(n, 1)
+    idx = rng.integers(-5, m, (n, k))
     dist = rng.uniform(0, 100, (n, k))
-    bear = rng.uniform(-3, 3, (n, k))
-    keep = (rng.random((n, k)) < 0.7).astype(np.int8)
+    vis = (rng.random((n, k)) < 0.7).astype(np.int8)
     cnt = rng.integers(0, k + 1, n)
-    want = SK.compact(idx, dist, bear, keep, cnt)
-    ref = SK.compact.py_func(idx, dist, bear, keep, cnt)
-    for kk in (1, THREADS):
-        with threads(kk):
-            got = SK.compact_parallel(idx, dist, bear, keep, cnt)
-        _assert_same(list(got), list(want))
-    _assert_same(list(ref), list(want))
-    rows = [(i, int(idx[i, s]), dist[i, s], bear[i, s]) for i in range(n) for s in range(cnt[i])
-            if idx[i, s] >= 0 and keep[i, s]]
+    px, py, ex, ey = (rng.uniform(0, 100, m) for _ in range(4))
+    head = rng.uniform(-math.pi, math.pi, m)
+    want = SK.compact(idx, dist, vis, cnt, px, py, head, ex, ey)
+    _assert_same(list(SK.compact.py_func(idx, dist, vis, cnt, px, py, head, ex, ey)), list(want))
+    rows = [(i, int(idx[i, s]), dist[i, s],
+             (math.atan2(ey[idx[i, s]] - py[i], ex[idx[i, s]] - px[i]) - head[i] + math.pi) % (2 * math.pi) - math.pi)
+            for i in range(n) for s in range(cnt[i]) if idx[i, s] >= 0 and vis[i, s]]
     assert [(int(a), int(b), c, d) for a, b, c, d in zip(*want[:4])] == rows
+    assert want[4].tolist() == [0] + np.cumsum([sum(1 for r in rows if r[0] == i) for i in range(n)]).tolist()
 
 
 def test_small_swarms_run_on_one_thread_and_large_ones_on_all(random_tin, monkeypatch):
@@ -221,13 +222,13 @@ def test_small_swarms_run_on_one_thread_and_large_ones_on_all(random_tin, monkey
     restore the count after), and keep every thread from SERIAL_BELOW on; the results are the same."""
     w, s, rng = _world(random_tin, 3, {"range_m": 60.0}, n=20)
     seen = []
-    kernel = L.move_kernel
+    kernel = world_mod.step_kernel
 
     def spy(*a):
         seen.append(numba.get_num_threads())
         return kernel(*a)
 
-    monkeypatch.setattr(L, "move_kernel", spy)
+    monkeypatch.setattr(world_mod, "step_kernel", spy)
     cmds = rng.uniform(-1, 1, (1, 20, 2))
     with threads(THREADS):
         small = _run(w, s, cmds)
