@@ -237,3 +237,62 @@ def test_small_swarms_run_on_one_thread_and_large_ones_on_all(random_tin, monkey
         large = _run(w, s, cmds)
         assert seen == [1, THREADS]
     _assert_same(small, large)
+
+
+def _exact_in_view(dx, dy, heading, half_fov):
+    return abs((math.atan2(dy, dx) - heading + math.pi) % (2 * math.pi) - math.pi) <= half_fov
+
+
+@settings(max_examples=40)
+@given(st.integers(0, 10_000), st.floats(1.0, 360.0))
+def test_the_dot_product_field_of_view_decides_as_the_bearing_test(seed, fov_deg):
+    """Points on the edge of the field of view (bearings within 1e-16..1e-6 rad of +-fov/2, and
+    exactly on it), at 1 mm..10 km, and at zero distance: the same decision as the atan2 test."""
+    rng = np.random.default_rng(seed)
+    half_fov = math.radians(fov_deg) / 2 + 1e-12
+    cos_hf = math.cos(half_fov)
+    n = 400
+    head = rng.uniform(-math.pi, math.pi, n)
+    off = rng.choice([-1.0, 1.0], n) * 10.0 ** rng.uniform(-16, -6, n)
+    off[:40] = 0.0
+    side = rng.choice([-1.0, 1.0], n)
+    ang = head + side * (half_fov + off)
+    d = 10.0 ** rng.uniform(-3, 4, n)
+    dx, dy = d * np.cos(ang), d * np.sin(ang)
+    dx[:5] = dy[:5] = 0.0
+    got, want = [], []
+    for i in range(n):
+        dist = math.sqrt(dx[i] * dx[i] + dy[i] * dy[i])
+        got.append(SK.in_view(dx[i], dy[i], dist, math.cos(head[i]), math.sin(head[i]), head[i], half_fov, cos_hf))
+        want.append(_exact_in_view(dx[i], dy[i], head[i], half_fov))
+    assert got == want
+    assert (0 < sum(want) < n) or half_fov >= math.pi  # both sides of the edge were met
+
+
+def test_deep_inside_means_the_sight_start_search_keeps_the_triangle(random_tin):
+    """For points deep inside their triangle, the nudged start point of every sight line (1e-6 m,
+    or 1e-3 of a shorter segment) is located in that same triangle; points on an edge or a vertex
+    are never deep."""
+    tin = random_tin(3, 60)
+    T = SK.terrain_arrays(tin)
+    margin = SK.deep_margin(tin)
+    rng = np.random.default_rng(0)
+    v = tin.vertices[:, :2]
+    deep_seen = 0
+    for t in rng.integers(0, tin.n_triangles, 200):
+        a, b, c = v[tin.triangles[t]]
+        for w in (rng.dirichlet([1, 1, 1]), np.array([1 - 1e-9, 5e-10, 5e-10]), np.array([0.5, 0.5, 0.0]),
+                  np.array([1.0, 0.0, 0.0]), np.array([0.5 - 1e-8, 0.5, 1e-8])):
+            x, y = w @ np.array([a, b, c])
+            deep = SK.deep_inside(T, x, y, int(t), margin)
+            if w.min() == 0.0:
+                assert not deep
+            if not deep:
+                continue
+            deep_seen += 1
+            for length in 10.0 ** rng.uniform(-9, 3, 20):
+                ang = rng.uniform(-math.pi, math.pi)
+                dx, dy = length * math.cos(ang), length * math.sin(ang)
+                f = min(1e-6 / math.hypot(dx, dy), 1e-3)
+                assert SK._locate(T, x + dx * f, y + dy * f, int(t)) == t
+    assert deep_seen > 150
