@@ -294,5 +294,5 @@ def test_deep_inside_means_the_sight_start_search_keeps_the_triangle(random_tin)
                 ang = rng.uniform(-math.pi, math.pi)
                 dx, dy = length * math.cos(ang), length * math.sin(ang)
                 f = min(1e-6 / math.hypot(dx, dy), 1e-3)
-                assert SK._locate(T, x + dx * f, y + dy * f, int(t)) == t
+                assert SK.locate1(T, x + dx * f, y + dy * f, int(t)) == t
     assert deep_seen > 150

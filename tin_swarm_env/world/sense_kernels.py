@@ -22,7 +22,7 @@ from .angles import wrap_pi
 from .grid import SENSE_REACH, grid_block, grid_cells
 
 __all__ = ["terrain_arrays", "sense_pass1", "sense_pass2", "compact", "break_grid", "collision_counts", "sight1",
-           "deep_margin", "deep_inside", "in_view", "FOV_MARGIN"]
+           "deep_margin", "deep_inside", "in_view", "FOV_MARGIN", "locate1"]
 
 
 def terrain_arrays(tin):
@@ -42,7 +42,9 @@ def terrain_arrays(tin):
 
 
 @njit(cache=True, inline="always")
-def _locate(T, x, y, hint):
+def locate1(T, x, y, hint):
+    """The triangle holding ``(x, y)``: walked from triangle ``hint`` (when ``>= 0``), else (or
+    when the walk fails) through the bucket grid, as :meth:`Tin.locate`; -1 outside."""
     vx, vy, vz, tris, nbrs, grad, bs, bt, bx0, by0, binv, bnx, bny, edges, border, tol, ztol, ms = T
     t = -1
     if hint >= 0:
@@ -106,7 +108,7 @@ def sight1(T, ax, ay, az, bx, by, bz, ta, deep):
         length = math.hypot(dx, dy)
         if length > 0 and ta >= 0:
             f = min(1e-6 / length, 1e-3)
-            t2 = _locate(T, ax + dx * f, ay + dy * f, ta)
+            t2 = locate1(T, ax + dx * f, ay + dy * f, ta)
             if t2 >= 0:
                 ta = t2
     r = los_walk1(vx, vy, vz, tris, nbrs, grad, ax, ay, az, bx, by, bz, ta, ms, ztol)
@@ -183,20 +185,23 @@ def _near_row(i, qx, qy, x0, y0, inv, nx, ny, start, items, gx, gy, skip, range_
     return c
 
 
-@njit(cache=True)
-def _entity_row(T, i, px, py, sz, head, ch, sh, tri, deep, ex, ey, ez, x0, y0, inv, nx, ny, start, items, gx, gy,
-                range_m, r2, half_fov, cos_hf, check_los, idx, dist, vis, cnt):
+@njit(cache=True, inline="always")
+def _entity_row(T, i, qx, qy, qz, h, ch, sh, ti, deep, ex, ey, ez, x0, y0, inv, nx, ny, start, items, gx, gy, range_m,
+                half_fov, cos_hf, check_los, idx, dist, vis):
+    """Row ``i``'s entity candidates (observer at ``(qx, qy, qz)`` in triangle ``ti``, heading
+    ``h``), in view and in sight; returns how many. (At most 30 arguments: CPython passes more
+    as ``*args``, which numba does not inline.)"""
     if ex.shape[0] == 0:
-        cnt[i] = 0
-        return
-    c = _near_row(i, px[i], py[i], x0, y0, inv, nx, ny, start, items, gx, gy, -1, range_m, r2, idx, dist)
+        return 0
+    c = _near_row(i, qx, qy, x0, y0, inv, nx, ny, start, items, gx, gy, -1, range_m, (range_m * (1.0 + 1e-9)) ** 2,
+                  idx, dist)
     for s in range(c):
         j = idx[i, s]
-        v = 1 if in_view(ex[j] - px[i], ey[j] - py[i], dist[i, s], ch, sh, head[i], half_fov, cos_hf) else 0
+        v = 1 if in_view(ex[j] - qx, ey[j] - qy, dist[i, s], ch, sh, h, half_fov, cos_hf) else 0
         if v and check_los:
-            v = sight1(T, px[i], py[i], sz[i], ex[j], ey[j], ez[j], tri[i], deep)
+            v = sight1(T, qx, qy, qz, ex[j], ey[j], ez[j], ti, deep)
         vis[i, s] = v
-    cnt[i] = c
+    return c
 
 
 @njit(cache=True, inline="always")
@@ -219,7 +224,7 @@ def sense_pass1(T, px, py, head, tri, sz, active, G, range_m, half_fov, cos_hf, 
     break arrays and grid). Collision-free: every row is written by its own iteration only."""
     r_idx, r_dist, r_vis, r_cnt = R
     t_E, t_idx, t_dist, t_vis, t_cnt = TG
-    tx, ty, tz, TGG = t_E
+    tx, ty, tz, TGG = t_E  # (the parallel loop takes arrays, not tuples of them)
     tx0, ty0, tinv, tnx, tny, tstart, titems, tgx, tgy = TGG
     a_E, a_idx, a_dist, a_vis, a_cnt = AS
     ax_, ay_, az_, AGG = a_E
@@ -244,10 +249,11 @@ def sense_pass1(T, px, py, head, tri, sz, active, G, range_m, half_fov, cos_hf, 
             if not in_view(px[j] - px[i], py[j] - py[i], r_dist[i, s], ch, sh, h, half_fov, cos_hf):
                 r_idx[i, s] = -1 - j  # in range but out of view: keeps its slot, marked negative
         r_cnt[i] = c
-        _entity_row(T, i, px, py, sz, head, ch, sh, tri, dp, tx, ty, tz, tx0, ty0, tinv, tnx, tny, tstart, titems,
-                    tgx, tgy, range_m, r2, half_fov, cos_hf, check_los, t_idx, t_dist, t_vis, t_cnt)
-        _entity_row(T, i, px, py, sz, head, ch, sh, tri, dp, ax_, ay_, az_, ax0, ay0, ainv, anx, any_, astart,
-                    aitems, agx, agy, range_m, r2, half_fov, cos_hf, check_los, a_idx, a_dist, a_vis, a_cnt)
+        t_cnt[i] = _entity_row(T, i, px[i], py[i], sz[i], h, ch, sh, tri[i], dp, tx, ty, tz, tx0, ty0, tinv, tnx, tny,
+                               tstart, titems, tgx, tgy, range_m, half_fov, cos_hf, check_los, t_idx, t_dist, t_vis)
+        a_cnt[i] = _entity_row(T, i, px[i], py[i], sz[i], h, ch, sh, tri[i], dp, ax_, ay_, az_, ax0, ay0, ainv, anx,
+                               any_, astart, aitems, agx, agy, range_m, half_fov, cos_hf, check_los, a_idx, a_dist,
+                               a_vis)
         cell = _break_cell(bx0, by0, binv, bnx, bny, px[i], py[i])
         lo, hi = (bstart[cell], bstart[cell + 1]) if cell >= 0 else (0, bax.shape[0])
         m = 0
