@@ -69,13 +69,13 @@ from ..policies.symmetry import SYMMETRIES
 from ..world.state import Reason
 from .evaluate import EVAL_SEED0
 from .imitation import TEACHERS
-
-STUDENTS = ("mlp", "gru")  # --student: what imitation fits (apps/imitation.py, apps/recurrent_imitation.py)
 from .policy_factory import SB3Policy
 from .rollout import rollout
 
 __all__ = ["Args", "train", "train_student", "evaluate_model", "evaluate_policy_file", "plot_curve", "scenarios_of",
            "run_dir", "RecurrentSB3Policy"]
+
+STUDENTS = ("mlp", "gru")  # --student: what imitation fits (apps/imitation.py, apps/recurrent_imitation.py)
 
 
 def _net_arch(spec: str) -> list[int]:
@@ -464,7 +464,7 @@ def _resumed(args: Args) -> tuple[Args, tuple | None]:
 def train(args: Args) -> Path:
     """Imitate (optional), train, evaluate, save and export (see the module docstring); returns
     the path of ``model.zip`` (the pickle-free policy is its sibling ``policy/``; with ``--student
-    gru`` the recurrent ``policy/`` itself, :func:`~.recurrent_imitation.train_student`). With
+    gru`` the recurrent ``policy/`` itself, :func:`train_student`). With
     ``args.resume`` a killed run continues from its last checkpoint (:mod:`.checkpoint`)."""
     ckpt = None
     if args.resume:
