@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from tin_swarm_env.world import BatteryParams, RobotParams, SensorParams, World, WorldParams, sensing, spawn_positions
 from tin_swarm_env.world import locomotion as L
 from tin_swarm_env.world import sense_kernels as SK
+from tin_swarm_env.world import step_kernel as SPK
 from tin_swarm_env.world import world as world_mod
 from tin_swarm_env.world.grid import grid_build
 from tin_swarm_env.world.state import Reason
@@ -34,7 +35,8 @@ def threads(k):
 def plain_python(monkeypatch):
     """Every parallel kernel of a world step and sensing replaced by its uncompiled loop."""
     with monkeypatch.context() as m:
-        m.setattr(world_mod, "collision_counts", SK.collision_counts.py_func)
+        m.setattr(world_mod, "step_kernel", SPK.step_kernel.py_func)
+        m.setattr(SPK, "collision_counts", SK.collision_counts.py_func)
         for name in ("sense_pass1", "sense_pass2", "collision_counts"):
             m.setattr(SK, name, getattr(SK, name).py_func)
         m.setattr(L, "move_walk", L.move_walk.py_func)
@@ -197,23 +199,22 @@ def test_fused_move_kernel_equals_the_numpy_locomotion(random_tin, seed, n):
 
 @settings(max_examples=20)
 @given(st.integers(0, 10_000), st.integers(0, 300), st.integers(1, 12))
-def test_parallel_compact_equals_the_serial_one(seed, n, k):
+def test_compact_keeps_the_visible_slots_in_order_with_their_bearings(seed, n, k):
     rng = np.random.default_rng(seed)
-    idx = rng.integers(-5, 50, (n, k))
+    m = max(n, 1)
+    idx = rng.integers(-5, m, (n, k))
     dist = rng.uniform(0, 100, (n, k))
-    bear = rng.uniform(-3, 3, (n, k))
-    keep = (rng.random((n, k)) < 0.7).astype(np.int8)
+    vis = (rng.random((n, k)) < 0.7).astype(np.int8)
     cnt = rng.integers(0, k + 1, n)
-    want = SK.compact(idx, dist, bear, keep, cnt)
-    ref = SK.compact.py_func(idx, dist, bear, keep, cnt)
-    for kk in (1, THREADS):
-        with threads(kk):
-            got = SK.compact_parallel(idx, dist, bear, keep, cnt)
-        _assert_same(list(got), list(want))
-    _assert_same(list(ref), list(want))
-    rows = [(i, int(idx[i, s]), dist[i, s], bear[i, s]) for i in range(n) for s in range(cnt[i])
-            if idx[i, s] >= 0 and keep[i, s]]
+    px, py, ex, ey = (rng.uniform(0, 100, m) for _ in range(4))
+    head = rng.uniform(-math.pi, math.pi, m)
+    want = SK.compact(idx, dist, vis, cnt, px, py, head, ex, ey)
+    _assert_same(list(SK.compact.py_func(idx, dist, vis, cnt, px, py, head, ex, ey)), list(want))
+    rows = [(i, int(idx[i, s]), dist[i, s],
+             (math.atan2(ey[idx[i, s]] - py[i], ex[idx[i, s]] - px[i]) - head[i] + math.pi) % (2 * math.pi) - math.pi)
+            for i in range(n) for s in range(cnt[i]) if idx[i, s] >= 0 and vis[i, s]]
     assert [(int(a), int(b), c, d) for a, b, c, d in zip(*want[:4])] == rows
+    assert want[4].tolist() == [0] + np.cumsum([sum(1 for r in rows if r[0] == i) for i in range(n)]).tolist()
 
 
 def test_small_swarms_run_on_one_thread_and_large_ones_on_all(random_tin, monkeypatch):
@@ -221,13 +222,13 @@ def test_small_swarms_run_on_one_thread_and_large_ones_on_all(random_tin, monkey
     restore the count after), and keep every thread from SERIAL_BELOW on; the results are the same."""
     w, s, rng = _world(random_tin, 3, {"range_m": 60.0}, n=20)
     seen = []
-    kernel = L.move_kernel
+    kernel = world_mod.step_kernel
 
     def spy(*a):
         seen.append(numba.get_num_threads())
         return kernel(*a)
 
-    monkeypatch.setattr(L, "move_kernel", spy)
+    monkeypatch.setattr(world_mod, "step_kernel", spy)
     cmds = rng.uniform(-1, 1, (1, 20, 2))
     with threads(THREADS):
         small = _run(w, s, cmds)
@@ -236,3 +237,62 @@ def test_small_swarms_run_on_one_thread_and_large_ones_on_all(random_tin, monkey
         large = _run(w, s, cmds)
         assert seen == [1, THREADS]
     _assert_same(small, large)
+
+
+def _exact_in_view(dx, dy, heading, half_fov):
+    return abs((math.atan2(dy, dx) - heading + math.pi) % (2 * math.pi) - math.pi) <= half_fov
+
+
+@settings(max_examples=40)
+@given(st.integers(0, 10_000), st.floats(1.0, 360.0))
+def test_the_dot_product_field_of_view_decides_as_the_bearing_test(seed, fov_deg):
+    """Points on the edge of the field of view (bearings within 1e-16..1e-6 rad of +-fov/2, and
+    exactly on it), at 1 mm..10 km, and at zero distance: the same decision as the atan2 test."""
+    rng = np.random.default_rng(seed)
+    half_fov = math.radians(fov_deg) / 2 + 1e-12
+    cos_hf = math.cos(half_fov)
+    n = 400
+    head = rng.uniform(-math.pi, math.pi, n)
+    off = rng.choice([-1.0, 1.0], n) * 10.0 ** rng.uniform(-16, -6, n)
+    off[:40] = 0.0
+    side = rng.choice([-1.0, 1.0], n)
+    ang = head + side * (half_fov + off)
+    d = 10.0 ** rng.uniform(-3, 4, n)
+    dx, dy = d * np.cos(ang), d * np.sin(ang)
+    dx[:5] = dy[:5] = 0.0
+    got, want = [], []
+    for i in range(n):
+        dist = math.sqrt(dx[i] * dx[i] + dy[i] * dy[i])
+        got.append(SK.in_view(dx[i], dy[i], dist, math.cos(head[i]), math.sin(head[i]), head[i], half_fov, cos_hf))
+        want.append(_exact_in_view(dx[i], dy[i], head[i], half_fov))
+    assert got == want
+    assert (0 < sum(want) < n) or half_fov >= math.pi  # both sides of the edge were met
+
+
+def test_deep_inside_means_the_sight_start_search_keeps_the_triangle(random_tin):
+    """For points deep inside their triangle, the nudged start point of every sight line (1e-6 m,
+    or 1e-3 of a shorter segment) is located in that same triangle; points on an edge or a vertex
+    are never deep."""
+    tin = random_tin(3, 60)
+    T = SK.terrain_arrays(tin)
+    margin = SK.deep_margin(tin)
+    rng = np.random.default_rng(0)
+    v = tin.vertices[:, :2]
+    deep_seen = 0
+    for t in rng.integers(0, tin.n_triangles, 200):
+        a, b, c = v[tin.triangles[t]]
+        for w in (rng.dirichlet([1, 1, 1]), np.array([1 - 1e-9, 5e-10, 5e-10]), np.array([0.5, 0.5, 0.0]),
+                  np.array([1.0, 0.0, 0.0]), np.array([0.5 - 1e-8, 0.5, 1e-8])):
+            x, y = w @ np.array([a, b, c])
+            deep = SK.deep_inside(T, x, y, int(t), margin)
+            if w.min() == 0.0:
+                assert not deep
+            if not deep:
+                continue
+            deep_seen += 1
+            for length in 10.0 ** rng.uniform(-9, 3, 20):
+                ang = rng.uniform(-math.pi, math.pi)
+                dx, dy = length * math.cos(ang), length * math.sin(ang)
+                f = min(1e-6 / math.hypot(dx, dy), 1e-3)
+                assert SK.locate1(T, x + dx * f, y + dy * f, int(t)) == t
+    assert deep_seen > 150

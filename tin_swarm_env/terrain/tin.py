@@ -296,10 +296,16 @@ class Tin:
         """:meth:`sensor_tilt` for robots whose triangles ``tri (n,)`` are already known."""
         t = np.asarray(tri)
         h = np.broadcast_to(np.asarray(heading_rad, dtype=np.float64), t.shape)
-        slope = np.radians(self.slope_deg[t])
-        aspect = np.radians(np.maximum(self.aspect_deg[t], 0.0))
+        sin_slope, aspect = self._tilt_tables  # per triangle: sin(radians(slope)), radians(max(aspect, 0))
         heading_compass = np.pi / 2 - h
-        return np.arcsin(np.sin(slope) * np.sin(heading_compass - aspect))
+        return np.arcsin(sin_slope[t] * np.sin(heading_compass - aspect[t]))
+
+    @cached_property
+    def _tilt_tables(self):
+        """``(sin(slope), aspect)`` per triangle (radians, flat triangles' aspect -1 read as 0),
+        computed once: numpy's ufuncs give each element the same bits in any array, so gathering
+        them equals computing them on the gathered slopes."""
+        return np.sin(np.radians(self.slope_deg)), np.radians(np.maximum(self.aspect_deg, 0.0))
 
     # -- line of sight --------------------------------------------------------------------
     def line_of_sight(self, a_xyz, b_xyz, hint=None) -> np.ndarray:

@@ -5,8 +5,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from .placement import check_placement
+from .sense_kernels import locate1, terrain_arrays
 from .state import Entities
 
 __all__ = ["make_entities", "move_entities"]
@@ -32,13 +34,26 @@ def move_entities(tin, steep, ent: Entities, speed_mps, turn_sd_rad, dt_s, rng) 
     out = ent.copy()
     m = np.flatnonzero(ent.mobile)
     h = ent.headings[m] + rng.normal(0.0, turn_sd_rad, len(m))
-    step = speed_mps * dt_s * np.column_stack([np.cos(h), np.sin(h)])
-    prop = ent.positions[m] + step
-    tri = tin.locate(prop, hint=ent.tri_idx[m])
-    ok = tri >= 0
-    ok[ok] = ~steep[tri[ok]]
-    out.positions[m[ok]] = prop[ok]
-    out.tri_idx[m[ok]] = tri[ok]
+    ok = _walk(terrain_arrays(tin), steep, out.positions, out.tri_idx, m, speed_mps * dt_s, np.cos(h), np.sin(h))
     h[~ok] += math.pi
     out.headings[m] = (h + math.pi) % (2 * math.pi) - math.pi
     return out
+
+
+@njit(cache=True)
+def _walk(T, steep, pos, tri, m, step, c, s):
+    """Entities ``m`` moved by ``step * (c, s)`` in place where the new point lies on the TIN
+    (located from the entity's triangle, as :meth:`Tin.locate` with a hint) on a traversable
+    triangle; returns which moved."""
+    ok = np.zeros(m.shape[0], dtype=np.bool_)
+    for k in range(m.shape[0]):
+        i = m[k]
+        x = pos[i, 0] + step * c[k]
+        y = pos[i, 1] + step * s[k]
+        t = locate1(T, x, y, tri[i])
+        if t >= 0 and not steep[t]:
+            pos[i, 0] = x
+            pos[i, 1] = y
+            tri[i] = t
+            ok[k] = True
+    return ok

@@ -89,13 +89,81 @@ def move_walk(vx, vy, tris, nbrs, grad, steep, pos, tri, disp, max_steps):
     return out_pos, out_tri, event
 
 
+@njit(cache=True, inline="always")
+def move1(T, steep, px, py, t0, h, h0, active, cmd0, cmd1, max_speed, max_climb_deg, max_turn, dt):
+    """One robot of :func:`move_kernel` (the fused locomotion's one home: :func:`move_kernel` and
+    the world's step kernel both run it): from its position, triangle ``t0``, heading ``h``,
+    ground height ``h0`` and command, ``(x, y, tri, heading, speed, event, height, moved, climb)``."""
+    vx, vy, vz, tris, nbrs, grad, bs, bt, bx0, by0, binv, bnx, bny, edges, border, tol, ztol, ms = T
+    # 1. body-frame command -> world velocity (clipped to the square, then the disc)
+    c0 = min(max(cmd0, -1.0), 1.0)
+    c1 = min(max(cmd1, -1.0), 1.0)
+    q2 = c0 * c0 + c1 * c1
+    nrm = 1.0 if q2 <= 0.999 else max(math.hypot(c0, c1), 1.0)  # inside the disc: hypot < 1 surely
+    c0 = c0 / nrm
+    c1 = c1 / nrm
+    ch = math.cos(h)
+    sh = math.sin(h)
+    vxw = max_speed * (ch * c0 - sh * c1)
+    vyw = max_speed * (sh * c0 + ch * c1)
+    if not active:
+        vxw = 0.0
+        vyw = 0.0
+    # 2. uphill pitch slows
+    sp = math.hypot(vxw, vyw)
+    rise = (grad[t0, 0] * vxw + grad[t0, 1] * vyw) / max(sp, 1e-300)
+    pitch = math.degrees(math.atan(max(rise, 0.0)))
+    f = min(max(1.0 - pitch / max_climb_deg, 0.0), 1.0) * dt
+    dx = vxw * f
+    dy = vyw * f
+    # 3. the walk, starting in the triangle the motion enters
+    x, y, t, ev = px, py, t0, MOVED
+    length = math.hypot(dx, dy)
+    if length > 0:
+        g = min(1e-6 / length, 1e-3)
+        qx = px + dx * g
+        qy = py + dy * g
+        ta = -1
+        if 0 <= t0 < tris.shape[0]:
+            ta = walk_locate1(vx, vy, tris, nbrs, qx, qy, t0, ms, tol)
+        if ta < 0:
+            ta = bucket_locate1(vx, vy, tris, bs, bt, bx0, by0, binv, bnx, bny, qx, qy, tol)
+        if ta < 0:
+            ev = BLOCKED_BORDER
+        elif steep[ta]:
+            if grad[ta, 0] * dx + grad[ta, 1] * dy < 0:
+                x, y, t, ev = qx, qy, ta, FELL_INTO
+            else:
+                ev = BLOCKED_STEEP
+        else:
+            x, y, t, ev = move_walk1(vx, vy, tris, nbrs, grad, steep, px, py, ta, dx, dy, ms)
+            if ev == STUCK:  # degenerate geometry: nudge 1 um toward the start triangle's centroid
+                cx = (vx[tris[ta, 0]] + vx[tris[ta, 1]] + vx[tris[ta, 2]]) / 3.0
+                cy = (vy[tris[ta, 0]] + vy[tris[ta, 1]] + vy[tris[ta, 2]]) / 3.0
+                ddx = cx - px
+                ddy = cy - py
+                dn = max(math.hypot(ddx, ddy), 1e-300)
+                x, y, t, ev = move_walk1(vx, vy, tris, nbrs, grad, steep, px + 1e-6 * ddx / dn,
+                                         py + 1e-6 * ddy / dn, ta, dx, dy, ms)
+                if ev == STUCK:  # give up: stay put this step
+                    x, y, t, ev = px, py, t0, BLOCKED_BORDER
+    mv = math.hypot(x - px, y - py)
+    # 4. heading turns toward the commanded motion
+    if sp > 0:
+        diff = wrap_pi(math.atan2(vyw, vxw) - h)  # (atan2 - h + pi) % 2pi - pi, bit for bit
+        h = h + min(max(diff, -max_turn), max_turn)
+    a = tris[t, 0]
+    z = vz[a] + grad[t, 0] * (x - vx[a]) + grad[t, 1] * (y - vy[a])
+    climb = z - h0
+    return x, y, t, wrap_pi(h), mv / dt, ev, z, mv, climb
+
+
 @njit(cache=True, parallel=True)
 def move_kernel(T, steep, pos, tri, head, heights, active, cmd, max_speed, max_climb_deg, max_turn, dt):
     """:func:`move` fused into one parallel pass, plus the new ground heights, distances driven
     and climbs: ``(pos (n, 2), tri, head, speeds, events, heights, moved, climb)``. ``T`` is
     :func:`~.sense_kernels.terrain_arrays`. The numpy functions of this module (:func:`move`)
     are its reference; each robot is computed by one iteration from its own inputs only."""
-    vx, vy, vz, tris, nbrs, grad, bs, bt, bx0, by0, binv, bnx, bny, edges, border, tol, ztol, ms = T
     n = pos.shape[0]
     out_pos = np.empty((n, 2))
     out_tri = np.empty(n, dtype=np.int64)
@@ -106,78 +174,17 @@ def move_kernel(T, steep, pos, tri, head, heights, active, cmd, max_speed, max_c
     moved = np.empty(n)
     climb = np.empty(n)
     for i in prange(n):
-        px = pos[i, 0]
-        py = pos[i, 1]
-        t0 = tri[i]
-        h = head[i]
-        # 1. body-frame command -> world velocity (clipped to the square, then the disc)
-        c0 = min(max(cmd[i, 0], -1.0), 1.0)
-        c1 = min(max(cmd[i, 1], -1.0), 1.0)
-        q2 = c0 * c0 + c1 * c1
-        nrm = 1.0 if q2 <= 0.999 else max(math.hypot(c0, c1), 1.0)  # inside the disc: hypot < 1 surely
-        c0 = c0 / nrm
-        c1 = c1 / nrm
-        ch = math.cos(h)
-        sh = math.sin(h)
-        vxw = max_speed * (ch * c0 - sh * c1)
-        vyw = max_speed * (sh * c0 + ch * c1)
-        if not active[i]:
-            vxw = 0.0
-            vyw = 0.0
-        # 2. uphill pitch slows
-        sp = math.hypot(vxw, vyw)
-        rise = (grad[t0, 0] * vxw + grad[t0, 1] * vyw) / max(sp, 1e-300)
-        pitch = math.degrees(math.atan(max(rise, 0.0)))
-        f = min(max(1.0 - pitch / max_climb_deg, 0.0), 1.0) * dt
-        dx = vxw * f
-        dy = vyw * f
-        # 3. the walk, starting in the triangle the motion enters
-        x, y, t, ev = px, py, t0, MOVED
-        length = math.hypot(dx, dy)
-        if length > 0:
-            g = min(1e-6 / length, 1e-3)
-            qx = px + dx * g
-            qy = py + dy * g
-            ta = -1
-            if 0 <= t0 < tris.shape[0]:
-                ta = walk_locate1(vx, vy, tris, nbrs, qx, qy, t0, ms, tol)
-            if ta < 0:
-                ta = bucket_locate1(vx, vy, tris, bs, bt, bx0, by0, binv, bnx, bny, qx, qy, tol)
-            if ta < 0:
-                ev = BLOCKED_BORDER
-            elif steep[ta]:
-                if grad[ta, 0] * dx + grad[ta, 1] * dy < 0:
-                    x, y, t, ev = qx, qy, ta, FELL_INTO
-                else:
-                    ev = BLOCKED_STEEP
-            else:
-                x, y, t, ev = move_walk1(vx, vy, tris, nbrs, grad, steep, px, py, ta, dx, dy, ms)
-                if ev == STUCK:  # degenerate geometry: nudge 1 um toward the start triangle's centroid
-                    cx = (vx[tris[ta, 0]] + vx[tris[ta, 1]] + vx[tris[ta, 2]]) / 3.0
-                    cy = (vy[tris[ta, 0]] + vy[tris[ta, 1]] + vy[tris[ta, 2]]) / 3.0
-                    ddx = cx - px
-                    ddy = cy - py
-                    dn = max(math.hypot(ddx, ddy), 1e-300)
-                    x, y, t, ev = move_walk1(vx, vy, tris, nbrs, grad, steep, px + 1e-6 * ddx / dn,
-                                             py + 1e-6 * ddy / dn, ta, dx, dy, ms)
-                    if ev == STUCK:  # give up: stay put this step
-                        x, y, t, ev = px, py, t0, BLOCKED_BORDER
+        x, y, t, hd, sp, ev, z, mv, cl = move1(T, steep, pos[i, 0], pos[i, 1], tri[i], head[i], heights[i], active[i],
+                                               cmd[i, 0], cmd[i, 1], max_speed, max_climb_deg, max_turn, dt)
         out_pos[i, 0] = x
         out_pos[i, 1] = y
         out_tri[i] = t
+        out_head[i] = hd
+        speeds[i] = sp
         event[i] = ev
-        mv = math.hypot(x - px, y - py)
-        speeds[i] = mv / dt
-        moved[i] = mv
-        # 4. heading turns toward the commanded motion
-        if sp > 0:
-            diff = wrap_pi(math.atan2(vyw, vxw) - h)  # (atan2 - h + pi) % 2pi - pi, bit for bit
-            h = h + min(max(diff, -max_turn), max_turn)
-        out_head[i] = wrap_pi(h)
-        a = tris[t, 0]
-        z = vz[a] + grad[t, 0] * (x - vx[a]) + grad[t, 1] * (y - vy[a])
         out_h[i] = z
-        climb[i] = z - heights[i]
+        moved[i] = mv
+        climb[i] = cl
     return out_pos, out_tri, out_head, speeds, event, out_h, moved, climb
 
 

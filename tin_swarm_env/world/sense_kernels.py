@@ -17,12 +17,12 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ..terrain._kernels import bucket_locate1, los_brute1, los_walk1, walk_locate1
+from ..terrain._kernels import bucket_locate1, los_brute1, los_walk1, orient, walk_locate1
 from .angles import wrap_pi
 from .grid import SENSE_REACH, grid_block, grid_cells
 
-__all__ = ["terrain_arrays", "sense_pass1", "sense_pass2", "compact", "compact_parallel", "PARALLEL_COMPACT_ROWS",
-           "break_grid", "collision_counts", "sight1"]
+__all__ = ["terrain_arrays", "sense_pass1", "sense_pass2", "compact", "break_grid", "collision_counts", "sight1",
+           "deep_margin", "deep_inside", "in_view", "FOV_MARGIN", "locate1"]
 
 
 def terrain_arrays(tin):
@@ -42,7 +42,9 @@ def terrain_arrays(tin):
 
 
 @njit(cache=True, inline="always")
-def _locate(T, x, y, hint):
+def locate1(T, x, y, hint):
+    """The triangle holding ``(x, y)``: walked from triangle ``hint`` (when ``>= 0``), else (or
+    when the walk fails) through the bucket grid, as :meth:`Tin.locate`; -1 outside."""
     vx, vy, vz, tris, nbrs, grad, bs, bt, bx0, by0, binv, bnx, bny, edges, border, tol, ztol, ms = T
     t = -1
     if hint >= 0:
@@ -63,19 +65,52 @@ def _ground(T, x, y):
     return vz[a] + grad[t, 0] * (x - vx[a]) + grad[t, 1] * (y - vy[a])
 
 
+def deep_margin(tin) -> float:
+    """How far inside its triangle (as the orientation value ``orient``, twice a signed area) a
+    point must lie for every point within 1e-6 m of it to be found in that triangle by the walk,
+    rounding included: ``L * (1.1e-6 + 4.5e-16 * C) + 4e-15 * L^2`` with ``L`` the longest
+    triangle edge and ``C`` the largest coordinate magnitude (:func:`deep_inside`). Cached on the TIN."""
+    m = tin.__dict__.get("_world_deep_margin")
+    if m is None:
+        v = tin.vertices[:, :2]
+        e = v[tin.triangles[:, [1, 2, 0]]] - v[tin.triangles]
+        L = float(np.sqrt((e ** 2).sum(axis=-1)).max()) if len(e) else 0.0
+        C = float(np.abs(v).max()) if len(v) else 0.0
+        m = tin.__dict__["_world_deep_margin"] = L * (1.1e-6 + 4.5e-16 * C) + 4e-15 * L * L
+    return m
+
+
 @njit(cache=True, inline="always")
-def sight1(T, ax, ay, az, bx, by, bz, ta):
-    """Line of sight a -> b (``ta`` the triangle holding a): as :meth:`Tin.line_of_sight` does
-    it, the walk starts in the triangle the segment enters and falls back to the brute force."""
+def deep_inside(T, x, y, t, margin):
+    """Whether ``(x, y)`` lies so far inside triangle ``t`` (every edge's ``orient > margin``,
+    :func:`deep_margin`) that :func:`sight1`'s start-triangle search from ``t`` (a point at most
+    1e-6 m away, walked from ``t``) would return ``t`` itself: then it can be skipped."""
     vx, vy, vz, tris, nbrs, grad, bs, bt, bx0, by0, binv, bnx, bny, edges, border, tol, ztol, ms = T
-    dx = bx - ax
-    dy = by - ay
-    length = math.hypot(dx, dy)
-    if length > 0 and ta >= 0:
-        f = min(1e-6 / length, 1e-3)
-        t2 = _locate(T, ax + dx * f, ay + dy * f, ta)
-        if t2 >= 0:
-            ta = t2
+    if t < 0:
+        return False
+    for k in range(3):
+        a = tris[t, (k + 1) % 3]
+        b = tris[t, (k + 2) % 3]
+        if not orient(vx[a], vy[a], vx[b], vy[b], x, y) > margin:
+            return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def sight1(T, ax, ay, az, bx, by, bz, ta, deep):
+    """Line of sight a -> b (``ta`` the triangle holding a): as :meth:`Tin.line_of_sight` does
+    it, the walk starts in the triangle the segment enters and falls back to the brute force.
+    ``deep``: a lies :func:`deep_inside` ``ta``, which is then the triangle the segment enters."""
+    vx, vy, vz, tris, nbrs, grad, bs, bt, bx0, by0, binv, bnx, bny, edges, border, tol, ztol, ms = T
+    if not deep:
+        dx = bx - ax
+        dy = by - ay
+        length = math.hypot(dx, dy)
+        if length > 0 and ta >= 0:
+            f = min(1e-6 / length, 1e-3)
+            t2 = locate1(T, ax + dx * f, ay + dy * f, ta)
+            if t2 >= 0:
+                ta = t2
     r = los_walk1(vx, vy, vz, tris, nbrs, grad, ax, ay, az, bx, by, bz, ta, ms, ztol)
     if r < 0:
         r = los_brute1(vx, vy, vz, edges, border, ax, ay, az, bx, by, bz, _ground(T, ax, ay), _ground(T, bx, by),
@@ -104,6 +139,28 @@ def _bearing(dx, dy, heading):
     return wrap_pi(math.atan2(dy, dx) - heading)  # (atan2 - heading + pi) % 2pi - pi, bit for bit
 
 
+FOV_MARGIN = 1e-9  # relative: the dot-product field-of-view test defers to the exact one within it
+
+
+@njit(cache=True, inline="always")
+def in_view(dx, dy, d, ch, sh, heading, half_fov, cos_hf):
+    """``abs(_bearing(dx, dy, heading)) <= half_fov`` (the exact test, an atan2 per call),
+    decided by the dot product with the heading ``(ch, sh) = (cos, sin)(heading)`` where it
+    is clear: ``dx ch + dy sh`` against ``cos(half_fov) d`` (``d`` the distance). The dot product
+    and the bearing are both within ~1e-15 (relative) of the true values, so outside a band of
+    :data:`FOV_MARGIN` ``* d`` around the threshold they agree; inside it (and for NaN, a zero
+    distance) the exact test decides. The same decision as the exact test, bit for bit."""
+    if half_fov >= math.pi:
+        return True  # every bearing lies in [-pi, pi]
+    q = dx * ch + dy * sh - cos_hf * d
+    m = FOV_MARGIN * d
+    if q > m:
+        return True
+    if q < -m:
+        return False
+    return abs(_bearing(dx, dy, heading)) <= half_fov
+
+
 @njit(cache=True, inline="always")
 def _near_row(i, qx, qy, x0, y0, inv, nx, ny, start, items, gx, gy, skip, range_m, r2, idx, dist):
     """Row ``i``: the at most K nearest grid points (a :func:`~.grid.grid_build` grid of cells
@@ -129,21 +186,22 @@ def _near_row(i, qx, qy, x0, y0, inv, nx, ny, start, items, gx, gy, skip, range_
 
 
 @njit(cache=True, inline="always")
-def _entity_row(T, i, px, py, sz, head, tri, ex, ey, ez, x0, y0, inv, nx, ny, start, items, gx, gy, range_m, r2,
-                half_fov, check_los, idx, dist, bear, vis, cnt):
+def _entity_row(T, i, qx, qy, qz, h, ch, sh, ti, deep, ex, ey, ez, x0, y0, inv, nx, ny, start, items, gx, gy, range_m,
+                half_fov, cos_hf, check_los, idx, dist, vis):
+    """Row ``i``'s entity candidates (observer at ``(qx, qy, qz)`` in triangle ``ti``, heading
+    ``h``), in view and in sight; returns how many. (At most 30 arguments: CPython passes more
+    as ``*args``, which numba does not inline.)"""
     if ex.shape[0] == 0:
-        cnt[i] = 0
-        return
-    c = _near_row(i, px[i], py[i], x0, y0, inv, nx, ny, start, items, gx, gy, -1, range_m, r2, idx, dist)
+        return 0
+    c = _near_row(i, qx, qy, x0, y0, inv, nx, ny, start, items, gx, gy, -1, range_m, (range_m * (1.0 + 1e-9)) ** 2,
+                  idx, dist)
     for s in range(c):
         j = idx[i, s]
-        b = _bearing(ex[j] - px[i], ey[j] - py[i], head[i])
-        bear[i, s] = b
-        v = 1 if abs(b) <= half_fov else 0
+        v = 1 if in_view(ex[j] - qx, ey[j] - qy, dist[i, s], ch, sh, h, half_fov, cos_hf) else 0
         if v and check_los:
-            v = sight1(T, px[i], py[i], sz[i], ex[j], ey[j], ez[j], tri[i])
+            v = sight1(T, qx, qy, qz, ex[j], ey[j], ez[j], ti, deep)
         vis[i, s] = v
-    cnt[i] = c
+    return c
 
 
 @njit(cache=True, inline="always")
@@ -156,17 +214,19 @@ def _break_cell(x0, y0, inv, nx, ny, x, y):
 
 
 @njit(cache=True, parallel=True)
-def sense_pass1(T, px, py, head, tri, sz, active, present, G, range_m, half_fov, check_los, R, TG, AS, B, bcnt):
-    """First parallel pass over the robots (in grid order, for locality): each active
-    observer's robot candidates (``R = (idx, dist, bear, vis, cnt)``, (n, K) slots; out of view
-    marked ``-1 - j``), its targets and assets (``TG``/``AS``: ``(ex, ey, ez, grid)`` and the
-    slots, in sight already) and how many break segments lie in range (``bcnt``; ``B`` the
+def sense_pass1(T, px, py, head, tri, sz, active, G, range_m, half_fov, cos_hf, margin, check_los, R, TG, AS, B,
+                bcnt, deep):
+    """First parallel pass over the robots (in grid order, for locality): each present
+    robot's ``deep`` flag (:func:`deep_inside` its triangle, ``margin`` :func:`deep_margin`);
+    each active observer's robot candidates (``R = (idx, dist, vis, cnt)``, (n, K) slots; out of
+    view marked ``-1 - j``), its targets and assets (``TG``/``AS``: ``(ex, ey, ez, grid)`` and
+    the slots, in sight already) and how many break segments lie in range (``bcnt``; ``B`` the
     break arrays and grid). Collision-free: every row is written by its own iteration only."""
-    r_idx, r_dist, r_bear, r_vis, r_cnt = R
-    t_E, t_idx, t_dist, t_bear, t_vis, t_cnt = TG
-    tx, ty, tz, TGG = t_E
+    r_idx, r_dist, r_vis, r_cnt = R
+    t_E, t_idx, t_dist, t_vis, t_cnt = TG
+    tx, ty, tz, TGG = t_E  # (the parallel loop takes arrays, not tuples of them)
     tx0, ty0, tinv, tnx, tny, tstart, titems, tgx, tgy = TGG
-    a_E, a_idx, a_dist, a_bear, a_vis, a_cnt = AS
+    a_E, a_idx, a_dist, a_vis, a_cnt = AS
     ax_, ay_, az_, AGG = a_E
     ax0, ay0, ainv, anx, any_, astart, aitems, agx, agy = AGG
     bax, bay, bbx, bby, BG = B
@@ -175,21 +235,25 @@ def sense_pass1(T, px, py, head, tri, sz, active, present, G, range_m, half_fov,
     r2 = (range_m * (1.0 + 1e-9)) ** 2
     for q in prange(items.shape[0]):
         i = items[q]
+        dp = deep_inside(T, px[i], py[i], tri[i], margin)
+        deep[i] = dp
         if not active[i]:
             continue
+        h = head[i]
+        ch = math.cos(h)
+        sh = math.sin(h)
         c = _near_row(i, px[i], py[i], x0, y0, inv, nx, ny, start, items, gx, gy, i, range_m, r2, r_idx, r_dist)
         for s in range(c):
             j = r_idx[i, s]
-            b = _bearing(px[j] - px[i], py[j] - py[i], head[i])
-            r_bear[i, s] = b
             r_vis[i, s] = 0
-            if not abs(b) <= half_fov:
+            if not in_view(px[j] - px[i], py[j] - py[i], r_dist[i, s], ch, sh, h, half_fov, cos_hf):
                 r_idx[i, s] = -1 - j  # in range but out of view: keeps its slot, marked negative
         r_cnt[i] = c
-        _entity_row(T, i, px, py, sz, head, tri, tx, ty, tz, tx0, ty0, tinv, tnx, tny, tstart, titems, tgx, tgy,
-                    range_m, r2, half_fov, check_los, t_idx, t_dist, t_bear, t_vis, t_cnt)
-        _entity_row(T, i, px, py, sz, head, tri, ax_, ay_, az_, ax0, ay0, ainv, anx, any_, astart, aitems, agx, agy,
-                    range_m, r2, half_fov, check_los, a_idx, a_dist, a_bear, a_vis, a_cnt)
+        t_cnt[i] = _entity_row(T, i, px[i], py[i], sz[i], h, ch, sh, tri[i], dp, tx, ty, tz, tx0, ty0, tinv, tnx, tny,
+                               tstart, titems, tgx, tgy, range_m, half_fov, cos_hf, check_los, t_idx, t_dist, t_vis)
+        a_cnt[i] = _entity_row(T, i, px[i], py[i], sz[i], h, ch, sh, tri[i], dp, ax_, ay_, az_, ax0, ay0, ainv, anx,
+                               any_, astart, aitems, agx, agy, range_m, half_fov, cos_hf, check_los, a_idx, a_dist,
+                               a_vis)
         cell = _break_cell(bx0, by0, binv, bnx, bny, px[i], py[i])
         lo, hi = (bstart[cell], bstart[cell + 1]) if cell >= 0 else (0, bax.shape[0])
         m = 0
@@ -214,19 +278,71 @@ def _mutual(idx, dist, cnt, j, i, d):
     return -1
 
 
+@njit(cache=True, inline="always")
+def _kept(idx, vis, cnt, i):
+    m = 0
+    for s in range(cnt[i]):
+        if idx[i, s] >= 0 and vis[i, s]:
+            m += 1
+    return m
+
+
+@njit(cache=True, inline="always")
+def _copy_kept(idx, dist, vis, cnt, i, p, px, py, head, ex, ey, obs, tgt, d, b):
+    """Row ``i``'s kept slots from ``p`` on, with their bearings (computed here, for the kept
+    slots only): ``(ex, ey)`` the seen points' coordinates."""
+    for s in range(cnt[i]):
+        j = idx[i, s]
+        if j >= 0 and vis[i, s]:
+            obs[p] = i
+            tgt[p] = j
+            d[p] = dist[i, s]
+            b[p] = _bearing(ex[j] - px[i], ey[j] - py[i], head[i])
+            p += 1
+
+
+@njit(cache=True, inline="always")
+def _compact_out(rows):
+    n = rows.shape[0]
+    start = np.empty(n + 1, dtype=np.int64)
+    start[0] = 0
+    for i in range(n):
+        start[i + 1] = start[i] + rows[i]
+    tot = start[n]
+    return start, np.empty(tot, dtype=np.int64), np.empty(tot, dtype=np.int64), np.empty(tot), np.empty(tot)
+
+
+@njit(cache=True)
+def compact(idx, dist, vis, cnt, px, py, head, ex, ey):
+    """The kept slots (``idx >= 0`` and ``vis``) as ``(observer, target, distance, bearing,
+    start (n + 1,))`` flattened observer-major: row i's contacts are ``start[i]:start[i + 1]``,
+    nearest first; bearings of the points ``(ex, ey)`` relative to each observer's heading."""
+    n = idx.shape[0]
+    rows = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        rows[i] = _kept(idx, vis, cnt, i)
+    start, obs, tgt, d, b = _compact_out(rows)
+    for i in range(n):
+        _copy_kept(idx, dist, vis, cnt, i, start[i], px, py, head, ex, ey, obs, tgt, d, b)
+    return obs, tgt, d, b, start
+
+
 @njit(cache=True, parallel=True)
-def sense_pass2(T, px, py, tri, sz, active, G, range_m, check_los, R, B, bcnt):
-    """Second parallel pass: line of sight of every in-view robot slot (``R``'s ``vis``) and
-    the break contacts. Sight is symmetric: a pair is walked once, from its lower index to its
+def sense_pass2(T, px, py, head, tri, sz, active, G, range_m, check_los, R, B, bcnt, deep):
+    """Second parallel pass: line of sight of every in-view robot slot (``R``'s ``vis``), the
+    break contacts, then the robot contacts compacted (:func:`compact`, its rows counted and
+    copied in parallel). Sight is symmetric: a pair is walked once, from its lower index to its
     higher; when both see each other in view, the lower-index observer writes both slots (the
-    other skips it), so each slot has exactly one writer. Breaks: ``(observer, break,
-    distance, closest (P, 2), start (n + 1,))``, observer-major, nearest first (ties: lower index)."""
-    r_idx, r_dist, r_bear, r_vis, r_cnt = R
+    other skips it), so each slot has exactly one writer. Returns the breaks ``(observer, break,
+    distance, closest (P, 2), start (n + 1,))``, observer-major, nearest first (ties: lower
+    index), and the robots as :func:`compact` does."""
+    r_idx, r_dist, r_vis, r_cnt = R
     bax, bay, bbx, bby, BG = B
     bx0, by0, binv, bnx, bny, bstart, bitems = BG
     items = G[6]
     n = px.shape[0]
-    off = np.zeros(n + 1, dtype=np.int64)
+    off = np.empty(n + 1, dtype=np.int64)
+    off[0] = 0
     for i in range(n):
         off[i + 1] = off[i] + bcnt[i]
     tot = off[n]
@@ -250,7 +366,7 @@ def sense_pass2(T, px, py, tri, sz, active, G, range_m, check_los, R, B, bcnt):
                 continue  # j walks it and writes this slot
             lo = min(i, j)
             hi = max(i, j)
-            v = sight1(T, px[lo], py[lo], sz[lo], px[hi], py[hi], sz[hi], tri[lo])
+            v = sight1(T, px[lo], py[lo], sz[lo], px[hi], py[hi], sz[hi], tri[lo], deep[lo])
             r_vis[i, s] = v
             if m >= 0:
                 r_vis[j, m] = v
@@ -278,69 +394,15 @@ def sense_pass2(T, px, py, tri, sz, active, G, range_m, check_los, R, B, bcnt):
                 m += 1
         for p in range(p0, p0 + m):
             obs[p] = i
-    return obs, seg, dist, closest, off
-
-
-@njit(cache=True, inline="always")
-def _kept(idx, keep, cnt, i):
-    m = 0
-    for s in range(cnt[i]):
-        if idx[i, s] >= 0 and keep[i, s]:
-            m += 1
-    return m
-
-
-@njit(cache=True, inline="always")
-def _copy_kept(idx, dist, bear, keep, cnt, i, p, obs, tgt, d, b):
-    for s in range(cnt[i]):
-        if idx[i, s] >= 0 and keep[i, s]:
-            obs[p] = i
-            tgt[p] = idx[i, s]
-            d[p] = dist[i, s]
-            b[p] = bear[i, s]
-            p += 1
-
-
-@njit(cache=True)
-def _compact_out(rows):
-    n = rows.shape[0]
-    start = np.zeros(n + 1, dtype=np.int64)
-    for i in range(n):
-        start[i + 1] = start[i] + rows[i]
-    tot = start[n]
-    return start, np.empty(tot, dtype=np.int64), np.empty(tot, dtype=np.int64), np.empty(tot), np.empty(tot)
-
-
-@njit(cache=True)
-def compact(idx, dist, bear, keep, cnt):
-    """The kept slots ``(observer, target, distance, bearing)`` flattened observer-major, and
-    ``start (n + 1,)`` offsets: row i's contacts are ``start[i]:start[i + 1]``, nearest first."""
-    n = idx.shape[0]
-    rows = np.empty(n, dtype=np.int64)
-    for i in range(n):
-        rows[i] = _kept(idx, keep, cnt, i)
-    start, obs, tgt, d, b = _compact_out(rows)
-    for i in range(n):
-        _copy_kept(idx, dist, bear, keep, cnt, i, start[i], obs, tgt, d, b)
-    return obs, tgt, d, b, start
-
-
-@njit(cache=True, parallel=True)
-def compact_parallel(idx, dist, bear, keep, cnt):
-    """:func:`compact` with the rows counted and copied in parallel (each row by its own
-    iteration, the prefix sum serial): the same arrays. Worth two thread start-ups only for
-    many rows (:data:`PARALLEL_COMPACT_ROWS`)."""
-    n = idx.shape[0]
+    # the robot contacts, compacted: rows counted and copied in parallel (row i by iteration i)
     rows = np.empty(n, dtype=np.int64)
     for i in prange(n):
-        rows[i] = _kept(idx, keep, cnt, i)
-    start, obs, tgt, d, b = _compact_out(rows)
+        rows[i] = _kept(r_idx, r_vis, r_cnt, i) if active[i] else 0
+    start, ro, rt, rd, rb = _compact_out(rows)
     for i in prange(n):
-        _copy_kept(idx, dist, bear, keep, cnt, i, start[i], obs, tgt, d, b)
-    return obs, tgt, d, b, start
-
-
-PARALLEL_COMPACT_ROWS = 4096  # below this many observers, compact serially (a parallel region costs ~10 us)
+        if rows[i]:
+            _copy_kept(r_idx, r_dist, r_vis, r_cnt, i, start[i], px, py, head, px, py, ro, rt, rd, rb)
+    return (obs, seg, dist, closest, off), (ro, rt, rd, rb, start)
 
 
 # -- terrain breaks ----------------------------------------------------------------------------

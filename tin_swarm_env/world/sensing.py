@@ -36,6 +36,7 @@ from numba import njit
 
 from . import sense_kernels as SK
 from .grid import grid_build, sense_cell
+from .state import Reason
 
 __all__ = ["Contacts", "BreakContacts", "SensorReadings", "BreakIndex", "sense", "nearest_k"]
 
@@ -223,7 +224,7 @@ _SCRATCH = threading.local()  # per thread: slot buffers reused across calls (ne
 
 
 def _slots(n, k, which):
-    """``(idx, dist, bear, vis, cnt)``: per observer K candidate slots (only ``[:cnt]`` is read;
+    """``(idx, dist, vis, cnt)``: per observer K candidate slots (only ``[:cnt]`` is read;
     ``cnt`` zeroed here, the kernels write every slot they later read). Reused across calls
     of the same thread and size: no allocation per step."""
     cache = getattr(_SCRATCH, "slots", None)
@@ -234,9 +235,9 @@ def _slots(n, k, which):
     if buf is None:
         if len(cache) > 12:
             cache.clear()
-        buf = cache[key] = (np.empty((n, k), dtype=np.int64), np.empty((n, k)), np.empty((n, k)),
-                            np.empty((n, k), dtype=np.int8), np.empty(n, dtype=np.int64))
-    buf[4][:] = 0
+        buf = cache[key] = (np.empty((n, k), dtype=np.int64), np.empty((n, k)), np.empty((n, k), dtype=np.int8),
+                            np.empty(n, dtype=np.int64))
+    buf[3][:] = 0
     return buf
 
 
@@ -261,28 +262,30 @@ def sense(tin, break_index: BreakIndex, state, params) -> SensorReadings:
     x = np.ascontiguousarray(state.positions[:, 0])
     y = np.ascontiguousarray(state.positions[:, 1])
     head = np.ascontiguousarray(state.headings, dtype=np.float64)
-    active = np.ascontiguousarray(state.active)
-    present = np.ascontiguousarray(state.present)
+    status = state.status
+    active = status == Reason.NONE
+    present = active | (status == Reason.BATTERY)  # is_present
     tri = np.ascontiguousarray(state.tri_idx, dtype=np.int64)
     sz = np.ascontiguousarray(state.heights + sp.height_m)
     half_fov = math.radians(sp.fov_deg) / 2 + 1e-12
     T = SK.terrain_arrays(tin)
     G = grid_build(x, y, present, sense_cell(r))
     R = _slots(n, k, 0)
-    TG = (_entities(tin, state.targets, params, r), *_slots(n, k, 1))
-    AS = (_entities(tin, state.assets, params, r), *_slots(n, k, 2))
+    TE, AE = _entities(tin, state.targets, params, r), _entities(tin, state.assets, params, r)
+    TG = (TE, *_slots(n, k, 1))
+    AS = (AE, *_slots(n, k, 2))
     bi = break_index
     if r > bi.range_m:
         raise ValueError(f"BreakIndex built for range {bi.range_m} m, asked for {r} m")
     B = (bi.ax, bi.ay, bi.bx, bi.by, bi.grid)
     bcnt = np.zeros(n, dtype=np.int64)
+    deep = np.empty(n, dtype=np.bool_)
     los = bool(sp.check_los)
-    SK.sense_pass1(T, x, y, head, tri, sz, active, present, G, r, half_fov, los, R, TG, AS, B, bcnt)
-    obs, seg, d, c, start = SK.sense_pass2(T, x, y, tri, sz, active, G, r, los, R, B, bcnt)
-    compact = SK.compact_parallel if n >= SK.PARALLEL_COMPACT_ROWS else SK.compact
-    robots = Contacts(*compact(R[0], R[1], R[2], R[3], R[4]))
-    targets = Contacts(*SK.compact(*TG[1:])) if len(state.targets) else _empty_contacts(n)
-    assets = Contacts(*SK.compact(*AS[1:])) if len(state.assets) else _empty_contacts(n)
-    return SensorReadings(robots=robots, targets=targets, assets=assets, breaks=BreakContacts(obs, seg, d, c, start),
+    SK.sense_pass1(T, x, y, head, tri, sz, active, G, r, half_fov, math.cos(half_fov), SK.deep_margin(tin), los, R,
+                   TG, AS, B, bcnt, deep)
+    brk, rob = SK.sense_pass2(T, x, y, head, tri, sz, active, G, r, los, R, B, bcnt, deep)
+    targets = Contacts(*SK.compact(*TG[1:], x, y, head, TE[0], TE[1])) if len(state.targets) else _empty_contacts(n)
+    assets = Contacts(*SK.compact(*AS[1:], x, y, head, AE[0], AE[1])) if len(state.assets) else _empty_contacts(n)
+    return SensorReadings(robots=Contacts(*rob), targets=targets, assets=assets, breaks=BreakContacts(*brk),
                           tilt_rad=tin.sensor_tilt_in(tri, head), slope_deg=tin.slope_deg[tri],
                           aspect_deg=tin.aspect_deg[tri])

@@ -7,7 +7,7 @@ from enum import IntEnum
 
 import numpy as np
 
-__all__ = ["WorldState", "Entities", "Reason", "is_present"]
+__all__ = ["WorldState", "Entities", "Reason", "is_present", "copy_rng"]
 
 
 class Reason(IntEnum):
@@ -65,7 +65,7 @@ class Entities:
         return Entities(*(getattr(self, f.name).copy() for f in fields(self)))
 
 
-def _copy_rng(rng):
+def copy_rng(rng):
     """An independent generator in the same state (its future draws equal ``rng``'s): the bit
     generator's state copied into a fresh one, a quarter of ``copy.deepcopy``'s time."""
     import copy
@@ -135,7 +135,7 @@ class WorldState:
             elif isinstance(v, Entities):
                 kw[f.name] = v.copy()
             elif f.name == "rng":
-                kw[f.name] = _copy_rng(v)
+                kw[f.name] = copy_rng(v)
             else:
                 kw[f.name] = v
         return WorldState(**kw)

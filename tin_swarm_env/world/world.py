@@ -11,15 +11,13 @@ import numpy as np
 
 from ..errors import ArgumentError
 from ..terrain import Tin
-from . import locomotion
-from .battery import drain
 from .entities import make_entities, move_entities
 from .params import WorldParams
-from .grid import grid_build
 from .placement import check_placement
-from .sense_kernels import collision_counts, terrain_arrays
+from .sense_kernels import terrain_arrays
 from .sensing import BreakIndex, SensorReadings, sense
-from .state import Entities, Reason, WorldState, is_present
+from .state import Entities, Reason, WorldState, copy_rng
+from .step_kernel import step_kernel
 
 __all__ = ["World", "StepEvents", "flat_tin", "SERIAL_BELOW"]
 
@@ -121,11 +119,10 @@ class World:
         c = np.asarray(commands, dtype=np.float64)
         if c.shape != (state.n_robots, 2):
             raise ArgumentError(f"commands must have shape ({state.n_robots}, 2), got {c.shape}")
-        bad = ~np.all(np.isfinite(c), axis=1)
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
+        if not np.isfinite(c).all():  # one pass; find the culprit only when there is one
+            i = int(np.flatnonzero(~np.all(np.isfinite(c), axis=1))[0])
             raise ArgumentError(f"robot {i}: command {c[i].tolist()} is not finite (NaN or inf)")
-        return c
+        return np.ascontiguousarray(c)
 
     def step(self, state: WorldState, commands) -> tuple[WorldState, StepEvents]:
         """Advance one step of ``params.dt_s``. ``commands (n, 2)``: body-frame velocity as
@@ -134,33 +131,27 @@ class World:
         the step's events."""
         c = self.check_commands(state, commands)
         P = self.params
-        s = state.copy()
-        # locomotion.move (the numpy reference) fused into one parallel pass with heights and distances
-        with serial_if_small(state.n_robots):
-            pos, tri, head, speeds, ev, heights, moved, climb = locomotion.move_kernel(
-                terrain_arrays(self.tin), self.steep, np.ascontiguousarray(s.positions),
-                np.ascontiguousarray(s.tri_idx), np.ascontiguousarray(s.headings), np.ascontiguousarray(s.heights),
-                s.status == Reason.NONE, c, float(P.robot.max_speed_mps), float(P.robot.max_climb_deg),
-                math.radians(P.robot.turn_rate_dps) * P.dt_s, float(P.dt_s))
-        new_batt = drain(s.battery_j, s.status, moved, climb, P.battery, P.dt_s)
-        energy = s.battery_j - new_batt
-        fell = ev == locomotion.FELL_INTO
-        status = s.status.copy()
-        status[fell] = Reason.FELL
-        emptied = (status == Reason.NONE) & (new_batt <= 0.0)
-        status[emptied] = Reason.BATTERY
-        # collisions among robots still on the terrain: a grid of cell = the collision diameter
-        present = is_present(status)
-        x, y = np.ascontiguousarray(pos[:, 0]), np.ascontiguousarray(pos[:, 1])
+        B = P.battery
         diameter = 2 * P.robot.radius_m
+        # locomotion.move, battery.drain, the status codes and the collision count (the numpy and
+        # kernel references) fused into one compiled call: step_kernel
         with serial_if_small(state.n_robots):
-            coll, pairs = collision_counts(x, y, present, grid_build(x, y, present, diameter), diameter)
+            (pos, tri, head, heights, speeds, ev, moved, climb, new_batt, energy, status, fell, emptied, coll,
+             pairs) = step_kernel(
+                terrain_arrays(self.tin), self.steep, np.ascontiguousarray(state.positions),
+                np.ascontiguousarray(state.tri_idx), np.ascontiguousarray(state.headings),
+                np.ascontiguousarray(state.heights), np.ascontiguousarray(state.status), state.battery_j, c,
+                float(P.robot.max_speed_mps), float(P.robot.max_climb_deg),
+                math.radians(P.robot.turn_rate_dps) * P.dt_s, float(P.dt_s), (B.idle_w + B.sensing_w) * P.dt_s,
+                float(B.drive_j_per_m), float(B.climb_j_per_m), float(diameter))
+        rng = copy_rng(state.rng)  # the old state keeps its generator (and its future draws)
         turn_sd = math.radians(P.entity_turn_sd_deg)
-        targets = move_entities(self.tin, self.steep, s.targets, P.entity_speed_mps, turn_sd, P.dt_s, s.rng)
-        assets = move_entities(self.tin, self.steep, s.assets, P.entity_speed_mps, turn_sd, P.dt_s, s.rng)
+        targets = move_entities(self.tin, self.steep, state.targets, P.entity_speed_mps, turn_sd, P.dt_s, rng)
+        assets = move_entities(self.tin, self.steep, state.assets, P.entity_speed_mps, turn_sd, P.dt_s, rng)
         new = WorldState(positions=pos, headings=head, tri_idx=tri, heights=heights, speeds=speeds,
-                         battery_j=new_batt, status=status, collisions=s.collisions + coll,
-                         targets=targets, assets=assets, rng=s.rng, step=s.step + 1)
+                         battery_j=new_batt, status=status, collisions=state.collisions + coll,
+                         targets=targets if targets is not state.targets else targets.copy(),
+                         assets=assets if assets is not state.assets else assets.copy(), rng=rng, step=state.step + 1)
         return new, StepEvents(moved_m=moved, climb_m=climb, energy_j=energy, motion_event=ev, fell=fell,
                                emptied=emptied, collisions=coll, collision_pairs=pairs)
 
