@@ -403,10 +403,9 @@ def _cut_pass(z, along, across, start, run, h, width_m, p, cross=None):
     sheer from the floor's edge (the extra cell each side pays for the last floor cell's
     triangle, which is steep). Over the next flank's width the flanks taper in to nothing and the
     floor narrows back to ``width_m`` (a funnel: a flank that ran into the mouth's wall would
-    leave a blind pocket beside the mouth, where robots following the flank's edge pile up). And
-    the floor is level for one cell either side of the cliff line (the *landing*; :func:`_run`
-    adds its two cells to the run, so the slope elsewhere is the drawn one), so the two cell rows
-    either side of the cliff are at one height. Without these, a
+    leave a blind pocket beside the mouth, where robots following the flank's edge pile up). And the floor is level for one cell either side of the cliff line
+    (the *landing*; :func:`_run` adds its two cells to the run, so the slope elsewhere is the
+    drawn one), so the two cell rows either side of the cliff are at one height. Without these, a
     flank makes a step across the cliff line that grows from nothing at the floor's edge, and the
     slope's own step between the two rows leaves little margin on small cells; a greedy TIN,
     allowed its vertical error, then joins the two rows with slivers that cut across the floor
