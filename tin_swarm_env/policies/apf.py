@@ -63,7 +63,10 @@ turns the whole boundary through ``H`` has been driven. If the target is reachab
 from ``H`` meets that boundary again at a point nearer the target with the way to the target
 clear (Bug2's argument), where rule 3 lets the robot leave; so a robot that finds no such point
 has shown its target unreachable (rule 5). No loop is driven twice: a loop round ``H`` ends the
-search, and the turn-backs retrace what the budget allowed, each time further.
+search, and the turn-backs retrace what the budget allowed, each time further. The argument
+assumes the robot keeps to the boundary through ``H``; one that crosses to another boundary
+through a gap or ramp can follow that one round for good (never nearer than ``rec``, never
+back at ``H``): an open case, measured in ``docs/figures/apf_notes.md``.
 
 **Queues.** Robots that see each other keep 1.5 body diameters apart and the robot field pushes
 them aside, so robots following one wall queue behind each other; one stalled in a queue turns

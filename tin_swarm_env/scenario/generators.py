@@ -401,12 +401,9 @@ def _cut_pass(z, along, across, start, run, h, width_m, p, cross=None):
     the middle), is built so that a TIN keeps its width. Within :data:`MOUTH_CELLS` cells of the
     cliff line the floor is ``width_m + 2 cell_m`` wide with no flank: the walls rise or fall
     sheer from the floor's edge (the extra cell each side pays for the last floor cell's
-    triangle, which is steep). Over the next flank's width the flanks taper in to nothing and the
-    floor narrows back to ``width_m`` (a funnel: a flank that ran into the mouth's wall would
-    leave a blind pocket beside the mouth, where robots following the flank's edge pile up). And
-    the floor is level for one cell either side of the cliff line (the *landing*; :func:`_run`
-    adds its two cells to the run, so the slope elsewhere is the drawn one), so the two cell rows
-    either side of the cliff are at one height. Without these, a
+    triangle, which is steep). And the floor is level for one cell either side of the cliff line
+    (the *landing*; :func:`_run` adds its two cells to the run, so the slope elsewhere is the
+    drawn one), so the two cell rows either side of the cliff are at one height. Without these, a
     flank makes a step across the cliff line that grows from nothing at the floor's edge, and the
     slope's own step between the two rows leaves little margin on small cells; a greedy TIN,
     allowed its vertical error, then joins the two rows with slivers that cut across the floor
@@ -416,11 +413,10 @@ def _cut_pass(z, along, across, start, run, h, width_m, p, cross=None):
     x = along - start
     x = x - np.clip(x - (cross - cell), 0.0, 2 * cell)  # the landing does not count
     ramp = h * np.clip(1.0 - x / (run - 2 * cell), 0.0, 1.0)
-    # 0 in the mouth, 1 a flank's width or more beyond it: the flanks taper off toward the mouth
-    t = np.clip((np.abs(along - (start + cross)) - MOUTH_CELLS * cell) / _flare_m(p), 0.0, 1.0)
-    d = np.maximum(np.abs(across) - (width_m / 2 + cell * (1.0 - t)), 0.0)
-    flank = np.where(d <= _flare_m(p) * t, math.tan(0.6 * math.radians(p["max_slope_deg"])) * d, np.inf)
-    flank = np.where(d == 0.0, 0.0, flank)
+    mouth = np.abs(along - (start + cross)) <= MOUTH_CELLS * cell
+    d = np.maximum(np.abs(across) - np.where(mouth, width_m / 2 + cell, width_m / 2), 0.0)
+    flank = np.where((d <= _flare_m(p)) & ~mouth, math.tan(0.6 * math.radians(p["max_slope_deg"])) * d, np.inf)
+    flank = np.where(mouth & (d == 0.0), 0.0, flank)
     on = (along >= start) & (along <= start + run)
     return np.where(on, np.clip(z, ramp - flank, ramp + flank), z)
 
