@@ -146,3 +146,68 @@ def test_a_robot_following_a_wall_drives_through_a_gap_in_it_once_per_following(
     pol.act_batch(obs_row(layout, R, (0.0, -100.0), wall))
     pol.act_batch(obs_row(layout, R, (0.0, -100.0), ends, robots=[(0.0, -3.0)]))
     assert pol.memory.gap[0] == 0
+
+
+# -- queues at a narrow pass (hand-built: robots placed by the reset options) -----------------
+
+from tin_swarm_env.scenario import scenario_from_dict  # noqa: E402
+
+QSIZE = 200.0  # m: a 20 m plateau west of x = 100, its cliff across the map, one pass 12 m wide at y = 100:
+# a trench cut 60 m into the plateau, its floor meeting the cliff foot; robots on the floor, their
+# targets up on the plateau (or the reverse)
+
+
+def queue_run(robots, headings, targets, mirror, max_cycles=600):
+    """Reasons and end steps of APF robots placed at ``robots`` (k, 2) with ``headings`` (k,) rad,
+    robot i heading for ``targets[i % len(targets)]``; ``mirror`` reflects it all north-south."""
+    cfg = scenario_from_dict({
+        "name": "queue", "task": "goal", "max_cycles": max_cycles,
+        "terrain": {"source": "procedural", "recipe": "canyon", "method": "delaunay",
+                    "params": {"width": QSIZE, "height": QSIZE, "cell": 2.0, "plateau_m": 20.0, "cliff_x": 100.0,
+                               "pass_y": [94.0, 106.0], "ramp_in_m": 60.0}},
+        "robots": {"count": len(robots), "max_slope_deg": 30.0},
+        "targets": {"positions": targets, "arrival_radius_m": 5.0}}, source="test_apf queue")
+    flip = np.array([1.0, -1.0]) if mirror else np.ones(2)
+    off = np.array([0.0, QSIZE]) if mirror else np.zeros(2)
+    env = tse.parallel_env(scenario=cfg)
+    pol = APFPolicy(env)
+    obs = env.reset_arrays(seed=0, options={"robot_positions": off + flip * np.asarray(robots, float),
+                                            "headings": np.asarray(headings, float) * flip[1],
+                                            "target_positions": off + flip * np.asarray(targets, float)})
+    pol.reset()
+    reasons, steps = np.zeros(env.n, dtype=np.int8), np.zeros(env.n, dtype=np.int64)
+    while env.live_mask.any():
+        obs, _, term, trunc, why = env.step_arrays(pol.act_batch(obs))
+        ended = term | trunc
+        reasons[ended], steps[ended] = why[ended], env.steps
+    return reasons, steps
+
+
+@pytest.mark.parametrize("mirror", [False, True], ids=["as-is", "mirrored"])
+def test_ten_robots_queued_along_a_wall_all_go_up_one_narrow_pass(mirror):
+    # along the cliff foot north of the mouth, 4 m apart, heading south toward it; the target up
+    # on the plateau beyond the trench. A lone robot from the last place takes 195 (as is) or 404
+    # (mirrored: it tries the wrong way first) steps; the queue may add 2 steps a robot
+    robots = [[103.0, 110.0 + 4 * i] for i in range(10)]
+    reasons, steps = queue_run(robots, [-np.pi / 2] * 10, [[20.0, 100.0]], mirror)
+    assert np.all(reasons == Reason.ARRIVED), reasons
+    assert steps.max() <= 500, steps
+
+
+@pytest.mark.parametrize("mirror", [False, True], ids=["as-is", "mirrored"])
+def test_two_streams_meeting_at_a_mouth_both_get_through(mirror):
+    # five robots along the cliff foot north of the mouth heading south, five south of it heading north
+    robots = [[103.0, 110.0 + 4 * i] for i in range(5)] + [[103.0, 90.0 - 4 * i] for i in range(5)]
+    reasons, steps = queue_run(robots, [-np.pi / 2] * 5 + [np.pi / 2] * 5, [[20.0, 100.0]], mirror)
+    assert np.all(reasons == Reason.ARRIVED), reasons
+    assert steps.max() <= 500, steps
+
+
+@pytest.mark.parametrize("mirror", [False, True], ids=["as-is", "mirrored"])
+def test_robots_meeting_head_on_in_a_corridor_pass_each_other(mirror):
+    # robot 0 at the trench's top end going down to the floor, robot 1 at its mouth going up: they
+    # meet head on in the 12 m trench (60 m long); alone each takes about 110 steps
+    reasons, steps = queue_run([[45.0, 100.0], [105.0, 100.0]], [0.0, np.pi], [[150.0, 100.0], [20.0, 100.0]],
+                               mirror)
+    assert np.all(reasons == Reason.ARRIVED), reasons
+    assert steps.max() <= 250, steps

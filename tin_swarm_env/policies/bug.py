@@ -49,7 +49,7 @@ class BugParams:
     home_m: float = 5.0
     home_arc_m: float = 30.0
     first_budget: float = 2.0
-    min_budget: float = 1.0
+    min_budget: float = 6.0
     split: float = 0.05
     stall_crowded: int = 4
 

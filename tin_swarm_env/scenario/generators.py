@@ -13,7 +13,9 @@ Every cliff is a one-cell step at least ``cell_m * tan(cliff_min_deg)`` high, so
 every pass or ramp floor is at most ``max_slope_deg / 2`` steep (15 deg) including the noise,
 which never adds more than ``max_slope_deg / 10`` (3 deg) of slope; a pass's flanks (``4 m + 2
 cells`` wide, at most about 24 deg) join it to the ground over its full width near its ends, so a
-greedy TIN never reduces that joint to one vertex. So the task stays unambiguous after TIN
+greedy TIN never reduces that joint to one vertex; where it goes through the cliff (its *mouth*)
+its walls are sheer and its floor one cell wider each side and level across the cliff line, so the
+greedy TIN keeps its width there (``_cut_pass``). So the task stays unambiguous after TIN
 reduction (measured: the target was reachable over passable triangles of the greedy 0.5 m TIN in
 298 of 300 draws; the two misses, both mesas, had a steep sliver triangle across a ramp, which is
 what the ``solvable`` check below catches; fork: 149 of 150, trap: 150 of 150; a sliver can also
@@ -126,6 +128,7 @@ __all__ = ["GeneratedTask", "PARAMS", "ALL_FAMILIES", "DEFAULT_RANGES", "FAMILIE
 
 HEADINGS = {"north": (0.0, 1.0), "east": (1.0, 0.0), "south": (0.0, -1.0), "west": (-1.0, 0.0)}
 SIDES = ("left", "right", "both")
+MOUTH_CELLS = 2.0  # a pass's mouth (where it goes through the cliff): this many cells either side of the cliff line
 MARGIN_M = 4.0  # clear ground kept between a spawn region / target and the map edge or a cliff
 
 
@@ -380,16 +383,40 @@ def _flare_m(p):
     return 4.0 + 2.0 * p["cell_m"]
 
 
-def _cut_pass(z, along, across, start, run, h, width_m, p):
+def _run(h, tan, p):
+    """Horizontal length of a pass ``h`` high at slope ``tan``, m: the slope's run and the mouth's
+    landing (two cells, :func:`_cut_pass`)."""
+    return h / tan + 2 * p["cell_m"]
+
+
+def _cut_pass(z, along, across, start, run, h, width_m, p, cross=None):
     """``z`` (n, n) m with a pass cut into / built onto it: along the axis coordinate ``along``
     (n, n) m from ``start`` (height ``h``) to ``start + run`` (height 0), a floor ``width_m`` wide
     about ``across == 0``. Each side has a flank ``_flare_m`` wide rising or falling from the floor
     at ``tan(0.6 max_slope_deg)`` (18 deg) until it meets ``z``; beyond it ``z`` is kept, so the
     pass has steep walls where it is deep and gentle sides near its two ends (a TIN joins it to
-    the ground over its full width there, never through one vertex)."""
-    ramp = h * np.clip((start + run - along) / run, 0.0, 1.0)
-    d = np.maximum(np.abs(across) - width_m / 2, 0.0)
-    flank = np.where(d <= _flare_m(p), math.tan(0.6 * math.radians(p["max_slope_deg"])) * d, np.inf)
+    the ground over its full width there, never through one vertex).
+
+    The *mouth*, where the pass goes through the cliff (``start + cross`` along the axis, default
+    the middle), is built so that a TIN keeps its width. Within :data:`MOUTH_CELLS` cells of the
+    cliff line the floor is ``width_m + 2 cell_m`` wide with no flank: the walls rise or fall
+    sheer from the floor's edge (the extra cell each side pays for the last floor cell's
+    triangle, which is steep). And the floor is level for one cell either side of the cliff line
+    (the *landing*; :func:`_run` adds its two cells to the run, so the slope elsewhere is the
+    drawn one), so the two cell rows either side of the cliff are at one height. Without these, a
+    flank makes a step across the cliff line that grows from nothing at the floor's edge, and the
+    slope's own step between the two rows leaves little margin on small cells; a greedy TIN,
+    allowed its vertical error, then joins the two rows with slivers that cut across the floor
+    (measured: mouths down to 1.5 m for an 11 m pass)."""
+    cell = p["cell_m"]
+    cross = run / 2 if cross is None else cross
+    x = along - start
+    x = x - np.clip(x - (cross - cell), 0.0, 2 * cell)  # the landing does not count
+    ramp = h * np.clip(1.0 - x / (run - 2 * cell), 0.0, 1.0)
+    mouth = np.abs(along - (start + cross)) <= MOUTH_CELLS * cell
+    d = np.maximum(np.abs(across) - np.where(mouth, width_m / 2 + cell, width_m / 2), 0.0)
+    flank = np.where((d <= _flare_m(p)) & ~mouth, math.tan(0.6 * math.radians(p["max_slope_deg"])) * d, np.inf)
+    flank = np.where(mouth & (d == 0.0), 0.0, flank)
     on = (along >= start) & (along <= start + run)
     return np.where(on, np.clip(z, ramp - flank, ramp + flank), z)
 
@@ -448,7 +475,7 @@ def canyon(rng: np.random.Generator, **params) -> GeneratedTask:
     u, v, to_world = _frame(x, half, p["heading"])
     h_min, ramp_tan, _ = _slopes(p)
     h = max(p["cliff_m"], h_min)
-    run = h / min(math.tan(math.radians(p["ramp_slope_deg"])), ramp_tan)  # horizontal length of a pass, m
+    run = _run(h, min(math.tan(math.radians(p["ramp_slope_deg"])), ramp_tan), p)  # horizontal length of a pass, m
     vc, off, w, s = p["cliff_v_frac"] * half, p["pass_offset_frac"] * half, p["pass_width_m"], p["spawn_m"]
     spawn_uv = np.array([0.0, (vc - half) / 2])
     target_uv = np.array([p["target_u_frac"] * half, (vc + half) / 2])
@@ -482,7 +509,7 @@ def mesa(rng: np.random.Generator, **params) -> GeneratedTask:
     dx, dy = x[None, :] - half, x[:, None] - half  # (1, n), (n, 1) m from the centre
     h_min, ramp_tan, _ = _slopes(p)
     h = max(p["mesa_m"], h_min)
-    run = h / min(math.tan(math.radians(p["ramp_slope_deg"])), ramp_tan)
+    run = _run(h, min(math.tan(math.radians(p["ramp_slope_deg"])), ramp_tan), p)
     r, s, w, top = p["radius_frac"] * half, p["spawn_m"], p["ramp_width_m"], p["spawn_on"] == "top"
     room = r - (s / math.sqrt(2) + MARGIN_M if top else 2 * MARGIN_M)  # rim to spawn region / target, m
     _fit(room >= 0, "mesa", "the spawn region or target on top", p)
@@ -497,7 +524,7 @@ def mesa(rng: np.random.Generator, **params) -> GeneratedTask:
         phi = beta + sg * (1.0 if top else -1.0) * math.radians(p["ramp_angle_deg"])
         c, sn = math.cos(phi), math.sin(phi)
         along, across = dx * c + dy * sn, dy * c - dx * sn
-        z = _cut_pass(z, along, across, inner, run, h, w, p)
+        z = _cut_pass(z, along, across, inner, run, h, w, p, cross=r - inner)
         ends.append([[half + inner * c, half + inner * sn], [half + (inner + run) * c, half + (inner + run) * sn]])
     reach = 1.0 / max(abs(bearing[0]), abs(bearing[1]))  # distance to the map edge per metre of half size
     if top:
@@ -607,7 +634,7 @@ def fork(rng: np.random.Generator, **params) -> GeneratedTask:
     h_min, ramp_tan, _ = _slopes(p)
     h, d = max(p["cliff_m"], h_min), max(p["pocket_depth_m"], h_min)
     tan = min(math.tan(math.radians(p["ramp_slope_deg"])), ramp_tan)
-    run, run_d = h / tan, (h + d) / tan  # horizontal length of a pass and of a pocket's ramp, m
+    run, run_d = _run(h, tan, p), _run(h + d, tan, p)  # horizontal length of a pass and of a pocket's ramp, m
     vc, w, s, fl, cell = p["cliff_v_frac"] * half, p["pass_width_m"], p["spawn_m"], _flare_m(p), p["cell_m"]
     spawn = np.array([0.0, (vc - half) / 2])
     target = np.array([p["target_u_frac"] * half, (vc + half) / 2])
@@ -685,7 +712,7 @@ def trap(rng: np.random.Generator, **params) -> GeneratedTask:
     spawn = np.array([0.0, vs])
     if p["barrier"] == "cliff":  # a basin inside the barrier's outer edge, a ramp up through the opening
         rim = r_out * scale  # from the spawn centre to the rim along the opening's axis, m
-        run = hb / min(math.tan(math.radians(12.0)), ramp_tan)
+        run = _run(hb, min(math.tan(math.radians(12.0)), ramp_tan), p)
         width = 2.0 * rim * math.sin(math.radians(p["gap_deg"]) / 2)
         ends = [spawn + (rim - run / 2) * dirn, spawn + (rim + run / 2) * dirn]
         _fit(rim - run / 2 >= s / math.sqrt(2) and np.all(np.abs(ends[1]) <= half - MARGIN_M - width / 2), "trap",
