@@ -139,8 +139,32 @@ def _plane_z(vx, vy, vz, tris, grad, t, x, y):
 
 
 @njit(cache=True, inline="always")
+def _side(vx, vy, v, ax, ay, dx, dy):
+    """Which side of the line ``a + s (dx, dy)`` vertex ``v`` lies on (> 0 left): :func:`exit_edge`'s
+    expression, so the same bits."""
+    return dx * (vy[v] - ay) - dy * (vx[v] - ax)
+
+
+@njit(cache=True, inline="always")
+def _crossing(vx, vy, vi, vj, si, sj, ax, ay, dx, dy):
+    """:func:`exit_edge`'s ``(s, u)`` for its exit edge ``vi -> vj`` (sides ``si < 0 <= sj``)."""
+    exx = vx[vj] - vx[vi]
+    eyy = vy[vj] - vy[vi]
+    den = dx * eyy - dy * exx
+    if den <= 0.0:
+        den = sj - si
+    return ((vx[vi] - ax) * eyy - (vy[vi] - ay) * exx) / den, -si / den
+
+
+@njit(cache=True, inline="always")
 def los_walk1(vx, vy, vz, tris, nbrs, grad, ax, ay, az, bx, by, bz, t, max_steps, ztol):
-    """:func:`los_walk` for one segment ``a -> b`` starting in triangle ``t``: 1, 0 or -2."""
+    """:func:`los_walk` for one segment ``a -> b`` starting in triangle ``t``: 1, 0 or -2.
+
+    The first triangle's exit edge comes from :func:`exit_edge`; every later triangle is entered
+    through the edge ``vi -> vj`` it shares with the one before, run the other way round, so only
+    its third vertex ``w`` is new: one side test picks the exit, ``vi -> w`` when ``w`` lies left
+    of the line, else ``w -> vj`` (the one edge :func:`exit_edge` would find, from the same side
+    values). A neighbour that does not run ``vj -> vi -> w`` counter-clockwise gets the full search."""
     if t < 0:
         return 0
     if az < _plane_z(vx, vy, vz, tris, grad, t, ax, ay) - ztol:
@@ -149,15 +173,20 @@ def los_walk1(vx, vy, vz, tris, nbrs, grad, ax, ay, az, bx, by, bz, t, max_steps
     dy = by - ay
     if dx == 0.0 and dy == 0.0:
         return 1 if bz >= _plane_z(vx, vy, vz, tris, grad, t, bx, by) - ztol else 0
+    ex, s, u = exit_edge(vx, vy, tris, t, ax, ay, dx, dy)
+    vi = vj = 0
+    si = sj = 0.0
+    if ex >= 0:
+        vi = tris[t, (ex + 1) % 3]
+        vj = tris[t, (ex + 2) % 3]
+        si = _side(vx, vy, vi, ax, ay, dx, dy)
+        sj = _side(vx, vy, vj, ax, ay, dx, dy)
     for step in range(max_steps):
-        ex, s, u = exit_edge(vx, vy, tris, t, ax, ay, dx, dy)
         if ex < 0:
             return -2  # degenerate: gave up
         if s >= 1.0:
             # b lies in this triangle, before the exit edge
             return 1 if bz >= _plane_z(vx, vy, vz, tris, grad, t, bx, by) - ztol else 0
-        vi = tris[t, (ex + 1) % 3]
-        vj = tris[t, (ex + 2) % 3]
         z_edge = vz[vi] + u * (vz[vj] - vz[vi])
         z_sight = az + s * (bz - az)
         if z_edge > z_sight + ztol:
@@ -166,6 +195,33 @@ def los_walk1(vx, vy, vz, tris, nbrs, grad, ax, ay, az, bx, by, bz, t, max_steps
         if nb < 0:
             return 0  # the sight line leaves the TIN
         t = nb
+        pi = pj = -1
+        for m in range(3):
+            v = tris[t, m]
+            if v == vi:
+                pi = m
+            elif v == vj:
+                pj = m
+        if pj >= 0 and pi == (pj + 1) % 3:
+            w = tris[t, (pj + 2) % 3]
+            sw = _side(vx, vy, w, ax, ay, dx, dy)
+            if sw >= 0.0:
+                ex = pj
+                s, u = _crossing(vx, vy, vi, w, si, sw, ax, ay, dx, dy)
+                vj = w
+                sj = sw
+            else:
+                ex = pi
+                s, u = _crossing(vx, vy, w, vj, sw, sj, ax, ay, dx, dy)
+                vi = w
+                si = sw
+        else:
+            ex, s, u = exit_edge(vx, vy, tris, t, ax, ay, dx, dy)
+            if ex >= 0:
+                vi = tris[t, (ex + 1) % 3]
+                vj = tris[t, (ex + 2) % 3]
+                si = _side(vx, vy, vi, ax, ay, dx, dy)
+                sj = _side(vx, vy, vj, ax, ay, dx, dy)
     return -2
 
 
