@@ -313,9 +313,14 @@ def main(argv=None):
             for _ in range(max(m.nth, 0) + 1):
                 i = orig.index(m.old, i + 1)
             f.write_text(orig[:i] + m.new + orig[i + len(m.old):])
+            # numba's on-disk cache is checked against each kernel's own file only: a kernel that
+            # inlines or calls the mutated one from another file would run its stale cached code
+            # (the mutant would "survive" untested). A fresh cache directory per compiled mutant.
+            menv = {**env, "NUMBA_CACHE_DIR": str(Path(tmp) / f"numba_{m.id}")} if "@njit" in orig else env
             try:
-                rc, out, dt = _run(_pytest(m.tests), env, a.timeout)
+                rc, out, dt = _run(_pytest(m.tests), menv, a.timeout)
             finally:
+                shutil.rmtree(Path(tmp) / f"numba_{m.id}", ignore_errors=True)
                 f.write_text(orig)
                 os.utime(f, ns=(st.st_atime_ns, st.st_mtime_ns))
             status = "timeout" if rc is None else ("survived" if rc == 0 else "killed")

@@ -39,6 +39,27 @@ def test_robot_facing_away_does_not_see_a_robot_in_range(world_params):
     assert r.distance_m[k] == pytest.approx(20.0) and r.bearing_rad[k] == pytest.approx(0.0)
 
 
+@pytest.mark.parametrize("heading_deg", [90.0, -90.0, 30.0, 180.0])
+def test_bearings_are_measured_from_the_heading_counterclockwise(world_params, heading_deg):
+    """Robot 0 at the origin facing ``heading``; robots 20 m east, north and west of it, and a
+    target north-east: each bearing is the world angle of the direction minus the heading, wrapped
+    to (-pi, pi] (positive: to the robot's left), by hand."""
+    w = World(None, world_params(sensor={"range_m": 50, "fov_deg": 360}))
+    h = math.radians(heading_deg)
+    s = w.reset(0, [[100, 100], [120, 100], [100, 120], [80, 100]], headings=[h, 0.0, 0.0, 0.0],
+                targets=[[110, 110]])
+    seen = w.sense(s)
+    r = seen.robots
+    got = {int(t): float(b) for o, t, b in zip(r.observer, r.target, r.bearing_rad) if o == 0}
+    want = {1: 0.0, 2: math.pi / 2, 3: math.pi}  # world angles of east, north, west
+    for j, a in want.items():
+        expect = math.remainder(a - h, 2 * math.pi)
+        assert abs(math.remainder(got[j] - expect, 2 * math.pi)) < 1e-12, (j, got[j], expect)
+    t = seen.targets
+    tb = [float(b) for o, b in zip(t.observer, t.bearing_rad) if o == 0]
+    assert len(tb) == 1 and abs(math.remainder(tb[0] - (math.pi / 4 - h), 2 * math.pi)) < 1e-12
+
+
 def test_ridge_blocks_sight_and_removing_it_restores_it(world_params):
     p = world_params(sensor={"range_m": 100, "fov_deg": 360, "height_m": 0.5})
     pos = [[20, 50], [80, 50]]
