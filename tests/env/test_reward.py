@@ -214,3 +214,28 @@ def test_compiled_rewards_equal_the_numpy_reference_bit_for_bit(task, seed):
     if task == "goal":  # the cases the draw is meant to cover occur
         assert (want[2] == Reason.ARRIVED).any() or n < 300
         assert (want[2] == Reason.FELL).any() or n < 300
+
+
+def test_distance_to_go_mixes_fields_and_straight_lines_per_target():
+    """Target 0 without a field (the straight line, equal bit for bit to target_distance), target 1
+    with one (its query, given exactly the rows of its robots), no target: inf."""
+    rng = np.random.default_rng(3)
+    n = 50
+    tidx = rng.integers(-1, 2, n)
+    pos = rng.uniform(-80, 80, (n, 2))
+    tri = rng.integers(0, 99, n)
+    state = SimpleNamespace(n_robots=n, positions=pos, tri_idx=tri,
+                            targets=SimpleNamespace(positions=np.array([[1.5, -2.0], [30.0, 7.0]])))
+    seen = {}
+
+    class Field:
+        def distance_at(self, p, t):
+            seen["p"], seen["t"] = p, t
+            return 1000.0 + t
+
+    d = distance_to_go(state, tidx, [None, Field()])
+    straight = target_distance(state, tidx)
+    assert d[tidx == 0].tobytes() == straight[tidx == 0].tobytes()
+    assert (d[tidx == 1] == 1000.0 + tri[tidx == 1]).all()
+    assert np.array_equal(seen["p"], pos[tidx == 1]) and np.array_equal(seen["t"], tri[tidx == 1])
+    assert np.isinf(d[tidx == -1]).all() and (tidx == -1).any()

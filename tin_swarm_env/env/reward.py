@@ -49,11 +49,17 @@ def distance_to_go(state, target_idx, fields) -> np.ndarray:
     """``(n,)`` m: each robot's distance to go to its assigned target. ``fields``: one entry per
     target, a :class:`~tin_swarm_env.terrain.CostToGo` (geodesic, queried with the robots' known
     triangles) or None (straight line). ``inf`` where no target is assigned or it cannot be reached."""
-    d = target_distance(state, target_idx)
-    d[target_idx < 0] = np.inf
-    for k, f in enumerate(fields):  # a loop over targets; each query is batched over their robots
+    d = np.full(state.n_robots, np.inf)
+    tpos = state.targets.positions
+    for k in range(len(tpos)):  # a loop over targets; each is batched over its robots
         rows = np.flatnonzero(target_idx == k)
-        if f is not None and len(rows):
+        if not len(rows):
+            continue
+        f = fields[k] if k < len(fields) else None
+        if f is None:  # the straight line, as target_distance (the same operations, so the same bits)
+            v = tpos[k] - state.positions[rows]
+            d[rows] = np.hypot(v[:, 0], v[:, 1])
+        else:  # only the field's query: no straight line computed for every robot and then overwritten
             d[rows] = f.distance_at(state.positions[rows], state.tri_idx[rows])
     return d
 
