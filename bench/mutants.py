@@ -51,7 +51,8 @@ ENV = ("tests/env/test_reward.py", "tests/env/test_tin_swarm.py::test_arrival_te
        "tests/integration/test_geodesic.py::test_reward_is_the_decrease_of_the_distance_to_go")
 LOCO = ("tests/world/test_locomotion.py", "tests/world/test_world.py")
 WORLD = ("tests/world/test_world.py", "tests/world/test_locomotion.py", "tests/world/test_battery.py",
-         "tests/world/test_sensing.py", "tests/world/test_entities.py")
+         "tests/world/test_sensing.py", "tests/world/test_entities.py",
+         "tests/world/test_step_kernel.py")
 FIELDS = ("tests/world/test_fields.py",)
 TIN = ("tests/terrain/test_tin.py", "tests/terrain/test_kernels.py")
 QUERIES = ("tests/terrain/test_tin.py", "tests/terrain/test_kernels.py")
@@ -78,8 +79,8 @@ MUTANTS = [
     M("reward-arrival-strict", "env/reward.py", "<= cfg.targets.arrival_radius_m", "< cfg.targets.arrival_radius_m",
       REWARD),
     M("locomotion-rotation-transposed", "world/locomotion.py",  # in the kernel World.step runs
-      "vxw = max_speed * (ch * c0 - sh * c1)\n        vyw = max_speed * (sh * c0 + ch * c1)",
-      "vxw = max_speed * (ch * c0 + sh * c1)\n        vyw = max_speed * (-sh * c0 + ch * c1)", LOCO),
+      "vxw = max_speed * (ch * c0 - sh * c1)\n    vyw = max_speed * (sh * c0 + ch * c1)",
+      "vxw = max_speed * (ch * c0 + sh * c1)\n    vyw = max_speed * (-sh * c0 + ch * c1)", LOCO),
     M("locomotion-rotation-transposed-reference", "world/locomotion.py",  # in body_to_world, the numpy reference
       "ch * c[:, 0] - sh * c[:, 1], sh * c[:, 0] + ch * c[:, 1]",
       "ch * c[:, 0] + sh * c[:, 1], -sh * c[:, 0] + ch * c[:, 1]", LOCO),
@@ -136,27 +137,28 @@ MUTANTS = [
     M("loco-inactive-move", "world/locomotion.py", "vel_cmd[status != Reason.NONE] = 0.0", "pass", LOCO),
     M("loco-no-pullback", "world/locomotion.py", "s_stop = max(min(s - ds_pull, s), s_in, 0.0)", "s_stop = s", LOCO),
     M("loco-kernel-downhill-slows", "world/locomotion.py", "math.atan(max(rise, 0.0))", "math.atan(abs(rise))", LOCO),
-    M("loco-kernel-inactive-moves", "world/locomotion.py", "if not active[i]:\n            vxw = 0.0",
-      "if False:\n            vxw = 0.0", LOCO),
+    M("loco-kernel-inactive-moves", "world/locomotion.py", "if not active:\n        vxw = 0.0",
+      "if False:\n        vxw = 0.0", LOCO),
     M("loco-kernel-turn-one-way", "world/locomotion.py", "h = h + min(max(diff, -max_turn), max_turn)",
       "h = h + min(max(diff, 0.0), max_turn)", LOCO),
     M("loco-kernel-fall-direction", "world/locomotion.py", "if grad[ta, 0] * dx + grad[ta, 1] * dy < 0:",
       "if grad[ta, 0] * dx + grad[ta, 1] * dy > 0:", LOCO),
-    M("loco-kernel-climb-sign", "world/locomotion.py", "climb[i] = z - heights[i]", "climb[i] = heights[i] - z",
+    M("loco-kernel-climb-sign", "world/locomotion.py", "climb = z - h0", "climb = h0 - z",
       WORLD),
     # -- world/battery.py, world/world.py -------------------------------------------------------------------
-    M("battery-descent-recharges", "world/battery.py", "np.maximum(climb_m, 0.0)", "climb_m", WORLD),
-    M("battery-inactive-drains", "world/battery.py", "use = np.where(status == Reason.NONE, use, 0.0)", "use = use", WORLD),
-    M("battery-negative", "world/battery.py", "np.maximum(battery_j - use, 0.0)", "battery_j - use", WORLD),
-    M("world-emptied-strict", "world/world.py", "(new_batt <= 0.0)", "(new_batt < 0.0)", WORLD),
+    M("battery-descent-recharges", "world/step_kernel.py", "climb_j_per_m * _max0(cl)", "climb_j_per_m * cl", WORLD),
+    M("battery-inactive-drains", "world/step_kernel.py", "if not active:\n            use = 0.0",
+      "if False:\n            use = 0.0", WORLD),
+    M("battery-negative", "world/step_kernel.py", "b = _max0(battery[i] - use)", "b = battery[i] - use", WORLD),
+    M("world-emptied-strict", "world/step_kernel.py", "st == _NONE and b <= 0.0", "st == _NONE and b < 0.0", WORLD),
     M("world-collision-radius", "world/world.py", "diameter = 2 * P.robot.radius_m",
       "diameter = P.robot.radius_m", WORLD + REWARD),
-    M("world-collisions-not-summed", "world/world.py", "collisions=s.collisions + coll", "collisions=coll", WORLD),
+    M("world-collisions-not-summed", "world/world.py", "collisions=state.collisions + coll", "collisions=coll", WORLD),
     # -- world/sensing.py -----------------------------------------------------------------------------------
     M("sense-fov-full", "world/sensing.py", "half_fov = math.radians(sp.fov_deg) / 2 + 1e-12",
       "half_fov = math.radians(sp.fov_deg) + 1e-12", WORLD),
-    M("sense-bearing-sign", "world/sense_kernels.py", "(math.atan2(dy, dx) - heading + math.pi)",
-      "(math.atan2(dy, dx) + heading + math.pi)", WORLD),
+    M("sense-bearing-sign", "world/sense_kernels.py", "wrap_pi(math.atan2(dy, dx) - heading)",
+      "wrap_pi(math.atan2(dy, dx) + heading)", WORLD),
     M("sense-no-sensor-height", "world/sensing.py", "sz = np.ascontiguousarray(state.heights + sp.height_m)",
       "sz = np.ascontiguousarray(state.heights)", WORLD),
     M("sense-no-entity-height", "world/sensing.py", ") + params.entity_height_m", ")", WORLD),
@@ -215,7 +217,7 @@ MUTANTS = [
     M("learned-dense-bias", "policies/network.py", "            s = b[j]\n", "            s = 0.0\n", LEARNED),
     M("learned-relu-leaky", "policies/network.py", '"relu": lambda x: np.maximum(x, 0.0)',
       '"relu": lambda x: np.maximum(x, 0.01 * x)', LEARNED),
-    M("learned-nan-accepted", "policies/learned.py", "if not np.all(np.isfinite(a)):", "if np.all(np.isnan(a)):",
+    M("learned-nan-accepted", "policies/network.py", "if not np.all(np.isfinite(a)):", "if np.all(np.isnan(a)):",
       LEARNED),
     M("learned-size-unchecked", "policies/learned.py",
       'if meta["observation"]["size"] != e.layout.size:', 'if meta["observation"]["size"] < e.layout.size:', LEARNED),
@@ -247,6 +249,24 @@ def _pytest(tests):
     return [sys.executable, "-P", "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", *tests]
 
 
+def stale_mutants(muts=MUTANTS, root: Path = ROOT) -> list[str]:
+    """One line per mutant whose planted change no longer applies exactly where meant (its ``old``
+    text is gone from, or not unique in, its file; or a test it names is missing), plus duplicate
+    ids; empty when all apply. tests/integration/test_bench_mutants.py keeps this list empty, so a
+    rewrite of the code under a mutant fails CI instead of silently voiding the mutant."""
+    ids = [m.id for m in MUTANTS]
+    out = [f"duplicate mutant id {i!r}" for i in sorted({i for i in ids if ids.count(i) > 1})]
+    for m in muts:
+        path = root / "tin_swarm_env" / m.path
+        count = path.read_text().count(m.old) if path.is_file() else 0
+        if count == 0 or (m.nth < 0 and count != 1) or m.nth >= count:
+            out.append(f"mutant {m.id}: {m.old!r} occurs {count} times in {m.path}")
+        for t in m.tests:
+            if not (root / t.split("::")[0]).is_file():
+                out.append(f"mutant {m.id}: its test file {t.split('::')[0]} does not exist")
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default="", help="comma-separated mutant ids")
@@ -265,13 +285,9 @@ def main(argv=None):
         for m in muts:
             print(f"{m.id:34s} {m.path:22s} {' '.join(m.tests)}")
         return 0
-    ids = [m.id for m in MUTANTS]
-    assert len(ids) == len(set(ids)), "duplicate mutant ids"
-    for m in muts:  # every planted change must apply exactly where meant
-        text = (ROOT / "tin_swarm_env" / m.path).read_text()
-        count = text.count(m.old)
-        if count == 0 or (m.nth < 0 and count != 1) or m.nth >= count:
-            raise SystemExit(f"mutant {m.id}: {m.old!r} occurs {count} times in {m.path}")
+    stale = stale_mutants(muts)
+    if stale:
+        raise SystemExit("\n".join(stale))
     load = os.getloadavg()[0]
     t_start = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="tin_mutants_") as tmp:

@@ -134,3 +134,62 @@ def test_fit_actor_clones_a_known_linear_teacher_and_sets_the_std():
     assert np.allclose(np.exp(model.policy.log_std.detach().numpy()), 0.25)
     ret = 3.0 * x[:, 0]
     assert fit_value(model.policy, x, ret, epochs=40, batch_size=256, lr=3e-3) < 0.1 * np.var(ret)
+
+
+def _geodesic_reference(scenario, seed, kw, drive=None):
+    """A plain loop on a fresh env: each step a fresh GeodesicPolicy labels every robot, and the
+    live rows of (obs, label) are kept; ``drive(obs, label) -> action`` moves the robots (None:
+    the label itself, as in BC)."""
+    from tin_swarm_env.policies import GeodesicPolicy
+
+    env = tse.parallel_env(scenario=scenario, **kw)
+    geo = GeodesicPolicy(env)
+    obs = env.reset_arrays(seed=seed)
+    geo.reset()
+    Os, A = [], []
+    while env.live_mask.any():
+        live = env.live_mask
+        a = geo.act_batch(obs)
+        Os.append(obs[live])
+        A.append(a[live])
+        obs, *_ = env.step_arrays(a if drive is None else drive(obs, a))
+    return np.concatenate(Os), np.concatenate(A)
+
+
+def test_geodesic_teacher_labels_are_geodesic_actions_on_the_same_states():
+    """BC with the map-knowing teacher: every sample's label is GeodesicPolicy's action on that
+    exact state, bit for bit (float32), on its own trajectory."""
+    demos = collect("cliff_goal", 1, seed=4, teacher="geodesic", **SMALL)
+    obs, acts = _geodesic_reference("cliff_goal", 4, SMALL)
+    assert np.array_equal(demos.obs, obs) and np.array_equal(demos.actions, acts.astype(np.float32))
+    apf = collect("cliff_goal", 1, seed=4, **SMALL)  # and it is not APF's labelling under another name
+    assert not (len(apf) == len(demos) and np.array_equal(apf.actions, demos.actions))
+
+
+class ConstantLearner:
+    """Drives every robot forward and a little to the left: states no teacher would visit."""
+
+    def act_batch(self, obs):
+        return np.tile(np.float32([0.6, 0.3]), (len(obs), 1))
+
+
+def test_geodesic_teacher_labels_the_states_the_student_visits():
+    """DAgger with the geodesic teacher: the learner drives (the robots go where it says, not where
+    the teacher would), and each label is still GeodesicPolicy's action on that state."""
+    demos = collect("ramp", 1, seed=2, teacher="geodesic", learner=ConstantLearner(), **SMALL)
+    obs, acts = _geodesic_reference("ramp", 2, SMALL, drive=lambda o, a: ConstantLearner().act_batch(o))
+    assert np.array_equal(demos.obs, obs) and np.array_equal(demos.actions, acts.astype(np.float32))
+    assert not np.allclose(demos.actions, [0.6, 0.3])
+
+
+def test_teacher_is_validated_by_name_before_any_episode():
+    from tin_swarm_env.apps.imitation import TEACHERS, make_teacher
+    from tin_swarm_env.policies import GeodesicPolicy
+
+    assert TEACHERS == ("apf", "geodesic")
+    env = tse.parallel_env(scenario="cliff_goal", n_robots=2)
+    assert isinstance(make_teacher("apf", env), APFPolicy) and isinstance(make_teacher("geodesic", env),
+                                                                          GeodesicPolicy)
+    for bad in ("APF", "bug", ""):
+        with pytest.raises(ArgumentError, match=f"teacher {bad!r} is not a teacher; choose from apf, geodesic"):
+            collect("cliff_goal", 1, seed=0, teacher=bad, **SMALL)

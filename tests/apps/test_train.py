@@ -98,3 +98,16 @@ def test_symmetry_mirror_trains_imitates_and_exports_an_equivariant_policy(tmp_p
         assert pol.symmetry == "mirror"
         o = np.random.default_rng(0).uniform(-1, 1, (50, env.layout.size)).astype(np.float32)
         np.testing.assert_array_equal(pol.act_batch(env.layout.mirror(o)), mirror_action(pol.act_batch(o)))
+
+
+def test_teacher_option_is_checked_by_name_and_geodesic_refuses_mirrored_samples(capsys):
+    from tin_swarm_env.apps.cli import main
+
+    assert Args().teacher == "apf" and Args(teacher="geodesic").teacher == "geodesic"
+    with pytest.raises(ArgumentError, match="--teacher must be one of.*got 'oracle'"):
+        Args(teacher="oracle")
+    assert main(["train", "cliff_goal", "--teacher", "oracle", "--bc-episodes", "1"]) == 2
+    assert "--teacher must be one of apf, geodesic, got 'oracle'" in capsys.readouterr().err
+    with pytest.raises(ArgumentError, match="--mirror-samples cannot be combined with --teacher geodesic"):
+        check_args(Args(teacher="geodesic", mirror_samples=True, bc_episodes=1))
+    check_args(Args(teacher="geodesic", symmetry="mirror", bc_episodes=1))  # the way to get the symmetry

@@ -1,11 +1,12 @@
-"""Imitation of the APF controller: behaviour cloning (BC) and DAgger into an SB3 actor-critic.
+"""Imitation of a teacher (APF, or the map-knowing GeodesicPolicy): behaviour cloning (BC) and
+DAgger into an SB3 actor-critic.
 
     demos = collect(["cliff_goal", "ramp"], episodes=10, seed=0)                 # APF drives
     fit_actor(model.policy, demos.obs, demos.actions)                             # BC
     demos += collect(..., learner=TorchActor(model.policy))                      # DAgger: the learner drives
     fit_actor(model.policy, demos.obs, demos.actions); fit_value(model.policy, demos.obs, demos.returns)
 
-**Labels.** Every step, :class:`~tin_swarm_env.policies.APFPolicy` (the teacher) is called on the
+**Labels.** Every step, the teacher (:class:`~tin_swarm_env.policies.APFPolicy` by default) is called on the
 observations of *all* robots of the episode, whoever drives, and its action for each live robot is
 the label of that robot's observation. APF has per-robot memory (its wall-following side, the
 Pledge turn counter, a stall counter: :class:`~tin_swarm_env.policies.apf.BugMemory`), so it must
@@ -15,6 +16,36 @@ learner's actions move the robots and the teacher's memory follows the learner's
 label is "what APF would do now, having seen what this robot has seen". (A label is therefore
 not always what APF would have done on its own trajectory: a robot the learner led into a dead
 end gets APF's turn-back rule, which is the correction DAgger wants.)
+
+**Teachers** (``teacher=``, :data:`TEACHERS`). ``"apf"`` (default): :class:`~tin_swarm_env.policies.APFPolicy`,
+which acts from the observation alone (what the student sees). ``"geodesic"``:
+:class:`~tin_swarm_env.policies.GeodesicPolicy`, a *privileged* teacher: it reads the map and the
+world state (the terrain's cost-to-go toward each robot's target, the robot's position and
+heading), so its label is the first leg of the shortest drivable path, which APF, trapped on
+forks, mesas and long walls, does not know. The student still sees only the observation (the
+samples are observations; only the labels come from the map). It labels the states the student
+visits under DAgger exactly as under BC: it is called on every robot every step, and its action
+for a robot depends on that robot's current state alone (its only memory is the per-target
+field cache, dropped at each reset), so a label is "what the shortest path says here".
+Symmetry with this teacher: the student should be mirror-equivariant by construction
+(``--symmetry mirror``), not fitted on mirrored samples (:meth:`Demos.mirrored`, refused with
+it in ``apps/train.py``). A mirrored sample claims that the teacher, in the mirror-image world, would
+act as the mirror image of its action; APF acts from the observation alone and is
+mirror-equivariant on any observation, so that holds for it. GeodesicPolicy's action is a
+function of the map, not of the observation; it is equivariant only between a map and its
+mirror image, and that mirror image is neither a map the robots drove on nor exactly the
+reflection of what the teacher computed (the greedy TIN of a reflected DEM is not the reflected
+TIN, and equal-length paths tie differently), so a mirrored label is a claim about a world nobody
+ran. An equivariant student gets the symmetry without such labels: fitting ``pi(o) = a`` fits
+``pi(M o) = M a`` with it, and where the map breaks the tie the observation history, not a
+reflected label, has to say which way.
+What a privileged teacher cannot give a memoryless student (measured:
+``docs/figures/teacher_geodesic.md``): where the shortest way round is left on one map and right on
+another that look the same to the robot (a cliff across the way, the pass out of sight), the labels
+for one observation disagree, and a mean-squared-error fit learns their mean, for a mirror-equivariant
+student ``vy = 0``: straight on, into the cliff. The teacher's choice is a function of the map, not
+of anything the student sees; imitation can only give the student what the observation (and, for a
+recurrent student, its history) determines.
 
 **Returns.** Each sample also carries its discounted return-to-go (``gamma``) under the policy that
 drove, for a short value warm-up (:func:`fit_value`) so that PPO fine-tuning starts from a critic
@@ -33,7 +64,24 @@ import numpy as np
 
 from ..errors import ArgumentError
 
-__all__ = ["Demos", "collect", "fit_actor", "fit_value", "TorchActor", "actor_mean"]
+__all__ = ["Demos", "Sequence", "TEACHERS", "make_teacher", "collect", "fit_actor", "fit_value", "TorchActor",
+           "actor_mean"]
+
+TEACHERS = ("apf", "geodesic")  # the labelling policies of collect(teacher=...) (module docstring)
+
+
+def check_teacher(teacher: str, where: str = "teacher") -> str:
+    """``teacher`` if it is one of :data:`TEACHERS`; else ArgumentError naming ``where`` and the value."""
+    if teacher not in TEACHERS:
+        raise ArgumentError(f"{where} {teacher!r} is not a teacher; choose from {', '.join(TEACHERS)}")
+    return teacher
+
+
+def make_teacher(teacher: str, env):
+    """The labelling policy ``teacher`` (:data:`TEACHERS`) for ``env``: APFPolicy or GeodesicPolicy."""
+    from ..policies import APFPolicy, GeodesicPolicy
+
+    return {"apf": APFPolicy, "geodesic": GeodesicPolicy}[check_teacher(teacher)](env)
 
 
 @dataclass
@@ -41,9 +89,11 @@ class Demos:
     """Labelled samples of live robots.
 
     obs      (N, d) float32  observations
-    actions  (N, 2) float32  the teacher's (APF's) action for each
+    actions  (N, 2) float32  the teacher's action for each
     returns  (N,)   float32  discounted return-to-go from that step under the policy that drove
     arrived, fell: shares of the collected robot-episodes (the driving policy's), episodes: count
+    sequences: the episodes as :class:`Sequence` (``collect(sequences=True)``, for a recurrent
+               student; empty otherwise)
     """
 
     obs: np.ndarray
@@ -52,13 +102,14 @@ class Demos:
     arrived: float = 0.0
     fell: float = 0.0
     episodes: int = 0
+    sequences: tuple = ()
 
     def __add__(self, other: Demos) -> Demos:
         n = self.episodes + other.episodes
         w = self.episodes / max(n, 1)
         return Demos(np.concatenate([self.obs, other.obs]), np.concatenate([self.actions, other.actions]),
                      np.concatenate([self.returns, other.returns]), w * self.arrived + (1 - w) * other.arrived,
-                     w * self.fell + (1 - w) * other.fell, n)
+                     w * self.fell + (1 - w) * other.fell, n, tuple(self.sequences) + tuple(other.sequences))
 
     def __len__(self) -> int:
         return len(self.obs)
@@ -68,12 +119,30 @@ class Demos:
         :func:`~tin_swarm_env.env.observation.mirror_action`): the teacher's action in the
         mirrored world, since the teacher is mirror-equivariant (APF is, memory included, on
         random observations and over an episode: tests/policies/test_symmetry.py; a teacher whose
-        tie-breaks pick one side would not be). Returns equal; ``episodes`` 0, so ``demos + demos.mirrored(l)``
-        keeps the driving policy's shares and episode count."""
+        tie-breaks pick one side would not be, nor is the map-knowing geodesic teacher: module
+        docstring). Returns equal; ``episodes`` 0, so ``demos + demos.mirrored(l)`` keeps the
+        driving policy's shares and episode count."""
         from ..env.observation import mirror_action
 
+        seqs = tuple(Sequence(layout.mirror(q.obs), mirror_action(q.labels), q.keep, q.live) for q in self.sequences)
         return Demos(layout.mirror(self.obs), mirror_action(self.actions), self.returns.copy(), self.arrived,
-                     self.fell, 0)
+                     self.fell, 0, seqs)
+
+
+@dataclass
+class Sequence:
+    """One episode, every step of every robot, for a recurrent student (``T`` steps, ``n`` robots):
+
+    obs     (T, n, d) float32  what each robot observed (after it ended: the env's zeros)
+    labels  (T, n, 2) float32  the teacher's action
+    keep    (T, n)    bool     the samples a fit learns from (live and not stalled: :func:`_episode`)
+    live    (T, n)    bool     the robot was live (its memory runs over these steps)
+    """
+
+    obs: np.ndarray
+    labels: np.ndarray
+    keep: np.ndarray
+    live: np.ndarray
 
 
 def _discounted(rewards, live, gamma):
@@ -90,14 +159,17 @@ def _discounted(rewards, live, gamma):
 STALL_EPS_M = 0.25  # a robot "makes progress" when its distance to go drops this much below its best
 
 
-def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=None, shield=None):
-    """One episode: ``(obs (N, d), labels (N, 2), returns (N,), reasons (n,))`` over the kept
+def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=None, shield=None,
+             sequences=False):
+    """One episode: ``(obs (N, d), labels (N, 2), returns (N,), reasons (n,), seq)`` over the kept
     live robot-steps. ``beta``: each live robot's action is the teacher's with this probability
     (per robot and step, drawn from ``rng``), else the learner's. ``stall_steps`` > 0: a robot's
     samples stop being kept once its distance to go (``env.distance_to_go()``) has not dropped
     :data:`STALL_EPS_M` below its best for that many steps (it is stuck; its steps would flood
     the data); it keeps driving and the teacher keeps seeing it. ``shield``: a callable
-    ``(actions, obs) -> actions`` the learner's actions pass through (the policy-file shield)."""
+    ``(actions, obs) -> actions`` the learner's actions pass through (the policy-file shield).
+    ``seq``: with ``sequences``, the episode as a :class:`Sequence` (every step of every robot, for
+    a recurrent student); else None."""
     from ..world.state import Reason
 
     obs = env.reset_arrays(seed=seed)
@@ -107,7 +179,7 @@ def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=No
     n = env.n
     reasons = np.full(n, int(Reason.NONE), dtype=np.int8)
     best, since = env.distance_to_go(), np.zeros(n, dtype=np.int64)
-    Os, A, R, L, K = [], [], [], [], []
+    O, A, R, L, K = [], [], [], [], []
     live = env.live_mask
     while live.any():
         label = teacher.act_batch(obs)  # every row, every step: the teacher's memory sees the whole stream
@@ -117,8 +189,8 @@ def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=No
         if learner is not None and beta > 0:
             act = np.where((rng.random(n) < beta)[:, None], label, act)
         keep = live & ((since < stall_steps) if stall_steps > 0 else True)
-        Os.append(obs[keep])
-        A.append(label[keep])
+        O.append(np.asarray(obs, dtype=np.float32))
+        A.append(np.asarray(label, dtype=np.float32))
         obs, rew, term, trunc, why = env.step_arrays(act)
         R.append(np.where(live, rew, 0.0))
         L.append(live)
@@ -130,24 +202,28 @@ def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=No
         best = np.where(better, d, best)
         since = np.where(better, 0, since + 1)
         live = env.live_mask
-    ret = _discounted(np.asarray(R), np.asarray(L), gamma)[np.asarray(K)]  # row-major: step by step, robot order
-    return np.concatenate(Os), np.concatenate(A), ret.astype(np.float32), reasons
+    O, A, L, K = np.stack(O), np.stack(A), np.stack(L), np.stack(K)  # (T, n, ...)
+    ret = _discounted(np.asarray(R), L, gamma)[K]  # row-major: step by step, robot order
+    seq = Sequence(O, A, K, L) if sequences else None
+    return O[K], A[K], ret.astype(np.float32), reasons, seq
 
 
 def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=None, learner=None,
             gamma: float = 0.99, env_kwargs: dict | None = None, beta: float = 0.0, stall_steps: int = 0,
-            shield: str = "none") -> Demos:
+            shield: str = "none", teacher: str = "apf", sequences: bool = False) -> Demos:
     """Run ``episodes`` episodes (cycling over ``scenarios``; see the module docstring), driven by
-    APF (``learner=None``: behaviour cloning data) or by ``learner`` (an object with
-    ``act_batch(obs (n, d)) -> (n, 2)``: DAgger data), every live robot-step labelled with APF's
-    action. ``n_robots``/``max_cycles`` None: the scenario's. ``beta`` (DAgger's mixing: the teacher
+    the teacher (``learner=None``: behaviour cloning data) or by ``learner`` (an object with
+    ``act_batch(obs (n, d)) -> (n, 2)``: DAgger data), every live robot-step labelled with the
+    teacher's action (``teacher``: one of :data:`TEACHERS`, checked before any episode runs).
+    ``n_robots``/``max_cycles`` None: the scenario's. ``beta`` (DAgger's mixing: the teacher
     drives each robot-step with this probability; the draws come from ``default_rng(seed)``) and
     ``stall_steps`` (drop a stuck robot's later samples): see :func:`_episode`. ``shield="safety_cut"``:
-    the learner acts through the policy-file shield (:mod:`tin_swarm_env.policies.learned`)."""
+    the learner acts through the policy-file shield (:mod:`tin_swarm_env.policies.learned`).
+    ``sequences``: also keep each episode whole (``Demos.sequences``, for a recurrent student)."""
     from ..env import parallel_env
-    from ..policies import APFPolicy
     from ..world.state import Reason
 
+    check_teacher(teacher)
     if episodes < 1:
         raise ArgumentError(f"episodes must be >= 1, got {episodes}")
     if not 0.0 <= beta <= 1.0:
@@ -158,20 +234,23 @@ def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=No
     if max_cycles:
         kw["max_cycles"] = max_cycles
     envs = {s: parallel_env(scenario=s, n_robots=n_robots or None, **kw) for s in scenarios}
-    teachers = {s: APFPolicy(e) for s, e in envs.items()}
+    teachers = {s: make_teacher(teacher, e) for s, e in envs.items()}
     from ..policies.base import SafetyShield
 
     shields = {s: SafetyShield(e) if shield == "safety_cut" else None for s, e in envs.items()}
-    parts, reasons = [], []
+    parts, reasons, seqs = [], [], []
     for k in range(episodes):
         s = scenarios[k % len(scenarios)]
-        o, a, r, why = _episode(envs[s], teachers[s], learner, seed + k, gamma, beta, stall_steps, rng, shields[s])
+        o, a, r, why, q = _episode(envs[s], teachers[s], learner, seed + k, gamma, beta, stall_steps, rng, shields[s],
+                                   sequences)
         parts.append((o, a, r))
         reasons.append(why)
+        if q is not None:
+            seqs.append(q)
     why = np.concatenate(reasons)
     return Demos(np.concatenate([p[0] for p in parts]).astype(np.float32),
                  np.concatenate([p[1] for p in parts]).astype(np.float32), np.concatenate([p[2] for p in parts]),
-                 float(np.mean(why == Reason.ARRIVED)), float(np.mean(why == Reason.FELL)), episodes)
+                 float(np.mean(why == Reason.ARRIVED)), float(np.mean(why == Reason.FELL)), episodes, tuple(seqs))
 
 
 # -- fitting an SB3 ActorCriticPolicy (torch) -------------------------------------------------

@@ -1,5 +1,5 @@
 """PPO (Stable-Baselines3) on tin_swarm scenarios, one shared policy for all robots, with an
-optional warm start by imitation of APF (behaviour cloning, then DAgger).
+optional warm start by imitation of a teacher (behaviour cloning, then DAgger).
 
     tin-swarm train cliff_goal --timesteps 200000
     python agents/train_sb3.py --scenario cliff_goal --total-timesteps 200000   # the same
@@ -11,21 +11,28 @@ Read top to bottom: arguments, environment, imitation, evaluation, training, sav
 * ``--scenario``: a built-in name, a TOML path, or several separated by commas (a mix: the
   VecEnv holds ``n_envs`` copies of each; imitation episodes cycle over them). ``"generated"``
   (a new seeded terrain at every reset) is just another name.
-* ``--bc-episodes N``: N episodes driven by :class:`~tin_swarm_env.policies.APFPolicy`, every live
-  robot-step labelled with its action; the actor's mean is fitted by MSE
+* ``--bc-episodes N``: N episodes driven by the teacher (``--teacher apf``, the default:
+  :class:`~tin_swarm_env.policies.APFPolicy`; ``--teacher geodesic``: the map-knowing
+  :class:`~tin_swarm_env.policies.GeodesicPolicy`, a privileged teacher whose student sees only
+  the observation), every live robot-step labelled with its action; the actor's mean is fitted by MSE
   (:mod:`tin_swarm_env.apps.imitation`). ``--dagger-rounds K``: K rounds in which the learner drives
-  ``--dagger-episodes`` episodes while APF runs alongside on the same observations (its per-robot
+  ``--dagger-episodes`` episodes while the teacher runs alongside on the same observations (APF's per-robot
   memory stays consistent) and labels them; the actor is refitted on everything so far.
-  ``--dagger-beta b``: in round r (from 0) APF drives each robot-step with probability b**(r+1)
+  ``--dagger-beta b``: in round r (from 0) the teacher drives each robot-step with probability b**(r+1)
   (DAgger's mixture, so early rounds stay near the teacher's states). ``--stall-steps S``: a robot
   whose distance to go has not improved for S steps contributes no more samples that episode. Then the
   critic is warmed up on the rollouts' discounted returns (``--value-epochs``) and the policy's
   exploration std set to ``--bc-std`` before PPO fine-tuning. ``--mirror-samples``: every fit also
   sees each sample's mirror image (observation and APF's action reflected,
-  :meth:`~tin_swarm_env.apps.imitation.Demos.mirrored`), so the clone learns both sides alike.
+  :meth:`~tin_swarm_env.apps.imitation.Demos.mirrored`), so the clone learns both sides alike
+  (refused with ``--teacher geodesic``, whose labels are not mirror-equivariant on the map driven:
+  use ``--symmetry mirror``; :mod:`tin_swarm_env.apps.imitation` says why).
   ``--symmetry mirror``: the actor and critic are mirror-equivariant by construction
   (:func:`~tin_swarm_env.adapters.sb3.mirror_policy_class`) in imitation and PPO alike, and the
   exported file says ``"symmetry": "mirror"`` (:mod:`tin_swarm_env.policies.symmetry`).
+* ``--student gru``: imitation fits a recurrent student instead (a GRU before the MLP head, BC and
+  DAgger on whole episodes per robot, exported as a recurrent policy file with the same
+  ``--symmetry``/``--shield``; :mod:`tin_swarm_env.apps.recurrent_imitation`); no PPO after it.
 * ``--total-timesteps`` of PPO afterwards; 0 is refused without imitation (it would save an
   untrained model). ``--recurrent``: sb3-contrib's RecurrentPPO (MlpLstmPolicy, ``--lstm-hidden`` units,
   then ``--net-arch``); no imitation for it (imitation fits an MLP actor); it is exported as a
@@ -61,10 +68,14 @@ from .args import check_args as check_fields, opt
 from ..policies.symmetry import SYMMETRIES
 from ..world.state import Reason
 from .evaluate import EVAL_SEED0
+from .imitation import TEACHERS
 from .policy_factory import SB3Policy
 from .rollout import rollout
 
-__all__ = ["Args", "train", "evaluate_model", "plot_curve", "scenarios_of", "run_dir", "RecurrentSB3Policy"]
+__all__ = ["Args", "train", "train_student", "evaluate_model", "evaluate_policy_file", "plot_curve", "scenarios_of",
+           "run_dir", "RecurrentSB3Policy"]
+
+STUDENTS = ("mlp", "gru")  # --student: what imitation fits (apps/imitation.py, apps/recurrent_imitation.py)
 
 
 def _net_arch(spec: str) -> list[int]:
@@ -114,10 +125,15 @@ class Args:
     net_arch: str = opt("64,64", "hidden layer widths of actor and critic, comma-separated", check=_arch_msg)
     recurrent: bool = opt(False, "sb3-contrib RecurrentPPO (MlpLstmPolicy); no imitation")
     lstm_hidden: int = opt(256, "--recurrent: LSTM units (RecurrentPPO's default)", lo=1, hi=4096)
-    bc_episodes: int = opt(0, "behaviour cloning: APF-driven episodes (0: no imitation)", **_NONNEG)
-    dagger_rounds: int = opt(0, "DAgger rounds after BC (the learner drives, APF labels)", **_NONNEG)
+    student: str = opt("mlp", "imitation's student: mlp (the SB3 actor, PPO may follow) or gru (a recurrent "
+                       "student, imitation only: --timesteps 0; apps/recurrent_imitation.py)", choices=STUDENTS)
+    gru_hidden: int = opt(64, "--student gru: GRU units (--net-arch: the head after it)", lo=1, hi=1024)
+    bc_episodes: int = opt(0, "behaviour cloning: teacher-driven episodes (0: no imitation)", **_NONNEG)
+    teacher: str = opt("apf", "imitation's teacher: apf, or geodesic (knows the map; the student sees only the "
+                       "observation)", choices=TEACHERS)
+    dagger_rounds: int = opt(0, "DAgger rounds after BC (the learner drives, the teacher labels)", **_NONNEG)
     dagger_episodes: int = opt(0, "episodes per DAgger round (0: as many as --bc-episodes)", **_NONNEG)
-    dagger_beta: float = opt(0.0, "round r (from 0): APF drives each robot-step with probability beta**(r+1)",
+    dagger_beta: float = opt(0.0, "round r (from 0): the teacher drives each robot-step with probability beta**(r+1)",
                              lo=0, hi=1, hi_open=True)
     stall_steps: int = opt(0, "imitation keeps no samples of a robot stuck this many steps (0: keep all)", **_NONNEG)
     bc_robots: int = opt(0, "robots per imitation episode (0: the scenario's count)", lo=0, hi=MAX_ROBOTS)
@@ -162,8 +178,8 @@ def run_dir(args: Args) -> Path:
     """``args.out_dir``, or ``runs/<algo>_<scenarios>_s<seed>`` (a path's stem for a TOML file)."""
     if args.out_dir:
         return Path(args.out_dir)
-    algo = "rppo" if args.recurrent else ("bc_ppo" if _imitating(args) and args.total_timesteps else
-                                          "bc" if _imitating(args) else "ppo")
+    algo = ("rppo" if args.recurrent else "bc_gru" if args.student == "gru" else
+            "bc_ppo" if _imitating(args) and args.total_timesteps else "bc" if _imitating(args) else "ppo")
     return Path("runs") / f"{algo}_{'+'.join(Path(s).stem for s in scenarios_of(args))}_s{args.seed}"
 
 
@@ -178,6 +194,17 @@ def check_args(args: Args) -> None:
         raise ArgumentError("--dagger-rounds needs --bc-episodes (DAgger starts from a cloned policy)")
     if not 0.0 <= args.dagger_beta < 1.0:
         raise ArgumentError(f"--dagger-beta must be in [0, 1), got {args.dagger_beta}")
+    if args.teacher == "geodesic" and args.mirror_samples:
+        raise ArgumentError("--mirror-samples cannot be combined with --teacher geodesic: a mirrored label is the "
+                            "map-knowing teacher's action on a mirror-image map nobody ran (apps/imitation.py); "
+                            "use --symmetry mirror (a mirror-equivariant student) instead")
+    if args.student == "gru":
+        if not _imitating(args):
+            raise ArgumentError("--student gru learns by imitation: give --bc-episodes N")
+        if args.total_timesteps:
+            raise ArgumentError("--student gru has no PPO stage: give --timesteps 0 (imitation only)")
+        if args.recurrent:
+            raise ArgumentError("--student gru cannot be combined with --recurrent (RecurrentPPO's LSTM)")
     if args.recurrent and _imitating(args):
         raise ArgumentError("--recurrent cannot be combined with --bc-episodes (imitation fits an MLP actor)")
     if args.batch_size > args.n_steps * args.n_robots * args.n_envs * len(scenarios_of(args)) and args.total_timesteps:
@@ -206,20 +233,34 @@ class RecurrentSB3Policy:
         return np.asarray(a, dtype=np.float32)
 
 
-def evaluate_model(model, args: Args, episodes: int, seed: int = EVAL_SEED0) -> tuple[float, float, float]:
-    """``(mean per-robot return, arrival share, fall share)`` of the deterministic policy over
-    ``episodes`` episodes per scenario of ``args`` (seeds ``seed``, ``seed + 1``...)."""
+def _evaluate(policy_of, args: Args, episodes: int, seed: int):
     from ..env import parallel_env
 
     outs = []
     for scen in scenarios_of(args):
         env = parallel_env(scenario=scen, n_robots=args.n_robots, max_cycles=args.max_cycles or None)
-        pol = RecurrentSB3Policy(model) if args.recurrent else SB3Policy(model)
-        if args.shield != "none":
-            pol = ShieldedPolicy(pol, env)
+        pol = policy_of(env)
         outs += [rollout(env, pol, seed + ep) for ep in range(episodes)]
     return (float(np.mean([o.returns.mean() for o in outs])), float(np.mean([o.share(Reason.ARRIVED) for o in outs])),
             float(np.mean([o.share(Reason.FELL) for o in outs])))
+
+
+def evaluate_model(model, args: Args, episodes: int, seed: int = EVAL_SEED0) -> tuple[float, float, float]:
+    """``(mean per-robot return, arrival share, fall share)`` of the deterministic policy over
+    ``episodes`` episodes per scenario of ``args`` (seeds ``seed``, ``seed + 1``...)."""
+
+    def policy_of(env):
+        pol = RecurrentSB3Policy(model) if args.recurrent else SB3Policy(model)
+        return ShieldedPolicy(pol, env) if args.shield != "none" else pol
+
+    return _evaluate(policy_of, args, episodes, seed)
+
+
+def evaluate_policy_file(policy_of, args: Args, episodes: int, seed: int = EVAL_SEED0) -> dict:
+    """:func:`evaluate_model` of a policy ``policy_of(env)`` (a policy file, which applies its own
+    shield) as ``{"return", "arrived", "fell"}``."""
+    ret, arr, fell = _evaluate(policy_of, args, episodes, seed)
+    return {"return": ret, "arrived": arr, "fell": fell}
 
 
 def _eval_row(model, args, rows, t0, timesteps, logger=None) -> dict:
@@ -316,14 +357,16 @@ def imitate(model, args: Args, log=print, layout=None) -> dict:
 
     scen, n_rob = scenarios_of(args), args.bc_robots or None
     kw = {"n_robots": n_rob, "max_cycles": args.max_cycles or None, "gamma": args.gamma,
-          "stall_steps": args.stall_steps, "shield": args.shield}
+          "stall_steps": args.stall_steps, "shield": args.shield, "teacher": args.teacher}
     fit = {"epochs": args.bc_epochs, "batch_size": args.bc_batch_size, "lr": args.bc_lr, "std": args.bc_std}
     base = args.seed * 1000
     demos = collect(scen, args.bc_episodes, base, **kw)
+    who = args.teacher.upper() if args.teacher == "apf" else args.teacher
     fs = fit_set(demos, args, layout)
     mse = fit_actor(model.policy, fs.obs, fs.actions, seed=args.seed, **fit)
-    info = {"bc_samples": len(demos), "apf_arrived": demos.arrived, "rounds": [{"mse": mse}]}
-    log(f"BC: {len(demos)} samples from {demos.episodes} APF episodes (APF arrived {demos.arrived:.0%}, fell "
+    info = {"bc_samples": len(demos), "teacher": args.teacher, "teacher_arrived": demos.arrived,
+            "rounds": [{"mse": mse}]}
+    log(f"BC: {len(demos)} samples from {demos.episodes} {who} episodes ({who} arrived {demos.arrived:.0%}, fell "
         f"{demos.fell:.0%}); actor MSE {mse:.4f}")
     n_dag = args.dagger_episodes or args.bc_episodes
     for r in range(args.dagger_rounds):
@@ -342,6 +385,62 @@ def imitate(model, args: Args, log=print, layout=None) -> dict:
                                       batch_size=args.bc_batch_size, lr=args.bc_lr, seed=args.seed)
         log(f"value warm-up on {len(demos)} returns: MSE {info['value_mse']:.3f}")
     return info
+
+
+def train_student(args: Args, out: Path, log=print) -> Path:
+    """``--student gru``: BC then DAgger of a GRU student
+    (:mod:`tin_swarm_env.apps.recurrent_imitation`), with ``args`` (teacher, episodes, rounds,
+    beta, stall steps, robots, epochs, learning rate, ``--gru-hidden`` units, ``--net-arch`` as
+    the head's widths, ``--symmetry``, ``--mirror-samples``, ``--shield``); writes ``out/policy``
+    (the recurrent policy file) and ``out/model.json`` (arguments, per-round figures and, with
+    ``--eval-every`` > 0, the file's evaluation on the held-out seeds). Returns ``out/policy``."""
+    from .._atomic import atomic_path
+    from ..env import parallel_env
+    from ..policies.learned import load_policy
+    from .imitation import collect
+    from .recurrent_imitation import GRUStudent, fit_sequences
+
+    torch = require("torch", "train", "The recurrent student")
+    torch.set_num_threads(args.torch_threads)
+    t0 = time.perf_counter()
+    out = Path(out)
+    scen = scenarios_of(args)
+    layout = parallel_env(scenario=scen[0], n_robots=args.bc_robots or args.n_robots).layout
+    signs = layout.mirror_signs() if args.symmetry == "mirror" else None
+    student = GRUStudent(layout.size, args.gru_hidden, _net_arch(args.net_arch), signs=signs, seed=args.seed)
+    kw = {"n_robots": args.bc_robots or None, "max_cycles": args.max_cycles or None, "gamma": args.gamma,
+          "stall_steps": args.stall_steps, "shield": args.shield, "teacher": args.teacher, "sequences": True}
+    fit = {"epochs": args.bc_epochs, "lr": args.bc_lr}
+    base = args.seed * 1000
+    demos = collect(scen, args.bc_episodes, base, **kw)
+    mse = fit_sequences(student, fit_set(demos, args, layout).sequences, seed=args.seed, **fit)
+    info = {"student": "gru", "bc_samples": len(demos), "teacher": args.teacher, "teacher_arrived": demos.arrived,
+            "rounds": [{"mse": mse}]}
+    log(f"BC (GRU student): {len(demos)} samples in {demos.episodes} {args.teacher} episodes (teacher arrived "
+        f"{demos.arrived:.0%}); MSE {mse:.4f} ({(time.perf_counter() - t0) / 60:.1f} min)")
+    n_dag = args.dagger_episodes or args.bc_episodes
+    for r in range(args.dagger_rounds):
+        beta = args.dagger_beta ** (r + 1) if args.dagger_beta > 0 else 0.0
+        new = collect(scen, n_dag, base + args.bc_episodes + r * n_dag, learner=student.policy(layout), beta=beta,
+                      **kw)
+        demos = demos + new
+        mse = fit_sequences(student, fit_set(demos, args, layout).sequences, seed=args.seed + r + 1, **fit)
+        info["rounds"].append({"learner_arrived": new.arrived, "learner_fell": new.fell, "mse": mse})
+        log(f"DAgger round {r + 1} (beta {beta:.2f}): the GRU student drove {n_dag} episodes (arrived "
+            f"{new.arrived:.0%}, fell {new.fell:.0%}); {len(demos)} samples; MSE {mse:.4f} "
+            f"({(time.perf_counter() - t0) / 60:.1f} min)")
+    path = student.export(out / "policy", layout, scenario=args.scenario, shield=args.shield,
+                          extra={"imitation": info, "args": dataclasses.asdict(args), "algorithm": "BC+DAgger (GRU)",
+                                 "torch": torch.__version__})
+    meta = {"args": dataclasses.asdict(args), "imitation": info, "minutes": (time.perf_counter() - t0) / 60}
+    if args.eval_every:
+        meta["final_eval"] = evaluate_policy_file(lambda env: load_policy(path, env), args, args.eval_episodes)
+        log(f"the GRU student's file: arrived {meta['final_eval']['arrived']:.0%}, fell "
+            f"{meta['final_eval']['fell']:.0%}")
+    with atomic_path(out / "model.json") as tmp:
+        Path(tmp).write_text(json.dumps(meta, indent=2))
+    log(f"exported the recurrent policy {path} in {meta['minutes']:.1f} min (load_policy / --model {path})")
+    return path
 
 
 def _resumed(args: Args) -> tuple[Args, tuple | None]:
@@ -364,12 +463,17 @@ def _resumed(args: Args) -> tuple[Args, tuple | None]:
 
 def train(args: Args) -> Path:
     """Imitate (optional), train, evaluate, save and export (see the module docstring); returns
-    the path of ``model.zip`` (the pickle-free policy is its sibling ``policy/``). With
+    the path of ``model.zip`` (the pickle-free policy is its sibling ``policy/``; with ``--student
+    gru`` the recurrent ``policy/`` itself, :func:`train_student`). With
     ``args.resume`` a killed run continues from its last checkpoint (:mod:`.checkpoint`)."""
     ckpt = None
     if args.resume:
         args, ckpt = _resumed(args)
     check_args(args)
+    if args.student == "gru":
+        out = run_dir(args)
+        out.mkdir(parents=True, exist_ok=True)
+        return train_student(args, out)
     torch = require("torch", "train", "Training with Stable-Baselines3")
     require("stable_baselines3", "train", "Training with Stable-Baselines3")
     from ..adapters import make_sb3_vec_env
