@@ -5,9 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..terrain import ANGLE
+from ..world import Reason
 from .observation import DZ_SCALE_M, SLOT_FIELDS, ObsLayout
+from .reward import target_distance
 
-__all__ = ["build_observations_reference"]
+__all__ = ["build_observations_reference", "compute_rewards_reference"]
 
 
 def _to_body(vx, vy, heading):
@@ -96,3 +98,43 @@ def build_observations_reference(world, state, readings, target_idx, live, layou
     obs[~live] = 0.0
     np.clip(obs, -1.0, 1.0, out=obs)
     return obs.astype(np.float32)
+
+
+def _gain(before, after) -> np.ndarray:
+    """``before - after``, 0 where either is inf."""
+    ok = np.isfinite(before) & np.isfinite(after)
+    return np.where(ok, before, 0.0) - np.where(ok, after, 0.0)
+
+
+def compute_rewards_reference(cfg, dist_before, dist_after, state, events, target_idx, live):
+    """``(rewards (n,), terminated (n,) bool, reasons (n,) int8)`` for robots in ``live``;
+    reasons are :class:`~tin_swarm_env.world.Reason` codes (NONE, ARRIVED, FELL or BATTERY;
+    precedence FELL > ARRIVED > BATTERY, and the battery penalty is not paid on arrival).
+    ``dist_before``/``dist_after`` ``(n,)`` m: :func:`distance_to_go` before and after the step;
+    ``state`` the state after it (arrival is judged on the straight line to the target).
+    The numpy reference of :func:`~.reward.compute_rewards` (a string of array passes)."""
+    w = cfg.rewards
+    has = target_idx >= 0
+    r = np.zeros(state.n_robots)
+    if cfg.task == "containment":
+        s = cfg.targets.standoff_m
+        e0, e1 = np.abs(dist_before - s), np.abs(dist_after - s)
+        r += np.where(has, w.progress_per_m * _gain(e0, e1) + w.on_ring_per_step * (e1 <= w.ring_tolerance_m), 0.0)
+        arrived = np.zeros(state.n_robots, dtype=bool)
+    else:
+        r += np.where(has, w.progress_per_m * _gain(dist_before, dist_after), 0.0)
+        arrived = has & (target_distance(state, target_idx) <= cfg.targets.arrival_radius_m) & ~events.fell
+    r += w.energy_per_kj * events.energy_j / 1000.0
+    r += w.collision * events.collisions
+    r += w.fall * events.fell
+    emptied = events.emptied & ~arrived  # arriving wins over running dry in the same step
+    r += w.battery_empty * emptied
+    r += w.arrival * arrived
+    reasons = np.full(state.n_robots, Reason.NONE, dtype=np.int8)
+    reasons[emptied] = Reason.BATTERY
+    reasons[arrived] = Reason.ARRIVED
+    reasons[events.fell] = Reason.FELL
+    terminated = (reasons != Reason.NONE) & live
+    r = np.where(live, r, 0.0)
+    reasons = np.where(live, reasons, Reason.NONE).astype(np.int8)
+    return r.astype(np.float32), terminated, reasons

@@ -28,6 +28,7 @@ runs out; ``collision`` per robot touched this step; ``energy_per_kj`` per kJ dr
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from ..world import Reason
 
@@ -48,19 +49,19 @@ def distance_to_go(state, target_idx, fields) -> np.ndarray:
     """``(n,)`` m: each robot's distance to go to its assigned target. ``fields``: one entry per
     target, a :class:`~tin_swarm_env.terrain.CostToGo` (geodesic, queried with the robots' known
     triangles) or None (straight line). ``inf`` where no target is assigned or it cannot be reached."""
-    d = target_distance(state, target_idx)
-    d[target_idx < 0] = np.inf
-    for k, f in enumerate(fields):  # a loop over targets; each query is batched over their robots
+    d = np.full(state.n_robots, np.inf)
+    tpos = state.targets.positions
+    for k in range(len(tpos)):  # a loop over targets; each is batched over its robots
         rows = np.flatnonzero(target_idx == k)
-        if f is not None and len(rows):
+        if not len(rows):
+            continue
+        f = fields[k] if k < len(fields) else None
+        if f is None:  # the straight line, as target_distance (the same operations, so the same bits)
+            v = tpos[k] - state.positions[rows]
+            d[rows] = np.hypot(v[:, 0], v[:, 1])
+        else:  # only the field's query: no straight line computed for every robot and then overwritten
             d[rows] = f.distance_at(state.positions[rows], state.tri_idx[rows])
     return d
-
-
-def _gain(before, after) -> np.ndarray:
-    """``before - after``, 0 where either is inf."""
-    ok = np.isfinite(before) & np.isfinite(after)
-    return np.where(ok, before, 0.0) - np.where(ok, after, 0.0)
 
 
 def compute_rewards(cfg, dist_before, dist_after, state, events, target_idx, live):
@@ -68,29 +69,77 @@ def compute_rewards(cfg, dist_before, dist_after, state, events, target_idx, liv
     reasons are :class:`~tin_swarm_env.world.Reason` codes (NONE, ARRIVED, FELL or BATTERY;
     precedence FELL > ARRIVED > BATTERY, and the battery penalty is not paid on arrival).
     ``dist_before``/``dist_after`` ``(n,)`` m: :func:`distance_to_go` before and after the step;
-    ``state`` the state after it (arrival is judged on the straight line to the target)."""
+    ``state`` the state after it (arrival is judged on the straight line to the target).
+    One compiled pass (:func:`_rewards_kernel`, on one thread: a parallel region's start-up costs
+    more than 1 000 robots' rewards, bench 2026-11-26: 45 us parallel vs numpy 52 us at 1 000 robots);
+    the numpy reference, equal bit for bit, is :func:`~.reference.compute_rewards_reference`."""
     w = cfg.rewards
-    has = target_idx >= 0
-    r = np.zeros(state.n_robots)
-    if cfg.task == "containment":
-        s = cfg.targets.standoff_m
-        e0, e1 = np.abs(dist_before - s), np.abs(dist_after - s)
-        r += np.where(has, w.progress_per_m * _gain(e0, e1) + w.on_ring_per_step * (e1 <= w.ring_tolerance_m), 0.0)
-        arrived = np.zeros(state.n_robots, dtype=bool)
-    else:
-        r += np.where(has, w.progress_per_m * _gain(dist_before, dist_after), 0.0)
-        arrived = has & (target_distance(state, target_idx) <= cfg.targets.arrival_radius_m) & ~events.fell
-    r += w.energy_per_kj * events.energy_j / 1000.0
-    r += w.collision * events.collisions
-    r += w.fall * events.fell
-    emptied = events.emptied & ~arrived  # arriving wins over running dry in the same step
-    r += w.battery_empty * emptied
-    r += w.arrival * arrived
-    reasons = np.full(state.n_robots, Reason.NONE, dtype=np.int8)
-    reasons[emptied] = Reason.BATTERY
-    reasons[arrived] = Reason.ARRIVED
-    reasons[events.fell] = Reason.FELL
-    terminated = (reasons != Reason.NONE) & live
-    r = np.where(live, r, 0.0)
-    reasons = np.where(live, reasons, Reason.NONE).astype(np.int8)
-    return r.astype(np.float32), terminated, reasons
+    f64 = np.float64
+    tpos = np.ascontiguousarray(state.targets.positions, dtype=f64).reshape(-1, 2)
+    return _rewards_kernel(
+        cfg.task == "containment", float(cfg.targets.standoff_m) if cfg.task == "containment" else 0.0,
+        float(cfg.targets.arrival_radius_m) if cfg.task != "containment" else 0.0,
+        float(w.progress_per_m), float(w.on_ring_per_step), float(w.ring_tolerance_m), float(w.energy_per_kj),
+        float(w.collision), float(w.fall), float(w.battery_empty), float(w.arrival),
+        np.ascontiguousarray(dist_before, dtype=f64), np.ascontiguousarray(dist_after, dtype=f64),
+        np.ascontiguousarray(state.positions, dtype=f64), tpos,
+        np.ascontiguousarray(target_idx, dtype=np.int64), np.ascontiguousarray(live, dtype=np.bool_),
+        np.ascontiguousarray(events.energy_j, dtype=f64), np.ascontiguousarray(events.collisions, dtype=f64),
+        np.ascontiguousarray(events.fell, dtype=np.bool_), np.ascontiguousarray(events.emptied, dtype=np.bool_))
+
+
+_NONE, _ARRIVED, _FELL, _BATTERY = int(Reason.NONE), int(Reason.ARRIVED), int(Reason.FELL), int(Reason.BATTERY)
+
+
+@njit(cache=True, inline="always")
+def _gain1(before, after):
+    """``before - after``, 0 where either is inf (or NaN)."""
+    if np.isfinite(before) and np.isfinite(after):
+        return before - after
+    return 0.0 - 0.0
+
+
+@njit(cache=True)
+def _rewards_kernel(containment, standoff, radius, progress_per_m, on_ring, ring_tol, energy_per_kj, collision, fall,
+                    battery_empty, arrival, before, after, pos, tpos, tidx, live, energy, coll, fell, emptied):
+    """:func:`compute_rewards` for every robot in one loop: the terms added in the reference's
+    order (so the float64 sums round the same), then cast to float32."""
+    n = before.shape[0]
+    r32 = np.empty(n, dtype=np.float32)
+    term = np.empty(n, dtype=np.bool_)
+    why = np.empty(n, dtype=np.int8)
+    for i in range(n):
+        k = tidx[i]
+        has = k >= 0
+        r = 0.0
+        arrived = False
+        if containment:
+            e0 = abs(before[i] - standoff)
+            e1 = abs(after[i] - standoff)
+            r += progress_per_m * _gain1(e0, e1) + on_ring * (1.0 if e1 <= ring_tol else 0.0) if has else 0.0
+        else:
+            r += progress_per_m * _gain1(before[i], after[i]) if has else 0.0
+            if has and not fell[i]:
+                arrived = np.hypot(tpos[k, 0] - pos[i, 0], tpos[k, 1] - pos[i, 1]) <= radius
+        r += energy_per_kj * energy[i] / 1000.0
+        r += collision * coll[i]
+        r += fall * (1.0 if fell[i] else 0.0)
+        e = emptied[i] and not arrived
+        r += battery_empty * (1.0 if e else 0.0)
+        r += arrival * (1.0 if arrived else 0.0)
+        code = _NONE
+        if e:
+            code = _BATTERY
+        if arrived:
+            code = _ARRIVED
+        if fell[i]:
+            code = _FELL
+        if live[i]:
+            r32[i] = np.float32(r)
+            term[i] = code != _NONE
+            why[i] = code
+        else:
+            r32[i] = np.float32(0.0)
+            term[i] = False
+            why[i] = _NONE
+    return r32, term, why
