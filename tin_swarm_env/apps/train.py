@@ -343,12 +343,44 @@ def fit_set(demos, args: Args, layout):
     return demos + demos.mirrored(layout) if args.mirror_samples else demos
 
 
+def _bc_dagger(args: Args, scen, kw: dict, fit_on, learner, log, student: str = "", t0: float | None = None):
+    """Imitation's rounds, for the MLP actor and the GRU student alike: behaviour cloning on
+    ``--bc-episodes`` episodes the teacher drove, then ``--dagger-rounds`` rounds in which
+    ``learner()`` drives ``--dagger-episodes`` episodes (the teacher drives each robot-step with
+    probability ``beta ** (r + 1)``) and the fit is redone on every sample so far.
+    ``fit_on(demos, seed) -> mse`` fits the student; ``kw`` goes to
+    :func:`~tin_swarm_env.apps.imitation.collect`. Returns ``(demos, info)`` (samples, MSEs, the
+    driving policies' arrival per round)."""
+    from .imitation import collect
+
+    who = args.teacher.upper() if args.teacher == "apf" else args.teacher
+    what = f"the {student}" if student else "the learner"
+    took = (lambda: f" ({(time.perf_counter() - t0) / 60:.1f} min)") if t0 is not None else (lambda: "")
+    base = args.seed * 1000
+    demos = collect(scen, args.bc_episodes, base, **kw)
+    mse = fit_on(demos, args.seed)
+    info = {"bc_samples": len(demos), "teacher": args.teacher, "teacher_arrived": demos.arrived,
+            "rounds": [{"mse": mse}]}
+    log(f"BC{f' ({student})' if student else ''}: {len(demos)} samples from {demos.episodes} {who} episodes ({who} "
+        f"arrived {demos.arrived:.0%}, fell {demos.fell:.0%}); {'actor ' if not student else ''}MSE {mse:.4f}{took()}")
+    n_dag = args.dagger_episodes or args.bc_episodes
+    for r in range(args.dagger_rounds):
+        beta = args.dagger_beta ** (r + 1) if args.dagger_beta > 0 else 0.0
+        new = collect(scen, n_dag, base + args.bc_episodes + r * n_dag, learner=learner(), beta=beta, **kw)
+        demos = demos + new
+        mse = fit_on(demos, args.seed + r + 1)
+        info["rounds"].append({"learner_arrived": new.arrived, "learner_fell": new.fell, "mse": mse})
+        log(f"DAgger round {r + 1} (beta {beta:.2f}): {what} drove {n_dag} episodes (arrived "
+            f"{new.arrived:.0%}, fell {new.fell:.0%}); {len(demos)} samples; MSE {mse:.4f}{took()}")
+    return demos, info
+
+
 def imitate(model, args: Args, log=print, layout=None) -> dict:
     """Behaviour cloning then DAgger into ``model.policy`` (see the module docstring), then the
     critic warm-up and the exploration std. Returns a summary (samples, MSEs, the driving
     policies' arrival per round). ``layout``: the observation layout (for ``--mirror-samples``;
     default: the first scenario's)."""
-    from .imitation import TorchActor, collect, fit_actor, fit_value
+    from .imitation import TorchActor, fit_actor, fit_value
 
     if args.mirror_samples and layout is None:
         from ..env import parallel_env
@@ -359,26 +391,12 @@ def imitate(model, args: Args, log=print, layout=None) -> dict:
     kw = {"n_robots": n_rob, "max_cycles": args.max_cycles or None, "gamma": args.gamma,
           "stall_steps": args.stall_steps, "shield": args.shield, "teacher": args.teacher}
     fit = {"epochs": args.bc_epochs, "batch_size": args.bc_batch_size, "lr": args.bc_lr, "std": args.bc_std}
-    base = args.seed * 1000
-    demos = collect(scen, args.bc_episodes, base, **kw)
-    who = args.teacher.upper() if args.teacher == "apf" else args.teacher
-    fs = fit_set(demos, args, layout)
-    mse = fit_actor(model.policy, fs.obs, fs.actions, seed=args.seed, **fit)
-    info = {"bc_samples": len(demos), "teacher": args.teacher, "teacher_arrived": demos.arrived,
-            "rounds": [{"mse": mse}]}
-    log(f"BC: {len(demos)} samples from {demos.episodes} {who} episodes ({who} arrived {demos.arrived:.0%}, fell "
-        f"{demos.fell:.0%}); actor MSE {mse:.4f}")
-    n_dag = args.dagger_episodes or args.bc_episodes
-    for r in range(args.dagger_rounds):
-        beta = args.dagger_beta ** (r + 1) if args.dagger_beta > 0 else 0.0
-        new = collect(scen, n_dag, base + args.bc_episodes + r * n_dag, learner=TorchActor(model.policy), beta=beta,
-                      **kw)
-        demos = demos + new
+
+    def fit_on(demos, seed):
         fs = fit_set(demos, args, layout)
-        mse = fit_actor(model.policy, fs.obs, fs.actions, seed=args.seed + r + 1, **fit)
-        info["rounds"].append({"learner_arrived": new.arrived, "learner_fell": new.fell, "mse": mse})
-        log(f"DAgger round {r + 1} (beta {beta:.2f}): the learner drove {n_dag} episodes (arrived "
-            f"{new.arrived:.0%}, fell {new.fell:.0%}); {len(demos)} samples; actor MSE {mse:.4f}")
+        return fit_actor(model.policy, fs.obs, fs.actions, seed=seed, **fit)
+
+    demos, info = _bc_dagger(args, scen, kw, fit_on, lambda: TorchActor(model.policy), log)
     if args.value_epochs:
         fs = fit_set(demos, args, layout)
         info["value_mse"] = fit_value(model.policy, fs.obs, fs.returns, epochs=args.value_epochs,
@@ -397,7 +415,6 @@ def train_student(args: Args, out: Path, log=print) -> Path:
     from .._atomic import atomic_path
     from ..env import parallel_env
     from ..policies.learned import load_policy
-    from .imitation import collect
     from .recurrent_imitation import GRUStudent, fit_sequences
 
     torch = require("torch", "train", "The recurrent student")
@@ -411,24 +428,13 @@ def train_student(args: Args, out: Path, log=print) -> Path:
     kw = {"n_robots": args.bc_robots or None, "max_cycles": args.max_cycles or None, "gamma": args.gamma,
           "stall_steps": args.stall_steps, "shield": args.shield, "teacher": args.teacher, "sequences": True}
     fit = {"epochs": args.bc_epochs, "lr": args.bc_lr}
-    base = args.seed * 1000
-    demos = collect(scen, args.bc_episodes, base, **kw)
-    mse = fit_sequences(student, fit_set(demos, args, layout).sequences, seed=args.seed, **fit)
-    info = {"student": "gru", "bc_samples": len(demos), "teacher": args.teacher, "teacher_arrived": demos.arrived,
-            "rounds": [{"mse": mse}]}
-    log(f"BC (GRU student): {len(demos)} samples in {demos.episodes} {args.teacher} episodes (teacher arrived "
-        f"{demos.arrived:.0%}); MSE {mse:.4f} ({(time.perf_counter() - t0) / 60:.1f} min)")
-    n_dag = args.dagger_episodes or args.bc_episodes
-    for r in range(args.dagger_rounds):
-        beta = args.dagger_beta ** (r + 1) if args.dagger_beta > 0 else 0.0
-        new = collect(scen, n_dag, base + args.bc_episodes + r * n_dag, learner=student.policy(layout), beta=beta,
-                      **kw)
-        demos = demos + new
-        mse = fit_sequences(student, fit_set(demos, args, layout).sequences, seed=args.seed + r + 1, **fit)
-        info["rounds"].append({"learner_arrived": new.arrived, "learner_fell": new.fell, "mse": mse})
-        log(f"DAgger round {r + 1} (beta {beta:.2f}): the GRU student drove {n_dag} episodes (arrived "
-            f"{new.arrived:.0%}, fell {new.fell:.0%}); {len(demos)} samples; MSE {mse:.4f} "
-            f"({(time.perf_counter() - t0) / 60:.1f} min)")
+
+    def fit_on(demos, seed):
+        return fit_sequences(student, fit_set(demos, args, layout).sequences, seed=seed, **fit)
+
+    demos, info = _bc_dagger(args, scen, kw, fit_on, lambda: student.policy(layout), log, student="GRU student",
+                             t0=t0)
+    info = {"student": "gru", **info}
     path = student.export(out / "policy", layout, scenario=args.scenario, shield=args.shield,
                           extra={"imitation": info, "args": dataclasses.asdict(args), "algorithm": "BC+DAgger (GRU)",
                                  "torch": torch.__version__})
