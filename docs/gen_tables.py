@@ -18,7 +18,8 @@ differs from a fresh generation; ``TIN_SWARM_WRITE_DOCS=1`` (with that test) or
 - modules: every module of the package with the first sentence of its docstring (read with ``ast``,
   nothing imported), the layout table of the contributing page.
 - apf summary: the APF and geodesic rows of ``docs/figures/apf.md`` (written by ``bench/apf.py``), the
-  table of README's APF section, which must equal this file's table (``tests/integration/test_docs_tables.py``).
+  table of README's APF section, which must equal this file's table (``tests/integration/test_docs_tables.py``);
+  ``python docs/gen_tables.py`` rewrites README's block too.
 """
 
 from __future__ import annotations
@@ -383,11 +384,22 @@ TABLES = {
 }
 
 
+def write_readme_apf_table() -> None:
+    """Rewrite README's ``apf-table`` block from :func:`apf_summary_rows` (after a ``bench/apf.py`` run)."""
+    path = ROOT / "README.md"
+    text = path.read_text(encoding="utf-8")
+    start, end = "<!-- apf-table:start -->\n", "<!-- apf-table:end -->"
+    i, j = text.index(start) + len(start), text.index(end)
+    path.write_text(text[:i] + apf_summary_rows() + text[j:], encoding="utf-8")
+
+
 def main() -> int:
     for rel, make in TABLES.items():
         (ROOT / rel).parent.mkdir(parents=True, exist_ok=True)
         (ROOT / rel).write_text(make())
         print(f"wrote {rel}")
+    write_readme_apf_table()
+    print("wrote README.md's apf-table block")
     return 0
 
 
