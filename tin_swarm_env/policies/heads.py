@@ -24,8 +24,8 @@ ways, a mean-squared-error fit on their mean (:mod:`tin_swarm_env.apps.imitation
 permutation ``P`` maps each class to the one of action ``(vx, -vy)`` (found by exact comparison:
 a file whose actions are not closed under that reflection is refused with ``"mirror"``). The
 logits are ``(f(o) + f(M o)[P]) / 2``, so ``logits(M o) = logits(o)[P]`` bit for bit (``P`` is an
-involution and float addition commutes), and the probabilities too (the softmax's normaliser is
-summed in sorted order, which no permutation changes): the policy is mirror-equivariant *in
+involution and float addition commutes), and the probabilities too (the softmax is computed on each
+row sorted, which no permutation changes): the policy is mirror-equivariant *in
 distribution*. At an observation that is its own mirror image the two sides have equal
 probability; sampling breaks the tie per robot, the mode by the class order above.
 """
@@ -138,11 +138,16 @@ def head_outputs(head: dict | None) -> int:
 
 
 def softmax(logits) -> np.ndarray:
-    """Row-wise softmax of ``(n, K)`` float64 whose normaliser is summed in sorted order, so that
+    """Row-wise softmax of ``(n, K)`` float64 computed on each row sorted (the exponentials and
+    their sum; vectorised ``exp`` may round an element differently by its position), so that
     permuting a row's logits permutes its probabilities exactly."""
     z = np.asarray(logits, dtype=np.float64)
-    e = np.exp(z - z.max(axis=1, keepdims=True))
-    return e / np.sort(e, axis=1).sum(axis=1, keepdims=True)
+    order = np.argsort(z, axis=1, kind="stable")
+    zs = np.take_along_axis(z, order, axis=1)
+    es = np.exp(zs - zs[:, -1:])
+    e = np.empty_like(es)
+    np.put_along_axis(e, order, es / es.sum(axis=1, keepdims=True), axis=1)
+    return e
 
 
 def nearest_class(actions, classes) -> np.ndarray:
