@@ -456,8 +456,8 @@ def train_student(args: Args, out: Path, log=print) -> Path:
     demos, info = _bc_dagger(args, scen, kw, fit_on, lambda: student.policy(layout), log, student=name, t0=t0)
     info = {"student": args.student, "head": args.head, **info}
     path = student.export(out / "policy", layout, scenario=args.scenario, shield=args.shield,
-                          extra={"imitation": info, "args": dataclasses.asdict(args), "algorithm": f"BC+DAgger ({name})",
-                                 "torch": torch.__version__})
+                          extra={"imitation": info, "args": dataclasses.asdict(args),
+                                 "algorithm": f"BC+DAgger ({name})", "torch": torch.__version__})
     meta = {"args": dataclasses.asdict(args), "imitation": info, "minutes": (time.perf_counter() - t0) / 60}
     if args.eval_every:
         meta["final_eval"] = evaluate_policy_file(lambda env: load_policy(path, env), args, args.eval_episodes)
