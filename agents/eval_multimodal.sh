@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Evaluates the students of agents/train_multimodal.py (docs/figures/teacher_multimodal.md): held-out generated
 # seeds of the canyon, mesa and fork families (10 seeds x 20 robots, one TOML per family), then canyon_left and its
-# mirror image canyon_right (3 seeds x 20 robots). The categorical students are played twice: acting by the mode
-# (as trained) and by a seeded per-robot draw (a copy of the file with "acting": "sample").
+# mirror image canyon_right (3 seeds x 20 robots). The categorical students are played three ways: acting by the
+# mode (as trained), by "side" and by a seeded per-robot draw (copies of the file with another "acting").
 #   flock /tmp/heavy.lock bash agents/eval_multimodal.sh families      # then: ... canyons
 set -e
 cd "$(dirname "$0")/.."
@@ -10,18 +10,22 @@ PY=${PY:-python}
 RUN=${RUN:-runs/multimodal}
 OUT=${OUT:-runs/eval_multimodal}
 PART=${1:-families}
-for v in mlp_cat gru_cat; do  # the sampling twin of each categorical file
-  $PY - "$RUN/$v/policy" "$RUN/${v}_sample/policy" <<'PY'
+for v in mlp_cat gru_cat; do  # the "side" and "sample" twins of each categorical file (policies/heads.py)
+  for acting in side sample; do
+    $PY - "$RUN/$v/policy" "$RUN/${v}_$acting/policy" "$acting" <<'PY'
 import json, shutil, sys
-src, dst = sys.argv[1:]
+src, dst, acting = sys.argv[1:]
 shutil.rmtree(dst, ignore_errors=True)
 shutil.copytree(src, dst)
 meta = json.load(open(f"{dst}/policy.json"))
-meta["head"]["acting"] = "sample"
+meta["head"]["acting"] = acting
 json.dump(meta, open(f"{dst}/policy.json", "w"), indent=1)
 PY
+  done
 done
-MODELS=${MODELS:-mlp_mse=$RUN/mlp_mse/policy,mlp_cat=$RUN/mlp_cat/policy,mlp_cat_s=$RUN/mlp_cat_sample/policy,gru_cat=$RUN/gru_cat/policy,gru_cat_s=$RUN/gru_cat_sample/policy}
+M=mlp_mse=$RUN/mlp_mse/policy
+for v in mlp_cat gru_cat; do M="$M,$v=$RUN/$v/policy,${v}_side=$RUN/${v}_side/policy,${v}_s=$RUN/${v}_sample/policy"; done
+MODELS=${MODELS:-$M}
 if [ "$PART" = families ]; then
   mkdir -p "$OUT/cfg"
   scen=""

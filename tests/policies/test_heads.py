@@ -187,3 +187,27 @@ def test_a_mirror_free_file_need_not_be_mirror_closed(tmp_path):
     p = _mutate(tmp_path, lambda m: m["head"]["actions"].__setitem__(2, [0.1, 0.05]), symmetry="none")
     pol = load_policy(p, _env())
     assert pol.head.perm is None and pol.act_batch(np.zeros((2, _env().layout.size))).shape == (2, 2)
+
+
+def test_side_acting_asks_which_way_before_how_far():
+    """Straight on is the single likeliest class (0.4) but a turn to -y is likelier in all (0.45
+    over two headings): "side" turns, "mode" does not; mirrored logits give the mirrored class;
+    an exact tie between the sides goes to +y."""
+    side = CategoricalHead(categorical_head(acting="side"))
+    mode = CategoricalHead(categorical_head())
+    c, perm = side.actions, side.perm
+    p = np.full(33, 1e-6)
+    ahead = int(np.flatnonzero((c[:, 0] == 1.0) & (c[:, 1] == 0))[0])
+    right = np.flatnonzero((c[:, 1] < 0) & (np.hypot(*c.T) == 1.0))[:2]
+    p[ahead], p[right[0]], p[right[1]] = 0.4, 0.2, 0.25
+    z = np.log(p / p.sum())[None]
+    assert mode.choose(z)[0] == ahead
+    k = side.choose(z)[0]
+    assert k == right[1] and c[k, 1] < 0
+    assert side.choose(z[:, perm])[0] == perm[k]
+    zz = np.log(np.full((1, 33), 1e-6))
+    zz[0, right[1]] = zz[0, perm[right[1]]] = 0.0
+    assert c[side.choose(zz)[0], 1] > 0
+    rng = np.random.default_rng(5)
+    zr = rng.normal(0, 2, (300, 33))
+    assert np.array_equal(side.choose(zr[:, perm]), perm[side.choose(zr)])

@@ -70,6 +70,7 @@ from ..errors import ArgumentError, require
 from ..policies.learned import SHIELDS, ShieldedPolicy
 from ..scenario.config import MAX_ROBOTS
 from .args import check_args as check_fields, opt
+from ..policies.heads import ACTINGS
 from ..policies.symmetry import SYMMETRIES
 from ..world.state import Reason
 from .evaluate import EVAL_SEED0
@@ -134,8 +135,8 @@ class Args:
                        "student, imitation only: --timesteps 0; apps/recurrent_imitation.py)", choices=STUDENTS)
     head: str = opt("mean", "the action head: mean (MSE fit) or categorical (class actions, likelihood fit, "
                     "imitation only; policies/heads.py)", choices=("mean", "categorical"))
-    head_acting: str = opt("mode", "--head categorical: how the file acts, mode or sample (a seeded per-robot draw)",
-                           choices=("mode", "sample"))
+    head_acting: str = opt("mode", "--head categorical: how the file acts: mode, side (the likelier side, then its "
+                           "mode) or sample (a seeded per-robot draw); policies/heads.py", choices=ACTINGS)
     gru_hidden: int = opt(64, "--student gru: GRU units (--net-arch: the head after it)", lo=1, hi=1024)
     bc_episodes: int = opt(0, "behaviour cloning: teacher-driven episodes (0: no imitation)", **_NONNEG)
     teacher: str = opt("apf", "imitation's teacher: apf, or geodesic (knows the map; the student sees only the "

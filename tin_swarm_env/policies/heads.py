@@ -15,6 +15,13 @@ ways, a mean-squared-error fit on their mean (:mod:`tin_swarm_env.apps.imitation
 * ``"acting": "mode"`` (the default): the class of largest logit; at an exact tie the lowest
   class index (:func:`categorical_classes` orders a heading with ``vy > 0`` before its mirror
   image, so a tie between the two sides turns to ``+y``). Deterministic.
+* ``"acting": "side"``: first the side, then the mode within it: the classes are grouped by the
+  sign of ``vy`` (``+y``, straight ``vy = 0``, ``-y``), the group of largest total probability is
+  taken (each group's sum in sorted order; at an exact tie ``+y``, then straight), then its class
+  of largest logit (the lowest index at a tie). A fine class set spreads a turn over several
+  headings, so the single most likely class can be straight on while a turn is more likely
+  than not (docs/figures/teacher_multimodal.md); this asks "which way" before "how far".
+  Deterministic, and mirror-equivariant but for the exact ties.
 * ``"acting": "sample"``: a class drawn from ``p`` by inverse CDF over the class order, with a
   uniform number that is a hash of (``seed``, the robot's row, how many draws that row has made
   since :meth:`CategoricalHead.reset`): every robot has its own reproducible stream, independent
@@ -40,7 +47,7 @@ __all__ = ["HEADS", "ACTINGS", "MAX_CLASSES", "CategoricalHead", "categorical_cl
            "check_head", "head_outputs", "nearest_class", "softmax", "uniforms", "mirror_permutation"]
 
 HEADS = ("mean", "categorical")
-ACTINGS = ("mode", "sample")
+ACTINGS = ("mode", "side", "sample")
 MAX_CLASSES = 1024
 ACTION_SIZE = 2
 
@@ -211,6 +218,8 @@ class CategoricalHead:
         z = np.asarray(logits, dtype=np.float64)
         if self.acting == "mode":
             return np.argmax(z, axis=1).astype(np.int64)
+        if self.acting == "side":
+            return self._side(z)
         rows = np.arange(len(z)) if rows is None else np.asarray(rows, dtype=np.int64)
         if len(rows) and rows.max() >= len(self._draws):
             self._draws = np.concatenate([self._draws, np.zeros(rows.max() + 1 - len(self._draws), np.int64)])
@@ -219,6 +228,15 @@ class CategoricalHead:
         cdf = np.cumsum(softmax(z), axis=1)
         k = (cdf < (u * cdf[:, -1])[:, None]).sum(axis=1)
         return np.minimum(k, z.shape[1] - 1).astype(np.int64)
+
+    def _side(self, z) -> np.ndarray:
+        p = softmax(z)
+        vy = self.actions[:, 1]
+        groups = [vy > 0, vy == 0, vy < 0]  # the tie order: +y, straight, -y
+        mass = np.stack([np.sort(np.where(g, p, 0.0), axis=1).sum(axis=1) for g in groups], axis=1)
+        g = np.argmax(mass, axis=1)
+        member = np.stack(groups)[g]  # (n, K): the classes of each row's group
+        return np.argmax(np.where(member, z, -np.inf), axis=1).astype(np.int64)
 
     def act(self, logits, rows=None) -> np.ndarray:
         return self.actions[self.choose(logits, rows)]
