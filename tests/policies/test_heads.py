@@ -5,6 +5,9 @@ tie-break and the per-robot sampling streams are as documented, and bad files ar
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,6 +19,7 @@ from tin_swarm_env.policies.heads import (CategoricalHead, categorical_classes, 
                                           nearest_class, softmax, uniforms)
 from tin_swarm_env.policies.recurrent import CELLS
 
+ROOT = Path(__file__).resolve().parents[2]
 SCEN = {"scenario": "cliff_goal", "n_robots": 4, "max_cycles": 60}
 
 
@@ -211,3 +215,22 @@ def test_side_acting_asks_which_way_before_how_far():
     rng = np.random.default_rng(5)
     zr = rng.normal(0, 2, (300, 33))
     assert np.array_equal(side.choose(zr[:, perm]), perm[side.choose(zr)])
+
+
+def test_the_cli_runs_a_sampling_recurrent_categorical_file_without_torch(tmp_path):
+    p = _save(tmp_path, "cat", recurrent=True, acting="sample")
+    code = (
+        "import sys\n"
+        "class Block:\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name.split('.')[0] in ('torch', 'stable_baselines3', 'sb3_contrib'):\n"
+        "            raise ImportError(f'blocked: {name}')\n"
+        "sys.meta_path.insert(0, Block())\n"
+        "from tin_swarm_env.apps.cli import main\n"
+        f"assert main(['eval', 'cliff_goal', '--seeds', '1', '--robots', '4', '--policies', '', '--model', {str(p)!r},"
+        f" '--out', {str(tmp_path / 'ev')!r}]) == 0\n"
+        "assert not {'torch', 'stable_baselines3', 'sb3_contrib'} & set(sys.modules)\n"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert "| cat |" in (tmp_path / "ev.md").read_text()
