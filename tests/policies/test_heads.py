@@ -234,3 +234,15 @@ def test_the_cli_runs_a_sampling_recurrent_categorical_file_without_torch(tmp_pa
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert r.returncode == 0, r.stderr[-3000:]
     assert "| cat |" in (tmp_path / "ev.md").read_text()
+
+
+def test_a_mirror_policy_built_in_memory_refuses_a_head_that_is_not_mirror_closed():
+    from tin_swarm_env.errors import ArgumentError
+    from tin_swarm_env.policies.learned import MLPPolicy
+
+    e = _env()
+    acts = categorical_classes().tolist()
+    acts[2] = [0.1, 0.05]
+    with pytest.raises(ArgumentError, match="not closed under the mirror"):
+        MLPPolicy(_layers(e.layout.size, 33, 0), layout=e.layout.to_dict(), symmetry="mirror",
+                  head=categorical_head(acts), source="mem")

@@ -194,12 +194,15 @@ class CategoricalHead:
     observations); ``probs(logits)``; ``act(logits, rows) -> (n, 2)`` float64 (the mode, or a
     draw advancing each row's stream); :meth:`reset` restarts every row's stream."""
 
-    def __init__(self, head: dict, source: str = "<memory>"):
+    def __init__(self, head: dict, source: str = "<memory>", mirror: bool = False):
         self.actions = np.array(head["actions"], dtype=np.float64)
         self.acting, self.seed = head.get("acting", "mode"), int(head.get("seed", 0))
         if self.acting not in ACTINGS:
             raise ArgumentError(f"{source}: acting {self.acting!r} is not one of {list(ACTINGS)}")
         self.perm = mirror_permutation(self.actions)
+        if mirror and self.perm is None:
+            raise ArgumentError(f"{source}: the head's actions are not closed under the mirror (vy -> -vy), which "
+                                "symmetry 'mirror' needs")
         self.source = source
         self.reset()
 

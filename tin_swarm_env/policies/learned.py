@@ -96,7 +96,8 @@ class MLPPolicy:
                  shield: str = "none", env=None, symmetry: str = "none", head: dict | None = None):
         self.layers = [(np.ascontiguousarray(W, dtype=np.float64), np.ascontiguousarray(b, dtype=np.float64))
                        for W, b in layers]
-        self.head = None if head is None or head.get("type", "mean") == "mean" else CategoricalHead(head, source)
+        self.head = None if head is None or head.get("type", "mean") == "mean" else CategoricalHead(
+            head, source, mirror=symmetry == "mirror")
         self.activation = activation
         self.action_transform = action_transform
         self.layout = layout

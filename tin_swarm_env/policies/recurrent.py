@@ -146,7 +146,8 @@ class RecurrentPolicy:
         self.layout, self.scenario, self.training, self.source = layout, scenario, dict(training or {}), source
         self.shield, self.symmetry = shield, symmetry
         self._signs, self.shield_cut = file_options(shield, symmetry, layout, env, source)
-        self.head = None if head is None or head.get("type", "mean") == "mean" else CategoricalHead(head, source)
+        self.head = None if head is None or head.get("type", "mean") == "mean" else CategoricalHead(
+            head, source, mirror=symmetry == "mirror")
         self.reset()
 
     # -- memory --------------------------------------------------------------------------------
