@@ -61,8 +61,9 @@ def run(env, pol, driver: str, seeds, steps: int) -> dict:
     turn = np.abs(r[:, 0]) > 0.5
     t = r[turn]
     own = np.where(t[:, 0] > 0, t[:, 2], t[:, 3])
-    return {"turning share": turn.mean(), "|vy| teacher": np.abs(t[:, 0]).mean(), "|vy| student": np.abs(t[:, 1]).mean(),
-            "P(+y)": t[:, 2].mean(), "P(-y)": t[:, 3].mean(), "P(straight)": t[:, 4].mean(), "P(teacher's side)": own.mean(),
+    return {"turning share": turn.mean(), "|vy| teacher": np.abs(t[:, 0]).mean(),
+            "|vy| student": np.abs(t[:, 1]).mean(), "P(+y)": t[:, 2].mean(), "P(-y)": t[:, 3].mean(),
+            "P(straight)": t[:, 4].mean(), "P(teacher's side)": own.mean(),
             "side flips /100 steps": 100 * flips / max(live_steps, 1), "robot-steps": len(r)}
 
 
