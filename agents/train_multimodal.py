@@ -8,6 +8,16 @@ and shielded, differing only in the head and the memory:
 
     nice -n 19 python agents/train_multimodal.py --out runs/multimodal [--only mlp_cat,gru_cat]
 
+The second run (``--recipe student``, variants ``*0`` and ``gru_fb``): DAgger with the student driving
+every step (beta 0 after BC), no stall filter (the stuck states stay, labelled by the teacher), 4
+rounds of 12 episodes, every file acting by a seeded draw ("sample") while it collects:
+
+    mlp_cat0  mlp_cat on that recipe
+    gru_cat0  gru_cat on that recipe
+    gru_fb    gru_cat0 with the previous commanded action fed to the GRU (``--feedback action``)
+
+    nice -n 19 python agents/train_multimodal.py --recipe student --out runs/multimodal2
+
 Each writes ``OUT/<name>/policy`` (a pickle-free policy file) and ``OUT/<name>/model.json``
 (:func:`tin_swarm_env.apps.train.train_student`). Torch runs on 1 thread.
 """
@@ -24,25 +34,32 @@ COMMON = dict(scenario="generated,generated,cliff_goal,ramp", bc_robots=8, teach
               shield="safety_cut", bc_episodes=32, dagger_rounds=2, dagger_episodes=16, dagger_beta=0.5,
               stall_steps=60, bc_lr=1e-3, net_arch="128,128", gamma=0.995, total_timesteps=0, eval_every=0,
               seed=0, torch_threads=1, progress_bar=False)
+STUDENT_DRIVES = dict(dagger_rounds=4, dagger_episodes=12, dagger_beta=0.0, stall_steps=0, head_acting="sample")
+RECIPES = {"mixed": (COMMON, ("mlp_mse", "mlp_cat", "gru_cat")),
+           "student": ({**COMMON, **STUDENT_DRIVES}, ("gru_fb", "gru_cat0", "mlp_cat0"))}
 VARIANTS = {
     "mlp_mse": dict(student="mlp", head="mean", bc_epochs=20),
     "mlp_cat": dict(student="mlp", head="categorical", bc_epochs=20),
     "gru_cat": dict(student="gru", head="categorical", bc_epochs=10, gru_hidden=64, net_arch="64"),
 }
+VARIANTS.update(mlp_cat0=VARIANTS["mlp_cat"], gru_cat0=VARIANTS["gru_cat"],
+                gru_fb={**VARIANTS["gru_cat"], "feedback": "action"})
 
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="runs/multimodal")
-    ap.add_argument("--only", default=",".join(VARIANTS), help="comma-separated variants to train")
+    ap.add_argument("--recipe", default="mixed", choices=sorted(RECIPES))
+    ap.add_argument("--only", default="", help="comma-separated variants to train (default: the recipe's)")
     a = ap.parse_args(argv)
-    for name in [s for s in a.only.split(",") if s]:
-        if name not in VARIANTS:
-            raise SystemExit(f"--only: unknown variant {name!r}; known: {', '.join(VARIANTS)}")
+    common, names = RECIPES[a.recipe]
+    for name in [s for s in (a.only or ",".join(names)).split(",") if s]:
+        if name not in names:
+            raise SystemExit(f"--only: unknown variant {name!r} for --recipe {a.recipe}; known: {', '.join(names)}")
         t0 = time.perf_counter()
         out = Path(a.out) / name
         out.mkdir(parents=True, exist_ok=True)
-        args = Args(**{**COMMON, **VARIANTS[name], "out_dir": str(out)})
+        args = Args(**{**common, **VARIANTS[name], "out_dir": str(out)})
         train_student(args, out, log=lambda m, n=name: print(f"[{n}] {m}", flush=True))
         print(f"[{name}] {(time.perf_counter() - t0) / 60:.1f} min", flush=True)
 

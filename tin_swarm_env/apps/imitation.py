@@ -124,7 +124,8 @@ class Demos:
         driving policy's shares and episode count."""
         from ..env.observation import mirror_action
 
-        seqs = tuple(Sequence(layout.mirror(q.obs), mirror_action(q.labels), q.keep, q.live) for q in self.sequences)
+        seqs = tuple(Sequence(layout.mirror(q.obs), mirror_action(q.labels), q.keep, q.live,
+                              None if q.driven is None else mirror_action(q.driven)) for q in self.sequences)
         return Demos(layout.mirror(self.obs), mirror_action(self.actions), self.returns.copy(), self.arrived,
                      self.fell, 0, seqs)
 
@@ -137,12 +138,16 @@ class Sequence:
     labels  (T, n, 2) float32  the teacher's action
     keep    (T, n)    bool     the samples a fit learns from (live and not stalled: :func:`_episode`)
     live    (T, n)    bool     the robot was live (its memory runs over these steps)
+    driven  (T, n, 2) float32  the action the driving file commanded, before the shield (the learner's
+                               own, also on steps where DAgger's teacher drove; BC: the teacher's), the
+                               feedback a recurrent file reads at the next step; None: not recorded
     """
 
     obs: np.ndarray
     labels: np.ndarray
     keep: np.ndarray
     live: np.ndarray
+    driven: np.ndarray | None = None
 
 
 def _discounted(rewards, live, gamma):
@@ -179,11 +184,12 @@ def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=No
     n = env.n
     reasons = np.full(n, int(Reason.NONE), dtype=np.int8)
     best, since = env.distance_to_go(), np.zeros(n, dtype=np.int64)
-    O, A, R, L, K = [], [], [], [], []
+    O, A, R, L, K, D = [], [], [], [], [], []
     live = env.live_mask
     while live.any():
         label = teacher.act_batch(obs)  # every row, every step: the teacher's memory sees the whole stream
         act = label if learner is None else learner.act_batch(obs)
+        D.append(np.asarray(act, dtype=np.float32))
         if learner is not None and shield is not None:
             act = shield(act, obs)
         if learner is not None and beta > 0:
@@ -204,7 +210,7 @@ def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=No
         live = env.live_mask
     O, A, L, K = np.stack(O), np.stack(A), np.stack(L), np.stack(K)  # (T, n, ...)
     ret = _discounted(np.asarray(R), L, gamma)[K]  # row-major: step by step, robot order
-    seq = Sequence(O, A, K, L) if sequences else None
+    seq = Sequence(O, A, K, L, np.stack(D)) if sequences else None
     return O[K], A[K], ret.astype(np.float32), reasons, seq
 
 

@@ -33,6 +33,15 @@ mean of labels that disagree ("left" on one map, "right" on another that looks t
 likelihood fit keeps both. ``cell=None``: no memory (the head reads the observation: an MLP
 policy file), fitted the same way.
 
+**Feedback** (``feedback="action"``, the file's ``"network.feedback"``): the GRU also reads the
+action the file commanded at the robot's previous step (``(0, 0)`` at the first), so a sampled
+side can be kept. ``forward(x, prev)`` takes it as ``prev (T, B, 2)``; :func:`fit_sequences`
+builds it from :attr:`Sequence.driven <tin_swarm_env.apps.imitation.Sequence>` shifted one step
+(the command that drove step ``t - 1``; with a categorical head snapped to the nearest class, as the
+file only ever commands a class: the teacher's actions in BC data are not classes). With ``signs``
+the mirrored stream reads the mirrored previous action (``vy`` negated), so equivariance over whole
+histories still holds exactly.
+
 **DAgger** drives with :meth:`GRUStudent.policy`, the numpy
 :class:`~tin_swarm_env.policies.recurrent.RecurrentPolicy` built from the current weights: the
 learner that collects is the file that ships (its memory reset with every episode), and the
@@ -45,7 +54,7 @@ import numpy as np
 
 from ..errors import ArgumentError, require
 
-__all__ = ["GRUStudent", "fit_sequences", "GRAD_CLIP"]
+__all__ = ["GRUStudent", "fit_sequences", "previous_actions", "GRAD_CLIP"]
 
 GRAD_CLIP = 1.0  # the gradient norm each step of fit_sequences is clipped to
 
@@ -55,14 +64,15 @@ def _torch():
 
 
 def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: int = 0, *, classes=None,
-               cell: str | None = "gru", acting: str = "mode"):
+               cell: str | None = "gru", acting: str = "mode", feedback: str = "none"):
     """A fresh student (module docstring): ``obs_size`` inputs, a GRU of ``hidden`` units, a head of
     hidden widths ``head`` then 2 outputs; ``signs`` ``(obs_size,)`` (the layout's mirror signs):
     mirror-equivariant. Weights drawn from ``torch.manual_seed(seed)``. A ``torch.nn.Module`` with
     ``forward(x (T, B, d)) -> (T, B, 2)`` (the head's output before the clip, every step from a
     zero state), :meth:`policy` and :meth:`export`. ``classes`` ``(K, 2)`` (e.g.
     :func:`~tin_swarm_env.policies.heads.categorical_classes`): a categorical head, ``forward``
-    gives ``(T, B, K)`` logits and the file acts by ``acting``; ``cell=None``: no GRU (an MLP)."""
+    gives ``(T, B, K)`` logits and the file acts by ``acting``; ``cell=None``: no GRU (an MLP);
+    ``feedback="action"``: the GRU also reads the previous commanded action (module docstring)."""
     torch = _torch()
     nn = torch.nn
     from ..env.observation import ACTION_PARITY
@@ -73,6 +83,12 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
         raise ArgumentError(f"GRUStudent: signs has {len(signs)} entries for {obs_size} observations")
     if cell not in ("gru", None):
         raise ArgumentError(f"GRUStudent: cell must be 'gru' or None, got {cell!r}")
+    from ..policies.recurrent import FEEDBACKS
+
+    if feedback not in FEEDBACKS or (feedback != "none" and cell is None):
+        raise ArgumentError(f"GRUStudent: feedback must be one of {list(FEEDBACKS)} (not 'none' only with a cell), "
+                            f"got {feedback!r} with cell {cell!r}")
+    n_fb = FEEDBACKS[feedback]
     from ..policies.heads import categorical_head, mirror_permutation
 
     head_entry = None if classes is None else categorical_head(classes, acting)
@@ -87,7 +103,8 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
         def __init__(self):
             super().__init__()
             torch.manual_seed(seed)
-            self.gru = nn.GRU(obs_size, hidden, num_layers=1) if cell else None
+            self.gru = nn.GRU(obs_size + n_fb, hidden, num_layers=1) if cell else None
+            self.feedback = feedback
             self.classes = None if classes is None else np.asarray(classes, dtype=np.float64)
             self.head_entry = head_entry
             widths = [hidden if cell else obs_size, *[int(w) for w in head], n_out]
@@ -106,12 +123,19 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
         def _net(self, x):
             return self.head(self.gru(x)[0] if self.gru is not None else x)
 
-        def forward(self, x):
+        def forward(self, x, prev=None):
             x = torch.as_tensor(x, dtype=torch.float32)
+            if n_fb:
+                if prev is None:
+                    raise ArgumentError("GRUStudent: feedback 'action' needs prev (T, B, 2), the previous actions")
+                prev = torch.as_tensor(prev, dtype=torch.float32)
             if self.signs is None:
-                return self._net(x)
+                return self._net(torch.cat([x, prev], dim=-1) if n_fb else x)
             b = x.shape[1]
-            out = self._net(torch.cat([x, x * self._signs], dim=1))
+            xx = torch.cat([x, x * self._signs], dim=1)
+            if n_fb:
+                xx = torch.cat([xx, torch.cat([prev, prev * self._parity], dim=1)], dim=-1)
+            out = self._net(xx)
             if self.perm is not None:
                 return (out[:, :b] + out[:, b:][..., self.perm]) / 2
             return (out[:, :b] + out[:, b:] * self._parity) / 2
@@ -140,7 +164,7 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
                 return MLPPolicy(layers, "tanh", layout=layout.to_dict(), shield=shield, env=env, symmetry=sym,
                                  source="<GRUStudent>", head=self.head_entry)
             return RecurrentPolicy("gru", cell, layers, "tanh", layout=layout.to_dict(), shield=shield, env=env,
-                                   symmetry=sym, source="<GRUStudent>", head=self.head_entry)
+                                   symmetry=sym, source="<GRUStudent>", head=self.head_entry, feedback=self.feedback)
 
         def export(self, path, layout, *, scenario: str = "", shield: str = "none", extra: dict | None = None):
             """Write the recurrent policy directory ``path`` (:func:`~tin_swarm_env.policies.save_policy`)."""
@@ -149,9 +173,27 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
             cell, layers = self._arrays()
             return save_policy(path, layers, "tanh", layout=layout, scenario=scenario, extra=extra, shield=shield,
                                symmetry="none" if self.signs is None else "mirror",
-                               cell=None if cell is None else ("gru", cell), head=self.head_entry)
+                               cell=None if cell is None else ("gru", cell), head=self.head_entry,
+                               feedback=self.feedback)
 
     return _Student()
+
+
+def previous_actions(q, T: int, classes=None) -> np.ndarray:
+    """``(T, n, 2)`` float32: the feedback of a :class:`~tin_swarm_env.apps.imitation.Sequence`'s
+    first ``T`` steps, ``q.driven`` shifted one step (zero at step 0), clipped to [-1, 1] and, with
+    ``classes``, snapped to the nearest class action (module docstring)."""
+    if q.driven is None:
+        raise ArgumentError("fit_sequences: a student with feedback needs sequences that record 'driven' "
+                            "(collect(..., sequences=True))")
+    d = np.clip(np.asarray(q.driven[:T - 1], dtype=np.float64), -1.0, 1.0)
+    if classes is not None and d.size:
+        from ..policies.heads import nearest_class
+
+        d = np.asarray(classes)[nearest_class(d.reshape(-1, 2), classes)].reshape(d.shape)
+    out = np.zeros((T, *q.driven.shape[1:]), dtype=np.float32)
+    out[1:] = d
+    return out
 
 
 def fit_sequences(student, sequences, *, epochs: int = 10, lr: float = 1e-3, seed: int = 0) -> float:
@@ -177,13 +219,14 @@ def fit_sequences(student, sequences, *, epochs: int = 10, lr: float = 1e-3, see
             T = int(np.flatnonzero(q.keep.any(axis=1)).max()) + 1  # nothing after the last kept step is needed
             x = torch.as_tensor(q.obs[:T])
             k = torch.as_tensor(q.keep[:T])
+            prev = previous_actions(q, T, classes) if getattr(student, "feedback", "none") != "none" else None
             if classes is None:
                 y = torch.as_tensor(np.clip(q.labels[:T], -1.0, 1.0))
-                err = ((student(x) - y) ** 2).sum(-1)[k] / 2  # the mean over the 2 components, as fit_actor's MSE
+                err = ((student(x, prev) - y) ** 2).sum(-1)[k] / 2  # the mean over the 2 components, as fit_actor's
             else:
                 lab = q.labels[:T][q.keep[:T]]
                 y = torch.as_tensor(nearest_class(lab, classes))
-                err = torch.nn.functional.cross_entropy(student(x)[k], y, reduction="none")
+                err = torch.nn.functional.cross_entropy(student(x, prev)[k], y, reduction="none")
             loss = err.mean()
             opt.zero_grad()
             loss.backward()

@@ -137,6 +137,8 @@ class Args:
                     "imitation only; policies/heads.py)", choices=("mean", "categorical"))
     head_acting: str = opt("mode", "--head categorical: how the file acts: mode, side (the likelier side, then its "
                            "mode) or sample (a seeded per-robot draw); policies/heads.py", choices=ACTINGS)
+    feedback: str = opt("none", "--student gru: action feeds the GRU the action it commanded at the previous step "
+                        "(policies/recurrent.py), so a sampled side can be kept", choices=("none", "action"))
     gru_hidden: int = opt(64, "--student gru: GRU units (--net-arch: the head after it)", lo=1, hi=1024)
     bc_episodes: int = opt(0, "behaviour cloning: teacher-driven episodes (0: no imitation)", **_NONNEG)
     teacher: str = opt("apf", "imitation's teacher: apf, or geodesic (knows the map; the student sees only the "
@@ -213,6 +215,8 @@ def check_args(args: Args) -> None:
             raise ArgumentError("--head categorical learns by imitation only: give --bc-episodes N and --timesteps 0")
         if args.recurrent:
             raise ArgumentError("--head categorical cannot be combined with --recurrent (RecurrentPPO's LSTM)")
+    if args.feedback != "none" and args.student != "gru":
+        raise ArgumentError(f"--feedback {args.feedback} needs --student gru (a memoryless MLP has no previous step)")
     if args.student == "gru":
         if not _imitating(args):
             raise ArgumentError("--student gru learns by imitation: give --bc-episodes N")
@@ -446,7 +450,8 @@ def train_student(args: Args, out: Path, log=print) -> Path:
     cell = "gru" if args.student == "gru" else None
     name = f"{'GRU' if cell else 'MLP'} student{' (categorical)' if classes is not None else ''}"
     student = GRUStudent(layout.size, args.gru_hidden, _net_arch(args.net_arch), signs=signs, seed=args.seed,
-                         classes=classes, cell=cell, acting=args.head_acting)
+                         classes=classes, cell=cell, acting=args.head_acting,
+                         feedback=args.feedback)
     kw = {"n_robots": args.bc_robots or None, "max_cycles": args.max_cycles or None, "gamma": args.gamma,
           "stall_steps": args.stall_steps, "shield": args.shield, "teacher": args.teacher, "sequences": True}
     fit = {"epochs": args.bc_epochs, "lr": args.bc_lr}

@@ -60,7 +60,7 @@ from .base import SafetyShield, act_dict, unwrap_env
 from .network import (ACTIVATIONS, MAX_ABS_WEIGHT, MAX_JSON_BYTES, MAX_JSON_DEPTH, MAX_LAYER_WIDTH,  # noqa: F401
                       MAX_LAYERS, MAX_PARAMETERS, MAX_WEIGHTS_BYTES, SHIELDS, checked_array, dense)
 from .heads import CategoricalHead, check_head
-from .recurrent import RecurrentPolicy, check_cell, recurrent_network
+from .recurrent import FEEDBACKS, RecurrentPolicy, check_cell, recurrent_network
 from .symmetry import SYMMETRIES, file_options, symmetrize
 
 __all__ = ["MLPPolicy", "ShieldedPolicy", "save_policy", "load_policy", "FORMAT", "VERSION", "ACTIVATIONS",
@@ -189,11 +189,12 @@ class ShieldedPolicy:
 
 def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str, action_transform: str = "clip",
                 extra: dict | None = None, shield: str = "none", symmetry: str = "none", cell=None,
-                head: dict | None = None) -> Path:
+                head: dict | None = None, feedback: str = "none") -> Path:
     """Write a policy directory ``path/`` (``policy.json`` + ``weights.npz``) atomically (``shield``:
     ``"none"`` or ``"safety_cut"``, ``symmetry``: ``"none"`` or ``"mirror"``, see the module
     docstring; ``cell``: ``(name, {cell_W_ih: ..., ...})`` for a recurrent policy whose head is
-    ``layers``, :mod:`tin_swarm_env.policies.recurrent`; ``head``: the ``"head"`` entry, e.g.
+    ``layers``, :mod:`tin_swarm_env.policies.recurrent`, ``feedback`` its ``"network.feedback"``
+    (``"action"``: the cell also reads the previous action); ``head``: the ``"head"`` entry, e.g.
     :func:`~tin_swarm_env.policies.heads.categorical_head`, None: the mean head): both
     files go into a temporary directory beside it, which is then renamed into place; an existing
     policy directory at ``path`` is replaced, anything else there is refused. Returns the path."""
@@ -207,9 +208,10 @@ def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str
     if cell is not None:
         name, cw = cell
         cw = {k: np.asarray(v, dtype=np.float64) for k, v in cw.items()}
-        obs_size = int(cw["cell_W_ih"].shape[1]) if "cell_W_ih" in cw else 0
+        in_size = int(cw["cell_W_ih"].shape[1]) if "cell_W_ih" in cw else 0
+        obs_size = in_size - FEEDBACKS.get(feedback, 0)
         hidden = int(cw["cell_W_hh"].shape[1]) if "cell_W_hh" in cw else 0
-        network = recurrent_network(name, obs_size, hidden, sizes, activation, action_transform)
+        network = recurrent_network(name, in_size, hidden, sizes, activation, action_transform, feedback)
         arrays.update(cw)
     meta = {"format": FORMAT, "version": VERSION, "network": network,
             "observation": {"size": obs_size, "layout": lay},
@@ -306,7 +308,8 @@ def load_policy(path, env):
         return RecurrentPolicy(net["cell"], cw, layers, net["activation"], net["action_transform"],
                                layout=meta["observation"]["layout"], scenario=meta["scenario"],
                                training=meta.get("training", {}), source=str(d), shield=meta.get("shield", "none"),
-                               env=env, symmetry=meta.get("symmetry", "none"), head=head)
+                               env=env, symmetry=meta.get("symmetry", "none"), head=head,
+                               feedback=net.get("feedback", "none"))
     return MLPPolicy(layers, net["activation"], net["action_transform"], layout=meta["observation"]["layout"],
                      scenario=meta["scenario"], training=meta.get("training", {}), source=str(d),
                      shield=meta.get("shield", "none"), env=env, symmetry=meta.get("symmetry", "none"), head=head)
@@ -409,7 +412,7 @@ def validate_policy(meta, arrays: dict | None, jname: str, wname: str) -> list:
     in_size, what = sizes[0], "the first layer size"
     if net["type"] == "recurrent":  # the cell reads the observation; the head (layer_sizes) reads the cell
         in_size, cell = check_cell(net, arrays, jname, wname)
-        what = "the cell's 'network.input_size'"
+        what = "the cell's 'network.input_size' less its 'network.feedback' inputs"
         if arrays is not None:
             arrays = {k: v for k, v in arrays.items() if k not in cell}
     obs = _get(meta, "observation", dict, jname)

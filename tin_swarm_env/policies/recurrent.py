@@ -23,8 +23,18 @@ first time it sees it. A row's state starts at zero when the row is new and afte
 (which :func:`~tin_swarm_env.apps.rollout.rollout` calls after every env reset), as SB3's
 RecurrentPPO zeroes it at an episode start; each call advances the state of the rows it is given.
 
+**Feedback** (``"network": {..., "feedback": "action"}``; absent or ``"none"``: none): the cell
+also reads the action the policy commanded for that robot at its previous step, before the shield
+(a categorical head's drawn class action, a mean head's clipped output; ``(0, 0)`` at a row's first
+step and after :meth:`~RecurrentPolicy.reset`): ``x = [observation, previous action]``, so
+``input_size`` is the observation size plus 2 and ``cell_W_ih``'s last two columns weigh
+``(vx, vy)``. A sampling head can then keep the side it drew. Callers that take
+:meth:`~RecurrentPolicy.logits` and choose the action themselves hand it back with
+:meth:`~RecurrentPolicy.remember`; :meth:`~RecurrentPolicy.net_batch` does so itself.
+
 **Symmetry** (``"symmetry": "mirror"``, :mod:`tin_swarm_env.policies.symmetry`): the policy keeps
-two states per robot, one fed the observations and one their mirror images, and averages the
+two states per robot, one fed the observations and one their mirror images (with feedback: and the
+previous action mirrored, ``vy -> -vy``), and averages the
 two streams' head outputs (``vy`` of the mirrored one negated) before the clip. It is then equivariant over whole
 histories, exactly: a mirrored episode gives mirrored actions at every step.
 
@@ -45,17 +55,22 @@ from .heads import CategoricalHead
 from .network import ACTIVATIONS, MAX_LAYER_WIDTH, MAX_PARAMETERS, checked_array, dense
 from .symmetry import file_options
 
-__all__ = ["RecurrentPolicy", "CELLS", "CELL_ARRAYS", "check_cell", "recurrent_network"]
+__all__ = ["RecurrentPolicy", "CELLS", "CELL_ARRAYS", "FEEDBACKS", "check_cell", "recurrent_network"]
 
 CELLS = {"lstm": 4, "gru": 3}  # cell type -> gates
 CELL_ARRAYS = ("cell_W_ih", "cell_W_hh", "cell_b_ih", "cell_b_hh")
+FEEDBACKS = {"none": 0, "action": 2}  # "network.feedback" -> inputs the cell reads beyond the observation
 
 
 def recurrent_network(cell: str, input_size: int, hidden_size: int, head_sizes, activation: str = "tanh",
-                      action_transform: str = "clip") -> dict:
-    """The ``"network"`` entry of a recurrent policy file (module docstring)."""
-    return {"type": "recurrent", "cell": cell, "input_size": int(input_size), "hidden_size": int(hidden_size),
-            "layer_sizes": [int(s) for s in head_sizes], "activation": activation, "action_transform": action_transform}
+                      action_transform: str = "clip", feedback: str = "none") -> dict:
+    """The ``"network"`` entry of a recurrent policy file (module docstring; ``input_size``: the
+    cell's, feedback included)."""
+    net = {"type": "recurrent", "cell": cell, "input_size": int(input_size), "hidden_size": int(hidden_size),
+           "layer_sizes": [int(s) for s in head_sizes], "activation": activation, "action_transform": action_transform}
+    if feedback != "none":
+        net["feedback"] = feedback
+    return net
 
 
 def _pos_int(net, key, jname):
@@ -70,7 +85,8 @@ def _pos_int(net, key, jname):
 def check_cell(net: dict, arrays: dict | None, jname: str, wname: str) -> tuple[int, dict]:
     """Check the cell part of a recurrent ``network`` entry and its arrays (``arrays`` None: the
     entry alone, against the size limits of :mod:`~tin_swarm_env.policies.network`, before the
-    weights are read); returns ``(input_size, {name: float64 array})``. Raises
+    weights are read); returns ``(observation size, {name: float64 array})`` (the observation
+    size is ``input_size`` less the feedback's inputs). Raises
     :class:`PolicyFileError` naming the file and the key or array."""
     cell = net.get("cell")
     if "cell" not in net:
@@ -78,6 +94,12 @@ def check_cell(net: dict, arrays: dict | None, jname: str, wname: str) -> tuple[
     if cell not in CELLS:
         raise PolicyFileError(f"{jname}: key 'network.cell' is {cell!r}; known: {sorted(CELLS)}")
     d, H = _pos_int(net, "input_size", jname), _pos_int(net, "hidden_size", jname)
+    fb = net.get("feedback", "none")
+    if fb not in FEEDBACKS:
+        raise PolicyFileError(f"{jname}: key 'network.feedback' is {fb!r}; known: {list(FEEDBACKS)}")
+    if d <= FEEDBACKS[fb]:
+        raise PolicyFileError(f"{jname}: key 'network.input_size' is {d}; with 'network.feedback' {fb!r} it holds "
+                              f"the observation and {FEEDBACKS[fb]} feedback inputs")
     sizes = net.get("layer_sizes")
     if isinstance(sizes, list) and sizes and sizes[0] != H:
         raise PolicyFileError(f"{jname}: key 'network.layer_sizes' must start at hidden_size {H} (the head reads "
@@ -90,13 +112,13 @@ def check_cell(net: dict, arrays: dict | None, jname: str, wname: str) -> tuple[
     shapes = {"cell_W_ih": (G * H, d), "cell_W_hh": (G * H, H), "cell_b_ih": (G * H,), "cell_b_hh": (G * H,)}
     out = {}
     if arrays is None:
-        return d, out
+        return d - FEEDBACKS[fb], out
     for k, shape in shapes.items():
         if k not in arrays:
             raise PolicyFileError(f"{wname}: missing array {k!r} (a {cell} cell needs {list(shapes)})")
         out[k] = checked_array(arrays[k], k, shape, wname,
                                f"a {cell} cell with input_size {d} and hidden_size {H} needs")
-    return d, out
+    return d - FEEDBACKS[fb], out
 
 
 def expit(x):
@@ -125,12 +147,13 @@ class RecurrentPolicy:
     rows=None) -> (n, 2)`` float32 advances each row's memory by one step; ``act({agent: obs})``;
     :meth:`reset` forgets every robot (call it after each env reset). ``shield="safety_cut"``
     (with ``env``) filters the actions as an MLP file's; ``net_batch`` is the unfiltered
-    network (it advances the memory too)."""
+    network (it advances the memory too). ``feedback="action"``: the cell also reads each row's
+    previous commanded action (module docstring)."""
 
     def __init__(self, cell: str, cell_weights: dict, layers, activation: str = "tanh",
                  action_transform: str = "clip", *, layout: dict, scenario: str = "", training: dict | None = None,
                  source: str = "<memory>", shield: str = "none", env=None, symmetry: str = "none",
-                 head: dict | None = None):
+                 head: dict | None = None, feedback: str = "none"):
         if cell not in CELLS:
             raise ArgumentError(f"{source}: cell {cell!r} is not one of {sorted(CELLS)}")
         if activation not in ACTIVATIONS:
@@ -140,7 +163,10 @@ class RecurrentPolicy:
         self.layers = [(np.ascontiguousarray(W, dtype=np.float64), np.ascontiguousarray(b, dtype=np.float64))
                        for W, b in layers]
         self.hidden_size = self.w["cell_W_hh"].shape[1]
-        self.obs_size = self.w["cell_W_ih"].shape[1]
+        if feedback not in FEEDBACKS:
+            raise ArgumentError(f"{source}: feedback {feedback!r} is not one of {list(FEEDBACKS)}")
+        self.feedback = feedback
+        self.obs_size = self.w["cell_W_ih"].shape[1] - FEEDBACKS[feedback]
         self.activation, self.action_transform = activation, action_transform
         self._act = ACTIVATIONS[activation]
         self.layout, self.scenario, self.training, self.source = layout, scenario, dict(training or {}), source
@@ -156,6 +182,7 @@ class RecurrentPolicy:
         streams = 2 if self._signs is not None else 1
         self._h = np.zeros((streams, 0, self.hidden_size))
         self._c = np.zeros((streams, 0, self.hidden_size))
+        self._prev = np.zeros((0, 2))  # each row's previous commanded action (feedback)
         self._rows: dict = {}
         if self.head is not None:
             self.head.reset()
@@ -170,13 +197,31 @@ class RecurrentPolicy:
         if k > 0:
             pad = np.zeros((self._h.shape[0], k, self.hidden_size))
             self._h, self._c = np.concatenate([self._h, pad], axis=1), np.concatenate([self._c, pad], axis=1)
+        if n > len(self._prev):
+            self._prev = np.concatenate([self._prev, np.zeros((n - len(self._prev), 2))])
 
     # -- acting --------------------------------------------------------------------------------
     def net_batch(self, obs, rows=None) -> np.ndarray:
         if self.head is not None:
             z, rows = self.logits(obs, rows)
-            return self.head.act(z, rows).astype(np.float32)
-        return self._outputs(obs, rows)[0]
+            a = self.head.act(z, rows)
+        else:
+            a, rows = self._outputs(obs, rows)
+        self.remember(a, rows)
+        return np.asarray(a, dtype=np.float32)
+
+    def remember(self, actions, rows=None) -> None:
+        """Record ``actions (n, 2)`` as the rows' commanded actions, the feedback of their next
+        step (module docstring); a no-op without feedback. :meth:`net_batch` calls it."""
+        if self.feedback == "none":
+            return
+        a = np.asarray(actions, dtype=np.float64)
+        rows = np.arange(len(a)) if rows is None else np.asarray(rows, dtype=np.int64)
+        if a.shape != (len(rows), 2):
+            raise ArgumentError(f"{self.source}: remember needs ({len(rows)}, 2) actions, got {a.shape}")
+        if len(rows):
+            self._grow(int(rows.max()) + 1)
+            self._prev[rows] = a
 
     def logits(self, obs, rows=None) -> tuple[np.ndarray, np.ndarray]:
         """A categorical head's ``(n, K)`` float64 logits (mirror-averaged with the symmetry) and
@@ -197,8 +242,13 @@ class RecurrentPolicy:
             return np.zeros((0, k), dtype=np.float32 if self.head is None else np.float64), rows
         self._grow(int(rows.max()) + 1)
         n = len(x)
+        prev = self._prev[rows] if self.feedback != "none" else None
         if self._signs is not None:  # both streams in one pass: the observations, then their mirror images
             x = np.concatenate([x, x * self._signs])
+            if prev is not None:
+                prev = np.concatenate([prev, prev * np.asarray(ACTION_PARITY, dtype=np.float64)])
+        if prev is not None:
+            x = np.concatenate([x, prev], axis=1)
         h = self._h[:, rows].reshape(-1, self.hidden_size)
         c = self._c[:, rows].reshape(-1, self.hidden_size)
         h, c = cell_step(self.cell, self.w, x, h, c)
@@ -230,7 +280,8 @@ class RecurrentPolicy:
         return act_dict(self.act_batch, obs, [self._rows.setdefault(k, len(self._rows)) for k in obs])
 
     def __repr__(self) -> str:
-        sizes = [self.obs_size, f"{self.cell}({self.hidden_size})"] + [W.shape[0] for W, _ in self.layers]
+        sizes = [self.obs_size if self.feedback == "none" else f"{self.obs_size}+{self.feedback}",
+                 f"{self.cell}({self.hidden_size})"] + [W.shape[0] for W, _ in self.layers]
         extra = "".join(f", {k}={v!r}" for k, v in (("shield", self.shield), ("symmetry", self.symmetry))
                         if v != "none")
         if self.head is not None:
