@@ -208,3 +208,99 @@ def test_train_head_categorical_runs_and_exports_an_mlp_file(tmp_path, capsys):
     pol = load_policy(path, tse.parallel_env(scenario="cliff_goal", n_robots=3))
     assert isinstance(pol, MLPPolicy) and pol.head.acting == "sample" and len(pol.head.actions) == 33
     assert pol.training["imitation"]["head"] == "categorical"
+
+
+@pytest.mark.parametrize("categorical", [False, True])
+def test_feedback_file_acts_as_the_torch_student_over_a_whole_episode(tmp_path, categorical):
+    """A GRU with feedback, mirror-equivariant (categorical: sampling): the file drives a DAgger
+    episode (recording what it commanded, ``Sequence.driven``); replayed, the file's outputs equal
+    the torch model's fed the whole episode and the commands shifted one step (previous_actions),
+    at every step of every robot, and the replay commands what drove."""
+    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences, previous_actions
+    from tin_swarm_env.policies import load_policy
+    from tin_swarm_env.policies.heads import categorical_classes
+
+    env = tse.parallel_env(scenario="cliff_goal", **SMALL)
+    lay = env.layout
+    classes = categorical_classes() if categorical else None
+    bc = collect("cliff_goal", 1, seed=1, teacher="geodesic", sequences=True, **SMALL)
+    st = GRUStudent(lay.size, 12, (8,), signs=lay.mirror_signs(), seed=3, classes=classes, feedback="action",
+                    acting="sample")  # a draw per robot and step: reset() restarts the streams for the replay
+    fit_sequences(st, bc.sequences, epochs=2)
+    st.export(tmp_path / "p", lay, scenario="cliff_goal")
+    pol = load_policy(tmp_path / "p", env)
+    assert pol.feedback == "action" and pol.symmetry == "mirror"
+    dag = collect("cliff_goal", 2, seed=5, teacher="geodesic", sequences=True, learner=pol, **SMALL)
+    for q in dag.sequences:
+        T = len(q.obs)
+        prev = previous_actions(q, T, classes)
+        with torch.no_grad():
+            ref = st(q.obs, prev).double().numpy()
+        pol.reset()
+        if categorical:
+            outs, cmds = [], []
+            for t in range(T):
+                z, _ = pol.logits(q.obs[t])
+                a = pol.head.act(z)
+                pol.remember(a)
+                outs.append(z)
+                cmds.append(a)
+            out, cmd = np.stack(outs), np.stack(cmds).astype(np.float32)
+        else:
+            cmd = np.stack([pol.net_batch(q.obs[t]) for t in range(T)])
+            out, ref = cmd, np.clip(ref, -1, 1)
+        assert np.abs(out - ref).max() < 1e-4
+        np.testing.assert_array_equal(cmd, q.driven)  # the replay is the episode that was driven
+        assert np.abs(prev[1:] - cmd[:-1]).max() < 1e-6 and not prev[0].any()
+        assert len(np.unique(cmd.reshape(-1, 2), axis=0)) > 1
+
+
+def test_previous_actions_shift_clip_and_snap_to_classes():
+    from tin_swarm_env.apps.recurrent_imitation import previous_actions
+
+    drv = np.array([[[0.875, 0.25]], [[2.0, -0.25]], [[0.0, 0.0]]], np.float32)  # (T=3, n=1, 2)
+    q = Sequence(np.zeros((3, 1, 4), np.float32), np.zeros((3, 1, 2), np.float32), np.ones((3, 1), bool),
+                 np.ones((3, 1), bool), drv)
+    np.testing.assert_array_equal(previous_actions(q, 3), [[[0, 0]], [[0.875, 0.25]], [[1.0, -0.25]]])
+    classes = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, 0.5], [0.5, -0.5]])
+    np.testing.assert_array_equal(previous_actions(q, 3, classes), [[[0, 0]], [[1.0, 0.0]], [[1.0, 0.0]]])
+    np.testing.assert_array_equal(previous_actions(q, 2, classes), [[[0, 0]], [[1.0, 0.0]]])
+    with pytest.raises(ArgumentError, match="record 'driven'"):
+        previous_actions(Sequence(q.obs, q.labels, q.keep, q.live), 3)
+
+
+def test_feedback_lets_the_gru_keep_the_side_it_drew():
+    """The observations are all zeros; the label at each step is the side of the action commanded
+    at the step before (a random side per robot and step): only the fed-back action tells it. A
+    GRU without feedback sees the same zeros whatever was drawn (its MSE is at least the labels'
+    variance); with feedback it must get far below."""
+    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences
+
+    rng = np.random.default_rng(0)
+    T, n, d = 8, 32, 3
+    seqs = []
+    for _ in range(4):
+        drv = np.zeros((T, n, 2), np.float32)
+        drv[:, :, 0] = 0.5
+        drv[:, :, 1] = rng.choice([-0.5, 0.5], (T, n))
+        labels = np.zeros((T, n, 2), np.float32)
+        labels[1:, :, 1] = drv[:-1, :, 1]
+        seqs.append(Sequence(np.zeros((T, n, d), np.float32), labels, np.ones((T, n), bool), np.ones((T, n), bool),
+                             drv))
+    floor = 0.25 / 2 * (T - 1) / T  # variance 0.25 in vy, 0 in vx, over steps 1..T-1
+    fb = fit_sequences(GRUStudent(d, 8, (8,), seed=0, feedback="action"), seqs, epochs=60, lr=1e-2)
+    blind = fit_sequences(GRUStudent(d, 8, (8,), seed=0), seqs, epochs=60, lr=1e-2)
+    assert fb < 0.1 * floor and blind > 0.9 * floor
+
+
+def test_feedback_options_are_checked_by_name():
+    from tin_swarm_env.apps.recurrent_imitation import GRUStudent
+
+    with pytest.raises(ArgumentError, match="--feedback action needs --student gru"):
+        check_args(Args(feedback="action", head="categorical", bc_episodes=1, total_timesteps=0))
+    with pytest.raises(ArgumentError, match="--feedback must be one of"):
+        Args(feedback="reward")
+    with pytest.raises(ArgumentError, match="feedback must be one of"):
+        GRUStudent(5, cell=None, feedback="action")
+    with pytest.raises(ArgumentError, match="needs prev"):
+        GRUStudent(5, feedback="action")(np.zeros((2, 1, 5), np.float32))

@@ -240,3 +240,100 @@ def test_the_cli_runs_a_recurrent_policy_without_torch(tmp_path):
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert r.returncode == 0, r.stderr[-3000:]
     assert "rec" in (tmp_path / "ev.md").read_text()
+
+
+def _save_fb(tmp_path, name, cell="gru", H=8, seed=0, **kw):
+    """A recurrent file with ``"feedback": "action"`` (random weights, the cell reading the
+    observation and the previous action)."""
+    e = _env()
+    return save_policy(tmp_path / name, _head(H, seed), layout=e.layout, scenario="cliff_goal",
+                       cell=(cell, _random_cell(cell, e.layout.size + 2, H, seed)), feedback="action", **kw)
+
+
+@pytest.mark.parametrize("cell", sorted(CELLS))
+def test_feedback_cell_reads_the_observation_then_the_previous_commanded_action(tmp_path, cell):
+    """The file with feedback equals, step by step, the same cell fed ``[o, previous action]`` by
+    hand (the previous action being what the policy itself commanded before the shield, zero at
+    the first step and after reset); the weights on the feedback columns matter."""
+    e = _env()
+    lay = e.layout
+    p = _save_fb(tmp_path, "fb", cell, seed=4, shield="safety_cut")
+    pol = load_policy(p, e)
+    meta = json.loads((p / "policy.json").read_text())
+    assert meta["network"]["feedback"] == "action" and meta["network"]["input_size"] == lay.size + 2
+    assert meta["observation"]["size"] == lay.size and pol.obs_size == lay.size and pol.feedback == "action"
+    with np.load(p / "weights.npz") as f:
+        w = {k: f[k] for k in f.files}
+    layers = [(w[f"W{i}"], w[f"b{i}"]) for i in range(2)]
+    ref = RecurrentPolicy(cell, {k: w[k] for k in w if k.startswith("cell_")}, layers,
+                          layout=lay.to_dict())  # no feedback: fed [o, prev] by hand
+    seq = np.random.default_rng(5).uniform(-1, 1, (2, 10, 5, lay.size))
+    for ep in seq:
+        pol.reset()
+        ref.reset()
+        prev = np.zeros((5, 2))
+        for o in ep:
+            a = pol.net_batch(o)
+            b = ref.net_batch(np.concatenate([o, prev], axis=1))
+            np.testing.assert_array_equal(a, b)
+            prev = b.astype(np.float64)
+    blind = load_policy(_edit(p, tmp_path, None, lambda a: a["cell_W_ih"].__setitem__((slice(None), slice(-2, None)),
+                                                                                         0.0)), e)
+    pol.reset()
+    gap = max(np.abs(pol.net_batch(o) - blind.net_batch(o)).max() for o in seq[0])
+    assert gap > 1e-3  # the feedback columns are read
+
+
+@pytest.mark.parametrize("head", ["mean", "categorical"])
+def test_feedback_file_is_mirror_equivariant_over_histories(tmp_path, head):
+    """With the mirror option, the mirrored stream reads the mirrored previous action: a mirrored
+    history gives mirrored actions (and, categorical, permuted logits) at every step, exactly."""
+    from tin_swarm_env.policies.heads import categorical_classes, categorical_head
+
+    e = _env()
+    lay = e.layout
+    kw = {}
+    if head == "categorical":
+        K = len(categorical_classes())
+        rng = np.random.default_rng(9)
+        kw = {"head": categorical_head()}
+    p = save_policy(tmp_path / "m", _head(8, 3) if head == "mean" else
+                    [(rng.normal(0, 1, (12, 8)), rng.normal(0, 1, 12)), (rng.normal(0, 2, (K, 12)),
+                                                                         rng.normal(0, 1, K))],
+                    layout=lay, scenario="cliff_goal", cell=("gru", _random_cell("gru", lay.size + 2, 8, 3)),
+                    feedback="action", symmetry="mirror", **kw)
+    a_pol, b_pol = load_policy(p, e), load_policy(p, e)
+    seq = np.random.default_rng(2).uniform(-1, 1, (12, 5, lay.size))
+    flip = np.array([1.0, -1.0], dtype=np.float32)
+    acts = []
+    for o in seq:
+        if head == "categorical":
+            z, _ = a_pol.logits(o)
+            zm, _ = b_pol.logits(lay.mirror(o))
+            assert np.array_equal(zm, z[:, a_pol.head.perm])
+            a, am = a_pol.head.act(z), b_pol.head.act(zm)
+            a_pol.remember(a)
+            b_pol.remember(am)
+        else:
+            a, am = a_pol.net_batch(o), b_pol.net_batch(lay.mirror(o))
+        np.testing.assert_array_equal(am, a * flip)
+        acts.append(a)
+    assert len(np.unique(np.concatenate(acts).round(6), axis=0)) > 3  # the actions vary: not a trivial comparison
+
+
+FEEDBACK_BAD = {
+    "unknown": (lambda j: j["network"].update(feedback="sound"), r"policy\.json: key 'network\.feedback' is 'sound'"),
+    "sizes": (lambda j: j["network"].update(input_size=59), r"policy\.json: key 'observation\.size' \(59\) differs "
+              r"from the cell's 'network\.input_size' less its 'network\.feedback' inputs \(57\)"),
+    "too_small": (lambda j: j["network"].update(input_size=2), r"'network\.input_size' is 2; with 'network\.feedback'"),
+    "dropped": (lambda j: j["network"].pop("feedback"), r"'observation\.size' \(59\) differs from the cell's "
+                r"'network\.input_size' \(61\)"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(FEEDBACK_BAD))
+def test_bad_feedback_files_are_refused_by_name(tmp_path, case):
+    fj, pattern = FEEDBACK_BAD[case]
+    q = _edit(_save_fb(tmp_path, "p"), tmp_path, fj)
+    with pytest.raises(PolicyFileError, match=pattern):
+        load_policy(q, _env())

@@ -412,7 +412,8 @@ def validate_policy(meta, arrays: dict | None, jname: str, wname: str) -> list:
     in_size, what = sizes[0], "the first layer size"
     if net["type"] == "recurrent":  # the cell reads the observation; the head (layer_sizes) reads the cell
         in_size, cell = check_cell(net, arrays, jname, wname)
-        what = "the cell's 'network.input_size' less its 'network.feedback' inputs"
+        what = "the cell's 'network.input_size'" + (" less its 'network.feedback' inputs"
+                                                    if net.get("feedback", "none") != "none" else "")
         if arrays is not None:
             arrays = {k: v for k, v in arrays.items() if k not in cell}
     obs = _get(meta, "observation", dict, jname)
