@@ -44,6 +44,8 @@ def run(env, pol, driver: str, seeds, steps: int) -> dict:
                 p = softmax(z)
                 vy = pol.head.actions[:, 1]
                 a = pol.head.act(z).astype(np.float32)
+                if hasattr(pol, "remember"):  # a file with feedback reads what it commanded (policies/recurrent.py)
+                    pol.remember(a)
                 mass = np.stack([p[:, vy > 0].sum(1), p[:, vy < 0].sum(1), p[:, vy == 0].sum(1)], 1)
             else:
                 a = pol.net_batch(obs)

@@ -4,14 +4,20 @@
 # mirror image canyon_right (3 seeds x 20 robots). The categorical students are played three ways: acting by the
 # mode (as trained), by "side" and by a seeded per-robot draw (copies of the file with another "acting").
 #   flock /tmp/heavy.lock bash agents/eval_multimodal.sh families      # then: ... canyons
+# The second run (train_multimodal.py --recipe student, files acting by "sample"):
+#   RUN=runs/multimodal2 OUT=runs/eval_multimodal2 TWINS="gru_fb gru_cat0 mlp_cat0" ACTINGS="mode side" \
+#     MODELS=gru_fb=runs/multimodal2/gru_fb/policy,gru_fb_mode=runs/multimodal2/gru_fb_mode/policy,... \
+#     flock /tmp/heavy.lock bash agents/eval_multimodal.sh families
 set -e
 cd "$(dirname "$0")/.."
 PY=${PY:-python}
 RUN=${RUN:-runs/multimodal}
 OUT=${OUT:-runs/eval_multimodal}
 PART=${1:-families}
-for v in mlp_cat gru_cat; do  # the "side" and "sample" twins of each categorical file (policies/heads.py)
-  for acting in side sample; do
+TWINS=${TWINS:-mlp_cat gru_cat}
+ACTINGS=${ACTINGS:-side sample}
+for v in $TWINS; do  # the twins of each categorical file acting otherwise (policies/heads.py)
+  for acting in $ACTINGS; do
     $PY - "$RUN/$v/policy" "$RUN/${v}_$acting/policy" "$acting" <<'PY'
 import json, shutil, sys
 src, dst, acting = sys.argv[1:]
