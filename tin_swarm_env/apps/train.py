@@ -33,6 +33,8 @@ Read top to bottom: arguments, environment, imitation, evaluation, training, sav
 * ``--student gru``: imitation fits a recurrent student instead (a GRU before the MLP head, BC and
   DAgger on whole episodes per robot, exported as a recurrent policy file with the same
   ``--symmetry``/``--shield``; :mod:`tin_swarm_env.apps.recurrent_imitation`); no PPO after it.
+  ``--feedback action``: the GRU also reads the action it commanded at the previous step (the file's
+  ``"network.feedback"``, :mod:`tin_swarm_env.policies.recurrent`).
 * ``--head categorical``: the student's action head is a categorical over class actions (16
   headings x 2 speeds and stop) fitted by likelihood, not a mean fitted by MSE
   (:mod:`tin_swarm_env.policies.heads`); imitation only, with ``--student gru`` or, for
