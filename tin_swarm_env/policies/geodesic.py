@@ -88,8 +88,8 @@ class GeodesicPolicy:
 
     Per robot: the unit direction ``u`` of the first leg of its path (the field built on the
     ground ``clear_rings`` triangle rings away from any steep triangle, :func:`eroded`, where that
-    reaches the target from the robot; else the field over all passable ground, and there the best
-clear straight leg :data:`LOOK_M` long, :meth:`around`), kept
+    reaches the target from the robot; else the field over all passable ground, and there, near a
+    dangerous break, the best clear straight leg :data:`LOOK_M` long, :meth:`around`), kept
     ``clear_m`` off the dangerous breaks it senses (:func:`clear_of_breaks`: shortest paths hug
     cliff edges and corners, and robots queueing on one would block each other), scaled by the
     target field's magnitude with the path length as the distance
