@@ -349,15 +349,16 @@ def _break_slots(obs, i, sl, K, start, idx, dist, closest, normals, drops, dange
 
 
 @njit(cache=True, inline="always")
-def _own(obs, i, o, c, s, own_n, grad, target_idx, tpos, tz, pos, heights, R, dz_scale):
-    """Own fields of robot ``i`` (``o`` an :class:`OwnOffsets`; ``own_n (n, 4)`` battery, speed,
-    tilt and slope already normalised)."""
-    obs[i, o.battery] = own_n[i, 0]
-    obs[i, o.speed] = min(max(own_n[i, 1], 0.0), 1.0)
-    obs[i, o.tilt] = own_n[i, 2]
-    obs[i, o.slope] = own_n[i, 3]
-    gx = grad[i, 0]
-    gy = grad[i, 1]
+def _own(obs, i, o, c, s, own_n, planes, tri, target_idx, tpos, tz, pos, heights, R, dz_scale):
+    """Own fields of robot ``i`` (``o`` an :class:`OwnOffsets`; ``own_n``: the ``(n,)`` battery,
+    speed, tilt and slope already normalised; the uphill gradient from the plane of its triangle)."""
+    bat, spd, tilt, slope = own_n
+    obs[i, o.battery] = bat[i]
+    obs[i, o.speed] = min(max(spd[i], 0.0), 1.0)
+    obs[i, o.tilt] = tilt[i]
+    obs[i, o.slope] = slope[i]
+    gx = planes[tri[i], 0]
+    gy = planes[tri[i], 1]
     gn = np.sqrt(gx * gx + gy * gy)
     if gn > 1e-6:  # below a micro-degree the ground counts as level: no uphill direction
         obs[i, o.uphill] = (c * gx + s * gy) / gn
@@ -377,7 +378,7 @@ def _own(obs, i, o, c, s, own_n, grad, target_idx, tpos, tz, pos, heights, R, dz
 
 
 @njit(cache=True, parallel=True)
-def _fill(obs, o, o_rob, o_tgt, o_brk, o_ast, ks, pos, head, heights, own_n, grad, live, target_idx, tpos, tz,
+def _fill(obs, o, o_rob, o_tgt, o_brk, o_ast, ks, pos, head, heights, own_n, planes, tri, live, target_idx, tpos, tz,
           robots, targets, breaks, apos, assets, R, dz_scale):
     """Write every live robot's row of ``obs``; ``o, o_rob, o_tgt, o_brk, o_ast`` the offsets of
     :meth:`ObsLayout.kernel_offsets` (passed one by one: numba's parallel loop takes namedtuples
@@ -395,7 +396,7 @@ def _fill(obs, o, o_rob, o_tgt, o_brk, o_ast, ks, pos, head, heights, own_n, gra
             continue
         c = np.cos(head[i])
         s = np.sin(head[i])
-        _own(obs, i, o, c, s, own_n, grad, target_idx, tpos, tz, pos, heights, R, dz_scale)
+        _own(obs, i, o, c, s, own_n, planes, tri, target_idx, tpos, tz, pos, heights, R, dz_scale)
         _point_slots(obs, i, o_rob, kr, rs, ri, rd, pos, pos, c, s, R)
         _point_slots(obs, i, o_tgt, kt, ts, ti, td, tpos, pos, c, s, R)
         _break_slots(obs, i, o_brk, kb, bs, bi, bd, bc, bn, bdrop, bdanger, pos, c, s, R, dz_scale)
@@ -448,12 +449,13 @@ def build_observations(world, state, readings, target_idx, live, layout: ObsLayo
     ks = (layout.k_robots, layout.k_targets, layout.k_breaks, layout.k_assets)
     tg = state.targets
     tz = world.tin.height_in(tg.positions, tg.tri_idx) if len(tg) else np.zeros(0)
-    own_n = np.column_stack([state.battery_j / P.battery.capacity_j, state.speeds / P.robot.max_speed_mps,
-                             readings.tilt_rad / (np.pi / 2), readings.slope_deg / 90.0])
+    own_n = (state.battery_j / P.battery.capacity_j, state.speeds / P.robot.max_speed_mps,
+             readings.tilt_rad / (np.pi / 2), readings.slope_deg / 90.0)
+    own_n = tuple(np.ascontiguousarray(v, dtype=np.float64) for v in own_n)
     breaks = _grouped(readings.breaks, n, ks[2], "closest") + _break_arrays(world)
     obs = np.zeros((n, layout.size), dtype=np.float32)
-    _fill(obs, *_kernel_offsets(layout), ks, state.positions, state.headings, state.heights, own_n,
-          world.tin.planes[state.tri_idx, :2], live, target_idx, tg.positions.reshape(-1, 2), tz,
+    _fill(obs, *_kernel_offsets(layout), ks, state.positions, state.headings, state.heights, own_n, world.tin.planes,
+          np.ascontiguousarray(state.tri_idx, dtype=np.int64), live, target_idx, tg.positions.reshape(-1, 2), tz,
           _grouped(readings.robots, n, ks[0]), _grouped(readings.targets, n, ks[1]), breaks,
           state.assets.positions.reshape(-1, 2), _grouped(readings.assets, n, ks[3]), float(P.sensor.range_m),
           DZ_SCALE_M)
