@@ -263,11 +263,18 @@ def _slots(n, k, which):
     return buf
 
 
+_NO_ENTITIES = {}  # range -> the (ex, ey, ez, grid) of no entities (read only: built once, not per step)
+_NONE, _BATTERY = int(Reason.NONE), int(Reason.BATTERY)  # (comparing with a plain int is ~4x faster than the enum)
+
+
 def _entities(tin, ent, params, r):
     """``(ex, ey, ez, grid)`` of the entities (ez: their sight point's height)."""
     if len(ent) == 0:
-        z = np.zeros(0)
-        return z, z, z, grid_build(z, z, np.zeros(0, dtype=np.bool_), sense_cell(r))
+        got = _NO_ENTITIES.get(r)
+        if got is None:
+            z = np.zeros(0)
+            got = _NO_ENTITIES[r] = (z, z, z, grid_build(z, z, np.zeros(0, dtype=np.bool_), sense_cell(r)))
+        return got
     ex = np.ascontiguousarray(ent.positions[:, 0])
     ey = np.ascontiguousarray(ent.positions[:, 1])
     ez = tin.height_in(ent.positions, ent.tri_idx) + params.entity_height_m
@@ -285,8 +292,8 @@ def sense(tin, break_index: BreakIndex, state, params) -> SensorReadings:
     y = np.ascontiguousarray(state.positions[:, 1])
     head = np.ascontiguousarray(state.headings, dtype=np.float64)
     status = state.status
-    active = status == Reason.NONE
-    present = active | (status == Reason.BATTERY)  # is_present
+    active = status == _NONE
+    present = active | (status == _BATTERY)  # is_present
     tri = np.ascontiguousarray(state.tri_idx, dtype=np.int64)
     sz = np.ascontiguousarray(state.heights + sp.height_m)
     half_fov = math.radians(sp.fov_deg) / 2 + 1e-12
