@@ -17,6 +17,9 @@ differs from a fresh generation; ``TIN_SWARM_WRITE_DOCS=1`` (with that test) or
 - suite splits: :data:`tin_swarm_env.apps.suite.SPLITS`, the standard evaluation suite's maps.
 - modules: every module of the package with the first sentence of its docstring (read with ``ast``,
   nothing imported), the layout table of the contributing page.
+- apf summary: the APF and geodesic rows of ``docs/figures/apf.md`` (written by ``bench/apf.py``), the
+  table of README's APF section, which must equal this file's table (``tests/integration/test_docs_tables.py``);
+  ``python docs/gen_tables.py`` rewrites README's block too.
 """
 
 from __future__ import annotations
@@ -319,6 +322,56 @@ def modules_table() -> str:
     return HEADER + "\n".join(out) + "\n"
 
 
+# -- APF's measured summary (README's table) ------------------------------------------------------------
+
+APF_FIGURES = ROOT / "docs" / "figures" / "apf.md"
+
+
+def _md_rows(lines: list[str], start: int) -> list[list[str]]:
+    """The body rows of the Markdown table whose header is ``lines[start]`` (cells stripped)."""
+    rows = []
+    for line in lines[start + 2:]:
+        if not line.startswith("|"):
+            break
+        rows.append([c.strip() for c in line.strip().strip("|").split("|")])
+    return rows
+
+
+def apf_summary_rows() -> str:
+    """README's APF table: per terrain, APF's arrived / fell / stalled / looping beside the map-knowing
+    geodesic policy's arrived, read off ``docs/figures/apf.md`` (its first table), and jacksboro given
+    1800 steps (the mean over its seeds of the 900- and 1800-step columns)."""
+    lines = APF_FIGURES.read_text(encoding="utf-8").splitlines()
+    head = next(i for i, line in enumerate(lines) if line.startswith("| terrain | policy |"))
+    cols = lines[head].strip().strip("|").split("|")
+    cols = [c.strip() for c in cols]
+    at = {k: cols.index(k) for k in ("terrain", "policy", "seeds x robots", "arrived", "fell", "stalled", "looping")}
+    apf, geo = {}, {}
+    for r in _md_rows(lines, head):
+        if r[at["policy"]] == "apf":
+            apf[r[at["terrain"]]] = r
+        elif r[at["policy"]].startswith("geodesic"):
+            geo[r[at["terrain"]]] = r
+    out = ["| terrain | seeds x robots | APF arrived | fell | stalled | looping | geodesic arrived |",
+           "|---|---:|---:|---:|---:|---:|---:|"]
+    for name, r in apf.items():
+        g = geo[name][at["arrived"]] if name in geo else ""
+        out.append(f"| {name} | {r[at['seeds x robots']]} | {r[at['arrived']]} | {r[at['fell']]} | "
+                   f"{r[at['stalled']]} | {r[at['looping']]} | {g} |")
+    longer = next((i for i, line in enumerate(lines) if line.startswith("| seed | 900 |")), None)
+    if longer is not None:
+        rows = _md_rows(lines, longer)
+        c900, c1800 = (sum(float(r[k].rstrip("%")) for r in rows) / len(rows) for k in (1, 4))
+        out.append(f"| jacksboro, given 1800 steps | {len(rows)} seeds | {c1800:.1f}% (at 900: {c900:.1f}%) | "
+                   f"| | | |")
+    source = re.split(r",? \d{4}-\d\d-\d\d", lines[0])[0].rstrip(".")
+    return "\n".join(out) + f"\n\n{source}.\n"
+
+
+def apf_summary_table() -> str:
+    return HEADER + apf_summary_rows()
+
+
 TABLES = {
     "docs/generated/observation.md": observation_table,
     "docs/generated/reasons.md": reasons_table,
@@ -327,7 +380,17 @@ TABLES = {
     "docs/generated/suite_splits.md": suite_splits_table,
     "docs/generated/cli.md": cli_table,
     "docs/generated/modules.md": modules_table,
+    "docs/generated/apf_summary.md": apf_summary_table,
 }
+
+
+def write_readme_apf_table() -> None:
+    """Rewrite README's ``apf-table`` block from :func:`apf_summary_rows` (after a ``bench/apf.py`` run)."""
+    path = ROOT / "README.md"
+    text = path.read_text(encoding="utf-8")
+    start, end = "<!-- apf-table:start -->\n", "<!-- apf-table:end -->"
+    i, j = text.index(start) + len(start), text.index(end)
+    path.write_text(text[:i] + apf_summary_rows() + text[j:], encoding="utf-8")
 
 
 def main() -> int:
@@ -335,6 +398,8 @@ def main() -> int:
         (ROOT / rel).parent.mkdir(parents=True, exist_ok=True)
         (ROOT / rel).write_text(make())
         print(f"wrote {rel}")
+    write_readme_apf_table()
+    print("wrote README.md's apf-table block")
     return 0
 
 

@@ -136,3 +136,13 @@ def test_observation_table_columns_are_obslayout_slices():
     assert f"| `breaks` | {lay.breaks.start}..{lay.breaks.stop - 1} |" in text
     assert f"| `own.target_dz` | {lay.own['target_dz'].start}..{lay.own['target_dz'].start} |" in text
     assert f"d = {ObsLayout().size} without assets" in text
+
+
+def test_readme_apf_table_is_the_generated_one():
+    """README's APF table is docs/generated/apf_summary.md's (both read off docs/figures/apf.md); a
+    README edited by hand, or a bench run whose figures README does not show, fails here."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = re.search(r"<!-- apf-table:start -->\n(.*?)<!-- apf-table:end -->", text, re.S)
+    assert block is not None, "README.md has no apf-table block"
+    assert block.group(1) == GEN.apf_summary_rows()
+    assert "| generated: fork |" in block.group(1) and "| jacksboro, given 1800 steps |" in block.group(1)

@@ -33,6 +33,11 @@ Read top to bottom: arguments, environment, imitation, evaluation, training, sav
 * ``--student gru``: imitation fits a recurrent student instead (a GRU before the MLP head, BC and
   DAgger on whole episodes per robot, exported as a recurrent policy file with the same
   ``--symmetry``/``--shield``; :mod:`tin_swarm_env.apps.recurrent_imitation`); no PPO after it.
+* ``--head categorical``: the student's action head is a categorical over class actions (16
+  headings x 2 speeds and stop) fitted by likelihood, not a mean fitted by MSE
+  (:mod:`tin_swarm_env.policies.heads`); imitation only, with ``--student gru`` or, for
+  ``--student mlp``, the same sequence fit without a cell (an MLP policy file); ``--head-acting``
+  says how the file acts (the mode, or a seeded per-robot draw).
 * ``--total-timesteps`` of PPO afterwards; 0 is refused without imitation (it would save an
   untrained model). ``--recurrent``: sb3-contrib's RecurrentPPO (MlpLstmPolicy, ``--lstm-hidden`` units,
   then ``--net-arch``); no imitation for it (imitation fits an MLP actor); it is exported as a
@@ -65,6 +70,7 @@ from ..errors import ArgumentError, require
 from ..policies.learned import SHIELDS, ShieldedPolicy
 from ..scenario.config import MAX_ROBOTS
 from .args import check_args as check_fields, opt
+from ..policies.heads import ACTINGS
 from ..policies.symmetry import SYMMETRIES
 from ..world.state import Reason
 from .evaluate import EVAL_SEED0
@@ -127,6 +133,10 @@ class Args:
     lstm_hidden: int = opt(256, "--recurrent: LSTM units (RecurrentPPO's default)", lo=1, hi=4096)
     student: str = opt("mlp", "imitation's student: mlp (the SB3 actor, PPO may follow) or gru (a recurrent "
                        "student, imitation only: --timesteps 0; apps/recurrent_imitation.py)", choices=STUDENTS)
+    head: str = opt("mean", "the action head: mean (MSE fit) or categorical (class actions, likelihood fit, "
+                    "imitation only; policies/heads.py)", choices=("mean", "categorical"))
+    head_acting: str = opt("mode", "--head categorical: how the file acts: mode, side (the likelier side, then its "
+                           "mode) or sample (a seeded per-robot draw); policies/heads.py", choices=ACTINGS)
     gru_hidden: int = opt(64, "--student gru: GRU units (--net-arch: the head after it)", lo=1, hi=1024)
     bc_episodes: int = opt(0, "behaviour cloning: teacher-driven episodes (0: no imitation)", **_NONNEG)
     teacher: str = opt("apf", "imitation's teacher: apf, or geodesic (knows the map; the student sees only the "
@@ -198,6 +208,11 @@ def check_args(args: Args) -> None:
         raise ArgumentError("--mirror-samples cannot be combined with --teacher geodesic: a mirrored label is the "
                             "map-knowing teacher's action on a mirror-image map nobody ran (apps/imitation.py); "
                             "use --symmetry mirror (a mirror-equivariant student) instead")
+    if args.head == "categorical":
+        if not _imitating(args) or args.total_timesteps:
+            raise ArgumentError("--head categorical learns by imitation only: give --bc-episodes N and --timesteps 0")
+        if args.recurrent:
+            raise ArgumentError("--head categorical cannot be combined with --recurrent (RecurrentPPO's LSTM)")
     if args.student == "gru":
         if not _imitating(args):
             raise ArgumentError("--student gru learns by imitation: give --bc-episodes N")
@@ -356,13 +371,14 @@ def _bc_dagger(args: Args, scen, kw: dict, fit_on, learner, log, student: str = 
     who = args.teacher.upper() if args.teacher == "apf" else args.teacher
     what = f"the {student}" if student else "the learner"
     took = (lambda: f" ({(time.perf_counter() - t0) / 60:.1f} min)") if t0 is not None else (lambda: "")
+    loss = "cross-entropy" if args.head == "categorical" else "MSE" if student else "actor MSE"
     base = args.seed * 1000
     demos = collect(scen, args.bc_episodes, base, **kw)
     mse = fit_on(demos, args.seed)
     info = {"bc_samples": len(demos), "teacher": args.teacher, "teacher_arrived": demos.arrived,
             "rounds": [{"mse": mse}]}
     log(f"BC{f' ({student})' if student else ''}: {len(demos)} samples from {demos.episodes} {who} episodes ({who} "
-        f"arrived {demos.arrived:.0%}, fell {demos.fell:.0%}); {'actor ' if not student else ''}MSE {mse:.4f}{took()}")
+        f"arrived {demos.arrived:.0%}, fell {demos.fell:.0%}); {loss} {mse:.4f}{took()}")
     n_dag = args.dagger_episodes or args.bc_episodes
     for r in range(args.dagger_rounds):
         beta = args.dagger_beta ** (r + 1) if args.dagger_beta > 0 else 0.0
@@ -371,7 +387,7 @@ def _bc_dagger(args: Args, scen, kw: dict, fit_on, learner, log, student: str = 
         mse = fit_on(demos, args.seed + r + 1)
         info["rounds"].append({"learner_arrived": new.arrived, "learner_fell": new.fell, "mse": mse})
         log(f"DAgger round {r + 1} (beta {beta:.2f}): {what} drove {n_dag} episodes (arrived "
-            f"{new.arrived:.0%}, fell {new.fell:.0%}); {len(demos)} samples; MSE {mse:.4f}{took()}")
+            f"{new.arrived:.0%}, fell {new.fell:.0%}); {len(demos)} samples; {loss} {mse:.4f}{took()}")
     return demos, info
 
 
@@ -406,8 +422,8 @@ def imitate(model, args: Args, log=print, layout=None) -> dict:
 
 
 def train_student(args: Args, out: Path, log=print) -> Path:
-    """``--student gru``: BC then DAgger of a GRU student
-    (:mod:`tin_swarm_env.apps.recurrent_imitation`), with ``args`` (teacher, episodes, rounds,
+    """``--student gru`` or ``--head categorical``: BC then DAgger of a GRU (or, ``--student mlp``,
+    memoryless) student (:mod:`tin_swarm_env.apps.recurrent_imitation`), with ``args`` (teacher, episodes, rounds,
     beta, stall steps, robots, epochs, learning rate, ``--gru-hidden`` units, ``--net-arch`` as
     the head's widths, ``--symmetry``, ``--mirror-samples``, ``--shield``); writes ``out/policy``
     (the recurrent policy file) and ``out/model.json`` (arguments, per-round figures and, with
@@ -424,7 +440,13 @@ def train_student(args: Args, out: Path, log=print) -> Path:
     scen = scenarios_of(args)
     layout = parallel_env(scenario=scen[0], n_robots=args.bc_robots or args.n_robots).layout
     signs = layout.mirror_signs() if args.symmetry == "mirror" else None
-    student = GRUStudent(layout.size, args.gru_hidden, _net_arch(args.net_arch), signs=signs, seed=args.seed)
+    from ..policies.heads import categorical_classes
+
+    classes = categorical_classes() if args.head == "categorical" else None
+    cell = "gru" if args.student == "gru" else None
+    name = f"{'GRU' if cell else 'MLP'} student{' (categorical)' if classes is not None else ''}"
+    student = GRUStudent(layout.size, args.gru_hidden, _net_arch(args.net_arch), signs=signs, seed=args.seed,
+                         classes=classes, cell=cell, acting=args.head_acting)
     kw = {"n_robots": args.bc_robots or None, "max_cycles": args.max_cycles or None, "gamma": args.gamma,
           "stall_steps": args.stall_steps, "shield": args.shield, "teacher": args.teacher, "sequences": True}
     fit = {"epochs": args.bc_epochs, "lr": args.bc_lr}
@@ -432,20 +454,19 @@ def train_student(args: Args, out: Path, log=print) -> Path:
     def fit_on(demos, seed):
         return fit_sequences(student, fit_set(demos, args, layout).sequences, seed=seed, **fit)
 
-    demos, info = _bc_dagger(args, scen, kw, fit_on, lambda: student.policy(layout), log, student="GRU student",
-                             t0=t0)
-    info = {"student": "gru", **info}
+    demos, info = _bc_dagger(args, scen, kw, fit_on, lambda: student.policy(layout), log, student=name, t0=t0)
+    info = {"student": args.student, "head": args.head, **info}
     path = student.export(out / "policy", layout, scenario=args.scenario, shield=args.shield,
-                          extra={"imitation": info, "args": dataclasses.asdict(args), "algorithm": "BC+DAgger (GRU)",
-                                 "torch": torch.__version__})
+                          extra={"imitation": info, "args": dataclasses.asdict(args),
+                                 "algorithm": f"BC+DAgger ({name})", "torch": torch.__version__})
     meta = {"args": dataclasses.asdict(args), "imitation": info, "minutes": (time.perf_counter() - t0) / 60}
     if args.eval_every:
         meta["final_eval"] = evaluate_policy_file(lambda env: load_policy(path, env), args, args.eval_episodes)
-        log(f"the GRU student's file: arrived {meta['final_eval']['arrived']:.0%}, fell "
+        log(f"the {name}'s file: arrived {meta['final_eval']['arrived']:.0%}, fell "
             f"{meta['final_eval']['fell']:.0%}")
     with atomic_path(out / "model.json") as tmp:
         Path(tmp).write_text(json.dumps(meta, indent=2))
-    log(f"exported the recurrent policy {path} in {meta['minutes']:.1f} min (load_policy / --model {path})")
+    log(f"exported the policy {path} in {meta['minutes']:.1f} min (load_policy / --model {path})")
     return path
 
 
@@ -476,7 +497,7 @@ def train(args: Args) -> Path:
     if args.resume:
         args, ckpt = _resumed(args)
     check_args(args)
-    if args.student == "gru":
+    if args.student == "gru" or args.head == "categorical":
         out = run_dir(args)
         out.mkdir(parents=True, exist_ok=True)
         return train_student(args, out)

@@ -38,6 +38,11 @@ state per robot reset with the episode (:mod:`tin_swarm_env.policies.recurrent` 
 ``"symmetry": "mirror"`` makes the network mirror-equivariant, ``clip((g(o) + M g(M o)) / 2)``
 with ``g`` the network before its clip (:mod:`tin_swarm_env.policies.symmetry`), before the
 shield; it needs the layout's named fields, which every policy file records.
+
+``"head": {"type": "categorical", "actions": [[vx, vy], ...], "acting": "mode", "seed": 0}``
+(optional; default ``{"type": "mean"}``, the clipped output above): the last layer gives one logit
+per class instead of the action, and the action is a class's (:mod:`tin_swarm_env.policies.heads`
+describes it, its mirror symmetry in distribution and how it acts). Both network types take it.
 """
 
 from __future__ import annotations
@@ -54,6 +59,7 @@ from ..errors import ArgumentError, PolicyFileError
 from .base import SafetyShield, act_dict, unwrap_env
 from .network import (ACTIVATIONS, MAX_ABS_WEIGHT, MAX_JSON_BYTES, MAX_JSON_DEPTH, MAX_LAYER_WIDTH,  # noqa: F401
                       MAX_LAYERS, MAX_PARAMETERS, MAX_WEIGHTS_BYTES, SHIELDS, checked_array, dense)
+from .heads import CategoricalHead, check_head
 from .recurrent import RecurrentPolicy, check_cell, recurrent_network
 from .symmetry import SYMMETRIES, file_options, symmetrize
 
@@ -87,9 +93,11 @@ class MLPPolicy:
 
     def __init__(self, layers, activation: str = "tanh", action_transform: str = "clip", *, layout: dict,
                  scenario: str = "", training: dict | None = None, source: str = "<memory>",
-                 shield: str = "none", env=None, symmetry: str = "none"):
+                 shield: str = "none", env=None, symmetry: str = "none", head: dict | None = None):
         self.layers = [(np.ascontiguousarray(W, dtype=np.float64), np.ascontiguousarray(b, dtype=np.float64))
                        for W, b in layers]
+        self.head = None if head is None or head.get("type", "mean") == "mean" else CategoricalHead(
+            head, source, mirror=symmetry == "mirror")
         self.activation = activation
         self.action_transform = action_transform
         self.layout = layout
@@ -100,11 +108,31 @@ class MLPPolicy:
         self.shield, self.symmetry = shield, symmetry
         self._signs, self.shield_cut = file_options(shield, symmetry, layout, env, source)
 
-    def act_batch(self, obs) -> np.ndarray:
-        a = self.net_batch(obs)
+    def act_batch(self, obs, rows=None) -> np.ndarray:
+        """``rows``: each row's robot, for a sampling categorical head's per-robot draws (default 0..n-1)."""
+        a = self.net_batch(obs, rows)
         return a if self.shield_cut is None else self.shield_cut(a, obs)
 
-    def net_batch(self, obs) -> np.ndarray:
+    def reset(self) -> None:
+        """Restart a sampling head's per-robot draws (the network itself has no memory)."""
+        if self.head is not None:
+            self.head.reset()
+
+    def logits(self, obs) -> np.ndarray:
+        """A categorical head's ``(n, K)`` float64 logits (mirror-averaged with the symmetry)."""
+        x = np.ascontiguousarray(obs, dtype=np.float64)
+        if x.ndim != 2 or x.shape[1] != self.obs_size:
+            raise ArgumentError(f"{self.source}: obs must have shape (n, {self.obs_size}), got {x.shape}")
+        if self.head is None:
+            raise ArgumentError(f"{self.source}: the policy has no categorical head")
+        if self._signs is None:
+            return self._forward(x)
+        both = self._forward(np.concatenate([x, x * self._signs]))
+        return self.head.mirror(both[:len(x)], both[len(x):])
+
+    def net_batch(self, obs, rows=None) -> np.ndarray:
+        if self.head is not None:
+            return self.head.act(self.logits(obs), rows).astype(np.float32)
         x = np.ascontiguousarray(obs, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != self.obs_size:
             raise ArgumentError(f"{self.source}: obs must have shape (n, {self.obs_size}), got {x.shape}")
@@ -131,7 +159,9 @@ class MLPPolicy:
         sizes = [self.obs_size] + [W.shape[0] for W, _ in self.layers]
         shield = "" if self.shield == "none" else f", shield={self.shield!r}"
         sym = "" if self.symmetry == "none" else f", symmetry={self.symmetry!r}"
-        return f"MLPPolicy({self.source!r}, {sizes}, {self.activation}, scenario={self.scenario!r}{shield}{sym})"
+        head = "" if self.head is None else f", head=categorical({len(self.head.actions)}, {self.head.acting})"
+        return (f"MLPPolicy({self.source!r}, {sizes}, {self.activation}, scenario={self.scenario!r}{shield}{sym}"
+                f"{head})")
 
 
 class ShieldedPolicy:
@@ -158,11 +188,13 @@ class ShieldedPolicy:
 
 
 def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str, action_transform: str = "clip",
-                extra: dict | None = None, shield: str = "none", symmetry: str = "none", cell=None) -> Path:
+                extra: dict | None = None, shield: str = "none", symmetry: str = "none", cell=None,
+                head: dict | None = None) -> Path:
     """Write a policy directory ``path/`` (``policy.json`` + ``weights.npz``) atomically (``shield``:
     ``"none"`` or ``"safety_cut"``, ``symmetry``: ``"none"`` or ``"mirror"``, see the module
     docstring; ``cell``: ``(name, {cell_W_ih: ..., ...})`` for a recurrent policy whose head is
-    ``layers``, :mod:`tin_swarm_env.policies.recurrent`): both
+    ``layers``, :mod:`tin_swarm_env.policies.recurrent`; ``head``: the ``"head"`` entry, e.g.
+    :func:`~tin_swarm_env.policies.heads.categorical_head`, None: the mean head): both
     files go into a temporary directory beside it, which is then renamed into place; an existing
     policy directory at ``path`` is replaced, anything else there is refused. Returns the path."""
     p = Path(os.fspath(path))
@@ -187,6 +219,8 @@ def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str
         meta["shield"] = shield
     if symmetry != "none":
         meta["symmetry"] = symmetry
+    if head is not None and head.get("type") != "mean":
+        meta["head"] = head
     validate_policy(meta, arrays, str(p / POLICY_JSON), str(p / WEIGHTS))
     if p.exists() and not (p.is_dir() and (p / POLICY_JSON).is_file()):
         raise PolicyFileError(f"{p}: exists and is not a policy directory; refusing to replace it")
@@ -266,15 +300,16 @@ def load_policy(path, env):
     layers = validate_policy(meta, arrays, str(jpath), str(wpath))
     _check_env(meta, env, str(jpath))
     net = meta["network"]
+    head = check_head(meta.get("head"), net["layer_sizes"][-1], meta.get("symmetry", "none"), str(jpath))
     if net["type"] == "recurrent":
         _, cw = check_cell(net, arrays, str(jpath), str(wpath))
         return RecurrentPolicy(net["cell"], cw, layers, net["activation"], net["action_transform"],
                                layout=meta["observation"]["layout"], scenario=meta["scenario"],
                                training=meta.get("training", {}), source=str(d), shield=meta.get("shield", "none"),
-                               env=env, symmetry=meta.get("symmetry", "none"))
+                               env=env, symmetry=meta.get("symmetry", "none"), head=head)
     return MLPPolicy(layers, net["activation"], net["action_transform"], layout=meta["observation"]["layout"],
                      scenario=meta["scenario"], training=meta.get("training", {}), source=str(d),
-                     shield=meta.get("shield", "none"), env=env, symmetry=meta.get("symmetry", "none"))
+                     shield=meta.get("shield", "none"), env=env, symmetry=meta.get("symmetry", "none"), head=head)
 
 
 def _check_depth(text: str, where: str) -> None:
@@ -382,9 +417,11 @@ def validate_policy(meta, arrays: dict | None, jname: str, wname: str) -> list:
         raise PolicyFileError(f"{jname}: key 'observation.size' ({obs['size']}) differs from {what} ({in_size})")
     _get(obs, "layout", dict, f"{jname} [observation]")
     action = _get(meta, "action", dict, jname)
-    if _get(action, "size", int, f"{jname} [action]") != ACTION_SIZE or sizes[-1] != ACTION_SIZE:
-        raise PolicyFileError(f"{jname}: the action size must be {ACTION_SIZE} (key 'action.size' = {action['size']}, "
-                              f"last layer size {sizes[-1]})")
+    if _get(action, "size", int, f"{jname} [action]") != ACTION_SIZE:
+        raise PolicyFileError(f"{jname}: the action size must be {ACTION_SIZE} (key 'action.size' = {action['size']})")
+    if "head" not in meta and sizes[-1] != ACTION_SIZE:
+        raise PolicyFileError(f"{jname}: the action size must be {ACTION_SIZE} (last layer size {sizes[-1]}; a "
+                              "categorical 'head' has one per class)")
     _get(meta, "scenario", str, jname)
     if "training" in meta:
         _get(meta, "training", dict, jname)
@@ -392,6 +429,8 @@ def validate_policy(meta, arrays: dict | None, jname: str, wname: str) -> list:
         raise PolicyFileError(f"{jname}: key 'shield' is {meta['shield']!r}; known: {list(SHIELDS)}")
     if "symmetry" in meta and _get(meta, "symmetry", str, jname) not in SYMMETRIES:
         raise PolicyFileError(f"{jname}: key 'symmetry' is {meta['symmetry']!r}; known: {list(SYMMETRIES)}")
+    if "head" in meta:
+        check_head(meta["head"], sizes[-1], meta.get("symmetry", "none"), jname)
     return [] if arrays is None else _check_weights(arrays, sizes, wname)
 
 

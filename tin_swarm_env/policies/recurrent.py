@@ -27,6 +27,11 @@ RecurrentPPO zeroes it at an episode start; each call advances the state of the 
 two states per robot, one fed the observations and one their mirror images, and averages the
 two streams' head outputs (``vy`` of the mirrored one negated) before the clip. It is then equivariant over whole
 histories, exactly: a mirrored episode gives mirrored actions at every step.
+
+**A categorical head** (the file's ``"head"``, :mod:`tin_swarm_env.policies.heads`): the MLP after
+the cell gives the classes' logits; with the symmetry the two streams' logits are averaged with the
+mirrored one's classes permuted, so the class probabilities are equivariant over whole histories.
+A sampling head draws from each row's own stream, restarted by :meth:`RecurrentPolicy.reset`.
 """
 
 from __future__ import annotations
@@ -36,6 +41,7 @@ import numpy as np
 from ..env.observation import ACTION_PARITY
 from ..errors import ArgumentError, PolicyFileError
 from .base import act_dict
+from .heads import CategoricalHead
 from .network import ACTIVATIONS, MAX_LAYER_WIDTH, MAX_PARAMETERS, checked_array, dense
 from .symmetry import file_options
 
@@ -123,7 +129,8 @@ class RecurrentPolicy:
 
     def __init__(self, cell: str, cell_weights: dict, layers, activation: str = "tanh",
                  action_transform: str = "clip", *, layout: dict, scenario: str = "", training: dict | None = None,
-                 source: str = "<memory>", shield: str = "none", env=None, symmetry: str = "none"):
+                 source: str = "<memory>", shield: str = "none", env=None, symmetry: str = "none",
+                 head: dict | None = None):
         if cell not in CELLS:
             raise ArgumentError(f"{source}: cell {cell!r} is not one of {sorted(CELLS)}")
         if activation not in ACTIVATIONS:
@@ -139,6 +146,8 @@ class RecurrentPolicy:
         self.layout, self.scenario, self.training, self.source = layout, scenario, dict(training or {}), source
         self.shield, self.symmetry = shield, symmetry
         self._signs, self.shield_cut = file_options(shield, symmetry, layout, env, source)
+        self.head = None if head is None or head.get("type", "mean") == "mean" else CategoricalHead(
+            head, source, mirror=symmetry == "mirror")
         self.reset()
 
     # -- memory --------------------------------------------------------------------------------
@@ -148,6 +157,8 @@ class RecurrentPolicy:
         self._h = np.zeros((streams, 0, self.hidden_size))
         self._c = np.zeros((streams, 0, self.hidden_size))
         self._rows: dict = {}
+        if self.head is not None:
+            self.head.reset()
 
     @property
     def state(self) -> tuple[np.ndarray, np.ndarray]:
@@ -162,6 +173,19 @@ class RecurrentPolicy:
 
     # -- acting --------------------------------------------------------------------------------
     def net_batch(self, obs, rows=None) -> np.ndarray:
+        if self.head is not None:
+            z, rows = self.logits(obs, rows)
+            return self.head.act(z, rows).astype(np.float32)
+        return self._outputs(obs, rows)[0]
+
+    def logits(self, obs, rows=None) -> tuple[np.ndarray, np.ndarray]:
+        """A categorical head's ``(n, K)`` float64 logits (mirror-averaged with the symmetry) and
+        the rows; advances the memory of those rows like :meth:`net_batch`."""
+        if self.head is None:
+            raise ArgumentError(f"{self.source}: the policy has no categorical head")
+        return self._outputs(obs, rows)
+
+    def _outputs(self, obs, rows):
         x = np.ascontiguousarray(obs, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != self.obs_size:
             raise ArgumentError(f"{self.source}: obs must have shape (n, {self.obs_size}), got {x.shape}")
@@ -169,7 +193,8 @@ class RecurrentPolicy:
         if rows.shape != (len(x),) or (len(rows) and rows.min() < 0) or len(np.unique(rows)) != len(rows):
             raise ArgumentError(f"{self.source}: rows must be {len(x)} distinct indices >= 0, got {rows.tolist()}")
         if not len(x):
-            return np.zeros((0, 2), dtype=np.float32)
+            k = 2 if self.head is None else len(self.head.actions)
+            return np.zeros((0, k), dtype=np.float32 if self.head is None else np.float64), rows
         self._grow(int(rows.max()) + 1)
         n = len(x)
         if self._signs is not None:  # both streams in one pass: the observations, then their mirror images
@@ -180,9 +205,11 @@ class RecurrentPolicy:
         self._h[:, rows] = h.reshape(-1, n, self.hidden_size)
         self._c[:, rows] = c.reshape(-1, n, self.hidden_size)
         a = self._head(h)
+        if self.head is not None:
+            return (self.head.mirror(a[:n], a[n:]) if self._signs is not None else a), rows
         if self._signs is not None:
             a = (a[:n] + a[n:] * np.asarray(ACTION_PARITY)) / 2
-        return np.clip(a, -1.0, 1.0).astype(np.float32)
+        return np.clip(a, -1.0, 1.0).astype(np.float32), rows
 
     def _head(self, x) -> np.ndarray:
         for i, (W, b) in enumerate(self.layers):
@@ -206,4 +233,6 @@ class RecurrentPolicy:
         sizes = [self.obs_size, f"{self.cell}({self.hidden_size})"] + [W.shape[0] for W, _ in self.layers]
         extra = "".join(f", {k}={v!r}" for k, v in (("shield", self.shield), ("symmetry", self.symmetry))
                         if v != "none")
+        if self.head is not None:
+            extra += f", head=categorical({len(self.head.actions)}, {self.head.acting})"
         return f"RecurrentPolicy({self.source!r}, {sizes}, {self.activation}, scenario={self.scenario!r}{extra})"

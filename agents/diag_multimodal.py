@@ -1,0 +1,95 @@
+"""What the students of agents/train_multimodal.py do where the map-knowing teacher turns
+(docs/figures/teacher_multimodal.md, "Where it fails"): the teacher (GeodesicPolicy) labels every live
+robot-step, on held-out generated seeds, in two regimes:
+
+* ``teacher`` drives: the states imitation trained on (the teacher's own trajectories);
+* ``student`` drives: the states the student visits on its own (the numpy policy file, through its shield).
+
+At the steps where the teacher turns (``|vy| > 0.5`` in its label) it prints the student's mean ``|vy|``
+(the action before the shield), and for a categorical head the probability it gives the ``+y``
+classes, the ``-y`` classes, straight on (``vy = 0``), and the side the teacher took; then the share of
+such steps, and how often a robot's commanded side (sign of ``vy``, ignoring zeros) flips, per 100 steps.
+
+    python agents/diag_multimodal.py --scenario runs/eval_multimodal/cfg/gen_canyon.toml \\
+        --models mlp_mse=runs/multimodal/mlp_mse/policy,gru_cat=runs/multimodal/gru_cat/policy
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+import tin_swarm_env as tse
+from tin_swarm_env.apps.evaluate import EVAL_SEED0
+from tin_swarm_env.policies import GeodesicPolicy, load_policy
+from tin_swarm_env.policies.heads import softmax
+
+
+def run(env, pol, driver: str, seeds, steps: int) -> dict:
+    teach = GeodesicPolicy(env)
+    rows = []
+    flips, live_steps = 0, 0
+    for seed in seeds:
+        obs = env.reset_arrays(seed=seed)
+        pol.reset()
+        teach.reset()
+        last = np.zeros(env.n)
+        for _ in range(steps):
+            live = env.live_mask.copy()
+            lab = teach.act_batch(obs)
+            if pol.head is not None:
+                z = pol.logits(obs)
+                z = z[0] if isinstance(z, tuple) else z
+                p = softmax(z)
+                vy = pol.head.actions[:, 1]
+                a = pol.head.act(z).astype(np.float32)
+                mass = np.stack([p[:, vy > 0].sum(1), p[:, vy < 0].sum(1), p[:, vy == 0].sum(1)], 1)
+            else:
+                a = pol.net_batch(obs)
+                mass = np.full((env.n, 3), np.nan)
+            side = np.sign(a[:, 1])
+            flips += int(((side != 0) & (last != 0) & (side != last) & live).sum())
+            last = np.where(side != 0, side, last)
+            live_steps += int(live.sum())
+            rows.append(np.column_stack([lab[:, 1], a[:, 1], mass])[live])
+            act = lab if driver == "teacher" else (pol.shield_cut(a, obs) if pol.shield_cut is not None else a)
+            obs, *_ = env.step_arrays(act)
+            if not env.live_mask.any():
+                break
+    r = np.concatenate(rows)
+    turn = np.abs(r[:, 0]) > 0.5
+    t = r[turn]
+    own = np.where(t[:, 0] > 0, t[:, 2], t[:, 3])
+    return {"turning share": turn.mean(), "|vy| teacher": np.abs(t[:, 0]).mean(),
+            "|vy| student": np.abs(t[:, 1]).mean(), "P(+y)": t[:, 2].mean(), "P(-y)": t[:, 3].mean(),
+            "P(straight)": t[:, 4].mean(), "P(teacher's side)": own.mean(),
+            "side flips /100 steps": 100 * flips / max(live_steps, 1), "robot-steps": len(r)}
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenario", required=True)
+    ap.add_argument("--models", required=True, help="NAME=DIR,...")
+    ap.add_argument("--seeds", type=int, default=2)
+    ap.add_argument("--steps", type=int, default=400)
+    ap.add_argument("--robots", type=int, default=20)
+    a = ap.parse_args(argv)
+    env = tse.parallel_env(scenario=a.scenario, n_robots=a.robots)
+    seeds = range(EVAL_SEED0, EVAL_SEED0 + a.seeds)
+    keys = None
+    for spec in a.models.split(","):
+        name, path = spec.split("=", 1)
+        pol = load_policy(path, env)
+        for driver in ("teacher", "student"):
+            out = run(env, pol, driver, seeds, a.steps)
+            if keys is None:
+                keys = list(out)
+                print("| student | driver | " + " | ".join(keys) + " |")
+                print("|---|---|" + "---:|" * len(keys))
+            print(f"| {name} | {driver} | " + " | ".join(f"{out[k]:.0f}" if k == "robot-steps" else f"{out[k]:.2f}"
+                                                      for k in keys) + " |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
