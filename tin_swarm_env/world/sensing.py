@@ -161,6 +161,10 @@ class Contacts:
     def __len__(self) -> int:
         return len(self.observer)
 
+    def __getstate__(self):
+        self.bearing_rad  # noqa: B018 (computed now: a pickle holds arrays, not the function)
+        return self.__dict__
+
     def nearest(self, n: int, k: int):
         """``(target_idx (n, k) -1 if none, distance_m (n, k) inf, bearing_rad (n, k) 0)``,
         nearest first."""
