@@ -19,7 +19,9 @@ held-out seeds (``EVAL_SEED0`` on, never used in training), APF and GeodesicPoli
 terrain whose env cannot be built is reported as a skipped row with the error.
 ``containment`` has no arrival: its rows give the mean distance to the assigned threat over the
 standoff (1.00 = on the ring) and contacts per robot.
-Every episode runs through :func:`~tin_swarm_env.apps.rollout.rollout`.
+Every episode runs through :func:`~tin_swarm_env.apps.rollout.rollout`. After the table: the APF
+robots that timed out saying their target is unreachable, and how many of them the map reaches
+(false verdicts).
 """
 
 from __future__ import annotations
@@ -108,7 +110,27 @@ def _episode(job):
     env = _WORKER_ENVS.get(row.label)
     if env is None:
         env = _WORKER_ENVS[row.label] = row.make()
-    return rollout(env, POLICIES[name](env), seed)
+    pol = POLICIES[name](env)
+    out = rollout(env, pol, seed)
+    out.verdicts = _verdicts(env, pol, out)
+    return out
+
+
+def _verdicts(env, pol, out) -> tuple[int, int]:
+    """``(said, false)``: robots that timed out with the policy saying their target is unreachable
+    (``pol.unreachable``, APFPolicy's flag; (0, 0) for a policy without one), and of those the ones
+    the map reaches from where they stand (the episode's cost-to-go field of their target is finite
+    there: a false verdict)."""
+    flag = getattr(pol, "unreachable", None)
+    if flag is None:
+        return 0, 0
+    said_mask = np.zeros(out.n_robots, dtype=bool)  # the memory holds the rows it has seen (none: empty)
+    flag = np.asarray(flag, dtype=bool)[: out.n_robots]
+    said_mask[: len(flag)] = flag
+    said = np.flatnonzero(said_mask & (out.reasons == Reason.TIMEOUT))
+    fields, tgt, pos = env.target_fields, env.target_assignment, env.world_state.positions
+    false = sum(int(np.isfinite(fields[tgt[i]].distance_at(pos[i][None])[0])) for i in said if tgt[i] >= 0)
+    return len(said), false
 
 
 def goal_rows(args, emit) -> dict:
@@ -149,6 +171,22 @@ def goal_rows(args, emit) -> dict:
             pool.close()
             pool.join()
     return results
+
+
+def verdict_rows(results, emit):
+    """Per terrain, APF robots that timed out saying their target is unreachable, and how many of
+    those the map reaches from where they stand (false verdicts; :func:`_verdicts`)."""
+    emit("\nAPF robots that timed out saying their target is unreachable (APFPolicy.unreachable), and of those "
+         "the ones the map reaches from where they stand (a false verdict); rows with none left out")
+    emit("| terrain | robots | said unreachable | of them reachable (false) |")
+    emit("|---|---:|---:|---:|")
+    for (label, name), outs in results.items():
+        said = sum(getattr(o, "verdicts", (0, 0))[0] for o in outs)
+        if name != "apf" or not said:
+            continue
+        n = sum(o.n_robots for o in outs)
+        false = sum(o.verdicts[1] for o in outs)
+        emit(f"| {label} | {n} | {said} ({said / n:.1%}) | {false} ({false / n:.1%}) |")
 
 
 def steps_rows(results, emit):
@@ -304,6 +342,7 @@ def main(argv=None):
          f"{EVAL_SEED0} per generated family), robots: {args.robots or 'the scenario default'}; stalled and "
          "looping robots are among the timed out (tin_swarm_env/apps/trajectory.py); s: seconds per row.\n")
     results = goal_rows(args, emit)
+    verdict_rows(results, emit)
     if args.horizon:
         steps_rows(results, emit)
     if not args.only or "containment" in args.only:

@@ -253,7 +253,7 @@ def test_pass_gap_takes_a_gap_between_two_break_ends_and_nothing_else():
     assert g["has"][0]
 
 
-def _follow_step(mem, obs, layout, R):
+def _follow_step(mem, obs, layout, R, fov_deg=360.0):
     """One step of the boundary search for one robot; returns the closest point it follows
     (body frame, zeros when none) and its side."""
     d = decode(obs, layout, R)
@@ -261,7 +261,7 @@ def _follow_step(mem, obs, layout, R):
     q, moved = odometry(mem, rows, d, 1.0)
     pull = d.rel_t / np.hypot(*d.rel_t[0])
     rel, _, side = bug_update(mem, rows, d, pull, FP(), BugParams(), togo=d.dist, q=q, moved=moved, crowd_m=8.0,
-                              range_m=R, pass_m=3.0, step_m=1.0)
+                              range_m=R, pass_m=3.0, step_m=1.0, fov_deg=fov_deg)
     return rel[0], side[0]
 
 
@@ -286,6 +286,64 @@ def test_a_follower_goes_round_its_own_end_not_across_the_gap(obs_row, s):
     wall = (0.0, 5.5 * s, 0.0, -1.0 * s, 50.0)
     rel, side = _follow_step(mem2, obs_row(layout, R, (100.0, 30.0 * s), [wall]), layout, R)
     assert side == s and np.allclose(rel, [0.0, 5.5 * s], atol=1e-6), rel
+
+
+@pytest.mark.parametrize("s", [1.0, -1.0], ids=["wall-right", "wall-left"])
+def test_a_point_seen_square_on_and_lost_behind_defers_no_corner_ahead(obs_row, s):
+    # following a cliff seen square on 5 m off (target to the side s), the robot turns round (the
+    # target's bearing swings by 180 degrees, so its odometry heading does too): the cliff's point now
+    # lies behind it, in the blind sector of a 270-degree sensor, and drops out of its slots. The
+    # cliff runs on out of view; the end of a break 5.9 m off on the way ahead closes a corner with
+    # it and is followed (deferring it kept robots turning to and fro in such corners for good)
+    layout, R = ObsLayout(), 60.0
+    fov = 270.0
+    mem = BugMemory.empty(1)
+    rel, side = _follow_step(mem, obs_row(layout, R, (100.0, 30.0 * s), [(5.0, 0.0, -1.0, 0.0, 50.0)]), layout, R,
+                             fov)
+    assert side == s and np.allclose(rel, [5.0, 0.0])
+    mem.probed[:] = True  # no clear-view leave here
+    # in the body frame turned by 180 degrees: the remembered point at (-5, 0), behind; the other
+    # break's end at (2, -5.5 s), its normal (0, s)
+    rel, side = _follow_step(mem, obs_row(layout, R, (-100.0, -30.0 * s), [(2.0, -5.5 * s, 0.0, 1.0 * s, 50.0)]),
+                             layout, R, fov)
+    assert side == s and np.allclose(rel, [2.0, -5.5 * s], atol=1e-6), rel
+    # the same, with the remembered point still in view (the robot has not turned): deferred, it
+    # keeps to the point it followed (it goes round that end)
+    mem = BugMemory.empty(1)
+    _follow_step(mem, obs_row(layout, R, (100.0, 30.0 * s), [(5.0, 0.0, -1.0, 0.0, 50.0)]), layout, R, fov)
+    mem.probed[:] = True
+    rel, side = _follow_step(mem, obs_row(layout, R, (100.0, 30.0 * s), [(-2.0, 5.5 * s, 0.0, -1.0 * s, 50.0)]),
+                             layout, R, fov)
+    assert side == s and np.allclose(rel, [5.0, 0.0], atol=1e-6), rel
+
+
+@pytest.mark.parametrize("s", [1.0, -1.0], ids=["wall-right", "wall-left"])
+def test_an_end_met_on_the_way_back_to_h_ends_neither_side(obs_row, s):
+    # following with the cliff on side s, the border ahead: the first side ends, it turns back. On
+    # its way back, 20 m short of H, it meets the border again (the corner it turned in) or stalls
+    # (a queue): that is boundary it has driven, so neither side ends and it goes on back to H
+    layout, R = ObsLayout(), 60.0
+    cliff = (5.0, 0.0, -1.0, 0.0, 50.0)
+    target = (100.0, 30.0 * s)
+    for case in ("border", "stall"):
+        mem = BugMemory.empty(1)
+        _step(mem, obs_row(layout, R, target, [cliff]), layout, R)
+        assert mem.side[0] == s
+        _step(mem, obs_row(layout, R, target, [cliff, (0.0, 6.0 * s, 0.0, -1.0 * s, 0.0)]), layout, R)
+        assert mem.side[0] == -s and mem.ended_first[0] and not mem.unreachable[0]
+        mem.hit[0] -= (0.0, 20.0 * s)  # it has come 20 m along the cliff from H (along s y)
+        mem.far[0] = True
+        if case == "border":  # the cliff out of its slots, the border the one break it sees: it follows it
+            _step(mem, obs_row(layout, R, target, [(0.0, 6.0 * s, 0.0, -1.0 * s, 0.0)]), layout, R)
+        else:
+            for _ in range(5):
+                _step(mem, obs_row(layout, R, target, [cliff], speed=0.0), layout, R, FP(stall_steps=5))
+        assert mem.side[0] == -s and not mem.ended_other[0] and not mem.unreachable[0], case
+        # back at H it goes on along the other side, where the border ahead does end it: unreachable
+        mem.hit[0] += (0.0, 20.0 * s)
+        _step(mem, obs_row(layout, R, target, [cliff]), layout, R)
+        _step(mem, obs_row(layout, R, target, [cliff, (0.0, -6.0 * s, 0.0, 1.0 * s, 0.0)]), layout, R)
+        assert mem.side[0] == 0 and mem.ended_other[0] and mem.unreachable[0], case
 
 
 @pytest.mark.parametrize("s", [1.0, -1.0], ids=["wall-right", "wall-left"])

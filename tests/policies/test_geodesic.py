@@ -2,14 +2,18 @@
 TINs with exact answers, the wall clearance by hand, arrival with 0 falls and the pass side on the
 canyon terrains (a reduced budget; bench/apf.py runs the full table)."""
 
+import dataclasses
 from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
 import tin_swarm_env as tse
 from tin_swarm_env.apps.rollout import rollout
 from tin_swarm_env.policies import GeodesicPolicy
-from tin_swarm_env.policies.geodesic import clear_of_breaks, eroded
+from tin_swarm_env.policies.geodesic import LOOK_M, clear_of_breaks, eroded
+from tin_swarm_env.scenario import load_scenario
+from tin_swarm_env.terrain.breaks import ANGLE
 from tin_swarm_env.terrain import Tin, cost_to_go, pinch_vertices
 from tin_swarm_env.world import World
 from tin_swarm_env.world.state import Reason
@@ -130,3 +134,62 @@ def test_a_static_target_moved_a_little_gets_a_new_field_a_mobile_one_within_reb
     assert b is not a and np.allclose(b[0].goal_xy, g + [1.0, 0.0])
     assert pol.field(0, g + [2.0, 0.0], mobile=True) is b  # mobile: within rebuild_m (5 m)
     assert pol.field(0, g + [7.0, 0.0], mobile=True) is not b
+
+
+def _family_env(family):
+    cfg = load_scenario("generated")
+    return tse.parallel_env(scenario=cfg.replace(terrain=dataclasses.replace(cfg.terrain, families=(family,))))
+
+
+def _nearest_wall(world, pts):
+    """Slow reference: distance from each point to the nearest dangerous break (cliff edge, border)."""
+    b = world.breaks
+    seg = b.segments[b.kinds != ANGLE][:, :, :2]
+    a, c = seg[None, :, 0], seg[None, :, 1]
+    t = np.clip(np.sum((pts[:, None] - a) * (c - a), -1) / np.maximum(np.sum((c - a) ** 2, -1), 1e-300), 0, 1)
+    return np.hypot(*(pts[:, None] - (a + t[..., None] * (c - a))).transpose(2, 0, 1)).min(axis=1)
+
+
+def test_clearance_is_the_distance_to_the_nearest_cliff_or_border_within_half_the_sample_spacing():
+    env = tse.parallel_env(scenario="cliff_goal", n_robots=3)
+    env.reset_arrays(seed=0)
+    pol = GeodesicPolicy(env)
+    x0, y0, x1, y1 = env.tin.bounds
+    pts = np.random.default_rng(0).uniform([x0, y0], [x1, y1], (300, 2))
+    want = _nearest_wall(env.world, pts)
+    np.testing.assert_allclose(pol.clearance(pts), want, atol=0.125 + 1e-9)
+    capped = pol.clearance(pts, upto_m=2.0)
+    assert np.all(np.isinf(capped[want > 2.2])) and np.allclose(capped[want < 1.8], pol.clearance(pts)[want < 1.8])
+
+
+def test_off_the_clear_ground_the_leg_taken_keeps_off_the_walls_and_gets_nearer():
+    # a generated mesa (seed 1000028): robots on the ring next to steep ground, where the first
+    # leg of the full field runs to a corner of it; around() must pick a leg that stays clear of
+    # every dangerous break (checked against the slow reference) and ends nearer the target
+    env = _family_env("mesa")
+    env.reset_arrays(seed=1000028)
+    pol = GeodesicPolicy(env)
+    full, clear = pol.field(0, env.world_state.targets.positions[0])
+    tin = env.tin
+    band = np.flatnonzero(~pol._clear & ~np.asarray(env.world.steep))
+    cent = tin.vertices[tin.triangles[band], :2].mean(axis=1)
+    cent = cent[np.isfinite(full.distance_at(cent))][:: 7][:200]
+    u, ok = pol.around(full, cent)
+    assert ok.mean() > 0.9, ok.mean()
+    need = np.minimum(pol.look_clear_m, _nearest_wall(env.world, cent[ok]))
+    good = np.zeros(ok.sum(), dtype=bool)
+    for look in (LOOK_M, LOOK_M / 2):  # the leg taken is one of these lengths
+        legs = cent[ok, None] + look * np.linspace(0.125, 1, 8)[None, :, None] * u[ok, None]
+        clear_along = _nearest_wall(env.world, legs.reshape(-1, 2)).reshape(-1, 8).min(axis=1)
+        good |= (clear_along >= need - 0.125 - 1e-9) & (full.distance_at(legs[:, -1]) < full.distance_at(cent[ok]))
+    assert good.all()
+
+
+@pytest.mark.parametrize("family,seed", [("canyon", 1000049), ("mesa", 1000000), ("fork", 1000030),
+                                         ("trap", 1000040)])
+def test_every_robot_arrives_where_one_stood_swinging_at_a_corner_before(family, seed):
+    # traced seeds (held-out, generator at f6bfb94): one robot of 20 timed out "stalled" on each,
+    # on the ring next to steep ground, its first leg running into the corner of a cliff or sliver
+    env = _family_env(family)
+    out = rollout(env, GeodesicPolicy(env), seed)
+    assert out.count(Reason.ARRIVED) == env.n and not out.stalled.any(), out.counts()

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from tin_swarm_env.world import BatteryParams, RobotParams, SensorParams, World, WorldParams, sensing, spawn_positions
 from tin_swarm_env.world import locomotion as L
+from tin_swarm_env.world import reference as REF
 from tin_swarm_env.world import sense_kernels as SK
 from tin_swarm_env.world import step_kernel as SPK
 from tin_swarm_env.world import world as world_mod
@@ -40,7 +41,7 @@ def plain_python(monkeypatch):
         for name in ("sense_pass1", "sense_pass2", "collision_counts"):
             m.setattr(SK, name, getattr(SK, name).py_func)
         m.setattr(L, "move_walk", L.move_walk.py_func)
-        m.setattr(L, "move_kernel", L.move_kernel.py_func)
+        m.setattr(REF, "move_kernel", REF.move_kernel.py_func)
         yield
 
 
@@ -186,7 +187,7 @@ def test_fused_move_kernel_equals_the_numpy_locomotion(random_tin, seed, n):
     for _ in range(4):
         c = rng.uniform(-1.5, 1.5, (n, 2)) * rng.uniform(0, 30)
         ref = L.move(w.tin, w.steep, s.positions, s.tri_idx, s.headings, s.status, c, P.robot, P.dt_s)
-        got = L.move_kernel(T, w.steep, s.positions, s.tri_idx, s.headings, s.heights, s.active, c,
+        got = REF.move_kernel(T, w.steep, s.positions, s.tri_idx, s.headings, s.heights, s.active, c,
                             P.robot.max_speed_mps, P.robot.max_climb_deg, math.radians(P.robot.turn_rate_dps) * P.dt_s,
                             P.dt_s)
         for k in (0, 1, 3, 4):

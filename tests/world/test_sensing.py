@@ -186,3 +186,22 @@ def test_batched_sensing_with_few_candidates_equals_the_per_robot_loop(world_par
     out = _sense_against_reference(world_params, random_tin, seed, n, sensor, 6)
     assume(out is not None)
     w, s, got, ref = out
+
+
+def test_robot_bearings_are_computed_when_read_and_survive_a_pickle():
+    """The robot contacts' bearings are left to their first read (the env never reads them):
+    they then equal the formula of the module docstring, and a pickled copy (made before any read)
+    carries the same values."""
+    import pickle
+
+    v = np.array([[0, 0, 0], [200, 0, 0], [200, 200, 0], [0, 200, 0]], float)
+    w = World(Tin(v, [[0, 1, 2], [0, 2, 3]]))
+    pos = np.array([[50.0, 50.0], [70.0, 50.0], [50.0, 80.0], [30.0, 40.0]])
+    s = w.reset(0, pos, headings=np.array([0.0, math.pi, -math.pi / 2, 1.0]))
+    r = w.sense(s).robots
+    copy = pickle.loads(pickle.dumps(r))
+    want = [(math.atan2(pos[j, 1] - pos[i, 1], pos[j, 0] - pos[i, 0]) - s.headings[i] + math.pi) % (2 * math.pi)
+            - math.pi for i, j in zip(r.observer, r.target)]
+    assert len(want) > 0
+    assert r.bearing_rad.tolist() == want
+    assert copy.bearing_rad.tolist() == want and copy.target.tolist() == r.target.tolist()

@@ -8,6 +8,7 @@ from hypothesis import strategies as st
 
 from tin_swarm_env.world import BatteryParams, RobotParams, World, WorldParams, spawn_positions
 from tin_swarm_env.world import locomotion as L
+from tin_swarm_env.world import reference as REF
 from tin_swarm_env.world.battery import drain
 from tin_swarm_env.world.grid import grid_build
 from tin_swarm_env.world.sense_kernels import collision_counts, terrain_arrays
@@ -23,7 +24,7 @@ def _same(a, b):
 def _unfused(w, s, c):
     """The step as separate passes: move_kernel, battery.drain, the status codes, collision_counts."""
     P = w.params
-    pos, tri, head, speeds, ev, heights, moved, climb = L.move_kernel(
+    pos, tri, head, speeds, ev, heights, moved, climb = REF.move_kernel(
         terrain_arrays(w.tin), w.steep, s.positions, s.tri_idx, s.headings, s.heights, s.status == Reason.NONE, c,
         P.robot.max_speed_mps, P.robot.max_climb_deg, math.radians(P.robot.turn_rate_dps) * P.dt_s, P.dt_s)
     batt = drain(s.battery_j, s.status, moved, climb, P.battery, P.dt_s)

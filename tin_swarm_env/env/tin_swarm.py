@@ -7,6 +7,7 @@ import numbers
 import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import EzPickle
+from numba import njit
 from pettingzoo import ParallelEnv
 
 from ..errors import ArgumentError, check_range
@@ -34,6 +35,24 @@ RENDER_WIDTH_PX = (64, 4096)  # the frame widths render() draws
 DEFAULT_RENDER_WIDTH_PX = 640  # render_width when none is given (also the CLI's frame width, apps.media.GIF_WIDTH_PX)
 
 _REASON_LABEL = {int(r): r.label for r in Reason}  # Reason code -> infos[agent]["reason"]
+_ARRIVED = int(Reason.ARRIVED)  # (numpy compares with a plain int faster than with the enum)
+
+
+@njit(cache=True)
+def _live_actions(a, live):
+    """``(np.where(live[:, None], a, 0.0), i)`` with ``i`` the first robot whose row there is not
+    finite (-1: none), in one pass."""
+    n = a.shape[0]
+    out = np.empty((n, 2))
+    bad = -1
+    for i in range(n):
+        u = a[i, 0] if live[i] else 0.0
+        v = a[i, 1] if live[i] else 0.0
+        out[i, 0] = u
+        out[i, 1] = v
+        if bad < 0 and not (np.isfinite(u) and np.isfinite(v)):
+            bad = i
+    return out, bad
 
 
 def _check_args(n_robots, max_cycles, render_width) -> None:
@@ -333,11 +352,8 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         already gone read zeros/False. Robots that end this step are not live on the next."""
         if self._wstate is None:
             raise RuntimeError("call reset() before step()")
-        a = float_array(actions, "step_arrays(actions)", (self.n, 2), finite=False)
-        a = np.where(self._live[:, None], a, 0.0)
-        bad = ~np.all(np.isfinite(a), axis=1)
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
+        a, i = _live_actions(float_array(actions, "step_arrays(actions)", (self.n, 2), finite=False), self._live)
+        if i >= 0:
             raise ArgumentError(f"step_arrays(actions): the action of {self.possible_agents[i]} is not finite: "
                                 f"{a[i].tolist()}")
         with serial_if_small(self.n):  # one thread for a small swarm, as the world's own kernels
@@ -354,7 +370,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         self._steps += 1
         truncated = live & ~terminated & (self._steps >= self.max_cycles)
         reasons[truncated] = Reason.TIMEOUT
-        arrived = reasons == Reason.ARRIVED
+        arrived = reasons == _ARRIVED
         if arrived.any():
             new = self._world.retire(new, arrived)  # arrived robots leave the terrain
         self._wstate = new

@@ -42,6 +42,8 @@ The rules, each step:
    followed (``pi follow_hold_m`` of driving) the robot goes round that point instead, so it
    turns into a ramp mouth or pass at the end of its wall even when that end has dropped out of
    its ``K_b`` break slots (the nearest breaks, often seen from their unsafe side, crowd them).
+   Not when the point it followed was seen square on (not at an end) and now lies in the blind
+   sector behind it: that break runs on out of view, and the break ahead closes a corner with it.
 3. *Leave* when not blocked and nearer than ``rec - margin_m``, and either on the *m-line*
    (the line from ``H`` to the target: Bug2) or ``leave_gain`` nearer than ``rec``; or drive
    through a gap between two break ends that leads toward the target (:func:`~tin_swarm_env.policies.bug.pass_gap`).
@@ -50,6 +52,8 @@ The rules, each step:
    near: a queue); or when it has driven ``budget`` along this side from ``H`` (first
    ``first_budget * rec``, at least ``min_budget`` sensor ranges), the budget doubling at each
    turn, unless the other side has ended. Passing ``H`` on its way back it goes on along the other side.
+   An end counts only heading out from ``H``: on its way back it retraces boundary it has driven,
+   so the border or a stall met there (the corner it turned in, a queue) ends neither side.
 5. *Unreachable*: the boundary ended on both sides, or it came back to ``H`` going the way it
    set off after going round (the whole boundary): the target cannot be reached from where it
    is. It says so (:attr:`APFPolicy.unreachable`) and stands still.
@@ -235,7 +239,8 @@ class APFPolicy:
         togo = np.abs(d.dist - self.shield.standoff_m)
         rel, nrm, side = bug_update(mem, rows, d, pull, self.params, self.bug, togo=togo, q=q, moved=moved,
                                     crowd_m=2 * self.params.robot_range_m, range_m=self.shield.range_m, gap=has,
-                                    home=self.static_target, pass_m=self.shield.pass_m, step_m=self.shield.step_m)
+                                    home=self.static_target, pass_m=self.shield.pass_m, step_m=self.shield.step_m,
+                                    fov_deg=self.shield.fov_deg)
         f["follow"] = follow_field(pull, rel, nrm, side, self.params.follow_hold_m, self.shield.step_m)
         mag = np.sqrt(np.sum(pull * pull, axis=-1, keepdims=True))
         f["follow"] = np.where(has[:, None], mag * g["aim"] - pull, f["follow"])

@@ -64,7 +64,8 @@ _SPEC = {"seen": bool, "psi": float, "last_rel": float, "last_act": float, "side
          "first": np.int8, "hit": float, "rec": float, "arc": float, "budget": float, "ended_first": bool,
          "ended_other": bool, "unreachable": bool, "stall": np.int64, "wall": float, "on_border": bool,
          "gap": np.int8, "wall_pt": float, "has_pt": bool, "mside": np.int8, "far": bool, "last_q": float,
-         "t_hit": float, "passed": bool, "climb": float, "last_togo": float, "probed": bool, "v_steps": np.int64}
+         "t_hit": float, "passed": bool, "climb": float, "last_togo": float, "probed": bool, "v_steps": np.int64,
+         "pt_end": bool}
 
 
 @dataclass
@@ -107,6 +108,7 @@ class BugMemory:
     last_togo    (n,)   m      its distance to go last step
     probed       (n,)   bool   it left this search on a clear view that proved wrong (no second such leave)
     v_steps      (n,)   int    steps it has followed the remembered point (its break out of its slots)
+    pt_end       (n,)   bool   ``wall_pt`` was seen at its break's end (not square on to it)
     """
 
     seen: np.ndarray
@@ -138,6 +140,7 @@ class BugMemory:
     last_togo: np.ndarray
     probed: np.ndarray
     v_steps: np.ndarray
+    pt_end: np.ndarray
 
     @classmethod
     def empty(cls, n: int) -> BugMemory:
@@ -315,7 +318,7 @@ def pass_gap(d: DecodedObs, width_m: float, reach_m: float, end_deg: float = END
 
 def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, bp: BugParams, *, togo, q, moved,
                crowd_m: float, range_m: float, gap=None, home: bool = True, pass_m: float = 0.0,
-               step_m: float = 1.0):
+               step_m: float = 1.0, fov_deg: float = 360.0):
     """One step of the boundary search for the robots in ``rows`` (decoded observations ``d``,
     attraction ``pull (m, 2)``, distance to go ``togo (m,)``, position ``q (m, 2)`` and distance
     moved last step ``moved (m,)`` from :func:`odometry`); updates ``mem`` in place and returns
@@ -324,7 +327,7 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     for :func:`~tin_swarm_env.world.fields.follow_field`. The rules are the
     :mod:`~tin_swarm_env.policies.apf` module docstring's; ``gap (m,)`` marks robots driving
     through a gap (:func:`pass_gap`: not blocked, they keep their side), ``home=False`` (a mobile
-    target, whose frame drifts) turns the whole-circuit test off."""
+    target, whose frame drifts) turns the whole-circuit test off; ``fov_deg`` is the sensor's field of view."""
     m = len(rows)
     ri = np.arange(m)
     side, first = mem.side[rows].astype(np.int64), mem.first[rows].astype(np.int64)
@@ -400,10 +403,14 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     v_ang = np.arctan2(v_e[:, 1], v_e[:, 0]) + psi
     # a break seen at its end whose closest point lies a passable gap (pass_m) from the point the
     # robot followed: the way between the two is open, and the boundary it follows goes round its own
-    # end (which may have dropped out of its K_b slots); deferred for half a turn round that end
+    # end (which may have dropped out of its K_b slots); deferred for half a turn round that end.
+    # Not when the remembered point was seen square on and now lies behind, in the blind sector
+    # (fov_deg): the break runs on past it out of view, and a break ahead closes a corner with it
     cand_end = np.sum(s["e"] * d.b_normal, axis=-1) < np.cos(np.radians(END_DEG))
     young = mem.v_steps[rows] * step_m < np.pi * params.follow_hold_m
-    defer = (_norm(d.b_rel - v_rel[:, None, :]) > pass_m) & cand_end & (v_ok & young)[:, None] if pass_m else None
+    in_view = np.abs(np.arctan2(v_rel[:, 1], v_rel[:, 0])) <= np.radians(min(fov_deg, 360.0)) / 2
+    v_end = v_ok & young & (mem.pt_end[rows] | in_view)
+    defer = (_norm(d.b_rel - v_rel[:, None, :]) > pass_m) & cand_end & v_end[:, None] if pass_m else None
     kf = _followed(seen, s["dist"], ang, following, last_wall, params.follow_hold_m, v_ok, v_ang, defer)
     virtual = kf == k_n
     has_wall = (kf >= 0) & ~virtual
@@ -420,7 +427,10 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     crowded = ((d.r_valid > 0.5) & (r_d < crowd_m)).any(axis=-1)
     stall = np.where(following & (d.speed < 0.05), mem.stall[rows] + 1, 0)
     stuck = stall >= np.where(crowded, bp.stall_crowded * params.stall_steps, params.stall_steps)
-    ends = following & ~fresh & (border_ahead | (on_border & ~mem.on_border[rows]) | stuck)
+    # an end counts only heading out (passed: it has not turned back since it last passed H): on its
+    # way back to H after a turn it retraces boundary it has driven, so a border or a stall met there
+    # (the corner it just turned in, a queue) ends nothing, least of all the side it has not tried yet
+    ends = following & ~fresh & passed & (border_ahead | (on_border & ~mem.on_border[rows]) | stuck)
     out = np.where(side == first, 1, -1)  # +1: heading out along the first side
     ended_f |= ends & (out == 1)
     ended_o |= ends & (out == -1)
@@ -455,6 +465,7 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     mem.gap[rows] = np.where((side == 0) | fresh, 0, mem.gap[rows])
     mem.wall_pt[rows] = np.where(has_wall[:, None], q + _rot(psi, d.b_rel[ri, kc]), mem.wall_pt[rows])
     mem.has_pt[rows] = (side != 0) & (has_wall | virtual)
+    mem.pt_end[rows] = np.where(has_wall, cand_end[ri, kc], mem.pt_end[rows])
     mem.v_steps[rows] = np.where(virtual & (side != 0), mem.v_steps[rows] + 1, 0)
     on = (side != 0) & (kf >= 0)
     return np.where(on[:, None], f_rel, 0.0), np.where(on[:, None], f_nrm, 0.0), np.where(on, side, 0)

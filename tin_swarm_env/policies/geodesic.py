@@ -13,17 +13,38 @@ apart and every robot off the dangerous breaks it senses.
 
 *Pinches* (vertices where two passable areas touch only at one point) are handled by the
 cost-to-go itself: no field passes through one (:func:`~tin_swarm_env.terrain.pinch_vertices`).
+
+*Off the clear ground* (a robot on the ring of triangles next to steep ground, where the eroded
+field does not reach), the full field's first leg runs to a corner of the steep ground, and the
+safety cut, which keeps a robot ``edge_m`` off every dangerous break, removes all of it at the
+corner: measured on the 50 held-out seeds per generated family, every robot GeodesicPolicy lost
+(3.0% canyon, 4.0% mesa, 2.0% fork, 1.2% trap) stood there, 2-6 m from the corner of a cliff or of
+a TIN sliver, swinging between two headings (net displacement 0 over its last 100 steps). There,
+within ``LOOK_M + CLEAR_FACTOR edge_m`` of a dangerous break, the robot looks :data:`LOOK_M` ahead
+instead (:meth:`GeodesicPolicy.around`): of :data:`LOOK_DIRS` straight legs that keep
+:data:`CLEAR_FACTOR` ``edge_m`` off every dangerous break, it takes the one whose end is nearest
+the target by the field (legs half as long where none of those ends nearer).
 """
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
+from scipy.spatial import cKDTree
 
 from ..terrain import Tin, cost_to_go
+from ..terrain.breaks import ANGLE
 from ..world.fields import FieldParams, away_from, facing, robot_field
 from .base import DecodedObs, SafetyShield, act_dict, unwrap_env
 
-__all__ = ["GeodesicPolicy", "eroded"]
+__all__ = ["GeodesicPolicy", "eroded", "LOOK_M", "LOOK_DIRS", "CLEAR_FACTOR"]
+
+LOOK_M = 4.0  # off the clear ground: length of the straight legs looked along, m
+LOOK_DIRS = 24  # ... and how many (evenly spaced bearings)
+CLEAR_FACTOR = 1.5  # ... each keeps this many edge_m (the safety cut's break clearance) off dangerous breaks
+_SAMPLE_M = 0.25  # spacing of the points that stand for the dangerous breaks in the clearance index, m
+_WALLS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # Breaks -> its clearance index (None: no breaks)
 
 
 def eroded(tin: Tin, passable, rings: int = 1) -> np.ndarray:
@@ -67,7 +88,8 @@ class GeodesicPolicy:
 
     Per robot: the unit direction ``u`` of the first leg of its path (the field built on the
     ground ``clear_rings`` triangle rings away from any steep triangle, :func:`eroded`, where that
-    reaches the target from the robot; else the field over all passable ground), kept
+    reaches the target from the robot; else the field over all passable ground, and there, near a
+    dangerous break, the best clear straight leg :data:`LOOK_M` long, :meth:`around`), kept
     ``clear_m`` off the dangerous breaks it senses (:func:`clear_of_breaks`: shortest paths hug
     cliff edges and corners, and robots queueing on one would block each other), scaled by the
     target field's magnitude with the path length as the distance
@@ -97,14 +119,64 @@ class GeodesicPolicy:
         self.robot_field_on = "robot" in tuple(fields)
         self.layout = base.layout
         self.clear_rings = int(clear_rings)
+        self.look_clear_m = CLEAR_FACTOR * self.shield.edge_m
         self._tin = None
         self._clear = None
         self._fields: dict = {}
+        self._walls = None  # the clearance index of the current terrain (module cache _WALLS)
         self.reset()
 
     def reset(self):
         """Drop every cached field (call after each env reset: targets may be placed anew)."""
         self._tin, self._clear, self._fields = self.env.tin, None, {}
+
+    def clearance(self, xy, upto_m: float = np.inf) -> np.ndarray:
+        """``(...)`` m: distance from each point ``xy (..., 2)`` to the nearest dangerous break
+        (cliff edge or border) of the current terrain, to within ``_SAMPLE_M / 2`` (the breaks are
+        stood for by points that far apart; built once per terrain); inf beyond ``upto_m``."""
+        self._sync()
+        b = self.env.world.breaks
+        if b not in _WALLS:  # built once per terrain, shared by every policy on it
+            seg = b.segments[b.kinds != ANGLE][:, :, :2]
+            n = np.maximum(np.ceil(np.hypot(*(seg[:, 1] - seg[:, 0]).T) / _SAMPLE_M), 1).astype(np.int64)
+            k = np.repeat(np.arange(len(seg)), n + 1)  # point j of segment i: t = j / n_i, j = 0..n_i
+            t = (np.arange(len(k)) - np.repeat(np.cumsum(n + 1) - (n + 1), n + 1)) / n[k]
+            pts = seg[k, 0] + t[:, None] * (seg[k, 1] - seg[k, 0])
+            _WALLS[b] = cKDTree(pts) if len(pts) else None
+        self._walls = _WALLS[b]
+        xy = np.asarray(xy, dtype=np.float64)
+        if self._walls is None:
+            return np.full(xy.shape[:-1], np.inf)
+        return self._walls.query(xy.reshape(-1, 2), distance_upper_bound=upto_m)[0].reshape(xy.shape[:-1])
+
+    def around(self, field, pos) -> tuple[np.ndarray, np.ndarray]:
+        """Off the clear ground: for each robot at ``pos (m, 2)``, the best of :data:`LOOK_DIRS`
+        straight legs :data:`LOOK_M` long by ``field`` (the distance to go from the leg's end),
+        among the legs whose every point stays ``look_clear_m`` off the dangerous breaks (or, for
+        a robot already nearer one, no nearer than it is); where none of them ends nearer the
+        target than the robot stands (round a corner the way on first runs sideways), the same
+        with legs half as long. Returns ``(direction (m, 2), ok (m,))``: ``ok`` false where no
+        leg of either length ends nearer."""
+        pos = np.asarray(pos, dtype=np.float64)
+        ang = 2.0 * np.pi * np.arange(LOOK_DIRS) / LOOK_DIRS
+        dirs = np.stack([np.cos(ang), np.sin(ang)], axis=-1)  # (K, 2)
+        frac = np.arange(1, 9) / 8.0
+        need = np.minimum(self.look_clear_m, self.clearance(pos, self.look_clear_m)) - 1e-9
+        here = field.distance_at(pos)
+        out, ok = np.zeros((len(pos), 2)), np.zeros(len(pos), dtype=bool)
+        for look in (LOOK_M, LOOK_M / 2):
+            todo = np.flatnonzero(~ok)
+            if not len(todo):
+                break
+            pts = pos[todo, None, None, :] + look * frac[None, None, :, None] * dirs[None, :, None, :]  # (m, K, 8, 2)
+            clear = self.clearance(pts, self.look_clear_m).min(axis=-1) >= need[todo, None]  # (m, K)
+            togo = np.full(clear.shape, np.inf)
+            if clear.any():
+                togo[clear] = field.distance_at(pts[:, :, -1][clear])
+            best = np.argmin(togo, axis=1)
+            out[todo] = dirs[best]
+            ok[todo] = togo[np.arange(len(todo)), best] < here[todo]
+        return out, ok
 
     def _sync(self):
         if self.env.tin is not self._tin:
@@ -144,10 +216,18 @@ class GeodesicPolicy:
             goal = s.targets.positions[k]
             full, clear = self.field(int(k), goal, bool(s.targets.mobile[k]))
             d0, u0 = full.query(pos[sel], tri[sel])
+            u0 = np.array(u0, dtype=np.float64)
+            off = np.isfinite(d0)  # off the clear ground, the field still reaching the target
             if clear is not None:  # off the walls where the eroded ground reaches the target
                 dc, uc = clear.query(pos[sel], tri[sel])
                 u0 = np.where(np.isfinite(dc)[:, None], uc, u0)
                 d0 = np.where(np.isfinite(dc), dc, d0)
+                off &= ~np.isfinite(dc)
+            reach = LOOK_M + self.look_clear_m  # a corner no nearer than this is no leg's concern
+            off[off] = self.clearance(pos[sel][off], reach) < reach
+            if off.any():  # round the corner the first leg runs to, clear of it (module docstring)
+                ua, ok = self.around(full, pos[sel][off])
+                u0[off] = np.where(ok[:, None], ua, u0[off])
             w = u0
             straight = goal - pos[sel]
             w = np.where(np.isfinite(d0)[:, None], w, straight)

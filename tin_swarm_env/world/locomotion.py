@@ -33,7 +33,7 @@ from .angles import wrap_pi
 from .state import Reason
 
 __all__ = ["MOVED", "BLOCKED_BORDER", "BLOCKED_STEEP", "FELL_INTO", "body_to_world", "move", "turn_toward",
-           "uphill_factor", "walk", "move_walk", "move_kernel"]
+           "uphill_factor", "walk", "move_walk"]
 
 MOVED, BLOCKED_BORDER, BLOCKED_STEEP, FELL_INTO, STUCK = 0, 1, 2, 3, -2
 _PULLBACK_M = 1e-3
@@ -91,8 +91,8 @@ def move_walk(vx, vy, tris, nbrs, grad, steep, pos, tri, disp, max_steps):
 
 @njit(cache=True, inline="always")
 def move1(T, steep, px, py, t0, h, h0, active, cmd0, cmd1, max_speed, max_climb_deg, max_turn, dt):
-    """One robot of :func:`move_kernel` (the fused locomotion's one home: :func:`move_kernel` and
-    the world's step kernel both run it): from its position, triangle ``t0``, heading ``h``,
+    """One robot's locomotion (its one home: the world's step kernel runs it, and so does
+    :func:`~.reference.move_kernel`, the test reference): from its position, triangle ``t0``, heading ``h``,
     ground height ``h0`` and command, ``(x, y, tri, heading, speed, event, height, moved, climb)``."""
     vx, vy, vz, tris, nbrs, grad, bs, bt, bx0, by0, binv, bnx, bny, edges, border, tol, ztol, ms = T
     # 1. body-frame command -> world velocity (clipped to the square, then the disc)
@@ -156,36 +156,6 @@ def move1(T, steep, px, py, t0, h, h0, active, cmd0, cmd1, max_speed, max_climb_
     z = vz[a] + grad[t, 0] * (x - vx[a]) + grad[t, 1] * (y - vy[a])
     climb = z - h0
     return x, y, t, wrap_pi(h), mv / dt, ev, z, mv, climb
-
-
-@njit(cache=True, parallel=True)
-def move_kernel(T, steep, pos, tri, head, heights, active, cmd, max_speed, max_climb_deg, max_turn, dt):
-    """:func:`move` fused into one parallel pass, plus the new ground heights, distances driven
-    and climbs: ``(pos (n, 2), tri, head, speeds, events, heights, moved, climb)``. ``T`` is
-    :func:`~.sense_kernels.terrain_arrays`. The numpy functions of this module (:func:`move`)
-    are its reference; each robot is computed by one iteration from its own inputs only."""
-    n = pos.shape[0]
-    out_pos = np.empty((n, 2))
-    out_tri = np.empty(n, dtype=np.int64)
-    out_head = np.empty(n)
-    speeds = np.empty(n)
-    event = np.empty(n, dtype=np.int8)
-    out_h = np.empty(n)
-    moved = np.empty(n)
-    climb = np.empty(n)
-    for i in prange(n):
-        x, y, t, hd, sp, ev, z, mv, cl = move1(T, steep, pos[i, 0], pos[i, 1], tri[i], head[i], heights[i], active[i],
-                                               cmd[i, 0], cmd[i, 1], max_speed, max_climb_deg, max_turn, dt)
-        out_pos[i, 0] = x
-        out_pos[i, 1] = y
-        out_tri[i] = t
-        out_head[i] = hd
-        speeds[i] = sp
-        event[i] = ev
-        out_h[i] = z
-        moved[i] = mv
-        climb[i] = cl
-    return out_pos, out_tri, out_head, speeds, event, out_h, moved, climb
 
 
 def walk(tin, steep, positions, tri_idx, disp):

@@ -1,4 +1,6 @@
-"""A slow, obvious per-robot reference for the batched sensing (tests and benches).
+"""Slow, obvious references for the batched world (tests and benches): :func:`reference_sense`,
+one robot at a time, for the sensing; :func:`move_kernel`, the locomotion as its own parallel
+pass, for the fused step kernel.
 
 Independent of the code it checks: line of sight and entity heights come from the brute-force
 terrain references (every edge tested, barycentric heights: :mod:`tin_swarm_env.terrain.reference`),
@@ -10,10 +12,13 @@ import math
 
 import numpy as np
 
+from numba import njit, prange
+
 from ..terrain.reference import height_brute, line_of_sight_brute
+from .locomotion import move1
 from .state import Reason
 
-__all__ = ["reference_sense"]
+__all__ = ["reference_sense", "move_kernel"]
 
 
 def _nearest_in_range(xy, pts, ok, range_m, k):
@@ -63,3 +68,34 @@ def reference_sense(w, s):
             if np.linalg.norm(s.positions[i] - (a + u * ab)) <= sp.range_m:
                 breaks.add((i, j))
     return robots, targets, assets, breaks
+
+
+@njit(cache=True, parallel=True)
+def move_kernel(T, steep, pos, tri, head, heights, active, cmd, max_speed, max_climb_deg, max_turn, dt):
+    """:func:`~.locomotion.move` fused into one parallel pass, plus the new ground heights,
+    distances driven and climbs: ``(pos (n, 2), tri, head, speeds, events, heights, moved,
+    climb)``. ``T`` is :func:`~.sense_kernels.terrain_arrays`. Tested against the numpy
+    :func:`~.locomotion.move`; the world step runs the same :func:`~.locomotion.move1` inside
+    :func:`~.step_kernel.step_kernel`. Each robot is computed by one iteration from its own inputs only."""
+    n = pos.shape[0]
+    out_pos = np.empty((n, 2))
+    out_tri = np.empty(n, dtype=np.int64)
+    out_head = np.empty(n)
+    speeds = np.empty(n)
+    event = np.empty(n, dtype=np.int8)
+    out_h = np.empty(n)
+    moved = np.empty(n)
+    climb = np.empty(n)
+    for i in prange(n):
+        x, y, t, hd, sp, ev, z, mv, cl = move1(T, steep, pos[i, 0], pos[i, 1], tri[i], head[i], heights[i], active[i],
+                                               cmd[i, 0], cmd[i, 1], max_speed, max_climb_deg, max_turn, dt)
+        out_pos[i, 0] = x
+        out_pos[i, 1] = y
+        out_tri[i] = t
+        out_head[i] = hd
+        speeds[i] = sp
+        event[i] = ev
+        out_h[i] = z
+        moved[i] = mv
+        climb[i] = cl
+    return out_pos, out_tri, out_head, speeds, event, out_h, moved, climb

@@ -21,8 +21,8 @@ from ..terrain._kernels import bucket_locate1, los_brute1, los_walk1, orient, wa
 from .angles import wrap_pi
 from .grid import SENSE_REACH, grid_block, grid_cells
 
-__all__ = ["terrain_arrays", "sense_pass1", "sense_pass2", "compact", "break_grid", "collision_counts", "sight1",
-           "deep_margin", "deep_inside", "in_view", "FOV_MARGIN", "locate1"]
+__all__ = ["terrain_arrays", "sense_pass1", "sense_pass2", "compact", "bearings", "break_grid", "collision_counts",
+           "sight1", "deep_margin", "deep_inside", "in_view", "FOV_MARGIN", "locate1"]
 
 
 def terrain_arrays(tin):
@@ -288,28 +288,46 @@ def _kept(idx, vis, cnt, i):
 
 
 @njit(cache=True, inline="always")
-def _copy_kept(idx, dist, vis, cnt, i, p, px, py, head, ex, ey, obs, tgt, d, b):
-    """Row ``i``'s kept slots from ``p`` on, with their bearings (computed here, for the kept
-    slots only): ``(ex, ey)`` the seen points' coordinates."""
+def _copy_kept(idx, dist, vis, cnt, i, p, obs, tgt, d):
+    """Row ``i``'s kept slots, written from position ``p`` on."""
     for s in range(cnt[i]):
         j = idx[i, s]
         if j >= 0 and vis[i, s]:
             obs[p] = i
             tgt[p] = j
             d[p] = dist[i, s]
-            b[p] = _bearing(ex[j] - px[i], ey[j] - py[i], head[i])
             p += 1
 
 
 @njit(cache=True, inline="always")
-def _compact_out(rows):
+def _offsets(rows):
+    """``(n + 1,)`` exclusive prefix sum of ``rows (n,)``: row i's items go to ``[out[i], out[i + 1])``."""
     n = rows.shape[0]
-    start = np.empty(n + 1, dtype=np.int64)
-    start[0] = 0
+    out = np.empty(n + 1, dtype=np.int64)
+    out[0] = 0
     for i in range(n):
-        start[i + 1] = start[i] + rows[i]
-    tot = start[n]
-    return start, np.empty(tot, dtype=np.int64), np.empty(tot, dtype=np.int64), np.empty(tot), np.empty(tot)
+        out[i + 1] = out[i] + rows[i]
+    return out
+
+
+@njit(cache=True, inline="always")
+def _compact_out(rows):
+    start = _offsets(rows)
+    tot = start[rows.shape[0]]
+    return start, np.empty(tot, dtype=np.int64), np.empty(tot, dtype=np.int64), np.empty(tot)
+
+
+@njit(cache=True)
+def bearings(obs, tgt, px, py, head, ex, ey):
+    """``(P,)`` the bearing of each contact's point ``(ex, ey)[tgt]`` relative to its observer's
+    heading ``head[obs]`` from ``(px, py)[obs]``, in [-pi, pi). The robot contacts' bearings are
+    computed by this only when read (:class:`~.sensing.Contacts`): the env's observations do not use them."""
+    b = np.empty(obs.shape[0])
+    for p in range(obs.shape[0]):
+        i = obs[p]
+        j = tgt[p]
+        b[p] = _bearing(ex[j] - px[i], ey[j] - py[i], head[i])
+    return b
 
 
 @njit(cache=True)
@@ -321,10 +339,10 @@ def compact(idx, dist, vis, cnt, px, py, head, ex, ey):
     rows = np.empty(n, dtype=np.int64)
     for i in range(n):
         rows[i] = _kept(idx, vis, cnt, i)
-    start, obs, tgt, d, b = _compact_out(rows)
+    start, obs, tgt, d = _compact_out(rows)
     for i in range(n):
-        _copy_kept(idx, dist, vis, cnt, i, start[i], px, py, head, ex, ey, obs, tgt, d, b)
-    return obs, tgt, d, b, start
+        _copy_kept(idx, dist, vis, cnt, i, start[i], obs, tgt, d)
+    return obs, tgt, d, bearings(obs, tgt, px, py, head, ex, ey), start
 
 
 @njit(cache=True, parallel=True)
@@ -335,16 +353,14 @@ def sense_pass2(T, px, py, head, tri, sz, active, G, range_m, check_los, R, B, b
     higher; when both see each other in view, the lower-index observer writes both slots (the
     other skips it), so each slot has exactly one writer. Returns the breaks ``(observer, break,
     distance, closest (P, 2), start (n + 1,))``, observer-major, nearest first (ties: lower
-    index), and the robots as :func:`compact` does."""
+    index), and the robots as :func:`compact` does but without the bearings ``(observer, target,
+    distance, start)``: :func:`bearings` computes them when they are read."""
     r_idx, r_dist, r_vis, r_cnt = R
     bax, bay, bbx, bby, BG = B
     bx0, by0, binv, bnx, bny, bstart, bitems = BG
     items = G[6]
     n = px.shape[0]
-    off = np.empty(n + 1, dtype=np.int64)
-    off[0] = 0
-    for i in range(n):
-        off[i + 1] = off[i] + bcnt[i]
+    off = _offsets(bcnt)
     tot = off[n]
     obs = np.empty(tot, dtype=np.int64)
     seg = np.empty(tot, dtype=np.int64)
@@ -398,11 +414,11 @@ def sense_pass2(T, px, py, head, tri, sz, active, G, range_m, check_los, R, B, b
     rows = np.empty(n, dtype=np.int64)
     for i in prange(n):
         rows[i] = _kept(r_idx, r_vis, r_cnt, i) if active[i] else 0
-    start, ro, rt, rd, rb = _compact_out(rows)
+    start, ro, rt, rd = _compact_out(rows)
     for i in prange(n):
         if rows[i]:
-            _copy_kept(r_idx, r_dist, r_vis, r_cnt, i, start[i], px, py, head, px, py, ro, rt, rd, rb)
-    return (obs, seg, dist, closest, off), (ro, rt, rd, rb, start)
+            _copy_kept(r_idx, r_dist, r_vis, r_cnt, i, start[i], ro, rt, rd)
+    return (obs, seg, dist, closest, off), (ro, rt, rd, start)
 
 
 # -- terrain breaks ----------------------------------------------------------------------------
