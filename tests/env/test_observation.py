@@ -389,3 +389,30 @@ def test_compiled_observations_equal_the_numpy_reference(scenario):
         assert a.dtype == b.dtype == np.float32
         np.testing.assert_allclose(a, b, atol=2e-7)
         assert np.any(a[:, env.layout.robots] != 0)
+
+
+def test_small_swarms_are_encoded_on_one_thread_and_large_ones_on_all(monkeypatch):
+    """build_observations runs its kernel on one numba thread below OBS_SERIAL_BELOW robots
+    (and restores the count after), on every thread from there on; the observations are the same bits."""
+    env = tse.parallel_env(scenario="cliff_goal", n_robots=24)
+    env.reset_arrays(seed=3)
+    w, s, r = env.world, env.world_state, env.sensed()
+    seen = []
+    kernel = O._fill
+
+    def spy(*a):
+        seen.append(numba.get_num_threads())
+        return kernel(*a)
+
+    monkeypatch.setattr(O, "_fill", spy)
+    k = min(2, numba.config.NUMBA_NUM_THREADS)
+    old = numba.get_num_threads()
+    try:
+        numba.set_num_threads(k)
+        small = O.build_observations(w, s, r, env.target_assignment, env.live_mask, env.layout)
+        monkeypatch.setattr(O, "OBS_SERIAL_BELOW", 24)
+        large = O.build_observations(w, s, r, env.target_assignment, env.live_mask, env.layout)
+        assert seen == [1, k] and numba.get_num_threads() == k
+    finally:
+        numba.set_num_threads(old)
+    assert small.tobytes() == large.tobytes() and np.any(small != 0)

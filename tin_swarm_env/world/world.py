@@ -25,13 +25,13 @@ SERIAL_BELOW = 256  # robots: fewer run the step's and sensing's kernels on one 
 
 
 @contextmanager
-def serial_if_small(n: int):
-    """Run the enclosed kernels on one numba thread when ``n < SERIAL_BELOW``: a parallel
-    region's start-up (waking the other threads) costs more than a few hundred robots' work
-    (100 robots: 0.57x on 2 threads, bench/world.py). The results are the same bit for bit on
-    any thread count, so this changes time only."""
+def serial_if_small(n: int, below: int | None = None):
+    """Run the enclosed kernels on one numba thread when ``n < below`` (default
+    :data:`SERIAL_BELOW`): a parallel region's start-up (waking the other threads) costs more
+    than a few hundred robots' work (100 robots: 0.57x on 2 threads, bench/world.py). The
+    results are the same bit for bit on any thread count, so this changes time only."""
     k = numba.get_num_threads()
-    if n >= SERIAL_BELOW or k == 1:
+    if n >= (SERIAL_BELOW if below is None else below) or k == 1:
         yield
         return
     numba.set_num_threads(1)
