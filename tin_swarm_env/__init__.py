@@ -19,11 +19,14 @@ PettingZoo when pettingzoo is imported, ``tin_swarm/TinSwarmSingle-v0`` and
 import importlib
 import os
 
-# numba's OpenMP threads spin-wait between parallel kernels by default; on a 2-core machine with
-# the other core busy (a second test worker, torch, another env) a waiting thread that is not
-# scheduled made a 2-thread world step ~8x slower than 1 thread (1 000 robots, load ~5: 1.2e4 against
-# 9.4e4 robot-steps/s; passive waiting: 6.4e4 against 6.5e4). Passive waiting unless the user chose.
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+# numba's OpenMP threads (GNU libgomp) wait for work between parallel kernels. Spinning long
+# (libgomp's own default, or OMP_WAIT_POLICY=ACTIVE) made a 2-thread step ~8x slower than 1 thread
+# when the other core was busy; sleeping at once (OMP_WAIT_POLICY=PASSIVE, this package's choice until
+# 2026-11) pays a wake-up per kernel: 1.02 against 0.75 ms per world step at 1 000 robots on the idle
+# 2-core machine. A short spin has both: 0.75 ms idle, and with three such 2-thread processes on the 2
+# cores 1.9 ms against passive's 2.0 (bench/world.py's setup). Unless the user chose either variable.
+if "OMP_WAIT_POLICY" not in os.environ and "GOMP_SPINCOUNT" not in os.environ:
+    os.environ["GOMP_SPINCOUNT"] = "1000"
 
 from ._registration import ENV_ID, register_gymnasium, register_pettingzoo  # noqa: E402
 from .errors import (  # noqa: E402

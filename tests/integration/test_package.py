@@ -2,6 +2,7 @@
 Reason numbers or env internals outside env/, the env's read-only views, reset options, and no
 second copy of a setting."""
 
+import os
 import re
 import subprocess
 import sys
@@ -97,3 +98,19 @@ def test_each_setting_has_one_default():
     for p in ("tin_swarm_env/terrain/tin.py", "tin_swarm_env/terrain/breaks.py", "tin_swarm_env/world/params.py"):
         src = (ROOT / p).read_text()
         assert not re.search(r"(max_slope_deg|break_angle_deg)(: float[^=\n]*)? = [0-9]", src), p  # no literal default
+
+
+@pytest.mark.parametrize("given, expect", [
+    ({}, ("1000", None)),
+    ({"GOMP_SPINCOUNT": "5"}, ("5", None)),
+    ({"OMP_WAIT_POLICY": "PASSIVE"}, (None, "PASSIVE")),
+])
+def test_importing_sets_a_short_openmp_spin_unless_the_user_chose(given, expect):
+    """The package sets GOMP_SPINCOUNT=1000 (numba's OpenMP threads spin briefly, then sleep; the reason
+    is in tin_swarm_env/__init__.py) only where neither GOMP_SPINCOUNT nor OMP_WAIT_POLICY is set."""
+    env = {k: v for k, v in os.environ.items() if k not in ("GOMP_SPINCOUNT", "OMP_WAIT_POLICY")} | given
+    r = subprocess.run([sys.executable, "-c", "import os, tin_swarm_env\n"
+                        "print(os.environ.get('GOMP_SPINCOUNT'), os.environ.get('OMP_WAIT_POLICY'))"],
+                       capture_output=True, text=True, timeout=120, cwd=ROOT, env=env)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert r.stdout.split() == [str(e) for e in expect]
