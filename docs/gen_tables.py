@@ -361,7 +361,8 @@ def apf_summary_rows() -> str:
     longer = next((i for i, line in enumerate(lines) if line.startswith("| seed | 900 |")), None)
     if longer is not None:
         rows = _md_rows(lines, longer)
-        c900, c1800 = (sum(float(r[k].rstrip("%")) for r in rows) / len(rows) for k in (1, 4))
+        hdr = [c.strip() for c in lines[longer].strip().strip("|").split("|")]
+        c900, c1800 = (sum(float(r[hdr.index(k)].rstrip("%")) for r in rows) / len(rows) for k in ("900", "1800"))
         out.append(f"| jacksboro, given 1800 steps | {len(rows)} seeds | {c1800:.1f}% (at 900: {c900:.1f}%) | "
                    f"| | | |")
     source = re.split(r",? \d{4}-\d\d-\d\d", lines[0])[0].rstrip(".")

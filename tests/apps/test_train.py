@@ -26,6 +26,12 @@ def test_timesteps_zero_without_imitation_is_refused():
         check_args(Args(seed=EVAL_SEED0))
 
 
+def test_head_acting_without_a_categorical_head_is_refused():
+    with pytest.raises(ArgumentError, match="--head-acting sample is for --head categorical"):
+        check_args(Args(bc_episodes=1, total_timesteps=0, head_acting="sample"))
+    check_args(Args(bc_episodes=1, total_timesteps=0, head="categorical", head_acting="sample"))
+
+
 def test_cli_train_refuses_timesteps_zero_before_any_work(tmp_path, capsys):
     from tin_swarm_env.apps.cli import main
 

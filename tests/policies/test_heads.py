@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
-from tin_swarm_env.errors import PolicyFileError
+from tin_swarm_env.errors import ArgumentError, PolicyFileError
 from tin_swarm_env.policies import load_policy, save_policy
 from tin_swarm_env.policies.heads import (CategoricalHead, categorical_classes, categorical_head, mirror_permutation,
                                           nearest_class, softmax, uniforms)
@@ -246,3 +246,22 @@ def test_a_mirror_policy_built_in_memory_refuses_a_head_that_is_not_mirror_close
     with pytest.raises(ArgumentError, match="not closed under the mirror"):
         MLPPolicy(_layers(e.layout.size, 33, 0), layout=e.layout.to_dict(), symmetry="mirror",
                   head=categorical_head(acts), source="mem")
+
+
+def test_a_sampling_mlp_file_draws_per_robot_whoever_else_acts(tmp_path):
+    """act() keeps each agent's row: robot_3's draws do not change when robots 0 and 2 have left."""
+    e = _env()
+    obs = {f"robot_{i}": np.random.default_rng(i).normal(0, 1, e.layout.size).astype(np.float32) for i in range(4)}
+    full, part = (load_policy(_save(tmp_path, name, acting="sample"), e) for name in ("a", "b"))
+    seq_full = [full.act(obs)["robot_3"] for _ in range(6)]
+    part.act(obs)  # every robot seen once (rows fixed), then only robots 1 and 3 act
+    seq_part = [seq_full[0]] + [part.act({k: obs[k] for k in ("robot_1", "robot_3")})["robot_3"] for _ in range(5)]
+    assert all(np.array_equal(a, b) for a, b in zip(seq_full, seq_part))
+    assert len({tuple(a) for a in seq_full}) > 1  # it does sample
+
+
+@pytest.mark.parametrize("rows", [[0, 0], [-1, 0], [0]])
+def test_sampling_rows_must_be_distinct_nonnegative_and_one_per_observation(tmp_path, rows):
+    pol = load_policy(_save(tmp_path, "s", acting="sample"), _env())
+    with pytest.raises(ArgumentError, match="rows must be 2 distinct robot rows"):
+        pol.act_batch(np.zeros((2, pol.obs_size), dtype=np.float32), rows)

@@ -328,6 +328,11 @@ FEEDBACK_BAD = {
     "too_small": (lambda j: j["network"].update(input_size=2), r"'network\.input_size' is 2; with 'network\.feedback'"),
     "dropped": (lambda j: j["network"].pop("feedback"), r"'observation\.size' \(59\) differs from the cell's "
                 r"'network\.input_size' \(61\)"),
+    "list": (lambda j: j["network"].update(feedback=["action"]), r"policy\.json: key 'network\.feedback' is "
+             r"\['action'\]"),
+    "cell_list": (lambda j: j["network"].update(cell=["gru"]), r"policy\.json: key 'network\.cell' is \['gru'\]"),
+    "on_an_mlp": (lambda j: [j["network"].update(type="mlp", layer_sizes=[59, 8, 2]), j["network"].pop("cell")],
+                  r"policy\.json: key 'network\.feedback' is for a recurrent network"),
 }
 
 
@@ -337,3 +342,9 @@ def test_bad_feedback_files_are_refused_by_name(tmp_path, case):
     q = _edit(_save_fb(tmp_path, "p"), tmp_path, fj)
     with pytest.raises(PolicyFileError, match=pattern):
         load_policy(q, _env())
+
+
+def test_save_policy_refuses_feedback_without_a_cell(tmp_path):
+    with pytest.raises(ArgumentError, match="feedback='action' needs a memory cell"):
+        save_policy(tmp_path / "m", _head(59, 3), layout=_env().layout, scenario="cliff_goal", feedback="action")
+    assert not (tmp_path / "m").exists()

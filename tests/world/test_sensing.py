@@ -205,3 +205,19 @@ def test_robot_bearings_are_computed_when_read_and_survive_a_pickle():
     assert len(want) > 0
     assert r.bearing_rad.tolist() == want
     assert copy.bearing_rad.tolist() == want and copy.target.tolist() == r.target.tolist()
+
+
+def test_lazy_robot_bearings_are_those_of_the_sensed_state_after_it_changes_in_place():
+    """Bearings read after the state's positions and headings were overwritten in place are still
+    those of the state that was sensed (sensing keeps its own copies)."""
+    v = np.array([[0, 0, 0], [200, 0, 0], [200, 200, 0], [0, 200, 0]], float)
+    w = World(Tin(v, [[0, 1, 2], [0, 2, 3]]))
+    pos = np.array([[50.0, 50.0], [70.0, 50.0], [50.0, 80.0], [30.0, 40.0]])
+    head = np.array([0.0, math.pi, -math.pi / 2, 1.0])
+    s = w.reset(0, pos, headings=head)
+    r = w.sense(s).robots
+    want = [(math.atan2(pos[j, 1] - pos[i, 1], pos[j, 0] - pos[i, 0]) - head[i] + math.pi) % (2 * math.pi)
+            - math.pi for i, j in zip(r.observer, r.target)]
+    s.positions[:] = s.positions[::-1] + 3.0  # the state changes in place before anyone reads a bearing
+    s.headings[:] = 2.0
+    assert len(want) > 0 and r.bearing_rad.tolist() == want

@@ -217,6 +217,9 @@ def check_args(args: Args) -> None:
             raise ArgumentError("--head categorical learns by imitation only: give --bc-episodes N and --timesteps 0")
         if args.recurrent:
             raise ArgumentError("--head categorical cannot be combined with --recurrent (RecurrentPPO's LSTM)")
+    if args.head != "categorical" and args.head_acting != "mode":
+        raise ArgumentError(f"--head-acting {args.head_acting} is for --head categorical (a mean head has one action "
+                            "per observation)")
     if args.feedback != "none" and args.student != "gru":
         raise ArgumentError(f"--feedback {args.feedback} needs --student gru (a memoryless MLP has no previous step)")
     if args.student == "gru":
@@ -432,7 +435,7 @@ def train_student(args: Args, out: Path, log=print) -> Path:
     memoryless) student (:mod:`tin_swarm_env.apps.recurrent_imitation`), with ``args`` (teacher, episodes, rounds,
     beta, stall steps, robots, epochs, learning rate, ``--gru-hidden`` units, ``--net-arch`` as
     the head's widths, ``--symmetry``, ``--mirror-samples``, ``--shield``); writes ``out/policy``
-    (the recurrent policy file) and ``out/model.json`` (arguments, per-round figures and, with
+    (the student's policy file: recurrent for ``--student gru``, an MLP file for ``--student mlp``) and ``out/model.json`` (arguments, per-round figures and, with
     ``--eval-every`` > 0, the file's evaluation on the held-out seeds). Returns ``out/policy``."""
     from .._atomic import atomic_path
     from ..env import parallel_env

@@ -224,6 +224,9 @@ class CategoricalHead:
         if self.acting == "side":
             return self._side(z)
         rows = np.arange(len(z)) if rows is None else np.asarray(rows, dtype=np.int64)
+        if rows.shape != (len(z),) or (len(rows) and (rows.min() < 0 or len(np.unique(rows)) != len(rows))):
+            raise ArgumentError(f"{self.source}: rows must be {len(z)} distinct robot rows >= 0 (one per "
+                                f"observation), got {np.asarray(rows).tolist()[:10]}")
         if len(rows) and rows.max() >= len(self._draws):
             self._draws = np.concatenate([self._draws, np.zeros(rows.max() + 1 - len(self._draws), np.int64)])
         u = uniforms(self.seed, rows, self._draws[rows])

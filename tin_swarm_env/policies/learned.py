@@ -107,6 +107,7 @@ class MLPPolicy:
         self.obs_size = self.layers[0][0].shape[1]
         self.shield, self.symmetry = shield, symmetry
         self._signs, self.shield_cut = file_options(shield, symmetry, layout, env, source)
+        self._rows: dict = {}  # agent name -> row, for act() (a sampling head's draws follow the robot)
 
     def act_batch(self, obs, rows=None) -> np.ndarray:
         """``rows``: each row's robot, for a sampling categorical head's per-robot draws (default 0..n-1)."""
@@ -114,7 +115,9 @@ class MLPPolicy:
         return a if self.shield_cut is None else self.shield_cut(a, obs)
 
     def reset(self) -> None:
-        """Restart a sampling head's per-robot draws (the network itself has no memory)."""
+        """Restart a sampling head's per-robot draws and forget the agent names (the network itself
+        has no memory)."""
+        self._rows = {}
         if self.head is not None:
             self.head.reset()
 
@@ -153,7 +156,9 @@ class MLPPolicy:
         return x
 
     def act(self, obs: dict) -> dict:
-        return act_dict(self.act_batch, obs)
+        """Each agent keeps the row it got the first time it was seen (as the recurrent policy's),
+        so a sampling head's draws for a robot do not depend on which other robots are acting."""
+        return act_dict(self.act_batch, obs, [self._rows.setdefault(k, len(self._rows)) for k in obs])
 
     def __repr__(self) -> str:
         sizes = [self.obs_size] + [W.shape[0] for W, _ in self.layers]
@@ -205,6 +210,9 @@ def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str
     arrays = {f"{k}{i}": a for i, (W, b) in enumerate(layers) for k, a in (("W", W), ("b", b))}
     network = {"type": "mlp", "layer_sizes": sizes, "activation": activation, "action_transform": action_transform}
     obs_size = sizes[0] if sizes else 0
+    if cell is None and feedback != "none":
+        raise ArgumentError(f"save_policy: feedback={feedback!r} needs a memory cell (cell=...): an MLP reads no "
+                            "previous action")
     if cell is not None:
         name, cw = cell
         cw = {k: np.asarray(v, dtype=np.float64) for k, v in cw.items()}
@@ -410,6 +418,9 @@ def validate_policy(meta, arrays: dict | None, jname: str, wname: str) -> list:
     if tr not in ACTION_TRANSFORMS:
         raise PolicyFileError(f"{jname}: key 'network.action_transform' is {tr!r}; known: {list(ACTION_TRANSFORMS)}")
     in_size, what = sizes[0], "the first layer size"
+    if net["type"] != "recurrent" and "feedback" in net:
+        raise PolicyFileError(f"{jname}: key 'network.feedback' is for a recurrent network (a memory cell reads "
+                              f"the previous action); this network's type is {net['type']!r}")
     if net["type"] == "recurrent":  # the cell reads the observation; the head (layer_sizes) reads the cell
         in_size, cell = check_cell(net, arrays, jname, wname)
         what = "the cell's 'network.input_size'" + (" less its 'network.feedback' inputs"

@@ -91,11 +91,11 @@ def check_cell(net: dict, arrays: dict | None, jname: str, wname: str) -> tuple[
     cell = net.get("cell")
     if "cell" not in net:
         raise PolicyFileError(f"{jname}: missing key 'network.cell'")
-    if cell not in CELLS:
+    if not isinstance(cell, str) or cell not in CELLS:
         raise PolicyFileError(f"{jname}: key 'network.cell' is {cell!r}; known: {sorted(CELLS)}")
     d, H = _pos_int(net, "input_size", jname), _pos_int(net, "hidden_size", jname)
     fb = net.get("feedback", "none")
-    if fb not in FEEDBACKS:
+    if not isinstance(fb, str) or fb not in FEEDBACKS:
         raise PolicyFileError(f"{jname}: key 'network.feedback' is {fb!r}; known: {list(FEEDBACKS)}")
     if d <= FEEDBACKS[fb]:
         raise PolicyFileError(f"{jname}: key 'network.input_size' is {d}; with 'network.feedback' {fb!r} it holds "
