@@ -1,0 +1,75 @@
+"""APF on the generated families and their mirror images: the same held-out seeds played as built,
+reflected east-west and reflected north-south (the terrain's ``mirror`` key,
+:mod:`tin_swarm_env.scenario.mirror`), so a rule that prefers one side shows as a gap between rows.
+Writes ``docs/figures/apf_mirror.md``:
+
+    python bench/apf_mirror.py [--seeds 20] [--out FILE]
+
+Each row: ``--seeds`` held-out seeds from ``EVAL_SEED0`` x the scenario's 20 robots, one
+:func:`~tin_swarm_env.apps.rollout.rollout` each (``max_cycles`` of the ``generated`` scenario);
+stalled and looping as in :mod:`tin_swarm_env.apps.trajectory`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import tin_swarm_env as tse
+from tin_swarm_env import Reason
+from tin_swarm_env.apps.evaluate import EVAL_SEED0
+from tin_swarm_env.apps.rollout import rollout
+from tin_swarm_env.policies import APFPolicy
+from tin_swarm_env.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+FAMILIES = ("canyon", "mesa", "fork", "trap")
+MIRRORS = (("", "as built"), ("ew", "east-west"), ("ns", "north-south"))
+
+
+def row(family: str, mirror: str, seeds: int) -> tuple[float, ...]:
+    cfg = load_scenario("generated")
+    cfg = cfg.replace(terrain=dataclasses.replace(cfg.terrain, families=(family,), mirror=mirror))
+    env = tse.parallel_env(scenario=cfg)
+    t = time.perf_counter()
+    outs = [rollout(env, APFPolicy(env), sd) for sd in range(EVAL_SEED0, EVAL_SEED0 + seeds)]
+    n = sum(o.n_robots for o in outs)
+    return (sum(o.count(Reason.ARRIVED) for o in outs) / n, sum(o.count(Reason.FELL) for o in outs) / n,
+            sum(int(o.stalled.sum()) for o in outs) / n, sum(int(o.looping.sum()) for o in outs) / n,
+            time.perf_counter() - t)
+
+
+def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--seeds", type=int, default=20, help="held-out seeds per row (default 20)")
+    p.add_argument("--out", default=str(ROOT / "docs" / "figures" / "apf_mirror.md"))
+    a = p.parse_args(argv)
+    commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
+                            text=True, check=False).stdout.strip() or "?"
+    load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
+    lines = [f"Measured with `python bench/apf_mirror.py {' '.join(argv)}`".replace(" `", "`").rstrip() +
+             f" at commit {commit}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load average {load} at "
+             f"the start ({os.cpu_count()} cores).", "",
+             f"APF, {a.seeds} held-out seeds x 20 robots per row, the same seeds as built and mirrored.", "",
+             "| family | terrain | arrived | fell | stalled | looping | s |", "|---|---|---:|---:|---:|---:|---:|"]
+    for fam in FAMILIES:
+        for mir, name in MIRRORS:
+            ar, fe, st, lo, s = row(fam, mir, a.seeds)
+            lines.append(f"| {fam} | {name} | {ar:.1%} | {fe:.1%} | {st:.1%} | {lo:.1%} | {s:.0f} |")
+            print(lines[-1], flush=True)
+    out = Path(a.out)
+    part = out.with_name(f".{out.name}.part")
+    part.write_text("\n".join(lines) + "\n")
+    os.replace(part, out)
+    print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
