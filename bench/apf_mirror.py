@@ -53,7 +53,8 @@ def main(argv=None) -> int:
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
                             text=True, check=False).stdout.strip() or "?"
     load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
-    lines = [f"Measured with `python bench/apf_mirror.py {' '.join(argv)}`".replace(" `", "`").rstrip() +
+    cmd = " ".join(["python bench/apf_mirror.py", *argv])
+    lines = [f"Measured with `{cmd}`" +
              f" at commit {commit}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load average {load} at "
              f"the start ({os.cpu_count()} cores).", "",
              f"APF, {a.seeds} held-out seeds x 20 robots per row, the same seeds as built and mirrored.", "",
