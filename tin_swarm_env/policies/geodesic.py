@@ -123,7 +123,6 @@ class GeodesicPolicy:
         self._tin = None
         self._clear = None
         self._fields: dict = {}
-        self._walls = None  # the clearance index of the current terrain (module cache _WALLS)
         self.reset()
 
     def reset(self):
@@ -143,11 +142,11 @@ class GeodesicPolicy:
             t = (np.arange(len(k)) - np.repeat(np.cumsum(n + 1) - (n + 1), n + 1)) / n[k]
             pts = seg[k, 0] + t[:, None] * (seg[k, 1] - seg[k, 0])
             _WALLS[b] = cKDTree(pts) if len(pts) else None
-        self._walls = _WALLS[b]
+        walls = _WALLS[b]
         xy = np.asarray(xy, dtype=np.float64)
-        if self._walls is None:
+        if walls is None:
             return np.full(xy.shape[:-1], np.inf)
-        return self._walls.query(xy.reshape(-1, 2), distance_upper_bound=upto_m)[0].reshape(xy.shape[:-1])
+        return walls.query(xy.reshape(-1, 2), distance_upper_bound=upto_m)[0].reshape(xy.shape[:-1])
 
     def around(self, field, pos) -> tuple[np.ndarray, np.ndarray]:
         """Off the clear ground: for each robot at ``pos (m, 2)``, the best of :data:`LOOK_DIRS`
