@@ -273,7 +273,7 @@ def tables(res, examples: int, emit):
                  + " |")
     emit("| did not arrive, all | " + " | ".join(f"{len(res[f])} ({len(res[f]) / res['_n'][f]:.1%})"
                                                 for f in fams) + " |")
-    emit(f"| robots | " + " | ".join(str(res["_n"][f]) for f in fams) + " |")
+    emit("| robots | " + " | ".join(str(res["_n"][f]) for f in fams) + " |")
     emit("\nExamples per class (seeds are EVAL_SEED0 + k; positions in metres, world frame; each event is "
          "the rule that fired, its step and the robot's position; 'map' is the cost-to-go field's distance):\n")
     for k, text in CLASSES.items():
