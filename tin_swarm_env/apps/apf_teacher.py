@@ -23,14 +23,17 @@ API), each step of an episode, for every robot row:
       label, it would integrate a path the robot never drove as soon as the student disagrees.
    b. *The side*: a robot that APF follows a boundary with on side ``s`` (+1 the boundary on its
       right) whose executed command runs along that boundary the other way (its component along the
-      followed break's tangent ``s * t_right`` below ``-adopt``) has turned: APF's memory takes the
+      followed break's tangent ``s * t_right`` below ``-adopt``) while APF's own label runs along it
+      on side ``s`` (component > 0: not through a gap or round a corner, where APF's command itself
+      leaves the tangent) has turned: APF's memory takes the
       student's side as one of its own turn-backs (rule 4 of the APF rules): side ``-s``, the
       search's bookkeeping as after a turn (not yet back past ``H``, the budget's climb and the
       stall counter reset; budget, hit point and ended sides kept). Not toward a side APF has found
       ended (the terrain's border or a stall there): there its label keeps saying "turn round".
 
    From the next step on, APF's label follows the boundary on the side the student is on. Under
-   behaviour cloning APF drives itself and both steps change nothing (its own command, its own side).
+   behaviour cloning APF drives itself and both steps change nothing: its own command, and a command
+   equal to its label never runs against the label (``tests/apps/test_apf_teacher.py``, bit for bit).
 
 **Mirror symmetry, exact.** APF is mirror-equivariant, memory included; the adoption compares the
 command with the followed tangent, and reflecting the observations and the commands reflects both
@@ -89,6 +92,7 @@ class StudentAPF:
         if m == 0:  # no memory (the break field off): APF acts from the observation alone
             return took
         a = a[:m]
+        label = mem.last_act[:m].copy()  # APF's own command this step (act_batch wrote it)
         mem.last_act[:m] = a
         if self.adopt is None:
             return took
@@ -96,9 +100,10 @@ class StudentAPF:
         ang = mem.wall[:m] - mem.psi[:m]  # direction from the followed break to the robot, body frame
         t_right = np.stack([np.sin(ang), -np.cos(ang)], axis=-1)  # the tangent with the break on the right
         along = np.sum(a * t_right, axis=-1) * s
+        own = np.sum(label * t_right, axis=-1) * s  # APF's label runs along its side (not through a gap, round a corner)
         to_first = -s == mem.first[:m]
         ended = np.where(to_first, mem.ended_first[:m], mem.ended_other[:m])
-        turn = (s != 0) & mem.has_pt[:m] & ~mem.unreachable[:m] & ~ended & (along < -self.adopt)
+        turn = (s != 0) & mem.has_pt[:m] & ~mem.unreachable[:m] & ~ended & (along < -self.adopt) & (own > 0)
         r = np.flatnonzero(turn)
         if len(r):
             mem.side[r] = -mem.side[r]
