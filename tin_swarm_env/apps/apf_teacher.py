@@ -100,7 +100,7 @@ class StudentAPF:
         ang = mem.wall[:m] - mem.psi[:m]  # direction from the followed break to the robot, body frame
         t_right = np.stack([np.sin(ang), -np.cos(ang)], axis=-1)  # the tangent with the break on the right
         along = np.sum(a * t_right, axis=-1) * s
-        own = np.sum(label * t_right, axis=-1) * s  # APF's label runs along its side (not through a gap, round a corner)
+        own = np.sum(label * t_right, axis=-1) * s  # > 0: APF's label runs along its side (no gap, no corner)
         to_first = -s == mem.first[:m]
         ended = np.where(to_first, mem.ended_first[:m], mem.ended_other[:m])
         turn = (s != 0) & mem.has_pt[:m] & ~mem.unreachable[:m] & ~ended & (along < -self.adopt) & (own > 0)
