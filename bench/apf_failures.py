@@ -47,10 +47,11 @@ CLASSES = {
     "f-true-unreachable": "(f) said unreachable, and the map does not reach it either",
     "d-stalled": "(d) stalled: net under one body length in its last 100 steps",
     "b-loop": "(b) drives round a closed boundary: passes the same place the same way again in one search",
-    "a-late-turn": "(a) still searching: first side the long way round, turned back (border, budget, stall) too late",
-    "a-no-turn": "(a) still searching: first side the long way round, budget not spent, never turned",
-    "a-right-side": "(a') still searching: first side the short way round, did not leave on it",
-    "e-heading": "(e) heading for the target (not following) at the end, not stalled, no loop",
+    "a-late-turn": "(a) first side the long way round (the map's distance grows along it), turned back (border, "
+                   "budget or stall), out of time",
+    "a-no-turn": "(a) first side the long way round, never turned back (budget not spent), out of time",
+    "a-right-side": "(a') first side the short way round, no loop, out of time",
+    "e-other": "(e) never met a boundary, or other",
 }
 
 
@@ -137,7 +138,7 @@ def _path(p):
     return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(p, axis=0).T))])
 
 
-def loop_in_search(p, start: int, breaks=(), min_path: float = 60.0, near_m: float = 4.0):
+def loop_in_search(p, start: int, breaks=(), min_path: float = 25.0, near_m: float = 4.0):
     """The first step ``t > start`` at which the track ``p (T + 1, 2)`` comes back within ``near_m``
     of a point it passed at least ``min_path`` of driving earlier (after ``start``), moving the same
     way (positive dot product of the two steps), with none of the steps ``breaks`` (turns, fresh
@@ -210,9 +211,9 @@ def classify(log: Log, i: int, stall_steps: int) -> dict:
         rec["loop"] = lp
         if lp is not None:
             cls = "b-loop"
-        elif rec["side"] == 0:
-            cls = "e-heading"
-        elif h_step is not None and not rec["first_right"]:
+        elif h_step is None:
+            cls = "e-other"
+        elif not rec["first_right"]:
             cls = "a-late-turn" if rec["turns"] else "a-no-turn"
         else:
             cls = "a-right-side"
