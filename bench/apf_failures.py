@@ -211,6 +211,9 @@ def classify(log: Log, i: int, stall_steps: int) -> dict:
         rec["loop"] = lp
         if lp is not None:
             cls = "b-loop"
+            between = [e[1] for e in ev if h_step is not None and h_step < e[0] <= lp[1]]
+            rec["sub"] = ("after driving through a gap (pass_gap)" if "gap" in between else
+                          "after a leave taken up again" if "resume" in between else "on the boundary it met at H")
         elif h_step is None:
             cls = "e-other"
         elif not rec["first_right"]:
@@ -272,6 +275,12 @@ def tables(res, examples: int, emit):
         if any(counts[f][k] for f in fams):
             emit(f"| {text} | " + " | ".join(f"{counts[f][k]} ({counts[f][k] / res['_n'][f]:.1%})" for f in fams)
                  + " |")
+    subs = {f: Counter(r[2]["sub"] for r in res[f] if "sub" in r[2]) for f in fams}
+    for k in sorted({k for f in fams for k in subs[f]}):
+        emit(f"| ... (b) {k} | " + " | ".join(str(subs[f][k]) for f in fams) + " |")
+    flick = {f: sum(bool(r[2].get("flickers")) for r in res[f]) for f in fams}
+    emit(f"| of all these: a leave taken up again within {FLICKER} steps in the last search | "
+         + " | ".join(str(flick[f]) for f in fams) + " |")
     emit("| did not arrive, all | " + " | ".join(f"{len(res[f])} ({len(res[f]) / res['_n'][f]:.1%})"
                                                 for f in fams) + " |")
     emit("| robots | " + " | ".join(str(res["_n"][f]) for f in fams) + " |")
