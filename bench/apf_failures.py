@@ -38,6 +38,7 @@ from apf import generated_family  # noqa: E402  (the one home of "the generated 
 FIELDS = ("side", "first", "rec", "arc", "budget", "ended_first", "ended_other", "unreachable", "stall", "gap",
           "climb", "passed", "on_border", "probed", "far")
 
+LOOP_WINDOW = 600  # (b) counts a loop in the robot's last this many steps (still circling when time ran out)
 FLICKER = 5  # a leave taken up again within this many steps is a flicker (see classify)
 
 #: the classes, in the order :func:`classify` tries them
@@ -46,7 +47,8 @@ CLASSES = {
     "c-false-unreachable": "(c) said unreachable, the map reaches the target from where it stands",
     "f-true-unreachable": "(f) said unreachable, and the map does not reach it either",
     "d-stalled": "(d) stalled: net under one body length in its last 100 steps",
-    "b-loop": "(b) drives round a closed boundary: passes the same place the same way again in one search",
+    "b-loop": "(b) drives round a closed boundary: in its last 600 steps passes the same place the same way again, "
+              "no turn or fresh search between",
     "a-late-turn": "(a) first side the long way round (the map's distance grows along it), turned back (border, "
                    "budget or stall), out of time",
     "a-no-turn": "(a) first side the long way round, never turned back (budget not spent), out of time",
@@ -207,7 +209,7 @@ def classify(log: Log, i: int, stall_steps: int) -> dict:
         cls = "d-stalled"
     else:
         cuts = [e[0] for e in ev if e[1] in ("fresh", "end-border", "end-stall", "budget")]
-        lp = loop_in_search(p, h_step if h_step is not None else 0, cuts)
+        lp = loop_in_search(p, max(h_step or 0, T - LOOP_WINDOW), cuts)
         rec["loop"] = lp
         if lp is not None:
             cls = "b-loop"

@@ -140,3 +140,15 @@ def test_one_tiny_episode_end_to_end(tmp_path):
     assert "| robots | 3 |" in text and "did not arrive, all" in text
     for _, _, r in res["trap"]:  # every robot that did not arrive has a class
         assert r["cls"] in af.CLASSES
+
+
+def test_a_lap_early_on_then_a_long_straight_drive_is_no_loop_at_the_end():
+    af = _bench()
+    lap = _circle(1.5)  # one and a half laps, then 700 m straight on
+    line = lap[-1] + np.stack([np.arange(1.0, 701.0), np.zeros(700)], axis=-1)
+    p = np.concatenate([lap, line])
+    n_t = len(p)
+    rows = {"side": np.r_[0, np.ones(n_t - 1)], "rec": np.r_[np.inf, np.full(n_t - 1, 1000.0)]}
+    r = af.classify(_log(af, rows, p, [Reason.TIMEOUT], (_Field(),)), 0, 20)
+    assert r["loop"] is None and r["cls"] != "b-loop"
+    assert af.loop_in_search(p, 0) is not None  # the lap is there, but not in the last LOOP_WINDOW steps
