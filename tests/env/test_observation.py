@@ -403,7 +403,8 @@ def test_mobile_targets_heights_follow_them_step_by_step():
 
     cfg = load_scenario("cliff_goal")
     cfg = cfg.replace(targets=dataclasses.replace(cfg.targets, mobile=True))
-    env = tse.parallel_env(scenario=cfg, n_robots=12)
+    with pytest.warns(UserWarning, match="mobile targets"):
+        env = tse.parallel_env(scenario=cfg, n_robots=12)
     rng = np.random.default_rng(3)
     tz_seen = set()
     for seed in (2, 5):
