@@ -348,20 +348,20 @@ def test_an_end_met_on_the_way_back_to_h_ends_neither_side(obs_row, s):
 
 @pytest.mark.parametrize("s", [1.0, -1.0], ids=["wall-right", "wall-left"])
 def test_taking_a_search_up_again_follows_the_break_that_blocks(obs_row, s):
-    # a search starts at a cliff ahead; the robot leaves on a clear view; then a wall square
-    # across its way blocks it again, not nearer than H: it takes the search up again (same side)
-    # along the wall that blocks it, not along a nearer break behind it that last step's
-    # direction to the old cliff happens to match
+    # a search starts at a cliff ahead; the robot leaves on a clear view (10 m on, the cliff's point
+    # off its way); then a wall square across its way blocks it again, not nearer than H: it takes
+    # the search up again (same side) along the wall that blocks it, not along a nearer break behind
+    # it that last step's direction to the old cliff happens to match
     layout, R = ObsLayout(), 60.0
     mem = BugMemory.empty(1)
-    target = (100.0, 30.0 * s)
-    _, side = _follow_step(mem, obs_row(layout, R, target, [(5.0, 0.0, -1.0, 0.0, 50.0)]), layout, R)
+    _, side = _follow_step(mem, obs_row(layout, R, (100.0, 30.0 * s), [(5.0, 0.0, -1.0, 0.0, 50.0)]), layout, R)
     assert side == s
-    _, side = _follow_step(mem, obs_row(layout, R, target, []), layout, R)
+    side = _drive(mem, obs_row(layout, R, (100.0, 40.0 * s), []), layout, R, (0.0, -10.0 * s))
     assert side == 0 and mem.side[0] == 0  # it left
     blocking = (4.0, 1.2 * s, -0.958, -0.287 * s, 50.0)
     behind = (-1.0, -3.5 * s, 0.275, 0.962 * s, 50.0)  # nearer, beside and behind it
-    rel, side = _follow_step(mem, obs_row(layout, R, target, [behind, blocking]), layout, R)
+    mem.last_act[:] = 0.0  # it stood still since
+    rel, side = _follow_step(mem, obs_row(layout, R, (100.0, 40.0 * s), [behind, blocking]), layout, R)
     assert side == s and np.allclose(rel, [4.0, 1.2 * s], atol=1e-6), rel
 
 
@@ -413,7 +413,7 @@ def _round_square(c, a, off, step, start):
 def test_a_robot_that_circles_an_island_after_a_wrong_leave_may_leave_it(obs_row, s):
     # the target at the origin, the robot heading +x throughout (it moves without turning). A
     # search starts at a cliff at (-100, -30 s), H, 104 m from the target; the robot leaves on a
-    # clear view and meets a closed boundary (a 20 m square island round (-90, -75 s)) on its far
+    # clear view 10 m on and meets a closed boundary (a 20 m square island round (-90, -75 s)) on its far
     # side, 133 m out: the leave proved wrong, it takes its search up and may not leave on a clear
     # view again. Following the island (never back at H, never on the m-line, never nearer than H)
     # it would go round it to the end (fork seed 45). It finds the loop (Brent's cycle finding: a
@@ -426,10 +426,11 @@ def test_a_robot_that_circles_an_island_after_a_wrong_leave_may_leave_it(obs_row
     mem = BugMemory.empty(1)
     _step(mem, obs_row(layout, R, (100.0, 30.0 * s), [cliff]), layout, R)
     assert mem.side[0] == s and np.isclose(mem.rec[0], np.hypot(100.0, 30.0))
-    _step(mem, obs_row(layout, R, (100.0, 30.0 * s), []), layout, R)
-    assert mem.side[0] == 0  # a clear view: it leaves
+    # 10 m on (the cliff's point it followed now 11 m off, beside the way to the target): a clear view
+    assert _drive(mem, obs_row(layout, R, (100.0, 40.0 * s), []), layout, R, (0.0, -10.0 * s)) == 0
+    assert mem.side[0] == 0
     path, per = _round_square(np.array([-90.0, -75.0]), 10.0, 5.0, 4.0, 0.0)
-    last = np.array([-100.0, -30.0 * s])
+    last = np.array([-100.0, -40.0 * s])
     driven = 0.0
     for k, (p, q, nrm) in enumerate(path):
         p, q, nrm = p * flip, q * flip, nrm * flip
@@ -444,3 +445,20 @@ def test_a_robot_that_circles_an_island_after_a_wrong_leave_may_leave_it(obs_row
             break
     assert side == 0 and per < driven < 2 * per, (side, driven, per)
     assert np.hypot(*(p - q)) == pytest.approx(5.0) and (p * flip)[1] > -75.0  # on the near half, 5 m off
+
+
+@pytest.mark.parametrize("s", [1.0, -1.0], ids=["wall-right", "wall-left"])
+def test_a_followed_break_lost_from_the_slots_for_a_step_is_no_clear_view(obs_row, s):
+    # following a cliff 5 m ahead (the target ahead, to the side s), the cliff drops out of the break
+    # slots for one step (the robot turning in place, nearer breaks crowding the slots): the point it
+    # followed still lies in the way to the target (4.8 m along it, 1.4 m across), so it does not
+    # leave on a "clear view" (it used to, met the cliff again the next step, and its one clear-view
+    # leave of the search was spent: fork seed 45, mesa). Seen 10 m on, off the way, the view is clear
+    layout, R = ObsLayout(), 60.0
+    cliff = (5.0, 0.0, -1.0, 0.0, 50.0)
+    mem = BugMemory.empty(1)
+    _step(mem, obs_row(layout, R, (100.0, 30.0 * s), [cliff]), layout, R)
+    assert mem.side[0] == s
+    _step(mem, obs_row(layout, R, (100.0, 30.0 * s), []), layout, R)
+    assert mem.side[0] == s and not mem.probed[0]
+    assert _drive(mem, obs_row(layout, R, (100.0, 40.0 * s), []), layout, R, (0.0, -10.0 * s)) == 0

@@ -46,8 +46,10 @@ The rules, each step:
    sector behind it: that break runs on out of view, and the break ahead closes a corner with it.
 3. *Leave* when not blocked and nearer than ``rec - margin_m``, and either on the *m-line*
    (the line from ``H`` to the target: Bug2) or ``leave_gain`` nearer than ``rec``; or when it
-   sees the way to the target clear of dangerous breaks as far as it senses and that clear
-   stretch would bring it nearer than ``rec - margin_m`` (DistBug's range rule), but not again
+   sees the way to the target clear of dangerous breaks as far as it senses (the followed
+   break's point last seen counts: it may drop out of the ``K_b`` slots for a step as the robot
+   turns) and that clear stretch would bring it nearer than ``rec - margin_m`` (DistBug's range
+   rule), but not again
    once such a leave has proved wrong (it met a boundary again no nearer than ``rec - margin_m``
    and took the search up), until it has shown that it goes round a loop that ``H`` is not on
    (an island reached through a gap): it passes a place on its way again going the same way,

@@ -382,6 +382,13 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     across = np.abs(d.b_rel[..., 0] * ut[:, None, 1] - d.b_rel[..., 1] * ut[:, None, 0])
     reach = np.minimum(range_m, d.dist)
     in_way = s["facing"] & (along > 0) & (along < reach[:, None]) & (across < params.follow_hold_m)
+    # the followed break's point last seen counts too: it may have dropped out of the K_b slots (or
+    # into the blind sector) for a step as the robot turns, which is no clear view
+    p_rel = _rot(-mem.psi[rows], mem.wall_pt[rows] - q)
+    p_along = np.sum(p_rel * ut, axis=-1)
+    p_across = np.abs(p_rel[:, 0] * ut[:, 1] - p_rel[:, 1] * ut[:, 0])
+    p_way = mem.has_pt[rows] & following & (p_along > 0) & (p_along < reach) & (p_across < params.follow_hold_m)
+    in_way = np.concatenate([in_way, p_way[:, None]], axis=-1)
     # after such a leave proved wrong (probed), not again until it comes back to a place it passed
     # since (r_pt, Brent's cycle finding) going the same way, with home_arc_m or more driven from it: it
     # goes round a loop that H is not on (an island reached through a gap) and may leave it on a clear
