@@ -12,6 +12,10 @@ such steps, and how often a robot's commanded side (sign of ``vy``, ignoring zer
 
     python agents/diag_multimodal.py --scenario runs/eval_multimodal/cfg/gen_canyon.toml \\
         --models mlp_mse=runs/multimodal/mlp_mse/policy,gru_cat=runs/multimodal/gru_cat/policy
+
+``--teacher apf_student`` labels with APF along the driven trajectory instead (tin_swarm_env/apps/apf_teacher.py:
+it is told each step's executed command); the last column then counts the steps at which it took the
+student's side, per 100 robot-steps (the geodesic teacher: 0).
 """
 
 from __future__ import annotations
@@ -22,12 +26,14 @@ import numpy as np
 
 import tin_swarm_env as tse
 from tin_swarm_env.apps.evaluate import EVAL_SEED0
-from tin_swarm_env.policies import GeodesicPolicy, load_policy
+from tin_swarm_env.apps.imitation import TEACHERS, make_teacher
+from tin_swarm_env.policies import load_policy
 from tin_swarm_env.policies.heads import softmax
 
 
-def run(env, pol, driver: str, seeds, steps: int) -> dict:
-    teach = GeodesicPolicy(env)
+def run(env, pol, driver: str, seeds, steps: int, teacher: str = "geodesic") -> dict:
+    teach = make_teacher(teacher, env)
+    adopted = 0
     rows = []
     flips, live_steps = 0, 0
     for seed in seeds:
@@ -56,6 +62,8 @@ def run(env, pol, driver: str, seeds, steps: int) -> dict:
             live_steps += int(live.sum())
             rows.append(np.column_stack([lab[:, 1], a[:, 1], mass])[live])
             act = lab if driver == "teacher" else (pol.shield_cut(a, obs) if pol.shield_cut is not None else a)
+            if hasattr(teach, "driven"):  # APF along the driven trajectory: told what moved the robots
+                adopted += int(teach.driven(act)[live].sum())
             obs, *_ = env.step_arrays(act)
             if not env.live_mask.any():
                 break
@@ -66,7 +74,8 @@ def run(env, pol, driver: str, seeds, steps: int) -> dict:
     return {"turning share": turn.mean(), "|vy| teacher": np.abs(t[:, 0]).mean(),
             "|vy| student": np.abs(t[:, 1]).mean(), "P(+y)": t[:, 2].mean(), "P(-y)": t[:, 3].mean(),
             "P(straight)": t[:, 4].mean(), "P(teacher's side)": own.mean(),
-            "side flips /100 steps": 100 * flips / max(live_steps, 1), "robot-steps": len(r)}
+            "side flips /100 steps": 100 * flips / max(live_steps, 1),
+            "sides taken /100 steps": 100 * adopted / max(live_steps, 1), "robot-steps": len(r)}
 
 
 def main(argv=None) -> None:
@@ -76,6 +85,7 @@ def main(argv=None) -> None:
     ap.add_argument("--seeds", type=int, default=2)
     ap.add_argument("--steps", type=int, default=400)
     ap.add_argument("--robots", type=int, default=20)
+    ap.add_argument("--teacher", default="geodesic", choices=TEACHERS)
     a = ap.parse_args(argv)
     env = tse.parallel_env(scenario=a.scenario, n_robots=a.robots)
     seeds = range(EVAL_SEED0, EVAL_SEED0 + a.seeds)
@@ -84,7 +94,7 @@ def main(argv=None) -> None:
         name, path = spec.split("=", 1)
         pol = load_policy(path, env)
         for driver in ("teacher", "student"):
-            out = run(env, pol, driver, seeds, a.steps)
+            out = run(env, pol, driver, seeds, a.steps, a.teacher)
             if keys is None:
                 keys = list(out)
                 print("| student | driver | " + " | ".join(keys) + " |")

@@ -18,6 +18,17 @@ rounds of 12 episodes, every file acting by a seeded draw ("sample") while it co
 
     nice -n 19 python agents/train_multimodal.py --recipe student --out runs/multimodal2
 
+The third run (``--recipe apf``): the student recipe with APF as the teacher along the student's own
+trajectory (``teacher="apf_student"``: tin_swarm_env/apps/apf_teacher.py), so that the labels follow the
+side the student took instead of the map's side:
+
+    gru_apf        gru_fb taught by apf_student
+    mlp_apf        mlp_cat0 taught by apf_student (no memory: the control for the GRU)
+    gru_apf_plain  gru_fb taught by plain APF, whose odometry reads its own label and whose side never
+                   follows the student (the control for the teacher)
+
+    nice -n 19 python agents/train_multimodal.py --recipe apf --out runs/multimodal3
+
 Each writes ``OUT/<name>/policy`` (a pickle-free policy file) and ``OUT/<name>/model.json``
 (:func:`tin_swarm_env.apps.train.train_student`). Torch runs on 1 thread.
 """
@@ -36,7 +47,8 @@ COMMON = dict(scenario="generated,generated,cliff_goal,ramp", bc_robots=8, teach
               seed=0, torch_threads=1, progress_bar=False)
 STUDENT_DRIVES = dict(dagger_rounds=4, dagger_episodes=12, dagger_beta=0.0, stall_steps=0, head_acting="sample")
 RECIPES = {"mixed": (COMMON, ("mlp_mse", "mlp_cat", "gru_cat")),
-           "student": ({**COMMON, **STUDENT_DRIVES}, ("gru_fb", "gru_cat0", "mlp_cat0"))}
+           "student": ({**COMMON, **STUDENT_DRIVES}, ("gru_fb", "gru_cat0", "mlp_cat0")),
+           "apf": ({**COMMON, **STUDENT_DRIVES, "teacher": "apf_student"}, ("gru_apf", "mlp_apf", "gru_apf_plain"))}
 VARIANTS = {
     "mlp_mse": dict(student="mlp", head="mean", bc_epochs=20),
     "mlp_cat": dict(student="mlp", head="categorical", bc_epochs=20),
@@ -44,6 +56,8 @@ VARIANTS = {
 }
 VARIANTS.update(mlp_cat0=VARIANTS["mlp_cat"], gru_cat0=VARIANTS["gru_cat"],
                 gru_fb={**VARIANTS["gru_cat"], "feedback": "action"})
+VARIANTS.update(gru_apf=VARIANTS["gru_fb"], mlp_apf=VARIANTS["mlp_cat"],
+                gru_apf_plain={**VARIANTS["gru_fb"], "teacher": "apf"})
 
 
 def main(argv=None) -> None:

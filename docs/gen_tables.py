@@ -373,6 +373,40 @@ def apf_summary_table() -> str:
     return HEADER + apf_summary_rows()
 
 
+# -- the speed summary (README's line) ---------------------------------------------------------------------
+
+WORLD_FIGURES = ROOT / "docs" / "figures" / "world.md"
+ENV_FIGURES = ROOT / "docs" / "figures" / "env.md"
+
+
+def _table(path, header_start: str) -> tuple[list[str], list[list[str]]]:
+    lines = path.read_text(encoding="utf-8").splitlines()
+    head = next(i for i, line in enumerate(lines) if line.startswith(header_start))
+    return [c.strip() for c in lines[head].strip().strip("|").split("|")], _md_rows(lines, head)
+
+
+def speed_summary() -> str:
+    """README's speed lines, read off ``docs/figures/world.md`` (robot-steps per second, 2 threads)
+    and ``docs/figures/env.md`` (the batched env path and the dict API against the world step)."""
+    hdr, rows = _table(WORLD_FIGURES, "| robots | 1 thread | 2 threads |")
+    world = {r[0]: float(r[hdr.index("2 threads")]) for r in rows}
+    hdr_e, rows_e = _table(ENV_FIGURES, "| robots | threads | world step |")
+    env = {r[0]: r for r in rows_e if r[1] == "2"}
+    at = {k: hdr_e.index(k) for k in ("batched/world", "dict/batched")}
+    parts = [f"{world[n]:.2e} robot-steps/s at {int(n):,} robots".replace(",", " ") for n in ("1000", "10000", "100000")
+             if n in world]
+    first = open(WORLD_FIGURES, encoding="utf-8").readline()
+    load = re.search(r"Load average at start ([0-9.]+)", first)
+    envl = " and ".join(f"{env[n][at['batched/world']]} at {int(n):,} robots".replace(",", " ") for n in ("1000", "10000")
+                        if n in env)
+    dict1k = env["1000"][at["dict/batched"]] if "1000" in env else "?"
+    return (f"World step + sensing with line of sight on the jacksboro TIN (~10 robots in range), two cores: "
+            f"{', '.join(parts)} (`python bench/world.py --quick`, load {load.group(1) if load else '?'}). "
+            f"The batched env path (observations and rewards included) keeps {envl} of the world step's rate, "
+            f"the PettingZoo dict API at {dict1k} of the batched path at 1 000 robots (`python bench/env.py`). "
+            f"All rows: [Figures](docs/figures.md).\n")
+
+
 TABLES = {
     "docs/generated/observation.md": observation_table,
     "docs/generated/reasons.md": reasons_table,
@@ -394,6 +428,15 @@ def write_readme_apf_table() -> None:
     path.write_text(text[:i] + apf_summary_rows() + text[j:], encoding="utf-8")
 
 
+def write_readme_speed() -> None:
+    """Rewrite README's ``speed`` block from :func:`speed_summary` (after ``bench/world.py``/``bench/env.py``)."""
+    path = ROOT / "README.md"
+    text = path.read_text(encoding="utf-8")
+    start, end = "<!-- speed:start -->\n", "<!-- speed:end -->"
+    i, j = text.index(start) + len(start), text.index(end)
+    path.write_text(text[:i] + speed_summary() + text[j:], encoding="utf-8")
+
+
 def main() -> int:
     for rel, make in TABLES.items():
         (ROOT / rel).parent.mkdir(parents=True, exist_ok=True)
@@ -401,6 +444,8 @@ def main() -> int:
         print(f"wrote {rel}")
     write_readme_apf_table()
     print("wrote README.md's apf-table block")
+    write_readme_speed()
+    print("wrote README.md's speed block")
     return 0
 
 

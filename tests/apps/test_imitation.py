@@ -183,13 +183,16 @@ def test_geodesic_teacher_labels_the_states_the_student_visits():
 
 
 def test_teacher_is_validated_by_name_before_any_episode():
+    from tin_swarm_env.apps.apf_teacher import StudentAPF
     from tin_swarm_env.apps.imitation import TEACHERS, make_teacher
     from tin_swarm_env.policies import GeodesicPolicy
 
-    assert TEACHERS == ("apf", "geodesic")
+    assert TEACHERS == ("apf", "geodesic", "apf_student")
     env = tse.parallel_env(scenario="cliff_goal", n_robots=2)
     assert isinstance(make_teacher("apf", env), APFPolicy) and isinstance(make_teacher("geodesic", env),
                                                                           GeodesicPolicy)
-    for bad in ("APF", "bug", ""):
-        with pytest.raises(ArgumentError, match=f"teacher {bad!r} is not a teacher; choose from apf, geodesic"):
+    assert isinstance(make_teacher("apf_student", env), StudentAPF)
+    for bad in ("APF", "bug", "", "apf-student"):
+        with pytest.raises(ArgumentError, match=f"teacher {bad!r} is not a teacher; choose from apf, geodesic, "
+                                                "apf_student"):
             collect("cliff_goal", 1, seed=0, teacher=bad, **SMALL)

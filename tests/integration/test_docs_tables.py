@@ -146,3 +146,13 @@ def test_readme_apf_table_is_the_generated_one():
     assert block is not None, "README.md has no apf-table block"
     assert block.group(1) == GEN.apf_summary_rows()
     assert "| generated: fork |" in block.group(1) and "| jacksboro, given 1800 steps |" in block.group(1)
+
+
+def test_readme_speed_line_is_the_generated_one():
+    """README's speed line is read off docs/figures/world.md and env.md (2 threads):
+    ``python docs/gen_tables.py`` rewrites it after a bench run."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = re.search(r"<!-- speed:start -->\n(.*?)<!-- speed:end -->", text, re.S)
+    assert block is not None, "README.md has no speed block"
+    assert block.group(1) == GEN.speed_summary()
+    assert "robot-steps/s at 1 000 robots" in block.group(1) and "% at 1 000 robots" in block.group(1)

@@ -140,3 +140,22 @@ def test_fields_are_built_once_per_tin_and_target():
     b.reset(seed=1)
     a.reset(seed=2)
     assert a.target_fields[0] is b.target_fields[0]
+
+
+def test_the_envs_one_pass_distance_to_go_is_reward_distance_to_go_bit_for_bit(tmp_path):
+    """The env measures every robot's distance to go with its episode's CostToGoStack (one pass
+    over both targets' fields); :func:`~tin_swarm_env.env.reward.distance_to_go` (one field at a
+    time) is the spec. Random driving round a pit, robots of both targets, live and gone."""
+    from tin_swarm_env.env.reward import distance_to_go
+
+    p = _pit_toml(tmp_path, (60.0, 50.0), (40.0, 30.0, 80.0, 70.0))
+    env = tse.parallel_env(scenario=str(p), n_robots=16)
+    rng = np.random.default_rng(0)
+    env.reset_arrays(seed=1)
+    assert len(env.target_fields) == 2 and set(env.target_assignment.tolist()) == {0, 1}
+    for _ in range(40):
+        s = env.world_state
+        want = distance_to_go(s, env.target_assignment, env.target_fields)
+        assert np.isfinite(want).any()
+        np.testing.assert_array_equal(env._measure(s), want)
+        env.step_arrays(rng.uniform(-1, 1, (env.n, 2)))

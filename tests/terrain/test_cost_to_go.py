@@ -9,7 +9,7 @@ from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 import tin_swarm_env as tse
-from tin_swarm_env.terrain import Tin, cost_to_go, reference
+from tin_swarm_env.terrain import CostToGoStack, Tin, cost_to_go, reference
 from tin_swarm_env.terrain import _ctg_kernels as K
 
 
@@ -364,3 +364,71 @@ def test_jacksboro_field_is_finite_on_most_passable_ground(jacksboro):
     d = ctg.distance_at(c)
     assert np.array_equal(np.isfinite(d), reach)
     assert np.all(d[reach] >= np.hypot(*(c[reach] - g).T) * (1 - 1e-12))
+
+
+# -- several fields in one pass (the env's distance to go) ---------------------------------
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 10_000), st.integers(1, 4))
+def test_a_stack_answers_each_point_as_its_own_field_bit_for_bit(obstacle_case, random_tin, seed, n_fields):
+    """Fields on one TIN with their own passable ground (their own fan splits, windows and node
+    counts, so every offset matters), goals and Steiner counts equal; points anywhere (outside,
+    on impassable ground, on every vertex: pinches, on no field): ``stack[i] == fields[which[i]].distance_at(p_i, t_i)`` to
+    the bit, on 1 and 2 threads."""
+    import numba
+
+    tin, passable, goal, rng = obstacle_case(random_tin, seed)
+    fields = []
+    for k in range(n_fields):
+        pk = passable & (rng.random(tin.n_triangles) > 0.15 * k)  # each field its own ground
+        t_goal = tin.locate(goal[None])[0]
+        pk[t_goal] = True
+        fields.append(cost_to_go(tin, goal if k == 0 else rng.uniform(100, 900, 2), pk))
+    stack = CostToGoStack(fields)
+    q = np.vstack([rng.uniform(-50, 1050, (300, 2)), tin.vertices[:, :2]])  # vertices: pinches, ground's corners
+    t = tin.locate(q)
+    which = rng.integers(-1, n_fields, len(q))
+    want = np.full(len(q), np.inf)
+    for k, f in enumerate(fields):
+        on = which == k
+        want[on] = f.distance_at(q[on], t[on])
+    assert np.isfinite(want).any() or not any(f.reachable for f in fields)
+    before = numba.get_num_threads()
+    try:
+        for threads in sorted({1, min(2, numba.config.NUMBA_NUM_THREADS)}):
+            numba.set_num_threads(threads)
+            got = stack.distance_at(q, t, which)
+            assert np.array_equal(got, want), threads
+    finally:
+        numba.set_num_threads(before)
+
+
+def test_a_stack_on_a_pinch_and_its_bad_arguments():
+    """The pinch case above through a stack of two fields (pinched ground, open ground): the
+    exact detour and the straight line; no field, outside: inf; arguments refused by name."""
+    tin, cells = grid_tin(4, 4, 10.0)
+    steep = ((cells[:, 0] == 1) & (cells[:, 1] == 1)) | ((cells[:, 0] == 2) & (cells[:, 1] == 2))
+    g = np.array([25.0, 15.0])
+    pinched, open_ = cost_to_go(tin, g, ~steep), cost_to_go(tin, g)
+    stack = CostToGoStack([pinched, open_])
+    p = np.array([[15.0, 25.0], [15.0, 25.0], [15.0, 25.0], [-5.0, 5.0]])
+    d = stack.distance_at(p, tin.locate(p), [0, 1, -1, 0])
+    assert d[0] == pytest.approx(20.0 + 2 * math.sqrt(50.0), rel=1e-9)
+    assert d[1] == pytest.approx(math.hypot(10.0, 10.0), rel=1e-9)
+    assert d[2] == np.inf and d[3] == np.inf
+    assert len(CostToGoStack([])) == 0
+    assert CostToGoStack([]).distance_at(np.zeros((0, 2)), [], []).shape == (0,)
+    other, _ = grid_tin(4, 4, 10.0)
+    with pytest.raises(ValueError, match=r"fields\[1\] is on another TIN"):
+        CostToGoStack([pinched, cost_to_go(other, g)])
+    with pytest.raises(ValueError, match=r"fields\[0\] is a str"):
+        CostToGoStack(["field"])
+    with pytest.raises(ValueError, match=r"fields\[1\] has steiner_per_edge=3"):
+        CostToGoStack([pinched, cost_to_go(tin, g, steiner_per_edge=3)])
+    with pytest.raises(ValueError, match="which must lie in -1..1"):
+        stack.distance_at(p[:1], [0], [2])
+    with pytest.raises(ValueError, match="tri_idx has 2 entries for 1 points"):
+        stack.distance_at(p[:1], [0, 0], [0])
+    with pytest.raises(ValueError, match="tri_idx must lie"):
+        stack.distance_at(p[:1], [tin.n_triangles], [0])

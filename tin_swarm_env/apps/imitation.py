@@ -39,6 +39,11 @@ TIN, and equal-length paths tie differently), so a mirrored label is a claim abo
 ran. An equivariant student gets the symmetry without such labels: fitting ``pi(o) = a`` fits
 ``pi(M o) = M a`` with it, and where the map breaks the tie the observation history, not a
 reflected label, has to say which way.
+``"apf_student"``: :class:`~tin_swarm_env.apps.apf_teacher.StudentAPF`, APF whose memory follows the
+robots along whatever trajectory drove them (its odometry reads the command executed, not its own label)
+and takes the side of a boundary the student drives along, so its labels follow the side the student
+took (the rule: :mod:`tin_swarm_env.apps.apf_teacher`). With ``"apf"`` the odometry reads APF's own label
+even where the learner drove: kept as it was, for the shipped recipe's reproduction.
 What a privileged teacher cannot give a memoryless student (measured:
 ``docs/figures/teacher_geodesic.md``): where the shortest way round is left on one map and right on
 another that look the same to the robot (a cliff across the way, the pass out of sight), the labels
@@ -67,7 +72,7 @@ from ..errors import ArgumentError
 __all__ = ["Demos", "Sequence", "TEACHERS", "make_teacher", "collect", "fit_actor", "fit_value", "TorchActor",
            "actor_mean"]
 
-TEACHERS = ("apf", "geodesic")  # the labelling policies of collect(teacher=...) (module docstring)
+TEACHERS = ("apf", "geodesic", "apf_student")  # the labelling policies of collect(teacher=...) (module docstring)
 
 
 def check_teacher(teacher: str, where: str = "teacher") -> str:
@@ -78,10 +83,12 @@ def check_teacher(teacher: str, where: str = "teacher") -> str:
 
 
 def make_teacher(teacher: str, env):
-    """The labelling policy ``teacher`` (:data:`TEACHERS`) for ``env``: APFPolicy or GeodesicPolicy."""
+    """The labelling policy ``teacher`` (:data:`TEACHERS`) for ``env``: APFPolicy, GeodesicPolicy or
+    :class:`~tin_swarm_env.apps.apf_teacher.StudentAPF`."""
     from ..policies import APFPolicy, GeodesicPolicy
+    from .apf_teacher import StudentAPF
 
-    return {"apf": APFPolicy, "geodesic": GeodesicPolicy}[check_teacher(teacher)](env)
+    return {"apf": APFPolicy, "geodesic": GeodesicPolicy, "apf_student": StudentAPF}[check_teacher(teacher)](env)
 
 
 @dataclass
@@ -194,6 +201,8 @@ def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=No
             act = shield(act, obs)
         if learner is not None and beta > 0:
             act = np.where((rng.random(n) < beta)[:, None], label, act)
+        if hasattr(teacher, "driven"):  # a teacher whose memory follows what moved the robots (apf_teacher.py)
+            teacher.driven(act)
         keep = live & ((since < stall_steps) if stall_steps > 0 else True)
         O.append(np.asarray(obs, dtype=np.float32))
         A.append(np.asarray(label, dtype=np.float32))

@@ -143,8 +143,9 @@ class Args:
                         "(policies/recurrent.py), so a sampled side can be kept", choices=("none", "action"))
     gru_hidden: int = opt(64, "--student gru: GRU units (--net-arch: the head after it)", lo=1, hi=1024)
     bc_episodes: int = opt(0, "behaviour cloning: teacher-driven episodes (0: no imitation)", **_NONNEG)
-    teacher: str = opt("apf", "imitation's teacher: apf, or geodesic (knows the map; the student sees only the "
-                       "observation)", choices=TEACHERS)
+    teacher: str = opt("apf", "imitation's teacher: apf, geodesic (knows the map; the student sees only the "
+                       "observation), or apf_student (APF along the student's trajectory: apps/apf_teacher.py)",
+                       choices=TEACHERS)
     dagger_rounds: int = opt(0, "DAgger rounds after BC (the learner drives, the teacher labels)", **_NONNEG)
     dagger_episodes: int = opt(0, "episodes per DAgger round (0: as many as --bc-episodes)", **_NONNEG)
     dagger_beta: float = opt(0.0, "round r (from 0): the teacher drives each robot-step with probability beta**(r+1)",

@@ -354,14 +354,16 @@ def _break_slots(obs, i, sl, K, start, idx, dist, closest, normals, drops, dange
 
 
 @njit(cache=True, inline="always")
-def _own(obs, i, o, c, s, own_n, planes, tri, target_idx, tpos, tz, pos, heights, R, dz_scale):
+def _own(obs, i, o, c, s, own_n, own_scale, planes, tri, target_idx, tpos, tz, pos, heights, R, dz_scale):
     """Own fields of robot ``i`` (``o`` an :class:`OwnOffsets`; ``own_n``: the ``(n,)`` battery,
-    speed, tilt and slope already normalised; the uphill gradient from the plane of its triangle)."""
+    speed, tilt and slope, each divided here by its ``own_scale``; the uphill gradient from the
+    plane of its triangle)."""
     bat, spd, tilt, slope = own_n
-    obs[i, o.battery] = bat[i]
-    obs[i, o.speed] = min(max(spd[i], 0.0), 1.0)
-    obs[i, o.tilt] = tilt[i]
-    obs[i, o.slope] = slope[i]
+    bs, ss, ts, ls = own_scale
+    obs[i, o.battery] = bat[i] / bs
+    obs[i, o.speed] = min(max(spd[i] / ss, 0.0), 1.0)
+    obs[i, o.tilt] = tilt[i] / ts
+    obs[i, o.slope] = slope[i] / ls
     gx = planes[tri[i], 0]
     gy = planes[tri[i], 1]
     gn = np.sqrt(gx * gx + gy * gy)
@@ -383,7 +385,8 @@ def _own(obs, i, o, c, s, own_n, planes, tri, target_idx, tpos, tz, pos, heights
 
 
 @njit(cache=True, parallel=True)
-def _fill(obs, o, o_rob, o_tgt, o_brk, o_ast, ks, pos, head, heights, own_n, planes, tri, live, target_idx, tpos, tz,
+def _fill(obs, o, o_rob, o_tgt, o_brk, o_ast, ks, pos, head, heights, own_n, own_scale, planes, tri, live, target_idx,
+          tpos, tz,
           robots, targets, breaks, apos, assets, R, dz_scale):
     """Write every live robot's row of ``obs``; ``o, o_rob, o_tgt, o_brk, o_ast`` the offsets of
     :meth:`ObsLayout.kernel_offsets` (passed one by one: numba's parallel loop takes namedtuples
@@ -401,7 +404,7 @@ def _fill(obs, o, o_rob, o_tgt, o_brk, o_ast, ks, pos, head, heights, own_n, pla
             continue
         c = np.cos(head[i])
         s = np.sin(head[i])
-        _own(obs, i, o, c, s, own_n, planes, tri, target_idx, tpos, tz, pos, heights, R, dz_scale)
+        _own(obs, i, o, c, s, own_n, own_scale, planes, tri, target_idx, tpos, tz, pos, heights, R, dz_scale)
         _point_slots(obs, i, o_rob, kr, rs, ri, rd, pos, pos, c, s, R)
         _point_slots(obs, i, o_tgt, kt, ts, ti, td, tpos, pos, c, s, R)
         _break_slots(obs, i, o_brk, kb, bs, bi, bd, bc, bn, bdrop, bdanger, pos, c, s, R, dz_scale)
@@ -434,6 +437,18 @@ def _kernel_offsets(layout: ObsLayout):
     return layout.kernel_offsets()
 
 
+def _target_heights(world, tg):
+    """The targets' ground heights ``(k,)``, kept per world while the targets stand where they
+    stood (static targets: every step after the first reads the cache)."""
+    if not len(tg):
+        return np.zeros(0)
+    key = (tg.positions.tobytes(), np.asarray(tg.tri_idx).tobytes())
+    got = world.__dict__.get("_obs_target_heights")
+    if got is None or got[0] != key:
+        got = world.__dict__["_obs_target_heights"] = (key, world.tin.height_in(tg.positions, tg.tri_idx))
+    return got[1]
+
+
 def _break_arrays(world):
     """The break set's per-segment arrays the encoder reads, built once per world."""
     got = world.__dict__.get("_obs_break_arrays")
@@ -453,14 +468,14 @@ def build_observations(world, state, readings, target_idx, live, layout: ObsLayo
     n = state.n_robots
     ks = (layout.k_robots, layout.k_targets, layout.k_breaks, layout.k_assets)
     tg = state.targets
-    tz = world.tin.height_in(tg.positions, tg.tri_idx) if len(tg) else np.zeros(0)
-    own_n = (state.battery_j / P.battery.capacity_j, state.speeds / P.robot.max_speed_mps,
-             readings.tilt_rad / (np.pi / 2), readings.slope_deg / 90.0)
-    own_n = tuple(np.ascontiguousarray(v, dtype=np.float64) for v in own_n)
+    tz = _target_heights(world, tg)
+    own_n = tuple(np.ascontiguousarray(v, dtype=np.float64)
+                  for v in (state.battery_j, state.speeds, readings.tilt_rad, readings.slope_deg))
+    own_scale = (float(P.battery.capacity_j), float(P.robot.max_speed_mps), np.pi / 2, 90.0)
     breaks = _grouped(readings.breaks, n, ks[2], "closest") + _break_arrays(world)
     obs = np.zeros((n, layout.size), dtype=np.float32)
     with serial_if_small(n, OBS_SERIAL_BELOW):
-        _fill(obs, *_kernel_offsets(layout), ks, state.positions, state.headings, state.heights, own_n,
+        _fill(obs, *_kernel_offsets(layout), ks, state.positions, state.headings, state.heights, own_n, own_scale,
               world.tin.planes, np.ascontiguousarray(state.tri_idx, dtype=np.int64), live, target_idx,
               tg.positions.reshape(-1, 2), tz, _grouped(readings.robots, n, ks[0]), _grouped(readings.targets, n, ks[1]), breaks,
               state.assets.positions.reshape(-1, 2), _grouped(readings.assets, n, ks[3]), float(P.sensor.range_m),

@@ -22,10 +22,11 @@ from ..scenario import (
     target_field,
 )
 from ..scenario.config import MAX_ROBOTS
+from ..terrain import CostToGoStack
 from ..world import Reason, World
 from ..world.world import serial_if_small
 from .checks import actions_from_dict, check_options, check_scenario_arg, check_seed, float_array
-from .observation import ObsLayout, build_observations
+from .observation import OBS_SERIAL_BELOW, ObsLayout, build_observations
 from .reward import compute_rewards, distance_to_go
 
 __all__ = ["TinSwarmEnv", "parallel_env", "raw_env", "env", "RENDER_WIDTH_PX", "DEFAULT_RENDER_WIDTH_PX"]
@@ -198,6 +199,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         self._readings = None
         self._steps = 0
         self._fields: tuple = ()  # one CostToGo per target of the episode
+        self._stack = None  # CostToGoStack of _fields where progress is geodesic (one query a step), else None
         self._dist = np.full(self.n, np.inf)  # (n,) m, distance to go after the last reset/step
 
     # -- read-only views for apps, policies' tests and plots ------------------------------------
@@ -313,6 +315,8 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
             targets = place_entities(self._world, cfg.targets, self._np_random, spawn_region=self._stage.spawn_region,
                                      label=f"{cfg.source} [targets]")
         self._fields = tuple(self._field(t) for t in targets)
+        geodesic = self.config.rewards.progress == "geodesic" and not self.config.targets.mobile
+        self._stack = CostToGoStack(self._fields) if geodesic and self._fields else None
         reach = np.array([f.triangle_reachable() for f in self._fields]) if len(self._fields) else None
         self._wstate = initial_state(self._world, cfg, self._np_random, self.n, target_positions=targets,
                                      spawn_region=self._stage.spawn_region, reachable=reach,
@@ -340,9 +344,15 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         return target_field(self._world, xy)
 
     def _measure(self, state) -> np.ndarray:
-        """Distance to go ``(n,)`` m of every robot in ``state`` (the reward's metric)."""
-        geodesic = self.config.rewards.progress == "geodesic" and not self.config.targets.mobile
-        return distance_to_go(state, self._target_idx, self._fields if geodesic else (None,) * len(self._fields))
+        """Distance to go ``(n,)`` m of every robot in ``state`` (the reward's metric): the same bits
+        as :func:`~tin_swarm_env.env.reward.distance_to_go`, geodesic ones from this episode's
+        :class:`~tin_swarm_env.terrain.CostToGoStack` in one compiled pass (tests check both)."""
+        if self._stack is None:
+            return distance_to_go(state, self._target_idx, (None,) * len(self._fields))
+        with serial_if_small(state.n_robots, OBS_SERIAL_BELOW):
+            return self._stack._distance(np.ascontiguousarray(state.positions, dtype=np.float64),
+                                         np.ascontiguousarray(state.tri_idx, dtype=np.int64), self._target_idx,
+                                         np.empty(state.n_robots))
 
     def step_arrays(self, actions) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """One step for all robots: ``actions (n, 2)`` (rows of robots no longer live are

@@ -9,7 +9,7 @@
 from ._kernels import exit_edge
 from .breaks import ANGLE, BORDER, STEEP, Breaks, find_breaks
 from .build import build_tin
-from .cost_to_go import CostToGo, cost_to_go, pinch_vertices
+from .cost_to_go import CostToGo, CostToGoStack, cost_to_go, pinch_vertices
 from .dem import Dem, PointCloud, geographic_to_metres, metres_per_degree
 from .dem_io import SAMPLES, load_dem, sample_dem
 from .metrics import ErrorStats, vertical_error
@@ -21,5 +21,5 @@ __all__ = [
     "Dem", "PointCloud", "load_dem", "sample_dem", "SAMPLES", "geographic_to_metres", "metres_per_degree",
     "Tin", "build_tin", "vip_significance", "vip_select",
     "save_tin", "load_tin", "Breaks", "find_breaks", "BORDER", "STEEP", "ANGLE",
-    "vertical_error", "ErrorStats", "exit_edge", "cost_to_go", "CostToGo", "pinch_vertices",
+    "vertical_error", "ErrorStats", "exit_edge", "cost_to_go", "CostToGo", "CostToGoStack", "pinch_vertices",
 ]

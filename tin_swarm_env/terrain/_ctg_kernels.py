@@ -19,12 +19,13 @@ take-and-release of every array argument of every inlined helper had cost as muc
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from ._kernels import orient as _orient
 
 GOAL = -2  # parent of a node reached straight from the goal / query answered straight to the goal
 NONE = -1  # no node
+CHUNKS = 16  # runs of points :func:`distance_stacked` shares among the threads
 
 
 @njit(cache=True, error_model="numpy")
@@ -872,18 +873,59 @@ def twins(vorig):
     return twin
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def _best(nx, ny, dist, tri_nodes, passable, goal_tri, gx, gy, vx, vy, tris, nbrs, wstart, wgeo, wroot, x, y, t, tol,
+          eps_m, twin):
+    """``(distance, source)`` of the point ``(x, y)`` on triangle ``t >= 0``: :func:`query`'s
+    candidates, one point (shared by :func:`query` and :func:`distance_stacked`)."""
+    if not passable[t]:
+        t = _snap(vx, vy, tris, nbrs, passable, t, x, y, tol)
+    best = np.inf
+    arg = NONE
+    if passable[t]:
+        if goal_tri[t]:
+            best = _hyp(gx - x, gy - y)
+            arg = GOAL
+        for s in range(tri_nodes.shape[1]):
+            u = tri_nodes[t, s]
+            c = _hyp(nx[u] - x, ny[u] - y) + dist[u]
+            if c < best:
+                best = c
+                arg = u
+        for a in range(wstart[t], wstart[t + 1]):
+            rx = wgeo[a, 0]
+            ry = wgeo[a, 1]
+            L = _hyp(rx - x, ry - y)
+            c = wgeo[a, 2] + L
+            if c < best:
+                lim0 = 1e-12 * L * _hyp(wgeo[a, 3] - rx, wgeo[a, 4] - ry)
+                lim1 = 1e-12 * L * _hyp(wgeo[a, 5] - rx, wgeo[a, 6] - ry)
+                if (_orient(rx, ry, wgeo[a, 3], wgeo[a, 4], x, y) <= lim0
+                        and _orient(rx, ry, wgeo[a, 5], wgeo[a, 6], x, y) >= -lim1):
+                    best = c
+                    arg = wroot[a]
+        for k in range(3):
+            u = tris[t, k]
+            if twin[u] != u and _norm2(nx[u] - x, ny[u] - y) <= eps_m * eps_m:
+                best, arg = _twins(u, twin, dist, best, arg)
+    else:  # on a vertex of an impassable triangle that passable ground touches
+        for k in range(3):
+            u = tris[t, k]
+            if _norm2(nx[u] - x, ny[u] - y) <= eps_m * eps_m:
+                best, arg = _twins(u, twin, dist, best, arg)
+    return best, arg
+
+
 @njit(cache=True, error_model="numpy")
 def query(nx, ny, dist, parent, tri_nodes, passable, goal_tri, gx, gy, vx, vy, tris, nbrs, wstart, wgeo, wroot,
           px, py, tidx, tol, eps_m, twin):
     """Distance ``(n,)``, first-leg unit direction ``(n, 2)`` and source ``(n,)`` at each point.
-    Long (~70 lines) on purpose: the three candidate kinds (windows, nodes, the goal) are taken in
-    one compiled pass per point, with no per-candidate function call.
 
-    ``tidx[i]`` is the triangle holding point i (-1 outside). Candidates, all lengths of
-    drivable paths: ``|p - node_j| + dist[j]`` over the triangle's boundary nodes (the triangle
-    is convex), ``|p - goal|`` when the goal lies on it, and ``|p - r| + rd`` for each window
-    into it (:func:`tri_windows`) whose wedge holds p; at a pinch vertex (within ``eps_m``), the
-    value of every fan's copy of it (``twin``: the next copy of each vertex, circular; itself
+    ``tidx[i]`` is the triangle holding point i (-1 outside). Candidates (:func:`_best`), all
+    lengths of drivable paths: ``|p - node_j| + dist[j]`` over the triangle's boundary nodes (the
+    triangle is convex), ``|p - goal|`` when the goal lies on it, and ``|p - r| + rd`` for each
+    window into it (:func:`tri_windows`) whose wedge holds p; at a pinch vertex (within ``eps_m``),
+    the value of every fan's copy of it (``twin``: the next copy of each vertex, circular; itself
     where it has none): the point belongs to all its fans. ``src[i]``: where the straight first leg
     ends (a node, :data:`GOAL`, or :data:`NONE` where ``inf``). Direction: toward that point,
     or up its parent chain past points within ``eps_m`` of ``p``.
@@ -892,48 +934,14 @@ def query(nx, ny, dist, parent, tri_nodes, passable, goal_tri, gx, gy, vx, vy, t
     out = np.full(n, np.inf)
     dirs = np.zeros((n, 2))
     src = np.full(n, NONE, dtype=np.int64)
-    S = tri_nodes.shape[1]
     for i in range(n):
         t = tidx[i]
         if t < 0:
             continue
         x = px[i]
         y = py[i]
-        if not passable[t]:
-            t = _snap(vx, vy, tris, nbrs, passable, t, x, y, tol)
-        best = np.inf
-        arg = NONE
-        if passable[t]:
-            if goal_tri[t]:
-                best = _hyp(gx - x, gy - y)
-                arg = GOAL
-            for s in range(S):
-                u = tri_nodes[t, s]
-                c = _hyp(nx[u] - x, ny[u] - y) + dist[u]
-                if c < best:
-                    best = c
-                    arg = u
-            for a in range(wstart[t], wstart[t + 1]):
-                rx = wgeo[a, 0]
-                ry = wgeo[a, 1]
-                L = _hyp(rx - x, ry - y)
-                c = wgeo[a, 2] + L
-                if c < best:
-                    lim0 = 1e-12 * L * _hyp(wgeo[a, 3] - rx, wgeo[a, 4] - ry)
-                    lim1 = 1e-12 * L * _hyp(wgeo[a, 5] - rx, wgeo[a, 6] - ry)
-                    if (_orient(rx, ry, wgeo[a, 3], wgeo[a, 4], x, y) <= lim0
-                            and _orient(rx, ry, wgeo[a, 5], wgeo[a, 6], x, y) >= -lim1):
-                        best = c
-                        arg = wroot[a]
-            for k in range(3):
-                u = tris[t, k]
-                if twin[u] != u and _norm2(nx[u] - x, ny[u] - y) <= eps_m * eps_m:
-                    best, arg = _twins(u, twin, dist, best, arg)
-        else:  # on a vertex of an impassable triangle that passable ground touches
-            for k in range(3):
-                u = tris[t, k]
-                if _norm2(nx[u] - x, ny[u] - y) <= eps_m * eps_m:
-                    best, arg = _twins(u, twin, dist, best, arg)
+        best, arg = _best(nx, ny, dist, tri_nodes, passable, goal_tri, gx, gy, vx, vy, tris, nbrs, wstart, wgeo, wroot,
+                          x, y, t, tol, eps_m, twin)
         out[i] = best
         if best == np.inf:
             continue
@@ -951,3 +959,45 @@ def query(nx, ny, dist, parent, tri_nodes, passable, goal_tri, gx, gy, vx, vy, t
             dirs[i, 0] = dx / L
             dirs[i, 1] = dy / L
     return out, dirs, src
+
+
+@njit(cache=True, error_model="numpy", parallel=True)
+def distance_stacked(off_node, off_tri, off_vert, off_win, nx, ny, dist, tri_nodes, passable, goal_tri, gxy, vx, vy,
+                     tris, nbrs, wstart, wgeo, wroot, twin, pos, tidx, which, tol, eps_m, out):
+    """:func:`query`'s distance for points on several fields of one TIN at once, into ``out (n,)``:
+    point i (``pos[i]``, on triangle ``tidx[i]``) on field ``which[i]`` (-1: none, ``inf``).
+    Each per-field array is the fields' own arrays concatenated, field k's rows
+    ``off_*[k]:off_*[k + 1]`` (``off_node`` for nx, ny, dist; ``off_tri`` for tri_nodes,
+    passable, goal_tri, tris; ``off_vert`` for vx, vy, twin; ``off_win`` for wgeo, wroot;
+    ``wstart`` has ``T + 1`` rows per field), so each field's own (local) indices hold. The
+    points are cut into ``CHUNKS`` runs shared among the threads; in each, one pass per field
+    (the views are taken once per run and field, not per point). Every point's value is computed
+    alone, so the result is the same bit for bit on any thread count."""
+    n = pos.shape[0]
+    T = nbrs.shape[0]
+    F = off_node.shape[0] - 1
+    C = CHUNKS if n >= CHUNKS else 1
+    for c in prange(C):
+        lo = c * n // C
+        hi = (c + 1) * n // C
+        for i in range(lo, hi):
+            out[i] = np.inf
+        for k in range(F):
+            a0, a1 = off_node[k], off_node[k + 1]
+            t0, t1 = off_tri[k], off_tri[k + 1]
+            v0, v1 = off_vert[k], off_vert[k + 1]
+            w0, w1 = off_win[k], off_win[k + 1]
+            nx_k, ny_k, d_k = nx[a0:a1], ny[a0:a1], dist[a0:a1]
+            tn_k, pa_k, gt_k, tr_k = tri_nodes[t0:t1], passable[t0:t1], goal_tri[t0:t1], tris[t0:t1]
+            vx_k, vy_k, tw_k = vx[v0:v1], vy[v0:v1], twin[v0:v1]
+            ws_k = wstart[k * (T + 1):(k + 1) * (T + 1)]
+            wg_k, wr_k = wgeo[w0:w1], wroot[w0:w1]
+            gx = gxy[k, 0]
+            gy = gxy[k, 1]
+            for i in range(lo, hi):
+                t = tidx[i]
+                if which[i] != k or t < 0:
+                    continue
+                out[i] = _best(nx_k, ny_k, d_k, tn_k, pa_k, gt_k, gx, gy, vx_k, vy_k, tr_k, nbrs, ws_k, wg_k, wr_k,
+                               pos[i, 0], pos[i, 1], t, tol, eps_m, tw_k)[0]
+    return out

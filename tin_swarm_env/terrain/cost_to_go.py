@@ -65,7 +65,7 @@ from ..errors import ArgumentError
 from . import _ctg_kernels as K
 from .tin import Tin, as_xy
 
-__all__ = ["CostToGo", "cost_to_go", "pinch_vertices", "DEFAULT_STEINER_PER_EDGE"]
+__all__ = ["CostToGo", "CostToGoStack", "cost_to_go", "pinch_vertices", "DEFAULT_STEINER_PER_EDGE"]
 
 DEFAULT_STEINER_PER_EDGE = 1
 
@@ -219,6 +219,76 @@ class CostToGo:
     def __repr__(self) -> str:
         return (f"CostToGo(goal={self.goal_xy.tolist()}, {int(self.passable.sum())}/{len(self.passable)} "
                 f"passable triangles, {len(self._nx)} nodes)")
+
+
+class CostToGoStack:
+    """Several :class:`CostToGo` fields of one TIN, queried for many points in one compiled pass:
+    ``stack.distance_at(xy, tri_idx, which)[i]`` is ``fields[which[i]].distance_at(xy[i], tri_idx[i])``,
+    the same bits (one kernel, :func:`._ctg_kernels.distance_stacked`, shares the per-point code
+    with :func:`._ctg_kernels.query`), ``inf`` where ``which[i]`` is -1. The env builds one per
+    episode (its targets' fields) and measures every robot's distance to go with one call a step.
+
+    >>> stack = CostToGoStack([ctg_a, ctg_b])                          # doctest: +SKIP
+    >>> stack.distance_at(xy, tri_idx, which=[0, 1, -1])               # doctest: +SKIP
+    """
+
+    def __init__(self, fields):
+        fields = tuple(fields)
+        for k, f in enumerate(fields):
+            if not isinstance(f, CostToGo):
+                raise ArgumentError(f"CostToGoStack: fields[{k}] is a {type(f).__name__}, not a CostToGo")
+            if f.tin is not fields[0].tin:
+                raise ArgumentError(f"CostToGoStack: fields[{k}] is on another TIN than fields[0]")
+            if f._tri_nodes.shape[1] != fields[0]._tri_nodes.shape[1]:
+                raise ArgumentError(f"CostToGoStack: fields[{k}] has steiner_per_edge={f.steiner_per_edge}, "
+                                    f"fields[0] {fields[0].steiner_per_edge}")
+        self.fields = fields
+        self.tin = fields[0].tin if fields else None
+
+        def cat(get, empty):
+            parts = [get(f) for f in fields]
+            return np.ascontiguousarray(np.concatenate(parts)) if parts else empty
+
+        def offsets(get):
+            return np.concatenate([[0], np.cumsum([len(get(f)) for f in fields], dtype=np.int64)]).astype(np.int64)
+
+        i64, f64 = np.zeros(0, np.int64), np.zeros(0)
+        self._off = (offsets(lambda f: f._nx), offsets(lambda f: f.passable), offsets(lambda f: f._vx),
+                     offsets(lambda f: f._wroot))
+        self._arrays = (cat(lambda f: f._nx, f64), cat(lambda f: f._ny, f64), cat(lambda f: f.node_distance, f64),
+                        cat(lambda f: f._tri_nodes, np.zeros((0, 1), np.int64)),
+                        cat(lambda f: f.passable, np.zeros(0, bool)), cat(lambda f: f.goal_triangles, np.zeros(0, bool)),
+                        np.array([f.goal_xy for f in fields], dtype=np.float64).reshape(-1, 2),
+                        cat(lambda f: f._vx, f64), cat(lambda f: f._vy, f64),
+                        cat(lambda f: f._tris, np.zeros((0, 3), np.int64)),
+                        self.tin.neighbors if fields else np.zeros((0, 3), np.int64),
+                        cat(lambda f: f._wstart, i64), cat(lambda f: f._wgeo, np.zeros((0, 7))), cat(lambda f: f._wroot, i64),
+                        cat(lambda f: f._twin, i64))
+        self._tol = float(self.tin.tolerances[0]) if fields else 0.0
+        self._eps = fields[0]._eps_m if fields else 0.0
+
+    def __len__(self) -> int:
+        return len(self.fields)
+
+    def distance_at(self, xy, tri_idx, which) -> np.ndarray:
+        """``(n,)`` m: each point's distance to go on its field. ``xy`` ``(n, 2)`` m; ``tri_idx``
+        ``(n,)`` the triangles holding the points (-1 outside: ``inf``); ``which`` ``(n,)`` the
+        field of each point (-1: none, ``inf``)."""
+        pts = np.ascontiguousarray(as_xy(xy, "xy"), dtype=np.float64)
+        n = pts.shape[0]
+        t = np.ascontiguousarray(np.asarray(tri_idx, dtype=np.int64).reshape(-1))
+        w = np.ascontiguousarray(np.asarray(which, dtype=np.int64).reshape(-1))
+        for name, a, hi in (("tri_idx", t, self.tin.n_triangles if self.fields else 0), ("which", w, len(self))):
+            if a.shape[0] != n:
+                raise ArgumentError(f"CostToGoStack.distance_at: {name} has {a.shape[0]} entries for {n} points")
+            if a.size and (a.min() < -1 or a.max() >= hi):
+                raise ArgumentError(f"CostToGoStack.distance_at: {name} must lie in -1..{hi - 1}")
+        return self._distance(pts, t, w, np.empty(n))
+
+    def _distance(self, pos, tri_idx, which, out) -> np.ndarray:
+        """:meth:`distance_at` without the checks, into ``out``: ``pos`` C-contiguous ``(n, 2)``
+        float64, ``tri_idx`` and ``which`` int64 ``(n,)`` in range (the env's own arrays)."""
+        return K.distance_stacked(*self._off, *self._arrays, pos, tri_idx, which, self._tol, self._eps, out)
 
 
 def cost_to_go(tin: Tin, goal_xy, passable=None, *, steiner_per_edge: int = DEFAULT_STEINER_PER_EDGE,
