@@ -381,8 +381,20 @@ ENV_FIGURES = ROOT / "docs" / "figures" / "env.md"
 
 def _table(path, header_start: str) -> tuple[list[str], list[list[str]]]:
     lines = path.read_text(encoding="utf-8").splitlines()
-    head = next(i for i, line in enumerate(lines) if line.startswith(header_start))
+    head = next((i for i, line in enumerate(lines) if line.startswith(header_start)), None)
+    if head is None:
+        raise ValueError(f"{path}: no table whose header starts {header_start!r}")
     return [c.strip() for c in lines[head].strip().strip("|").split("|")], _md_rows(lines, head)
+
+
+def _how(path) -> tuple[str, str]:
+    """``(command, load at start)`` from a bench figure file's first line."""
+    first = path.read_text(encoding="utf-8").splitlines()[0]
+    cmd = re.search(r"`([^`]+)`", first)
+    load = re.search(r"Load average at start ([0-9.]+)", first)
+    if cmd is None or load is None:
+        raise ValueError(f"{path}: the first line names no `command` or no 'Load average at start'")
+    return cmd.group(1), load.group(1)
 
 
 def speed_summary() -> str:
@@ -395,15 +407,15 @@ def speed_summary() -> str:
     at = {k: hdr_e.index(k) for k in ("batched/world", "dict/batched")}
     parts = [f"{world[n]:.2e} robot-steps/s at {int(n):,} robots".replace(",", " ") for n in ("1000", "10000", "100000")
              if n in world]
-    first = open(WORLD_FIGURES, encoding="utf-8").readline()
-    load = re.search(r"Load average at start ([0-9.]+)", first)
+    wcmd, wload = _how(WORLD_FIGURES)
+    ecmd, eload = _how(ENV_FIGURES)
     envl = " and ".join(f"{env[n][at['batched/world']]} at {int(n):,} robots".replace(",", " ") for n in ("1000", "10000")
                         if n in env)
     dict1k = env["1000"][at["dict/batched"]] if "1000" in env else "?"
     return (f"World step + sensing with line of sight on the jacksboro TIN (~10 robots in range), two cores: "
-            f"{', '.join(parts)} (`python bench/world.py --quick`, load {load.group(1) if load else '?'}). "
+            f"{', '.join(parts)} (`{wcmd}`, load {wload}). "
             f"The batched env path (observations and rewards included) keeps {envl} of the world step's rate, "
-            f"the PettingZoo dict API at {dict1k} of the batched path at 1 000 robots (`python bench/env.py`). "
+            f"the PettingZoo dict API at {dict1k} of the batched path at 1 000 robots (`{ecmd}`, load {eload}). "
             f"All rows: [Figures](docs/figures.md).\n")
 
 

@@ -77,6 +77,19 @@ def test_no_side_is_taken_slowly_along_apfs_way_or_toward_an_ended_side(env1, ob
             StudentAPF(env1, adopt=bad)
 
 
+def test_driven_refuses_commands_of_the_wrong_shape(env1, obs_row):
+    """One command per row of the last act_batch: a (2,) command, an (n, 3) array or too many rows are
+    refused by name (a (2,) command used to be broadcast into every row's odometry, silently)."""
+    teach = StudentAPF(env1)
+    teach.act_batch(obs_row(env1.layout, R, (100.0, 30.0), [CLIFF]))
+    before = teach.memory.last_act.copy()
+    for bad in (np.array([0.0, -1.0]), np.zeros((1, 3)), np.zeros((2, 2)), [["a", "b"]]):
+        with pytest.raises(ArgumentError, match=r"StudentAPF.driven: act must"):
+            teach.driven(bad)
+    np.testing.assert_array_equal(teach.memory.last_act, before)  # nothing written
+    assert teach.driven(np.array([[0.0, 1.0]])).tolist() == [False]
+
+
 def _drive(env, seed, steps, student, teacher):
     """``steps`` steps of an episode: ``student(obs, label) -> command`` moves the robots, ``teacher``
     (StudentAPF) labels every step and is told the command. Returns (obs, commands, labels) per step."""

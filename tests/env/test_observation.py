@@ -391,6 +391,34 @@ def test_compiled_observations_equal_the_numpy_reference(scenario):
         assert np.any(a[:, env.layout.robots] != 0)
 
 
+def test_mobile_targets_heights_follow_them_step_by_step():
+    """The encoder keeps static targets' heights per world (observation._target_heights, keyed on
+    the targets' positions and triangles): a mobile target's height must be read anew every step
+    it moves, and a new reset's targets must not read the last episode's heights. Against the
+    numpy reference (which reads height_in every step), on the same env across two resets."""
+    import dataclasses
+
+    from tin_swarm_env.env.observation import build_observations
+    from tin_swarm_env.env.reference import build_observations_reference
+
+    cfg = load_scenario("cliff_goal")
+    cfg = cfg.replace(targets=dataclasses.replace(cfg.targets, mobile=True))
+    with pytest.warns(UserWarning, match="mobile targets"):
+        env = tse.parallel_env(scenario=cfg, n_robots=12)
+    rng = np.random.default_rng(3)
+    tz_seen = set()
+    for seed in (2, 5):
+        env.reset(seed=seed)
+        for _ in range(15):
+            env.step_arrays(rng.uniform(-1, 1, (12, 2)))
+            args = (env.world, env.world_state, env.sensed(), env.target_assignment, env.live_mask, env.layout)
+            a, b = build_observations(*args), build_observations_reference(*args)
+            np.testing.assert_allclose(a, b, atol=2e-7)
+            tg = env.world_state.targets
+            tz_seen.add(env.world.tin.height_in(tg.positions, tg.tri_idx).tobytes())
+    assert len(tz_seen) > 10  # the targets moved (and their heights changed) step by step
+
+
 def test_small_swarms_are_encoded_on_one_thread_and_large_ones_on_all(monkeypatch):
     """build_observations runs its kernel on one numba thread below OBS_SERIAL_BELOW robots
     (and restores the count after), on every thread from there on; the observations are the same bits."""

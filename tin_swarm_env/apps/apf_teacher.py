@@ -86,7 +86,15 @@ class StudentAPF:
         boundary against APF's side, APF takes that side. Returns ``(n,)`` bool: the rows whose side
         was taken."""
         mem = self.apf.memory
-        a = np.asarray(act, dtype=np.float64)
+        try:
+            a = np.asarray(act, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ArgumentError(f"StudentAPF.driven: act must be an (n, 2) array of real numbers (the executed "
+                                f"commands), got {type(act).__name__}") from None
+        if a.ndim != 2 or a.shape[1] != 2 or (len(mem.side) and len(a) != len(mem.side)):
+            rows = len(mem.side) if len(mem.side) else "n"
+            raise ArgumentError(f"StudentAPF.driven: act must have shape ({rows}, 2), one command per row of the "
+                                f"last act_batch, got shape {a.shape}")
         m = min(len(a), len(mem.side))
         took = np.zeros(len(a), dtype=bool)
         if m == 0:  # no memory (the break field off): APF acts from the observation alone

@@ -45,8 +45,18 @@ The rules, each step:
    Not when the point it followed was seen square on (not at an end) and now lies in the blind
    sector behind it: that break runs on out of view, and the break ahead closes a corner with it.
 3. *Leave* when not blocked and nearer than ``rec - margin_m``, and either on the *m-line*
-   (the line from ``H`` to the target: Bug2) or ``leave_gain`` nearer than ``rec``; or drive
-   through a gap between two break ends that leads toward the target (:func:`~tin_swarm_env.policies.bug.pass_gap`).
+   (the line from ``H`` to the target: Bug2) or ``leave_gain`` nearer than ``rec``; or when it
+   sees the way to the target clear of dangerous breaks as far as it senses (the followed
+   break's point last seen counts: it may drop out of the ``K_b`` slots for a step as the robot
+   turns) and that clear stretch would bring it nearer than ``rec - margin_m`` (DistBug's range
+   rule), but not again
+   once such a leave has proved wrong (it met a boundary again no nearer than ``rec - margin_m``
+   and took the search up), until it has shown that it goes round a loop that ``H`` is not on
+   (an island reached through a gap): it passes a place on its way again going the same way,
+   ``home_arc_m`` or more after it (Brent's cycle finding: the place moves on to where the robot
+   is at doubling distances driven, so a loop is found within the distance to it plus twice its
+   length); or drive through a gap between two break ends that leads toward the target
+   (:func:`~tin_swarm_env.policies.bug.pass_gap`).
 4. *Turn back* (side -> -side) when the boundary *ends* on this side: the terrain's border is
    followed or lies ahead, or the robot stalls (``stall_steps``; four times that with robots
    near: a queue); or when it has driven ``budget`` along this side from ``H`` (first
@@ -70,7 +80,8 @@ has shown its target unreachable (rule 5). No loop is driven twice: a loop round
 search, and the turn-backs retrace what the budget allowed, each time further. The argument
 assumes the robot keeps to the boundary through ``H``; one that crosses to another boundary
 through a gap or ramp can follow that one round for good (never nearer than ``rec``, never
-back at ``H``): an open case, measured in ``docs/figures/apf_notes.md``.
+back at ``H``); rule 3's loop finding lets it leave such a loop where it sees the way clear, and
+where it sees none it is an open case, measured in ``docs/figures/apf_notes.md``.
 
 **Queues.** Robots that see each other keep 1.5 body diameters apart and the robot field pushes
 them aside, so robots following one wall queue behind each other; one stalled in a queue turns

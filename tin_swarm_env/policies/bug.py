@@ -59,13 +59,13 @@ class BugParams:
                 raise ValueError(f"BugParams.{f.name} must be > 0, got {getattr(self, f.name)!r}")
 
 
-_FLOAT2 = ("last_rel", "last_act", "hit", "wall_pt", "last_q", "t_hit")
+_FLOAT2 = ("last_rel", "last_act", "hit", "wall_pt", "last_q", "t_hit", "r_pt", "r_dir")
 _SPEC = {"seen": bool, "psi": float, "last_rel": float, "last_act": float, "side": np.int8, "fside": np.int8,
          "first": np.int8, "hit": float, "rec": float, "arc": float, "budget": float, "ended_first": bool,
          "ended_other": bool, "unreachable": bool, "stall": np.int64, "wall": float, "on_border": bool,
          "gap": np.int8, "wall_pt": float, "has_pt": bool, "mside": np.int8, "far": bool, "last_q": float,
          "t_hit": float, "passed": bool, "climb": float, "last_togo": float, "probed": bool, "v_steps": np.int64,
-         "pt_end": bool}
+         "pt_end": bool, "r_pt": float, "r_dir": float, "r_len": float, "r_next": float}
 
 
 @dataclass
@@ -106,7 +106,14 @@ class BugMemory:
     climb        (n,)   m      how much its distance to go has grown, summed, since it last set off from H
                                (or passed it) on this side: the search's budget is spent in it
     last_togo    (n,)   m      its distance to go last step
-    probed       (n,)   bool   it left this search on a clear view that proved wrong (no second such leave)
+    probed       (n,)   bool   it left this search on a clear view that proved wrong (no second such leave
+                               until it has shown it goes round a loop: ``r_pt``)
+    r_pt         (n, 2) m      a place on its way since then (Brent's cycle finding: moved on to where
+                               it is whenever it has driven ``r_next`` from the last one, ``r_next``
+                               doubling), in ``F`` relative to the target
+    r_dir        (n, 2)        its direction of travel along the boundary there, in ``F``
+    r_len        (n,)   m      boundary driven since ``r_pt``
+    r_next       (n,)   m      how far it drives before ``r_pt`` moves on
     v_steps      (n,)   int    steps it has followed the remembered point (its break out of its slots)
     pt_end       (n,)   bool   ``wall_pt`` was seen at its break's end (not square on to it)
     """
@@ -141,6 +148,10 @@ class BugMemory:
     probed: np.ndarray
     v_steps: np.ndarray
     pt_end: np.ndarray
+    r_pt: np.ndarray
+    r_dir: np.ndarray
+    r_len: np.ndarray
+    r_next: np.ndarray
 
     @classmethod
     def empty(cls, n: int) -> BugMemory:
@@ -371,14 +382,31 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     across = np.abs(d.b_rel[..., 0] * ut[:, None, 1] - d.b_rel[..., 1] * ut[:, None, 0])
     reach = np.minimum(range_m, d.dist)
     in_way = s["facing"] & (along > 0) & (along < reach[:, None]) & (across < params.follow_hold_m)
-    clear = ~in_way.any(axis=-1) & ~mem.probed[rows] & (togo - reach < rec - bp.margin_m)
+    # the followed break's point last seen counts too: it may have dropped out of the K_b slots (or
+    # into the blind sector) for a step as the robot turns, which is no clear view
+    p_rel = _rot(-mem.psi[rows], mem.wall_pt[rows] - q)
+    p_along = np.sum(p_rel * ut, axis=-1)
+    p_across = np.abs(p_rel[:, 0] * ut[:, 1] - p_rel[:, 1] * ut[:, 0])
+    p_way = mem.has_pt[rows] & following & (p_along > 0) & (p_along < reach) & (p_across < params.follow_hold_m)
+    in_way = np.concatenate([in_way, p_way[:, None]], axis=-1)
+    # after such a leave proved wrong (probed), not again until it comes back to a place it passed
+    # since (r_pt, Brent's cycle finding) going the same way, with home_arc_m or more driven from it: it
+    # goes round a loop that H is not on (an island reached through a gap) and may leave it on a clear
+    # view (passing it the other way, it retraces its way after a turn: no loop)
+    r_len = mem.r_len[rows] + np.where(following, moved, 0.0)
+    u_r = np.clip(np.sum((mem.r_pt[rows] - mem.last_q[rows]) * step, axis=-1) / np.maximum(sl, 1e-12), 0.0, 1.0)
+    r_near = following & (_norm(mem.last_q[rows] + u_r[:, None] * step - mem.r_pt[rows]) < bp.home_m)
+    r_near &= np.sum(step * mem.r_dir[rows], axis=-1) > 0.5 * np.sqrt(sl)
+    round_r = r_near & (r_len > bp.home_arc_m) & mem.probed[rows] & home
+    probed = mem.probed[rows] & ~round_r
+    clear = ~in_way.any(axis=-1) & ~probed & (togo - reach < rec - bp.margin_m)
     leave = following & ~blocked & ~through & (togo < rec - bp.margin_m) & on_line
     leave |= following & ~blocked & ~through & clear
     side = np.where(leave, 0, side)
     # meet a boundary: a fresh search when nearer than the last hit point, else take the last one up again
     met = (side == 0) & blocked & ~leave
     fresh = met & (togo < rec - bp.margin_m)
-    probed = mem.probed[rows] | (met & ~fresh)
+    probed |= met & ~fresh
     kb, start = _start_side(s, pull, rows, bp.split)
     side = np.where(fresh, start, np.where(met, mem.fside[rows], side))
     first = np.where(fresh, start, first)
@@ -453,6 +481,13 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     mem.passed[rows] = (passed | fresh) & ~turn
     mem.climb[rows] = np.where(fresh | turn, 0.0, climb)
     mem.probed[rows] = probed & ~fresh
+    # the cycle finder's place: set where the search is taken up, moved on at doubling distances
+    anew = (met & ~fresh) | round_r
+    move_on = anew | (r_len >= mem.r_next[rows])
+    mem.r_pt[rows] = np.where(move_on[:, None], q, mem.r_pt[rows])
+    mem.r_len[rows] = np.where(move_on, 0.0, r_len)
+    mem.r_dir[rows] = np.where(move_on[:, None], _rot(psi, side[:, None] * t_right), mem.r_dir[rows])
+    mem.r_next[rows] = np.where(anew, 2 * bp.home_arc_m, np.where(move_on, 2 * mem.r_next[rows], mem.r_next[rows]))
     mem.last_togo[rows] = togo
     mem.last_q[rows] = q
     # the direction it sets off in from H (first side): the tangent of the followed break
