@@ -431,22 +431,17 @@ TABLES = {
 }
 
 
-def write_readme_apf_table() -> None:
-    """Rewrite README's ``apf-table`` block from :func:`apf_summary_rows` (after a ``bench/apf.py`` run)."""
-    path = ROOT / "README.md"
-    text = path.read_text(encoding="utf-8")
-    start, end = "<!-- apf-table:start -->\n", "<!-- apf-table:end -->"
-    i, j = text.index(start) + len(start), text.index(end)
-    path.write_text(text[:i] + apf_summary_rows() + text[j:], encoding="utf-8")
+README_BLOCKS = {"apf-table": apf_summary_rows, "speed": speed_summary}  # README's generated blocks
 
 
-def write_readme_speed() -> None:
-    """Rewrite README's ``speed`` block from :func:`speed_summary` (after ``bench/world.py``/``bench/env.py``)."""
+def write_readme_block(name: str) -> None:
+    """Rewrite README's ``<!-- name:start -->`` ... ``<!-- name:end -->`` block from ``README_BLOCKS[name]``
+    (after the bench run it reads: ``bench/apf.py`` for ``apf-table``, ``bench/world.py``/``env.py`` for ``speed``)."""
     path = ROOT / "README.md"
     text = path.read_text(encoding="utf-8")
-    start, end = "<!-- speed:start -->\n", "<!-- speed:end -->"
+    start, end = f"<!-- {name}:start -->\n", f"<!-- {name}:end -->"
     i, j = text.index(start) + len(start), text.index(end)
-    path.write_text(text[:i] + speed_summary() + text[j:], encoding="utf-8")
+    path.write_text(text[:i] + README_BLOCKS[name]() + text[j:], encoding="utf-8")
 
 
 def main() -> int:
@@ -454,10 +449,9 @@ def main() -> int:
         (ROOT / rel).parent.mkdir(parents=True, exist_ok=True)
         (ROOT / rel).write_text(make())
         print(f"wrote {rel}")
-    write_readme_apf_table()
-    print("wrote README.md's apf-table block")
-    write_readme_speed()
-    print("wrote README.md's speed block")
+    for name in README_BLOCKS:
+        write_readme_block(name)
+        print(f"wrote README.md's {name} block")
     return 0
 
 
