@@ -76,8 +76,8 @@ MUTANTS = [
       REWARD),
     M("reward-collision-sign", "env/reward.py", "r += collision * coll\n",
       "r -= collision * coll\n", ENV),
-    M("reward-arrival-strict", "env/reward.py", "np.hypot(tx - px, ty - py) <= radius",
-      "np.hypot(tx - px, ty - py) < radius", REWARD),
+    M("reward-arrival-strict", "env/reward.py", "np.hypot(tx - px, ty - py) <= radius", "np.hypot(tx - px, ty - py) < radius",
+      REWARD),
     M("locomotion-rotation-transposed", "world/locomotion.py",  # in the kernel World.step runs
       "vxw = max_speed * (ch * c0 - sh * c1)\n    vyw = max_speed * (sh * c0 + ch * c1)",
       "vxw = max_speed * (ch * c0 + sh * c1)\n    vyw = max_speed * (-sh * c0 + ch * c1)", LOCO),
