@@ -10,7 +10,6 @@ import pytest
 
 import tin_swarm_env as tse
 from tin_swarm_env.env import observation as O
-from tin_swarm_env.env import outcome as OC
 from tin_swarm_env.env.observation import (
     ACTION_PARITY,
     DZ_SCALE_M,
@@ -212,8 +211,7 @@ def test_env_episode_is_bit_identical_for_1_and_2_threads_and_the_plain_encoder(
         two = _episode(env, 15)
     finally:
         numba.set_num_threads(old)
-    monkeypatch.setattr(O, "_fill", O._fill.py_func)  # reset's encoder
-    monkeypatch.setattr(OC, "_outcome", OC._outcome.py_func)  # the step's (observations, rewards, distances)
+    monkeypatch.setattr(O, "_fill", O._fill.py_func)
     ref = _episode(env, 3)
     for a, b in zip(one, two, strict=True):
         assert a.tobytes() == b.tobytes()

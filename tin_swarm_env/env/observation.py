@@ -387,40 +387,32 @@ def _own(obs, i, o, c, s, own_n, own_scale, planes, tri, target_idx, tpos, tz, p
 
 
 @njit(cache=True, parallel=True)
-def _fill(obs, live, o, o_rob, o_tgt, o_brk, o_ast, ks, pos, head, heights, own_n, own_scale, planes, tri, target_idx,
-          tpos, tz, robots, targets, breaks, apos, assets, R, dz_scale):
-    """Write every live robot's row of ``obs`` (:func:`obs_row`; zeros elsewhere: ``obs`` comes in
-    zeroed); the arguments after ``live`` are :func:`encoder_args`: ``o, o_rob, o_tgt, o_brk, o_ast``
-    the offsets of :meth:`ObsLayout.kernel_offsets` (passed one by one: numba's parallel loop takes
-    namedtuples as arguments, not unpacked inside), ``ks`` the slot counts (robots, targets, breaks,
-    assets); ``robots``/``targets``/``assets`` ``(start, idx, dist)`` and ``breaks`` ``(start, idx,
-    dist, closest, normals, drops, danger)``: the sensor readings' contacts, grouped by observer and
+def _fill(obs, o, o_rob, o_tgt, o_brk, o_ast, ks, pos, head, heights, own_n, own_scale, planes, tri, live, target_idx,
+          tpos, tz,
+          robots, targets, breaks, apos, assets, R, dz_scale):
+    """Write every live robot's row of ``obs``; ``o, o_rob, o_tgt, o_brk, o_ast`` the offsets of
+    :meth:`ObsLayout.kernel_offsets` (passed one by one: numba's parallel loop takes namedtuples
+    as arguments, not unpacked inside), ``ks`` the slot counts (robots, targets, breaks, assets);
+    ``robots``/``targets``/``assets`` ``(start, idx, dist)`` and ``breaks`` ``(start, idx, dist,
+    closest, normals, drops, danger)``: the sensor readings' contacts, grouped by observer and
     nearest first (:func:`_grouped`), and the break set's arrays; ``apos (k, 2)``."""
-    for i in prange(pos.shape[0]):  # one row per iteration: bit-identical for any thread count
-        if live[i]:
-            obs_row(obs, i, o, o_rob, o_tgt, o_brk, o_ast, ks, pos, head, heights, own_n, own_scale, planes, tri,
-                    target_idx, tpos, tz, robots, targets, breaks, apos, assets, R, dz_scale)
-
-
-@njit(cache=True, inline="always")
-def obs_row(obs, i, o, o_rob, o_tgt, o_brk, o_ast, ks, pos, head, heights, own_n, own_scale, planes, tri, target_idx,
-            tpos, tz, robots, targets, breaks, apos, assets, R, dz_scale):
-    """Robot ``i``'s row of ``obs`` (its entries zero on entry), clipped to [-1, 1]; the arguments
-    are :func:`_fill`'s (kernels that encode inside their own parallel loop call it: the env's step)."""
-    rs, ri, rd = robots
+    rs, ri, rd = robots  # (numba's parallel loops take arrays, not tuples of them)
     ts, ti, td = targets
     bs, bi, bd, bc, bn, bdrop, bdanger = breaks
     as_, ai, ad = assets
     kr, kt, kb, ka = ks
-    c = np.cos(head[i])
-    s = np.sin(head[i])
-    _own(obs, i, o, c, s, own_n, own_scale, planes, tri, target_idx, tpos, tz, pos, heights, R, dz_scale)
-    _point_slots(obs, i, o_rob, kr, rs, ri, rd, pos, pos, c, s, R)
-    _point_slots(obs, i, o_tgt, kt, ts, ti, td, tpos, pos, c, s, R)
-    _break_slots(obs, i, o_brk, kb, bs, bi, bd, bc, bn, bdrop, bdanger, pos, c, s, R, dz_scale)
-    _point_slots(obs, i, o_ast, ka, as_, ai, ad, apos, pos, c, s, R)
-    for m in range(obs.shape[1]):
-        obs[i, m] = min(max(obs[i, m], -1.0), 1.0)
+    for i in prange(pos.shape[0]):  # one row per iteration: bit-identical for any thread count
+        if not live[i]:
+            continue
+        c = np.cos(head[i])
+        s = np.sin(head[i])
+        _own(obs, i, o, c, s, own_n, own_scale, planes, tri, target_idx, tpos, tz, pos, heights, R, dz_scale)
+        _point_slots(obs, i, o_rob, kr, rs, ri, rd, pos, pos, c, s, R)
+        _point_slots(obs, i, o_tgt, kt, ts, ti, td, tpos, pos, c, s, R)
+        _break_slots(obs, i, o_brk, kb, bs, bi, bd, bc, bn, bdrop, bdanger, pos, c, s, R, dz_scale)
+        _point_slots(obs, i, o_ast, ka, as_, ai, ad, apos, pos, c, s, R)
+        for m in range(obs.shape[1]):
+            obs[i, m] = min(max(obs[i, m], -1.0), 1.0)
 
 
 def _grouped(contacts, n, k, extra=None):
@@ -474,25 +466,20 @@ def build_observations(world, state, readings, target_idx, live, layout: ObsLayo
     """``(n, layout.size)`` float32 observations for all robots (zeros where ``live`` is False);
     one compiled pass over the robots (:func:`tin_swarm_env.env.reference.build_observations_reference`
     is the plain numpy version it is tested against)."""
-    obs = np.zeros((state.n_robots, layout.size), dtype=np.float32)
-    with serial_if_small(state.n_robots, OBS_SERIAL_BELOW):
-        _fill(obs, live, *encoder_args(world, state, readings, target_idx, layout))
-    return obs
-
-
-def encoder_args(world, state, readings, target_idx, layout: ObsLayout) -> tuple:
-    """The arguments of :func:`_fill` after ``obs`` and ``live``: the offsets, the slot counts, the
-    robots' own arrays and their readings grouped per observer."""
     P = world.params
     n = state.n_robots
     ks = (layout.k_robots, layout.k_targets, layout.k_breaks, layout.k_assets)
     tg = state.targets
+    tz = _target_heights(world, tg)
     own_n = tuple(np.ascontiguousarray(v, dtype=np.float64)
                   for v in (state.battery_j, state.speeds, readings.tilt_rad, readings.slope_deg))
     own_scale = (float(P.battery.capacity_j), float(P.robot.max_speed_mps), np.pi / 2, 90.0)
-    return (*_kernel_offsets(layout), ks, state.positions, state.headings, state.heights, own_n, own_scale,
-            world.tin.planes, np.ascontiguousarray(state.tri_idx, dtype=np.int64), target_idx,
-            tg.positions.reshape(-1, 2), _target_heights(world, tg), _grouped(readings.robots, n, ks[0]),
-            _grouped(readings.targets, n, ks[1]), _grouped(readings.breaks, n, ks[2], "closest") + _break_arrays(world),
-            state.assets.positions.reshape(-1, 2), _grouped(readings.assets, n, ks[3]), float(P.sensor.range_m),
-            DZ_SCALE_M)
+    breaks = _grouped(readings.breaks, n, ks[2], "closest") + _break_arrays(world)
+    obs = np.zeros((n, layout.size), dtype=np.float32)
+    with serial_if_small(n, OBS_SERIAL_BELOW):
+        _fill(obs, *_kernel_offsets(layout), ks, state.positions, state.headings, state.heights, own_n, own_scale,
+              world.tin.planes, np.ascontiguousarray(state.tri_idx, dtype=np.int64), live, target_idx,
+              tg.positions.reshape(-1, 2), tz, _grouped(readings.robots, n, ks[0]), _grouped(readings.targets, n, ks[1]), breaks,
+              state.assets.positions.reshape(-1, 2), _grouped(readings.assets, n, ks[3]), float(P.sensor.range_m),
+              DZ_SCALE_M)
+    return obs

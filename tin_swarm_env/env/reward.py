@@ -73,26 +73,19 @@ def compute_rewards(cfg, dist_before, dist_after, state, events, target_idx, liv
     One compiled pass (:func:`_rewards_kernel`, on one thread: a parallel region's start-up costs
     more than 1 000 robots' rewards, bench 2026-11-26: 45 us parallel vs numpy 52 us at 1 000 robots);
     the numpy reference, equal bit for bit, is :func:`~.reference.compute_rewards_reference`."""
+    w = cfg.rewards
     f64 = np.float64
     tpos = np.ascontiguousarray(state.targets.positions, dtype=f64).reshape(-1, 2)
     return _rewards_kernel(
-        reward_params(cfg), np.ascontiguousarray(dist_before, dtype=f64), np.ascontiguousarray(dist_after, dtype=f64),
+        cfg.task == "containment", float(cfg.targets.standoff_m) if cfg.task == "containment" else 0.0,
+        float(cfg.targets.arrival_radius_m) if cfg.task != "containment" else 0.0,
+        float(w.progress_per_m), float(w.on_ring_per_step), float(w.ring_tolerance_m), float(w.energy_per_kj),
+        float(w.collision), float(w.fall), float(w.battery_empty), float(w.arrival),
+        np.ascontiguousarray(dist_before, dtype=f64), np.ascontiguousarray(dist_after, dtype=f64),
         np.ascontiguousarray(state.positions, dtype=f64), tpos,
         np.ascontiguousarray(target_idx, dtype=np.int64), np.ascontiguousarray(live, dtype=np.bool_),
         np.ascontiguousarray(events.energy_j, dtype=f64), np.ascontiguousarray(events.collisions, dtype=f64),
         np.ascontiguousarray(events.fell, dtype=np.bool_), np.ascontiguousarray(events.emptied, dtype=np.bool_))
-
-
-def reward_params(cfg) -> np.ndarray:
-    """The scenario's reward terms as the kernels read them, ``(11,)`` float64: containment (1/0),
-    standoff, arrival radius, then the ``[rewards]`` weights progress_per_m, on_ring_per_step,
-    ring_tolerance_m, energy_per_kj, collision, fall, battery_empty, arrival."""
-    w = cfg.rewards
-    c = cfg.task == "containment"
-    return np.array([1.0 if c else 0.0, float(cfg.targets.standoff_m) if c else 0.0,
-                     0.0 if c else float(cfg.targets.arrival_radius_m), float(w.progress_per_m),
-                     float(w.on_ring_per_step), float(w.ring_tolerance_m), float(w.energy_per_kj), float(w.collision),
-                     float(w.fall), float(w.battery_empty), float(w.arrival)])
 
 
 _NONE, _ARRIVED, _FELL, _BATTERY = int(Reason.NONE), int(Reason.ARRIVED), int(Reason.FELL), int(Reason.BATTERY)
@@ -107,72 +100,46 @@ def _gain1(before, after):
 
 
 @njit(cache=True)
-def _rewards_kernel(rw, before, after, pos, tpos, tidx, live, energy, coll, fell, emptied):
-    """:func:`compute_rewards` for every robot in one loop (:func:`reward1` each)."""
+def _rewards_kernel(containment, standoff, radius, progress_per_m, on_ring, ring_tol, energy_per_kj, collision, fall,
+                    battery_empty, arrival, before, after, pos, tpos, tidx, live, energy, coll, fell, emptied):
+    """:func:`compute_rewards` for every robot in one loop: the terms added in the reference's
+    order (so the float64 sums round the same), then cast to float32."""
     n = before.shape[0]
     r32 = np.empty(n, dtype=np.float32)
     term = np.empty(n, dtype=np.bool_)
     why = np.empty(n, dtype=np.int8)
-    cont, stand, rad, prog, ring, tol, en, col, fa, bat, arr = (rw[0] != 0.0, rw[1], rw[2], rw[3], rw[4], rw[5], rw[6],
-                                                               rw[7], rw[8], rw[9], rw[10])
     for i in range(n):
         k = tidx[i]
-        r32[i], term[i], why[i] = reward1(k >= 0, tpos[k, 0] if k >= 0 else 0.0, tpos[k, 1] if k >= 0 else 0.0,
-                                          pos[i, 0], pos[i, 1], before[i], after[i], energy[i], coll[i], fell[i],
-                                          emptied[i], live[i], cont, stand, rad, prog, ring, tol, en, col, fa, bat, arr)
+        has = k >= 0
+        r = 0.0
+        arrived = False
+        if containment:
+            e0 = abs(before[i] - standoff)
+            e1 = abs(after[i] - standoff)
+            r += progress_per_m * _gain1(e0, e1) + on_ring * (1.0 if e1 <= ring_tol else 0.0) if has else 0.0
+        else:
+            r += progress_per_m * _gain1(before[i], after[i]) if has else 0.0
+            if has and not fell[i]:
+                arrived = np.hypot(tpos[k, 0] - pos[i, 0], tpos[k, 1] - pos[i, 1]) <= radius
+        r += energy_per_kj * energy[i] / 1000.0
+        r += collision * coll[i]
+        r += fall * (1.0 if fell[i] else 0.0)
+        e = emptied[i] and not arrived
+        r += battery_empty * (1.0 if e else 0.0)
+        r += arrival * (1.0 if arrived else 0.0)
+        code = _NONE
+        if e:
+            code = _BATTERY
+        if arrived:
+            code = _ARRIVED
+        if fell[i]:
+            code = _FELL
+        if live[i]:
+            r32[i] = np.float32(r)
+            term[i] = code != _NONE
+            why[i] = code
+        else:
+            r32[i] = np.float32(0.0)
+            term[i] = False
+            why[i] = _NONE
     return r32, term, why
-
-
-@njit(cache=True)
-def arrives(has, tx, ty, px, py, fell, containment, radius):
-    """Whether a robot at ``(px, py)`` arrives at its target ``(tx, ty)`` (``has``: it has one):
-    goal task, not fallen, within ``radius`` on the straight line."""
-    return (not containment) and has and (not fell) and np.hypot(tx - px, ty - py) <= radius
-
-
-@njit(cache=True)
-def arrivals(rw, pos, tpos, tidx, live, fell):
-    """``(n,)`` bool: the live robots that arrive this step (:func:`arrives`; ``rw`` from
-    :func:`reward_params`), the same bits as the ``reasons == ARRIVED`` of :func:`compute_rewards`,
-    without the rest of the rewards."""
-    n = pos.shape[0]
-    out = np.zeros(n, dtype=np.bool_)
-    cont, rad = rw[0] != 0.0, rw[2]
-    for i in range(n):
-        k = tidx[i]
-        out[i] = live[i] and arrives(k >= 0, tpos[k, 0] if k >= 0 else 0.0, tpos[k, 1] if k >= 0 else 0.0, pos[i, 0],
-                                     pos[i, 1], fell[i], cont, rad)
-    return out
-
-
-@njit(cache=True)
-def reward1(has, tx, ty, px, py, before, after, energy, coll, fell, emptied, live, containment, standoff, radius,
-            progress_per_m, on_ring, ring_tol, energy_per_kj, collision, fall, battery_empty, arrival):
-    """One robot's ``(reward float32, terminated, reason int8)`` (zeros unless ``live``): the terms
-    added in the reference's order (so the float64 sums round the same), then cast to float32. Scalars
-    only (a call with arrays would count references per robot); the weights are :func:`reward_params`'."""
-    r = 0.0
-    arrived = False
-    if containment:
-        e0 = abs(before - standoff)
-        e1 = abs(after - standoff)
-        r += progress_per_m * _gain1(e0, e1) + on_ring * (1.0 if e1 <= ring_tol else 0.0) if has else 0.0
-    else:
-        r += progress_per_m * _gain1(before, after) if has else 0.0
-        arrived = arrives(has, tx, ty, px, py, fell, containment, radius)
-    r += energy_per_kj * energy / 1000.0
-    r += collision * coll
-    r += fall * (1.0 if fell else 0.0)
-    e = emptied and not arrived
-    r += battery_empty * (1.0 if e else 0.0)
-    r += arrival * (1.0 if arrived else 0.0)
-    code = _NONE
-    if e:
-        code = _BATTERY
-    if arrived:
-        code = _ARRIVED
-    if fell:
-        code = _FELL
-    if live:
-        return np.float32(r), code != _NONE, np.int8(code)
-    return np.float32(0.0), False, np.int8(_NONE)

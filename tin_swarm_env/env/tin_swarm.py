@@ -27,8 +27,7 @@ from ..world import Reason, World
 from ..world.world import serial_if_small
 from .checks import actions_from_dict, check_options, check_scenario_arg, check_seed, float_array
 from .observation import OBS_SERIAL_BELOW, ObsLayout, build_observations
-from .outcome import step_outcome
-from .reward import arrivals, distance_to_go, reward_params
+from .reward import compute_rewards, distance_to_go
 
 __all__ = ["TinSwarmEnv", "parallel_env", "raw_env", "env", "RENDER_WIDTH_PX", "DEFAULT_RENDER_WIDTH_PX"]
 
@@ -37,6 +36,7 @@ RENDER_WIDTH_PX = (64, 4096)  # the frame widths render() draws
 DEFAULT_RENDER_WIDTH_PX = 640  # render_width when none is given (also the CLI's frame width, apps.media.GIF_WIDTH_PX)
 
 _REASON_LABEL = {int(r): r.label for r in Reason}  # Reason code -> infos[agent]["reason"]
+_ARRIVED = int(Reason.ARRIVED)  # (numpy compares with a plain int faster than with the enum)
 
 
 @njit(cache=True)
@@ -199,7 +199,6 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         self._readings = None
         self._steps = 0
         self._fields: tuple = ()  # one CostToGo per target of the episode
-        self._rw = None
         self._stack = None  # CostToGoStack of _fields where progress is geodesic (one query a step), else None
         self._dist = np.full(self.n, np.inf)  # (n,) m, distance to go after the last reset/step
 
@@ -318,7 +317,6 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         self._fields = tuple(self._field(t) for t in targets)
         geodesic = self.config.rewards.progress == "geodesic" and not self.config.targets.mobile
         self._stack = CostToGoStack(self._fields) if geodesic and self._fields else None
-        self._rw = reward_params(self.config)  # the reward terms as the step's kernels read them
         reach = np.array([f.triangle_reachable() for f in self._fields]) if len(self._fields) else None
         self._wstate = initial_state(self._world, cfg, self._np_random, self.n, target_positions=targets,
                                      spawn_region=self._stage.spawn_region, reachable=reach,
@@ -375,20 +373,19 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         prev = self._wstate
         new, events = self._world.step(prev, a)
         live = self._live
-        tpos = np.ascontiguousarray(new.targets.positions, dtype=np.float64).reshape(-1, 2)
-        arrived = arrivals(self._rw, np.ascontiguousarray(new.positions, dtype=np.float64), tpos, self._target_idx,
-                           live, np.ascontiguousarray(events.fell, dtype=np.bool_))
-        if arrived.any():
-            new = self._world.retire(new, arrived)  # arrived robots leave the terrain: no one senses them
-        self._readings = self._world.sense(new)
-        dist = np.empty(self.n) if self._stack is not None else self._measure(new)
-        obs, rewards, terminated, reasons = step_outcome(self._world, new, self._readings, self._stack, self._dist,
-                                                         dist, events, self._target_idx, live, self.layout, self._rw)
+        dist = self._measure(new)
+        rewards, terminated, reasons = compute_rewards(self.config, self._dist, dist, new, events, self._target_idx,
+                                                       live)
         self._dist = dist
         self._steps += 1
         truncated = live & ~terminated & (self._steps >= self.max_cycles)
         reasons[truncated] = Reason.TIMEOUT
+        arrived = reasons == _ARRIVED
+        if arrived.any():
+            new = self._world.retire(new, arrived)  # arrived robots leave the terrain
         self._wstate = new
+        self._readings = self._world.sense(new)
+        obs = build_observations(self._world, new, self._readings, self._target_idx, live, self.layout)
         self._live = live & ~terminated & ~truncated
         return obs, rewards, terminated, truncated, reasons
 

@@ -970,42 +970,34 @@ def distance_stacked(off_node, off_tri, off_vert, off_win, nx, ny, dist, tri_nod
     ``off_*[k]:off_*[k + 1]`` (``off_node`` for nx, ny, dist; ``off_tri`` for tri_nodes,
     passable, goal_tri, tris; ``off_vert`` for vx, vy, twin; ``off_win`` for wgeo, wroot;
     ``wstart`` has ``T + 1`` rows per field), so each field's own (local) indices hold. The
-    points are cut into ``CHUNKS`` runs shared among the threads (:func:`stacked_run` does one).
-    Every point's value is computed alone, so the result is the same bit for bit on any thread count."""
+    points are cut into ``CHUNKS`` runs shared among the threads; in each, one pass per field
+    (the views are taken once per run and field, not per point). Every point's value is computed
+    alone, so the result is the same bit for bit on any thread count."""
     n = pos.shape[0]
-    C = CHUNKS if n >= CHUNKS else 1
-    for c in prange(C):
-        stacked_run(c * n // C, (c + 1) * n // C, off_node, off_tri, off_vert, off_win, nx, ny, dist, tri_nodes,
-                    passable, goal_tri, gxy, vx, vy, tris, nbrs, wstart, wgeo, wroot, twin, pos, tidx, which, tol,
-                    eps_m, out)
-    return out
-
-
-@njit(cache=True, inline="always", error_model="numpy")
-def stacked_run(lo, hi, off_node, off_tri, off_vert, off_win, nx, ny, dist, tri_nodes, passable, goal_tri, gxy, vx,
-                vy, tris, nbrs, wstart, wgeo, wroot, twin, pos, tidx, which, tol, eps_m, out):
-    """:func:`distance_stacked` for the points ``lo:hi``: one pass per field (the field's views
-    are taken once per run, not per point); kernels that measure a run of robots inside their
-    own parallel loop call it (the env's step)."""
     T = nbrs.shape[0]
     F = off_node.shape[0] - 1
-    for i in range(lo, hi):
-        out[i] = np.inf
-    for k in range(F):
-        a0, a1 = off_node[k], off_node[k + 1]
-        t0, t1 = off_tri[k], off_tri[k + 1]
-        v0, v1 = off_vert[k], off_vert[k + 1]
-        w0, w1 = off_win[k], off_win[k + 1]
-        nx_k, ny_k, d_k = nx[a0:a1], ny[a0:a1], dist[a0:a1]
-        tn_k, pa_k, gt_k, tr_k = tri_nodes[t0:t1], passable[t0:t1], goal_tri[t0:t1], tris[t0:t1]
-        vx_k, vy_k, tw_k = vx[v0:v1], vy[v0:v1], twin[v0:v1]
-        ws_k = wstart[k * (T + 1):(k + 1) * (T + 1)]
-        wg_k, wr_k = wgeo[w0:w1], wroot[w0:w1]
-        gx = gxy[k, 0]
-        gy = gxy[k, 1]
+    C = CHUNKS if n >= CHUNKS else 1
+    for c in prange(C):
+        lo = c * n // C
+        hi = (c + 1) * n // C
         for i in range(lo, hi):
-            t = tidx[i]
-            if which[i] != k or t < 0:
-                continue
-            out[i] = _best(nx_k, ny_k, d_k, tn_k, pa_k, gt_k, gx, gy, vx_k, vy_k, tr_k, nbrs, ws_k, wg_k, wr_k,
-                           pos[i, 0], pos[i, 1], t, tol, eps_m, tw_k)[0]
+            out[i] = np.inf
+        for k in range(F):
+            a0, a1 = off_node[k], off_node[k + 1]
+            t0, t1 = off_tri[k], off_tri[k + 1]
+            v0, v1 = off_vert[k], off_vert[k + 1]
+            w0, w1 = off_win[k], off_win[k + 1]
+            nx_k, ny_k, d_k = nx[a0:a1], ny[a0:a1], dist[a0:a1]
+            tn_k, pa_k, gt_k, tr_k = tri_nodes[t0:t1], passable[t0:t1], goal_tri[t0:t1], tris[t0:t1]
+            vx_k, vy_k, tw_k = vx[v0:v1], vy[v0:v1], twin[v0:v1]
+            ws_k = wstart[k * (T + 1):(k + 1) * (T + 1)]
+            wg_k, wr_k = wgeo[w0:w1], wroot[w0:w1]
+            gx = gxy[k, 0]
+            gy = gxy[k, 1]
+            for i in range(lo, hi):
+                t = tidx[i]
+                if which[i] != k or t < 0:
+                    continue
+                out[i] = _best(nx_k, ny_k, d_k, tn_k, pa_k, gt_k, gx, gy, vx_k, vy_k, tr_k, nbrs, ws_k, wg_k, wr_k,
+                               pos[i, 0], pos[i, 1], t, tol, eps_m, tw_k)[0]
+    return out
