@@ -462,3 +462,85 @@ def test_a_followed_break_lost_from_the_slots_for_a_step_is_no_clear_view(obs_ro
     _step(mem, obs_row(layout, R, (100.0, 30.0 * s), []), layout, R)
     assert mem.side[0] == s and not mem.probed[0]
     assert _drive(mem, obs_row(layout, R, (100.0, 40.0 * s), []), layout, R, (0.0, -10.0 * s)) == 0
+
+
+def _wall_walk(obs_row, s, robot_at=None, steps=1, herd_steps=None):
+    """A robot following a straight cliff 5 m off (x = 5 in its frame, heading +x throughout: it
+    moves along it without turning) with the cliff on its side ``s`` (it drives toward +y s), from
+    its hit point 104 m from the target at (100, 30 s). It drives ``steps`` 1 m steps; after the first
+    70 (farther from the target than at H from then on: beyond its closest point at y = 30 s)
+    ``robot_at(k)`` (k = 0, 1, ...) gives one other robot it sees, body frame (None: none).
+    Returns its memory and its side after each step."""
+    layout, R = ObsLayout(), 60.0
+    cliff = (5.0, 0.0, -1.0, 0.0, 50.0)
+    mem = BugMemory.empty(1)
+    _step(mem, obs_row(layout, R, (100.0, 30.0 * s), [cliff]), layout, R)
+    assert mem.side[0] == s
+    bp = BugParams() if herd_steps is None else BugParams(herd_steps=herd_steps)
+    sides = []
+    for k in range(steps):
+        y = k + 1.0
+        other = robot_at(k - 70) if robot_at is not None and k >= 70 else None
+        obs = obs_row(layout, R, (100.0, (30.0 - y) * s), [cliff], robots=[] if other is None else [other])
+        mem.last_act[0] = (0.0, s)
+        d = decode(obs, layout, R)
+        q, moved = odometry(mem, np.arange(1), d, 1.0)
+        assert np.isclose(mem.psi[0], 0.0)
+        pull = d.rel_t / np.hypot(*d.rel_t[0])
+        sides.append(bug_update(mem, np.arange(1), d, pull, FP(), bp, togo=d.dist, q=q, moved=moved, crowd_m=8.0,
+                                range_m=R)[2][0])
+    return mem, sides
+
+
+
+@pytest.mark.parametrize("s", [1.0, -1.0], ids=["wall-right", "wall-left"])
+def test_a_robot_turns_back_with_a_robot_coming_back_along_its_wall(obs_row, s):
+    # 70 m out along the cliff (farther from the target than at H), a robot 30 m ahead, 3 m off the
+    # cliff on its safe side, drives back toward it at top speed (1 m a step, in the robot's own
+    # frame: 2 m nearer each step). Seen first at step 70, it has come back on steps 71, 72, ...:
+    # herd_steps (n) in a row on step 70 + n, when the robot turns back, as if its budget were spent
+    # (the budget doubles), once in the search
+    n = BugParams().herd_steps
+
+    def back(k):
+        return (2.0, (40.0 - 2.0 * k) * s)
+
+    mem, sides = _wall_walk(obs_row, s, back, steps=71 + n)
+    assert sides[:70 + n] == [s] * (70 + n) and sides[70 + n] == -s, sides[68:]
+    assert mem.herd[0] and mem.budget[0] == pytest.approx(2 * 360.0)
+    # ... not with herd_steps n + 1 by then (one step more is needed)
+    _, sides = _wall_walk(obs_row, s, back, steps=71 + n, herd_steps=n + 1)
+    assert sides == [s] * (71 + n)
+
+
+@pytest.mark.parametrize("s", [1.0, -1.0], ids=["wall-right", "wall-left"])
+def test_no_turn_for_robots_that_do_not_come_back_along_the_wall(obs_row, s):
+    # a robot ahead going the same way (its place in the robot's frame moving on with it), one
+    # standing (only the robot moves: 1 m nearer a step), one coming back 3 m beyond the cliff (its
+    # unsafe side: a robot behind a thin wall), one out in the open 12 m off the cliff, and a place
+    # ahead taken each step by a robot 3 m nearer than the last (a queue passing: no robot there can
+    # have driven from the last one's place): none turns it back in 30 steps
+    cases = {"same way": lambda k: (2.0, 20.0 * s), "standing": lambda k: (2.0, (30.0 - k) * s),
+             "beyond the wall": lambda k: (8.0, (30.0 - 2.0 * k) * s),
+             "in the open": lambda k: (-7.0, (30.0 - 2.0 * k) * s),
+             "jumps": lambda k: (2.0, (44.0 - 4.0 * (k % 10)) * s)}
+    for name, at in cases.items():
+        mem, sides = _wall_walk(obs_row, s, at, steps=100)
+        assert sides == [s] * 100 and not mem.herd[0], name
+
+
+@pytest.mark.parametrize("s", [1.0, -1.0], ids=["wall-right", "wall-left"])
+def test_no_turn_with_robots_coming_back_while_it_gets_nearer(obs_row, s):
+    # the same robot coming back, met 20 m after H (the robot still nearer the target than at H:
+    # it is heading toward the place where the way opens, and robots that come the other way may be
+    # converging on it from their own hit points): no turn
+    layout, R = ObsLayout(), 60.0
+    cliff = (5.0, 0.0, -1.0, 0.0, 50.0)
+    mem = BugMemory.empty(1)
+    _step(mem, obs_row(layout, R, (100.0, 30.0 * s), [cliff]), layout, R)
+    for k in range(20):
+        y = k + 1.0
+        other = (2.0, (30.0 - 2.0 * k) * s)
+        assert _drive(mem, obs_row(layout, R, (100.0, (30.0 - y) * s), [cliff], robots=[other]), layout, R,
+                      (0.0, s)) == s
+    assert not mem.herd[0]
