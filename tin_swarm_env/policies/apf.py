@@ -61,13 +61,7 @@ The rules, each step:
    followed or lies ahead, or the robot stalls (``stall_steps``; four times that with robots
    near: a queue); or when it has driven ``budget`` along this side from ``H`` (first
    ``first_budget * rec``, at least ``min_budget`` sensor ranges), the budget doubling at each
-   turn, unless the other side has ended; or, heading out and farther from the target than at ``H``,
-   when a robot ahead of it along the boundary (on the followed break's safe side, within
-   ``herd_width_m`` of its line) has come back toward it ``herd_steps`` steps in a row
-   (:func:`~tin_swarm_env.policies.bug.oncoming`: the slots carry no identities, so the robot ahead
-   is matched across steps as the nearest one ahead, within a top step of where the last one was):
-   that robot has turned (the border, a dead end, its budget) and this one turns with it, once a
-   search, its budget doubling as at a budget turn. Passing ``H`` on its way back it goes on along the other side.
+   turn, unless the other side has ended. Passing ``H`` on its way back it goes on along the other side.
    An end counts only heading out from ``H``: on its way back it retraces boundary it has driven,
    so the border or a stall met there (the corner it turned in, a queue) ends neither side.
 5. *Unreachable*: the boundary ended on both sides, or it came back to ``H`` going the way it

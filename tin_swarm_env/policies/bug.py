@@ -12,7 +12,7 @@ import numpy as np
 from ..world.fields import FieldParams, away_from, facing
 from .base import DecodedObs
 
-__all__ = ["BugMemory", "BugParams", "bug_update", "odometry", "oncoming", "pass_gap"]
+__all__ = ["BugMemory", "BugParams", "bug_update", "odometry", "pass_gap"]
 
 END_DEG = 5.0  # a break's closest point is its end when the direction to the robot is this far off its normal
 
@@ -41,9 +41,6 @@ class BugParams:
                     already leans to (robots arriving together take the same side)
     stall_crowded   a robot stalled with robots near counts this many times ``stall_steps`` before
                     it gives up the side (with none near: ``stall_steps``)
-    herd_steps      a robot heading out along a boundary that has seen a robot ahead of it come back
-                    toward it this many steps in a row turns back with it (:func:`oncoming`)
-    herd_width_m    ... a robot ahead on the safe side of the followed break, within this of its line
     """
 
     margin_m: float = 2.0
@@ -55,8 +52,6 @@ class BugParams:
     min_budget: float = 6.0
     split: float = 0.05
     stall_crowded: int = 4
-    herd_steps: int = 6
-    herd_width_m: float = 10.0
 
     def __post_init__(self):
         for f in fields(self):
@@ -64,14 +59,13 @@ class BugParams:
                 raise ValueError(f"BugParams.{f.name} must be > 0, got {getattr(self, f.name)!r}")
 
 
-_FLOAT2 = ("last_rel", "last_act", "hit", "wall_pt", "last_q", "t_hit", "r_pt", "r_dir", "o_pt")
+_FLOAT2 = ("last_rel", "last_act", "hit", "wall_pt", "last_q", "t_hit", "r_pt", "r_dir")
 _SPEC = {"seen": bool, "psi": float, "last_rel": float, "last_act": float, "side": np.int8, "fside": np.int8,
          "first": np.int8, "hit": float, "rec": float, "arc": float, "budget": float, "ended_first": bool,
          "ended_other": bool, "unreachable": bool, "stall": np.int64, "wall": float, "on_border": bool,
          "gap": np.int8, "wall_pt": float, "has_pt": bool, "mside": np.int8, "far": bool, "last_q": float,
          "t_hit": float, "passed": bool, "climb": float, "last_togo": float, "probed": bool, "v_steps": np.int64,
-         "pt_end": bool, "r_pt": float, "r_dir": float, "r_len": float, "r_next": float, "o_pt": float,
-         "o_has": bool, "o_count": np.int64, "herd": bool}
+         "pt_end": bool, "r_pt": float, "r_dir": float, "r_len": float, "r_next": float}
 
 
 @dataclass
@@ -122,14 +116,6 @@ class BugMemory:
     r_next       (n,)   m      how far it drives before ``r_pt`` moves on
     v_steps      (n,)   int    steps it has followed the remembered point (its break out of its slots)
     pt_end       (n,)   bool   ``wall_pt`` was seen at its break's end (not square on to it)
-
-    The swarm (:func:`oncoming`; robots have no identities, so a neighbour is followed from one
-    step to the next as "the nearest robot ahead on my way"):
-
-    o_pt         (n, 2) m      the nearest robot ahead of it on its way last step, in ``F`` relative to the target
-    o_has        (n,)   bool   ``o_pt`` holds one
-    o_count      (n,)   int    steps in a row that robot came back toward it
-    herd         (n,)   bool   it has turned back with robots coming back in this search (once a search)
     """
 
     seen: np.ndarray
@@ -166,10 +152,6 @@ class BugMemory:
     r_dir: np.ndarray
     r_len: np.ndarray
     r_next: np.ndarray
-    o_pt: np.ndarray
-    o_has: np.ndarray
-    o_count: np.ndarray
-    herd: np.ndarray
 
     @classmethod
     def empty(cls, n: int) -> BugMemory:
@@ -345,42 +327,6 @@ def pass_gap(d: DecodedObs, width_m: float, reach_m: float, end_deg: float = END
     return {"has": np.isfinite(best), "aim": aim, "slots": slots}
 
 
-def oncoming(mem: BugMemory, rows, d: DecodedObs, q, moved, wall_rel, wall_nrm, step_m: float,
-             width_m: float) -> np.ndarray:
-    """Steps in a row ``(m,)`` each robot following a boundary has seen a robot ahead of it along
-    that boundary come back toward it, from the robot slots and its own odometry alone (updates
-    ``mem.o_pt``, ``o_has``, ``o_count``). Its way is its last move (``q - last_q`` in its frame
-    ``F``, at least a third of ``step_m``); the followed break is ``wall_rel``, ``wall_nrm`` (closest
-    point and normal toward the safe side, body frame; a zero normal: none). A robot is *ahead
-    along the boundary* when it is seen more than 1 m along the way and on the safe side of the
-    followed break's line, less than ``width_m`` off it (a robot beyond a thin wall, or out in the
-    open, is not); the nearest such robot is put into ``F`` (``q + R(psi) r``) and kept. The slots
-    carry no identities, so the robot ahead now is taken to be the one ahead last step when it lies
-    within ``step_m`` (a robot's top step) plus 1 m of where that one was: it *came back* when it
-    moved at least half a top step against the robot's way. A queue ahead going the same way, or
-    a robot standing, never counts; a new robot taking the place ahead counts only if it lies
-    where the last one could have driven."""
-    psi = mem.psi[rows]
-    way = q - mem.last_q[rows]
-    wl = _norm(way)
-    go = mem.seen[rows] & (wl > step_m / 3) & (moved > 0) & (_norm(wall_nrm) > 0.5)
-    u = np.where(go[:, None], way / np.maximum(wl, 1e-9)[:, None], 0.0)
-    u_b = _rot(-psi, u)  # the way in the body frame
-    along = np.einsum("nkj,nj->nk", d.r_rel, u_b)
-    off = np.einsum("nkj,nj->nk", d.r_rel - wall_rel[:, None, :], wall_nrm)
-    ahead = (d.r_valid > 0.5) & (along > 1.0) & (off > 0.0) & (off < width_m) & go[:, None]
-    has = ahead.any(axis=-1)
-    k = np.argmin(np.where(ahead, along, np.inf), axis=-1)
-    p = q + _rot(psi, d.r_rel[np.arange(len(k)), k])
-    v = p - mem.o_pt[rows]
-    back = has & mem.o_has[rows] & (_norm(v) < step_m + 1.0) & (np.sum(v * u, axis=-1) < -0.5 * step_m)
-    count = np.where(back, mem.o_count[rows] + 1, 0)
-    mem.o_pt[rows] = np.where(has[:, None], p, mem.o_pt[rows])
-    mem.o_has[rows] = has
-    mem.o_count[rows] = count
-    return count
-
-
 def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, bp: BugParams, *, togo, q, moved,
                crowd_m: float, range_m: float, gap=None, home: bool = True, pass_m: float = 0.0,
                step_m: float = 1.0, fov_deg: float = 360.0):
@@ -518,15 +464,6 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     ended_o |= ends & (out == -1)
     other_ended = np.where(out == 1, ended_o, ended_f)
     over = following & ~ends & ~fresh & (climb > budget) & ~other_ended
-    # the swarm: heading out, farther from the target than at H, a robot ahead along the boundary came
-    # back toward it herd_steps in a row (it has turned: the border, a dead end, its budget): turn back
-    # with it, once a search, as if the budget were spent (it doubles)
-    herd = mem.herd[rows] & ~fresh
-    on_wall = (following & (kf >= 0))[:, None]
-    back = oncoming(mem, rows, d, q, moved, np.where(on_wall, f_rel, 0.0), np.where(on_wall, f_nrm, 0.0), step_m,
-                    bp.herd_width_m)
-    with_them = following & ~ends & ~fresh & passed & ~herd & ~other_ended & (togo > rec) & (back >= bp.herd_steps)
-    over |= with_them
     turn = (ends & ~other_ended) | over
     budget = np.where(over, 2.0 * budget, budget)
     unreach |= (ends & other_ended) | circuit
@@ -544,7 +481,6 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     mem.passed[rows] = (passed | fresh) & ~turn
     mem.climb[rows] = np.where(fresh | turn, 0.0, climb)
     mem.probed[rows] = probed & ~fresh
-    mem.herd[rows] = herd | with_them
     # the cycle finder's place: set where the search is taken up, moved on at doubling distances
     anew = (met & ~fresh) | round_r
     move_on = anew | (r_len >= mem.r_next[rows])
