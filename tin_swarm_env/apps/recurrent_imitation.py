@@ -237,17 +237,18 @@ def sequence_loss(student, q, T: int | None = None, h0=None, start: int = 0):
     return torch.nn.functional.cross_entropy(out[k], y, reduction="none"), h
 
 
-def fit_sequences(student, sequences, *, epochs: int = 10, lr: float = 1e-3, seed: int = 0, chunk: int | None = None,
-                  callback=None) -> float:
+def fit_sequences(student, sequences, *, epochs: int = 10, lr: float = 1e-3, seed: int = 0,
+                  chunk: int | None = None, callback=None) -> float:
     """Fit ``student`` (:func:`GRUStudent`) to the teacher's labels of ``sequences``
     (:class:`~tin_swarm_env.apps.imitation.Sequence`; module docstring): Adam, episodes shuffled each
-    epoch. ``chunk`` None: :data:`CHUNK` (read at the call); 0: one step per episode, the gradient through the whole episode; ``chunk`` > 0
-    (truncated backpropagation): the episode's steps in consecutive pieces of ``chunk`` steps, one
-    Adam step per piece that holds a kept sample, each piece started from the state the previous one
-    ended in (detached), so the state runs over the whole episode as in the file while the gradient
-    reaches back at most ``chunk`` steps (without a cell: minibatches of ``chunk`` steps). ``callback(epoch, loss)``: called after each epoch.
-    Returns the last epoch's mean squared error per kept sample (with a categorical head: the mean
-    cross-entropy, nats per kept sample)."""
+    epoch. ``chunk`` None: :data:`CHUNK` (read at the call); 0: one step per episode, the gradient
+    through the whole episode; > 0 (truncated backpropagation): the episode's steps in consecutive
+    pieces of ``chunk`` steps, one Adam step per piece that holds a kept sample, each piece started
+    from the state the previous one ended in (detached), so the state runs over the whole episode as
+    in the file while the gradient reaches back at most ``chunk`` steps (without a cell: minibatches
+    of ``chunk`` steps). ``callback(epoch, loss)``: called after each epoch. Returns the last
+    epoch's mean squared error per kept sample (with a categorical head: the mean cross-entropy,
+    nats per kept sample)."""
     torch = _torch()
     chunk = CHUNK if chunk is None else chunk
     if isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 0:
