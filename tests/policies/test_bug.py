@@ -462,3 +462,40 @@ def test_a_followed_break_lost_from_the_slots_for_a_step_is_no_clear_view(obs_ro
     _step(mem, obs_row(layout, R, (100.0, 30.0 * s), []), layout, R)
     assert mem.side[0] == s and not mem.probed[0]
     assert _drive(mem, obs_row(layout, R, (100.0, 40.0 * s), []), layout, R, (0.0, -10.0 * s)) == 0
+
+
+@pytest.mark.parametrize("s", [1.0, -1.0], ids=["island-right", "island-left"])
+def test_the_first_time_round_to_h_turns_back_the_second_says_unreachable(obs_row, s):
+    # the target stands inside a 20 m square island (steep all round: unreachable); the robot meets
+    # the island at H and follows it round (blocked all the way, never nearer than rec - margin_m).
+    # Back at H going the way it set off (one lap, 111 m), it turns back and goes round the other way
+    # (a boundary sensed through K_b slots can hide an opening, e.g. a ramp mouth walked past on a
+    # mesa, that the other way shows; standing still there was a false verdict); back at H again it
+    # has driven the boundary both ways and says the target is unreachable (it stops). Before: it
+    # said so at the first return
+    layout, R = ObsLayout(), 60.0
+    flip = np.array([1.0, s])
+    path, per = _round_square(np.array([0.0, 0.0]), 10.0, 5.0, 2.0, 0.0)
+    path = [(p * flip, q * flip, n * flip) for p, q, n in path]
+    k0 = int(per // 2.0) + 1  # start one lap in, so that the way back has a lap of path behind it
+    mem = BugMemory.empty(1)
+    p, q, n = path[k0]
+    assert _step(mem, obs_row(layout, R, tuple(-p), [(*(q - p), *n, 50.0)]), layout, R)[0] == s
+    last, driven, k = p, 0.0, k0
+    while mem.side[0] == s and driven < 2 * per:
+        k += 1
+        p, q, n = path[k]
+        _drive(mem, obs_row(layout, R, tuple(-p), [(*(q - p), *n, 50.0)]), layout, R, tuple(p - last))
+        driven += np.hypot(*(p - last))
+        last = p
+    assert mem.side[0] == -s and not mem.unreachable[0] and per - 6.0 < driven < per + 6.0, (driven, per)
+    back = 0.0
+    while not mem.unreachable[0] and back < 2 * per:
+        k -= 1
+        p, q, n = path[k]
+        _drive(mem, obs_row(layout, R, tuple(-p), [(*(q - p), *n, 50.0)]), layout, R, tuple(p - last))
+        back += np.hypot(*(p - last))
+        last = p
+        assert mem.unreachable[0] or mem.side[0] == -s
+    # round the other way: from where it turned (within home_m of H) to within home_m of H again
+    assert mem.unreachable[0] and mem.side[0] == 0 and per - 12.0 < back < per + 6.0, (back, per)

@@ -64,9 +64,12 @@ The rules, each step:
    turn, unless the other side has ended. Passing ``H`` on its way back it goes on along the other side.
    An end counts only heading out from ``H``: on its way back it retraces boundary it has driven,
    so the border or a stall met there (the corner it turned in, a queue) ends neither side.
-5. *Unreachable*: the boundary ended on both sides, or it came back to ``H`` going the way it
-   set off after going round (the whole boundary): the target cannot be reached from where it
-   is. It says so (:attr:`APFPolicy.unreachable`) and stands still.
+5. *Unreachable*: the boundary ended on both sides, or it has come back to ``H`` going the way
+   it set off after going round (the whole boundary) twice in the search: the target cannot be
+   reached from where it is. It says so (:attr:`APFPolicy.unreachable`) and stands still. The
+   first time round counts as an end of that side (rule 4: it turns back and goes round the other
+   way, or says so at once if the other side has ended): the boundary is sensed through ``K_b``
+   slots only, and an opening walked past one way (a ramp mouth on a mesa) can show the other way.
 
 *Why this is complete* (terrain a rectangle, obstacles finite). Each fresh search starts at least
 ``margin_m`` nearer the target than the one before, and between searches the robot heads for the
@@ -76,9 +79,9 @@ robot's part of the terrain) or the robot comes round to ``H``; either way after
 turns the whole boundary through ``H`` has been driven. If the target is reachable, the m-line
 from ``H`` meets that boundary again at a point nearer the target with the way to the target
 clear (Bug2's argument), where rule 3 lets the robot leave; so a robot that finds no such point
-has shown its target unreachable (rule 5). No loop is driven twice: a loop round ``H`` ends the
-search, and the turn-backs retrace what the budget allowed, each time further. The argument
-assumes the robot keeps to the boundary through ``H``; one that crosses to another boundary
+has shown its target unreachable (rule 5). No loop is driven twice the same way: a loop round
+``H`` is driven once each way at most, then ends the search, and the turn-backs retrace what the
+budget allowed, each time further. The argument assumes the robot keeps to the boundary through ``H``; one that crosses to another boundary
 through a gap or ramp can follow that one round for good (never nearer than ``rec``, never
 back at ``H``); rule 3's loop finding lets it leave such a loop where it sees the way clear, and
 where it sees none it is an open case, measured in ``docs/figures/apf_notes.md``.

@@ -65,7 +65,8 @@ _SPEC = {"seen": bool, "psi": float, "last_rel": float, "last_act": float, "side
          "ended_other": bool, "unreachable": bool, "stall": np.int64, "wall": float, "on_border": bool,
          "gap": np.int8, "wall_pt": float, "has_pt": bool, "mside": np.int8, "far": bool, "last_q": float,
          "t_hit": float, "passed": bool, "climb": float, "last_togo": float, "probed": bool, "v_steps": np.int64,
-         "pt_end": bool, "r_pt": float, "r_dir": float, "r_len": float, "r_next": float}
+         "pt_end": bool, "r_pt": float, "r_dir": float, "r_len": float, "r_next": float,
+         "circ": bool}
 
 
 @dataclass
@@ -116,6 +117,7 @@ class BugMemory:
     r_next       (n,)   m      how far it drives before ``r_pt`` moves on
     v_steps      (n,)   int    steps it has followed the remembered point (its break out of its slots)
     pt_end       (n,)   bool   ``wall_pt`` was seen at its break's end (not square on to it)
+    circ         (n,)   bool   it came back round to H once in this search (and turned back)
     """
 
     seen: np.ndarray
@@ -152,6 +154,7 @@ class BugMemory:
     r_dir: np.ndarray
     r_len: np.ndarray
     r_next: np.ndarray
+    circ: np.ndarray
 
     @classmethod
     def empty(cls, n: int) -> BugMemory:
@@ -458,7 +461,11 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     # an end counts only heading out (passed: it has not turned back since it last passed H): on its
     # way back to H after a turn it retraces boundary it has driven, so a border or a stall met there
     # (the corner it just turned in, a queue) ends nothing, least of all the side it has not tried yet
-    ends = following & ~fresh & passed & (border_ahead | (on_border & ~mem.on_border[rows]) | stuck)
+    # the first time round to H ends that side (the robot turns back and tries the other way, on which
+    # a boundary sensed only through K_b slots may show the opening it walked past); the second is a verdict
+    circ = mem.circ[rows] & ~fresh
+    ends = following & ~fresh & passed & (border_ahead | (on_border & ~mem.on_border[rows]) | stuck
+                                          | (circuit & ~circ))
     out = np.where(side == first, 1, -1)  # +1: heading out along the first side
     ended_f |= ends & (out == 1)
     ended_o |= ends & (out == -1)
@@ -466,7 +473,8 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     over = following & ~ends & ~fresh & (climb > budget) & ~other_ended
     turn = (ends & ~other_ended) | over
     budget = np.where(over, 2.0 * budget, budget)
-    unreach |= (ends & other_ended) | circuit
+    unreach |= (ends & other_ended) | (circuit & circ)
+    circ |= circuit
     side = np.where(turn, -side, side)
     side = np.where(unreach, 0, side)
     stall = np.where(turn | (side == 0), 0, stall)
@@ -481,6 +489,7 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     mem.passed[rows] = (passed | fresh) & ~turn
     mem.climb[rows] = np.where(fresh | turn, 0.0, climb)
     mem.probed[rows] = probed & ~fresh
+    mem.circ[rows] = circ
     # the cycle finder's place: set where the search is taken up, moved on at doubling distances
     anew = (met & ~fresh) | round_r
     move_on = anew | (r_len >= mem.r_next[rows])
