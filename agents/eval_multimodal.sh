@@ -8,6 +8,7 @@
 #   RUN=runs/multimodal2 OUT=runs/eval_multimodal2 TWINS="gru_fb gru_cat0 mlp_cat0" ACTINGS="mode side" \
 #     MODELS=gru_fb=runs/multimodal2/gru_fb/policy,gru_fb_mode=runs/multimodal2/gru_fb_mode/policy,... \
 #     flock /tmp/heavy.lock bash agents/eval_multimodal.sh families
+# POLICIES= (empty) leaves APF out (default: apf).
 set -e
 cd "$(dirname "$0")/.."
 PY=${PY:-python}
@@ -57,9 +58,9 @@ arrival_radius_m = 8.0
 TOML
     scen="$scen${scen:+,}$OUT/cfg/gen_$f.toml"
   done
-  $PY agents/evaluate.py --scenarios "$scen" --seeds 10 --robots 20 --policies apf --models "$MODELS" \
+  $PY agents/evaluate.py --scenarios "$scen" --seeds 10 --robots 20 --policies "${POLICIES-apf}" --models "$MODELS" \
     --out "$OUT/families"
 else
   $PY agents/evaluate.py --scenarios scenarios/canyon_left.toml,scenarios/canyon_right.toml --seeds 3 --robots 20 \
-    --policies apf --models "$MODELS" --out "$OUT/canyons"
+    --policies "${POLICIES-apf}" --models "$MODELS" --out "$OUT/canyons"
 fi

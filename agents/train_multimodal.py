@@ -29,6 +29,18 @@ side the student took instead of the map's side:
 
     nice -n 19 python agents/train_multimodal.py --recipe apf --out runs/multimodal3
 
+The fourth run (``--recipe apf_chunk``): the third run's recipe, every fit now in pieces of 64 steps with
+the state carried (truncated backpropagation, ``fit_sequences``' default ``chunk``: the whole-episode fits
+of the first three runs underfit, agents/diag_fit.py), 12 epochs per fit for both students:
+
+    gru_apf4  gru_apf (GRU 64, previous action fed back) on this recipe
+    mlp_apf4  mlp_apf (no memory) on this recipe
+
+    nice -n 19 python agents/train_multimodal.py --recipe apf_chunk --out runs/multimodal4
+
+The first three recipes were fitted on whole episodes (``chunk`` 0, the default then): this script sets
+:data:`~tin_swarm_env.apps.recurrent_imitation.CHUNK` per recipe (:data:`CHUNKS`), so they run as they did.
+
 Each writes ``OUT/<name>/policy`` (a pickle-free policy file) and ``OUT/<name>/model.json``
 (:func:`tin_swarm_env.apps.train.train_student`). Torch runs on 1 thread.
 """
@@ -39,6 +51,7 @@ import argparse
 import time
 from pathlib import Path
 
+from tin_swarm_env.apps import recurrent_imitation
 from tin_swarm_env.apps.train import Args, train_student
 
 COMMON = dict(scenario="generated,generated,cliff_goal,ramp", bc_robots=8, teacher="geodesic", symmetry="mirror",
@@ -48,7 +61,9 @@ COMMON = dict(scenario="generated,generated,cliff_goal,ramp", bc_robots=8, teach
 STUDENT_DRIVES = dict(dagger_rounds=4, dagger_episodes=12, dagger_beta=0.0, stall_steps=0, head_acting="sample")
 RECIPES = {"mixed": (COMMON, ("mlp_mse", "mlp_cat", "gru_cat")),
            "student": ({**COMMON, **STUDENT_DRIVES}, ("gru_fb", "gru_cat0", "mlp_cat0")),
-           "apf": ({**COMMON, **STUDENT_DRIVES, "teacher": "apf_student"}, ("gru_apf", "mlp_apf", "gru_apf_plain"))}
+           "apf": ({**COMMON, **STUDENT_DRIVES, "teacher": "apf_student"}, ("gru_apf", "mlp_apf", "gru_apf_plain")),
+           "apf_chunk": ({**COMMON, **STUDENT_DRIVES, "teacher": "apf_student"}, ("gru_apf4", "mlp_apf4"))}
+CHUNKS = {"mixed": 0, "student": 0, "apf": 0, "apf_chunk": 64}  # fit_sequences' piece length per recipe
 VARIANTS = {
     "mlp_mse": dict(student="mlp", head="mean", bc_epochs=20),
     "mlp_cat": dict(student="mlp", head="categorical", bc_epochs=20),
@@ -58,6 +73,7 @@ VARIANTS.update(mlp_cat0=VARIANTS["mlp_cat"], gru_cat0=VARIANTS["gru_cat"],
                 gru_fb={**VARIANTS["gru_cat"], "feedback": "action"})
 VARIANTS.update(gru_apf=VARIANTS["gru_fb"], mlp_apf=VARIANTS["mlp_cat"],
                 gru_apf_plain={**VARIANTS["gru_fb"], "teacher": "apf"})
+VARIANTS.update(gru_apf4={**VARIANTS["gru_fb"], "bc_epochs": 12}, mlp_apf4={**VARIANTS["mlp_cat"], "bc_epochs": 12})
 
 
 def main(argv=None) -> None:
@@ -67,6 +83,7 @@ def main(argv=None) -> None:
     ap.add_argument("--only", default="", help="comma-separated variants to train (default: the recipe's)")
     a = ap.parse_args(argv)
     common, names = RECIPES[a.recipe]
+    recurrent_imitation.CHUNK = CHUNKS[a.recipe]
     for name in [s for s in (a.only or ",".join(names)).split(",") if s]:
         if name not in names:
             raise SystemExit(f"--only: unknown variant {name!r} for --recipe {a.recipe}; known: {', '.join(names)}")

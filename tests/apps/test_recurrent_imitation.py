@@ -304,3 +304,81 @@ def test_feedback_options_are_checked_by_name():
         GRUStudent(5, cell=None, feedback="action")
     with pytest.raises(ArgumentError, match="needs prev"):
         GRUStudent(5, feedback="action")(np.zeros((2, 1, 5), np.float32))
+
+
+def _cue_sequences(T, n, d, count, seed=0):
+    """Each robot sees a +-1 cue at its first step, then zeros; the label at every step is the cue's
+    sign (times 0.5) in vy: after step 0 only memory tells it."""
+    rng = np.random.default_rng(seed)
+    seqs = []
+    for _ in range(count):
+        cue = rng.choice([-1.0, 1.0], n)
+        obs = np.zeros((T, n, d), np.float32)
+        obs[0, :, 0] = cue
+        labels = np.zeros((T, n, 2), np.float32)
+        labels[:, :, 1] = 0.5 * cue
+        seqs.append(Sequence(obs, labels, np.ones((T, n), bool), np.ones((T, n), bool),
+                             np.tile(np.float32([0.5, 0.25]), (T, n, 1))))
+    return seqs
+
+
+@pytest.mark.parametrize("categorical", [False, True])
+def test_forward_in_pieces_from_the_carried_state_is_the_whole_forward(categorical):
+    """forward_state over consecutive pieces, each from the state the last ended in, gives the whole
+    episode's forward at every step (mirror streams and feedback included)."""
+    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, previous_actions
+    from tin_swarm_env.policies.heads import categorical_classes
+
+    d = 4
+    signs = np.array([1.0, -1.0, 1.0, -1.0])
+    q = _cue_sequences(9, 3, d, 1)[0]
+    q.obs[1:] = np.random.default_rng(1).normal(size=q.obs[1:].shape)
+    st = GRUStudent(d, 6, (5,), signs=signs, seed=2, feedback="action",
+                    classes=categorical_classes() if categorical else None)
+    prev = previous_actions(q, 9, st.classes)
+    with torch.no_grad():
+        whole = st(q.obs, prev).numpy()
+        h, parts = None, []
+        for s, e in ((0, 4), (4, 5), (5, 9)):
+            out, h = st.forward_state(q.obs[s:e], prev[s:e], h)
+            parts.append(out.numpy())
+    np.testing.assert_allclose(np.concatenate(parts), whole, rtol=0, atol=1e-6)
+    assert np.abs(whole[-1] - whole[0]).max() > 1e-3
+
+
+def test_a_chunk_as_long_as_the_episode_is_the_whole_episode_fit_bit_for_bit():
+    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences
+
+    seqs = _cue_sequences(6, 8, 3, 3)
+    a, b = GRUStudent(3, 8, (8,), seed=0), GRUStudent(3, 8, (8,), seed=0)
+    la = fit_sequences(a, seqs, epochs=3, lr=1e-2, chunk=0)
+    lb = fit_sequences(b, seqs, epochs=3, lr=1e-2, chunk=6)
+    assert la == lb
+    for pa, pb in zip(a.parameters(), b.parameters()):
+        assert torch.equal(pa, pb)
+
+
+def test_truncated_fit_carries_the_state_from_piece_to_piece():
+    """Pieces of 2 steps over 8-step episodes: the cue is seen only in the first piece, so the labels
+    of the three later pieces are told by the state carried into them alone. A fit that restarted each
+    piece from a zero state would see zeros there whatever the cue: its loss at least the labels'
+    variance on those 6 of 8 steps; the carried state must take it far below."""
+    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences
+
+    T = 8
+    seqs = _cue_sequences(T, 32, 3, 4)
+    losses = []
+    mse = fit_sequences(GRUStudent(3, 8, (8,), seed=0), seqs, epochs=150, lr=1e-2, chunk=2,
+                        callback=lambda ep, loss: losses.append((ep, loss)))
+    restarted = 0.25 / 2 * (T - 2) / T  # variance 0.25 in vy, 0 in vx, over steps 2..T-1
+    assert mse < 0.1 * restarted
+    assert [e for e, _ in losses] == list(range(150)) and losses[-1][1] == mse
+
+
+def test_fit_sequences_refuses_a_bad_chunk_by_name():
+    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences
+
+    seqs = _cue_sequences(4, 2, 3, 1)
+    for bad in (-1, 2.5, True, "64"):
+        with pytest.raises(ArgumentError, match="fit_sequences: chunk must be an integer >= 0"):
+            fit_sequences(GRUStudent(3, 4, (4,)), seqs, epochs=1, chunk=bad)

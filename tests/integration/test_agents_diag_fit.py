@@ -1,0 +1,74 @@
+"""agents/diag_fit.py (run by hand, docs/figures/teacher_multimodal.md): its data file round-trips
+exactly, refuses pickles, and its "near a side switch" split is the hand-computed one."""
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tin_swarm_env.apps.imitation import Sequence
+
+torch = pytest.importorskip("torch")
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _diag():
+    spec = importlib.util.spec_from_file_location("agents_diag_fit", ROOT / "agents" / "diag_fit.py")
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault("agents_diag_fit", mod)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _seq(T, n, d, rng):
+    return Sequence(rng.normal(size=(T, n, d)).astype(np.float32), rng.normal(size=(T, n, 2)).astype(np.float32),
+                    rng.random((T, n)) < 0.8, np.ones((T, n), bool), rng.normal(size=(T, n, 2)).astype(np.float32))
+
+
+def test_sequences_round_trip_exactly_in_order(tmp_path):
+    diag = _diag()
+    rng = np.random.default_rng(0)
+    groups = {"train_bc": [_seq(5, 2, 3, rng) for _ in range(11)], "val_dag": [_seq(7, 2, 3, rng)]}
+    diag.save_sequences(tmp_path / "d.npz", groups)
+    back = diag.load_sequences(tmp_path / "d.npz")
+    assert sorted(back) == sorted(groups) and [p.name for p in tmp_path.iterdir()] == ["d.npz"]
+    for g, seqs in groups.items():
+        assert len(back[g]) == len(seqs)
+        for q, r in zip(seqs, back[g]):  # episode 10 after 9, not after 1
+            for f in diag.FIELDS:
+                a, b = getattr(q, f), getattr(r, f)
+                assert a.dtype == b.dtype and np.array_equal(a, b)
+
+
+def test_a_pickled_array_is_refused(tmp_path):
+    diag = _diag()
+    np.savez(tmp_path / "bad.npz", train_bc_0_obs=np.array([object()], dtype=object))
+    with pytest.raises(ValueError, match="allow_pickle"):
+        diag.load_sequences(tmp_path / "bad.npz")
+
+
+def test_near_a_side_switch_is_the_hand_computed_window():
+    """One robot, labels' vy sides + + + 0 + - - - - - - - (classes nearest): one change of side, between
+    steps 4 and 5 (the 0 at step 3 is no side); with near=2 steps 3..7 are near it: 5 of 12. The two
+    parts' means weigh back to the mean."""
+    from tin_swarm_env.apps.recurrent_imitation import GRUStudent
+    from tin_swarm_env.policies.heads import categorical_classes
+
+    diag = _diag()
+    vy = np.array([1, 1, 1, 0, 1, -1, -1, -1, -1, -1, -1, -1], np.float32) * 0.7
+    labels = np.stack([np.full(12, 0.7, np.float32), vy], -1)[:, None, :]
+    q = Sequence(np.random.default_rng(1).normal(size=(12, 1, 4)).astype(np.float32), labels,
+                 np.ones((12, 1), bool), np.ones((12, 1), bool))
+    st = GRUStudent(4, 4, (4,), cell=None, classes=categorical_classes())
+    mean, near, elsewhere, share = diag.held_out(st, [q], near=2)
+    assert share == 5 / 12
+    assert near * 5 / 12 + elsewhere * 7 / 12 == pytest.approx(mean, rel=1e-6)
+    assert near != elsewhere
+    from tin_swarm_env.apps.recurrent_imitation import sequence_loss
+
+    with torch.no_grad():
+        err = sequence_loss(st, q)[0].numpy()
+    assert near == pytest.approx(err[3:8].mean(), rel=1e-6) and elsewhere == pytest.approx(
+        np.r_[err[:3], err[8:]].mean(), rel=1e-6)
