@@ -81,10 +81,11 @@ from ``H`` meets that boundary again at a point nearer the target with the way t
 clear (Bug2's argument), where rule 3 lets the robot leave; so a robot that finds no such point
 has shown its target unreachable (rule 5). No loop is driven twice the same way: a loop round
 ``H`` is driven once each way at most, then ends the search, and the turn-backs retrace what the
-budget allowed, each time further. The argument assumes the robot keeps to the boundary through ``H``; one that crosses to another boundary
-through a gap or ramp can follow that one round for good (never nearer than ``rec``, never
-back at ``H``); rule 3's loop finding lets it leave such a loop where it sees the way clear, and
-where it sees none it is an open case, measured in ``docs/figures/apf_notes.md``.
+budget allowed, each time further. The argument assumes the robot keeps to the boundary
+through ``H``; one that crosses to another boundary through a gap or ramp can follow that one
+round for good (never nearer than ``rec``, never back at ``H``); rule 3's loop finding lets it
+leave such a loop where it sees the way clear, and where it sees none it is an open case,
+measured in ``docs/figures/apf_notes.md``.
 
 **Queues.** Robots that see each other keep 1.5 body diameters apart and the robot field pushes
 them aside, so robots following one wall queue behind each other; one stalled in a queue turns
