@@ -495,11 +495,11 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     leave = following & ~blocked & ~through & (togo < rec - bp.margin_m) & on_line
     leave |= following & ~blocked & ~through & clear
     # the loop finder (Bug1 on whatever boundary the robot is on): passing a place of its leg again
-    # going the same way, home_arc_m or more after it, it has driven round a closed boundary. A lap
-    # that passes H is the whole-circuit test's (rule 5); on any other, it goes round once more to the
-    # lap's place of least distance to go and leaves there (Bug1), rec and probed aside, if that place is
-    # margin_m nearer than its last such leave in this search (so there are finitely many); else it
-    # follows on (the budget, the border or a stall end that side as before)
+    # going the same way, home_arc_m or more after it (and 2 home_m away from it on the way), it has
+    # driven round a closed boundary. A lap that passes H is the whole-circuit test's (rule 5); on any
+    # other, it goes round once more to the lap's place of least distance to go and leaves there
+    # (Bug1), rec and probed aside, if that place is margin_m nearer than its last such leave in this
+    # search (so there are finitely many); else it follows on (budget, border, stall end that side)
     held = np.arange(RING)[None, :] < mem.g_n[rows][:, None]
     g_len = mem.g_len[rows] + np.where(following, moved, 0.0)
     g_p, lq = mem.g_p[rows], mem.last_q[rows]
@@ -510,6 +510,9 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     found = following & hit_g.any(axis=-1) & ~through & home
     j = RING - 1 - np.argmax(hit_g[:, ::-1], axis=-1)  # the latest such place: the lap starts there
     on_lap = held & (np.arange(RING)[None, :] >= j[:, None])
+    # a lap goes somewhere: a place on it lies more than 2 home_m from its start (swinging in a corner,
+    # the robot passes the same place the same way again without going round anything)
+    found &= (on_lap & (_norm(g_p - g_p[ri, j][:, None]) > 2 * bp.home_m)).any(axis=-1)
     g_m = np.where(on_lap, mem.g_m[rows], np.inf)
     kmin = np.argmin(g_m, axis=-1)
     lap_t, lap_q = g_m[ri, kmin], mem.g_q[rows][ri, kmin]
