@@ -535,3 +535,24 @@ def test_a_robot_round_a_closed_boundary_leaves_it_at_its_nearest_place_on_the_n
     assert side == 0 and per < driven < 2 * per, (side, driven, per)
     assert np.hypot(*p) < lap.min() + 1.0 and np.hypot(*(p - nearest)) < 5.0, (p, nearest, lap.min())
     assert mem.lvl[0] == pytest.approx(np.hypot(*p), abs=0.01)  # the next such leave must be nearer
+
+
+@pytest.mark.parametrize("s", [1.0, -1.0], ids=["wall-right", "wall-left"])
+def test_swinging_to_and_fro_along_a_wall_is_no_lap(obs_row, s):
+    # following a cliff 5 m ahead (the target ahead, to the side s), 20 m on from H the robot swings to
+    # and fro along it, 1 m each way (the corner 2-cycle under the safety cut): every other step it passes the places
+    # of its leg again going the way it follows the cliff, 30 m and more of driving after them, but it
+    # goes round nothing: no lap is found, no Bug1 leave, its leg goes on (mesa seed 8: it "left" at
+    # the corner and started a fresh search there, its budget and ends cleared)
+    layout, R = ObsLayout(), 60.0
+    cliff = (5.0, 0.0, -1.0, 0.0, 50.0)
+    tgt, p = np.array([100.0, 30.0 * s]), np.zeros(2)
+    mem = BugMemory.empty(1)
+    _step(mem, obs_row(layout, R, tuple(tgt - p), [cliff]), layout, R)
+    assert mem.side[0] == s
+    for k in range(100):
+        move = np.array([0.0, s if k < 20 or k % 2 == 0 else -s])
+        p = p + move
+        side = _drive(mem, obs_row(layout, R, tuple(tgt - p), [cliff]), layout, R, tuple(move))
+        assert side == s and not mem.b1[0] and np.isinf(mem.lvl[0]), k
+        assert mem.g_len[0] == pytest.approx(k + 1.0), (k, mem.g_len[0])
