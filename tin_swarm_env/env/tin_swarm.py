@@ -27,7 +27,7 @@ from ..world import Reason, World
 from ..world.world import serial_if_small
 from .checks import actions_from_dict, check_options, check_scenario_arg, check_seed, float_array
 from .observation import OBS_SERIAL_BELOW, ObsLayout, build_observations
-from .reward import compute_rewards, distance_to_go
+from .reward import distance_to_go, reward_params, step_rewards
 
 __all__ = ["TinSwarmEnv", "parallel_env", "raw_env", "env", "RENDER_WIDTH_PX", "DEFAULT_RENDER_WIDTH_PX"]
 
@@ -200,6 +200,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         self._steps = 0
         self._fields: tuple = ()  # one CostToGo per target of the episode
         self._stack = None  # CostToGoStack of _fields where progress is geodesic (one query a step), else None
+        self._rw = None  # reward.reward_params(config), set at reset
         self._dist = np.full(self.n, np.inf)  # (n,) m, distance to go after the last reset/step
 
     # -- read-only views for apps, policies' tests and plots ------------------------------------
@@ -317,6 +318,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         self._fields = tuple(self._field(t) for t in targets)
         geodesic = self.config.rewards.progress == "geodesic" and not self.config.targets.mobile
         self._stack = CostToGoStack(self._fields) if geodesic and self._fields else None
+        self._rw = reward_params(cfg)  # the reward terms as the step's kernel reads them
         reach = np.array([f.triangle_reachable() for f in self._fields]) if len(self._fields) else None
         self._wstate = initial_state(self._world, cfg, self._np_random, self.n, target_positions=targets,
                                      spawn_region=self._stage.spawn_region, reachable=reach,
@@ -374,19 +376,16 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         new, events = self._world.step(prev, a)
         live = self._live
         dist = self._measure(new)
-        rewards, terminated, reasons = compute_rewards(self.config, self._dist, dist, new, events, self._target_idx,
-                                                       live)
-        self._dist = dist
         self._steps += 1
-        truncated = live & ~terminated & (self._steps >= self.max_cycles)
-        reasons[truncated] = Reason.TIMEOUT
-        arrived = reasons == _ARRIVED
-        if arrived.any():
-            new = self._world.retire(new, arrived)  # arrived robots leave the terrain
+        rewards, terminated, reasons, truncated, live_after, n_arrived = step_rewards(
+            self._rw, self._dist, dist, new, events, self._target_idx, live, self._steps >= self.max_cycles)
+        self._dist = dist
+        if n_arrived:
+            new = self._world.retire(new, reasons == _ARRIVED)  # arrived robots leave the terrain
         self._wstate = new
         self._readings = self._world.sense(new)
         obs = build_observations(self._world, new, self._readings, self._target_idx, live, self.layout)
-        self._live = live & ~terminated & ~truncated
+        self._live = live_after
         return obs, rewards, terminated, truncated, reasons
 
     # -- dict API -----------------------------------------------------------------------------
