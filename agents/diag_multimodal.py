@@ -15,7 +15,10 @@ such steps, and how often a robot's commanded side (sign of ``vy``, ignoring zer
 
 ``--teacher apf_student`` labels with APF along the driven trajectory instead (tin_swarm_env/apps/apf_teacher.py:
 it is told each step's executed command); the last column then counts the steps at which it took the
-student's side, per 100 robot-steps (the geodesic teacher: 0).
+student's side, per 100 robot-steps (the geodesic teacher: 0). The two columns before it count, the same way as
+the student's side flips, the side of the teacher's label (sign of its ``vy``) and, for APF, the side its memory
+follows (``BugMemory.side``, :func:`~tin_swarm_env.apps.imitation.teacher_side`): with the teacher driving, APF's
+own side flips per 100 steps beside the student's.
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ import numpy as np
 
 import tin_swarm_env as tse
 from tin_swarm_env.apps.evaluate import EVAL_SEED0
-from tin_swarm_env.apps.imitation import TEACHERS, make_teacher
+from tin_swarm_env.apps.imitation import TEACHERS, make_teacher, teacher_side
 from tin_swarm_env.policies import load_policy
 from tin_swarm_env.policies.heads import softmax
 
@@ -36,14 +39,25 @@ def run(env, pol, driver: str, seeds, steps: int, teacher: str = "geodesic") -> 
     adopted = 0
     rows = []
     flips, live_steps = 0, 0
+    t_flips, m_flips = 0, 0  # the teacher's label side and its memory's side (BugMemory.side), the same count
     for seed in seeds:
         obs = env.reset_arrays(seed=seed)
         pol.reset()
         teach.reset()
-        last = np.zeros(env.n)
+        last, last_t, last_m = np.zeros(env.n), np.zeros(env.n), np.zeros(env.n)
         for _ in range(steps):
             live = env.live_mask.copy()
             lab = teach.act_batch(obs)
+            ms = teacher_side(teach, env.n)
+            for cur, prv, acc in ((np.sign(lab[:, 1]), last_t, "t"), (ms, last_m, "m")):
+                if cur is None:
+                    continue
+                k = int(((cur != 0) & (prv != 0) & (cur != prv) & live).sum())
+                prv[:] = np.where(cur != 0, cur, prv)
+                if acc == "t":
+                    t_flips += k
+                else:
+                    m_flips += k
             if pol.head is not None:
                 z = pol.logits(obs)
                 z = z[0] if isinstance(z, tuple) else z
@@ -75,6 +89,8 @@ def run(env, pol, driver: str, seeds, steps: int, teacher: str = "geodesic") -> 
             "|vy| student": np.abs(t[:, 1]).mean(), "P(+y)": t[:, 2].mean(), "P(-y)": t[:, 3].mean(),
             "P(straight)": t[:, 4].mean(), "P(teacher's side)": own.mean(),
             "side flips /100 steps": 100 * flips / max(live_steps, 1),
+            "teacher label side flips /100": 100 * t_flips / max(live_steps, 1),
+            "teacher memory side flips /100": 100 * m_flips / max(live_steps, 1),
             "sides taken /100 steps": 100 * adopted / max(live_steps, 1), "robot-steps": len(r)}
 
 
