@@ -99,8 +99,9 @@ def collect_cmd(a) -> None:
 
 
 def held_out(student, seqs, near: int = 0) -> tuple[float, float, float, float]:
-    """Mean cross-entropy of the action (not the side read-out's) over the kept samples of ``seqs``; and split by whether the label's side
-    changes within ``near`` steps of the sample (nan without ``near``), and the share of samples near one."""
+    """Mean cross-entropy of the action (not the side read-out's) over the kept samples of ``seqs``; and split
+    by whether the label's side changes within ``near`` steps of the sample (nan without ``near``), and the
+    share of samples near one."""
     import torch
 
     from tin_swarm_env.apps.recurrent_imitation import sequence_loss
