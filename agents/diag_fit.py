@@ -189,6 +189,25 @@ def side_stats(student, seqs) -> dict:
             "mode flips": 100 * f_mode / steps, "label flips": 100 * f_label / steps}
 
 
+def drive(student, layout, scenario: str, seeds: int, steps: int) -> list:
+    """Closed loop: ``student``'s file, acting by the mode through the shield, drives ``seeds`` held-out
+    episodes (from :data:`~tin_swarm_env.apps.evaluate.EVAL_SEED0`, ``steps`` steps) of ``scenario``,
+    labelled by ``apf_student``; the episodes as Sequences (APF's side in ``aux``), for :func:`side_stats`
+    (the student fed what it saw and commanded: its read-out along its own way)."""
+    from tin_swarm_env.apps.evaluate import EVAL_SEED0
+    from tin_swarm_env.apps.imitation import collect
+    from tin_swarm_env.policies.heads import categorical_head
+
+    entry = student.head_entry
+    student.head_entry = categorical_head(student.classes, "mode")
+    try:
+        pol = student.policy(layout)
+    finally:
+        student.head_entry = entry
+    return list(collect(scenario, seeds, EVAL_SEED0, learner=pol, teacher="apf_student", shield="safety_cut",
+                        sequences=True, max_cycles=steps).sequences)
+
+
 def fit_cmd(a) -> None:
     import torch
 
@@ -227,6 +246,9 @@ def fit_cmd(a) -> None:
                   flush=True)
             st_ = side_stats(st, data[g])
             print(f"{name} {g} sides: " + ", ".join(f"{k} {x:.3f}" for k, x in st_.items()), flush=True)
+        for scen in [x for x in a.drive.split(",") if x]:
+            st_ = side_stats(st, drive(st, layout, scen, a.drive_seeds, a.drive_steps))
+            print(f"{name} drives {scen} (mode): " + ", ".join(f"{k} {x:.3f}" for k, x in st_.items()), flush=True)
 
 
 def main(argv=None) -> None:
@@ -247,6 +269,9 @@ def main(argv=None) -> None:
     f.add_argument("--chunk", type=int, default=None, help="override the chunked variants' chunk")
     f.add_argument("--with-dagger", type=int, default=1)
     f.add_argument("--seed", type=int, default=0, help="the weights' and the episode order's seed")
+    f.add_argument("--drive", default="", help="scenarios (comma-separated) each fitted student then drives (mode)")
+    f.add_argument("--drive-seeds", type=int, default=2)
+    f.add_argument("--drive-steps", type=int, default=400)
     a = ap.parse_args(argv)
     collect_cmd(a) if a.cmd == "collect" else fit_cmd(a)
 

@@ -114,3 +114,28 @@ def test_side_stats_count_the_readout_against_the_teachers_side():
     assert s["acc following"] == fol / sum(int((q.aux != 0).sum()) for q in seqs)
     assert s["read-out flips"] == 100 * sum(diag.flips(p, q.keep) for p, q in zip(preds, seqs)) / 48
     assert s["teacher side flips"] == 100 * sum(diag.flips(q.aux, q.keep) for q in seqs) / 48
+
+
+def test_drive_records_the_mode_the_student_commanded_and_apfs_side():
+    """diag_fit.drive: the file (acting by the mode, whatever the student's own acting) drives; each recorded
+    command is the class of the torch student's largest logit on the replayed history (its feedback
+    included), and APF's side is recorded (aux)."""
+    import tin_swarm_env as tse
+    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, previous_actions
+    from tin_swarm_env.policies.heads import categorical_classes
+
+    diag = _diag()
+    lay = tse.parallel_env(scenario="cliff_goal", n_robots=3).layout
+    classes = categorical_classes()
+    st = GRUStudent(lay.size, 8, (8,), signs=lay.mirror_signs(), seed=1, classes=classes, feedback="action",
+                    aux_weight=1.0, acting="sample")
+    seqs = diag.drive(st, lay, "cliff_goal", 1, 12)
+    assert len(seqs) == 1 and st.head_entry["acting"] == "sample"  # the student's own acting is left as it was
+    q = seqs[0]
+    assert q.aux is not None and q.aux.shape == q.keep.shape and len(q.obs) == 12
+    with torch.no_grad():
+        z = st(q.obs, previous_actions(q, len(q.obs), classes)).double().numpy()
+    top2 = np.sort(z, axis=-1)[..., -2:]
+    clear = (top2[..., 1] - top2[..., 0] > 1e-4) & q.live
+    assert clear.sum() > 0.9 * q.live.sum()
+    np.testing.assert_array_equal(q.driven[clear], classes[z.argmax(-1)][clear].astype(np.float32))
