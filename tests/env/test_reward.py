@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
-from tin_swarm_env.env.reward import compute_rewards, distance_to_go, target_distance
+from tin_swarm_env.env.reward import compute_rewards, distance_to_go, reward_params, step_rewards, target_distance
 from tin_swarm_env.scenario import RewardWeights
 from tin_swarm_env.world.state import Reason
 
@@ -211,6 +211,16 @@ def test_compiled_rewards_equal_the_numpy_reference_bit_for_bit(task, seed):
     for g, e in zip(got, want):
         assert g.dtype == e.dtype and g.shape == e.shape
         assert g.tobytes() == e.tobytes()
+    # the env's call: the same three, plus the step's bookkeeping, on a middle step and the last one
+    r, term, why = want
+    for timeout in (False, True):
+        got = step_rewards(reward_params(c), before, after, state, ev, tidx, live, timeout)
+        trunc = live & ~term & timeout
+        reasons = why.copy()
+        reasons[trunc] = Reason.TIMEOUT
+        for g, e in zip(got, (r, term, reasons, trunc, live & ~term & ~trunc)):
+            assert g.dtype == e.dtype and g.tobytes() == e.tobytes()
+        assert got[5] == int((reasons == Reason.ARRIVED).sum())
     if task == "goal":  # the cases the draw is meant to cover occur
         assert (want[2] == Reason.ARRIVED).any() or n < 300
         assert (want[2] == Reason.FELL).any() or n < 300

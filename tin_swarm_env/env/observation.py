@@ -82,11 +82,11 @@ PointSlot = namedtuple("PointSlot", ["start", "width", *SLOT_FIELDS["robots"]])
 BreakSlot = namedtuple("BreakSlot", ["start", "width", *SLOT_FIELDS["breaks"]])
 
 _DEFAULT = ObservationSpec()
-# robots: fewer are encoded (and their distance to go measured, env/tin_swarm.py) on one numba thread: below it
-# the work is too small to pay for the other thread's start. In the env's step, right after sensing (best of 4,
-# 2026-11-26, jacksboro, ~10 robots in range): 300 robots 0.48 ms a step serial vs 0.49 parallel, 500 robots
-# 0.62 vs 0.63, 1 000 robots 0.96 vs 0.92 (bench/world.py's isolated stage, 2048 before, favoured one thread
-# longer). The same bits either way
+# robots: fewer are encoded on one numba thread (the distance to go has its own threshold,
+# tin_swarm.DIST_SERIAL_BELOW): below it the work is too small to pay for the other thread's start. In the env's
+# step, right after sensing (best of 4, 2026-11-26, jacksboro, ~10 robots in range): 300 robots 0.48 ms a step
+# serial vs 0.49 parallel, 500 robots 0.62 vs 0.63, 1 000 robots 0.96 vs 0.92 (bench/world.py's isolated stage,
+# 2048 before, favoured one thread longer). The same bits either way
 OBS_SERIAL_BELOW = 768
 
 

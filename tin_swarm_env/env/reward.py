@@ -70,25 +70,44 @@ def compute_rewards(cfg, dist_before, dist_after, state, events, target_idx, liv
     precedence FELL > ARRIVED > BATTERY, and the battery penalty is not paid on arrival).
     ``dist_before``/``dist_after`` ``(n,)`` m: :func:`distance_to_go` before and after the step;
     ``state`` the state after it (arrival is judged on the straight line to the target).
-    One compiled pass (:func:`_rewards_kernel`, on one thread: a parallel region's start-up costs
-    more than 1 000 robots' rewards, bench 2026-11-26: 45 us parallel vs numpy 52 us at 1 000 robots);
-    the numpy reference, equal bit for bit, is :func:`~.reference.compute_rewards_reference`."""
+    One compiled pass (:func:`step_rewards`, which the env calls with its cached
+    :func:`reward_params`); the numpy reference, equal bit for bit, is
+    :func:`~.reference.compute_rewards_reference`."""
+    return step_rewards(reward_params(cfg), dist_before, dist_after, state, events, target_idx, live, False)[:3]
+
+
+def reward_params(cfg) -> tuple:
+    """The scenario's reward terms as :func:`_rewards_kernel` reads them (a tuple of floats, built
+    once per episode by the env): containment (bool), standoff, arrival radius, then the
+    ``[rewards]`` weights progress_per_m, on_ring_per_step, ring_tolerance_m, energy_per_kj,
+    collision, fall, battery_empty, arrival."""
     w = cfg.rewards
+    c = cfg.task == "containment"
+    return (c, float(cfg.targets.standoff_m) if c else 0.0, 0.0 if c else float(cfg.targets.arrival_radius_m),
+            float(w.progress_per_m), float(w.on_ring_per_step), float(w.ring_tolerance_m), float(w.energy_per_kj),
+            float(w.collision), float(w.fall), float(w.battery_empty), float(w.arrival))
+
+
+def step_rewards(rw, dist_before, dist_after, state, events, target_idx, live, timeout: bool):
+    """:func:`compute_rewards` with ``rw`` from :func:`reward_params`, and the step's bookkeeping
+    in the same pass: ``(rewards, terminated, reasons, truncated, live_after, n_arrived)``, where
+    ``timeout`` (the episode's last step) truncates every live robot not terminated (reason
+    TIMEOUT), ``live_after = live & ~terminated & ~truncated`` and ``n_arrived`` counts reason
+    ARRIVED. On one thread: a parallel region's start-up costs more than 1 000 robots' rewards
+    (bench 2026-11-26: 45 us parallel vs numpy 52 us at 1 000 robots)."""
     f64 = np.float64
-    tpos = np.ascontiguousarray(state.targets.positions, dtype=f64).reshape(-1, 2)
     return _rewards_kernel(
-        cfg.task == "containment", float(cfg.targets.standoff_m) if cfg.task == "containment" else 0.0,
-        float(cfg.targets.arrival_radius_m) if cfg.task != "containment" else 0.0,
-        float(w.progress_per_m), float(w.on_ring_per_step), float(w.ring_tolerance_m), float(w.energy_per_kj),
-        float(w.collision), float(w.fall), float(w.battery_empty), float(w.arrival),
-        np.ascontiguousarray(dist_before, dtype=f64), np.ascontiguousarray(dist_after, dtype=f64),
-        np.ascontiguousarray(state.positions, dtype=f64), tpos,
+        rw, np.ascontiguousarray(dist_before, dtype=f64), np.ascontiguousarray(dist_after, dtype=f64),
+        np.ascontiguousarray(state.positions, dtype=f64),
+        np.ascontiguousarray(state.targets.positions, dtype=f64).reshape(-1, 2),
         np.ascontiguousarray(target_idx, dtype=np.int64), np.ascontiguousarray(live, dtype=np.bool_),
         np.ascontiguousarray(events.energy_j, dtype=f64), np.ascontiguousarray(events.collisions, dtype=f64),
-        np.ascontiguousarray(events.fell, dtype=np.bool_), np.ascontiguousarray(events.emptied, dtype=np.bool_))
+        np.ascontiguousarray(events.fell, dtype=np.bool_), np.ascontiguousarray(events.emptied, dtype=np.bool_),
+        bool(timeout))
 
 
-_NONE, _ARRIVED, _FELL, _BATTERY = int(Reason.NONE), int(Reason.ARRIVED), int(Reason.FELL), int(Reason.BATTERY)
+_NONE, _ARRIVED, _FELL, _BATTERY, _TIMEOUT = (int(Reason.NONE), int(Reason.ARRIVED), int(Reason.FELL),
+                                              int(Reason.BATTERY), int(Reason.TIMEOUT))
 
 
 @njit(cache=True, inline="always")
@@ -100,14 +119,18 @@ def _gain1(before, after):
 
 
 @njit(cache=True)
-def _rewards_kernel(containment, standoff, radius, progress_per_m, on_ring, ring_tol, energy_per_kj, collision, fall,
-                    battery_empty, arrival, before, after, pos, tpos, tidx, live, energy, coll, fell, emptied):
-    """:func:`compute_rewards` for every robot in one loop: the terms added in the reference's
+def _rewards_kernel(rw, before, after, pos, tpos, tidx, live, energy, coll, fell, emptied, timeout):
+    """:func:`step_rewards` for every robot in one loop: the terms added in the reference's
     order (so the float64 sums round the same), then cast to float32."""
+    containment, standoff, radius, progress_per_m, on_ring, ring_tol, energy_per_kj, collision, fall, battery_empty, \
+        arrival = rw
     n = before.shape[0]
     r32 = np.empty(n, dtype=np.float32)
     term = np.empty(n, dtype=np.bool_)
     why = np.empty(n, dtype=np.int8)
+    trunc = np.empty(n, dtype=np.bool_)
+    nxt = np.empty(n, dtype=np.bool_)
+    n_arrived = 0
     for i in range(n):
         k = tidx[i]
         has = k >= 0
@@ -137,9 +160,15 @@ def _rewards_kernel(containment, standoff, radius, progress_per_m, on_ring, ring
         if live[i]:
             r32[i] = np.float32(r)
             term[i] = code != _NONE
-            why[i] = code
+            trunc[i] = timeout and code == _NONE
+            why[i] = _TIMEOUT if trunc[i] else code
+            nxt[i] = code == _NONE and not timeout
+            if code == _ARRIVED:
+                n_arrived += 1
         else:
             r32[i] = np.float32(0.0)
             term[i] = False
+            trunc[i] = False
             why[i] = _NONE
-    return r32, term, why
+            nxt[i] = False
+    return r32, term, why, trunc, nxt, n_arrived
