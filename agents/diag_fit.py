@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 SCENARIOS = ["generated", "generated", "cliff_goal", "ramp"]
-FIELDS = ("obs", "labels", "keep", "live", "driven")
+FIELDS = ("obs", "labels", "keep", "live", "driven", "aux")  # aux: absent from a file written before it
 VARIANTS = {  # name -> GRUStudent / fit options (train_multimodal.py: gru_apf is "gru", mlp_apf "mlp")
     "mlp": dict(cell=None, hidden=64, head=(128, 128), lr=1e-3, chunk=0),
     "gru": dict(cell="gru", hidden=64, head=(64,), lr=1e-3, chunk=0),
@@ -40,6 +40,10 @@ VARIANTS = {  # name -> GRUStudent / fit options (train_multimodal.py: gru_apf i
     "gru_big_chunk": dict(cell="gru", hidden=128, head=(128, 128), lr=1e-3, chunk=64),
     "mlp_chunk": dict(cell=None, hidden=64, head=(128, 128), lr=1e-3, chunk=64),
     "gru_nofb_chunk": dict(cell="gru", hidden=64, head=(64,), lr=1e-3, chunk=64, feedback="none"),
+    # session 27: APF's side (BugMemory.side) as an auxiliary output of the GRU (recurrent_imitation.py)
+    "gru_aux03": dict(cell="gru", hidden=64, head=(64,), lr=1e-3, chunk=64, aux_weight=0.3),
+    "gru_aux1": dict(cell="gru", hidden=64, head=(64,), lr=1e-3, chunk=64, aux_weight=1.0),
+    "gru_aux3": dict(cell="gru", hidden=64, head=(64,), lr=1e-3, chunk=64, aux_weight=3.0),
 }
 
 
@@ -49,7 +53,8 @@ def save_sequences(path: Path, groups: dict) -> None:
     for g, seqs in groups.items():
         for k, q in enumerate(seqs):
             for f in FIELDS:
-                arrays[f"{g}_{k}_{f}"] = getattr(q, f)
+                if getattr(q, f) is not None:
+                    arrays[f"{g}_{k}_{f}"] = getattr(q, f)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".tmp.npz")
     np.savez_compressed(tmp, **arrays)
@@ -94,8 +99,9 @@ def collect_cmd(a) -> None:
 
 
 def held_out(student, seqs, near: int = 0) -> tuple[float, float, float, float]:
-    """Mean cross-entropy over the kept samples of ``seqs``; and split by whether the label's side
-    changes within ``near`` steps of the sample (nan without ``near``), and the share of samples near one."""
+    """Mean cross-entropy of the action (not the side read-out's) over the kept samples of ``seqs``; and split
+    by whether the label's side changes within ``near`` steps of the sample (nan without ``near``), and the
+    share of samples near one."""
     import torch
 
     from tin_swarm_env.apps.recurrent_imitation import sequence_loss
@@ -104,7 +110,7 @@ def held_out(student, seqs, near: int = 0) -> tuple[float, float, float, float]:
     tot, cnt, sw, ns = 0.0, 0, [], []
     with torch.no_grad():
         for q in seqs:
-            err = sequence_loss(student, q)[0].numpy()
+            err = sequence_loss(student, q, parts=True)[0].numpy()  # the action's cross-entropy alone
             tot += float(err.sum())
             cnt += len(err)
             if near:
@@ -126,6 +132,82 @@ def held_out(student, seqs, near: int = 0) -> tuple[float, float, float, float]:
             float(ns.mean()) if len(ns) else float("nan"), len(sw) / max(len(sw) + len(ns), 1))
 
 
+def flips(side: np.ndarray, keep: np.ndarray) -> int:
+    """Changes of side along each robot's kept steps: ``side`` and ``keep`` ``(T, n)``; zeros (no side)
+    are skipped, so + 0 + is no change and + 0 - is one."""
+    out = 0
+    for j in range(side.shape[1]):
+        s = side[keep[:, j], j]
+        s = s[s != 0]
+        out += int((s[1:] != s[:-1]).sum())
+    return out
+
+
+def side_stats(student, seqs) -> dict:
+    """How ``student`` keeps a side on ``seqs`` (fed the recorded observations, its state from zero):
+    over the kept samples, the side read-out's accuracy against the teacher's side (``Sequence.aux``;
+    all samples, those where the teacher follows a boundary, and those where it does not; nan without a
+    read-out), the read-out's side flips and the teacher's per 100 kept robot-steps (:func:`flips`), and
+    the flips of the side of the action head's mode (sign of ``vy`` of the likeliest class) and of the
+    teacher's label (of its nearest class)."""
+    import torch
+
+    from tin_swarm_env.apps.recurrent_imitation import SIDES, previous_actions
+    from tin_swarm_env.policies.heads import nearest_class
+
+    classes = student.classes
+    acc, acc_f, acc_0, f_pred, f_true, f_mode, f_label, steps = 0, 0, 0, 0, 0, 0, 0, 0
+    n_f = n_0 = n_all_f = 0
+    for q in seqs:
+        prev = previous_actions(q, len(q.obs), classes) if student.feedback != "none" else None
+        with torch.no_grad():
+            out, z, _ = student.forward_aux(torch.as_tensor(q.obs), prev)
+        mode = np.sign(classes[out.numpy().argmax(-1)][..., 1])
+        lab = np.sign(classes[nearest_class(q.labels.reshape(-1, 2), classes)][:, 1]).reshape(q.keep.shape)
+        k = q.keep
+        steps += int(k.sum())
+        f_mode += flips(mode, k)
+        f_label += flips(lab, k)
+        if q.aux is not None:
+            f_true += flips(q.aux, k)
+            n_all_f += int(((q.aux != 0) & k).sum())
+        if z is not None and q.aux is not None:
+            pred = np.asarray(SIDES)[z.numpy().argmax(-1)]
+            ok = (pred == q.aux) & k
+            fol = (q.aux != 0) & k
+            acc += int(ok.sum())
+            acc_f += int((ok & fol).sum())
+            acc_0 += int((ok & ~fol).sum())
+            n_f += int(fol.sum())
+            n_0 += int((k & ~fol).sum())
+            f_pred += flips(pred, k)
+    nan = float("nan")
+    has = n_f + n_0 > 0
+    return {"side acc": acc / steps if has else nan, "acc following": acc_f / max(n_f, 1) if has else nan,
+            "acc not following": acc_0 / max(n_0, 1) if has else nan, "following share": n_all_f / max(steps, 1),
+            "read-out flips": 100 * f_pred / steps if has else nan, "teacher side flips": 100 * f_true / steps,
+            "mode flips": 100 * f_mode / steps, "label flips": 100 * f_label / steps}
+
+
+def drive(student, layout, scenario: str, seeds: int, steps: int) -> list:
+    """Closed loop: ``student``'s file, acting by the mode through the shield, drives ``seeds`` held-out
+    episodes (from :data:`~tin_swarm_env.apps.evaluate.EVAL_SEED0`, ``steps`` steps) of ``scenario``,
+    labelled by ``apf_student``; the episodes as Sequences (APF's side in ``aux``), for :func:`side_stats`
+    (the student fed what it saw and commanded: its read-out along its own way)."""
+    from tin_swarm_env.apps.evaluate import EVAL_SEED0
+    from tin_swarm_env.apps.imitation import collect
+    from tin_swarm_env.policies.heads import categorical_head
+
+    entry = student.head_entry
+    student.head_entry = categorical_head(student.classes, "mode")
+    try:
+        pol = student.policy(layout)
+    finally:
+        student.head_entry = entry
+    return list(collect(scenario, seeds, EVAL_SEED0, learner=pol, teacher="apf_student", shield="safety_cut",
+                        sequences=True, max_cycles=steps).sequences)
+
+
 def fit_cmd(a) -> None:
     import torch
 
@@ -144,9 +226,10 @@ def fit_cmd(a) -> None:
         v = {**VARIANTS[name]}
         if a.chunk is not None and v["chunk"]:
             v["chunk"] = a.chunk
-        st = GRUStudent(layout.size, v["hidden"], v["head"], signs=layout.mirror_signs(), seed=0,
+        st = GRUStudent(layout.size, v["hidden"], v["head"], signs=layout.mirror_signs(), seed=a.seed,
                         classes=categorical_classes(), cell=v["cell"], acting="sample",
-                        feedback=v.get("feedback", "action" if v["cell"] else "none"))
+                        feedback=v.get("feedback", "action" if v["cell"] else "none"),
+                        aux_weight=v.get("aux_weight", 0.0))
         t0 = time.perf_counter()
 
         def log(ep, loss, st=st, name=name, t0=t0):
@@ -156,11 +239,16 @@ def fit_cmd(a) -> None:
                 print(f"{name} epoch {ep + 1}: train {loss:.3f} val_bc {vb:.3f} val_dag {vd:.3f} "
                       f"({time.perf_counter() - t0:.0f} s)", flush=True)
 
-        fit_sequences(st, train, epochs=a.epochs, lr=v["lr"], chunk=v["chunk"], callback=log)
+        fit_sequences(st, train, epochs=a.epochs, lr=v["lr"], chunk=v["chunk"], callback=log, seed=a.seed)
         for g in ("val_bc", "val_dag", "train_bc"):
             m, s, o, share = held_out(st, data[g], a.near)
             print(f"{name} {g}: {m:.3f} (near switch {s:.3f} on {share:.0%} of the samples, elsewhere {o:.3f})",
                   flush=True)
+            st_ = side_stats(st, data[g])
+            print(f"{name} {g} sides: " + ", ".join(f"{k} {x:.3f}" for k, x in st_.items()), flush=True)
+        for scen in [x for x in a.drive.split(",") if x]:
+            st_ = side_stats(st, drive(st, layout, scen, a.drive_seeds, a.drive_steps))
+            print(f"{name} drives {scen} (mode): " + ", ".join(f"{k} {x:.3f}" for k, x in st_.items()), flush=True)
 
 
 def main(argv=None) -> None:
@@ -180,6 +268,10 @@ def main(argv=None) -> None:
     f.add_argument("--near", type=int, default=5)
     f.add_argument("--chunk", type=int, default=None, help="override the chunked variants' chunk")
     f.add_argument("--with-dagger", type=int, default=1)
+    f.add_argument("--seed", type=int, default=0, help="the weights' and the episode order's seed")
+    f.add_argument("--drive", default="", help="scenarios (comma-separated) each fitted student then drives (mode)")
+    f.add_argument("--drive-seeds", type=int, default=2)
+    f.add_argument("--drive-steps", type=int, default=400)
     a = ap.parse_args(argv)
     collect_cmd(a) if a.cmd == "collect" else fit_cmd(a)
 

@@ -15,7 +15,12 @@ such steps, and how often a robot's commanded side (sign of ``vy``, ignoring zer
 
 ``--teacher apf_student`` labels with APF along the driven trajectory instead (tin_swarm_env/apps/apf_teacher.py:
 it is told each step's executed command); the last column then counts the steps at which it took the
-student's side, per 100 robot-steps (the geodesic teacher: 0).
+student's side, per 100 robot-steps (the geodesic teacher: 0). The two columns before it count, the same way as
+the student's side flips, the side of the teacher's label (sign of its ``vy``; for a categorical student the
+label snapped to its head's nearest class, as the student only ever commands a class; the raw label's sign
+changes far more often: docs/figures/teacher_multimodal.md, fifth run) and, for APF, the side its memory follows
+(``BugMemory.side``, :func:`~tin_swarm_env.apps.imitation.teacher_side`): with the teacher driving, APF's own
+side flips per 100 steps beside the student's.
 """
 
 from __future__ import annotations
@@ -26,9 +31,17 @@ import numpy as np
 
 import tin_swarm_env as tse
 from tin_swarm_env.apps.evaluate import EVAL_SEED0
-from tin_swarm_env.apps.imitation import TEACHERS, make_teacher
+from tin_swarm_env.apps.imitation import TEACHERS, make_teacher, teacher_side
 from tin_swarm_env.policies import load_policy
-from tin_swarm_env.policies.heads import softmax
+from tin_swarm_env.policies.heads import nearest_class, softmax
+
+
+def side_flips(side, last, live) -> tuple[int, np.ndarray]:
+    """One step of the side-flip count: ``side`` ``(n,)`` this step's sides (-1, 0, +1), ``last`` each row's
+    last non-zero side (0: none yet), ``live`` the rows that count. Returns the live rows whose side is
+    non-zero and differs from a non-zero last side, and the updated ``last`` (a 0 keeps the last side)."""
+    k = int(((side != 0) & (last != 0) & (side != last) & live).sum())
+    return k, np.where(side != 0, side, last)
 
 
 def run(env, pol, driver: str, seeds, steps: int, teacher: str = "geodesic") -> dict:
@@ -36,14 +49,22 @@ def run(env, pol, driver: str, seeds, steps: int, teacher: str = "geodesic") -> 
     adopted = 0
     rows = []
     flips, live_steps = 0, 0
+    t_flips, m_flips = 0, 0  # the teacher's label side and its memory's side (BugMemory.side), the same count
     for seed in seeds:
         obs = env.reset_arrays(seed=seed)
         pol.reset()
         teach.reset()
-        last = np.zeros(env.n)
+        last, last_t, last_m = np.zeros(env.n), np.zeros(env.n), np.zeros(env.n)
         for _ in range(steps):
             live = env.live_mask.copy()
             lab = teach.act_batch(obs)
+            lab_c = lab if pol.head is None else pol.head.actions[nearest_class(lab, pol.head.actions)]
+            k, last_t = side_flips(np.sign(lab_c[:, 1]), last_t, live)
+            t_flips += k
+            ms = teacher_side(teach, env.n)
+            if ms is not None:
+                k, last_m = side_flips(ms, last_m, live)
+                m_flips += k
             if pol.head is not None:
                 z = pol.logits(obs)
                 z = z[0] if isinstance(z, tuple) else z
@@ -56,9 +77,8 @@ def run(env, pol, driver: str, seeds, steps: int, teacher: str = "geodesic") -> 
             else:
                 a = pol.net_batch(obs)
                 mass = np.full((env.n, 3), np.nan)
-            side = np.sign(a[:, 1])
-            flips += int(((side != 0) & (last != 0) & (side != last) & live).sum())
-            last = np.where(side != 0, side, last)
+            k, last = side_flips(np.sign(a[:, 1]), last, live)
+            flips += k
             live_steps += int(live.sum())
             rows.append(np.column_stack([lab[:, 1], a[:, 1], mass])[live])
             act = lab if driver == "teacher" else (pol.shield_cut(a, obs) if pol.shield_cut is not None else a)
@@ -75,6 +95,8 @@ def run(env, pol, driver: str, seeds, steps: int, teacher: str = "geodesic") -> 
             "|vy| student": np.abs(t[:, 1]).mean(), "P(+y)": t[:, 2].mean(), "P(-y)": t[:, 3].mean(),
             "P(straight)": t[:, 4].mean(), "P(teacher's side)": own.mean(),
             "side flips /100 steps": 100 * flips / max(live_steps, 1),
+            "teacher label side flips /100": 100 * t_flips / max(live_steps, 1),
+            "teacher memory side flips /100": 100 * m_flips / max(live_steps, 1),
             "sides taken /100 steps": 100 * adopted / max(live_steps, 1), "robot-steps": len(r)}
 
 

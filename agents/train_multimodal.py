@@ -38,6 +38,15 @@ of the first three runs underfit, agents/diag_fit.py), 12 epochs per fit for bot
 
     nice -n 19 python agents/train_multimodal.py --recipe apf_chunk --out runs/multimodal4
 
+The fifth run (``--recipe apf_aux``): the fourth run's recipe, the GRU also fitted to APF's side
+(``BugMemory.side``, recorded in each sequence's ``aux``) through a side read-out of its state, weighted
+:data:`AUX_WEIGHTS` (``recurrent_imitation.AUX_WEIGHT`` per variant; the read-out is not in the file):
+
+    gru_aux6  gru_apf4 with the side read-out
+    gru_ctl6  gru_apf4 again (no read-out), the control trained in the same run with the same APF
+
+    nice -n 19 python agents/train_multimodal.py --recipe apf_aux --out runs/multimodal6
+
 The first three recipes were fitted on whole episodes (``chunk`` 0, the default then): this script sets
 :data:`~tin_swarm_env.apps.recurrent_imitation.CHUNK` per recipe (:data:`CHUNKS`), so they run as they did.
 
@@ -48,6 +57,7 @@ Each writes ``OUT/<name>/policy`` (a pickle-free policy file) and ``OUT/<name>/m
 from __future__ import annotations
 
 import argparse
+import json
 import time
 from pathlib import Path
 
@@ -62,8 +72,10 @@ STUDENT_DRIVES = dict(dagger_rounds=4, dagger_episodes=12, dagger_beta=0.0, stal
 RECIPES = {"mixed": (COMMON, ("mlp_mse", "mlp_cat", "gru_cat")),
            "student": ({**COMMON, **STUDENT_DRIVES}, ("gru_fb", "gru_cat0", "mlp_cat0")),
            "apf": ({**COMMON, **STUDENT_DRIVES, "teacher": "apf_student"}, ("gru_apf", "mlp_apf", "gru_apf_plain")),
-           "apf_chunk": ({**COMMON, **STUDENT_DRIVES, "teacher": "apf_student"}, ("gru_apf4", "mlp_apf4"))}
-CHUNKS = {"mixed": 0, "student": 0, "apf": 0, "apf_chunk": 64}  # fit_sequences' piece length per recipe
+           "apf_chunk": ({**COMMON, **STUDENT_DRIVES, "teacher": "apf_student"}, ("gru_apf4", "mlp_apf4")),
+           "apf_aux": ({**COMMON, **STUDENT_DRIVES, "teacher": "apf_student"}, ("gru_aux6", "gru_ctl6"))}
+CHUNKS = {"mixed": 0, "student": 0, "apf": 0, "apf_chunk": 64, "apf_aux": 64}  # fit_sequences' piece length
+AUX_WEIGHTS = {"gru_aux6": 1.0}  # the side read-out's weight in the loss per variant (others: 0, no read-out)
 VARIANTS = {
     "mlp_mse": dict(student="mlp", head="mean", bc_epochs=20),
     "mlp_cat": dict(student="mlp", head="categorical", bc_epochs=20),
@@ -74,6 +86,7 @@ VARIANTS.update(mlp_cat0=VARIANTS["mlp_cat"], gru_cat0=VARIANTS["gru_cat"],
 VARIANTS.update(gru_apf=VARIANTS["gru_fb"], mlp_apf=VARIANTS["mlp_cat"],
                 gru_apf_plain={**VARIANTS["gru_fb"], "teacher": "apf"})
 VARIANTS.update(gru_apf4={**VARIANTS["gru_fb"], "bc_epochs": 12}, mlp_apf4={**VARIANTS["mlp_cat"], "bc_epochs": 12})
+VARIANTS.update(gru_aux6=VARIANTS["gru_apf4"], gru_ctl6=VARIANTS["gru_apf4"])
 
 
 def main(argv=None) -> None:
@@ -91,6 +104,9 @@ def main(argv=None) -> None:
         out = Path(a.out) / name
         out.mkdir(parents=True, exist_ok=True)
         args = Args(**{**common, **VARIANTS[name], "out_dir": str(out)})
+        recurrent_imitation.AUX_WEIGHT = AUX_WEIGHTS.get(name, 0.0)
+        (out / "variant.json").write_text(json.dumps({"recipe": a.recipe, "chunk": recurrent_imitation.CHUNK,
+                                                      "aux_weight": recurrent_imitation.AUX_WEIGHT}) + "\n")
         train_student(args, out, log=lambda m, n=name: print(f"[{n}] {m}", flush=True))
         print(f"[{name}] {(time.perf_counter() - t0) / 60:.1f} min", flush=True)
 

@@ -196,3 +196,31 @@ def test_teacher_is_validated_by_name_before_any_episode():
         with pytest.raises(ArgumentError, match=f"teacher {bad!r} is not a teacher; choose from apf, geodesic, "
                                                 "apf_student"):
             collect("cliff_goal", 1, seed=0, teacher=bad, **SMALL)
+
+
+def test_sequences_record_apfs_side_behind_each_label_and_mirror_it():
+    """Sequence.aux is APF's BugMemory.side right after it labelled that step: a fresh APFPolicy fed the
+    recorded observations (APF drove: BC) has that side at every step of every robot; the mirror image
+    of the data negates it; the map-knowing teacher has no such memory (None)."""
+    from tin_swarm_env.apps.imitation import Sequence, teacher_side
+
+    kw = {"n_robots": 4, "max_cycles": 200}
+    demos = collect("cliff_goal", 1, seed=3, teacher="apf", sequences=True, **kw)
+    q = demos.sequences[0]
+    assert q.aux.dtype == np.int8 and q.aux.shape == q.keep.shape
+    env = tse.parallel_env(scenario="cliff_goal", **kw)
+    apf = APFPolicy(env)
+    for t in range(len(q.obs)):
+        apf.act_batch(q.obs[t])
+        np.testing.assert_array_equal(q.aux[t], apf.memory.side)
+    assert (q.aux != 0).any() and (q.aux == 0).any()  # it followed a boundary and headed for its target
+    m = demos.mirrored(env.layout).sequences[0]
+    np.testing.assert_array_equal(m.aux, -q.aux)
+    geo = collect("cliff_goal", 1, seed=3, teacher="geodesic", sequences=True, **kw)
+    assert geo.sequences[0].aux is None and geo.mirrored(env.layout).sequences[0].aux is None
+    fresh = APFPolicy(env)
+    np.testing.assert_array_equal(teacher_side(fresh, 3), np.zeros(3, np.int8))  # memory not grown yet: 0
+    fresh.memory = fresh.memory.grow(2)
+    fresh.memory.side[:] = [1, -1]
+    np.testing.assert_array_equal(teacher_side(fresh, 3), np.int8([1, -1, 0]))
+    assert teacher_side(object(), 3) is None and Sequence(q.obs, q.labels, q.keep, q.live).aux is None

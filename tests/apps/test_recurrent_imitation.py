@@ -382,3 +382,105 @@ def test_fit_sequences_refuses_a_bad_chunk_by_name():
     for bad in (-1, 2.5, True, "64"):
         with pytest.raises(ArgumentError, match="fit_sequences: chunk must be an integer >= 0"):
             fit_sequences(GRUStudent(3, 4, (4,)), seqs, epochs=1, chunk=bad)
+
+
+def _side_sequences(T, n, d, count, seed=0):
+    """The cue sequences with the side to keep as ``aux``: +-1 (the cue) from step 1 on, 0 at step 0."""
+    seqs = _cue_sequences(T, n, d, count, seed)
+    for q in seqs:
+        q.aux = np.zeros((T, n), np.int8)
+        q.aux[1:] = np.sign(q.obs[0, :, 0]).astype(np.int8)
+    return seqs
+
+
+def test_side_readout_learns_the_side_only_memory_tells():
+    """The action labels are all equal (straight on), so the action head has nothing to learn about the
+    cue; the side read-out must carry it from step 0 to the end: after the fit its argmax is the side at
+    every step of every robot (step 0: none), and the loss is the action's plus aux_weight times the
+    side's, exactly."""
+    from tin_swarm_env.apps.recurrent_imitation import SIDES, GRUStudent, fit_sequences, sequence_loss, side_logits
+
+    seqs = _side_sequences(6, 32, 3, 4)
+    for q in seqs:
+        q.labels[:] = np.float32([0.5, 0.0])
+    st = GRUStudent(3, 8, (8,), seed=0, aux_weight=0.5)
+    fit_sequences(st, seqs, epochs=150, lr=1e-2)
+    for q in seqs:
+        pred = np.asarray(SIDES)[side_logits(st, q).argmax(-1)]
+        np.testing.assert_array_equal(pred, q.aux)
+        with torch.no_grad():
+            act, side, _ = sequence_loss(st, q, parts=True)
+            tot, _ = sequence_loss(st, q)
+        assert torch.equal(tot, act + 0.5 * side) and float(side.mean()) < 0.05
+    plain = seqs[0]
+    no_aux = Sequence(plain.obs, plain.labels, plain.keep, plain.live, plain.driven)
+    with torch.no_grad():
+        act2, side2, _ = sequence_loss(st, no_aux, parts=True)
+        assert side2 is None and torch.equal(sequence_loss(st, no_aux)[0], act2)  # nothing to fit: no term
+
+
+@pytest.mark.parametrize("categorical", [False, True])
+def test_side_readout_is_mirror_equivariant_and_not_in_the_file(tmp_path, categorical):
+    """With the mirror, the read-out of the mirrored history is the read-out with left and right
+    swapped (random observations over a history, feedback on); the exported file is the same as the
+    file of a student without a read-out that has the same cell and head weights, and acts as the torch
+    student's action output."""
+    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, previous_actions, side_logits
+    from tin_swarm_env.env.observation import mirror_action
+    from tin_swarm_env.policies import load_policy
+    from tin_swarm_env.policies.heads import categorical_classes
+
+    env = tse.parallel_env(scenario="cliff_goal", **SMALL)
+    lay = env.layout
+    classes = categorical_classes() if categorical else None
+    kw = dict(signs=lay.mirror_signs(), seed=3, classes=classes, feedback="action")
+    st = GRUStudent(lay.size, 12, (8,), aux_weight=1.0, **kw)
+    rng = np.random.default_rng(4)
+    T = 7
+    q = Sequence(rng.uniform(-1, 1, (T, 3, lay.size)).astype(np.float32), np.zeros((T, 3, 2), np.float32),
+                 np.ones((T, 3), bool), np.ones((T, 3), bool), rng.uniform(-1, 1, (T, 3, 2)).astype(np.float32))
+    m = Sequence(lay.mirror(q.obs).astype(np.float32), q.labels, q.keep, q.live, mirror_action(q.driven))
+    z, zm = side_logits(st, q), side_logits(st, m)
+    np.testing.assert_allclose(zm, z[..., ::-1], atol=1e-5)
+    assert np.abs(z[..., 0] - z[..., 2]).max() > 1e-3  # not trivially symmetric
+    twin = GRUStudent(lay.size, 12, (8,), **kw)
+    twin.load_state_dict({k: v for k, v in st.state_dict().items() if not k.startswith("aux.")})
+    st.export(tmp_path / "a", lay, scenario="cliff_goal")
+    twin.export(tmp_path / "b", lay, scenario="cliff_goal")
+    for f in sorted(p.name for p in (tmp_path / "a").iterdir()):
+        assert (tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes(), f
+    pol = load_policy(tmp_path / "a", env)
+    demos = collect("cliff_goal", 1, seed=1, teacher="apf", sequences=True, learner=pol, **SMALL)
+    qq = demos.sequences[0]
+    with torch.no_grad():
+        ref = st(qq.obs, previous_actions(qq, len(qq.obs), classes)).double().numpy()
+    pol.reset()
+    if categorical:
+        out = []
+        for t in range(len(qq.obs)):
+            zt, _ = pol.logits(qq.obs[t])
+            pol.remember(pol.head.act(zt))
+            out.append(zt)
+        out = np.stack(out)
+    else:
+        out, ref = np.stack([pol.net_batch(qq.obs[t]) for t in range(len(qq.obs))]), np.clip(ref, -1, 1)
+    assert np.abs(out - ref).max() < 1e-4
+
+
+def test_side_readout_options_and_targets_are_checked_by_name():
+    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences, side_logits
+
+    for bad in (-0.5, float("nan"), True, "1"):
+        with pytest.raises(ArgumentError, match="GRUStudent: aux_weight must be a finite number >= 0"):
+            GRUStudent(3, aux_weight=bad)
+    with pytest.raises(ArgumentError, match=r"> 0 only with a cell"):
+        GRUStudent(3, cell=None, aux_weight=1.0)
+    with pytest.raises(ArgumentError, match="side_logits: the student has no side read-out"):
+        side_logits(GRUStudent(3, 4, (4,)), _cue_sequences(4, 2, 3, 1)[0])
+    q = _side_sequences(4, 2, 3, 1)[0]
+    q.aux[2, 1] = 2
+    with pytest.raises(ArgumentError, match=r"fit_sequences: a sequence's aux must be .* sides in \[-1, 0, 1\]"):
+        fit_sequences(GRUStudent(3, 4, (4,), aux_weight=1.0), [q], epochs=1)
+    q.aux = np.zeros((3, 2), np.int8)
+    with pytest.raises(ArgumentError, match="got shape"):
+        fit_sequences(GRUStudent(3, 4, (4,), aux_weight=1.0), [q], epochs=1)

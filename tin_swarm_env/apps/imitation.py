@@ -132,7 +132,8 @@ class Demos:
         from ..env.observation import mirror_action
 
         seqs = tuple(Sequence(layout.mirror(q.obs), mirror_action(q.labels), q.keep, q.live,
-                              None if q.driven is None else mirror_action(q.driven)) for q in self.sequences)
+                              None if q.driven is None else mirror_action(q.driven),
+                              None if q.aux is None else -q.aux) for q in self.sequences)
         return Demos(layout.mirror(self.obs), mirror_action(self.actions), self.returns.copy(), self.arrived,
                      self.fell, 0, seqs)
 
@@ -148,6 +149,11 @@ class Sequence:
     driven  (T, n, 2) float32  the action the driving file commanded, before the shield (the learner's
                                own, also on steps where DAgger's teacher drove; BC: the teacher's), the
                                feedback a recurrent file reads at the next step; None: not recorded
+    aux     (T, n)    int8     the side the teacher follows a boundary on at that step, after labelling it
+                               (APF's ``BugMemory.side``: +1 the boundary on the robot's right, -1 on its
+                               left, 0 none; :func:`teacher_side`), the target of a recurrent student's side
+                               read-out (apps/recurrent_imitation.py); its mirror image is ``-aux``. None: the
+                               teacher has no such memory (``"geodesic"``)
     """
 
     obs: np.ndarray
@@ -155,6 +161,23 @@ class Sequence:
     keep: np.ndarray
     live: np.ndarray
     driven: np.ndarray | None = None
+    aux: np.ndarray | None = None
+
+
+def teacher_side(teacher, n: int) -> np.ndarray | None:
+    """``(n,)`` int8: the side each row's boundary search follows in ``teacher``'s memory now
+    (:class:`~tin_swarm_env.policies.apf.BugMemory` ``side``, read through the teacher's ``memory``;
+    rows the memory has not grown to, or APF with the break field off: 0). None: a teacher without
+    that memory (GeodesicPolicy)."""
+    from ..policies.bug import BugMemory
+
+    mem = getattr(teacher, "memory", None)
+    if not isinstance(mem, BugMemory):
+        return None
+    out = np.zeros(n, dtype=np.int8)
+    m = min(n, len(mem.side))
+    out[:m] = mem.side[:m]
+    return out
 
 
 def _discounted(rewards, live, gamma):
@@ -191,10 +214,11 @@ def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=No
     n = env.n
     reasons = np.full(n, int(Reason.NONE), dtype=np.int8)
     best, since = env.distance_to_go(), np.zeros(n, dtype=np.int64)
-    O, A, R, L, K, D = [], [], [], [], [], []
+    O, A, R, L, K, D, S = [], [], [], [], [], [], []
     live = env.live_mask
     while live.any():
         label = teacher.act_batch(obs)  # every row, every step: the teacher's memory sees the whole stream
+        S.append(teacher_side(teacher, n))  # the side behind this label (before driven() may take the student's)
         act = label if learner is None else learner.act_batch(obs)
         D.append(np.asarray(act, dtype=np.float32))
         if learner is not None and shield is not None:
@@ -219,7 +243,8 @@ def _episode(env, teacher, learner, seed, gamma, beta=0.0, stall_steps=0, rng=No
         live = env.live_mask
     O, A, L, K = np.stack(O), np.stack(A), np.stack(L), np.stack(K)  # (T, n, ...)
     ret = _discounted(np.asarray(R), L, gamma)[K]  # row-major: step by step, robot order
-    seq = Sequence(O, A, K, L, np.stack(D)) if sequences else None
+    aux = None if S[0] is None else np.stack(S)
+    seq = Sequence(O, A, K, L, np.stack(D), aux) if sequences else None
     return O[K], A[K], ret.astype(np.float32), reasons, seq
 
 

@@ -49,6 +49,21 @@ file only ever commands a class: the teacher's actions in BC data are not classe
 the mirrored stream reads the mirrored previous action (``vy`` negated), so equivariance over whole
 histories still holds exactly.
 
+**An auxiliary output: the teacher's side** (``aux_weight`` > 0, with a cell). APF keeps in its memory
+which side of a boundary it follows (:class:`~tin_swarm_env.policies.apf.BugMemory` ``side``: -1, 0, +1),
+and that memory decides when it turns back; the action's likelihood only says what to do this step. A
+student with ``aux_weight`` has a second, linear read-out of the GRU's output: 3 logits for the side the
+teacher follows at that step (:attr:`Sequence.aux <tin_swarm_env.apps.imitation.Sequence>`, recorded by
+:func:`~tin_swarm_env.apps.imitation.collect` from APF's memory), fitted by cross-entropy beside the
+action, the loss per kept sample ``action loss + aux_weight * side cross-entropy``. The side must then be
+linearly readable from the state the head reads, so the GRU is taught to carry it. With ``signs`` the
+mirrored stream's side logits are taken in reverse order (the mirror swaps left and right), so the side
+read-out is mirror-equivariant too. The read-out is not part of the policy file: :meth:`policy` and
+:meth:`export` write the cell and the action head only, so the exported file acts exactly as the torch
+student's action output (``tests/apps/test_recurrent_imitation.py``); the auxiliary loss changes the
+file only through the weights it trained. A sequence without ``aux`` (a teacher without that memory)
+adds nothing to the loss.
+
 **DAgger** drives with :meth:`GRUStudent.policy`, the numpy
 :class:`~tin_swarm_env.policies.recurrent.RecurrentPolicy` built from the current weights: the
 learner that collects is the file that ships (its memory reset with every episode), and the
@@ -61,10 +76,13 @@ import numpy as np
 
 from ..errors import ArgumentError, require
 
-__all__ = ["GRUStudent", "fit_sequences", "sequence_loss", "previous_actions", "GRAD_CLIP", "CHUNK"]
+__all__ = ["GRUStudent", "fit_sequences", "sequence_loss", "previous_actions", "side_logits", "GRAD_CLIP", "CHUNK",
+           "SIDES", "AUX_WEIGHT"]
 
 GRAD_CLIP = 1.0  # the gradient norm each step of fit_sequences is clipped to
 CHUNK = 64  # fit_sequences' default piece length, steps (module docstring; 0: whole episodes)
+AUX_WEIGHT = 0.0  # GRUStudent's default aux_weight (read at the call; agents/train_multimodal.py sets it per variant)
+SIDES = (-1, 0, 1)  # the auxiliary read-out's classes, in logit order: the teacher's BugMemory.side
 
 
 def _torch():
@@ -72,7 +90,7 @@ def _torch():
 
 
 def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: int = 0, *, classes=None,
-               cell: str | None = "gru", acting: str = "mode", feedback: str = "none"):
+               cell: str | None = "gru", acting: str = "mode", feedback: str = "none", aux_weight: float | None = None):
     """A fresh student (module docstring): ``obs_size`` inputs, a GRU of ``hidden`` units, a head of
     hidden widths ``head`` then 2 outputs; ``signs`` ``(obs_size,)`` (the layout's mirror signs):
     mirror-equivariant. Weights drawn from ``torch.manual_seed(seed)``. A ``torch.nn.Module`` with
@@ -80,7 +98,9 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
     zero state), :meth:`policy` and :meth:`export`. ``classes`` ``(K, 2)`` (e.g.
     :func:`~tin_swarm_env.policies.heads.categorical_classes`): a categorical head, ``forward``
     gives ``(T, B, K)`` logits and the file acts by ``acting``; ``cell=None``: no GRU (an MLP);
-    ``feedback="action"``: the GRU also reads the previous commanded action (module docstring)."""
+    ``feedback="action"``: the GRU also reads the previous commanded action (module docstring);
+    ``aux_weight`` > 0 (needs a cell): the side read-out and its weight in the loss (module docstring; None:
+    :data:`AUX_WEIGHT`, read at the call)."""
     torch = _torch()
     nn = torch.nn
     from ..env.observation import ACTION_PARITY
@@ -97,6 +117,11 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
         raise ArgumentError(f"GRUStudent: feedback must be one of {list(FEEDBACKS)} (not 'none' only with a cell), "
                             f"got {feedback!r} with cell {cell!r}")
     n_fb = FEEDBACKS[feedback]
+    aux_weight = AUX_WEIGHT if aux_weight is None else aux_weight
+    if isinstance(aux_weight, bool) or not isinstance(aux_weight, (int, float)) or not np.isfinite(aux_weight) \
+            or aux_weight < 0 or (aux_weight > 0 and cell is None):
+        raise ArgumentError(f"GRUStudent: aux_weight must be a finite number >= 0 (> 0 only with a cell), got "
+                            f"{aux_weight!r} with cell {cell!r}")
     from ..policies.heads import categorical_head, mirror_permutation
 
     head_entry = None if classes is None else categorical_head(classes, acting)
@@ -122,6 +147,8 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
                 if i < len(widths) - 2:
                     mods.append(nn.Tanh())
             self.head = nn.Sequential(*mods)
+            self.aux_weight = float(aux_weight)
+            self.aux = nn.Linear(hidden, len(SIDES)) if aux_weight > 0 else None  # the side read-out (not exported)
             self.signs = None if signs is None else [float(s) for s in signs]
             self.register_buffer("_signs", torch.tensor(np.ones(obs_size) if signs is None else np.array(signs),
                                                         dtype=torch.float32))
@@ -130,9 +157,9 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
 
         def _net(self, x, h0=None):
             if self.gru is None:
-                return self.head(x), None
+                return self.head(x), None, None
             y, h = self.gru(x, h0)
-            return self.head(y), h
+            return self.head(y), None if self.aux is None else self.aux(y), h
 
         def forward(self, x, prev=None):
             return self.forward_state(x, prev)[0]
@@ -142,6 +169,12 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
             and the state after the last step: ``(outputs, h)`` (``h`` None without a cell). Feeding
             an episode's steps in pieces, each from the last one's state, gives ``forward`` of the
             whole episode (truncated backpropagation: :func:`fit_sequences`'s ``chunk``)."""
+            out, _, h = self.forward_aux(x, prev, h0)
+            return out, h
+
+        def forward_aux(self, x, prev=None, h0=None):
+            """:meth:`forward_state` with the side read-out: ``(outputs, side_logits, h)``,
+            ``side_logits`` ``(T, B, 3)`` in :data:`SIDES` order (None without ``aux_weight``)."""
             x = torch.as_tensor(x, dtype=torch.float32)
             if n_fb:
                 if prev is None:
@@ -153,10 +186,12 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
             xx = torch.cat([x, x * self._signs], dim=1)
             if n_fb:
                 xx = torch.cat([xx, torch.cat([prev, prev * self._parity], dim=1)], dim=-1)
-            out, h = self._net(xx, h0)
+            out, z, h = self._net(xx, h0)
+            if z is not None:  # the mirror swaps the sides: the mirrored stream's logits in reverse order
+                z = (z[:, :b] + z[:, b:].flip(-1)) / 2
             if self.perm is not None:
-                return (out[:, :b] + out[:, b:][..., self.perm]) / 2, h
-            return (out[:, :b] + out[:, b:] * self._parity) / 2, h
+                return (out[:, :b] + out[:, b:][..., self.perm]) / 2, z, h
+            return (out[:, :b] + out[:, b:] * self._parity) / 2, z, h
 
         def _arrays(self):
             layers = [(m.weight.detach().double().numpy(), m.bias.detach().double().numpy()) for m in self.head
@@ -214,11 +249,25 @@ def previous_actions(q, T: int, classes=None) -> np.ndarray:
     return out
 
 
-def sequence_loss(student, q, T: int | None = None, h0=None, start: int = 0):
+def _aux_target(q):
+    """``q.aux`` as class indices into :data:`SIDES` (``(T, n)`` int64), checked; None if not recorded."""
+    a = getattr(q, "aux", None)
+    if a is None:
+        return None
+    a = np.asarray(a)
+    if a.shape != q.keep.shape or not np.isin(a, SIDES).all():
+        raise ArgumentError(f"fit_sequences: a sequence's aux must be ({q.keep.shape}) sides in {list(SIDES)}, "
+                            f"got shape {a.shape} with values {np.unique(a)[:5].tolist()}")
+    return a.astype(np.int64) + 1
+
+
+def sequence_loss(student, q, T: int | None = None, h0=None, start: int = 0, parts: bool = False):
     """The per-sample loss of ``student`` on steps ``start .. start + T`` of a
     :class:`~tin_swarm_env.apps.imitation.Sequence` from the cell state ``h0``: ``(err, h)``, ``err`` the
     kept samples' losses (squared error over the 2 components / 2, or the cross-entropy of the class
-    nearest the label) in step-robot order, ``h`` the state after the last step."""
+    nearest the label; with the side read-out and ``q.aux``, plus ``aux_weight`` times the side's
+    cross-entropy) in step-robot order, ``h`` the state after the last step. ``parts``: ``(act, side,
+    h)`` instead, the action's loss and the side's cross-entropy (None without read-out or ``q.aux``)."""
     torch = _torch()
     stop = len(q.obs) if T is None else min(start + T, len(q.obs))
     classes = getattr(student, "classes", None)
@@ -227,14 +276,39 @@ def sequence_loss(student, q, T: int | None = None, h0=None, start: int = 0):
     prev = None
     if getattr(student, "feedback", "none") != "none":
         prev = previous_actions(q, stop, classes)[start:stop]
-    out, h = student.forward_state(x, prev, h0)
+    if hasattr(student, "forward_aux"):
+        out, z, h = student.forward_aux(x, prev, h0)
+    else:
+        (out, h), z = student.forward_state(x, prev, h0), None
     if classes is None:
         y = torch.as_tensor(np.clip(q.labels[start:stop], -1.0, 1.0))
-        return ((out - y) ** 2).sum(-1)[k] / 2, h  # the mean over the 2 components, as fit_actor's
-    from ..policies.heads import nearest_class
+        err = ((out - y) ** 2).sum(-1)[k] / 2  # the mean over the 2 components, as fit_actor's
+    else:
+        from ..policies.heads import nearest_class
 
-    y = torch.as_tensor(nearest_class(q.labels[start:stop][q.keep[start:stop]], classes))
-    return torch.nn.functional.cross_entropy(out[k], y, reduction="none"), h
+        y = torch.as_tensor(nearest_class(q.labels[start:stop][q.keep[start:stop]], classes))
+        err = torch.nn.functional.cross_entropy(out[k], y, reduction="none")
+    side = None
+    target = None if z is None else _aux_target(q)
+    if target is not None:
+        side = torch.nn.functional.cross_entropy(z[k], torch.as_tensor(target[start:stop][q.keep[start:stop]]),
+                                                 reduction="none")
+    if parts:
+        return err, side, h
+    return (err if side is None else err + student.aux_weight * side), h
+
+
+def side_logits(student, q) -> np.ndarray:
+    """``(T, n, 3)`` float64: ``student``'s side read-out (:data:`SIDES` order) over the whole
+    :class:`~tin_swarm_env.apps.imitation.Sequence` ``q`` from a zero state (every step, kept or not)."""
+    torch = _torch()
+    if getattr(student, "aux", None) is None:
+        raise ArgumentError("side_logits: the student has no side read-out (GRUStudent(aux_weight=...) > 0)")
+    prev = None
+    if student.feedback != "none":
+        prev = previous_actions(q, len(q.obs), student.classes)
+    with torch.no_grad():
+        return student.forward_aux(torch.as_tensor(q.obs), prev)[1].double().numpy()
 
 
 def fit_sequences(student, sequences, *, epochs: int = 10, lr: float = 1e-3, seed: int = 0,

@@ -1,0 +1,67 @@
+"""agents/diag_sidehead.py (run by hand, docs/figures/teacher_multimodal.md): the side-reading head is exactly
+mirror-equivariant, reads the side it is given, and its closed-loop learner acts as the whole-episode forward."""
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import tin_swarm_env as tse
+
+torch = pytest.importorskip("torch")
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _diag():
+    sys.path.insert(0, str(ROOT / "agents"))
+    spec = importlib.util.spec_from_file_location("agents_diag_sidehead", ROOT / "agents" / "diag_sidehead.py")
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault("agents_diag_sidehead", mod)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_side_head_is_mirror_equivariant_and_reads_the_given_side():
+    from tin_swarm_env.env.observation import mirror_action
+    from tin_swarm_env.policies.heads import categorical_classes
+
+    ds = _diag()
+    lay = tse.parallel_env(scenario="cliff_goal", n_robots=2).layout
+    m = ds.SideHeadGRU(lay.size, lay.mirror_signs(), categorical_classes(), hidden=8, width=8, seed=1)
+    rng = np.random.default_rng(0)
+    x = rng.uniform(-1, 1, (6, 3, lay.size)).astype(np.float32)
+    p = rng.uniform(-1, 1, (6, 3, 2)).astype(np.float32)
+    side = rng.integers(-1, 2, (6, 3))
+    with torch.no_grad():
+        for s in (None, side):
+            o, z, _ = m.forward_aux(x, p, side=s)
+            om, zm, _ = m.forward_aux(lay.mirror(x).astype(np.float32), mirror_action(p),
+                                      side=None if s is None else -s)
+            np.testing.assert_allclose(om.numpy(), o.numpy()[..., m.perm.numpy()], atol=1e-6)
+            np.testing.assert_allclose(zm.numpy(), z.numpy()[..., ::-1], atol=1e-6)
+        own = z.argmax(-1).numpy() - 1  # the read-out's side given back: the same as side=None
+        np.testing.assert_allclose(m.forward_aux(x, p, side=own)[0].detach().numpy(),
+                                   m.forward_aux(x, p)[0].detach().numpy(), atol=1e-6)
+        assert np.abs(m.forward_aux(x, p, side=-own)[0].numpy() - m.forward_aux(x, p)[0].numpy()).max() > 1e-4
+
+
+def test_learner_step_by_step_is_the_whole_episode_forward():
+    from tin_swarm_env.apps.imitation import collect
+    from tin_swarm_env.apps.recurrent_imitation import previous_actions
+    from tin_swarm_env.policies.heads import categorical_classes
+
+    ds = _diag()
+    lay = tse.parallel_env(scenario="cliff_goal", n_robots=3).layout
+    classes = categorical_classes()
+    m = ds.SideHeadGRU(lay.size, lay.mirror_signs(), classes, hidden=8, width=8, seed=2)
+    d = collect("cliff_goal", 1, 4, learner=ds.TorchLearner(m), teacher="apf_student", sequences=True, n_robots=3,
+                max_cycles=15)
+    q = d.sequences[0]
+    with torch.no_grad():
+        z = m.forward_aux(q.obs, previous_actions(q, len(q.obs), classes))[0].numpy()
+    top2 = np.sort(z, axis=-1)[..., -2:]
+    clear = top2[..., 1] - top2[..., 0] > 1e-4
+    assert clear.sum() > 0.9 * clear.size
+    np.testing.assert_array_equal(q.driven[clear], classes[z.argmax(-1)][clear].astype(np.float32))
