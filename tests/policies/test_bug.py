@@ -499,3 +499,60 @@ def test_the_first_time_round_to_h_turns_back_the_second_says_unreachable(obs_ro
         assert mem.unreachable[0] or mem.side[0] == -s
     # round the other way: from where it turned (within home_m of H) to within home_m of H again
     assert mem.unreachable[0] and mem.side[0] == 0 and per - 12.0 < back < per + 6.0, (back, per)
+
+
+@pytest.mark.parametrize("s", [1.0, -1.0], ids=["island-right", "island-left"])
+def test_a_robot_round_a_closed_boundary_leaves_it_at_its_nearest_place_on_the_next_lap(obs_row, s):
+    # the target at the origin, the robot heading +x throughout. A search starts at a cliff at
+    # (-100, -30 s), H, 104 m out; the robot leaves on a clear view 10 m on and meets a closed boundary
+    # (a 20 m square island round (-180, -40 s)) on its far side, 201 m out: not nearer than H, so it
+    # takes its search up. Round the island it is never nearer than 167 m, so no rule of the search
+    # can take it off (not margin_m nearer than H on the m-line, not leave_gain nearer, the clear
+    # view reaches 60 m: 107 m > rec - margin_m): it would go round to the end (fork seeds 19, 40).
+    # The loop finder sees it pass its first place again going the same way after one lap (111 m);
+    # on the next lap it leaves where the lap came nearest the target (Bug1), not before
+    layout, R = ObsLayout(), 60.0
+    cliff = (5.0, 0.0, -1.0, 0.0, 50.0)
+    flip = np.array([1.0, s])
+    mem = BugMemory.empty(1)
+    _step(mem, obs_row(layout, R, (100.0, 30.0 * s), [cliff]), layout, R)
+    assert _drive(mem, obs_row(layout, R, (100.0, 40.0 * s), []), layout, R, (0.0, -10.0 * s)) == 0
+    path, per = _round_square(np.array([-180.0, -40.0]), 10.0, 5.0, 2.0, 0.0)
+    lap = np.array([np.hypot(*p) for p, _, _ in path[: int(per // 2.0)]])
+    nearest = path[int(np.argmin(lap))][0] * flip
+    last = np.array([-100.0, -40.0 * s])
+    driven = 0.0
+    for k, (p, q, nrm) in enumerate(path):
+        p, q, nrm = p * flip, q * flip, nrm * flip
+        side = _drive(mem, obs_row(layout, R, tuple(-p), [(*(q - p), *nrm, 50.0)]), layout, R, tuple(p - last))
+        if k == 0:  # met the island: its search taken up, not a fresh one
+            assert side == s and np.isclose(mem.rec[0], np.hypot(100.0, 30.0)) and mem.probed[0]
+        else:
+            driven += np.hypot(*(p - last))
+        last = p
+        if side == 0 or driven > 4 * per:
+            break
+    assert side == 0 and per < driven < 2 * per, (side, driven, per)
+    assert np.hypot(*p) < lap.min() + 1.0 and np.hypot(*(p - nearest)) < 5.0, (p, nearest, lap.min())
+    assert mem.lvl[0] == pytest.approx(np.hypot(*p), abs=0.01)  # the next such leave must be nearer
+
+
+@pytest.mark.parametrize("s", [1.0, -1.0], ids=["wall-right", "wall-left"])
+def test_swinging_to_and_fro_along_a_wall_is_no_lap(obs_row, s):
+    # following a cliff 5 m ahead (the target ahead, to the side s), 20 m on from H the robot swings to
+    # and fro along it, 1 m each way (the corner 2-cycle under the safety cut): every other step it passes the places
+    # of its leg again going the way it follows the cliff, 30 m and more of driving after them, but it
+    # goes round nothing: no lap is found, no Bug1 leave, its leg goes on (mesa seed 8: it "left" at
+    # the corner and started a fresh search there, its budget and ends cleared)
+    layout, R = ObsLayout(), 60.0
+    cliff = (5.0, 0.0, -1.0, 0.0, 50.0)
+    tgt, p = np.array([100.0, 30.0 * s]), np.zeros(2)
+    mem = BugMemory.empty(1)
+    _step(mem, obs_row(layout, R, tuple(tgt - p), [cliff]), layout, R)
+    assert mem.side[0] == s
+    for k in range(100):
+        move = np.array([0.0, s if k < 20 or k % 2 == 0 else -s])
+        p = p + move
+        side = _drive(mem, obs_row(layout, R, tuple(tgt - p), [cliff]), layout, R, tuple(move))
+        assert side == s and not mem.b1[0] and np.isinf(mem.lvl[0]), k
+        assert mem.g_len[0] == pytest.approx(k + 1.0), (k, mem.g_len[0])

@@ -27,7 +27,13 @@ Kamon and Rivlin's DistBug, the lost-cow doubling search), with this memory per 
 * the *side* (+1 the boundary on the robot's right, -1 on its left), the side it started on,
   the boundary driven from ``H`` (``arc``, signed), the *budget* and which sides have *ended*;
 * the followed break's closest point last seen (so it goes round the end of a break that drops
-  out of its ``K_b`` slots instead of jumping to another), a stall counter, the gap state.
+  out of its ``K_b`` slots instead of jumping to another), a stall counter, the gap state;
+* a *loop finder*: :data:`~tin_swarm_env.policies.bug.RING` (16) places along its current *leg*
+  (the boundary driven since it last met a boundary, turned or drove through a gap), first
+  ``ring_m`` apart, every other one dropped and the spacing doubled when the ring fills (so they
+  span the leg), each with its direction of travel and the least distance to go (and from ``H``)
+  on the stretch after it; the lap's nearest place it heads for, and the distance to go where it
+  last left a loop (rule 3).
 
 The rules, each step:
 
@@ -56,7 +62,13 @@ The rules, each step:
    ``home_arc_m`` or more after it (Brent's cycle finding: the place moves on to where the robot
    is at doubling distances driven, so a loop is found within the distance to it plus twice its
    length); or drive through a gap between two break ends that leads toward the target
-   (:func:`~tin_swarm_env.policies.bug.pass_gap`).
+   (:func:`~tin_swarm_env.policies.bug.pass_gap`); or (Bug1, on whatever boundary it is on) when it
+   has driven round a closed boundary and is back at the place of least distance to go on that
+   lap: it passed a place of its leg again going the same way (within ``home_m``, heading within
+   45 degrees), ``home_arc_m`` or more after it, on a lap that does not pass ``H`` (that one is rule
+   5's); it then goes round once more to that place and leaves there, ``rec`` and the clear-view
+   ban aside, provided the place is ``margin_m`` nearer than where it last left a loop in this search
+   (a boundary met at once there is taken up, rule 1). A lap with no such place is followed on.
 4. *Turn back* (side -> -side) when the boundary *ends* on this side: the terrain's border is
    followed or lies ahead, or the robot stalls (``stall_steps``; four times that with robots
    near: a queue); or when it has driven ``budget`` along this side from ``H`` (first
@@ -83,9 +95,12 @@ has shown its target unreachable (rule 5). No loop is driven twice the same way:
 ``H`` is driven once each way at most, then ends the search, and the turn-backs retrace what the
 budget allowed, each time further. The argument assumes the robot keeps to the boundary
 through ``H``; one that crosses to another boundary through a gap or ramp can follow that one
-round for good (never nearer than ``rec``, never back at ``H``); rule 3's loop finding lets it
-leave such a loop where it sees the way clear, and where it sees none it is an open case,
-measured in ``docs/figures/apf_notes.md``.
+round for good (never nearer than ``rec``, never back at ``H``). Rule 3's loop finder closes that
+case the way Bug1 does: a closed boundary driven round once is left on the next lap at its place
+nearest the target, each such leave in a search ``margin_m`` nearer than the last, so a search
+has finitely many; a closed boundary whose lap comes no nearer than the last such leave is
+still followed on (open: measured in ``docs/figures/apf_notes.md``), as are boundaries that are
+not closed but long (the budget and the border end those).
 
 **Queues.** Robots that see each other keep 1.5 body diameters apart and the robot field pushes
 them aside, so robots following one wall queue behind each other; one stalled in a queue turns

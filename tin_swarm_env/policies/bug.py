@@ -12,7 +12,7 @@ import numpy as np
 from ..world.fields import FieldParams, away_from, facing
 from .base import DecodedObs
 
-__all__ = ["BugMemory", "BugParams", "bug_update", "odometry", "pass_gap"]
+__all__ = ["BugMemory", "BugParams", "RING", "bug_update", "odometry", "pass_gap"]
 
 END_DEG = 5.0  # a break's closest point is its end when the direction to the robot is this far off its normal
 
@@ -41,6 +41,10 @@ class BugParams:
                     already leans to (robots arriving together take the same side)
     stall_crowded   a robot stalled with robots near counts this many times ``stall_steps`` before
                     it gives up the side (with none near: ``stall_steps``)
+    ring_m          the loop finder's places (:data:`RING` of them per robot) lie this far apart along
+                    the boundary at the start of a leg (the spacing doubles each time the ring fills)
+    ring_cos        a place is passed again "going the same way" when the cosine between the robot's
+                    step and its direction of travel there is over this
     """
 
     margin_m: float = 2.0
@@ -52,6 +56,8 @@ class BugParams:
     min_budget: float = 6.0
     split: float = 0.05
     stall_crowded: int = 4
+    ring_m: float = 5.0
+    ring_cos: float = 0.7
 
     def __post_init__(self):
         for f in fields(self):
@@ -59,14 +65,23 @@ class BugParams:
                 raise ValueError(f"BugParams.{f.name} must be > 0, got {getattr(self, f.name)!r}")
 
 
-_FLOAT2 = ("last_rel", "last_act", "hit", "wall_pt", "last_q", "t_hit", "r_pt", "r_dir")
+_FLOAT2 = ("last_rel", "last_act", "hit", "wall_pt", "last_q", "t_hit", "r_pt", "r_dir", "b1_q")
 _SPEC = {"seen": bool, "psi": float, "last_rel": float, "last_act": float, "side": np.int8, "fside": np.int8,
          "first": np.int8, "hit": float, "rec": float, "arc": float, "budget": float, "ended_first": bool,
          "ended_other": bool, "unreachable": bool, "stall": np.int64, "wall": float, "on_border": bool,
          "gap": np.int8, "wall_pt": float, "has_pt": bool, "mside": np.int8, "far": bool, "last_q": float,
          "t_hit": float, "passed": bool, "climb": float, "last_togo": float, "probed": bool, "v_steps": np.int64,
          "pt_end": bool, "r_pt": float, "r_dir": float, "r_len": float, "r_next": float,
-         "circ": bool}
+         "circ": bool, "g_n": np.int64, "g_sp": float, "g_len": float, "g_p": float, "g_d": float,
+         "g_s": float, "g_m": float, "g_q": float, "g_h": float, "b1": bool, "b1_q": float, "b1_t": float,
+         "lvl": float}
+RING = 16  # places in each robot's loop finder (BugMemory.g_*)
+_RING1 = ("g_s", "g_m", "g_h")  # (n, RING)
+_RING2 = ("g_p", "g_d", "g_q")  # (n, RING, 2)
+
+
+def _shape(k: str, n: int) -> tuple:
+    return (n, RING, 2) if k in _RING2 else (n, RING) if k in _RING1 else (n, 2) if k in _FLOAT2 else (n,)
 
 
 @dataclass
@@ -118,6 +133,26 @@ class BugMemory:
     v_steps      (n,)   int    steps it has followed the remembered point (its break out of its slots)
     pt_end       (n,)   bool   ``wall_pt`` was seen at its break's end (not square on to it)
     circ         (n,)   bool   it came back round to H once in this search (and turned back)
+
+    Loop finder (one *leg*: the boundary driven since the robot last met a boundary, turned, or drove
+    through a gap; the places are cleared then):
+
+    g_n          (n,)   int    places held (at most :data:`RING`; 0: not following)
+    g_sp         (n,)   m      boundary driven between two places (``ring_m``, doubled each time the
+                               ring fills: every other place is dropped, so the places always span the leg)
+    g_len        (n,)   m      boundary driven on this leg
+    g_p          (n, R, 2) m   the places, in ``F`` relative to the target
+    g_d          (n, R, 2)     the direction of travel along the boundary at each
+    g_s          (n, R) m      ``g_len`` at each
+    g_m          (n, R) m      the least distance to go from each place to the next (or to here)
+    g_q          (n, R, 2) m   where it was
+    g_h          (n, R) m      the least distance from ``H`` over the same stretch
+    b1           (n,)   bool   it has driven round a closed boundary and heads round it for ``b1_q``,
+                               the place of least distance to go on the lap (Bug1's leave point)
+    b1_q         (n, 2) m      that place, in ``F`` relative to the target
+    b1_t         (n,)   m      the distance to go there
+    lvl          (n,)   m      the distance to go where it last left a boundary at such a place in this
+                               search (inf: not yet); the next such leave must be ``margin_m`` nearer
     """
 
     seen: np.ndarray
@@ -155,11 +190,25 @@ class BugMemory:
     r_len: np.ndarray
     r_next: np.ndarray
     circ: np.ndarray
+    g_n: np.ndarray
+    g_sp: np.ndarray
+    g_len: np.ndarray
+    g_p: np.ndarray
+    g_d: np.ndarray
+    g_s: np.ndarray
+    g_m: np.ndarray
+    g_q: np.ndarray
+    g_h: np.ndarray
+    b1: np.ndarray
+    b1_q: np.ndarray
+    b1_t: np.ndarray
+    lvl: np.ndarray
 
     @classmethod
     def empty(cls, n: int) -> BugMemory:
-        out = {k: np.zeros((n, 2) if k in _FLOAT2 else n, dtype=t) for k, t in _SPEC.items()}
+        out = {k: np.zeros(_shape(k, n), dtype=t) for k, t in _SPEC.items()}
         out["rec"][:] = np.inf
+        out["lvl"][:] = np.inf
         return cls(**out)
 
     def grow(self, n: int) -> BugMemory:
@@ -330,6 +379,46 @@ def pass_gap(d: DecodedObs, width_m: float, reach_m: float, end_deg: float = END
     return {"has": np.isfinite(best), "aim": aim, "slots": slots}
 
 
+def _ring(mem: BugMemory, rows, bp: BugParams, *, new, on, g_len, togo, q, to_h, t_now):
+    """Advance the loop finder's places (``BugMemory.g_*``) of the robots in ``rows``: a leg starts
+    where ``new`` (one place, here), stops where not ``on``; otherwise the last stretch's least
+    distance to go (and from H) takes this step in, and a place is added every ``g_sp`` of boundary;
+    a full ring keeps every other place (merging their stretches) and doubles ``g_sp``."""
+    n_g, sp = mem.g_n[rows], mem.g_sp[rows]
+    g = {k: getattr(mem, k)[rows] for k in ("g_p", "g_d", "g_s", "g_m", "g_q", "g_h")}
+    ri = np.arange(len(rows))
+    k = np.maximum(n_g - 1, 0)
+    better = togo < g["g_m"][ri, k]
+    g["g_m"][ri, k] = np.where(better, togo, g["g_m"][ri, k])
+    g["g_q"][ri, k] = np.where(better[:, None], q, g["g_q"][ri, k])
+    g["g_h"][ri, k] = np.minimum(g["g_h"][ri, k], to_h)
+    add = on & ~new & (n_g > 0) & (g_len - g["g_s"][ri, k] >= sp)
+    full = add & (n_g >= RING)
+    if full.any():
+        f = np.flatnonzero(full)
+        a, b = np.arange(0, RING, 2), np.arange(1, RING, 2)
+        take_b = g["g_m"][f][:, b] < g["g_m"][f][:, a]
+        for key in ("g_p", "g_d", "g_s"):
+            g[key][f, : RING // 2] = g[key][f][:, a]
+        g["g_q"][f, : RING // 2] = np.where(take_b[..., None], g["g_q"][f][:, b], g["g_q"][f][:, a])
+        g["g_m"][f, : RING // 2] = np.minimum(g["g_m"][f][:, a], g["g_m"][f][:, b])
+        g["g_h"][f, : RING // 2] = np.minimum(g["g_h"][f][:, a], g["g_h"][f][:, b])
+        n_g = np.where(full, RING // 2, n_g)
+        sp = np.where(full, 2 * sp, sp)
+    at = np.where(new, 0, np.where(add, n_g, 0))
+    put = new | add
+    for key, v in (("g_p", q), ("g_d", t_now), ("g_q", q)):
+        g[key][ri, at] = np.where(put[:, None], v, g[key][ri, at])
+    for key, v in (("g_s", np.where(new, 0.0, g_len)), ("g_m", togo), ("g_h", to_h)):
+        g[key][ri, at] = np.where(put, v, g[key][ri, at])
+    n_g = np.where(new, 1, np.where(add, n_g + 1, n_g))
+    for key, v in g.items():
+        getattr(mem, key)[rows] = v
+    mem.g_n[rows] = np.where(on, n_g, 0)
+    mem.g_sp[rows] = np.where(new, bp.ring_m, sp)
+    mem.g_len[rows] = np.where(new | ~on, 0.0, g_len)
+
+
 def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, bp: BugParams, *, togo, q, moved,
                crowd_m: float, range_m: float, gap=None, home: bool = True, pass_m: float = 0.0,
                step_m: float = 1.0, fov_deg: float = 360.0):
@@ -405,7 +494,43 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     clear = ~in_way.any(axis=-1) & ~probed & (togo - reach < rec - bp.margin_m)
     leave = following & ~blocked & ~through & (togo < rec - bp.margin_m) & on_line
     leave |= following & ~blocked & ~through & clear
-    side = np.where(leave, 0, side)
+    # the loop finder (Bug1 on whatever boundary the robot is on): passing a place of its leg again
+    # going the same way, home_arc_m or more after it (and 2 home_m away from it on the way), it has
+    # driven round a closed boundary. A lap that passes H is the whole-circuit test's (rule 5); on any
+    # other, it goes round once more to the lap's place of least distance to go and leaves there
+    # (Bug1), rec and probed aside, if that place is margin_m nearer than its last such leave in this
+    # search (so there are finitely many); else it follows on (budget, border, stall end that side)
+    held = np.arange(RING)[None, :] < mem.g_n[rows][:, None]
+    g_len = mem.g_len[rows] + np.where(following, moved, 0.0)
+    g_p, lq = mem.g_p[rows], mem.last_q[rows]
+    u_g = np.clip(np.einsum("nkj,nj->nk", g_p - lq[:, None], step) / np.maximum(sl, 1e-12)[:, None], 0.0, 1.0)
+    d_g = _norm(lq[:, None] + u_g[..., None] * step[:, None] - g_p)
+    same = np.einsum("nkj,nj->nk", mem.g_d[rows], step) > bp.ring_cos * np.sqrt(sl)[:, None]
+    hit_g = held & (d_g < bp.home_m) & same & (g_len[:, None] - mem.g_s[rows] > bp.home_arc_m)
+    found = following & hit_g.any(axis=-1) & ~through & home
+    j = RING - 1 - np.argmax(hit_g[:, ::-1], axis=-1)  # the latest such place: the lap starts there
+    on_lap = held & (np.arange(RING)[None, :] >= j[:, None])
+    # a lap goes somewhere: a place on it lies more than 2 home_m from its start (swinging in a corner,
+    # the robot passes the same place the same way again without going round anything)
+    found &= (on_lap & (_norm(g_p - g_p[ri, j][:, None]) > 2 * bp.home_m)).any(axis=-1)
+    g_m = np.where(on_lap, mem.g_m[rows], np.inf)
+    kmin = np.argmin(g_m, axis=-1)
+    lap_t, lap_q = g_m[ri, kmin], mem.g_q[rows][ri, kmin]
+    now = togo < lap_t
+    lap_t, lap_q = np.where(now, togo, lap_t), np.where(now[:, None], q, lap_q)
+    h_lap = np.minimum(np.where(on_lap, mem.g_h[rows], np.inf).min(axis=-1), to_h) < bp.home_m
+    lvl = mem.lvl[rows]
+    go = found & ~h_lap & (lap_t < lvl - bp.margin_m)
+    b1 = (mem.b1[rows] & following) | go
+    b1_q, b1_t = np.where(go[:, None], lap_q, mem.b1_q[rows]), np.where(go, lap_t, mem.b1_t[rows])
+    u_b = np.clip(np.sum((b1_q - lq) * step, axis=-1) / np.maximum(sl, 1e-12), 0.0, 1.0)
+    # there: within home_m of it, and as near as it was or past its least (its distance to go rising again)
+    at_b1 = b1 & ~through & ((togo <= b1_t + bp.line_m / 2) | (togo > mem.last_togo[rows])) & (
+        (_norm(lq + u_b[:, None] * step - b1_q) < bp.home_m) | (_norm(q - b1_q) < bp.home_m))
+    leave |= at_b1 & ~blocked  # blocked there, it meets the break in its way at once (rule 1)
+    lvl = np.where(at_b1, togo, lvl)
+    b1 &= ~at_b1
+    side = np.where(leave | at_b1, 0, side)
     # meet a boundary: a fresh search when nearer than the last hit point, else take the last one up again
     met = (side == 0) & blocked & ~leave
     fresh = met & (togo < rec - bp.margin_m)
@@ -464,8 +589,8 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     # the first time round to H ends that side (the robot turns back and tries the other way, on which
     # a boundary sensed only through K_b slots may show the opening it walked past); the second is a verdict
     circ = mem.circ[rows] & ~fresh
-    ends = following & ~fresh & passed & (border_ahead | (on_border & ~mem.on_border[rows]) | stuck
-                                          | (circuit & ~circ))
+    ends = following & ~fresh & ((passed & (border_ahead | (on_border & ~mem.on_border[rows]) | stuck
+                                            | (circuit & ~circ))))
     out = np.where(side == first, 1, -1)  # +1: heading out along the first side
     ended_f |= ends & (out == 1)
     ended_o |= ends & (out == -1)
@@ -490,6 +615,11 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     mem.climb[rows] = np.where(fresh | turn, 0.0, climb)
     mem.probed[rows] = probed & ~fresh
     mem.circ[rows] = circ
+    mem.lvl[rows] = np.where(fresh, np.inf, lvl)
+    mem.b1[rows] = b1 & (side != 0) & ~turn & ~fresh
+    mem.b1_q[rows], mem.b1_t[rows] = b1_q, b1_t
+    _ring(mem, rows, bp, new=(side != 0) & (met | turn | through | (mem.g_n[rows] == 0)), on=side != 0,
+          g_len=g_len, togo=togo, q=q, to_h=_norm(q - hit), t_now=_rot(psi, side[:, None] * t_right))
     # the cycle finder's place: set where the search is taken up, moved on at doubling distances
     anew = (met & ~fresh) | round_r
     move_on = anew | (r_len >= mem.r_next[rows])
