@@ -38,10 +38,11 @@ DEFAULT_RENDER_WIDTH_PX = 640  # render_width when none is given (also the CLI's
 _REASON_LABEL = {int(r): r.label for r in Reason}  # Reason code -> infos[agent]["reason"]
 _ARRIVED = int(Reason.ARRIVED)  # (numpy compares with a plain int faster than with the enum)
 # robots: fewer have their distance to go measured (the step's geodesic query) on one numba thread. In the env's
-# step the query runs between the world's step and sensing, alone in its parallel region, and at 1 000 robots the
-# other thread's start costs more than the half of the query it takes: batched/world 0.809 parallel vs 0.817 serial
-# (median of 14 process-alternating runs each, idle, 2026-11-26). The same bits either way.
-DIST_SERIAL_BELOW = 2048
+# step the query runs between the world's step and sensing, alone in its parallel region, and near 1 000 robots the
+# other thread's start costs about what its half of the query saves. batched/world, medians of process-alternating
+# idle runs, 2026-11-26: 1 000 robots 0.816 serial vs 0.811 parallel (30 runs each), 2 000 robots 0.837 vs 0.845
+# (4 each). The same bits either way.
+DIST_SERIAL_BELOW = 1536
 
 
 @njit(cache=True)
