@@ -1,6 +1,6 @@
 """Environment throughput on the jacksboro DEM. Run by hand:
 
-    python bench/env.py [--steps 30] [--out docs/figures/env.md]
+    python bench/env.py [--steps 30] [--processes 12] [--out docs/figures/env.md]
 
 For 100, 1 000 and 10 000 robots, in one process and on the same terrain and density, with 1
 and 2 numba threads: the world step alone (step + sensing), the env's batched array path
@@ -10,6 +10,12 @@ time to draw a 500-robot frame (``rgb_array``, terrain background already drawn)
 step time of 500 robots. Each path: ``--steps`` steps after a warm-up step and a full garbage
 collection, the best of three runs interleaved with the other paths'. The table also goes to
 ``--out`` with the command and load average.
+
+A ratio from one process moves by a point or two from process to process (where the kernels'
+arrays land, which core each thread gets), so the batched/world ratio at 1 000 robots on two
+threads is then measured again in ``--processes`` fresh processes, one after another (each: the
+world step and the batched path only, interleaved, the best of 5 runs of ``--steps`` steps), and
+its spread reported (min, median, max, and how many runs fell below 80%).
 """
 
 from __future__ import annotations
@@ -18,6 +24,8 @@ import argparse
 import gc
 import math
 import os
+import statistics
+import subprocess
 import sys
 import time
 
@@ -57,6 +65,27 @@ def rate(fn, steps):
     return (time.perf_counter() - t) / steps
 
 
+def world_step(env, acts):
+    """One world step + sensing from the env's state (not the env's own step): a closure that
+    carries the state from call to call, starting at the env's current state."""
+    w, state = env.world, {"s": env.world_state}
+
+    def step():
+        s, _ = w.step(state["s"], acts)
+        w.sense(s)
+        state["s"] = s
+
+    return step
+
+
+def world_and_batched(env, acts, steps):
+    """Seconds per step of the world step and of ``step_arrays``, each from the same reset."""
+    env.reset_arrays(seed=0)
+    t_world = rate(world_step(env, acts), steps)
+    env.reset_arrays(seed=0)
+    return t_world, rate(lambda: env.step_arrays(acts), steps)
+
+
 def measure(n, steps, threads):
     """Per numba thread count: seconds per step of world step + sensing, the batched env
     path, the dict API."""
@@ -69,18 +98,7 @@ def measure(n, steps, threads):
         numba.set_num_threads(k)
         best = [np.inf] * 3
         for _ in range(REPEATS):  # the three paths in turn, each from the same reset; best of REPEATS
-            env.reset_arrays(seed=0)
-            w = env.world
-            state = {"s": env.world_state}
-
-            def world_step():
-                s, _ = w.step(state["s"], acts)
-                w.sense(s)
-                state["s"] = s
-
-            t_world = rate(world_step, steps)
-            env.reset_arrays(seed=0)
-            t_batch = rate(lambda: env.step_arrays(acts), steps)
+            t_world, t_batch = world_and_batched(env, acts, steps)
             env.reset(seed=0)
             t_dict = rate(lambda: env.step({a: dacts[a] for a in env.agents}), steps)
             best = [min(b, t) for b, t in zip(best, (t_world, t_batch, t_dict))]
@@ -88,7 +106,29 @@ def measure(n, steps, threads):
     return out
 
 
-def main(steps: int, out: str | None):
+def ratio(n: int, steps: int, repeats: int = 5) -> tuple[float, float]:
+    """Seconds per step of the world step and the batched path at ``n`` robots on two threads:
+    interleaved, each the best of ``repeats`` runs from the same reset."""
+    env = tse.parallel_env(scenario=config(n))
+    acts = np.random.default_rng(0).uniform(-1, 1, (n, 2)).astype(np.float32)
+    numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+    best = [np.inf, np.inf]
+    for _ in range(repeats):
+        best = [min(b, t) for b, t in zip(best, world_and_batched(env, acts, steps))]
+    return best[0], best[1]
+
+
+def spread(processes: int, steps: int, n: int = 1000) -> list[float]:
+    """batched/world at ``n`` robots on two threads, once per fresh process (``--ratio``)."""
+    got = []
+    for _ in range(processes):
+        r = subprocess.run([sys.executable, __file__, "--ratio", str(n), "--steps", str(steps)], capture_output=True,
+                           text=True, check=True)
+        got.append(float(r.stdout.split()[-1]))
+    return got
+
+
+def main(steps: int, out: str | None, processes: int = 0):
     lines = []
 
     def emit(line=""):
@@ -97,12 +137,12 @@ def main(steps: int, out: str | None):
 
     load = os.getloadavg()
     threads = sorted({1, min(2, numba.config.NUMBA_NUM_THREADS)})
-    emit(f"Measured with `python bench/env.py --steps {steps}` in one run. Load average at start "
-         f"{load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} on {os.cpu_count()} cores. "
+    emit(f"Measured with `python bench/env.py --steps {steps} --processes {processes}` in one run. Load average at "
+         f"start {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} on {os.cpu_count()} cores. "
          "Agent-steps per second (higher is better); the same terrain (jacksboro, ~20k triangles), density "
          "(~10 robots within the 60 m range) and actions for each path; each path's best of "
-         f"{REPEATS} runs of {steps} steps (10 000 robots: {max(3, steps // 5)}), interleaved, each run after a warm-up "
-         "step and a full garbage collection.\n")
+         f"{REPEATS} runs of {steps} steps (10 000 robots: {max(3, steps // 5)}), interleaved, each run after a "
+         "warm-up step and a full garbage collection.\n")
     emit("| robots | threads | world step | batched env | dict API | batched/world | dict/batched |")
     emit("|---:|---:|---:|---:|---:|---:|---:|")
     for n in (100, 1000, 10_000):
@@ -111,6 +151,13 @@ def main(steps: int, out: str | None):
             t_world, t_batch, t_dict = res[k]
             emit(f"| {n} | {k} | {n / t_world:.3e} | {n / t_batch:.3e} | {n / t_dict:.3e} | "
                  f"{t_world / t_batch:.0%} | {t_batch / t_dict:.0%} |")
+
+    if processes and threads[-1] == 2:
+        got = sorted(spread(processes, steps))
+        below = sum(g < 0.8 for g in got)
+        emit(f"\nbatched/world at 1000 robots, 2 threads, in {processes} fresh processes one after another "
+             f"(`--processes {processes}`): min {got[0]:.1%}, median {statistics.median(got):.1%}, "
+             f"max {got[-1]:.1%}; {below} of {processes} below 80%.")
 
     numba.set_num_threads(threads[-1])
     n = 500
@@ -137,6 +184,14 @@ def main(steps: int, out: str | None):
 if __name__ == "__main__":
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--steps", type=int, default=30)
+    p.add_argument("--processes", type=int, default=12,
+                   help="fresh processes measuring batched/world at 1 000 robots on 2 threads (0: none)")
+    p.add_argument("--ratio", type=int, default=0, metavar="N",
+                   help="(used by --processes) print batched/world at N robots on 2 threads and exit")
     p.add_argument("--out", default="docs/figures/env.md", help="Markdown file for the table ('' for none)")
     a = p.parse_args()
-    main(a.steps, a.out or None)
+    if a.ratio:
+        t_world, t_batch = ratio(a.ratio, a.steps)
+        print(f"{t_world:.6e} {t_batch:.6e} {t_world / t_batch:.6f}")
+    else:
+        main(a.steps, a.out or None, a.processes)
