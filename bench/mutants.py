@@ -122,8 +122,8 @@ MUTANTS = [
     M("obs-target-dir-x", "env/observation.py", "obs[i, o.target_dir] = (c * dx + s * dy) / d",
       "obs[i, o.target_dir] = (c * dx - s * dy) / d", OBS),
     # -- env/tin_swarm.py -----------------------------------------------------------------------------------
-    M("env-truncate-off-by-one", "env/tin_swarm.py", "(self._steps >= self.max_cycles)",
-      "(self._steps > self.max_cycles)", ENV),
+    M("env-truncate-off-by-one", "env/tin_swarm.py", "live, self._steps >= self.max_cycles)",
+      "live, self._steps > self.max_cycles)", ENV),
     M("env-dist-not-updated", "env/tin_swarm.py", "        self._dist = dist\n", "", ENV),
     # -- world/locomotion.py --------------------------------------------------------------------------------
     M("loco-disc-clip", "world/locomotion.py", "c = c / np.maximum(norm, 1.0)[:, None]",
