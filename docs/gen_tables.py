@@ -405,13 +405,18 @@ def speed_summary() -> str:
     hdr_e, rows_e = _table(ENV_FIGURES, "| robots | threads | world step |")
     env = {r[0]: r for r in rows_e if r[1] == "2"}
     at = {k: hdr_e.index(k) for k in ("batched/world", "dict/batched")}
-    parts = [f"{world[n]:.2e} robot-steps/s at {int(n):,} robots".replace(",", " ") for n in ("1000", "10000", "100000")
-             if n in world]
+    parts = [f"{world[n]:.2e} robot-steps/s at {int(n):,} robots".replace(",", " ")
+             for n in ("1000", "10000", "100000") if n in world]
     wcmd, wload = _how(WORLD_FIGURES)
     ecmd, eload = _how(ENV_FIGURES)
-    envl = " and ".join(f"{env[n][at['batched/world']]} at {int(n):,} robots".replace(",", " ") for n in ("1000", "10000")
-                        if n in env)
+    envl = " and ".join(f"{env[n][at['batched/world']]} at {int(n):,} robots".replace(",", " ")
+                        for n in ("1000", "10000") if n in env)
     dict1k = env["1000"][at["dict/batched"]] if "1000" in env else "?"
+    spread = re.search(r"in (\d+) fresh processes .*?: min ([0-9.]+%), median ([0-9.]+%), max ([0-9.]+%)",
+                       ENV_FIGURES.read_text(encoding="utf-8"))
+    if spread:  # bench/env.py --processes: the 1 000-robot ratio again in fresh processes
+        envl += (f" (at 1 000 robots over {spread.group(1)} fresh processes: median {spread.group(3)}, "
+                 f"min {spread.group(2)})")
     return (f"World step + sensing with line of sight on the jacksboro TIN (~10 robots in range), two cores: "
             f"{', '.join(parts)} (`{wcmd}`, load {wload}). "
             f"The batched env path (observations and rewards included) keeps {envl} of the world step's rate, "

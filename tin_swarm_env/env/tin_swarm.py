@@ -379,7 +379,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
 
     def _step_arrays(self, a: np.ndarray):
         prev = self._wstate
-        new, events = self._world.step(prev, a)
+        new, events = self._world._step(prev, a)  # a: checked by step_arrays (_live_actions)
         live = self._live
         dist = self._measure(new)
         self._steps += 1

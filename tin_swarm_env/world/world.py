@@ -129,7 +129,11 @@ class World:
         fractions of max speed (clipped; see :mod:`.locomotion`). NaN/inf commands raise a
         ValueError naming the robot. Returns the new state (the old one is not modified) and
         the step's events."""
-        c = self.check_commands(state, commands)
+        return self._step(state, self.check_commands(state, commands))
+
+    def _step(self, state: WorldState, c: np.ndarray) -> tuple[WorldState, StepEvents]:
+        """:meth:`step` with ``c`` already checked: ``(n, 2)`` C-contiguous float64, all finite (the
+        env's batched path checks the actions once, :func:`~tin_swarm_env.env.tin_swarm._live_actions`)."""
         P = self.params
         B = P.battery
         diameter = 2 * P.robot.radius_m
