@@ -2,6 +2,7 @@
 
 import importlib.util
 import os
+import sys
 import tempfile
 from pathlib import Path
 
@@ -157,6 +158,31 @@ def pass_band():
 def canyon_variant(request):
     """(side, travel) of each of the four canyon variants."""
     return request.param
+
+
+def _repo_script(relpath: str):
+    """Import a repository script (``agents/diag_fit.py``, ...) by its path, once per session; its
+    own folder goes on sys.path (scripts there import each other)."""
+    path = Path(__file__).resolve().parents[1] / relpath
+    name = "_tin_swarm_script_" + relpath.replace("/", "_").removesuffix(".py")
+    if name not in sys.modules:
+        if str(path.parent) not in sys.path:
+            sys.path.insert(0, str(path.parent))
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        try:
+            spec.loader.exec_module(module)
+        except BaseException:
+            del sys.modules[name]  # not half-imported for the next test
+            raise
+    return sys.modules[name]
+
+
+@pytest.fixture(scope="session")
+def repo_script():
+    """``repo_script(relpath)``: the repository script at ``relpath`` imported as a module."""
+    return _repo_script
 
 
 @pytest.fixture(scope="session")

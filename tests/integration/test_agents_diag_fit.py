@@ -1,25 +1,12 @@
 """agents/diag_fit.py (run by hand, docs/figures/teacher_multimodal.md): its data file round-trips
 exactly, refuses pickles, and its "near a side switch" split is the hand-computed one."""
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from tin_swarm_env.apps.imitation import Sequence
 
 torch = pytest.importorskip("torch")
-ROOT = Path(__file__).resolve().parents[2]
-
-
-def _diag():
-    spec = importlib.util.spec_from_file_location("agents_diag_fit", ROOT / "agents" / "diag_fit.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("agents_diag_fit", mod)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def _seq(T, n, d, rng):
@@ -28,8 +15,12 @@ def _seq(T, n, d, rng):
                     rng.integers(-1, 2, (T, n)).astype(np.int8))
 
 
-def test_sequences_round_trip_exactly_in_order(tmp_path):
-    diag = _diag()
+@pytest.fixture
+def diag(repo_script):
+    return repo_script("agents/diag_fit.py")
+
+
+def test_sequences_round_trip_exactly_in_order(diag, tmp_path):
     rng = np.random.default_rng(0)
     groups = {"train_bc": [_seq(5, 2, 3, rng) for _ in range(11)], "val_dag": [_seq(7, 2, 3, rng)]}
     diag.save_sequences(tmp_path / "d.npz", groups)
@@ -46,21 +37,19 @@ def test_sequences_round_trip_exactly_in_order(tmp_path):
                 assert a.dtype == b.dtype and np.array_equal(a, b)
 
 
-def test_a_pickled_array_is_refused(tmp_path):
-    diag = _diag()
+def test_a_pickled_array_is_refused(diag, tmp_path):
     np.savez(tmp_path / "bad.npz", train_bc_0_obs=np.array([object()], dtype=object))
     with pytest.raises(ValueError, match="allow_pickle"):
         diag.load_sequences(tmp_path / "bad.npz")
 
 
-def test_near_a_side_switch_is_the_hand_computed_window():
+def test_near_a_side_switch_is_the_hand_computed_window(diag):
     """One robot, labels' vy sides + + + 0 + - - - - - - - (classes nearest): one change of side, between
     steps 4 and 5 (the 0 at step 3 is no side); with near=2 steps 3..7 are near it: 5 of 12. The two
     parts' means weigh back to the mean."""
     from tin_swarm_env.apps.recurrent_imitation import GRUStudent
     from tin_swarm_env.policies.heads import categorical_classes
 
-    diag = _diag()
     vy = np.array([1, 1, 1, 0, 1, -1, -1, -1, -1, -1, -1, -1], np.float32) * 0.7
     labels = np.stack([np.full(12, 0.7, np.float32), vy], -1)[:, None, :]
     q = Sequence(np.random.default_rng(1).normal(size=(12, 1, 4)).astype(np.float32), labels,
@@ -78,10 +67,9 @@ def test_near_a_side_switch_is_the_hand_computed_window():
         np.r_[err[:3], err[8:]].mean(), rel=1e-6)
 
 
-def test_side_flips_skip_no_side_and_unkept_steps():
+def test_side_flips_skip_no_side_and_unkept_steps(diag):
     """Robot 0: + 0 + - - 0 + (kept everywhere): 2 changes (+ to -, - to +); robot 1: + - + with the
     middle step not kept: + + -> 0 changes, then - at the end: 1."""
-    diag = _diag()
     side = np.array([[1, 1], [0, -1], [1, 1], [-1, -1], [-1, 0], [0, 0], [1, 0]])
     keep = np.ones((7, 2), bool)
     keep[1, 1] = False
@@ -89,13 +77,12 @@ def test_side_flips_skip_no_side_and_unkept_steps():
     assert diag.flips(side[:, :1], keep[:, :1]) == 2 and diag.flips(side[:, 1:], keep[:, 1:]) == 1
 
 
-def test_side_stats_count_the_readout_against_the_teachers_side():
+def test_side_stats_count_the_readout_against_the_teachers_side(diag):
     """A student whose read-out is fitted on a cue task: side_stats' accuracy and flips are the ones
     counted by hand from side_logits."""
     from tin_swarm_env.apps.recurrent_imitation import SIDES, GRUStudent, fit_sequences, side_logits
     from tin_swarm_env.policies.heads import categorical_classes
 
-    diag = _diag()
     rng = np.random.default_rng(0)
     seqs = []
     for _ in range(2):
@@ -116,7 +103,7 @@ def test_side_stats_count_the_readout_against_the_teachers_side():
     assert s["teacher side flips"] == 100 * sum(diag.flips(q.aux, q.keep) for q in seqs) / 48
 
 
-def test_drive_records_the_mode_the_student_commanded_and_apfs_side():
+def test_drive_records_the_mode_the_student_commanded_and_apfs_side(diag):
     """diag_fit.drive: the file (acting by the mode, whatever the student's own acting) drives; each recorded
     command is the class of the torch student's largest logit on the replayed history (its feedback
     included), and APF's side is recorded (aux)."""
@@ -124,7 +111,6 @@ def test_drive_records_the_mode_the_student_commanded_and_apfs_side():
     from tin_swarm_env.apps.recurrent_imitation import GRUStudent, previous_actions
     from tin_swarm_env.policies.heads import categorical_classes
 
-    diag = _diag()
     lay = tse.parallel_env(scenario="cliff_goal", n_robots=3).layout
     classes = categorical_classes()
     st = GRUStudent(lay.size, 8, (8,), signs=lay.mirror_signs(), seed=1, classes=classes, feedback="action",

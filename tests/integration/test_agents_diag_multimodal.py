@@ -1,28 +1,19 @@
 """agents/diag_multimodal.py (run by hand, docs/figures/teacher_multimodal.md): its side-flip count is
 the hand-computed one."""
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
-
-ROOT = Path(__file__).resolve().parents[2]
-
-
-def _diag():
-    spec = importlib.util.spec_from_file_location("agents_diag_multimodal", ROOT / "agents" / "diag_multimodal.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("agents_diag_multimodal", mod)
-    spec.loader.exec_module(mod)
-    return mod
+import pytest
 
 
-def test_side_flips_count_changes_between_nonzero_sides_of_live_rows():
+@pytest.fixture
+def diag(repo_script):
+    return repo_script("agents/diag_multimodal.py")
+
+
+def test_side_flips_count_changes_between_nonzero_sides_of_live_rows(diag):
     """Rows over 5 steps: + 0 - - + (2 flips: a 0 keeps the last side), - - - - - (0), + - + - +
     with the row not live at steps 1 and 2 (the changes at steps 1, 2 not counted, the last side still
     updated: 2 flips, at steps 3 and 4)."""
-    diag = _diag()
     sides = np.array([[1, -1, 1], [0, -1, -1], [-1, -1, 1], [-1, -1, -1], [1, -1, 1]])
     live = np.ones((5, 3), bool)
     live[1:3, 2] = False

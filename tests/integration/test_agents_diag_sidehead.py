@@ -1,33 +1,23 @@
 """agents/diag_sidehead.py (run by hand, docs/figures/teacher_multimodal.md): the side-reading head is exactly
 mirror-equivariant, reads the side it is given, and its closed-loop learner acts as the whole-episode forward."""
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 import tin_swarm_env as tse
 
 torch = pytest.importorskip("torch")
-ROOT = Path(__file__).resolve().parents[2]
 
 
-def _diag():
-    sys.path.insert(0, str(ROOT / "agents"))
-    spec = importlib.util.spec_from_file_location("agents_diag_sidehead", ROOT / "agents" / "diag_sidehead.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("agents_diag_sidehead", mod)
-    spec.loader.exec_module(mod)
-    return mod
+@pytest.fixture
+def ds(repo_script):
+    return repo_script("agents/diag_sidehead.py")
 
 
-def test_side_head_is_mirror_equivariant_and_reads_the_given_side():
+def test_side_head_is_mirror_equivariant_and_reads_the_given_side(ds):
     from tin_swarm_env.env.observation import mirror_action
     from tin_swarm_env.policies.heads import categorical_classes
 
-    ds = _diag()
     lay = tse.parallel_env(scenario="cliff_goal", n_robots=2).layout
     m = ds.SideHeadGRU(lay.size, lay.mirror_signs(), categorical_classes(), hidden=8, width=8, seed=1)
     rng = np.random.default_rng(0)
@@ -47,12 +37,11 @@ def test_side_head_is_mirror_equivariant_and_reads_the_given_side():
         assert np.abs(m.forward_aux(x, p, side=-own)[0].numpy() - m.forward_aux(x, p)[0].numpy()).max() > 1e-4
 
 
-def test_learner_step_by_step_is_the_whole_episode_forward():
+def test_learner_step_by_step_is_the_whole_episode_forward(ds):
     from tin_swarm_env.apps.imitation import collect
     from tin_swarm_env.apps.recurrent_imitation import previous_actions
     from tin_swarm_env.policies.heads import categorical_classes
 
-    ds = _diag()
     lay = tse.parallel_env(scenario="cliff_goal", n_robots=3).layout
     classes = categorical_classes()
     m = ds.SideHeadGRU(lay.size, lay.mirror_signs(), classes, hidden=8, width=8, seed=2)
