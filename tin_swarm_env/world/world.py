@@ -132,8 +132,8 @@ class World:
         return self._step(state, self.check_commands(state, commands))
 
     def _step(self, state: WorldState, c: np.ndarray) -> tuple[WorldState, StepEvents]:
-        """:meth:`step` with ``c`` already checked: ``(n, 2)`` C-contiguous float64, all finite (the
-        env's batched path checks the actions once, :func:`~tin_swarm_env.env.tin_swarm._live_actions`)."""
+        """:meth:`step` with ``c`` already checked: ``(n, 2)`` C-contiguous float64, all finite (for a
+        caller that has checked its commands itself, so the check is not paid twice a step)."""
         P = self.params
         B = P.battery
         diameter = 2 * P.robot.radius_m
