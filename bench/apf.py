@@ -50,13 +50,16 @@ from canyons import VARIANTS, canyon_config  # noqa: E402
 
 POLICIES = {
     "apf": lambda env: APFPolicy(env),
+    "apf, chart search": lambda env: APFPolicy(env, search="chart"),
     "apf, no break field": lambda env: APFPolicy(env, fields=("robot", "target", "height")),
     "geodesic (knows the map)": lambda env: GeodesicPolicy(env),
     "random": lambda env: RandomPolicy(env, seed=0),
 }
-GENERATED_POLICIES = ("apf", "geodesic (knows the map)")  # the generated rows: the baseline and the bound
+GENERATED_POLICIES = ("apf", "apf, chart search", "geodesic (knows the map)")  # the generated rows: the baseline
+# with either boundary search, and the bound
 GOAL_SCENARIOS = ("cliff_goal", "ramp", "hill", "flat", "jacksboro")
 FILE_SCENARIOS = ("canyon_left", "canyon_right", "valley")  # scenarios/<name>.toml, the thesis's DEM-file maps
+SEARCHES = ("bug", "chart")  # APFPolicy's boundary searches (policies/bug.py, policies/chart.py)
 QUICK = {"seeds": 2, "generated": 3, "jacksboro_seeds": 1}
 
 
@@ -277,18 +280,19 @@ def horizon_rows(args, emit=print):
 
 
 def longer_rows(args, emit=print, checkpoints=(900, 1200, 1500, 1800)):
-    """Jacksboro's APF given more steps than the scenario's ``max_cycles``: the share of robots
-    that arrived by each checkpoint (one episode of ``checkpoints[-1]`` steps per seed). It says
-    whether APF's timeouts are robots that are lost or robots that are late."""
+    """Jacksboro's APF (either boundary search) given more steps than the scenario's ``max_cycles``:
+    the share of robots that arrived by each checkpoint (one episode of ``checkpoints[-1]`` steps per
+    seed and search). It says whether APF's timeouts are robots that are lost or robots that are late."""
     env = tse.parallel_env(scenario="jacksboro", max_cycles=checkpoints[-1])
     emit(f"\njacksboro, APF given {checkpoints[-1]} steps: share of robots arrived by step ...")
-    emit("| seed | " + " | ".join(str(c) for c in checkpoints) + " | fell |")
-    emit("|---:|" + "---:|" * (len(checkpoints) + 1))
+    emit("| seed | search | " + " | ".join(str(c) for c in checkpoints) + " | fell |")
+    emit("|---:|---|" + "---:|" * (len(checkpoints) + 1))
     for sd in range(args.jacksboro_seeds):
-        out = rollout(env, APFPolicy(env), sd)
-        arrived = out.reasons == Reason.ARRIVED
-        shares = [np.mean(arrived & (out.steps <= c)) for c in checkpoints]
-        emit(f"| {sd} | " + " | ".join(f"{x:.1%}" for x in shares) + f" | {out.share(Reason.FELL):.1%} |")
+        for search in SEARCHES:
+            out = rollout(env, APFPolicy(env, search=search), sd)
+            arrived = out.reasons == Reason.ARRIVED
+            shares = [np.mean(arrived & (out.steps <= c)) for c in checkpoints]
+            emit(f"| {sd} | {search} | " + " | ".join(f"{x:.1%}" for x in shares) + f" | {out.share(Reason.FELL):.1%} |")
 
 
 def _header(argv) -> str:

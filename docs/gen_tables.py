@@ -338,33 +338,42 @@ def _md_rows(lines: list[str], start: int) -> list[list[str]]:
 
 
 def apf_summary_rows() -> str:
-    """README's APF table: per terrain, APF's arrived / fell / stalled / looping beside the map-knowing
-    geodesic policy's arrived, read off ``docs/figures/apf.md`` (its first table), and jacksboro given
-    1800 steps (the mean over its seeds of the 900- and 1800-step columns)."""
+    """README's APF table: per terrain, APF's arrived / fell / stalled / looping (its default boundary
+    search), the chart search's arrived, beside the map-knowing geodesic policy's arrived, read off
+    ``docs/figures/apf.md`` (its first table), and jacksboro given 1800 steps (the mean over its seeds
+    of the 900- and 1800-step columns, per search)."""
     lines = APF_FIGURES.read_text(encoding="utf-8").splitlines()
     head = next(i for i, line in enumerate(lines) if line.startswith("| terrain | policy |"))
     cols = lines[head].strip().strip("|").split("|")
     cols = [c.strip() for c in cols]
     at = {k: cols.index(k) for k in ("terrain", "policy", "seeds x robots", "arrived", "fell", "stalled", "looping")}
-    apf, geo = {}, {}
+    apf, chart, geo = {}, {}, {}
     for r in _md_rows(lines, head):
         if r[at["policy"]] == "apf":
             apf[r[at["terrain"]]] = r
+        elif r[at["policy"]] == "apf, chart search":
+            chart[r[at["terrain"]]] = r
         elif r[at["policy"]].startswith("geodesic"):
             geo[r[at["terrain"]]] = r
-    out = ["| terrain | seeds x robots | APF arrived | fell | stalled | looping | geodesic arrived |",
-           "|---|---:|---:|---:|---:|---:|---:|"]
+    out = ["| terrain | seeds x robots | APF arrived | fell | stalled | looping | chart search arrived | "
+           "geodesic arrived |", "|---|---:|---:|---:|---:|---:|---:|---:|"]
     for name, r in apf.items():
         g = geo[name][at["arrived"]] if name in geo else ""
+        c = chart[name][at["arrived"]] if name in chart else ""
         out.append(f"| {name} | {r[at['seeds x robots']]} | {r[at['arrived']]} | {r[at['fell']]} | "
-                   f"{r[at['stalled']]} | {r[at['looping']]} | {g} |")
-    longer = next((i for i, line in enumerate(lines) if line.startswith("| seed | 900 |")), None)
+                   f"{r[at['stalled']]} | {r[at['looping']]} | {c} | {g} |")
+    longer = next((i for i, line in enumerate(lines) if line.startswith("| seed | search | 900 |")), None)
     if longer is not None:
         rows = _md_rows(lines, longer)
         hdr = [c.strip() for c in lines[longer].strip().strip("|").split("|")]
-        c900, c1800 = (sum(float(r[hdr.index(k)].rstrip("%")) for r in rows) / len(rows) for k in ("900", "1800"))
-        out.append(f"| jacksboro, given 1800 steps | {len(rows)} seeds | {c1800:.1f}% (at 900: {c900:.1f}%) | "
-                   f"| | | |")
+        cell = {}
+        for search in ("bug", "chart"):
+            mine = [r for r in rows if r[hdr.index("search")] == search]
+            c900, c1800 = (sum(float(r[hdr.index(k)].rstrip("%")) for r in mine) / max(len(mine), 1)
+                           for k in ("900", "1800"))
+            cell[search] = f"{c1800:.1f}% (at 900: {c900:.1f}%)"
+        n = len({r[0] for r in rows})
+        out.append(f"| jacksboro, given 1800 steps | {n} seeds | {cell['bug']} | | | | {cell['chart']} | |")
     source = re.split(r",? \d{4}-\d\d-\d\d", lines[0])[0].rstrip(".")
     return "\n".join(out) + f"\n\n{source}.\n"
 

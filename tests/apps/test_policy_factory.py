@@ -42,7 +42,7 @@ def test_policy_specs_are_checked_before_any_work(tmp_path):
         check_policy_spec(str(z), option="--model")
     assert check_policy_spec(str(z), trust_pickle=True) == "sb3"
     (tmp_path / "notes.txt").write_text("x")
-    with pytest.raises(ArgumentError, match="is not a policy directory or an SB3 .zip; give apf, random, geodesic"):
+    with pytest.raises(ArgumentError, match="is not a policy directory or an SB3 .zip; give apf, apf-chart, random, geodesic"):
         check_policy_spec(str(tmp_path / "notes.txt"))
     with pytest.raises(ArgumentError, match="--policy 'ppo': no such file or directory"):
         check_policy_spec("ppo")
@@ -54,7 +54,9 @@ def test_make_policy_builds_the_named_baselines():
 
     env = tse.parallel_env(scenario="flat", n_robots=2)
     apf = make_policy(env, "apf", fields=["robot", "target"])
-    assert isinstance(apf, APFPolicy) and apf.params.fields == ("robot", "target")
+    assert isinstance(apf, APFPolicy) and apf.params.fields == ("robot", "target") and apf.search == "bug"
+    chart = make_policy(env, "APF-chart")
+    assert isinstance(chart, APFPolicy) and chart.search == "chart"
     r = make_policy(env, "random", seed=4)
     assert isinstance(r, RandomPolicy)
     np.testing.assert_array_equal(r.act_batch(np.zeros((3, 5))), RandomPolicy(seed=4).act_batch(np.zeros((3, 5))))

@@ -93,9 +93,9 @@ def _config(tmp_path, name, terrain, mirror_y=False, mirror_x=False, robots=10, 
         "targets": {"positions": [target], "arrival_radius_m": 8.0}}, source=name, base_dir=str(tmp_path))
 
 
-def _run(cfg, seed=0):
+def _run(cfg, seed=0, search="bug"):
     env = tse.parallel_env(scenario=cfg)
-    pol = APFPolicy(env)
+    pol = APFPolicy(env, search=search)
     out = rollout(env, pol, seed)
     return out, pol
 
@@ -104,28 +104,34 @@ def _run(cfg, seed=0):
 CASES = [(utrap, 1000), (comb, 1600), (queue, 800)]
 
 
+SEARCHES = ["bug", "chart"]  # APFPolicy's two boundary searches (policies/bug.py, policies/chart.py)
+
+
+@pytest.mark.parametrize("search", SEARCHES)
 @pytest.mark.parametrize("mirror_y", [False, True], ids=["open-left", "open-right"])
 @pytest.mark.parametrize("make,steps", CASES, ids=[c[0].__name__ for c in CASES])
-def test_every_robot_gets_out_and_arrives(tmp_path, make, steps, mirror_y):
-    out, pol = _run(_config(tmp_path, make.__name__, make(), mirror_y=mirror_y, max_cycles=steps))
+def test_every_robot_gets_out_and_arrives(tmp_path, make, steps, mirror_y, search):
+    out, pol = _run(_config(tmp_path, make.__name__, make(), mirror_y=mirror_y, max_cycles=steps), search=search)
     assert out.count(Reason.FELL) == 0
     assert out.count(Reason.ARRIVED) == out.n_robots, (out.counts(), out.steps.tolist())
     assert not out.stalled.any() and not out.looping.any() and not pol.unreachable.any()
 
 
-def test_the_u_trap_travelling_west(tmp_path):
-    out, pol = _run(_config(tmp_path, "utrap_w", utrap(), mirror_x=True, max_cycles=1000))
+@pytest.mark.parametrize("search", SEARCHES)
+def test_the_u_trap_travelling_west(tmp_path, search):
+    out, pol = _run(_config(tmp_path, "utrap_w", utrap(), mirror_x=True, max_cycles=1000), search=search)
     assert out.count(Reason.FELL) == 0 and out.count(Reason.ARRIVED) == out.n_robots, out.counts()
 
 
+@pytest.mark.parametrize("search", SEARCHES)
 @pytest.mark.parametrize("mirror_y", [False, True], ids=["dead-end-left", "dead-end-right"])
-def test_fork_with_a_dead_end_ramp_every_robot_arrives(tmp_path, mirror_y):
+def test_fork_with_a_dead_end_ramp_every_robot_arrives(tmp_path, mirror_y, search):
     """Every robot arrives within 1500 steps (5x the geodesic ~300 at top speed), none falls, stalls,
     loops or gives up. Robots that take the dead-end ramp first search the pocket and climb out; the
     way to the real ramp needs ~200 m more distance to go than the hit point: a first leg of the
     doubling search shorter than that (``BugParams.min_budget`` of one sensor range, 60 m) turned
     them back and forth along the cliff until the time ran out (5 of 10 arrived)."""
-    out, pol = _run(_config(tmp_path, "fork", fork(), mirror_y=mirror_y, max_cycles=1500))
+    out, pol = _run(_config(tmp_path, "fork", fork(), mirror_y=mirror_y, max_cycles=1500), search=search)
     assert out.count(Reason.FELL) == 0 and not pol.unreachable.any()
     assert out.count(Reason.ARRIVED) == out.n_robots, (out.counts(), out.steps.tolist())
     assert not out.stalled.any() and not out.looping.any()

@@ -127,7 +127,7 @@ def parse_models(spec: str) -> list[tuple[str, str]]:
 
 
 def policy_rows(names: str) -> list[str]:
-    """The built-in rows of ``names`` (comma-separated, any case): ``random``, ``apf``,
+    """The built-in rows of ``names`` (comma-separated, any case): ``random``, ``apf``, ``apf-chart``,
     ``geodesic`` (:data:`~tin_swarm_env.apps.policy_factory.POLICY_NAMES`)."""
     from .policy_factory import POLICY_NAMES
 

@@ -1,5 +1,6 @@
-"""Policies by name for the apps: ``"apf"``, ``"random"``, ``"geodesic"`` (the map-knowing
-reference), a pickle-free policy directory, or
+"""Policies by name for the apps: ``"apf"``, ``"apf-chart"`` (APF with the chart search instead of
+the bug search), ``"random"``, ``"geodesic"`` (the map-knowing reference), a pickle-free policy
+directory, or
 (only with ``trust_pickle``) a saved Stable-Baselines3 ``.zip``."""
 
 from __future__ import annotations
@@ -13,14 +14,14 @@ from ..errors import ArgumentError, MissingExtraError
 
 __all__ = ["make_policy", "check_policy_spec", "SB3Policy", "POLICY_NAMES"]
 
-POLICY_NAMES = ("apf", "random", "geodesic")
+POLICY_NAMES = ("apf", "apf-chart", "random", "geodesic")
 
 _PICKLE_WHY = ("an SB3 .zip is a pickle: loading it runs any code the file holds, so load only files you "
                "made or trust")
 
 
 def check_policy_spec(spec: str, trust_pickle: bool = False, option: str = "--policy") -> str:
-    """Check a policy spec before any slow work starts; returns ``"apf"``, ``"random"``, ``"dir"``
+    """Check a policy spec before any slow work starts; returns a name of :data:`POLICY_NAMES`, ``"dir"``
     (a pickle-free policy directory, or its policy.json) or ``"sb3"`` (a .zip, only when
     ``trust_pickle``). Names are case-insensitive. Anything else raises :class:`ArgumentError`
     naming ``option`` and listing what it accepts."""
@@ -42,15 +43,16 @@ def check_policy_spec(spec: str, trust_pickle: bool = False, option: str = "--po
 
 
 def make_policy(env, policy: str, fields=None, seed: int | None = None, trust_pickle: bool = False):
-    """``"apf"`` (with the APF ``fields``, default all), ``"random"`` (seeded), a pickle-free
+    """``"apf"`` or ``"apf-chart"`` (with the APF ``fields``, default all; the bug or the chart
+    boundary search), ``"random"`` (seeded), a pickle-free
     policy directory (:func:`~tin_swarm_env.policies.load_policy`) or, with ``trust_pickle``, a
     saved SB3 model ``.zip``: an object with ``act_batch(obs (n, d)) -> (n, 2)``."""
     from ..policies import APFPolicy, RandomPolicy, load_policy
     from ..world.fields import FIELDS
 
     kind = check_policy_spec(policy, trust_pickle)
-    if kind == "apf":
-        return APFPolicy(env, fields=tuple(fields) if fields else FIELDS)
+    if kind in ("apf", "apf-chart"):
+        return APFPolicy(env, fields=tuple(fields) if fields else FIELDS, search="chart" if kind == "apf-chart" else "bug")
     if kind == "random":
         return RandomPolicy(env, seed=seed)
     if kind == "geodesic":  # the map-knowing reference

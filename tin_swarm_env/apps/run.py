@@ -65,8 +65,8 @@ class Args:
 
     scenario: str = opt("flat", "built-in scenario name (tin-swarm scenarios) or a .toml path")
     robots: int | None = opt(None, "number of robots (default: the scenario's)", lo=1, hi=MAX_ROBOTS)
-    policy: str = opt("apf", "apf, random, geodesic (the map-knowing reference; any case), a pickle-free policy "
-                      "directory, or an SB3 .zip with --trust-pickle")
+    policy: str = opt("apf", "apf, apf-chart (APF with the chart search), random, geodesic (the map-knowing "
+                      "reference; any case), a pickle-free policy directory, or an SB3 .zip with --trust-pickle")
     trust_pickle: bool = opt(False, "allow --policy MODEL.zip: SB3 files are pickles and loading one runs any code "
                              "it holds", flag=True)
     episodes: int = opt(1, "episodes to run (seeds SEED, SEED+1, ...)", lo=1)

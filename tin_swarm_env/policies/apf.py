@@ -102,6 +102,46 @@ has finitely many; a closed boundary whose lap comes no nearer than the last suc
 still followed on (open: measured in ``docs/figures/apf_notes.md``), as are boundaries that are
 not closed but long (the budget and the border end those).
 
+**Chart search** (``search="chart"``; :mod:`tin_swarm_env.policies.chart`; the default is
+``"bug"``, above). Instead of the bug rules, each robot keeps a chart of what it has sensed and
+heads along the shortest way to its target on it, taking ground it has not sensed as open (the
+free-space assumption of D* and its kin). Memory per robot
+(:class:`~tin_swarm_env.policies.chart.ChartMemory`, constants in
+:class:`~tin_swarm_env.policies.chart.ChartParams`): the odometry above (``q`` exact); a chart of
+``cells x cells`` (256 x 256 bytes: 64 KiB) centred on its target in its frame ``F``, cells
+``2 (reach d0 + range_reach R) / cells`` wide (``d0`` its distance to go at its first step, ``R``
+the sensor range; at least one step at top speed), each open, *wall* or *stuck*; the point it heads
+for; last step's break points; a stall anchor and count. Each step:
+
+1. *Mark*: the cell of every dangerous break point it sees is a wall, and ``extend`` cells either
+   side along the break for a point seen square on (not at a break's end); a point within ``link``
+   cells of one seen last step shuts the cells between them (a wall driven along leaves no hole);
+   the terrain is a rectangle, so a border point (``b_border``) shuts the whole half-plane beyond it.
+2. *Plan* (A*, 8-connected, no corner cut between two shut cells; a step into a cell beside a shut
+   one costs ``wall_cost`` cells more, a first step against the way it was heading up to ``turn_m``
+   more) the least-cost way over open cells to the target's cell, whenever its chart changed or it
+   is within two cells of the point it heads for. It heads for the farthest cell of that way within
+   ``ahead_m`` (at least 3 cells) that lies in a straight open line on the chart.
+3. *Drive*: the fields above, with the attraction turned toward that point (the height field off
+   while it is not the target itself); where a dangerous break it faces within ``follow_engage_m``
+   lies across the attraction, it slides along the break (the follow term) on the side the
+   attraction leans to. The shield is unchanged.
+4. *Stall*: not two body lengths (or 1.5 cells) from where it was ``stall_steps`` steps ago (twice
+   that with robots near): the cells on the straight line to the point it heads for become *stuck*.
+5. *No way*: it forgets its stuck cells, then the walls within 3 cells of where it stands, then its
+   whole chart, planning again after each (a corner sensed through ``K_b`` closest points can be
+   charted shut where it is open). It never stands still for want of a way: no unreachable verdict.
+
+*Why it terminates, and where it may not.* Each mark shuts an open cell and the chart is finite, so
+between two forgettings the chart changes finitely often; while it does not change, the robot drives
+a fixed least-cost way: it arrives, or a break across that way comes into its slots and is marked,
+or it stalls and marks the way stuck. So it meets every dead end once and never circles a charted
+loop. Forgetting (step 5) gives up that argument: a robot that forgets can chart the same cells
+again; ``ChartMemory.forgot`` counts it. Free-space planning also takes the way that looks shortest
+on what it has seen, so a wrong first side costs the distance to where the chart shows it closed
+(often the terrain's border), with no budget to turn back sooner: measured beside the bug search in
+``docs/figures/apf.md``.
+
 **Queues.** Robots that see each other keep 1.5 body diameters apart and the robot field pushes
 them aside, so robots following one wall queue behind each other; one stalled in a queue turns
 back after four times ``stall_steps`` (a queue dissolves: the robots behind pass it or turn too).
@@ -116,6 +156,8 @@ import numpy as np
 
 from ..world.fields import (
     FIELDS,
+    away_from,
+    facing,
     FieldParams,
     asset_field,
     break_field,
@@ -126,6 +168,7 @@ from ..world.fields import (
 )
 from .base import DecodedObs, SafetyShield, act_dict, decode, unwrap_env
 from .bug import BugMemory, BugParams, bug_update, odometry, pass_gap
+from .chart import ChartMemory, ChartParams, chart_update
 
 __all__ = ["APFPolicy", "apf_forces", "field_forces", "follow_term", "FORCES", "BugMemory", "bug_update", "pass_gap"]
 
@@ -193,8 +236,10 @@ class APFPolicy:
     arc between robots evenly spread on the standoff ring (from the scenario's robot and threat
     counts), so that robots spread around each threat instead of bunching where they arrive.
 
-    **Memory and search** (with the break field on): see the module docstring; ``bug`` sets its
-    constants (:class:`~tin_swarm_env.policies.bug.BugParams`). :attr:`unreachable` lists the
+    **Memory and search** (with the break field on): see the module docstring; ``search`` picks
+    the boundary search, ``"bug"`` (the default) or ``"chart"``; ``bug`` and ``chart`` set their
+    constants (:class:`~tin_swarm_env.policies.bug.BugParams`,
+    :class:`~tin_swarm_env.policies.chart.ChartParams`). :attr:`unreachable` lists the
     robots that have shown their target unreachable (they stand still).
 
     **Gaps**: where two sensed break ends leave a gap at least 3 body diameters wide (the edge cut
@@ -215,7 +260,8 @@ class APFPolicy:
     break it sees, however long its step.
     """
 
-    def __init__(self, env, fields=FIELDS, params: FieldParams | None = None, bug: BugParams | None = None):
+    def __init__(self, env, fields=FIELDS, params: FieldParams | None = None, bug: BugParams | None = None,
+                 search: str = "bug", chart: ChartParams | None = None):
         base = unwrap_env(env)
         cfg = base.config
         self.shield = SafetyShield(env)
@@ -229,6 +275,10 @@ class APFPolicy:
                 params = FieldParams(robot_range_m=max(params.robot_range_m, 1.1 * spacing))
         self.params = FieldParams(**{**params.__dict__, "fields": tuple(fields)})
         self.bug = bug or BugParams()
+        if search not in ("bug", "chart"):
+            raise ValueError(f"APFPolicy: search must be 'bug' or 'chart', got {search!r}")
+        self.search = search
+        self.chart = chart or ChartParams()
         self.static_target = not cfg.targets.mobile
         self.layout = base.layout
         self.reset()
@@ -236,6 +286,7 @@ class APFPolicy:
     def reset(self):
         """Forget every robot's memory (call after each environment reset)."""
         self.memory = BugMemory.empty(0)
+        self.charts = ChartMemory.empty(0, self.chart.cells, self.layout.k_breaks)
         self._rows: dict = {}
 
     def forces(self, obs, rows=None) -> dict:
@@ -250,6 +301,8 @@ class APFPolicy:
         rows = np.arange(d.n) if rows is None else np.asarray(rows, dtype=np.int64)
         self.memory = mem = self.memory.grow(int(rows.max(initial=-1)) + 1)
         q, moved = odometry(mem, rows, d, self.shield.step_m)
+        if self.search == "chart":
+            return self._chart_forces(f, d, rows, q)
         pull = f["target"] + f["height"]
         g = pass_gap(d, self.shield.pass_m, self.params.follow_engage_m)
         # a robot with another one ahead toward the gap queues (the usual fields) instead
@@ -274,6 +327,32 @@ class APFPolicy:
         f["follow"] = follow_field(pull, rel, nrm, side, self.params.follow_hold_m, self.shield.step_m)
         mag = np.sqrt(np.sum(pull * pull, axis=-1, keepdims=True))
         f["follow"] = np.where(has[:, None], mag * g["aim"] - pull, f["follow"])
+        return f
+
+    def _chart_forces(self, f, d, rows, q):
+        self.charts = ch = self.charts.grow(len(self.memory.side))
+        r_d = np.sqrt(np.sum(d.r_rel ** 2, axis=-1))
+        crowded = ((d.r_valid > 0.5) & (r_d < 2 * self.params.robot_range_m)).any(axis=-1)
+        psi = self.memory.psi[rows]
+        way = chart_update(ch, rows, d, q, psi, self.chart, self.shield.range_m, self.shield.step_m,
+                           2 * self.shield.edge_m, crowded)
+        detour = np.any(way != d.rel_t, axis=-1)
+        wn = np.sqrt(np.sum(way * way, axis=-1, keepdims=True))
+        mag = np.sqrt(np.sum(f["target"] ** 2, axis=-1, keepdims=True))
+        f["target"] = np.where(detour[:, None], way / np.maximum(wn, 1e-9) * mag, f["target"])
+        f["height"] = np.where(detour[:, None], 0.0, f["height"])
+        # a wall across the way on the chart's way: slide along it, on the side the pull leans to
+        pull = f["target"] + f["height"]
+        bd = np.sqrt(np.sum(d.b_rel ** 2, axis=-1))
+        into = facing(d.b_rel, d.b_normal, d.b_danger) & (bd < self.params.follow_engage_m) & \
+            (np.einsum("nkj,nj->nk", d.b_rel, pull) > 0)
+        k = np.argmin(np.where(into, bd, np.inf), axis=-1)
+        rel = np.take_along_axis(d.b_rel, k[:, None, None], axis=1)[:, 0]
+        nrm = np.take_along_axis(d.b_normal, k[:, None, None], axis=1)[:, 0]
+        e = away_from(rel, nrm)
+        side = np.where(into.any(axis=-1), np.where(e[:, 1] * pull[:, 0] - e[:, 0] * pull[:, 1] >= 0, 1, -1), 0)
+        f["follow"] = follow_field(pull, rel, nrm, side, self.params.follow_hold_m, self.shield.step_m)
+        self.memory.unreachable[rows] = ch.unreachable[rows]
         return f
 
     def act_batch(self, obs, rows=None) -> np.ndarray:

@@ -1,0 +1,121 @@
+"""The chart search under APF (policies/chart.py): the planner against a slow obvious Dijkstra on
+random small charts, hand-built charts with exact answers, the border's half-plane and the
+argument checks. The hand-built terrains (U trap, comb, queue, fork, mirrored) run with both
+searches in test_bug.py."""
+
+from __future__ import annotations
+
+import heapq
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import tin_swarm_env as tse
+from tin_swarm_env.policies import APFPolicy
+from tin_swarm_env.policies.chart import WALL, ChartParams, _mark_border, plan
+
+
+def dijkstra(g, s, t, wall_cost=2.0):
+    """The least cost from cell s to cell t over open cells, 8-connected, no corner cutting, a step
+    into a cell with a shut neighbour costing ``wall_cost`` more (inf: no way)."""
+    c = g.shape[0]
+
+    def shut(a, b):
+        return 0 <= a < c and 0 <= b < c and g[a, b] != 0
+
+    best = {s: 0.0}
+    heap = [(0.0, s)]
+    while heap:
+        d, (a, b) = heapq.heappop(heap)
+        if (a, b) == t:
+            return d
+        if d > best[(a, b)]:
+            continue
+        for da in (-1, 0, 1):
+            for db in (-1, 0, 1):
+                na, nb = a + da, b + db
+                if (da, db) == (0, 0) or not (0 <= na < c and 0 <= nb < c) or g[na, nb] != 0:
+                    continue
+                if da and db and (shut(a + da, b) or shut(a, b + db)):
+                    continue
+                nd = d + (math.sqrt(2) if da and db else 1.0)
+                if any(shut(na + ea, nb + eb) for ea in (-1, 0, 1) for eb in (-1, 0, 1)):
+                    nd += wall_cost
+                if nd < best.get((na, nb), math.inf):
+                    best[(na, nb)] = nd
+                    heapq.heappush(heap, (nd, (na, nb)))
+    return math.inf
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.floats(0.0, 0.45))
+def test_plan_costs_what_a_plain_dijkstra_costs(seed, density):
+    rng = np.random.default_rng(seed)
+    c = 12
+    g = (rng.random((c, c)) < density).astype(np.uint8)
+    s, t = (0, 0), (c - 1, c - 1)
+    g[s] = g[t] = 0
+    found, wa, wb, cost = plan(g, *s, *t, 1e9)
+    ref = dijkstra(g, s, t)
+    assert found == (ref < math.inf)
+    if found:
+        assert cost == pytest.approx(ref)
+        assert g[wa, wb] == 0
+
+
+def test_plan_goes_round_a_wall_through_its_one_gap():
+    g = np.zeros((9, 9), np.uint8)
+    g[4, :] = WALL
+    g[4, 7] = 0  # the gap
+    found, wa, wb, cost = plan(g, 1, 1, 7, 1, 1e9)
+    assert found
+    # down to the gap and back: the way passes (4, 7); a way point in line never lies across the wall
+    assert (wa, wb) != (7, 1) and wa <= 4
+    g[4, 7] = WALL
+    assert plan(g, 1, 1, 7, 1, 1e9)[0] is False
+
+
+def test_plan_never_cuts_a_corner_between_two_shut_cells():
+    g = np.zeros((3, 3), np.uint8)
+    g[0, 1] = g[1, 0] = WALL  # (0, 0) touches (1, 1) only across the corner
+    assert plan(g, 0, 0, 2, 2, 1e9)[0] is False
+    g[1, 0] = 0
+    assert plan(g, 0, 0, 2, 2, 1e9)[0] is True
+
+
+def test_open_ground_heads_straight_for_the_goal_within_reach():
+    g = np.zeros((20, 20), np.uint8)
+    found, wa, wb, cost = plan(g, 2, 2, 17, 2, 100.0)
+    assert found and (wa, wb) == (17, 2) and cost == pytest.approx(15.0)
+    _, wa, wb, _ = plan(g, 2, 2, 17, 2, 5.0)  # only 5 cells ahead
+    assert (wa, wb) == (7, 2)
+
+
+def test_a_border_point_closes_the_half_plane_beyond_it_and_nothing_else():
+    c, w = 16, 1.0
+    grid = np.zeros((1, c, c), np.uint8)
+    # a border at x = 3 m (cell 8 + 3 = 11), the terrain on its -x side: normal (-1, 0)
+    pts = np.array([[[3.0, 0.0]]])
+    nrm = np.array([[[-1.0, 0.0]]])
+    changed = _mark_border(grid, np.array([w]), np.array([0]), pts, nrm, np.array([[True]]))
+    assert changed.tolist() == [True]
+    xs = (np.arange(c) - c // 2 + 0.5) * w  # cell centres
+    shut = grid[0] == WALL
+    assert shut[xs > 3.5].all() and not shut[xs < 3.5].any()
+    # seen again: nothing changes
+    assert _mark_border(grid, np.array([w]), np.array([0]), pts, nrm, np.array([[True]])).tolist() == [False]
+
+
+@pytest.mark.parametrize("key", ["cells", "reach", "range_reach", "min_cell_m", "ahead_m", "stall_steps"])
+def test_chart_params_refuse_non_positive_values_by_name(key):
+    with pytest.raises(ValueError, match=f"ChartParams.{key}"):
+        ChartParams(**{key: 0})
+
+
+def test_apf_refuses_an_unknown_search_by_name():
+    env = tse.parallel_env(scenario="ramp")
+    with pytest.raises(ValueError, match="search must be 'bug' or 'chart'"):
+        APFPolicy(env, search="astar")
