@@ -292,7 +292,8 @@ def longer_rows(args, emit=print, checkpoints=(900, 1200, 1500, 1800)):
             out = rollout(env, APFPolicy(env, search=search), sd)
             arrived = out.reasons == Reason.ARRIVED
             shares = [np.mean(arrived & (out.steps <= c)) for c in checkpoints]
-            emit(f"| {sd} | {search} | " + " | ".join(f"{x:.1%}" for x in shares) + f" | {out.share(Reason.FELL):.1%} |")
+            emit(f"| {sd} | {search} | " + " | ".join(f"{x:.1%}" for x in shares)
+                 + f" | {out.share(Reason.FELL):.1%} |")
 
 
 def _header(argv) -> str:

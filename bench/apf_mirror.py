@@ -3,11 +3,12 @@ reflected east-west and reflected north-south (the terrain's ``mirror`` key,
 :mod:`tin_swarm_env.scenario.mirror`), so a rule that prefers one side shows as a gap between rows.
 Writes ``docs/figures/apf_mirror.md``:
 
-    python bench/apf_mirror.py [--seeds 20] [--out FILE]
+    python bench/apf_mirror.py [--seeds 20] [--search bug,chart] [--out FILE]
 
 Each row: ``--seeds`` held-out seeds from ``EVAL_SEED0`` x the scenario's 20 robots, one
 :func:`~tin_swarm_env.apps.rollout.rollout` each (``max_cycles`` of the ``generated`` scenario);
-stalled and looping as in :mod:`tin_swarm_env.apps.trajectory`.
+stalled and looping as in :mod:`tin_swarm_env.apps.trajectory`; one row per boundary search
+(``APFPolicy(search=...)``) of ``--search``.
 """
 
 from __future__ import annotations
@@ -32,12 +33,15 @@ FAMILIES = ("canyon", "mesa", "fork", "trap")
 MIRRORS = (("", "as built"), ("ew", "east-west"), ("ns", "north-south"))
 
 
-def row(family: str, mirror: str, seeds: int) -> tuple[float, ...]:
+SEARCHES = ("bug", "chart")
+
+
+def row(family: str, mirror: str, seeds: int, search: str = "bug") -> tuple[float, ...]:
     cfg = load_scenario("generated")
     cfg = cfg.replace(terrain=dataclasses.replace(cfg.terrain, families=(family,), mirror=mirror))
     env = tse.parallel_env(scenario=cfg)
     t = time.perf_counter()
-    outs = [rollout(env, APFPolicy(env), sd) for sd in range(EVAL_SEED0, EVAL_SEED0 + seeds)]
+    outs = [rollout(env, APFPolicy(env, search=search), sd) for sd in range(EVAL_SEED0, EVAL_SEED0 + seeds)]
     n = sum(o.n_robots for o in outs)
     return (sum(o.count(Reason.ARRIVED) for o in outs) / n, sum(o.count(Reason.FELL) for o in outs) / n,
             sum(int(o.stalled.sum()) for o in outs) / n, sum(int(o.looping.sum()) for o in outs) / n,
@@ -48,8 +52,13 @@ def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--seeds", type=int, default=20, help="held-out seeds per row (default 20)")
+    p.add_argument("--search", type=lambda v: v.split(","), default=list(SEARCHES),
+                   help="boundary searches, comma-separated (default bug,chart)")
     p.add_argument("--out", default=str(ROOT / "docs" / "figures" / "apf_mirror.md"))
     a = p.parse_args(argv)
+    bad = [x for x in a.search if x not in SEARCHES]
+    if bad:
+        p.error(f"--search: unknown {bad}; choose from {','.join(SEARCHES)}")
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
                             text=True, check=False).stdout.strip() or "?"
     load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
@@ -58,12 +67,14 @@ def main(argv=None) -> int:
              f" at commit {commit}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load average {load} at "
              f"the start ({os.cpu_count()} cores).", "",
              f"APF, {a.seeds} held-out seeds x 20 robots per row, the same seeds as built and mirrored.", "",
-             "| family | terrain | arrived | fell | stalled | looping | s |", "|---|---|---:|---:|---:|---:|---:|"]
+             "| family | search | terrain | arrived | fell | stalled | looping | s |",
+             "|---|---|---|---:|---:|---:|---:|---:|"]
     for fam in FAMILIES:
-        for mir, name in MIRRORS:
-            ar, fe, st, lo, s = row(fam, mir, a.seeds)
-            lines.append(f"| {fam} | {name} | {ar:.1%} | {fe:.1%} | {st:.1%} | {lo:.1%} | {s:.0f} |")
-            print(lines[-1], flush=True)
+        for search in a.search:
+            for mir, name in MIRRORS:
+                ar, fe, st, lo, s = row(fam, mir, a.seeds, search)
+                lines.append(f"| {fam} | {search} | {name} | {ar:.1%} | {fe:.1%} | {st:.1%} | {lo:.1%} | {s:.0f} |")
+                print(lines[-1], flush=True)
     out = Path(a.out)
     part = out.with_name(f".{out.name}.part")
     part.write_text("\n".join(lines) + "\n")

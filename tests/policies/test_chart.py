@@ -119,3 +119,62 @@ def test_apf_refuses_an_unknown_search_by_name():
     env = tse.parallel_env(scenario="ramp")
     with pytest.raises(ValueError, match="search must be 'bug' or 'chart'"):
         APFPolicy(env, search="astar")
+
+
+def _seen(q, pts, normals, border=None):
+    """One robot at ``q`` (frame F = its body frame, heading 0) seeing dangerous break points ``pts``
+    (F, relative to the target) with their ``normals``: a DecodedObs and the arguments of chart_update."""
+    from tin_swarm_env.policies.base import DecodedObs
+
+    k = 3
+    rel = np.zeros((1, k, 2))
+    nrm = np.zeros((1, k, 2))
+    danger = np.zeros((1, k), bool)
+    for j, (p, n) in enumerate(zip(pts, normals)):
+        rel[0, j], nrm[0, j], danger[0, j] = np.subtract(p, q), n, True
+    q = np.asarray([q], float)
+    d = DecodedObs(has_t=np.array([True]), dist=np.hypot(*q[0])[None], rel_t=-q, dz=np.zeros(1),
+                   grad_z=np.zeros((1, 2)), speed=np.ones(1), r_rel=np.zeros((1, 0, 2)), r_valid=np.zeros((1, 0)),
+                   b_rel=rel, b_normal=nrm,
+                   b_danger=danger, b_border=np.zeros((1, k), bool) if border is None else border,
+                   a_rel=np.zeros((1, 0, 2)), a_valid=np.zeros((1, 0)))
+    return d, q
+
+
+def test_a_wall_driven_along_is_charted_without_holes_and_two_cells_thick():
+    from tin_swarm_env.policies.chart import ChartMemory, chart_update
+
+    p = ChartParams(cells=32, extend=0.01)  # link 1.5 cells, behind 0.8 cell (the defaults)
+    rows = np.array([0])
+
+    def chart(ys):
+        mem = ChartMemory.empty(1, 32, 3)
+        mem.cell[:] = 1.0  # cells 1 m wide; cell index = floor(x / 1 m) + 16
+        for y in ys:  # a wall x = 11.5 m, normal -x (the robot on its west side), seen square on at y
+            d, q = _seen((5.0, y), [(11.5, y)], [(-1.0, 0.0)])
+            chart_update(mem, rows, d, q, np.zeros(1), p, 60.0, 1.0, 2.0, np.array([False]))
+        return sorted(map(tuple, np.argwhere(mem.grid[0] == WALL).tolist()))
+
+    # seen at y 0.9 m (row 16) then 2.3 m (row 18), 1.4 m apart: the join shuts row 17 of the wall
+    # (column 27) between them; column 28 is the cell behind each point seen (x 12.3 m)
+    assert chart([0.9, 2.3]) == [(27, 16), (27, 17), (27, 18), (28, 16), (28, 18)]
+    # 1.6 m apart (over 1.5 cells): no join, row 17 stays open
+    assert chart([0.9, 2.5]) == [(27, 16), (27, 18), (28, 16), (28, 18)]
+
+
+def test_a_robot_that_stalls_charts_its_straight_way_stuck_after_stall_steps():
+    from tin_swarm_env.policies.chart import STUCK, ChartMemory, chart_update
+
+    p = ChartParams(cells=32, stall_steps=5)
+    mem = ChartMemory.empty(1, 32, 3)
+    rows = np.array([0])
+    d, q = _seen((-10.0, 0.0), [], [])  # 10 m west of its target, nothing in sight, never moving
+    counts = []
+    for _ in range(8):
+        chart_update(mem, rows, d, q, np.zeros(1), p, 60.0, 1.0, 2.0, np.array([False]))
+        counts.append(int((mem.grid[0] == STUCK).sum()))
+    w = mem.cell[0]
+    assert counts[:5] == [0] * 5 and counts[5] > 0  # the 6th step without moving is over stall_steps
+    a, b = np.nonzero(mem.grid[0] == STUCK)
+    x = (a - 16 + 0.5) * w
+    assert (np.abs((b - 16 + 0.5) * w) <= w).all() and (x > -10.0).all() and (x < 0.0).all()  # on its way east

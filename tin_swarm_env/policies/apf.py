@@ -156,11 +156,11 @@ import numpy as np
 
 from ..world.fields import (
     FIELDS,
-    away_from,
-    facing,
     FieldParams,
     asset_field,
+    away_from,
     break_field,
+    facing,
     follow_field,
     height_field,
     robot_field,
@@ -252,7 +252,8 @@ class APFPolicy:
     the first time it sees it. The memory
     grows lazily to the number of rows; :meth:`reset` clears it (call it after each env reset).
 
-    **Crowding and edges**: the summed command is cut by :func:`~tin_swarm_env.policies.base.keep_clear` so that robots that
+    **Crowding and edges**: the summed command is cut by
+    :func:`~tin_swarm_env.policies.base.keep_clear` so that robots that
     see each other never come within 1.5 body diameters (the robot field spreads them; a
     command into the blind sector behind the robot is first turned to the edge of its field of
     view, :func:`~tin_swarm_env.policies.base.into_view`), and,

@@ -229,9 +229,7 @@ def plan(g, sa, sb, ta, tb, ahead, wall_cost=2.0, ha=0.0, hb=0.0, turn=0.0):
     hn = 1
     found = False
     while hn > 0:
-        # pop min
-        key = heap_k[0]
-        v = heap_v[0]
+        v = heap_v[0]  # pop the least key
         hn -= 1
         if hn > 0:
             lk, lv = heap_k[hn], heap_v[hn]
@@ -394,7 +392,8 @@ def chart_update(mem: ChartMemory, rows, d: DecodedObs, q, psi, params: ChartPar
     # a wall driven along: each point joined to the nearest point seen last step within link cells
     # (closest points jump along a break of long edges, and a chart wall with a hole lets the way through)
     if mem.last_ok.shape[1] != ok.shape[1]:
-        mem.last_pts, mem.last_ok = np.zeros((len(mem.cell), ok.shape[1], 2)), np.zeros((len(mem.cell), ok.shape[1]), bool)
+        n_all = len(mem.cell)
+        mem.last_pts, mem.last_ok = np.zeros((n_all, ok.shape[1], 2)), np.zeros((n_all, ok.shape[1]), bool)
     lp, lo = mem.last_pts[rows], mem.last_ok[rows]
     gap = np.sqrt(np.sum((pts[:, :, None, :] - lp[:, None, :, :]) ** 2, axis=-1))  # (m, K, K)
     gap = np.where(lo[:, None, :], gap, np.inf)
@@ -405,15 +404,15 @@ def chart_update(mem: ChartMemory, rows, d: DecodedObs, q, psi, params: ChartPar
         ext.append(pts + f * (other - pts))
         oks.append(near)
     mem.last_pts[rows], mem.last_ok[rows] = pts, ok
-    P = np.concatenate(ext, axis=1)
-    O = np.concatenate(oks, axis=1)
+    at = np.concatenate(ext, axis=1)
+    on = np.concatenate(oks, axis=1)
     # never the target's own cell
     h = c // 2
     cw = mem.cell[rows][:, None]
-    tgt = (np.floor(P[..., 0] / cw) == 0) & (np.floor(P[..., 1] / cw) == 0)
-    O = O & ~tgt
+    tgt = (np.floor(at[..., 0] / cw) == 0) & (np.floor(at[..., 1] / cw) == 0)
+    on = on & ~tgt
     rr = np.asarray(rows, np.int64)
-    changed = _mark(mem.grid, mem.cell, rr, P.astype(np.float64), O)
+    changed = _mark(mem.grid, mem.cell, rr, at.astype(np.float64), on)
     changed |= _mark_border(mem.grid, mem.cell, rr, pts.astype(np.float64), nrm.astype(np.float64),
                             d.b_border & d.b_danger)
     mem.dirty[rows] |= changed
