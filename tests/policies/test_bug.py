@@ -562,3 +562,9 @@ def test_swinging_to_and_fro_along_a_wall_is_no_lap(obs_row, s):
         side = _drive(mem, obs_row(layout, R, tuple(tgt - p), [cliff]), layout, R, tuple(move))
         assert side == s and not mem.b1[0] and np.isinf(mem.lvl[0]), k
         assert mem.g_len[0] == pytest.approx(k + 1.0), (k, mem.g_len[0])
+
+
+@pytest.mark.parametrize("key", ["margin_m", "home_arc_m", "stall_crowded", "ring_cos"])
+def test_bug_params_refuse_non_positive_values_by_name(key):
+    with pytest.raises(ValueError, match=f"BugParams.{key} must be > 0"):
+        BugParams(**{key: 0})

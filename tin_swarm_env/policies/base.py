@@ -12,7 +12,7 @@ is :class:`~tin_swarm_env.policies.GeodesicPolicy`, the map-knowing reference.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -46,6 +46,13 @@ def act_dict(act_batch, obs: dict, rows=None) -> dict:
     stacked = np.stack([obs[k] for k in keys])
     a = act_batch(stacked) if rows is None else act_batch(stacked, rows)
     return {k: a[i] for i, k in enumerate(keys)}
+
+
+def check_positive_fields(params) -> None:
+    """Every field of the dataclass ``params`` must be > 0: ValueError naming the class and field."""
+    for f in fields(params):
+        if not getattr(params, f.name) > 0:
+            raise ValueError(f"{type(params).__name__}.{f.name} must be > 0, got {getattr(params, f.name)!r}")
 
 
 def unwrap_env(env):

@@ -5,12 +5,12 @@ odometry and the bug rules (the rule itself, and why it is complete, is written 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..world.fields import FieldParams, away_from, facing
-from .base import DecodedObs
+from .base import DecodedObs, check_positive_fields
 
 __all__ = ["BugMemory", "BugParams", "RING", "bug_update", "odometry", "pass_gap"]
 
@@ -60,9 +60,7 @@ class BugParams:
     ring_cos: float = 0.7
 
     def __post_init__(self):
-        for f in fields(self):
-            if not getattr(self, f.name) > 0:
-                raise ValueError(f"BugParams.{f.name} must be > 0, got {getattr(self, f.name)!r}")
+        check_positive_fields(self)
 
 
 _FLOAT2 = ("last_rel", "last_act", "hit", "wall_pt", "last_q", "t_hit", "r_pt", "r_dir", "b1_q")

@@ -13,7 +13,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from numba import njit
 
-from .base import DecodedObs
+from .base import DecodedObs, check_positive_fields
 
 __all__ = ["ChartMemory", "ChartParams", "chart_update", "plan"]
 
@@ -61,9 +61,7 @@ class ChartParams:
     turn_m: float = 30.0
 
     def __post_init__(self):
-        for f in fields(self):
-            if not getattr(self, f.name) > 0:
-                raise ValueError(f"ChartParams.{f.name} must be > 0, got {getattr(self, f.name)!r}")
+        check_positive_fields(self)
 
 
 @dataclass
