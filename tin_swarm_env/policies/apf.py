@@ -158,16 +158,14 @@ from ..world.fields import (
     FIELDS,
     FieldParams,
     asset_field,
-    away_from,
     break_field,
-    facing,
     follow_field,
     height_field,
     robot_field,
     target_field,
 )
 from .base import DecodedObs, SafetyShield, act_dict, decode, unwrap_env
-from .bug import BugMemory, BugParams, bug_update, odometry, pass_gap
+from .bug import BugMemory, BugParams, bug_update, odometry, pass_gap, sensed
 from .chart import ChartMemory, ChartParams, chart_update
 
 __all__ = ["APFPolicy", "apf_forces", "field_forces", "follow_term", "FORCES", "BugMemory", "bug_update", "pass_gap"]
@@ -344,16 +342,13 @@ class APFPolicy:
         f["height"] = np.where(detour[:, None], 0.0, f["height"])
         # a wall across the way on the chart's way: slide along it, on the side the pull leans to
         pull = f["target"] + f["height"]
-        bd = np.sqrt(np.sum(d.b_rel ** 2, axis=-1))
-        into = facing(d.b_rel, d.b_normal, d.b_danger) & (bd < self.params.follow_engage_m) & \
-            (np.einsum("nkj,nj->nk", d.b_rel, pull) > 0)
-        k = np.argmin(np.where(into, bd, np.inf), axis=-1)
+        s = sensed(d, pull, self.params)  # the bug search's test of a break across the pull
+        k = np.argmin(np.where(s["into"], s["dist"], np.inf), axis=-1)
         rel = np.take_along_axis(d.b_rel, k[:, None, None], axis=1)[:, 0]
         nrm = np.take_along_axis(d.b_normal, k[:, None, None], axis=1)[:, 0]
-        e = away_from(rel, nrm)
-        side = np.where(into.any(axis=-1), np.where(e[:, 1] * pull[:, 0] - e[:, 0] * pull[:, 1] >= 0, 1, -1), 0)
+        e = np.take_along_axis(s["e"], k[:, None, None], axis=1)[:, 0]
+        side = np.where(s["into"].any(axis=-1), np.where(e[:, 1] * pull[:, 0] - e[:, 0] * pull[:, 1] >= 0, 1, -1), 0)
         f["follow"] = follow_field(pull, rel, nrm, side, self.params.follow_hold_m, self.shield.step_m)
-        self.memory.unreachable[rows] = ch.unreachable[rows]
         return f
 
     def act_batch(self, obs, rows=None) -> np.ndarray:

@@ -12,7 +12,7 @@ import numpy as np
 from ..world.fields import FieldParams, away_from, facing
 from .base import DecodedObs, check_positive_fields
 
-__all__ = ["BugMemory", "BugParams", "RING", "bug_update", "odometry", "pass_gap"]
+__all__ = ["BugMemory", "BugParams", "RING", "bug_update", "odometry", "pass_gap", "sensed"]
 
 END_DEG = 5.0  # a break's closest point is its end when the direction to the robot is this far off its normal
 
@@ -279,7 +279,7 @@ def _followed(seen, dist_b, ang, following, last_ang, hold_m, v_ok, v_ang, defer
     return np.where(virtual, k_n, k)
 
 
-def _sensed(d: DecodedObs, pull, params: FieldParams) -> dict:
+def sensed(d: DecodedObs, pull, params: FieldParams) -> dict:
     """Per break slot ``(m, K)``: ``dist`` (m), ``e`` (unit vector from the break to the robot,
     ``(m, K, 2)``), ``facing`` (dangerous, seen from the safe side), ``into`` (facing, within
     ``follow_engage_m`` and the pull points into it); per robot ``blocked (m,)``."""
@@ -437,7 +437,7 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     arc = mem.arc[rows] + np.where(following, np.where(side == first, 1.0, -1.0) * moved, 0.0)
     hit, rec, budget = mem.hit[rows], mem.rec[rows], mem.budget[rows]
     ended_f, ended_o, unreach = mem.ended_first[rows], mem.ended_other[rows], mem.unreachable[rows]
-    s = _sensed(d, pull, params)
+    s = sensed(d, pull, params)
     blocked = s["blocked"] & ~unreach
     through = np.zeros(m, dtype=bool) if gap is None else np.asarray(gap, dtype=bool)
     blocked &= ~through

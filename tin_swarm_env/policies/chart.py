@@ -76,7 +76,6 @@ class ChartMemory:
     dirty      (n,)      bool    its chart changed since it last planned
     anchor     (n, 2)    m       where it was when the stall count started
     stall      (n,)      int     steps since it was last far enough from ``anchor``
-    unreachable (n,)     bool    its last plan found no way (before forgetting: never left True)
     forgot     (n,)      int     times it forgot its whole chart (no way on it)
     last_pts   (n, K, 2) m       the break points it saw last step, in ``F`` (``last_ok``: which were
     last_ok    (n, K)    bool    dangerous), joined to this step's (``ChartParams.link``)
@@ -89,7 +88,6 @@ class ChartMemory:
     dirty: np.ndarray
     anchor: np.ndarray
     stall: np.ndarray
-    unreachable: np.ndarray
     forgot: np.ndarray
     last_pts: np.ndarray
     last_ok: np.ndarray
@@ -99,7 +97,7 @@ class ChartMemory:
     def empty(cls, n: int, cells: int, k: int = 0) -> ChartMemory:
         return cls(grid=np.zeros((n, cells, cells), np.uint8), cell=np.zeros(n), way=np.zeros((n, 2)),
                    dirty=np.ones(n, bool), anchor=np.zeros((n, 2)), stall=np.zeros(n, np.int64),
-                   unreachable=np.zeros(n, bool), forgot=np.zeros(n, np.int64),
+                   forgot=np.zeros(n, np.int64),
                    last_pts=np.zeros((n, k, 2)), last_ok=np.zeros((n, k), bool), have_way=np.zeros(n, bool))
 
     def grow(self, n: int) -> ChartMemory:
@@ -310,9 +308,9 @@ def plan(g, sa, sb, ta, tb, ahead, wall_cost=2.0, ha=0.0, hb=0.0, turn=0.0):
 
 
 @njit(cache=True)
-def _plan_rows(grid, cell, q, way, dirty, unreachable, forgot, have_way, rows, ahead_m, wall_cost, turn_m):
+def _plan_rows(grid, cell, q, way, dirty, forgot, have_way, rows, ahead_m, wall_cost, turn_m):
     """Plan for each robot row in ``rows`` whose chart changed (``dirty``) or that is near its way
-    point; writes ``way`` (F, m) and ``unreachable``."""
+    point; writes ``way`` (F, m). Forgetting ends with an empty chart, on which there is always a way."""
     c = grid.shape[1]
     h = c // 2
     for r in range(len(rows)):
@@ -346,7 +344,6 @@ def _plan_rows(grid, cell, q, way, dirty, unreachable, forgot, have_way, rows, a
             g[:, :] = OPEN
             forgot[i] += 1
             ok, wa, wb, _ = plan(g, sa, sb, h, h, ahead, wall_cost, ha, hb, tc)
-        unreachable[i] = not ok
         dirty[i] = False
         have_way[i] = ok
         if ok:
@@ -431,7 +428,7 @@ def chart_update(mem: ChartMemory, rows, d: DecodedObs, q, psi, params: ChartPar
             mem.grid[r[ok], a[ok], b[ok]] = STUCK
         mem.stall[r] = 0
         mem.dirty[r] = True
-    _plan_rows(mem.grid, mem.cell, q.astype(np.float64), mem.way, mem.dirty, mem.unreachable, mem.forgot, mem.have_way,
+    _plan_rows(mem.grid, mem.cell, q.astype(np.float64), mem.way, mem.dirty, mem.forgot, mem.have_way,
                np.asarray(rows, np.int64), params.ahead_m, params.wall_cost, params.turn_m)
     way = mem.way[rows]
     at_t = (way[:, 0] == 0.0) & (way[:, 1] == 0.0)
