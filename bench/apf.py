@@ -6,7 +6,7 @@ stalled and looping robots (:mod:`tin_swarm_env.apps.trajectory`), contacts per 
     python bench/apf.py --horizon      # also: steps to arrive, APF against GeodesicPolicy, per terrain,
                                        # and jacksboro's horizon analysis
     [--seeds 5] [--robots N] [--jacksboro-seeds 5] [--generated 50] [--only cliff_goal,...] [--out FILE]
-    [--jobs 2]
+    [--jobs 2] [--seed-offset 100] [--max-cycles 3000]   # another held-out set, a longer episode
 
 Policies: the APF baseline with all its fields, the APF without the break field (the thesis's
 "poor ending": falls), :class:`~tin_swarm_env.policies.GeodesicPolicy` (knows the map: an upper
@@ -73,10 +73,13 @@ class Row:
     policies: tuple = tuple(POLICIES)
 
 
-def generated_family(family: str, robots: int | None):
-    """The built-in ``generated`` scenario restricted to one family."""
+def generated_family(family: str, robots: int | None, max_cycles: int | None = None):
+    """The built-in ``generated`` scenario restricted to one family (``max_cycles``: its episode
+    length, default the scenario's)."""
     cfg = load_scenario("generated")
     cfg = cfg.replace(terrain=dataclasses.replace(cfg.terrain, families=(family,)))
+    if max_cycles is not None:
+        cfg = cfg.replace(max_cycles=max_cycles)
     return tse.parallel_env(scenario=cfg, n_robots=robots)
 
 
@@ -96,8 +99,9 @@ def _rows(args) -> list[Row]:
 
         out.append(Row(f"canyon, pass {side}, going {travel}", make, range(args.seeds)))
     for fam in ALL_FAMILIES if args.generated else ():
-        out.append(Row(f"generated: {fam}", lambda f=fam: generated_family(f, args.robots),
-                       range(EVAL_SEED0, EVAL_SEED0 + args.generated), GENERATED_POLICIES))
+        s0 = EVAL_SEED0 + args.seed_offset
+        out.append(Row(f"generated: {fam}", lambda f=fam: generated_family(f, args.robots, args.max_cycles),
+                       range(s0, s0 + args.generated), GENERATED_POLICIES))
     return [r for r in out if not args.only or any(r.label.startswith(o) for o in args.only)]
 
 
@@ -320,6 +324,10 @@ def main(argv=None):
     p.add_argument("--jacksboro-seeds", type=int, default=5)
     p.add_argument("--generated", type=int, default=50, metavar="K",
                    help="held-out seeds per generated family (0: no generated rows)")
+    p.add_argument("--seed-offset", type=int, default=0, metavar="J",
+                   help="the generated rows' seeds start at EVAL_SEED0 + J (another held-out set: e.g. 100)")
+    p.add_argument("--max-cycles", type=int, default=None, metavar="N",
+                   help="the generated rows' episode length (default the scenario's, 1000)")
     p.add_argument("--only", type=lambda s: s.split(","), default=None,
                    help="comma-separated row prefixes (e.g. jacksboro,canyon,generated: fork,containment)")
     p.add_argument("--horizon", action="store_true",
@@ -333,6 +341,10 @@ def main(argv=None):
     p.add_argument("--out", default=None,
                    help="Markdown file for the tables (default docs/figures/apf.md; none with --quick)")
     args = p.parse_args(argv)
+    for name in ("seed_offset", "max_cycles"):
+        v = getattr(args, name)
+        if v is not None and v < (0 if name == "seed_offset" else 1):
+            p.error(f"--{name.replace('_', '-')} must be {'>= 0' if name == 'seed_offset' else '>= 1'}, got {v}")
     if args.quick:
         for k, v in QUICK.items():
             setattr(args, k, min(getattr(args, k), v))
@@ -343,8 +355,10 @@ def main(argv=None):
         print(line, flush=True)
         lines.append(line)
 
+    length = f"{args.max_cycles}-step episodes" if args.max_cycles else "episodes of the scenario's length"
     emit(f"{args.seeds} seeds per row ({args.jacksboro_seeds} on jacksboro, {args.generated} held-out seeds from "
-         f"{EVAL_SEED0} per generated family), robots: {args.robots or 'the scenario default'}; stalled and "
+         f"{EVAL_SEED0 + args.seed_offset} per generated family, {length} there), "
+         f"robots: {args.robots or 'the scenario default'}; stalled and "
          "looping robots are among the timed out (tin_swarm_env/apps/trajectory.py); s: seconds per row.\n")
     results = goal_rows(args, emit)
     verdict_rows(results, emit)

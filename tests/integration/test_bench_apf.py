@@ -44,3 +44,27 @@ def test_verdicts_of_a_policy_whose_memory_saw_fewer_rows():
     out = SimpleNamespace(n_robots=3, reasons=np.full(3, Reason.TIMEOUT, dtype=np.int8))
     assert bench._verdicts(env, SimpleNamespace(unreachable=np.zeros(0, dtype=bool)), out) == (0, 0)
     assert bench._verdicts(env, SimpleNamespace(unreachable=np.array([False, True])), out) == (1, 1)
+
+
+def test_generated_rows_take_another_held_out_set_and_episode_length():
+    bench = _bench()
+    from tin_swarm_env.apps.evaluate import EVAL_SEED0
+
+    args = SimpleNamespace(generated=3, seed_offset=100, max_cycles=3000, robots=2, only=["generated: fork"],
+                           seeds=1, jacksboro_seeds=1)
+    (row,) = bench._rows(args)
+    assert row.seeds == range(EVAL_SEED0 + 100, EVAL_SEED0 + 103)
+    env = row.make()
+    assert env.unwrapped.config.max_cycles == 3000 and env.unwrapped.config.terrain.families == ("fork",)
+
+
+def test_bad_seed_offset_and_episode_length_are_refused_by_name(capsys):
+    bench = _bench()
+    for argv, name in ((["--seed-offset", "-1"], "--seed-offset"), (["--max-cycles", "0"], "--max-cycles")):
+        try:
+            bench.main(["--quick", *argv])
+        except SystemExit as exc:
+            assert exc.code == 2
+        else:
+            raise AssertionError(f"{argv} was accepted")
+        assert name in capsys.readouterr().err
