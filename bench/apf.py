@@ -78,9 +78,7 @@ def generated_family(family: str, robots: int | None, max_cycles: int | None = N
     length, default the scenario's)."""
     cfg = load_scenario("generated")
     cfg = cfg.replace(terrain=dataclasses.replace(cfg.terrain, families=(family,)))
-    if max_cycles is not None:
-        cfg = cfg.replace(max_cycles=max_cycles)
-    return tse.parallel_env(scenario=cfg, n_robots=robots)
+    return tse.parallel_env(scenario=cfg, n_robots=robots, max_cycles=max_cycles)
 
 
 def _rows(args) -> list[Row]:
@@ -316,6 +314,16 @@ def _load() -> str:
     return " / ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
+def _at_least(lo: int):
+    """An argparse type: an integer ``>= lo`` (argparse names the option in its error)."""
+    def parse(text: str) -> int:
+        v = int(text)
+        if v < lo:
+            raise argparse.ArgumentTypeError(f"must be >= {lo}, got {v}")
+        return v
+    return parse
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -324,9 +332,9 @@ def main(argv=None):
     p.add_argument("--jacksboro-seeds", type=int, default=5)
     p.add_argument("--generated", type=int, default=50, metavar="K",
                    help="held-out seeds per generated family (0: no generated rows)")
-    p.add_argument("--seed-offset", type=int, default=0, metavar="J",
+    p.add_argument("--seed-offset", type=_at_least(0), default=0, metavar="J",
                    help="the generated rows' seeds start at EVAL_SEED0 + J (another held-out set: e.g. 100)")
-    p.add_argument("--max-cycles", type=int, default=None, metavar="N",
+    p.add_argument("--max-cycles", type=_at_least(1), default=None, metavar="N",
                    help="the generated rows' episode length (default the scenario's, 1000)")
     p.add_argument("--only", type=lambda s: s.split(","), default=None,
                    help="comma-separated row prefixes (e.g. jacksboro,canyon,generated: fork,containment)")
@@ -341,10 +349,6 @@ def main(argv=None):
     p.add_argument("--out", default=None,
                    help="Markdown file for the tables (default docs/figures/apf.md; none with --quick)")
     args = p.parse_args(argv)
-    for name in ("seed_offset", "max_cycles"):
-        v = getattr(args, name)
-        if v is not None and v < (0 if name == "seed_offset" else 1):
-            p.error(f"--{name.replace('_', '-')} must be {'>= 0' if name == 'seed_offset' else '>= 1'}, got {v}")
     if args.quick:
         for k, v in QUICK.items():
             setattr(args, k, min(getattr(args, k), v))
