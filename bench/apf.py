@@ -7,6 +7,7 @@ stalled and looping robots (:mod:`tin_swarm_env.apps.trajectory`), contacts per 
                                        # and jacksboro's horizon analysis
     [--seeds 5] [--robots N] [--jacksboro-seeds 5] [--generated 50] [--only cliff_goal,...] [--out FILE]
     [--jobs 2] [--seed-offset 100] [--max-cycles 3000]   # another held-out set, a longer episode
+    [--k-scan 32]                      # every row's observation with the terrain scan's beams
 
 Policies: the APF baseline with all its fields, the APF without the break field (the thesis's
 "poor ending": falls), :class:`~tin_swarm_env.policies.GeodesicPolicy` (knows the map: an upper
@@ -73,12 +74,18 @@ class Row:
     policies: tuple = tuple(POLICIES)
 
 
-def generated_family(family: str, robots: int | None, max_cycles: int | None = None):
+def generated_family(family: str, robots: int | None, max_cycles: int | None = None, k_scan: int = 0):
     """The built-in ``generated`` scenario restricted to one family (``max_cycles``: its episode
-    length, default the scenario's)."""
+    length, default the scenario's; ``k_scan``: see :func:`scanned`)."""
     cfg = load_scenario("generated")
     cfg = cfg.replace(terrain=dataclasses.replace(cfg.terrain, families=(family,)))
-    return tse.parallel_env(scenario=cfg, n_robots=robots, max_cycles=max_cycles)
+    return tse.parallel_env(scenario=scanned(cfg, k_scan), n_robots=robots, max_cycles=max_cycles)
+
+
+def scanned(cfg, k_scan: int):
+    """``cfg`` (a scenario name, file or config) with ``[observation] k_scan`` set (0: as it is)."""
+    cfg = cfg if not isinstance(cfg, str) else load_scenario(cfg)
+    return cfg.replace(observation=dataclasses.replace(cfg.observation, k_scan=k_scan)) if k_scan else cfg
 
 
 def _rows(args) -> list[Row]:
@@ -86,19 +93,21 @@ def _rows(args) -> list[Row]:
     for s in GOAL_SCENARIOS:
         n = None if s == "jacksboro" else args.robots
         seeds = range(args.jacksboro_seeds if s == "jacksboro" else args.seeds)
-        out.append(Row(s, lambda s=s, n=n: tse.parallel_env(scenario=s, n_robots=n), seeds))
+        out.append(Row(s, lambda s=s, n=n: tse.parallel_env(scenario=scanned(s, args.k_scan), n_robots=n), seeds))
     for s in FILE_SCENARIOS:
         path = str(ROOT / "scenarios" / f"{s}.toml")
-        out.append(Row(f"{s}.toml", lambda path=path: tse.parallel_env(scenario=path, n_robots=args.robots),
+        out.append(Row(f"{s}.toml", lambda path=path: tse.parallel_env(scenario=scanned(path, args.k_scan),
+                                                                        n_robots=args.robots),
                        range(args.seeds)))
     for side, travel in VARIANTS:
         def make(a=side, b=travel):
-            return tse.parallel_env(scenario=canyon_config(a, b, robots=args.robots or 20))
+            return tse.parallel_env(scenario=scanned(canyon_config(a, b, robots=args.robots or 20), args.k_scan))
 
         out.append(Row(f"canyon, pass {side}, going {travel}", make, range(args.seeds)))
     for fam in ALL_FAMILIES if args.generated else ():
         s0 = EVAL_SEED0 + args.seed_offset
-        out.append(Row(f"generated: {fam}", lambda f=fam: generated_family(f, args.robots, args.max_cycles),
+        out.append(Row(f"generated: {fam}",
+                       lambda f=fam: generated_family(f, args.robots, args.max_cycles, args.k_scan),
                        range(s0, s0 + args.generated), GENERATED_POLICIES))
     return [r for r in out if not args.only or any(r.label.startswith(o) for o in args.only)]
 
@@ -247,7 +256,7 @@ def horizon_rows(args, emit=print):
     first followed a break plus the steps the shortest drivable path from there to its target
     takes at top speed (GeodesicPolicy's cost-to-go field). Above ``max_cycles``, no policy
     that first walks straight at the target (as APF must, seeing 150 m) could have arrived."""
-    env = tse.parallel_env(scenario="jacksboro")
+    env = tse.parallel_env(scenario=scanned("jacksboro", args.k_scan))
     cfg = env.config
     step_m = cfg.world.robot.max_speed_mps * cfg.world.dt_s
     emit("\njacksboro, APF robots that timed out: first break contact + shortest path at top speed (steps)")
@@ -285,7 +294,7 @@ def longer_rows(args, emit=print, checkpoints=(900, 1200, 1500, 1800)):
     """Jacksboro's APF (either boundary search) given more steps than the scenario's ``max_cycles``:
     the share of robots that arrived by each checkpoint (one episode of ``checkpoints[-1]`` steps per
     seed and search). It says whether APF's timeouts are robots that are lost or robots that are late."""
-    env = tse.parallel_env(scenario="jacksboro", max_cycles=checkpoints[-1])
+    env = tse.parallel_env(scenario=scanned("jacksboro", args.k_scan), max_cycles=checkpoints[-1])
     emit(f"\njacksboro, APF given {checkpoints[-1]} steps: share of robots arrived by step ...")
     emit("| seed | search | " + " | ".join(str(c) for c in checkpoints) + " | fell |")
     emit("|---:|---|" + "---:|" * (len(checkpoints) + 1))
@@ -338,6 +347,8 @@ def main(argv=None):
                    help="the generated rows' episode length (default the scenario's, 1000)")
     p.add_argument("--only", type=lambda s: s.split(","), default=None,
                    help="comma-separated row prefixes (e.g. jacksboro,canyon,generated: fork,containment)")
+    p.add_argument("--k-scan", type=_at_least(0), default=0, metavar="N",
+                   help="every row's scenario with [observation] k_scan = N: the terrain scan's beams (0: as it is)")
     p.add_argument("--horizon", action="store_true",
                    help="also: APF's steps to arrive against GeodesicPolicy's per terrain; for jacksboro's "
                         "timed-out APF robots, first contact + shortest path at top speed; and APF on jacksboro "

@@ -28,8 +28,9 @@ What it senses each step (``R`` the sensor range, breaks as :class:`~tin_swarm_e
 A robot can meet a wall it has not seen (or has forgotten): its step into an unsafe
 cell is refused, the cell is marked and it replans (a bumper). Beside them, the rows ``chart
 search`` run :class:`~tin_swarm_env.policies.APFPolicy` (``search="chart"``) in the environment on
-the same seeds, with the scenario's ``k_breaks`` set to ``K``: the real controller on the real
-observation.
+the same seeds, with the scenario's ``k_breaks`` set to ``K``, or with the observation's terrain
+scan (``[observation] k_scan``, :mod:`tin_swarm_env.env.observation`) added: the real controller on
+the real observation.
 
 Generated rows: the ``generated`` scenario restricted to one family (``bench/apf.py``'s rows), 20
 robots, held-out seeds ``EVAL_SEED0 + offset`` on, the scenario's episode length. jacksboro rows:
@@ -290,19 +291,21 @@ def drive(ras: Raster, start, target, *, sensing: str, k: int, range_m: float, s
     return max_steps + 1, forgot
 
 
-def _generated_env(family: str, k_breaks: int | None = None):
+def _observing(cfg, k_breaks: int | None, k_scan: int):
+    obs = cfg.observation
+    return cfg.replace(observation=dataclasses.replace(obs, k_breaks=obs.k_breaks if k_breaks is None else k_breaks,
+                                                       k_scan=k_scan))
+
+
+def _generated_env(family: str, k_breaks: int | None = None, k_scan: int = 0):
     cfg = load_scenario("generated")
     cfg = cfg.replace(terrain=dataclasses.replace(cfg.terrain, families=(family,)))
-    if k_breaks is not None:
-        cfg = cfg.replace(observation=dataclasses.replace(cfg.observation, k_breaks=k_breaks))
-    return tse.parallel_env(scenario=cfg)
+    return tse.parallel_env(scenario=_observing(cfg, k_breaks, k_scan))
 
 
-def _jacksboro_env(k_breaks: int | None = None):
+def _jacksboro_env(k_breaks: int | None = None, k_scan: int = 0):
     cfg = load_scenario("jacksboro").replace(max_cycles=JACKSBORO_STEPS)
-    if k_breaks is not None:
-        cfg = cfg.replace(observation=dataclasses.replace(cfg.observation, k_breaks=k_breaks))
-    return tse.parallel_env(scenario=cfg)
+    return tse.parallel_env(scenario=_observing(cfg, k_breaks, k_scan))
 
 
 def ideal_episode(job) -> list[tuple[int, float, int]]:
@@ -331,10 +334,10 @@ def ideal_episode(job) -> list[tuple[int, float, int]]:
 
 
 def chart_episode(job) -> list[tuple[int, float, int]]:
-    """The chart search in the environment: (arrival step or max_cycles + 1, geodesic steps, times it
-    forgot its chart) per robot."""
-    terrain, seed, k = job
-    env = _jacksboro_env(k) if terrain == "jacksboro" else _generated_env(terrain, k)
+    """The chart search in the environment (``job``: terrain, seed, k_breaks, k_scan): (arrival step
+    or max_cycles + 1, geodesic steps, times it forgot its chart) per robot."""
+    terrain, seed, k, k_scan = job
+    env = _jacksboro_env(k, k_scan) if terrain == "jacksboro" else _generated_env(terrain, k, k_scan)
     pol = APFPolicy(env, search="chart")
     b = env.unwrapped
     env.reset(seed=seed)
@@ -407,7 +410,10 @@ def main(argv=None):
     p.add_argument("--jacksboro-window", type=_window, default=[13000.0, 13000.0, 21000.0, 20000.0])
     p.add_argument("--jacksboro-slots", type=_ints, default=[3], help="K of jacksboro's idealised slot rows")
     p.add_argument("--slots", type=_ints, default=[3, 16], help="K of the segments/points/chart rows")
-    p.add_argument("--beams", type=_ints, default=[32, 64], help="K of the scan rows")
+    p.add_argument("--beams", type=_ints, default=[32, 64], help="K of the idealised scanner rows")
+    p.add_argument("--scan", type=_ints, default=[32, 64],
+                   help="k_scan of the chart search rows that add the observation's scan (k_breaks as the scenario's)")
+    p.add_argument("--ideal", action=argparse.BooleanOptionalAction, default=True, help="the idealised rows")
     p.add_argument("--jobs", type=int, default=2)
     p.add_argument("--out", default=str(ROOT / "docs" / "figures" / "sensing_bound.md"))
     args = p.parse_args(argv)
@@ -436,7 +442,7 @@ def main(argv=None):
     with Pool(args.jobs) as pool:
         for terrain, label, seeds, res, window, slot_models, parts in terrains:
             steps = JACKSBORO_STEPS if terrain == "jacksboro" else _generated_env(terrain).unwrapped.max_cycles
-            for sensing, k in [("disk", 0)] + [("scan", k) for k in args.beams] + slot_models:
+            for sensing, k in ([("disk", 0)] + [("scan", k) for k in args.beams] + slot_models) * args.ideal:
                 t = time.perf_counter()
                 jobs = [(terrain, s, sensing, k, res, window, part, parts) for s in seeds for part in range(parts)]
                 res_ = [r for rr in pool.map(ideal_episode, jobs, chunksize=1) for r in rr]
@@ -445,11 +451,13 @@ def main(argv=None):
                     sensing, f"{k} nearest breaks: {sensing}")
                 emit(f"| {label} | {len(seeds)} | {n} | idealised, raster {res:g} m | {what} | {arr} | {med} | {geo} | "
                      f"{forgot} | {time.perf_counter() - t:.0f} |")
-            for k in args.slots:
+            for k, k_scan in [(k, 0) for k in args.slots] + [(None, k) for k in args.scan]:
                 t = time.perf_counter()
-                res_ = [r for rr in pool.map(chart_episode, [(terrain, s, k) for s in seeds], chunksize=1) for r in rr]
+                res_ = [r for rr in pool.map(chart_episode, [(terrain, s, k, k_scan) for s in seeds], chunksize=1)
+                        for r in rr]
                 n, arr, med, geo, forgot = _summary(res_, steps)
-                emit(f"| {label} | {len(seeds)} | {n} | APF, chart search | observation, k_breaks = {k} | {arr} | "
+                what = f"observation, k_breaks = {k}" if k is not None else f"observation with scan, k_scan = {k_scan}"
+                emit(f"| {label} | {len(seeds)} | {n} | APF, chart search | {what} | {arr} | "
                      f"{med} | {geo} | {forgot} | {time.perf_counter() - t:.0f} |")
     emit(f"\nLoad average at the end: {_load()}.")
     if args.out:

@@ -51,16 +51,30 @@ def test_generated_rows_take_another_held_out_set_and_episode_length():
     from tin_swarm_env.apps.evaluate import EVAL_SEED0
 
     args = SimpleNamespace(generated=3, seed_offset=100, max_cycles=3000, robots=2, only=["generated: fork"],
-                           seeds=1, jacksboro_seeds=1)
+                           seeds=1, jacksboro_seeds=1, k_scan=0)
     (row,) = bench._rows(args)
     assert row.seeds == range(EVAL_SEED0 + 100, EVAL_SEED0 + 103)
     env = row.make()
     assert env.unwrapped.config.max_cycles == 3000 and env.unwrapped.config.terrain.families == ("fork",)
+    assert env.unwrapped.layout.k_scan == 0
+
+
+def test_every_kind_of_row_takes_the_scan():
+    bench = _bench()
+    args = SimpleNamespace(generated=1, seed_offset=0, max_cycles=None, robots=2, seeds=1, jacksboro_seeds=1,
+                           k_scan=24, only=["cliff_goal", "valley.toml", "canyon, pass left, going east",
+                                            "generated: trap"])
+    rows = bench._rows(args)
+    assert [r.label for r in rows] == ["cliff_goal", "valley.toml", "canyon, pass left, going east", "generated: trap"]
+    for r in rows:
+        lay = r.make().unwrapped.layout
+        assert lay.k_scan == 24 and lay.k_breaks == 3, r.label
 
 
 def test_bad_seed_offset_and_episode_length_are_refused_by_name(capsys):
     bench = _bench()
-    for argv, name in ((["--seed-offset", "-1"], "--seed-offset"), (["--max-cycles", "0"], "--max-cycles")):
+    for argv, name in ((["--seed-offset", "-1"], "--seed-offset"), (["--max-cycles", "0"], "--max-cycles"),
+                       (["--k-scan", "-3"], "--k-scan")):
         try:
             bench.main(["--quick", *argv])
         except SystemExit as exc:

@@ -178,3 +178,21 @@ def test_a_robot_that_stalls_charts_its_straight_way_stuck_after_stall_steps():
     a, b = np.nonzero(mem.grid[0] == STUCK)
     x = (a - 16 + 0.5) * w
     assert (np.abs((b - 16 + 0.5) * w) <= w).all() and (x > -10.0).all() and (x < 0.0).all()  # on its way east
+
+
+def test_scan_hits_are_charted_with_the_cell_behind_each_and_misses_are_not():
+    from tin_swarm_env.policies.chart import ChartMemory, chart_update
+
+    p = ChartParams(cells=32)  # behind 0.8 cell
+    mem = ChartMemory.empty(1, 32, 3)
+    mem.cell[:] = 1.0  # cells 1 m wide; cell index = floor(x / 1 m) + 16
+    d, q = _seen((-10.5, 0.5), [], [])  # robot 10 m west of its target, heading 0 (frame F = body frame)
+    k = 4  # beams east, north, west, south: east meets a wall 6 m ahead, north one 3 m away, the others nothing
+    d.s_rel = np.array([[[6.0, 0.0], [0.0, 3.0], [-60.0, 0.0], [0.0, -60.0]]])
+    d.s_hit = np.array([[True, True, False, False]])
+    assert d.s_rel.shape == (1, k, 2)
+    chart_update(mem, np.array([0]), d, q, np.zeros(1), p, 60.0, 1.0, 2.0, np.array([False]))
+    walls = sorted(map(tuple, np.argwhere(mem.grid[0] == WALL).tolist()))
+    # east hit at x -4.5 m (column 11), the cell behind it at x -3.7 m (column 12), row 16 (y 0.5);
+    # north hit at y 3.5 (row 19) and behind it y 4.3 (row 20), column 5 (x -10.5)
+    assert walls == [(5, 19), (5, 20), (11, 16), (12, 16)]

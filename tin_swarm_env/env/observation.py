@@ -23,6 +23,9 @@ breaks               8 K_b  per slot: valid, closest point x / R, y / R, unit no
                             cliff edge or the terrain's border, 0 for a bend between two
                             traversable planes), of the K_b nearest terrain breaks in range
 assets               4 K_a  valid, x / R, y / R, d / R of the K_a nearest visible assets
+scan                 K_s    per beam k (bearing 2 pi k / K_s from the heading, counter-clockwise):
+                            t / R, t the distance along it to the first dangerous break it
+                            crosses (1: none within R); a terrain scanner's ranges
 ===================  =====  ==================================================================
 
 **Mirror symmetry.** Reflecting the world across a vertical plane (``y -> -y`` in the world,
@@ -31,11 +34,14 @@ observation maps to the observation of the mirrored world by negating the elemen
 body-frame y components or signed turns, and keeping the rest (:data:`OWN_PARITY`,
 :data:`SLOT_PARITY`: the sign of every field, so a new field must declare its own). The action
 maps by :data:`ACTION_PARITY` (``vy`` negated). :meth:`ObsLayout.mirror` and :func:`mirror_action`
-apply them; both are involutions.
+apply them; both are involutions. The scan's beams are the one part the reflection permutes
+instead: beam ``k`` becomes beam ``(K_s - k) mod K_s`` (:meth:`ObsLayout.mirror_permutation`), so
+with scan beams the mirror image is not a sign flip and :meth:`ObsLayout.mirror_signs` refuses.
 
-``K_a`` (the assets part, last so the other offsets never move): the scenario's
+``K_a`` (the assets part, after the breaks so the other offsets never move): the scenario's
 ``[observation] k_assets`` when given, else :data:`DEFAULT_K_ASSETS` when the scenario has assets
-and 0 when it has none, so a scenario without assets keeps the default size 59.
+and 0 when it has none, so a scenario without assets keeps the default size 59. ``K_s`` (the scan,
+last): the scenario's ``[observation] k_scan``, default 0 (no scan part).
 
 The 10 m is :data:`DZ_SCALE_M` (the height field's scale, ``world.fields.HEIGHT_SCALE_M``: one
 constant). Empty slots are all zero. Robots no longer in ``agents`` get an all-zero vector.
@@ -62,7 +68,8 @@ __all__ = ["ObsLayout", "build_observations", "OWN_FIELDS", "SLOT_FIELDS", "DZ_S
 OWN_FIELDS = (("battery", 1), ("speed", 1), ("tilt", 1), ("slope", 1), ("uphill", 2), ("target_valid", 1),
               ("target_dir", 2), ("target_dist", 1), ("target_dz", 1))
 SLOT_FIELDS = {"robots": ("valid", "x", "y", "d"), "targets": ("valid", "x", "y", "d"),
-               "breaks": ("valid", "x", "y", "nx", "ny", "drop", "d", "danger"), "assets": ("valid", "x", "y", "d")}
+               "breaks": ("valid", "x", "y", "nx", "ny", "drop", "d", "danger"), "assets": ("valid", "x", "y", "d"),
+               "scan": ("d",)}
 PARTS = tuple(SLOT_FIELDS)
 # The mirror image (module docstring): +1 for a field the reflection keeps, -1 for one it negates
 # (a body-frame y component or a signed angle about the vertical); one sign per element.
@@ -73,7 +80,7 @@ ACTION_PARITY = (1.0, -1.0)  # body-frame (vx, vy): the mirrored robot drives to
 if {n: len(p) for n, p in OWN_PARITY.items()} != dict(OWN_FIELDS) or not all(
         f in SLOT_PARITY for fs in SLOT_FIELDS.values() for f in fs):  # pragma: no cover (a new field)
     raise ImportError("observation.py: every own and slot field needs its mirror sign in OWN_PARITY / SLOT_PARITY")
-_COUNT = {"robots": "k_robots", "targets": "k_targets", "breaks": "k_breaks", "assets": "k_assets"}
+_COUNT = {"robots": "k_robots", "targets": "k_targets", "breaks": "k_breaks", "assets": "k_assets", "scan": "k_scan"}
 DEFAULT_K_ASSETS = 2  # asset slots of a scenario that has assets and does not set k_assets
 
 # offsets handed to the compiled encoder (named, so the kernel never indexes by number)
@@ -113,6 +120,7 @@ class ObsLayout:
     k_targets: int = _DEFAULT.k_targets
     k_breaks: int = _DEFAULT.k_breaks
     k_assets: int = 0
+    k_scan: int = _DEFAULT.k_scan
 
     def __post_init__(self):
         for f in fields(self):
@@ -125,7 +133,7 @@ class ObsLayout:
         """The layout of a scenario's ``[observation]`` table; ``n_assets``, the scenario's asset
         count, decides ``k_assets`` when the table does not (see the module docstring)."""
         k_a = spec.k_assets if spec.k_assets is not None else (DEFAULT_K_ASSETS if n_assets else 0)
-        return cls(spec.k_robots, spec.k_targets, spec.k_breaks, k_a)
+        return cls(spec.k_robots, spec.k_targets, spec.k_breaks, k_a, spec.k_scan)
 
     # -- slices ------------------------------------------------------------------------------
     @property
@@ -141,13 +149,13 @@ class ObsLayout:
         return sum(n for _, n in OWN_FIELDS)
 
     def count(self, part: str) -> int:
-        """Number of slots ``K`` of ``part`` (robots, targets or breaks)."""
+        """Number of slots ``K`` of ``part`` (robots, targets, breaks, assets; the scan's beams)."""
         if part not in _COUNT:
             raise ObservationLayoutError(f"unknown observation part {part!r}; parts are {', '.join(PARTS)}")
         return getattr(self, _COUNT[part])
 
     def part_slice(self, part: str) -> slice:
-        """The columns of ``part`` ("robots", "targets", "breaks", "assets") in an observation row."""
+        """The columns of ``part`` ("robots", "targets", "breaks", "assets", "scan") in an observation row."""
         a = self.own_size
         for p in PARTS:
             b = a + len(SLOT_FIELDS[p]) * self.count(p)
@@ -171,6 +179,10 @@ class ObsLayout:
     @property
     def assets(self) -> slice:
         return self.part_slice("assets")
+
+    @property
+    def scan(self) -> slice:
+        return self.part_slice("scan")
 
     @property
     def size(self) -> int:
@@ -229,24 +241,40 @@ class ObsLayout:
     # -- mirror symmetry -------------------------------------------------------------------------
     def mirror_signs(self) -> np.ndarray:
         """``(size,)`` float32 of +-1: the sign the reflection gives each element, from
-        :data:`OWN_PARITY` and :data:`SLOT_PARITY` over this layout's named slices."""
+        :data:`OWN_PARITY` and :data:`SLOT_PARITY` over this layout's named slices. The whole
+        reflection only when there are no scan beams (they are permuted, not negated: module
+        docstring); with them it raises :class:`~tin_swarm_env.errors.ObservationLayoutError`."""
+        if self.k_scan:
+            raise ObservationLayoutError(
+                f"ObsLayout.mirror_signs: with scan beams (k_scan = {self.k_scan}) the mirror image permutes the "
+                f"beams (beam k <-> beam k_scan - k), it is not a sign flip; use ObsLayout.mirror")
         return _mirror_signs(self)
+
+    def mirror_permutation(self) -> np.ndarray:
+        """``(size,)`` int64: element ``j`` of the mirrored observation is element ``perm[j]`` of the
+        observation (before its sign, :meth:`mirror`): the identity but for the scan's beams,
+        ``k -> (K_s - k) mod K_s``."""
+        return _mirror_perm(self)
 
     def mirror(self, obs) -> np.ndarray:
         """The observation of the mirrored world (module docstring): ``obs (..., size)`` with its
-        y components and signed turns negated. Exact (a sign flip), and ``mirror(mirror(o)) == o``."""
+        y components and signed turns negated and its scan beams permuted. Exact, and
+        ``mirror(mirror(o)) == o``."""
         obs = np.asarray(obs)
         if obs.shape[-1:] != (self.size,):
             raise ObservationLayoutError(f"mirror: observations must end in size {self.size}, got shape {obs.shape}")
-        return obs * self.mirror_signs().astype(obs.dtype if np.issubdtype(obs.dtype, np.floating) else np.float64)
+        if self.k_scan:
+            obs = obs[..., self.mirror_permutation()]
+        return obs * _mirror_signs(self).astype(obs.dtype if np.issubdtype(obs.dtype, np.floating) else np.float64)
 
     # -- saving ------------------------------------------------------------------------------
     def to_dict(self) -> dict:
         """JSON-able description (counts, field names, scale constants, size): a saved policy
         records it; two layouts read the same vectors exactly when their dicts are equal. Without
         asset slots the dict is the one layouts had before the assets part existed."""
-        parts = [p for p in PARTS if p != "assets" or self.k_assets]
+        parts = [p for p in PARTS if (p != "assets" or self.k_assets) and (p != "scan" or self.k_scan)]
         extra = {"k_assets": self.k_assets} if self.k_assets else {}
+        extra.update({"k_scan": self.k_scan} if self.k_scan else {})
         return {"k_robots": self.k_robots, "k_targets": self.k_targets, "k_breaks": self.k_breaks, **extra,
                 "own": [[name, n] for name, n in OWN_FIELDS],
                 "slots": {p: list(SLOT_FIELDS[p]) for p in parts},
@@ -259,7 +287,8 @@ class ObsLayout:
         """The layout :meth:`to_dict` described; raises :class:`~tin_swarm_env.errors.ObservationLayoutError`
         naming the first key that this version's layout does not share."""
         try:
-            out = cls(int(d["k_robots"]), int(d["k_targets"]), int(d["k_breaks"]), int(d.get("k_assets", 0)))
+            out = cls(int(d["k_robots"]), int(d["k_targets"]), int(d["k_breaks"]), int(d.get("k_assets", 0)),
+                      int(d.get("k_scan", 0)))
         except (KeyError, TypeError, ValueError) as exc:
             raise ObservationLayoutError(f"observation layout {d!r}: needs integer k_robots, k_targets, "
                                          f"k_breaks ({exc})") from None
@@ -272,7 +301,8 @@ class ObsLayout:
 
     # -- the compiled encoder's offsets -----------------------------------------------------------
     def kernel_offsets(self):
-        """``(own, robots, targets, breaks, assets)`` named offsets for :func:`_fill`."""
+        """``(own, robots, targets, breaks, assets, scan)`` named offsets for :func:`_fill` (the scan's:
+        its first column)."""
         own = OwnOffsets(*(sl.start for sl in self.own.values()))
 
         def slot(cls, part):
@@ -280,7 +310,7 @@ class ObsLayout:
             return cls(self.part_slice(part).start, len(names), *range(len(names)))
 
         return (own, slot(PointSlot, "robots"), slot(PointSlot, "targets"), slot(BreakSlot, "breaks"),
-                slot(PointSlot, "assets"))
+                slot(PointSlot, "assets"), self.part_slice("scan").start)
 
 
 @functools.lru_cache(maxsize=64)
@@ -294,6 +324,17 @@ def _mirror_signs(layout: ObsLayout) -> np.ndarray:
         signs[layout.part_slice(part)] = np.tile(per_slot, k) if k * w else per_slot[:0]
     signs.setflags(write=False)
     return signs
+
+
+@functools.lru_cache(maxsize=64)
+def _mirror_perm(layout: ObsLayout) -> np.ndarray:
+    perm = np.arange(layout.size)
+    k = layout.k_scan
+    if k:
+        a = layout.scan.start
+        perm[a:a + k] = a + (k - np.arange(k)) % k
+    perm.setflags(write=False)
+    return perm
 
 
 def mirror_action(action) -> np.ndarray:
@@ -356,6 +397,34 @@ def _break_slots(obs, i, sl, K, start, idx, dist, closest, normals, drops, dange
 
 
 @njit(cache=True, inline="always")
+def _scan_beams(obs, i, at, K, start, idx, ends, danger, pos, head, R):
+    """Scan beams of robot ``i`` (columns ``at .. at + K``): along bearing ``head + 2 pi k / K``,
+    the distance to the first dangerous break among its contacts ``start[i]:start[i + 1]`` that
+    the beam crosses, over ``R`` (1 when none within ``R``; ``ends (B, 4)``: ax, ay, bx, by)."""
+    for k in range(K):
+        a = head[i] + 2.0 * np.pi * k / K
+        dx = np.cos(a)
+        dy = np.sin(a)
+        best = R
+        for p in range(start[i], start[i + 1]):
+            j = idx[p]
+            if j < 0 or danger[j] == 0.0:
+                continue
+            ex = ends[j, 2] - ends[j, 0]
+            ey = ends[j, 3] - ends[j, 1]
+            den = dx * ey - dy * ex  # beam x segment
+            if abs(den) < 1e-12:
+                continue  # parallel: it runs along the break, never into it
+            wx = ends[j, 0] - pos[i, 0]
+            wy = ends[j, 1] - pos[i, 1]
+            t = (wx * ey - wy * ex) / den  # along the beam
+            u = (wx * dy - wy * dx) / den  # along the segment
+            if 0.0 <= u <= 1.0 and 0.0 <= t < best:
+                best = t
+        obs[i, at + k] = best / R
+
+
+@njit(cache=True, inline="always")
 def _own(obs, i, o, c, s, own_n, own_scale, planes, tri, target_idx, tpos, tz, pos, heights, R, dz_scale):
     """Own fields of robot ``i`` (``o`` an :class:`OwnOffsets`; ``own_n``: the ``(n,)`` battery,
     speed, tilt and slope, each divided here by its ``own_scale``; the uphill gradient from the
@@ -387,20 +456,22 @@ def _own(obs, i, o, c, s, own_n, own_scale, planes, tri, target_idx, tpos, tz, p
 
 
 @njit(cache=True, parallel=True)
-def _fill(obs, o, o_rob, o_tgt, o_brk, o_ast, ks, pos, head, heights, own_n, own_scale, planes, tri, live, target_idx,
-          tpos, tz,
-          robots, targets, breaks, apos, assets, R, dz_scale):
-    """Write every live robot's row of ``obs``; ``o, o_rob, o_tgt, o_brk, o_ast`` the offsets of
+def _fill(obs, o, o_rob, o_tgt, o_brk, o_ast, o_scn, ks, pos, head, heights, own_n, own_scale, planes, tri, live,
+          target_idx, tpos, tz,
+          robots, targets, breaks, apos, assets, scan, R, dz_scale):
+    """Write every live robot's row of ``obs``; ``o, o_rob, o_tgt, o_brk, o_ast, o_scn`` the offsets of
     :meth:`ObsLayout.kernel_offsets` (passed one by one: numba's parallel loop takes namedtuples
-    as arguments, not unpacked inside), ``ks`` the slot counts (robots, targets, breaks, assets);
-    ``robots``/``targets``/``assets`` ``(start, idx, dist)`` and ``breaks`` ``(start, idx, dist,
-    closest, normals, drops, danger)``: the sensor readings' contacts, grouped by observer and
-    nearest first (:func:`_grouped`), and the break set's arrays; ``apos (k, 2)``."""
+    as arguments, not unpacked inside), ``ks`` the slot counts (robots, targets, breaks, assets,
+    scan beams); ``robots``/``targets``/``assets`` ``(start, idx, dist)`` and ``breaks`` ``(start,
+    idx, dist, closest, normals, drops, danger)``: the sensor readings' contacts, grouped by
+    observer and nearest first (:func:`_grouped`), and the break set's arrays; ``apos (k, 2)``;
+    ``scan`` ``(start, idx, ends)``: every break contact of each observer and the segments' ends."""
     rs, ri, rd = robots  # (numba's parallel loops take arrays, not tuples of them)
     ts, ti, td = targets
     bs, bi, bd, bc, bn, bdrop, bdanger = breaks
     as_, ai, ad = assets
-    kr, kt, kb, ka = ks
+    ss, si, se = scan
+    kr, kt, kb, ka, ks_ = ks
     for i in prange(pos.shape[0]):  # one row per iteration: bit-identical for any thread count
         if not live[i]:
             continue
@@ -411,6 +482,8 @@ def _fill(obs, o, o_rob, o_tgt, o_brk, o_ast, ks, pos, head, heights, own_n, own
         _point_slots(obs, i, o_tgt, kt, ts, ti, td, tpos, pos, c, s, R)
         _break_slots(obs, i, o_brk, kb, bs, bi, bd, bc, bn, bdrop, bdanger, pos, c, s, R, dz_scale)
         _point_slots(obs, i, o_ast, ka, as_, ai, ad, apos, pos, c, s, R)
+        if ks_:
+            _scan_beams(obs, i, o_scn, ks_, ss, si, se, bdanger, pos, head, R)
         for m in range(obs.shape[1]):
             obs[i, m] = min(max(obs[i, m], -1.0), 1.0)
 
@@ -452,14 +525,27 @@ def _target_heights(world, tg):
 
 
 def _break_arrays(world):
-    """The break set's per-segment arrays the encoder reads, built once per world."""
+    """The break set's per-segment arrays the encoder reads, built once per world: normals, drops,
+    danger (1.0 / 0.0) and ends ``(B, 4)`` (ax, ay, bx, by)."""
     got = world.__dict__.get("_obs_break_arrays")
     if got is None or got[0] is not world.breaks:
         br = world.breaks
         got = world.__dict__["_obs_break_arrays"] = (br, np.ascontiguousarray(br.normals.reshape(-1, 2)),
                                                      np.ascontiguousarray(br.drops_m.reshape(-1)),
-                                                     (br.kinds != ANGLE).astype(np.float64))
+                                                     (br.kinds != ANGLE).astype(np.float64),
+                                                     np.ascontiguousarray(br.segments[:, :, :2].reshape(-1, 4),
+                                                                          dtype=np.float64))
     return got[1:]
+
+
+def _all_contacts(contacts, n):
+    """``(start (n + 1,), idx)``: every one of ``contacts`` (BreakContacts), grouped by observer."""
+    if contacts.start is not None and len(contacts.start) == n + 1:
+        return contacts.start, np.ascontiguousarray(contacts.break_idx, dtype=np.int64)
+    order = np.argsort(contacts.observer, kind="stable")
+    start = np.zeros(n + 1, dtype=np.int64)
+    start[1:] = np.cumsum(np.bincount(contacts.observer, minlength=n)[:n])
+    return start, np.ascontiguousarray(contacts.break_idx[order], dtype=np.int64)
 
 
 def build_observations(world, state, readings, target_idx, live, layout: ObsLayout) -> np.ndarray:
@@ -468,18 +554,21 @@ def build_observations(world, state, readings, target_idx, live, layout: ObsLayo
     is the plain numpy version it is tested against)."""
     P = world.params
     n = state.n_robots
-    ks = (layout.k_robots, layout.k_targets, layout.k_breaks, layout.k_assets)
+    ks = (layout.k_robots, layout.k_targets, layout.k_breaks, layout.k_assets, layout.k_scan)
     tg = state.targets
     tz = _target_heights(world, tg)
     own_n = tuple(np.ascontiguousarray(v, dtype=np.float64)
                   for v in (state.battery_j, state.speeds, readings.tilt_rad, readings.slope_deg))
     own_scale = (float(P.battery.capacity_j), float(P.robot.max_speed_mps), np.pi / 2, 90.0)
-    breaks = _grouped(readings.breaks, n, ks[2], "closest") + _break_arrays(world)
+    arrays = _break_arrays(world)
+    breaks = _grouped(readings.breaks, n, ks[2], "closest") + arrays[:3]
+    scan = (_all_contacts(readings.breaks, n) + arrays[3:] if layout.k_scan
+            else (np.zeros(n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, 4))))
     obs = np.zeros((n, layout.size), dtype=np.float32)
     with serial_if_small(n, OBS_SERIAL_BELOW):
         _fill(obs, *_kernel_offsets(layout), ks, state.positions, state.headings, state.heights, own_n, own_scale,
               world.tin.planes, np.ascontiguousarray(state.tri_idx, dtype=np.int64), live, target_idx,
               tg.positions.reshape(-1, 2), tz, _grouped(readings.robots, n, ks[0]), _grouped(readings.targets, n, ks[1]), breaks,
-              state.assets.positions.reshape(-1, 2), _grouped(readings.assets, n, ks[3]), float(P.sensor.range_m),
-              DZ_SCALE_M)
+              state.assets.positions.reshape(-1, 2), _grouped(readings.assets, n, ks[3]), scan,
+              float(P.sensor.range_m), DZ_SCALE_M)
     return obs

@@ -82,6 +82,30 @@ def _breaks(obs, world, state, readings, layout, R):
                                          "d": np.where(ok, dist, 0.0) / R, "danger": danger}, ok)
 
 
+def _scan(obs, world, state, readings, layout, R):
+    """Each beam against each dangerous break the robot senses, by the parametric crossing of two lines."""
+    k = layout.k_scan
+    br = world.breaks
+    col = layout.scan.start
+    obs[:, col:col + k] = 1.0
+    c = readings.breaks
+    for i in range(state.n_robots):
+        j = c.break_idx[c.observer == i]
+        j = j[br.kinds[j] != ANGLE] if len(br) else j[:0]
+        ang = state.headings[i] + 2 * np.pi * np.arange(k) / k
+        d = np.stack([np.cos(ang), np.sin(ang)], -1)[:, None, :]  # (k, 1, 2)
+        a = br.segments[j, 0, :2][None]  # (1, m, 2)
+        e = br.segments[j, 1, :2][None] - a
+        w = a - state.positions[i]
+        den = d[..., 0] * e[..., 1] - d[..., 1] * e[..., 0]
+        ok = np.abs(den) >= 1e-12
+        den = np.where(ok, den, 1.0)
+        t = (w[..., 0] * e[..., 1] - w[..., 1] * e[..., 0]) / den
+        u = (w[..., 0] * d[..., 1] - w[..., 1] * d[..., 0]) / den
+        hit = ok & (u >= 0) & (u <= 1) & (t >= 0) & (t < R)
+        obs[i, col:col + k] = np.where(hit, t, R).min(axis=1, initial=R) / R
+
+
 def build_observations_reference(world, state, readings, target_idx, live, layout: ObsLayout) -> np.ndarray:
     """Plain numpy version of :func:`~tin_swarm_env.env.observation.build_observations`."""
     R = world.params.sensor.range_m
@@ -95,6 +119,8 @@ def build_observations_reference(world, state, readings, target_idx, live, layou
         _breaks(obs, world, state, readings, layout, R)
     if layout.k_assets:
         _points(obs, layout, "assets", readings.assets, state.assets.positions, state, R)
+    if layout.k_scan:
+        _scan(obs, world, state, readings, layout, R)
     obs[~live] = 0.0
     np.clip(obs, -1.0, 1.0, out=obs)
     return obs.astype(np.float32)

@@ -90,6 +90,8 @@ class DecodedObs:
     b_border: np.ndarray  # (n, K_b) bool: dangerous with zero drop (the terrain's border)
     a_rel: np.ndarray  # (n, K_a, 2) m: vectors to the assets it sees
     a_valid: np.ndarray  # (n, K_a) float 0/1
+    s_rel: np.ndarray | None = None  # (n, K_s, 2) m: vectors to where the scan's beams meet a dangerous break
+    s_hit: np.ndarray | None = None  # (n, K_s) bool: the beam met one within range
 
     @property
     def n(self) -> int:
@@ -111,7 +113,17 @@ def decode(obs, layout, range_m) -> DecodedObs:
         r_rel=layout.vectors(obs, "robots") * R, r_valid=layout.field(obs, "robots", "valid"),
         b_rel=layout.vectors(obs, "breaks") * R, b_normal=layout.vectors(obs, "breaks", "nx", "ny"),
         b_danger=b_danger, b_border=b_danger & (layout.field(obs, "breaks", "drop") == 0.0),
-        a_rel=layout.vectors(obs, "assets") * R, a_valid=layout.field(obs, "assets", "valid"))
+        a_rel=layout.vectors(obs, "assets") * R, a_valid=layout.field(obs, "assets", "valid"),
+        **_scan_hits(obs, layout, R))
+
+
+def _scan_hits(obs, layout, R) -> dict:
+    """The scan's beams as body-frame vectors to their hits (``s_rel``) and which met a break (``s_hit``)."""
+    k = layout.k_scan
+    t = layout.field(obs, "scan", "d") * R  # (n, K_s)
+    ang = 2 * np.pi * np.arange(k) / max(k, 1)
+    rel = t[..., None] * np.stack([np.cos(ang), np.sin(ang)], axis=-1)
+    return {"s_rel": rel, "s_hit": t < R * (1 - 1e-6)}
 
 
 def keep_clear(action, rel, valid, gap_m: float, step_m: float, share: float = 2.0, passes: int = 2):

@@ -399,6 +399,13 @@ def chart_update(mem: ChartMemory, rows, d: DecodedObs, q, psi, params: ChartPar
         ext.append(pts + f * (other - pts))
         oks.append(near)
     mem.last_pts[rows], mem.last_ok[rows] = pts, ok
+    if d.s_rel is not None and d.s_rel.shape[1]:  # the scan's hits: the wall, and a cell behind it
+        k = d.s_rel.shape[1]
+        hits = q[:, None, :] + _rot(psi[:, None].repeat(k, 1).ravel(), d.s_rel.reshape(-1, 2)).reshape(d.s_rel.shape)
+        beam = hits - q[:, None, :]
+        beam = beam / np.maximum(np.sqrt(np.sum(beam * beam, axis=-1)), 1e-9)[..., None]
+        ext += [hits, hits + params.behind * w * beam]
+        oks += [d.s_hit, d.s_hit]
     at = np.concatenate(ext, axis=1)
     on = np.concatenate(oks, axis=1)
     # never the target's own cell

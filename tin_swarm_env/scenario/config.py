@@ -66,7 +66,7 @@ __all__ = ["ScenarioError", "TerrainSpec", "RobotsSpec", "EntitiesSpec", "Reward
 SCENARIO_DIR = Path(__file__).with_name("builtin")
 
 MAX_ROBOTS = 100_000  # robots.count and n_robots: beyond this the per-robot arrays and names exhaust memory
-MAX_SLOTS = 256  # k_robots, k_targets, k_breaks: observation slots per kind
+MAX_SLOTS = 256  # k_robots, k_targets, k_breaks, k_scan: observation slots (beams) per kind
 MAX_ENTITIES = 10_000  # targets/assets count drawn per reset
 _POS = {"lo": 0, "lo_open": True}  # check_range limits: a finite number > 0
 _NONNEG = {"lo": 0}  # >= 0
@@ -235,17 +235,20 @@ class ObservationSpec:
     k_breaks    slots for the nearest terrain breaks in range
     k_assets    slots for the nearest visible assets; not set: ``DEFAULT_K_ASSETS`` when the scenario
                 has assets, else 0 (:meth:`~tin_swarm_env.env.observation.ObsLayout.from_spec`)
+    k_scan      beams of the terrain scan (0: no scan part): the range to the first dangerous break
+                along each of ``k_scan`` bearings all round
     """
 
     k_robots: int = 4
     k_targets: int = 2
     k_breaks: int = 3
     k_assets: int | None = None
+    k_scan: int = 0
 
     def __post_init__(self):
         _check_types(self)
         check_fields(self, {k: {"lo": 0, "hi": MAX_SLOTS, "integer": True} for k in ("k_robots", "k_targets",
-                                                                                    "k_breaks")})
+                                                                                    "k_breaks", "k_scan")})
         if self.k_assets is not None:
             check_range("ObservationSpec", "k_assets", self.k_assets, 0, MAX_SLOTS, integer=True)
 
