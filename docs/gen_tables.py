@@ -97,7 +97,7 @@ def observation_table() -> str:
 
     before, rows, after = rst_simple_table(ob.__doc__)
     plain, assets = ob.ObsLayout(), ob.ObsLayout(k_assets=ob.DEFAULT_K_ASSETS)
-    count_name = {"robots": "K_r", "targets": "K_t", "breaks": "K_b", "assets": "K_a"}
+    count_name = {"robots": "K_r", "targets": "K_t", "breaks": "K_b", "assets": "K_a", "scan": "K_s"}
     expected = [f"own.{n}" for n, _ in ob.OWN_FIELDS] + list(ob.PARTS)
     if [r[0] for r in rows] != expected:
         raise ValueError(f"env/observation.py's table lists {[r[0] for r in rows]}; ObsLayout has {expected}")
@@ -109,13 +109,14 @@ def observation_table() -> str:
             want = str(n)
         else:
             sl, n = assets.part_slice(name), len(ob.SLOT_FIELDS[name])
-            want = f"{n} {count_name[name]}"
+            want = f"{n} {count_name[name]}" if n > 1 else count_name[name]
         if size.replace("·", " ") != want:
             raise ValueError(f"env/observation.py's table gives {name} size {size!r}; ObsLayout has {want!r}")
-        out.append(f"| `{name}` | {sl.start}..{sl.stop - 1} | {size} | {_cell(contents)} |")
+        cols = f"{sl.start}..{sl.stop - 1}" if sl.stop > sl.start else f"{sl.start}.. (K_s columns)"
+        out.append(f"| `{name}` | {cols} | {size} | {_cell(contents)} |")
     out += ["", f"With the default slot counts (K_r = {plain.k_robots}, K_t = {plain.k_targets}, "
-                f"K_b = {plain.k_breaks}) d = {plain.size} without assets and {assets.size} with K_a = "
-                f"{assets.k_assets} (the columns above).", "", _paragraphs(after)]
+                f"K_b = {plain.k_breaks}, K_s = {plain.k_scan}) d = {plain.size} without assets and {assets.size} "
+                f"with K_a = {assets.k_assets} (the columns above).", "", _paragraphs(after)]
     return HEADER + "\n".join(out).rstrip() + "\n"
 
 

@@ -117,6 +117,10 @@ for; last step's break points; a stall anchor and count. Each step:
    side along the break for a point seen square on (not at a break's end); a point within ``link``
    cells of one seen last step shuts the cells between them (a wall driven along leaves no hole);
    the terrain is a rectangle, so a border point (``b_border``) shuts the whole half-plane beyond it.
+   With the observation's terrain scan (``[observation] k_scan``: :mod:`tin_swarm_env.env.observation`)
+   the point where each beam meets a dangerous break is a wall too, and the cell behind it along
+   the beam: a pocket's far wall is charted from its mouth, not only when driven along
+   (``docs/figures/sensing_bound.md`` measures what that buys).
 2. *Plan* (A*, 8-connected, no corner cut between two shut cells; a step into a cell beside a shut
    one costs ``wall_cost`` cells more, a first step against the way it was heading up to ``turn_m``
    more) the least-cost way over open cells to the target's cell, whenever its chart changed or it
