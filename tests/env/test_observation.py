@@ -558,3 +558,18 @@ def test_a_bad_k_scan_is_refused_by_name(bad):
     if bad != 257:  # the layout checks the type and sign; the scenario table also the upper limit
         with pytest.raises(ObservationLayoutError, match="k_scan"):
             ObsLayout(k_scan=bad)
+
+
+def test_decoded_scan_hits_are_body_frame_vectors_and_an_absent_robot_has_none(square):
+    from tin_swarm_env.policies.base import decode
+
+    env = square(4, count=2)
+    lay = env.layout
+    obs = env.reset_arrays(seed=0, options={"robot_positions": np.array([[30.0, 20.0], [70.0, 0.0]]),
+                                            "headings": np.array([0.0, 0.0])})
+    obs[1] = 0.0  # robot 1 no longer in the episode: an all-zero row
+    d = decode(obs, lay, SCAN_R)
+    # robot 0 heading east: beam 1 north meets the border 30 m away, beam 2 west 30 m; east 70 m and south 70 m miss
+    np.testing.assert_array_equal(d.s_hit[0], [False, True, True, False])
+    np.testing.assert_allclose(d.s_rel[0, 1:3], [[0.0, 30.0], [-30.0, 0.0]], atol=1e-4)
+    assert not d.s_hit[1].any()

@@ -419,7 +419,7 @@ def _scan_beams(obs, i, at, K, start, idx, ends, danger, pos, head, R):
             wy = ends[j, 1] - pos[i, 1]
             t = (wx * ey - wy * ex) / den  # along the beam
             u = (wx * dy - wy * dx) / den  # along the segment
-            if 0.0 <= u <= 1.0 and 0.0 <= t < best:
+            if -1e-12 <= u <= 1.0 + 1e-12 and 0.0 <= t < best:  # (a beam through a shared end meets one)
                 best = t
         obs[i, at + k] = best / R
 

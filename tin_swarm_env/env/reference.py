@@ -102,7 +102,7 @@ def _scan(obs, world, state, readings, layout, R):
         den = np.where(ok, den, 1.0)
         t = (w[..., 0] * e[..., 1] - w[..., 1] * e[..., 0]) / den
         u = (w[..., 0] * d[..., 1] - w[..., 1] * d[..., 0]) / den
-        hit = ok & (u >= 0) & (u <= 1) & (t >= 0) & (t < R)
+        hit = ok & (u >= -1e-12) & (u <= 1 + 1e-12) & (t >= 0) & (t < R)
         obs[i, col:col + k] = np.where(hit, t, R).min(axis=1, initial=R) / R
 
 

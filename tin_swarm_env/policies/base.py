@@ -118,12 +118,13 @@ def decode(obs, layout, range_m) -> DecodedObs:
 
 
 def _scan_hits(obs, layout, R) -> dict:
-    """The scan's beams as body-frame vectors to their hits (``s_rel``) and which met a break (``s_hit``)."""
+    """The scan's beams as body-frame vectors to their hits (``s_rel``) and which met a break (``s_hit``;
+    never in an all-zero row: a robot no longer in the episode)."""
     k = layout.k_scan
     t = layout.field(obs, "scan", "d") * R  # (n, K_s)
     ang = 2 * np.pi * np.arange(k) / max(k, 1)
     rel = t[..., None] * np.stack([np.cos(ang), np.sin(ang)], axis=-1)
-    return {"s_rel": rel, "s_hit": t < R * (1 - 1e-6)}
+    return {"s_rel": rel, "s_hit": (t < R * (1 - 1e-6)) & np.any(obs != 0, axis=-1)[:, None]}
 
 
 def keep_clear(action, rel, valid, gap_m: float, step_m: float, share: float = 2.0, passes: int = 2):

@@ -402,8 +402,8 @@ def chart_update(mem: ChartMemory, rows, d: DecodedObs, q, psi, params: ChartPar
     if d.s_rel is not None and d.s_rel.shape[1]:  # the scan's hits: the wall, and a cell behind it
         k = d.s_rel.shape[1]
         hits = q[:, None, :] + _rot(psi[:, None].repeat(k, 1).ravel(), d.s_rel.reshape(-1, 2)).reshape(d.s_rel.shape)
-        beam = hits - q[:, None, :]
-        beam = beam / np.maximum(np.sqrt(np.sum(beam * beam, axis=-1)), 1e-9)[..., None]
+        a = psi[:, None] + 2 * np.pi * np.arange(k) / k  # each beam's bearing in F (exact, even at a hit 0 m away)
+        beam = np.stack([np.cos(a), np.sin(a)], axis=-1)
         ext += [hits, hits + params.behind * w * beam]
         oks += [d.s_hit, d.s_hit]
     at = np.concatenate(ext, axis=1)

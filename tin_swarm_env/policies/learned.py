@@ -482,7 +482,8 @@ def _brief(lay, other) -> str:
     """A layout in a message: its K counts, and the first element name that differs."""
     if not isinstance(lay, dict):
         return repr(lay)
-    ks = {k: lay.get(k) for k in ("k_robots", "k_targets", "k_breaks")}
+    ks = {k: lay.get(k) for k in ("k_robots", "k_targets", "k_breaks", "k_assets", "k_scan") if k in lay
+          or k in ("k_robots", "k_targets", "k_breaks")}
     names, onames = lay.get("names"), other.get("names") if isinstance(other, dict) else None
     if isinstance(names, list) and isinstance(onames, list) and names != onames:
         i = next((i for i, (a, b) in enumerate(zip(names, onames)) if a != b), min(len(names), len(onames)))
