@@ -3,12 +3,13 @@ reflected east-west and reflected north-south (the terrain's ``mirror`` key,
 :mod:`tin_swarm_env.scenario.mirror`), so a rule that prefers one side shows as a gap between rows.
 Writes ``docs/figures/apf_mirror.md``:
 
-    python bench/apf_mirror.py [--seeds 20] [--search bug,chart] [--out FILE]
+    python bench/apf_mirror.py [--seeds 20] [--search bug,chart] [--k-scan 32] [--out FILE]
 
 Each row: ``--seeds`` held-out seeds from ``EVAL_SEED0`` x the scenario's 20 robots, one
 :func:`~tin_swarm_env.apps.rollout.rollout` each (``max_cycles`` of the ``generated`` scenario);
 stalled and looping as in :mod:`tin_swarm_env.apps.trajectory`; one row per boundary search
-(``APFPolicy(search=...)``) of ``--search``.
+(``APFPolicy(search=...)``) of ``--search``; ``--k-scan N`` gives the observation the terrain scan's
+``N`` beams (``[observation] k_scan``).
 """
 
 from __future__ import annotations
@@ -36,9 +37,10 @@ MIRRORS = (("", "as built"), ("ew", "east-west"), ("ns", "north-south"))
 SEARCHES = ("bug", "chart")
 
 
-def row(family: str, mirror: str, seeds: int, search: str = "bug") -> tuple[float, ...]:
+def row(family: str, mirror: str, seeds: int, search: str = "bug", k_scan: int = 0) -> tuple[float, ...]:
     cfg = load_scenario("generated")
-    cfg = cfg.replace(terrain=dataclasses.replace(cfg.terrain, families=(family,), mirror=mirror))
+    cfg = cfg.replace(terrain=dataclasses.replace(cfg.terrain, families=(family,), mirror=mirror),
+                      observation=dataclasses.replace(cfg.observation, k_scan=k_scan))
     env = tse.parallel_env(scenario=cfg)
     t = time.perf_counter()
     outs = [rollout(env, APFPolicy(env, search=search), sd) for sd in range(EVAL_SEED0, EVAL_SEED0 + seeds)]
@@ -54,8 +56,11 @@ def main(argv=None) -> int:
     p.add_argument("--seeds", type=int, default=20, help="held-out seeds per row (default 20)")
     p.add_argument("--search", type=lambda v: v.split(","), default=list(SEARCHES),
                    help="boundary searches, comma-separated (default bug,chart)")
+    p.add_argument("--k-scan", type=int, default=0, help="the observation's terrain scan beams (default 0: none)")
     p.add_argument("--out", default=str(ROOT / "docs" / "figures" / "apf_mirror.md"))
     a = p.parse_args(argv)
+    if a.k_scan < 0:
+        p.error(f"--k-scan must be >= 0, got {a.k_scan}")
     bad = [x for x in a.search if x not in SEARCHES]
     if bad:
         p.error(f"--search: unknown {bad}; choose from {','.join(SEARCHES)}")
@@ -66,13 +71,14 @@ def main(argv=None) -> int:
     lines = [f"Measured with `{cmd}`" +
              f" at commit {commit}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load average {load} at "
              f"the start ({os.cpu_count()} cores).", "",
-             f"APF, {a.seeds} held-out seeds x 20 robots per row, the same seeds as built and mirrored.", "",
+             f"APF, {a.seeds} held-out seeds x 20 robots per row, the same seeds as built and mirrored"
+             + (f"; the observation with a {a.k_scan}-beam terrain scan." if a.k_scan else "."), "",
              "| family | search | terrain | arrived | fell | stalled | looping | s |",
              "|---|---|---|---:|---:|---:|---:|---:|"]
     for fam in FAMILIES:
         for search in a.search:
             for mir, name in MIRRORS:
-                ar, fe, st, lo, s = row(fam, mir, a.seeds, search)
+                ar, fe, st, lo, s = row(fam, mir, a.seeds, search, a.k_scan)
                 lines.append(f"| {fam} | {search} | {name} | {ar:.1%} | {fe:.1%} | {st:.1%} | {lo:.1%} | {s:.0f} |")
                 print(lines[-1], flush=True)
     out = Path(a.out)
