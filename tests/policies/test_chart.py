@@ -190,6 +190,7 @@ def test_scan_hits_are_charted_with_the_cell_behind_each_and_misses_are_not():
     k = 4  # beams east, north, west, south: east meets a wall 6 m ahead, north one 3 m away, the others nothing
     d.s_rel = np.array([[[6.0, 0.0], [0.0, 3.0], [-60.0, 0.0], [0.0, -60.0]]])
     d.s_hit = np.array([[True, True, False, False]])
+    d.s_dir = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
     assert d.s_rel.shape == (1, k, 2)
     chart_update(mem, np.array([0]), d, q, np.zeros(1), p, 60.0, 1.0, 2.0, np.array([False]))
     walls = sorted(map(tuple, np.argwhere(mem.grid[0] == WALL).tolist()))

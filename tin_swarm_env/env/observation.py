@@ -250,6 +250,11 @@ class ObsLayout:
                 f"beams (beam k <-> beam k_scan - k), it is not a sign flip; use ObsLayout.mirror")
         return _mirror_signs(self)
 
+    def scan_bearings(self) -> np.ndarray:
+        """``(K_s,)`` rad: each scan beam's bearing from the heading, counter-clockwise, ``2 pi k / K_s``
+        (the one place it is written: the encoder, its reference and the decoder read it here)."""
+        return 2 * np.pi * np.arange(self.k_scan) / max(self.k_scan, 1)
+
     def mirror_permutation(self) -> np.ndarray:
         """``(size,)`` int64: element ``j`` of the mirrored observation is element ``perm[j]`` of the
         observation (before its sign, :meth:`mirror`): the identity but for the scan's beams,
@@ -397,12 +402,12 @@ def _break_slots(obs, i, sl, K, start, idx, dist, closest, normals, drops, dange
 
 
 @njit(cache=True, inline="always")
-def _scan_beams(obs, i, at, K, start, idx, ends, danger, pos, head, R):
-    """Scan beams of robot ``i`` (columns ``at .. at + K``): along bearing ``head + 2 pi k / K``,
+def _scan_beams(obs, i, at, K, start, idx, ends, bearings, danger, pos, head, R):
+    """Scan beams of robot ``i`` (columns ``at .. at + K``): along bearing ``head + bearings[k]``,
     the distance to the first dangerous break among its contacts ``start[i]:start[i + 1]`` that
     the beam crosses, over ``R`` (1 when none within ``R``; ``ends (B, 4)``: ax, ay, bx, by)."""
     for k in range(K):
-        a = head[i] + 2.0 * np.pi * k / K
+        a = head[i] + bearings[k]
         dx = np.cos(a)
         dy = np.sin(a)
         best = R
@@ -465,12 +470,13 @@ def _fill(obs, o, o_rob, o_tgt, o_brk, o_ast, o_scn, ks, pos, head, heights, own
     scan beams); ``robots``/``targets``/``assets`` ``(start, idx, dist)`` and ``breaks`` ``(start,
     idx, dist, closest, normals, drops, danger)``: the sensor readings' contacts, grouped by
     observer and nearest first (:func:`_grouped`), and the break set's arrays; ``apos (k, 2)``;
-    ``scan`` ``(start, idx, ends)``: every break contact of each observer and the segments' ends."""
+    ``scan`` ``(start, idx, ends, bearings)``: every break contact of each observer, the segments'
+    ends and the beams' bearings (:meth:`ObsLayout.scan_bearings`)."""
     rs, ri, rd = robots  # (numba's parallel loops take arrays, not tuples of them)
     ts, ti, td = targets
     bs, bi, bd, bc, bn, bdrop, bdanger = breaks
     as_, ai, ad = assets
-    ss, si, se = scan
+    ss, si, se, sbr = scan
     kr, kt, kb, ka, ks_ = ks
     for i in prange(pos.shape[0]):  # one row per iteration: bit-identical for any thread count
         if not live[i]:
@@ -483,7 +489,7 @@ def _fill(obs, o, o_rob, o_tgt, o_brk, o_ast, o_scn, ks, pos, head, heights, own
         _break_slots(obs, i, o_brk, kb, bs, bi, bd, bc, bn, bdrop, bdanger, pos, c, s, R, dz_scale)
         _point_slots(obs, i, o_ast, ka, as_, ai, ad, apos, pos, c, s, R)
         if ks_:
-            _scan_beams(obs, i, o_scn, ks_, ss, si, se, bdanger, pos, head, R)
+            _scan_beams(obs, i, o_scn, ks_, ss, si, se, sbr, bdanger, pos, head, R)
         for m in range(obs.shape[1]):
             obs[i, m] = min(max(obs[i, m], -1.0), 1.0)
 
@@ -564,6 +570,7 @@ def build_observations(world, state, readings, target_idx, live, layout: ObsLayo
     breaks = _grouped(readings.breaks, n, ks[2], "closest") + arrays[:3]
     scan = (_all_contacts(readings.breaks, n) + arrays[3:] if layout.k_scan
             else (np.zeros(n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, 4))))
+    scan += (layout.scan_bearings(),)
     obs = np.zeros((n, layout.size), dtype=np.float32)
     with serial_if_small(n, OBS_SERIAL_BELOW):
         _fill(obs, *_kernel_offsets(layout), ks, state.positions, state.headings, state.heights, own_n, own_scale,

@@ -92,7 +92,7 @@ def _scan(obs, world, state, readings, layout, R):
     for i in range(state.n_robots):
         j = c.break_idx[c.observer == i]
         j = j[br.kinds[j] != ANGLE] if len(br) else j[:0]
-        ang = state.headings[i] + 2 * np.pi * np.arange(k) / k
+        ang = state.headings[i] + layout.scan_bearings()
         d = np.stack([np.cos(ang), np.sin(ang)], -1)[:, None, :]  # (k, 1, 2)
         a = br.segments[j, 0, :2][None]  # (1, m, 2)
         e = br.segments[j, 1, :2][None] - a

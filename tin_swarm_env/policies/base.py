@@ -92,6 +92,7 @@ class DecodedObs:
     a_valid: np.ndarray  # (n, K_a) float 0/1
     s_rel: np.ndarray | None = None  # (n, K_s, 2) m: vectors to where the scan's beams meet a dangerous break
     s_hit: np.ndarray | None = None  # (n, K_s) bool: the beam met one within range
+    s_dir: np.ndarray | None = None  # (K_s, 2): the beams' unit vectors (ObsLayout.scan_bearings)
 
     @property
     def n(self) -> int:
@@ -120,11 +121,11 @@ def decode(obs, layout, range_m) -> DecodedObs:
 def _scan_hits(obs, layout, R) -> dict:
     """The scan's beams as body-frame vectors to their hits (``s_rel``) and which met a break (``s_hit``;
     never in an all-zero row: a robot no longer in the episode)."""
-    k = layout.k_scan
     t = layout.field(obs, "scan", "d") * R  # (n, K_s)
-    ang = 2 * np.pi * np.arange(k) / max(k, 1)
-    rel = t[..., None] * np.stack([np.cos(ang), np.sin(ang)], axis=-1)
-    return {"s_rel": rel, "s_hit": (t < R * (1 - 1e-6)) & np.any(obs != 0, axis=-1)[:, None]}
+    ang = layout.scan_bearings()
+    unit = np.stack([np.cos(ang), np.sin(ang)], axis=-1)
+    return {"s_rel": t[..., None] * unit, "s_hit": (t < R * (1 - 1e-6)) & np.any(obs != 0, axis=-1)[:, None],
+            "s_dir": unit}
 
 
 def keep_clear(action, rel, valid, gap_m: float, step_m: float, share: float = 2.0, passes: int = 2):

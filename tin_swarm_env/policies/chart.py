@@ -401,9 +401,10 @@ def chart_update(mem: ChartMemory, rows, d: DecodedObs, q, psi, params: ChartPar
     mem.last_pts[rows], mem.last_ok[rows] = pts, ok
     if d.s_rel is not None and d.s_rel.shape[1]:  # the scan's hits: the wall, and a cell behind it
         k = d.s_rel.shape[1]
-        hits = q[:, None, :] + _rot(psi[:, None].repeat(k, 1).ravel(), d.s_rel.reshape(-1, 2)).reshape(d.s_rel.shape)
-        a = psi[:, None] + 2 * np.pi * np.arange(k) / k  # each beam's bearing in F (exact, even at a hit 0 m away)
-        beam = np.stack([np.cos(a), np.sin(a)], axis=-1)
+        turn = psi[:, None].repeat(k, 1).ravel()
+        hits = q[:, None, :] + _rot(turn, d.s_rel.reshape(-1, 2)).reshape(d.s_rel.shape)
+        # each beam's direction from its bearing, exact even for a hit 0 m away
+        beam = _rot(turn, np.broadcast_to(d.s_dir, d.s_rel.shape).reshape(-1, 2)).reshape(d.s_rel.shape)
         ext += [hits, hits + params.behind * w * beam]
         oks += [d.s_hit, d.s_hit]
     at = np.concatenate(ext, axis=1)
