@@ -57,6 +57,7 @@ import tin_swarm_env as tse
 from tin_swarm_env.apps.evaluate import EVAL_SEED0
 from tin_swarm_env.apps.rollout import rollout
 from tin_swarm_env.policies import APFPolicy
+from tin_swarm_env.policies.chart import heap_pop, heap_push
 from tin_swarm_env.scenario import load_scenario
 from tin_swarm_env.terrain.breaks import ANGLE
 from tin_swarm_env.world.state import Reason
@@ -87,23 +88,7 @@ def shortest_way(blocked, sa, sb, ta, tb):
     hn = 1
     found = False
     while hn > 0:
-        v = hv[0]
-        hn -= 1
-        if hn > 0:  # sift the last entry down from the root
-            lk, lv = hk[hn], hv[hn]
-            i = 0
-            while True:
-                j = 2 * i + 1
-                if j >= hn:
-                    break
-                if j + 1 < hn and hk[j + 1] < hk[j]:
-                    j += 1
-                if hk[j] < lk:
-                    hk[i], hv[i] = hk[j], hv[j]
-                    i = j
-                else:
-                    break
-            hk[i], hv[i] = lk, lv
+        v, hn = heap_pop(hk, hv, hn)
         a, b = v // ny, v % ny
         if closed[a, b]:
             continue
@@ -125,17 +110,7 @@ def shortest_way(blocked, sa, sb, ta, tb):
                     dist[na, nb] = nd
                     prev[na, nb] = a * ny + b
                     ex, ey = abs(na - ta), abs(nb - tb)
-                    kk = nd + max(ex, ey) + (s2 - 1) * min(ex, ey)
-                    i = hn
-                    hn += 1
-                    while i > 0:  # sift up
-                        p = (i - 1) // 2
-                        if hk[p] > kk:
-                            hk[i], hv[i] = hk[p], hv[p]
-                            i = p
-                        else:
-                            break
-                    hk[i], hv[i] = kk, na * ny + nb
+                    hn = heap_push(hk, hv, hn, nd + max(ex, ey) + (s2 - 1) * min(ex, ey), na * ny + nb)
     if not found:
         return np.zeros((0, 2), np.int64), np.inf
     n = 1

@@ -196,6 +196,45 @@ def _clear(g, a0, b0, a1, b1):
     return True
 
 
+@njit(cache=True, inline="always")
+def heap_pop(hk, hv, hn):
+    """Pop the least key of the binary heap ``hk`` (keys) / ``hv`` (values) of ``hn`` entries:
+    ``(value, hn - 1)``."""
+    v = hv[0]
+    hn -= 1
+    if hn > 0:  # sift the last entry down from the root
+        lk, lv = hk[hn], hv[hn]
+        i = 0
+        while True:
+            j = 2 * i + 1
+            if j >= hn:
+                break
+            if j + 1 < hn and hk[j + 1] < hk[j]:
+                j += 1
+            if hk[j] < lk:
+                hk[i], hv[i] = hk[j], hv[j]
+                i = j
+            else:
+                break
+        hk[i], hv[i] = lk, lv
+    return v, hn
+
+
+@njit(cache=True, inline="always")
+def heap_push(hk, hv, hn, key, value):
+    """Push ``key``/``value`` onto the heap of :func:`heap_pop`; returns ``hn + 1``."""
+    i = hn
+    while i > 0:  # sift up
+        p = (i - 1) // 2
+        if hk[p] > key:
+            hk[i], hv[i] = hk[p], hv[p]
+            i = p
+        else:
+            break
+    hk[i], hv[i] = key, value
+    return hn + 1
+
+
 @njit(cache=True)
 def plan(g, sa, sb, ta, tb, ahead, wall_cost=2.0, ha=0.0, hb=0.0, turn=0.0):
     """A* over chart ``g (C, C)`` (8-connected, no corner cutting, unit cells; a step costs its
@@ -225,23 +264,7 @@ def plan(g, sa, sb, ta, tb, ahead, wall_cost=2.0, ha=0.0, hb=0.0, turn=0.0):
     hn = 1
     found = False
     while hn > 0:
-        v = heap_v[0]  # pop the least key
-        hn -= 1
-        if hn > 0:
-            lk, lv = heap_k[hn], heap_v[hn]
-            i = 0
-            while True:
-                j = 2 * i + 1
-                if j >= hn:
-                    break
-                if j + 1 < hn and heap_k[j + 1] < heap_k[j]:
-                    j += 1
-                if heap_k[j] < lk:
-                    heap_k[i], heap_v[i] = heap_k[j], heap_v[j]
-                    i = j
-                else:
-                    break
-            heap_k[i], heap_v[i] = lk, lv
+        v, hn = heap_pop(heap_k, heap_v, hn)
         a, b = v // c, v % c
         if closed[a, b]:
             continue
@@ -273,18 +296,7 @@ def plan(g, sa, sb, ta, tb, ahead, wall_cost=2.0, ha=0.0, hb=0.0, turn=0.0):
                 if nd < dist[na, nb]:
                     dist[na, nb] = nd
                     prev[na, nb] = a * c + b
-                    # push
-                    kk = nd + h(na, nb)
-                    i = hn
-                    hn += 1
-                    while i > 0:
-                        p = (i - 1) // 2
-                        if heap_k[p] > kk:
-                            heap_k[i], heap_v[i] = heap_k[p], heap_v[p]
-                            i = p
-                        else:
-                            break
-                    heap_k[i], heap_v[i] = kk, na * c + nb
+                    hn = heap_push(heap_k, heap_v, hn, nd + h(na, nb), na * c + nb)
     if not found:
         return False, sa, sb, np.inf
     # walk back to the start, keep the way
