@@ -244,21 +244,34 @@ def plan(g, sa, sb, ta, tb, ahead, wall_cost=2.0, ha=0.0, hb=0.0, turn=0.0):
     the start (straight-line distance) that is in a straight open line from it (at least the way's
     first cell), and the way's cost (inf: none)."""
     c = g.shape[0]
-    INF = 1e30
-    dist = np.full((c, c), INF)
+    dist = np.full((c, c), 1e30)
     prev = np.full((c, c), -1, np.int64)
     closed = np.zeros((c, c), np.bool_)
-    heap_k = np.empty(c * c * 8 + 8)
-    heap_v = np.empty(c * c * 8 + 8, np.int64)
+    return _astar(g, sa, sb, ta, tb, ahead, wall_cost, ha, hb, turn, dist, prev, closed)
+
+
+@njit(cache=True)
+def _astar(g, sa, sb, ta, tb, ahead, wall_cost, ha, hb, turn, dist, prev, closed):
+    """:func:`plan` on work arrays ``dist`` (all 1e30), ``prev`` (all -1) and ``closed`` (all
+    False), ``(C, C)`` each, which it leaves as it found them (only the cells it touched are reset):
+    the planner of many robots allocates them once and its cost follows the cells searched, not C^2."""
+    c = g.shape[0]
+    INF = 1e30
+    cap = 64 * c + 64  # the heap grows by doubling (a cell is pushed at most 8 times)
+    heap_k = np.empty(cap)
+    heap_v = np.empty(cap, np.int64)
+    touched = np.empty(cap, np.int64)
+    nt = 0
     hn = 0
     dist[sa, sb] = 0.0
+    touched[0] = sa * c + sb
+    nt = 1
     s2 = np.sqrt(2.0)
 
     def h(a, b):
         dx, dy = abs(a - ta), abs(b - tb)
         return max(dx, dy) + (s2 - 1.0) * min(dx, dy)
 
-    # push
     heap_k[0] = h(sa, sb)
     heap_v[0] = sa * c + sb
     hn = 1
@@ -294,29 +307,47 @@ def plan(g, sa, sb, ta, tb, ahead, wall_cost=2.0, ha=0.0, hb=0.0, turn=0.0):
                 if near:
                     nd += wall_cost
                 if nd < dist[na, nb]:
+                    if dist[na, nb] >= INF:  # first touch: remembered, to be reset
+                        if nt == len(touched):
+                            t2 = np.empty(2 * nt, np.int64)
+                            t2[:nt] = touched
+                            touched = t2
+                        touched[nt] = na * c + nb
+                        nt += 1
                     dist[na, nb] = nd
                     prev[na, nb] = a * c + b
+                    if hn == len(heap_k):
+                        k2 = np.empty(2 * hn)
+                        v2 = np.empty(2 * hn, np.int64)
+                        k2[:hn] = heap_k[:hn]
+                        v2[:hn] = heap_v[:hn]
+                        heap_k, heap_v = k2, v2
                     hn = heap_push(heap_k, heap_v, hn, nd + h(na, nb), na * c + nb)
-    if not found:
-        return False, sa, sb, np.inf
-    # walk back to the start, keep the way
-    way = [ta * c + tb]
-    v = ta * c + tb
-    while v != sa * c + sb:
-        v = prev[v // c, v % c]
-        way.append(v)
-    # way[-1] is the start; the farthest in reach and in line
-    wa, wb = ta, tb
-    n = len(way)
-    best = n - 1
-    for k in range(n - 2, -1, -1):
-        a, b = way[k] // c, way[k] % c
-        if (a - sa) ** 2 + (b - sb) ** 2 > ahead * ahead and k < n - 2:
-            break
-        if k == n - 2 or _clear(g, sa, sb, a, b):
-            best = k
-    wa, wb = way[best] // c, way[best] % c
-    return True, wa, wb, dist[ta, tb]
+    wa, wb, cost = sa, sb, np.inf
+    if found:
+        # walk back to the start, keep the way
+        way = [ta * c + tb]
+        v = ta * c + tb
+        while v != sa * c + sb:
+            v = prev[v // c, v % c]
+            way.append(v)
+        # way[-1] is the start; the farthest in reach and in line
+        n = len(way)
+        best = n - 1
+        for k in range(n - 2, -1, -1):
+            a, b = way[k] // c, way[k] % c
+            if (a - sa) ** 2 + (b - sb) ** 2 > ahead * ahead and k < n - 2:
+                break
+            if k == n - 2 or _clear(g, sa, sb, a, b):
+                best = k
+        wa, wb = way[best] // c, way[best] % c
+        cost = dist[ta, tb]
+    for k in range(nt):  # leave the work arrays as found
+        v = touched[k]
+        dist[v // c, v % c] = INF
+        prev[v // c, v % c] = -1
+        closed[v // c, v % c] = False
+    return found, wa, wb, cost
 
 
 @njit(cache=True)
@@ -325,6 +356,9 @@ def _plan_rows(grid, cell, q, way, dirty, forgot, have_way, rows, ahead_m, wall_
     point; writes ``way`` (F, m). Forgetting ends with an empty chart, on which there is always a way."""
     c = grid.shape[1]
     h = c // 2
+    dist = np.full((c, c), 1e30)
+    prev = np.full((c, c), -1, np.int64)
+    closed = np.zeros((c, c), np.bool_)
     for r in range(len(rows)):
         i = rows[r]
         if cell[i] <= 0:
@@ -339,23 +373,23 @@ def _plan_rows(grid, cell, q, way, dirty, forgot, have_way, rows, ahead_m, wall_
         nrm = np.sqrt(dx * dx + dy * dy)
         ha, hb = (dx / nrm, dy / nrm) if nrm > 1e-9 and have_way[i] else (0.0, 0.0)
         tc = turn_m / w if nrm > 1e-9 and have_way[i] else 0.0
-        ok, wa, wb, _ = plan(grid[i], sa, sb, h, h, ahead, wall_cost, ha, hb, tc)
+        ok, wa, wb, _ = _astar(grid[i], sa, sb, h, h, ahead, wall_cost, ha, hb, tc, dist, prev, closed)
         g = grid[i]
         if not ok:  # 1. forget the stalls
             for a in range(c):
                 for b in range(c):
                     if g[a, b] == STUCK:
                         g[a, b] = OPEN
-            ok, wa, wb, _ = plan(g, sa, sb, h, h, ahead, wall_cost, ha, hb, tc)
+            ok, wa, wb, _ = _astar(g, sa, sb, h, h, ahead, wall_cost, ha, hb, tc, dist, prev, closed)
         if not ok:  # 2. forget the walls round where it stands (a corner mapped shut)
             for a in range(max(sa - 3, 0), min(sa + 4, c)):
                 for b in range(max(sb - 3, 0), min(sb + 4, c)):
                     g[a, b] = OPEN
-            ok, wa, wb, _ = plan(g, sa, sb, h, h, ahead, wall_cost, ha, hb, tc)
+            ok, wa, wb, _ = _astar(g, sa, sb, h, h, ahead, wall_cost, ha, hb, tc, dist, prev, closed)
         if not ok:  # 3. forget the chart: it starts again from what it sees
             g[:, :] = OPEN
             forgot[i] += 1
-            ok, wa, wb, _ = plan(g, sa, sb, h, h, ahead, wall_cost, ha, hb, tc)
+            ok, wa, wb, _ = _astar(g, sa, sb, h, h, ahead, wall_cost, ha, hb, tc, dist, prev, closed)
         dirty[i] = False
         have_way[i] = ok
         if ok:
@@ -402,14 +436,15 @@ def chart_update(mem: ChartMemory, rows, d: DecodedObs, q, psi, params: ChartPar
         n_all = len(mem.cell)
         mem.last_pts, mem.last_ok = np.zeros((n_all, ok.shape[1], 2)), np.zeros((n_all, ok.shape[1]), bool)
     lp, lo = mem.last_pts[rows], mem.last_ok[rows]
-    gap = np.sqrt(np.sum((pts[:, :, None, :] - lp[:, None, :, :]) ** 2, axis=-1))  # (m, K, K)
-    gap = np.where(lo[:, None, :], gap, np.inf)
-    j = np.argmin(gap, axis=-1)
-    near = ok & (np.take_along_axis(gap, j[..., None], axis=-1)[..., 0] < params.link * w[..., 0])
-    other = np.take_along_axis(lp, j[..., None].repeat(2, -1), axis=1)
-    for f in (0.25, 0.5, 0.75):
-        ext.append(pts + f * (other - pts))
-        oks.append(near)
+    if ok.shape[1]:  # (no break slots: a scan alone)
+        gap = np.sqrt(np.sum((pts[:, :, None, :] - lp[:, None, :, :]) ** 2, axis=-1))  # (m, K, K)
+        gap = np.where(lo[:, None, :], gap, np.inf)
+        j = np.argmin(gap, axis=-1)
+        near = ok & (np.take_along_axis(gap, j[..., None], axis=-1)[..., 0] < params.link * w[..., 0])
+        other = np.take_along_axis(lp, j[..., None].repeat(2, -1), axis=1)
+        for f in (0.25, 0.5, 0.75):
+            ext.append(pts + f * (other - pts))
+            oks.append(near)
     mem.last_pts[rows], mem.last_ok[rows] = pts, ok
     if d.s_rel is not None and d.s_rel.shape[1]:  # the scan's hits: the wall, and a cell behind it
         k = d.s_rel.shape[1]
