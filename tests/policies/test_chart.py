@@ -197,3 +197,26 @@ def test_scan_hits_are_charted_with_the_cell_behind_each_and_misses_are_not():
     # east hit at x -4.5 m (column 11), the cell behind it at x -3.7 m (column 12), row 16 (y 0.5);
     # north hit at y 3.5 (row 19) and behind it y 4.3 (row 20), column 5 (x -10.5)
     assert walls == [(5, 19), (5, 20), (11, 16), (12, 16)]
+
+
+def test_scan_alone_is_charted_and_keeps_robots_off_the_cliff():
+    """A scenario with a terrain scan and no break slots: the chart search reads the beams, so its
+    robots keep off cliff_goal's cliff (0 fell, most arrive: 19 of 20 on seed 0), where the bug
+    search, which reads only break slots, is the fields alone and drives every robot off it."""
+    import dataclasses
+
+    from tin_swarm_env.apps.rollout import rollout
+    from tin_swarm_env.scenario import load_scenario
+    from tin_swarm_env.world.state import Reason
+
+    cfg = load_scenario("cliff_goal")
+    cfg = cfg.replace(observation=dataclasses.replace(cfg.observation, k_breaks=0, k_scan=32))
+    env = tse.parallel_env(scenario=cfg)
+    pol = APFPolicy(env, search="chart")
+    out = rollout(env, pol, 0)
+    assert (pol.charts.grid == 1).any()  # the beams' hits were charted
+    assert not (out.reasons == Reason.FELL).any()
+    assert (out.reasons == Reason.ARRIVED).sum() >= 15
+    bug = APFPolicy(env)
+    out = rollout(env, bug, 0)
+    assert len(bug.memory.side) == 0 and (out.reasons == Reason.FELL).all()

@@ -120,7 +120,9 @@ for; last step's break points; a stall anchor and count. Each step:
    With the observation's terrain scan (``[observation] k_scan``: :mod:`tin_swarm_env.env.observation`)
    the point where each beam meets a dangerous break is a wall too, and the cell behind it along
    the beam: a pocket's far wall is charted from its mouth, not only when driven along
-   (``docs/figures/sensing_bound.md`` measures what that buys).
+   (``docs/figures/sensing_bound.md`` measures what that buys). A layout with a scan and no break
+   slots (``k_breaks = 0``) is charted from the beams alone, with no wall to slide along (step 3);
+   the bug search reads only the break slots, so without them APF is the fields alone.
 2. *Plan* (A*, 8-connected, no corner cut between two shut cells; a step into a cell beside a shut
    one costs ``wall_cost`` cells more, a first step against the way it was heading up to ``turn_m``
    more) the least-cost way over open cells to the target's cell, whenever its chart changed or it
@@ -284,6 +286,8 @@ class APFPolicy:
         self.chart = chart or ChartParams()
         self.static_target = not cfg.targets.mobile
         self.layout = base.layout
+        # the bug search reads the break slots; the chart search reads them or the terrain scan
+        self._senses_breaks = bool(self.layout.k_breaks or (search == "chart" and self.layout.k_scan))
         self.reset()
 
     def reset(self):
@@ -299,7 +303,7 @@ class APFPolicy:
 
     def _forces(self, d: DecodedObs, rows=None) -> dict:
         f = field_forces(d, self.layout, self.shield.standoff_m, self.params, self.shield.guard_m)
-        if not (self.params.on("break") and self.layout.k_breaks):
+        if not (self.params.on("break") and self._senses_breaks):
             return f
         rows = np.arange(d.n) if rows is None else np.asarray(rows, dtype=np.int64)
         self.memory = mem = self.memory.grow(int(rows.max(initial=-1)) + 1)
@@ -346,6 +350,8 @@ class APFPolicy:
         f["height"] = np.where(detour[:, None], 0.0, f["height"])
         # a wall across the way on the chart's way: slide along it, on the side the pull leans to
         pull = f["target"] + f["height"]
+        if not self.layout.k_breaks:  # the scan alone: no break slot to slide along
+            return f
         s = sensed(d, pull, self.params)  # the bug search's test of a break across the pull
         k = np.argmin(np.where(s["into"], s["dist"], np.inf), axis=-1)
         rel = np.take_along_axis(d.b_rel, k[:, None, None], axis=1)[:, 0]
