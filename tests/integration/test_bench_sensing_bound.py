@@ -75,6 +75,55 @@ def _wall_with_gap(gap_at):
                     normal=np.array([[0.0, -1.0], [0.0, -1.0]]))
 
 
+def _meets(seg, a, b, eps=1e-7):
+    """The segment meets cell (a, b)'s closed square grown by ``eps`` (Liang-Barsky clip: slow, obvious)."""
+    p, d = seg[0], seg[1] - seg[0]
+    t0, t1 = 0.0, 1.0
+    for k, lo, hi in ((0, a - eps, a + 1 + eps), (1, b - eps, b + 1 + eps)):
+        if abs(d[k]) < 1e-15:
+            if not lo <= p[k] <= hi:
+                return False
+            continue
+        u, v = sorted(((lo - p[k]) / d[k], (hi - p[k]) / d[k]))
+        t0, t1 = max(t0, u), min(t1, v)
+    return t0 <= t1
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.lists(st.floats(0.0, 12.0), min_size=4, max_size=4))
+def test_mark_crossed_marks_exactly_the_cells_a_dangerous_break_meets(xy):
+    seg = np.array([[xy[:2], xy[2:]]])
+    unsafe = np.zeros((12, 12), bool)
+    B.mark_crossed(unsafe, seg, np.array([True]), 1.0)
+    t = np.linspace(0.0, 1.0, 4001)[:, None]
+    pts = np.minimum(seg[0, 0] + t * (seg[0, 1] - seg[0, 0]), 11.999999)
+    hit = np.zeros_like(unsafe)
+    hit[pts[:, 0].astype(int), pts[:, 1].astype(int)] = True
+    assert unsafe[hit].all()  # every cell the segment passes through
+    for a, b in zip(*np.nonzero(unsafe)):
+        assert _meets(seg[0], a, b)  # and no cell it does not meet
+    spared = np.zeros_like(unsafe)
+    B.mark_crossed(spared, seg, np.array([False]), 1.0)
+    assert not spared.any()  # a break that is not dangerous marks nothing
+
+
+def test_a_pinch_between_two_steep_triangles_is_shut():
+    """Two narrow steep wedges touching at one vertex V, one pointing up and one down: the open
+    ground left and right meets only at V. Cells judged by their centres leave a way through V
+    (the raster artefact); with the wedges' edges marked (mark_crossed) there is none."""
+    v, half = np.array([10.0, 10.0]), np.radians(10.0)
+    ang = np.arctan2(np.arange(20)[None, :] + 0.5 - v[1], np.arange(20)[:, None] + 0.5 - v[0])
+    steep = (np.abs(ang - np.pi / 2) < half) | (np.abs(ang + np.pi / 2) < half)
+    assert np.isfinite(B.shortest_way(steep, 2, 10, 17, 10)[1])  # centres only: a way through V
+    ends = [v + 14 * np.array([np.cos(t), np.sin(t)]) for t in
+            (np.pi / 2 - half, np.pi / 2 + half, -np.pi / 2 - half, -np.pi / 2 + half)]
+    seg = np.array([[v, e] for e in ends])
+    unsafe = steep.copy()
+    B.mark_crossed(unsafe, seg, np.ones(4, bool), 1.0)
+    assert not unsafe[2, 10] and not unsafe[17, 10]
+    assert np.isinf(B.shortest_way(unsafe, 2, 10, 17, 10)[1])
+
+
 def test_on_open_ground_the_robot_drives_straight_at_top_speed():
     ras = B.Raster(unsafe=np.zeros((40, 40), bool), res=1.0, x0=0.0, y0=0.0, seg=np.zeros((0, 2, 2)),
                    danger=np.zeros(0, bool), normal=np.zeros((0, 2)))
