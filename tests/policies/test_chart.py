@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 import tin_swarm_env as tse
 from tin_swarm_env.policies import APFPolicy
-from tin_swarm_env.policies.chart import WALL, ChartParams, _mark_border, plan
+from tin_swarm_env.policies.chart import WALL, ChartParams, _astar, _mark_border, plan
 
 
 def dijkstra(g, s, t, wall_cost=2.0):
@@ -64,6 +64,32 @@ def test_plan_costs_what_a_plain_dijkstra_costs(seed, density):
     if found:
         assert cost == pytest.approx(ref)
         assert g[wa, wb] == 0
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_one_set_of_work_arrays_serves_many_plans(seed):
+    """The planning pass shares its work arrays between robots (_astar): each plan on them answers
+    as a fresh one does, and leaves them as it found them (also when the heap outgrows its start)."""
+    rng = np.random.default_rng(seed)
+    c = 40
+    dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
+    for _ in range(4):
+        g = (rng.random((c, c)) < rng.uniform(0.0, 0.4)).astype(np.uint8)
+        s, t = tuple(rng.integers(0, c, 2)), tuple(rng.integers(0, c, 2))
+        g[t] = 0
+        got = _astar(g, *s, *t, 8.0, 2.0, 0.0, 0.0, 0.0, dist, prev, closed)
+        assert got == plan(g, *s, *t, 8.0)
+        assert (dist == 1e30).all() and (prev == -1).all() and not closed.any()
+    # a target walled in: the search pushes every one of 100 x 100 cells, more than the heap's start
+    # (64 C + 64 entries), so it grows
+    c = 100
+    dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
+    g = np.zeros((c, c), np.uint8)
+    g[30:33, 30:33] = WALL
+    g[31, 31] = 0
+    assert _astar(g, 0, 0, 31, 31, 8.0, 2.0, 0.0, 0.0, 0.0, dist, prev, closed)[0] is False
+    assert (dist == 1e30).all() and (prev == -1).all() and not closed.any()
 
 
 def test_plan_goes_round_a_wall_through_its_one_gap():
