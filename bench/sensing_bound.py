@@ -60,7 +60,7 @@ import tin_swarm_env as tse
 from tin_swarm_env.apps.evaluate import EVAL_SEED0
 from tin_swarm_env.apps.rollout import rollout
 from tin_swarm_env.policies import APFPolicy
-from tin_swarm_env.policies.chart import heap_pop, heap_push
+from tin_swarm_env.policies.chart import ChartParams, heap_pop, heap_push
 from tin_swarm_env.scenario import load_scenario
 from tin_swarm_env.terrain.breaks import ANGLE
 from tin_swarm_env.world.state import Reason
@@ -362,11 +362,11 @@ def ideal_episode(job) -> list[tuple[int, float, int]]:
 
 
 def chart_episode(job) -> list[tuple[int, float, int]]:
-    """The chart search in the environment (``job``: terrain, seed, k_breaks, k_scan): (arrival step
-    or max_cycles + 1, geodesic steps, times it forgot its chart) per robot."""
-    terrain, seed, k, k_scan = job
+    """The chart search in the environment (``job``: terrain, seed, k_breaks, k_scan, chart cells): (arrival
+    step or max_cycles + 1, geodesic steps, times it forgot its chart) per robot."""
+    terrain, seed, k, k_scan, cells = job
     env = _jacksboro_env(k, k_scan) if terrain == "jacksboro" else _generated_env(terrain, k, k_scan)
-    pol = APFPolicy(env, search="chart")
+    pol = APFPolicy(env, search="chart", chart=ChartParams(cells=cells))
     b = env.unwrapped
     env.reset(seed=seed)
     p = b.world.params
@@ -409,6 +409,13 @@ def _ints(text: str) -> list[int]:
     return out
 
 
+def _cells(text: str) -> list[int]:
+    out = _ints(text)
+    if not out or min(out) < 4:
+        raise argparse.ArgumentTypeError(f"expected chart sizes of at least 4 cells, got {text!r}")
+    return out
+
+
 def _window(text: str) -> list[float]:
     try:
         w = [float(v) for v in text.split(",")]
@@ -443,6 +450,8 @@ def main(argv=None):
     p.add_argument("--scan", type=_ints, default=[32, 64],
                    help="k_scan of the chart search rows that add the observation's scan (k_breaks as the scenario's)")
     p.add_argument("--ideal", action=argparse.BooleanOptionalAction, default=True, help="the idealised rows")
+    p.add_argument("--chart-cells", type=_cells, default=[ChartParams.cells],
+                   help="chart sizes of the chart search rows (ChartParams.cells), comma-separated")
     p.add_argument("--jobs", type=int, default=2)
     p.add_argument("--out", default=str(ROOT / "docs" / "figures" / "sensing_bound.md"))
     args = p.parse_args(argv)
@@ -481,13 +490,15 @@ def main(argv=None):
                     sensing, f"{k} nearest breaks: {sensing}")
                 emit(f"| {label} | {len(seeds)} | {n} | idealised, raster {res:g} m | {what} | {arr} | {half} | "
                      f"{med} | {geo} | {forgot} | {time.perf_counter() - t:.0f} |")
-            for k, k_scan in [(k, 0) for k in args.slots] + [(None, k) for k in args.scan]:
+            for (k, k_scan), cells in [(m, c) for m in [(k, 0) for k in args.slots] + [(None, k) for k in args.scan]
+                                       for c in args.chart_cells]:
                 t = time.perf_counter()
-                res_ = [r for rr in pool.map(chart_episode, [(terrain, s, k, k_scan) for s in seeds], chunksize=1)
-                        for r in rr]
+                res_ = [r for rr in pool.map(chart_episode, [(terrain, s, k, k_scan, cells) for s in seeds],
+                                             chunksize=1) for r in rr]
                 n, arr, half, med, geo, forgot = _summary(res_, steps)
                 what = f"observation, k_breaks = {k}" if k is not None else f"observation with scan, k_scan = {k_scan}"
-                emit(f"| {label} | {len(seeds)} | {n} | APF, chart search | {what} | {arr} | {half} | "
+                robot = "APF, chart search" + ("" if cells == ChartParams.cells else f", {cells} cells")
+                emit(f"| {label} | {len(seeds)} | {n} | {robot} | {what} | {arr} | {half} | "
                      f"{med} | {geo} | {forgot} | {time.perf_counter() - t:.0f} |")
     emit(f"\nLoad average at the end: {_load()}.")
     if args.out:

@@ -168,7 +168,8 @@ def test_a_robot_whose_marks_shut_every_way_forgets_them_and_never_arrives_where
 def test_bad_options_are_refused_by_name(capsys):
     for argv, word in ((["--seed-offsets", "a"], "--seed-offsets"), (["--jacksboro-window", "1,2,0,4"],
                                                                       "--jacksboro-window"),
-                       (["--res", "0"], "--res")):
+                       (["--res", "0"], "--res"), (["--chart-cells", "2"], "--chart-cells"),
+                       (["--chart-cells", ""], "--chart-cells")):
         with pytest.raises(SystemExit):
             B.main(argv)
         assert word in capsys.readouterr().err
