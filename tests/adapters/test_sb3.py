@@ -305,22 +305,30 @@ def test_adapter_episode_length_counts_the_robot_s_own_steps_and_return_its_own_
     assert r0b > -50
 
 
-def test_the_mirror_policy_is_equivariant_and_exports_to_the_same_actions(tmp_path):
+@pytest.mark.parametrize("k_scan", [0, 6])
+def test_the_mirror_policy_is_equivariant_and_exports_to_the_same_actions(tmp_path, k_scan):
     """MirrorActorCriticPolicy (train --symmetry mirror): the Gaussian's mean and the value are
     mirror-equivariant / invariant on random observations, log-probabilities of mirrored actions
     are equal, and the exported policy file (``"symmetry": "mirror"``) gives model.predict's
-    deterministic actions."""
+    deterministic actions. With a terrain scan the mirror also permutes the beams (mirror_perm)."""
+    import dataclasses
+
     torch = pytest.importorskip("torch")
     from stable_baselines3 import PPO
 
     from tin_swarm_env.adapters.sb3 import export_sb3_policy, mirror_policy_class
     from tin_swarm_env.env.observation import mirror_action
     from tin_swarm_env.policies import load_policy
+    from tin_swarm_env.policies.symmetry import mirror_map
+    from tin_swarm_env.scenario import load_scenario
 
-    vec = tse.adapters.make_sb3_vec_env("cliff_goal", n_robots=4, n_envs=1, seed=0, max_cycles=30)
+    cfg = load_scenario("cliff_goal")
+    cfg = cfg.replace(observation=dataclasses.replace(cfg.observation, k_scan=k_scan))
+    vec = tse.adapters.make_sb3_vec_env(cfg, n_robots=4, n_envs=1, seed=0, max_cycles=30)
     lay = vec.envs[0].layout
+    perm, signs = mirror_map(lay)
     model = PPO(mirror_policy_class(), vec, n_steps=32, batch_size=64, n_epochs=1, seed=0, device="cpu",
-                policy_kwargs={"net_arch": [16, 16], "mirror_signs": lay.mirror_signs().tolist()})
+                policy_kwargs={"net_arch": [16, 16], "mirror_signs": signs.tolist(), "mirror_perm": perm.tolist()})
     model.learn(64)
     with torch.no_grad():
         model.policy.action_net.weight.mul_(300.0)  # outputs beyond [-1, 1]: the clip is exercised
@@ -349,8 +357,11 @@ def test_the_mirror_policy_is_equivariant_and_exports_to_the_same_actions(tmp_pa
     got = file_pol.act_batch(o)
     np.testing.assert_allclose(got, want, atol=1e-5)
     assert np.any(np.abs(got) == 1.0) and np.any(np.abs(got) < 1.0)
-    with pytest.raises(TinSwarmError, match="mirror_signs of length 59"):
+    with pytest.raises(TinSwarmError, match=f"mirror_signs of length {lay.size}"):
         PPO(mirror_policy_class(), vec, policy_kwargs={"mirror_signs": [1.0]}, device="cpu")
+    with pytest.raises(TinSwarmError, match="mirror_perm must be a permutation"):
+        PPO(mirror_policy_class(), vec, policy_kwargs={"mirror_signs": signs.tolist(), "mirror_perm": [0] * lay.size},
+            device="cpu")
 
 
 def test_a_scenario_mix_alternates_copies_and_needs_one_robot_count():

@@ -42,6 +42,37 @@ def test_exported_file_acts_as_the_torch_student_over_a_whole_episode(tmp_path, 
         assert np.abs(ref[-1] - ref[0]).max() > 1e-3  # the episode moved the actions: not a trivial comparison
 
 
+def test_a_mirror_student_with_scan_beams_is_equivariant_and_exports_to_the_same_actions(tmp_path):
+    """GRUStudent with obs_perm (a layout with a terrain scan: the mirror permutes the beams): the
+    torch model is equivariant over a whole history, and its file acts as it does."""
+    import dataclasses
+
+    from tin_swarm_env.apps.recurrent_imitation import GRUStudent
+    from tin_swarm_env.env.observation import mirror_action
+    from tin_swarm_env.policies import load_policy
+    from tin_swarm_env.policies.symmetry import mirror_map
+    from tin_swarm_env.scenario import load_scenario
+
+    cfg = load_scenario("cliff_goal")
+    env = tse.parallel_env(scenario=cfg.replace(observation=dataclasses.replace(cfg.observation, k_scan=6)), **SMALL)
+    lay = env.layout
+    perm, signs = mirror_map(lay)
+    st = GRUStudent(lay.size, 12, (8,), signs=signs, seed=3, obs_perm=perm)
+    x = np.random.default_rng(0).uniform(-1, 1, (10, 3, lay.size)).astype(np.float32)
+    with torch.no_grad():
+        a, am = st(x).numpy(), st(lay.mirror(x)).numpy()
+        wrong = GRUStudent(lay.size, 12, (8,), signs=signs, seed=3)  # the same weights, beams not permuted
+        wa, wam = wrong(x).numpy(), wrong(lay.mirror(x)).numpy()
+    np.testing.assert_allclose(am, mirror_action(a), atol=1e-5)
+    assert np.abs(wam - mirror_action(wa)).max() > 1e-3
+    st.export(tmp_path / "p", lay, scenario="cliff_goal")
+    pol = load_policy(tmp_path / "p", env)
+    mine = np.stack([pol.act_batch(x[t]) for t in range(len(x))])
+    np.testing.assert_allclose(mine, np.clip(a, -1, 1), atol=1e-5)
+    with pytest.raises(ArgumentError, match="obs_perm"):
+        GRUStudent(lay.size, 4, (4,), signs=signs, obs_perm=perm[:-1])
+
+
 def test_student_learns_what_only_memory_can_tell():
     """Each robot sees a +-1 cue at its first step, then zeros; the label at every step is the
     cue's sign (times 0.5) in vy. A memoryless policy sees the same zeros after step 0 whatever

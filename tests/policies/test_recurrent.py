@@ -164,6 +164,27 @@ def test_mirror_recurrent_policy_is_equivariant_over_histories(tmp_path, cell):
     assert gap > 0.05  # without the option it is not equivariant
 
 
+def test_mirror_recurrent_policy_with_scan_beams_is_equivariant_over_histories(tmp_path):
+    """The mirror of a layout with a terrain scan permutes the beams: the recurrent file's mirror
+    stream reads them permuted, equivariant over a whole history bit for bit."""
+    import dataclasses
+
+    from tin_swarm_env.scenario import load_scenario
+
+    cfg = load_scenario("cliff_goal")
+    e = tse.parallel_env(scenario=cfg.replace(observation=dataclasses.replace(cfg.observation, k_scan=6)),
+                         n_robots=5)
+    lay = e.layout
+    H = 8
+    p = save_policy(tmp_path / "scan", _head(H, 4), layout=lay, scenario="cliff_goal", symmetry="mirror",
+                    cell=("gru", _random_cell("gru", lay.size, H, 4)))
+    a_pol, b_pol = load_policy(p, e), load_policy(p, e)
+    seq = np.random.default_rng(5).uniform(-1, 1, (8, 5, lay.size)).astype(np.float32)
+    flip = np.array([1.0, -1.0], dtype=np.float32)
+    for t in range(8):
+        np.testing.assert_array_equal(b_pol.act_batch(lay.mirror(seq[t])), a_pol.act_batch(seq[t]) * flip)
+
+
 def _edit(p, tmp_path, fn_json=None, fn_npz=None):
     q = tmp_path / "edited"
     shutil.copytree(p, q)

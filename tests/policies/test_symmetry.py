@@ -25,7 +25,7 @@ def _random_obs(layout, n, seed):
     rng = np.random.default_rng(seed)
     o = rng.uniform(-1, 1, (n, layout.size))
     for part in SLOT_FIELDS:
-        if layout.count(part):
+        if layout.count(part) and "valid" in SLOT_FIELDS[part]:  # (scan beams hold ranges only)
             sl = layout.slots(o, part)  # a view: valid and danger flags set in place
             sl[..., layout.slot_index(part, "valid")] = rng.integers(0, 2, sl.shape[:-1])
             if part == "breaks":
@@ -76,6 +76,44 @@ def test_the_mirror_policy_is_equivariant_exactly(tmp_path, seed):
         o0[:, sl] *= lay.mirror_signs()[sl] > 0
     o0[:, lay.own_size:] = 0
     np.testing.assert_array_equal(sym.act_batch(o0)[:, 1], 0.0)
+
+
+def _scan_env(n=12, k_scan=8):
+    import dataclasses
+
+    from tin_swarm_env.scenario import load_scenario
+
+    cfg = load_scenario("cliff_goal")
+    cfg = cfg.replace(max_cycles=30, observation=dataclasses.replace(cfg.observation, k_scan=k_scan))
+    return tse.parallel_env(scenario=cfg, n_robots=n)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_mirror_policy_with_scan_beams_is_equivariant_exactly(tmp_path, seed):
+    """With the terrain scan the mirror permutes the beams (k -> K - k) as well as flipping signs:
+    the file's mirror policy is still equivariant bit for bit, and a sign flip alone would not do."""
+    from tin_swarm_env.policies.symmetry import Mirror, mirror_map
+
+    e = _scan_env()
+    lay = e.layout
+    assert lay.k_scan == 8
+    layers = _layers(lay.size, seed)
+    sym = load_policy(save_policy(tmp_path / "s", layers, layout=lay, scenario="x", symmetry="mirror"), e)
+    o = _random_obs(lay, 400, seed)
+    beams = slice(lay.size - lay.k_scan, lay.size)
+    o[:, beams] = np.random.default_rng(seed).uniform(0, 1, (len(o), lay.k_scan))  # ranges in [0, 1]
+    mo = lay.mirror(o)
+    a = sym.act_batch(o)
+    np.testing.assert_array_equal(sym.act_batch(mo), mirror_action(a))
+    g, gm = _net(layers, o), _net(layers, mo)
+    np.testing.assert_allclose(a, np.clip((g + mirror_action(gm)) / 2, -1, 1), atol=1e-6)
+    perm, signs = mirror_map(lay)
+    assert not np.array_equal(perm, np.arange(lay.size))
+    np.testing.assert_array_equal(Mirror(lay)(o), o[:, perm].astype(np.float64) * signs)
+    # averaging with the sign flip alone (beams not permuted) is not equivariant: the permutation matters
+    wrong = np.clip(symmetrize(lambda x: _net(layers, x), o, signs), -1, 1)
+    wrong_m = np.clip(symmetrize(lambda x: _net(layers, x), mo, signs), -1, 1)
+    assert np.abs(wrong_m - mirror_action(wrong)).max() > 0.05
 
 
 def test_the_shielded_mirror_policy_is_equivariant_to_rounding(tmp_path):

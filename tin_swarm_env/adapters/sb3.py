@@ -288,8 +288,10 @@ _MIRROR = None
 
 def mirror_policy_class():
     """``MirrorActorCriticPolicy``: SB3's ``ActorCriticPolicy`` (MlpPolicy) made mirror-equivariant
-    by construction, for PPO/A2C with ``policy_kwargs={"mirror_signs": layout.mirror_signs().tolist()}``
-    (``apps/train.py --symmetry mirror``). Every evaluation runs the networks on the observations
+    by construction, for PPO/A2C with ``policy_kwargs={"mirror_signs": signs.tolist(), "mirror_perm":
+    perm.tolist()}`` (``perm, signs = mirror_map(layout)``,
+    :func:`~tin_swarm_env.policies.symmetry.mirror_map`; ``mirror_perm`` may be left out when the layout
+    has no scan beams; ``apps/train.py --symmetry mirror``). Every evaluation runs the networks on the observations
     and their mirror images in one batch: the Gaussian's mean is ``(g(o) + M g(M o)) / 2`` (``g``
     the actor network, ``M`` :func:`~tin_swarm_env.env.observation.mirror_action` on the output)
     and the value ``(v(o) + v(M o)) / 2``; the state-independent std is the same for both sides
@@ -305,27 +307,33 @@ def mirror_policy_class():
     from ..env.observation import ACTION_PARITY
 
     class MirrorActorCriticPolicy(policies.ActorCriticPolicy):
-        def __init__(self, *args, mirror_signs=None, **kwargs):
+        def __init__(self, *args, mirror_signs=None, mirror_perm=None, **kwargs):
             super().__init__(*args, **kwargs)
             d = int(np.prod(self.observation_space.shape))
             if mirror_signs is None or len(mirror_signs) != d:
                 raise ArgumentError(f"MirrorActorCriticPolicy needs mirror_signs of length {d} "
-                                    "(ObsLayout.mirror_signs()), got "
+                                    "(mirror_map(layout)[1]), got "
                                     f"{None if mirror_signs is None else len(mirror_signs)}")
             if type(self.action_dist).__name__ != "DiagGaussianDistribution":
                 raise ArgumentError("MirrorActorCriticPolicy: only a diagonal Gaussian actor (no gSDE)")
+            if mirror_perm is not None and sorted(int(j) for j in mirror_perm) != list(range(d)):
+                raise ArgumentError(f"MirrorActorCriticPolicy: mirror_perm must be a permutation of 0..{d - 1} "
+                                    "(mirror_map(layout)[0])")
             self.mirror_signs = [float(x) for x in mirror_signs]
+            self.mirror_perm = list(range(d)) if mirror_perm is None else [int(j) for j in mirror_perm]
             self.register_buffer("_signs", th.as_tensor(self.mirror_signs, dtype=th.float32))
+            self.register_buffer("_perm", th.as_tensor(self.mirror_perm, dtype=th.long))
             self.register_buffer("_parity", th.as_tensor(ACTION_PARITY, dtype=th.float32))
 
         def _get_constructor_parameters(self):
-            return {**super()._get_constructor_parameters(), "mirror_signs": self.mirror_signs}
+            return {**super()._get_constructor_parameters(), "mirror_signs": self.mirror_signs,
+                    "mirror_perm": self.mirror_perm}
 
         def mirror_mean_value(self, obs):
             """``(mean (n, 2), value (n, 1))``, both averaged with the mirror image."""
             obs = obs.float()
             n = obs.shape[0]
-            features = self.extract_features(th.cat([obs, obs * self._signs]))
+            features = self.extract_features(th.cat([obs, obs[:, self._perm] * self._signs]))
             if self.share_features_extractor:
                 latent_pi, latent_vf = self.mlp_extractor(features)
             else:

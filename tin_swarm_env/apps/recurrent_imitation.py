@@ -90,10 +90,13 @@ def _torch():
 
 
 def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: int = 0, *, classes=None,
-               cell: str | None = "gru", acting: str = "mode", feedback: str = "none", aux_weight: float | None = None):
+               cell: str | None = "gru", acting: str = "mode", feedback: str = "none", aux_weight: float | None = None,
+               obs_perm=None):
     """A fresh student (module docstring): ``obs_size`` inputs, a GRU of ``hidden`` units, a head of
     hidden widths ``head`` then 2 outputs; ``signs`` ``(obs_size,)`` (the layout's mirror signs):
-    mirror-equivariant. Weights drawn from ``torch.manual_seed(seed)``. A ``torch.nn.Module`` with
+    mirror-equivariant, the mirror image of ``x`` being ``x[..., obs_perm] * signs`` (``obs_perm, signs =
+    mirror_map(layout)``, :func:`~tin_swarm_env.policies.symmetry.mirror_map`; ``obs_perm`` None: the
+    identity, a layout without scan beams). Weights drawn from ``torch.manual_seed(seed)``. A ``torch.nn.Module`` with
     ``forward(x (T, B, d)) -> (T, B, 2)`` (the head's output before the clip, every step from a
     zero state), :meth:`policy` and :meth:`export`. ``classes`` ``(K, 2)`` (e.g.
     :func:`~tin_swarm_env.policies.heads.categorical_classes`): a categorical head, ``forward``
@@ -109,6 +112,8 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
         raise ArgumentError(f"GRUStudent: hidden {hidden} and head widths {list(head)} must be positive")
     if signs is not None and len(signs) != obs_size:
         raise ArgumentError(f"GRUStudent: signs has {len(signs)} entries for {obs_size} observations")
+    if obs_perm is not None and (signs is None or sorted(int(j) for j in obs_perm) != list(range(obs_size))):
+        raise ArgumentError(f"GRUStudent: obs_perm must be a permutation of 0..{obs_size - 1}, with signs")
     if cell not in ("gru", None):
         raise ArgumentError(f"GRUStudent: cell must be 'gru' or None, got {cell!r}")
     from ..policies.recurrent import FEEDBACKS
@@ -154,6 +159,7 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
                                                         dtype=torch.float32))
             self.register_buffer("_parity", torch.as_tensor(ACTION_PARITY, dtype=torch.float32))
             self.perm = None if perm is None else torch.as_tensor(perm)
+            self.obs_perm = None if obs_perm is None else torch.as_tensor([int(j) for j in obs_perm], dtype=torch.long)
 
         def _net(self, x, h0=None):
             if self.gru is None:
@@ -183,7 +189,8 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
             if self.signs is None:
                 return self._net(torch.cat([x, prev], dim=-1) if n_fb else x, h0)
             b = x.shape[1]
-            xx = torch.cat([x, x * self._signs], dim=1)
+            xm = x if self.obs_perm is None else x[..., self.obs_perm]
+            xx = torch.cat([x, xm * self._signs], dim=1)
             if n_fb:
                 xx = torch.cat([xx, torch.cat([prev, prev * self._parity], dim=1)], dim=-1)
             out, z, h = self._net(xx, h0)

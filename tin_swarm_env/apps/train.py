@@ -350,8 +350,11 @@ def build_model(args: Args, vec, tb):
 
     if args.symmetry == "mirror":
         from ..adapters.sb3 import mirror_policy_class
+        from ..policies.symmetry import mirror_map
 
-        kw["policy_kwargs"]["mirror_signs"] = vec.envs[0].layout.mirror_signs().tolist()
+        perm, signs = mirror_map(vec.envs[0].layout)
+        kw["policy_kwargs"]["mirror_signs"] = signs.tolist()
+        kw["policy_kwargs"]["mirror_perm"] = perm.tolist()
         return PPO(mirror_policy_class(), vec, **kw)
     return PPO("MlpPolicy", vec, **kw)
 
@@ -449,7 +452,9 @@ def train_student(args: Args, out: Path, log=print) -> Path:
     out = Path(out)
     scen = scenarios_of(args)
     layout = parallel_env(scenario=scen[0], n_robots=args.bc_robots or args.n_robots).layout
-    signs = layout.mirror_signs() if args.symmetry == "mirror" else None
+    from ..policies.symmetry import mirror_map
+
+    obs_perm, signs = mirror_map(layout) if args.symmetry == "mirror" else (None, None)
     from ..policies.heads import categorical_classes
 
     classes = categorical_classes() if args.head == "categorical" else None
@@ -457,7 +462,7 @@ def train_student(args: Args, out: Path, log=print) -> Path:
     name = f"{'GRU' if cell else 'MLP'} student{' (categorical)' if classes is not None else ''}"
     student = GRUStudent(layout.size, args.gru_hidden, _net_arch(args.net_arch), signs=signs, seed=args.seed,
                          classes=classes, cell=cell, acting=args.head_acting,
-                         feedback=args.feedback)
+                         feedback=args.feedback, obs_perm=obs_perm)
     kw = {"n_robots": args.bc_robots or None, "max_cycles": args.max_cycles or None, "gamma": args.gamma,
           "stall_steps": args.stall_steps, "shield": args.shield, "teacher": args.teacher, "sequences": True}
     fit = {"epochs": args.bc_epochs, "lr": args.bc_lr}

@@ -106,7 +106,7 @@ class MLPPolicy:
         self.source = source
         self.obs_size = self.layers[0][0].shape[1]
         self.shield, self.symmetry = shield, symmetry
-        self._signs, self.shield_cut = file_options(shield, symmetry, layout, env, source)
+        self._mirror, self.shield_cut = file_options(shield, symmetry, layout, env, source)
         self._rows: dict = {}  # agent name -> row, for act() (a sampling head's draws follow the robot)
 
     def act_batch(self, obs, rows=None) -> np.ndarray:
@@ -128,9 +128,9 @@ class MLPPolicy:
             raise ArgumentError(f"{self.source}: obs must have shape (n, {self.obs_size}), got {x.shape}")
         if self.head is None:
             raise ArgumentError(f"{self.source}: the policy has no categorical head")
-        if self._signs is None:
+        if self._mirror is None:
             return self._forward(x)
-        both = self._forward(np.concatenate([x, x * self._signs]))
+        both = self._forward(np.concatenate([x, self._mirror(x)]))
         return self.head.mirror(both[:len(x)], both[len(x):])
 
     def net_batch(self, obs, rows=None) -> np.ndarray:
@@ -139,7 +139,7 @@ class MLPPolicy:
         x = np.ascontiguousarray(obs, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != self.obs_size:
             raise ArgumentError(f"{self.source}: obs must have shape (n, {self.obs_size}), got {x.shape}")
-        a = symmetrize(self._forward, x, self._signs) if self._signs is not None else self._forward(x)
+        a = symmetrize(self._forward, x, self._mirror) if self._mirror is not None else self._forward(x)
         return np.clip(a, -1.0, 1.0).astype(np.float32)
 
     def _forward(self, x) -> np.ndarray:

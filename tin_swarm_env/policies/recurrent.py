@@ -171,7 +171,7 @@ class RecurrentPolicy:
         self._act = ACTIVATIONS[activation]
         self.layout, self.scenario, self.training, self.source = layout, scenario, dict(training or {}), source
         self.shield, self.symmetry = shield, symmetry
-        self._signs, self.shield_cut = file_options(shield, symmetry, layout, env, source)
+        self._mirror, self.shield_cut = file_options(shield, symmetry, layout, env, source)
         self.head = None if head is None or head.get("type", "mean") == "mean" else CategoricalHead(
             head, source, mirror=symmetry == "mirror")
         self.reset()
@@ -179,7 +179,7 @@ class RecurrentPolicy:
     # -- memory --------------------------------------------------------------------------------
     def reset(self):
         """Forget every robot (state back to zero; agent names forgotten)."""
-        streams = 2 if self._signs is not None else 1
+        streams = 2 if self._mirror is not None else 1
         self._h = np.zeros((streams, 0, self.hidden_size))
         self._c = np.zeros((streams, 0, self.hidden_size))
         self._prev = np.zeros((0, 2))  # each row's previous commanded action (feedback)
@@ -243,8 +243,8 @@ class RecurrentPolicy:
         self._grow(int(rows.max()) + 1)
         n = len(x)
         prev = self._prev[rows] if self.feedback != "none" else None
-        if self._signs is not None:  # both streams in one pass: the observations, then their mirror images
-            x = np.concatenate([x, x * self._signs])
+        if self._mirror is not None:  # both streams in one pass: the observations, then their mirror images
+            x = np.concatenate([x, self._mirror(x)])
             if prev is not None:
                 prev = np.concatenate([prev, prev * np.asarray(ACTION_PARITY, dtype=np.float64)])
         if prev is not None:
@@ -256,8 +256,8 @@ class RecurrentPolicy:
         self._c[:, rows] = c.reshape(-1, n, self.hidden_size)
         a = self._head(h)
         if self.head is not None:
-            return (self.head.mirror(a[:n], a[n:]) if self._signs is not None else a), rows
-        if self._signs is not None:
+            return (self.head.mirror(a[:n], a[n:]) if self._mirror is not None else a), rows
+        if self._mirror is not None:
             a = (a[:n] + a[n:] * np.asarray(ACTION_PARITY)) / 2
         return np.clip(a, -1.0, 1.0).astype(np.float32), rows
 

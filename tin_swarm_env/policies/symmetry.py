@@ -10,7 +10,9 @@ clipped. (Averaging before the clip is what a Gaussian policy trained with the s
 does: its mean is the average and SB3 clips its deterministic action;
 :func:`tin_swarm_env.adapters.sb3.mirror_policy_class`.) It is equivariant exactly, not to a
 tolerance: ``pi(M o) == M pi(o)`` bit for bit, because ``M`` only flips signs (``M M o == o``),
-float addition commutes, ``b - a == -(a - b)`` and the clip is odd. Where ``o`` is its own mirror
+float addition commutes, ``b - a == -(a - b)`` and the clip is odd. With the observation's terrain
+scan, ``M`` also permutes the beams (beam ``k`` to ``(K_s - k) mod K_s``): still exact, and still
+``M M o == o`` (:func:`mirror_map`). Where ``o`` is its own mirror
 image (a wall straight ahead, nothing else in view) the policy drives straight (``vy = 0``);
 memory, or any asymmetry in view, breaks that tie.
 
@@ -32,7 +34,7 @@ from ..errors import ArgumentError
 from .base import SafetyShield
 from .network import SHIELDS
 
-__all__ = ["SYMMETRIES", "mirror_signs", "symmetrize", "file_options"]
+__all__ = ["SYMMETRIES", "Mirror", "mirror_signs", "mirror_map", "symmetrize", "file_options"]
 
 SYMMETRIES = ("none", "mirror")
 
@@ -44,26 +46,53 @@ def mirror_signs(layout) -> np.ndarray:
     return lay.mirror_signs().astype(np.float64)
 
 
-def symmetrize(f, x, signs) -> np.ndarray:
+def mirror_map(layout) -> tuple[np.ndarray, np.ndarray]:
+    """``(perm (d,) int64, signs (d,) float64)`` of the reflection for ``layout`` (an :class:`ObsLayout`
+    or its ``to_dict()``): the mirror image of ``o (..., d)`` is ``o[..., perm] * signs``
+    (:meth:`ObsLayout.mirror`; ``perm`` is the identity but for the scan's beams). The torch
+    networks of :mod:`tin_swarm_env.adapters.sb3` and :mod:`tin_swarm_env.apps.recurrent_imitation`
+    take these two arrays."""
+    lay = layout if isinstance(layout, ObsLayout) else ObsLayout.from_dict(layout)
+    return lay.mirror_permutation(), lay.mirror(np.ones(lay.size))
+
+
+class Mirror:
+    """The reflection of observations ``(n, d)`` as a callable: ``Mirror(layout)(x) == x[:, perm] * signs``
+    (:func:`mirror_map`), float64."""
+
+    def __init__(self, layout):
+        self.perm, self.signs = mirror_map(layout)
+        self._identity = bool(np.array_equal(self.perm, np.arange(len(self.perm))))
+
+    def __call__(self, x) -> np.ndarray:
+        x = np.asarray(x, dtype=np.float64)
+        return (x if self._identity else x[:, self.perm]) * self.signs
+
+
+def symmetrize(f, x, mirror) -> np.ndarray:
     """``(f(x) + M f(M x)) / 2`` (no clip) for observations ``x (n, d)``: ``f`` maps ``(m, d)`` float64 to
     ``(m, 2)`` and is called once, on ``x`` and its mirror image stacked (row ``i`` of the result
-    never depends on another row, so this equals two separate calls). Returns ``(n, 2)`` float64."""
+    never depends on another row, so this equals two separate calls). ``mirror``: the reflection,
+    a :class:`Mirror` (any callable ``(n, d) -> (n, d)``) or, for a layout without scan beams, its
+    signs ``(d,)``. Returns ``(n, 2)`` float64."""
     x = np.asarray(x, dtype=np.float64)
     n = len(x)
-    both = np.asarray(f(np.concatenate([x, x * signs])), dtype=np.float64)
+    mx = mirror(x) if callable(mirror) else x * mirror
+    both = np.asarray(f(np.concatenate([x, mx])), dtype=np.float64)
     a, b = both[:n], both[n:]
     return (a + b * np.asarray(ACTION_PARITY)) / 2
 
 
 def file_options(shield: str, symmetry: str, layout, env, source: str):
-    """A policy file's ``shield`` and ``symmetry`` options, checked: returns ``(signs, shield_cut)``,
-    the mirror signs (None without symmetry) and the :class:`SafetyShield` applied to the
-    network's actions (None without a shield). Shared by the MLP and recurrent policies."""
+    """A policy file's ``shield`` and ``symmetry`` options, checked: returns ``(mirror, shield_cut)``,
+    the reflection of observations (a :class:`Mirror`; None without symmetry) and the
+    :class:`SafetyShield` applied to the network's actions (None without a shield). Shared by the
+    MLP and recurrent policies."""
     if shield not in SHIELDS:
         raise ArgumentError(f"{source}: shield {shield!r} is not one of {list(SHIELDS)}")
     if symmetry not in SYMMETRIES:
         raise ArgumentError(f"{source}: symmetry {symmetry!r} is not one of {list(SYMMETRIES)}")
-    signs = mirror_signs(layout) if symmetry == "mirror" else None
+    mirror = Mirror(layout) if symmetry == "mirror" else None
     if shield == "safety_cut" and env is None:
         raise ArgumentError(f"{source}: a shielded policy needs the env it acts in (load_policy(path, env))")
-    return signs, (SafetyShield(env) if shield == "safety_cut" else None)
+    return mirror, (SafetyShield(env) if shield == "safety_cut" else None)
