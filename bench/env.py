@@ -1,6 +1,7 @@
 """Environment throughput on the jacksboro DEM. Run by hand:
 
     python bench/env.py [--steps 30] [--processes 12] [--out docs/figures/env.md]
+    python bench/env.py --scan 32 [--out docs/figures/env_scan.md]
 
 For 100, 1 000 and 10 000 robots, in one process and on the same terrain and density, with 1
 and 2 numba threads: the world step alone (step + sensing), the env's batched array path
@@ -16,6 +17,11 @@ arrays land, which core each thread gets), so the batched/world ratio at 1 000 r
 threads is then measured again in ``--processes`` fresh processes, one after another (each: the
 world step and the batched path only, interleaved, the best of 5 runs of ``--steps`` steps), and
 its spread reported (min, median, max, and how many runs fell below 80%).
+
+``--scan K`` measures instead what the observation's terrain scan (``[observation] k_scan``,
+:mod:`tin_swarm_env.env.observation`) costs: the batched path with ``K`` beams against the same
+scenario without them, at 1 000 and 10 000 robots on the numba threads there are (at most 2),
+interleaved, each the best of ``REPEATS`` runs.
 """
 
 from __future__ import annotations
@@ -40,7 +46,7 @@ from tin_swarm_env.scenario import scenario_from_dict
 REPEATS = 3  # each path measured this many times (interleaved with the others); the best counts
 
 
-def config(n, range_m=60.0):
+def config(n, range_m=60.0, k_scan=0):
     dem = tse.terrain.sample_dem("jacksboro")
     cx, cy = dem.x[-1] / 2, dem.y[-1] / 2
     side = math.sqrt(n * math.pi * range_m ** 2 / 10)  # ~10 robots within range of each
@@ -49,6 +55,7 @@ def config(n, range_m=60.0):
          "terrain": {"source": "sample", "path": "jacksboro", "method": "greedy", "max_vertices": 10_100},
          "robots": {"count": n, "spawn_region": region, "min_separation_m": 1.0},
          "sensor": {"range_m": range_m},
+         "observation": {"k_scan": k_scan},
          "targets": {"positions": [[cx, cy], [cx + side / 3, cy]]}}
     return scenario_from_dict(d, "bench")
 
@@ -128,6 +135,43 @@ def spread(processes: int, steps: int, n: int = 1000) -> list[float]:
     return got
 
 
+def scan_cost(k_scan: int, steps: int, out: str | None):
+    """``--scan``: agent-steps per second of the batched path with and without ``k_scan`` beams."""
+    lines = []
+
+    def emit(line=""):
+        print(line, flush=True)
+        lines.append(line)
+
+    load = os.getloadavg()
+    numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+    emit(f"Measured with `python bench/env.py --scan {k_scan} --steps {steps}` in one run. Load average at start "
+         f"{load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} on {os.cpu_count()} cores, "
+         f"{numba.get_num_threads()} numba threads. The batched env path (`step_arrays`) on the scenario of the "
+         f"table above, with and without a terrain scan of {k_scan} beams: agent-steps per second, each the best of "
+         f"{REPEATS} interleaved runs of {steps} steps (10 000 robots: {max(3, steps // 5)}) from the same reset.\n")
+    emit(f"| robots | without the scan | with {k_scan} beams | with / without |")
+    emit("|---:|---:|---:|---:|")
+    for n in (1000, 10_000):
+        st = steps if n <= 1000 else max(3, steps // 5)
+        envs = [tse.parallel_env(scenario=config(n, k_scan=k)) for k in (0, k_scan)]
+        acts = np.random.default_rng(0).uniform(-1, 1, (n, 2)).astype(np.float32)
+        best = [np.inf, np.inf]
+        for _ in range(REPEATS):
+            for j, env in enumerate(envs):
+                env.reset_arrays(seed=0)
+                best[j] = min(best[j], rate(lambda env=env, acts=acts: env.step_arrays(acts), st))
+        emit(f"| {n} | {n / best[0]:.3e} | {n / best[1]:.3e} | {best[0] / best[1]:.0%} |")
+    load = os.getloadavg()
+    emit(f"\nLoad average at the end {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f}.")
+    if out:
+        os.makedirs(os.path.dirname(out) or ".", exist_ok=True)
+        with open(out + ".tmp", "w") as f:
+            f.write("\n".join(lines) + "\n")
+        os.replace(out + ".tmp", out)
+        print(f"wrote {out}", file=sys.stderr)
+
+
 def main(steps: int, out: str | None, processes: int = 0):
     lines = []
 
@@ -188,9 +232,18 @@ if __name__ == "__main__":
                    help="fresh processes measuring batched/world at 1 000 robots on 2 threads (0: none)")
     p.add_argument("--ratio", type=int, default=0, metavar="N",
                    help="(used by --processes) print batched/world at N robots on 2 threads and exit")
-    p.add_argument("--out", default="docs/figures/env.md", help="Markdown file for the table ('' for none)")
+    p.add_argument("--scan", type=int, default=0, metavar="K",
+                   help="measure instead the batched path with a K-beam terrain scan against without (K >= 1)")
+    p.add_argument("--out", default=None, help="Markdown file for the table ('' for none; default "
+                   "docs/figures/env.md, with --scan docs/figures/env_scan.md)")
     a = p.parse_args()
-    if a.ratio:
+    if a.scan < 0 or a.steps < 1:
+        p.error(f"--scan must be >= 0 and --steps >= 1, got {a.scan} and {a.steps}")
+    if a.out is None:
+        a.out = "docs/figures/env_scan.md" if a.scan else "docs/figures/env.md"
+    if a.scan:
+        scan_cost(a.scan, a.steps, a.out or None)
+    elif a.ratio:
         t_world, t_batch = ratio(a.ratio, a.steps)
         print(f"{t_world:.6e} {t_batch:.6e} {t_world / t_batch:.6f}")
     else:
