@@ -135,6 +135,18 @@ def spread(processes: int, steps: int, n: int = 1000) -> list[float]:
     return got
 
 
+def _finish(emit, lines, out):
+    """The closing load-average line, then the table to ``out`` (written whole, then renamed)."""
+    load = os.getloadavg()
+    emit(f"\nLoad average at the end {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f}.")
+    if out:
+        os.makedirs(os.path.dirname(out) or ".", exist_ok=True)
+        with open(out + ".tmp", "w") as f:
+            f.write("\n".join(lines) + "\n")
+        os.replace(out + ".tmp", out)
+        print(f"wrote {out}", file=sys.stderr)
+
+
 def scan_cost(k_scan: int, steps: int, out: str | None):
     """``--scan``: agent-steps per second of the batched path with and without ``k_scan`` beams."""
     lines = []
@@ -162,14 +174,7 @@ def scan_cost(k_scan: int, steps: int, out: str | None):
                 env.reset_arrays(seed=0)
                 best[j] = min(best[j], rate(lambda env=env, acts=acts: env.step_arrays(acts), st))
         emit(f"| {n} | {n / best[0]:.3e} | {n / best[1]:.3e} | {best[0] / best[1]:.0%} |")
-    load = os.getloadavg()
-    emit(f"\nLoad average at the end {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f}.")
-    if out:
-        os.makedirs(os.path.dirname(out) or ".", exist_ok=True)
-        with open(out + ".tmp", "w") as f:
-            f.write("\n".join(lines) + "\n")
-        os.replace(out + ".tmp", out)
-        print(f"wrote {out}", file=sys.stderr)
+    _finish(emit, lines, out)
 
 
 def main(steps: int, out: str | None, processes: int = 0):
@@ -215,14 +220,7 @@ def main(steps: int, out: str | None, processes: int = 0):
     t_step = rate(lambda: env.step(acts), steps)
     emit(f"\n500 robots: drawing a frame {t_draw * 1e3:.2f} ms vs a step {t_step * 1e3:.2f} ms "
          f"({t_draw / t_step:.0%} of the step); the terrain background once: {t_bg * 1e3:.0f} ms")
-    load = os.getloadavg()
-    emit(f"\nLoad average at the end {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f}.")
-    if out:
-        os.makedirs(os.path.dirname(out) or ".", exist_ok=True)
-        with open(out + ".tmp", "w") as f:
-            f.write("\n".join(lines) + "\n")
-        os.replace(out + ".tmp", out)
-        print(f"wrote {out}", file=sys.stderr)
+    _finish(emit, lines, out)
 
 
 if __name__ == "__main__":
