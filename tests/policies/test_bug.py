@@ -79,7 +79,7 @@ def fork():
     return z, x, y, [30.0, 110.0, 100.0, 170.0], [330.0, 140.0]
 
 
-def _config(tmp_path, name, terrain, mirror_y=False, mirror_x=False, robots=10, max_cycles=1500):
+def _config(tmp_path, name, terrain, mirror_y=False, mirror_x=False, robots=10, max_cycles=1500, k_scan=0):
     z, x, y, spawn, target = terrain
     if mirror_y:  # the other side: the way round swaps left and right
         z, spawn, target = z[::-1], [spawn[0], y[-1] - spawn[3], spawn[2], y[-1] - spawn[1]], [target[0], y[-1] - target[1]]
@@ -90,12 +90,13 @@ def _config(tmp_path, name, terrain, mirror_y=False, mirror_x=False, robots=10, 
         "name": name, "task": "goal", "max_cycles": max_cycles,
         "terrain": {"source": "dem", "path": f"{name}.npz", "method": "delaunay"},
         "robots": {"count": robots, "spawn_region": spawn, "max_slope_deg": 30.0, "min_separation_m": 3.0},
-        "targets": {"positions": [target], "arrival_radius_m": 8.0}}, source=name, base_dir=str(tmp_path))
+        "targets": {"positions": [target], "arrival_radius_m": 8.0},
+        **({"observation": {"k_scan": k_scan}} if k_scan else {})}, source=name, base_dir=str(tmp_path))
 
 
 def _run(cfg, seed=0, search="bug"):
     env = tse.parallel_env(scenario=cfg)
-    pol = APFPolicy(env, search=search)
+    pol = APFPolicy(env, search=search.split("+")[0])
     out = rollout(env, pol, seed)
     return out, pol
 
@@ -104,14 +105,21 @@ def _run(cfg, seed=0, search="bug"):
 CASES = [(utrap, 1000), (comb, 1600), (queue, 800)]
 
 
-SEARCHES = ["bug", "chart"]  # APFPolicy's two boundary searches (policies/bug.py, policies/chart.py)
+# APFPolicy's two boundary searches (policies/bug.py, policies/chart.py), and the chart search with
+# the observation's terrain scan of 32 beams ([observation] k_scan)
+SEARCHES = ["bug", "chart", "chart+scan"]
+
+
+def _scan(search):
+    return 32 if search.endswith("+scan") else 0
 
 
 @pytest.mark.parametrize("search", SEARCHES)
 @pytest.mark.parametrize("mirror_y", [False, True], ids=["open-left", "open-right"])
 @pytest.mark.parametrize("make,steps", CASES, ids=[c[0].__name__ for c in CASES])
 def test_every_robot_gets_out_and_arrives(tmp_path, make, steps, mirror_y, search):
-    out, pol = _run(_config(tmp_path, make.__name__, make(), mirror_y=mirror_y, max_cycles=steps), search=search)
+    out, pol = _run(_config(tmp_path, make.__name__, make(), mirror_y=mirror_y, max_cycles=steps, k_scan=_scan(search)),
+                    search=search)
     assert out.count(Reason.FELL) == 0
     assert out.count(Reason.ARRIVED) == out.n_robots, (out.counts(), out.steps.tolist())
     assert not out.stalled.any() and not out.looping.any() and not pol.unreachable.any()
@@ -119,7 +127,8 @@ def test_every_robot_gets_out_and_arrives(tmp_path, make, steps, mirror_y, searc
 
 @pytest.mark.parametrize("search", SEARCHES)
 def test_the_u_trap_travelling_west(tmp_path, search):
-    out, pol = _run(_config(tmp_path, "utrap_w", utrap(), mirror_x=True, max_cycles=1000), search=search)
+    out, pol = _run(_config(tmp_path, "utrap_w", utrap(), mirror_x=True, max_cycles=1000, k_scan=_scan(search)),
+                    search=search)
     assert out.count(Reason.FELL) == 0 and out.count(Reason.ARRIVED) == out.n_robots, out.counts()
 
 
@@ -131,7 +140,8 @@ def test_fork_with_a_dead_end_ramp_every_robot_arrives(tmp_path, mirror_y, searc
     way to the real ramp needs ~200 m more distance to go than the hit point: a first leg of the
     doubling search shorter than that (``BugParams.min_budget`` of one sensor range, 60 m) turned
     them back and forth along the cliff until the time ran out (5 of 10 arrived)."""
-    out, pol = _run(_config(tmp_path, "fork", fork(), mirror_y=mirror_y, max_cycles=1500), search=search)
+    out, pol = _run(_config(tmp_path, "fork", fork(), mirror_y=mirror_y, max_cycles=1500, k_scan=_scan(search)),
+                    search=search)
     assert out.count(Reason.FELL) == 0 and not pol.unreachable.any()
     assert out.count(Reason.ARRIVED) == out.n_robots, (out.counts(), out.steps.tolist())
     assert not out.stalled.any() and not out.looping.any()
