@@ -229,8 +229,8 @@ def mark_crossed(unsafe, seg, danger, res):
         tmx = ((a + 1 - x0) if dx > 0 else (x0 - a)) * tdx if dx != 0 else np.inf
         tmy = ((b + 1 - y0) if dy > 0 else (y0 - b)) * tdy if dy != 0 else np.inf
         mark(a, b)
-        for _ in range(abs(a1 - a) + abs(b1 - b)):
-            if a == a1 and b == b1:
+        for _ in range(abs(a1 - a) + abs(b1 - b) + 2):
+            if min(tmx, tmy) > 1.0 + 1e-9:  # the next cell line lies past the segment's end
                 break
             if abs(tmx - tmy) < 1e-9:  # through a corner: both neighbours too
                 mark(a + sa, b)

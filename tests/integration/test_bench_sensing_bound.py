@@ -89,13 +89,15 @@ def _meets(seg, a, b, eps=1e-7):
     return t0 <= t1
 
 
-@settings(max_examples=80, deadline=None)
-@given(st.lists(st.floats(0.0, 12.0), min_size=4, max_size=4))
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.one_of(st.floats(0.0, 12.0), st.integers(0, 24).map(lambda k: k / 2)), min_size=4, max_size=4))
 def test_mark_crossed_marks_exactly_the_cells_a_dangerous_break_meets(xy):
+    """Endpoints anywhere, and on cell corners and edges (half-integers: a walk that overshot its end
+    there once marked the segment's extension)."""
     seg = np.array([[xy[:2], xy[2:]]])
     unsafe = np.zeros((12, 12), bool)
     B.mark_crossed(unsafe, seg, np.array([True]), 1.0)
-    t = np.linspace(0.0, 1.0, 4001)[:, None]
+    t = np.linspace(0.0, 1.0, 40001)[:, None]
     pts = np.minimum(seg[0, 0] + t * (seg[0, 1] - seg[0, 0]), 11.999999)
     hit = np.zeros_like(unsafe)
     hit[pts[:, 0].astype(int), pts[:, 1].astype(int)] = True
@@ -105,6 +107,13 @@ def test_mark_crossed_marks_exactly_the_cells_a_dangerous_break_meets(xy):
     spared = np.zeros_like(unsafe)
     B.mark_crossed(spared, seg, np.array([False]), 1.0)
     assert not spared.any()  # a break that is not dangerous marks nothing
+
+
+def test_mark_crossed_stops_at_a_segment_ending_on_a_cell_corner():
+    unsafe = np.zeros((40, 40), bool)
+    B.mark_crossed(unsafe, np.array([[[0.0, 30.0], [10.0, 20.0]]]), np.array([True]), 1.0)
+    a, b = np.nonzero(unsafe)
+    assert a.max() <= 10 and b.min() >= 19 and len(a) <= 33  # the diagonal's cells and the neighbours at its 11 corners
 
 
 def test_a_pinch_between_two_steep_triangles_is_shut():

@@ -70,7 +70,8 @@ def test_plan_costs_what_a_plain_dijkstra_costs(seed, density):
 @given(st.integers(0, 2**31 - 1))
 def test_one_set_of_work_arrays_serves_many_plans(seed):
     """The planning pass shares its work arrays between robots (_astar): each plan on them answers
-    as a fresh one does, and leaves them as it found them (also when the heap outgrows its start)."""
+    as a fresh one does, and leaves them as it found them (also when its list of touched cells
+    outgrows its start; the heap's own growth, the same code, is not reached by these charts)."""
     rng = np.random.default_rng(seed)
     c = 40
     dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
@@ -81,8 +82,8 @@ def test_one_set_of_work_arrays_serves_many_plans(seed):
         got = _astar(g, *s, *t, 8.0, 2.0, 0.0, 0.0, 0.0, dist, prev, closed)
         assert got == plan(g, *s, *t, 8.0)
         assert (dist == 1e30).all() and (prev == -1).all() and not closed.any()
-    # a target walled in: the search pushes every one of 100 x 100 cells, more than the heap's start
-    # (64 C + 64 entries), so it grows
+    # a target walled in: the search touches every one of 100 x 100 cells, more than the start of its
+    # touched list (64 C + 64 entries), so that list grows
     c = 100
     dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
     g = np.zeros((c, c), np.uint8)
