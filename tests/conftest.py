@@ -249,3 +249,22 @@ def _obs_row(layout, R, target_xy, breaks=(), robots=(), speed=1.0):
 def obs_row():
     """``obs_row(layout, R, target_xy, breaks=(), robots=(), speed=1.0)``: one hand-built body-frame observation row."""
     return _obs_row
+
+
+def _observations_match(env):
+    """The env's compiled observations of its current state, checked equal (to float32 rounding)
+    to the numpy reference (env/reference.py); returns them."""
+    from tin_swarm_env.env.observation import build_observations
+    from tin_swarm_env.env.reference import build_observations_reference
+
+    args = (env.world, env.world_state, env.sensed(), env.target_assignment, env.live_mask, env.layout)
+    a, b = build_observations(*args), build_observations_reference(*args)
+    assert a.dtype == b.dtype == np.float32
+    np.testing.assert_allclose(a, b, atol=2e-7)
+    return a
+
+
+@pytest.fixture(scope="session")
+def observations_match():
+    """:func:`_observations_match`: compiled observations against the reference, one step's worth."""
+    return _observations_match

@@ -375,31 +375,22 @@ def test_the_mirrored_world_observes_the_mirrored_observation(tmp_path, seed):
 
 
 @pytest.mark.parametrize("scenario", ["cliff_goal", "containment", "flat"])
-def test_compiled_observations_equal_the_numpy_reference(scenario):
-    from tin_swarm_env.env.observation import build_observations
-    from tin_swarm_env.env.reference import build_observations_reference
-
+def test_compiled_observations_equal_the_numpy_reference(scenario, observations_match):
     env = tse.parallel_env(scenario=scenario, n_robots=30)
     env.reset(seed=2)
     rng = np.random.default_rng(1)
     for _ in range(40):
         env.step_arrays(rng.uniform(-1, 1, (30, 2)))
-        args = (env.world, env.world_state, env.sensed(), env.target_assignment, env.live_mask, env.layout)
-        a, b = build_observations(*args), build_observations_reference(*args)
-        assert a.dtype == b.dtype == np.float32
-        np.testing.assert_allclose(a, b, atol=2e-7)
+        a = observations_match(env)
         assert np.any(a[:, env.layout.robots] != 0)
 
 
-def test_mobile_targets_heights_follow_them_step_by_step():
+def test_mobile_targets_heights_follow_them_step_by_step(observations_match):
     """The encoder keeps static targets' heights per world (observation._target_heights, keyed on
     the targets' positions and triangles): a mobile target's height must be read anew every step
     it moves, and a new reset's targets must not read the last episode's heights. Against the
     numpy reference (which reads height_in every step), on the same env across two resets."""
     import dataclasses
-
-    from tin_swarm_env.env.observation import build_observations
-    from tin_swarm_env.env.reference import build_observations_reference
 
     cfg = load_scenario("cliff_goal")
     cfg = cfg.replace(targets=dataclasses.replace(cfg.targets, mobile=True))
@@ -411,9 +402,7 @@ def test_mobile_targets_heights_follow_them_step_by_step():
         env.reset(seed=seed)
         for _ in range(15):
             env.step_arrays(rng.uniform(-1, 1, (12, 2)))
-            args = (env.world, env.world_state, env.sensed(), env.target_assignment, env.live_mask, env.layout)
-            a, b = build_observations(*args), build_observations_reference(*args)
-            np.testing.assert_allclose(a, b, atol=2e-7)
+            observations_match(env)
             tg = env.world_state.targets
             tz_seen.add(env.world.tin.height_in(tg.positions, tg.tri_idx).tobytes())
     assert len(tz_seen) > 10  # the targets moved (and their heights changed) step by step
@@ -519,10 +508,7 @@ def test_the_mirror_image_permutes_the_beams(square):
 
 
 @pytest.mark.parametrize("scenario", ["cliff_goal", "generated"])
-def test_compiled_scan_equals_the_numpy_reference(scenario):
-    from tin_swarm_env.env.observation import build_observations
-    from tin_swarm_env.env.reference import build_observations_reference
-
+def test_compiled_scan_equals_the_numpy_reference(scenario, observations_match):
     cfg = load_scenario(scenario)
     cfg = cfg.replace(observation=ObservationSpec(k_scan=16))
     env = tse.parallel_env(scenario=cfg, n_robots=20)
@@ -531,9 +517,7 @@ def test_compiled_scan_equals_the_numpy_reference(scenario):
     hit = False
     for _ in range(25):
         env.step_arrays(rng.uniform(-1, 1, (20, 2)))
-        args = (env.world, env.world_state, env.sensed(), env.target_assignment, env.live_mask, env.layout)
-        a, b = build_observations(*args), build_observations_reference(*args)
-        np.testing.assert_allclose(a, b, atol=2e-7)
+        a = observations_match(env)
         live = env.live_mask
         hit |= bool(np.any(a[live][:, env.layout.scan] < 1.0))
     assert hit  # some beam met a break
