@@ -356,9 +356,9 @@ def _plan_rows(grid, cell, q, way, dirty, forgot, have_way, rows, ahead_m, wall_
     point; writes ``way`` (F, m). Forgetting ends with an empty chart, on which there is always a way."""
     c = grid.shape[1]
     h = c // 2
-    dist = np.full((c, c), 1e30)
-    prev = np.full((c, c), -1, np.int64)
-    closed = np.zeros((c, c), np.bool_)
+    dist = np.empty((0, 0))  # the work arrays, made when the first robot plans
+    prev = np.empty((0, 0), np.int64)
+    closed = np.empty((0, 0), np.bool_)
     for r in range(len(rows)):
         i = rows[r]
         if cell[i] <= 0:
@@ -369,6 +369,10 @@ def _plan_rows(grid, cell, q, way, dirty, forgot, have_way, rows, ahead_m, wall_
         dx, dy = way[i, 0] - q[r, 0], way[i, 1] - q[r, 1]
         if not dirty[i] and dx * dx + dy * dy > (2 * w) ** 2:
             continue
+        if dist.shape[0] == 0:
+            dist = np.full((c, c), 1e30)
+            prev = np.full((c, c), -1, np.int64)
+            closed = np.zeros((c, c), np.bool_)
         ahead = max(ahead_m / w, 3.0)
         nrm = np.sqrt(dx * dx + dy * dy)
         ha, hb = (dx / nrm, dy / nrm) if nrm > 1e-9 and have_way[i] else (0.0, 0.0)
