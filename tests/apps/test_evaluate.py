@@ -16,6 +16,7 @@ from tin_swarm_env.apps.cli import main
 from tin_swarm_env.apps.evaluate import (EVAL_SEED0, METRICS, Args, bar_figure, ci95, episode_metrics, evaluate,
                                          parse_models, policy_rows)
 from tin_swarm_env.apps.rollout import Outcome
+from tin_swarm_env.apps.suite import run_suite
 from tin_swarm_env.errors import ArgumentError
 from tin_swarm_env.world.state import Reason
 
@@ -190,3 +191,46 @@ def test_the_script_takes_scenarios_comma_separated():
     a = parse_dataclass(Args, ["--scenarios", "flat,ramp", "--seeds", "2", "--suite", "standard", "--quick"])
     assert (a.scenarios, a.seeds, a.suite, a.quick) == ("flat,ramp", 2, "standard", True)
 
+
+
+def test_eval_plays_mirror_images_and_a_given_episode_length(tmp_path):
+    from tin_swarm_env.apps.evaluate import check_args
+
+    scen = tmp_path / "tiny.toml"
+    scen.write_text('max_cycles = 400\n[terrain]\nsource = "flat"\nsize_m = [60.0, 80.0]\n'
+                    '[robots]\ncount = 2\nspawn_region = [2.0, 2.0, 10.0, 20.0]\n[targets]\npositions = [[50.0, 70.0]]\n')
+    played, _, _ = check_args(Args(scenarios=str(scen), mirror=True, policies="apf", out=str(tmp_path / "c")))
+    assert [label for label, _ in played] == [str(scen), f"{scen} (mirror ns)"]
+    (_, cfg), (_, mir) = played
+    # north-south over the flat plane [0, 60] x [0, 80]: y -> 80 - y, x kept
+    assert tuple(cfg.targets.positions[0]) == (50.0, 70.0) and tuple(mir.targets.positions[0]) == (50.0, 10.0)
+    assert tuple(mir.robots.spawn_region) == (2.0, 60.0, 10.0, 78.0)
+    rows = evaluate(Args(scenarios=str(scen), seeds=1, policies="apf", mirror=True, max_cycles=3,
+                         out=str(tmp_path / "e")))
+    assert [r["scenario"] for r in rows] == [str(scen), f"{scen} (mirror ns)"]
+    assert all(r["max_cycles"] == 3 and r["timed_out"] == 1.0 for r in rows)  # 3 steps: nobody gets 60 m
+    rows = evaluate(Args(scenarios=str(scen), seeds=1, policies="apf", mirror=True, out=str(tmp_path / "f")))
+    assert all(r["max_cycles"] == 400 and r["arrived"] == 1.0 for r in rows)  # both ways, both robots arrive
+    with pytest.raises(ArgumentError, match="--max-cycles must be an integer >= 0, got -1"):
+        evaluate(Args(scenarios=str(scen), max_cycles=-1, out=str(tmp_path / "g")))
+    for bad in ({"mirror": True}, {"max_cycles": 10}):
+        with pytest.raises(ArgumentError, match="does not apply to --suite"):
+            run_suite(Args(suite="standard", out=str(tmp_path / "s"), **bad))
+    assert not list(tmp_path.glob("[gs]*"))
+
+
+def test_eval_by_family_plays_each_generated_family_and_its_mirror(tmp_path):
+    from tin_swarm_env.apps.evaluate import check_args
+
+    gen = tmp_path / "gen.toml"
+    gen.write_text('[terrain]\nsource = "generated"\nfamilies = ["fork", "canyon"]\n[robots]\ncount = 2\n')
+    played, _, _ = check_args(Args(scenarios=f"flat,{gen}", by_family=True, mirror=True, policies="apf",
+                                   out=str(tmp_path / "c")))
+    assert [label for label, _ in played] == ["flat", "flat (mirror ns)", f"{gen}: fork", f"{gen}: fork (mirror ns)",
+                                              f"{gen}: canyon", f"{gen}: canyon (mirror ns)"]
+    assert [c.terrain.families for _, c in played[2:]] == [("fork",)] * 2 + [("canyon",)] * 2
+    assert [c.terrain.mirror for _, c in played[2:]] == ["", "ns", "", "ns"]
+    played, _, _ = check_args(Args(scenarios="generated", by_family=True, policies="apf", out=str(tmp_path / "d")))
+    assert [label for label, _ in played] == [f"generated: {f}" for f in tse.scenario.generators.ALL_FAMILIES]
+    with pytest.raises(ArgumentError, match="does not apply to --suite"):
+        run_suite(Args(suite="standard", by_family=True, out=str(tmp_path / "s")))

@@ -30,6 +30,7 @@ row per policy (:mod:`~tin_swarm_env.apps.suite`).
 from __future__ import annotations
 
 import csv
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -82,6 +83,11 @@ class Args:
                      "steps: tin_swarm_env/apps/suite.py), one leaderboard row per policy", check=_suite_name)
     quick: bool = opt(False, "with --suite: a seconds-long version (one map per split, 1 seed, 3 robots, 60 steps)",
                       flag=True)
+    mirror: bool = opt(False, "also play each scenario's north-south mirror image, on the same seeds (its rows: "
+                       "'SCENARIO (mirror ns)'; tin_swarm_env/scenario/mirror.py)", flag=True)
+    max_cycles: int = opt(0, "steps per episode (0: each scenario's own)", lo=0)
+    by_family: bool = opt(False, "play each generated scenario once per family of its terrain (rows "
+                          "'SCENARIO: FAMILY'), on the same seeds", flag=True)
 
     def __post_init__(self):
         check_fields(self)
@@ -163,12 +169,17 @@ def policy_entries(args: Args, where: str = "eval") -> list[tuple[str, str, str 
 
 
 def check_args(args: Args) -> tuple[list, list, Path]:
-    """Everything an evaluation needs, checked before its first episode: returns ``(scenarios,
-    entries, out)`` with ``entries`` the rows ``(label, spec, path or None)``. ArgumentError names
-    the option (no seeds, no scenario, an unknown policy name, a model that is missing or a .zip
-    without trust_pickle, an output that cannot be written)."""
+    """Everything an evaluation needs, checked before its first episode: returns ``(played,
+    entries, out)`` with ``played`` the ``(label, ScenarioConfig)`` of each scenario (then its mirror
+    image with ``mirror``) and ``entries`` the rows ``(label, spec, path or None)``. ArgumentError
+    names the option (no seeds, no scenario, an unknown policy name, a model that is missing or a
+    .zip without trust_pickle, an output that cannot be written); a scenario that does not load
+    raises its own error, naming the file and key."""
     from .._atomic import check_outputs
     from ..errors import check_range
+    from ..scenario import load_scenario, mirror_scenario
+    from ..scenario.generators import ALL_FAMILIES, family_weights
+    from .suite import MIRROR_AXIS
 
     check_range("eval", "seeds", args.seeds, 1, integer=True, exc=ArgumentError)
     check_range("eval", "robots", args.robots, 0, integer=True, exc=ArgumentError)
@@ -178,13 +189,23 @@ def check_args(args: Args) -> tuple[list, list, Path]:
         raise ArgumentError("eval: give at least one scenario (or --suite standard)")
     if args.quick:
         raise ArgumentError("--quick applies to --suite only")
+    configs = [load_scenario(s) for s in scens]  # a missing file or a bad key is refused before any episode
     entries = policy_entries(args, "eval")
     out = Path(args.out or default_out(scens))
     if not args.out:
         out.parent.mkdir(parents=True, exist_ok=True)
     check_outputs({f"--out ({ext})": out.with_suffix(ext) for ext in (".md", ".csv", ".png")},
                   inputs=[m for _, _, m in entries if m])
-    return scens, entries, out
+    played = []
+    for s, c in zip(scens, configs):
+        if args.by_family and c.terrain.source == "generated":
+            played += [(f"{s}: {f}", c.replace(terrain=dataclasses.replace(c.terrain, families=(f,))))
+                       for f in family_weights(c.terrain.families or ALL_FAMILIES, "families")[0]]
+        else:
+            played.append((s, c))
+    if args.mirror:
+        played = [x for s, c in played for x in ((s, c), (f"{s} (mirror {MIRROR_AXIS})", mirror_scenario(c, MIRROR_AXIS)))]
+    return played, entries, out
 
 
 class EvalRows(list):
@@ -235,10 +256,10 @@ def evaluate(args: Args) -> EvalRows:
     from .policy_factory import make_policy
     from .run import progress_bar
 
-    scenarios, entries, out = check_args(args)
+    played, entries, out = check_args(args)
     rows = []
-    for scen in scenarios:
-        env = parallel_env(scenario=scen, n_robots=args.robots or None)
+    for scen, cfg in played:
+        env = parallel_env(scenario=cfg, n_robots=args.robots or None, max_cycles=args.max_cycles or None)
         for label, spec, path in entries:
             pol = make_policy(env, spec if path is None else path, seed=args.seed_offset,
                               trust_pickle=args.trust_pickle)
@@ -251,7 +272,7 @@ def evaluate(args: Args) -> EvalRows:
             if bar is not None:
                 bar.close()
             row = {"scenario": scen, "policy": label, "seeds": args.seeds, "robots": env.n,
-                   "seed_offset": args.seed_offset}
+                   "seed_offset": args.seed_offset, "max_cycles": env.max_cycles}
             for key, _, _ in METRICS:
                 row[key], row[key + "_ci95"] = ci95(np.concatenate([e[key] for e in eps]))
             rows.append(row)

@@ -189,7 +189,7 @@ def check_suite(args: Args):
     if args.scenarios not in ("", DEFAULT_SCENARIOS):
         raise ArgumentError(f"--suite {args.suite}: plays its own maps (tin_swarm_env/apps/suite.py); give no "
                             f"scenarios (got {args.scenarios!r})")
-    for name in ("seeds", "robots", "seed_offset"):
+    for name in ("seeds", "robots", "seed_offset", "max_cycles", "mirror", "by_family"):
         if getattr(args, name) != _default(name):
             raise ArgumentError(f"--{name.replace('_', '-')}: does not apply to --suite (its seeds, robots and steps "
                                 "are fixed: tin_swarm_env/apps/suite.py)")
