@@ -362,6 +362,14 @@ def test_the_mirror_policy_is_equivariant_and_exports_to_the_same_actions(tmp_pa
     with pytest.raises(TinSwarmError, match="mirror_perm must be a permutation"):
         PPO(mirror_policy_class(), vec, policy_kwargs={"mirror_signs": signs.tolist(), "mirror_perm": [0] * lay.size},
             device="cpu")
+    # a model mirrored with another map than its layout's is not exported (the file would act unlike it)
+    wrong = signs.copy()
+    wrong[0] = -wrong[0]
+    other = PPO(mirror_policy_class(), vec, n_steps=32, batch_size=64, seed=0, device="cpu",
+                policy_kwargs={"net_arch": [16, 16], "mirror_signs": wrong.tolist(), "mirror_perm": perm.tolist()})
+    with pytest.raises(TinSwarmError, match="not the mirror map of the layout"):
+        export_sb3_policy(other, tmp_path / "wrong", vec)
+    assert not (tmp_path / "wrong").exists()
 
 
 def test_a_scenario_mix_alternates_copies_and_needs_one_robot_count():

@@ -71,6 +71,13 @@ def test_a_mirror_student_with_scan_beams_is_equivariant_and_exports_to_the_same
     np.testing.assert_allclose(mine, np.clip(a, -1, 1), atol=1e-5)
     with pytest.raises(ArgumentError, match="obs_perm"):
         GRUStudent(lay.size, 4, (4,), signs=signs, obs_perm=perm[:-1])
+    # the student without the beam permutation is not the layout's mirror: refused by export and policy()
+    for call in (lambda: wrong.export(tmp_path / "w", lay), lambda: wrong.policy(lay)):
+        with pytest.raises(ArgumentError, match="not the mirror map of the layout"):
+            call()
+    assert not (tmp_path / "w").exists()
+    assert "obs_perm" in dict(st.named_buffers())  # moves with .to() and is in state_dict
+    np.testing.assert_array_equal(st.state_dict()["obs_perm"].numpy(), perm)
 
 
 def test_student_learns_what_only_memory_can_tell():

@@ -159,7 +159,8 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
                                                         dtype=torch.float32))
             self.register_buffer("_parity", torch.as_tensor(ACTION_PARITY, dtype=torch.float32))
             self.perm = None if perm is None else torch.as_tensor(perm)
-            self.obs_perm = None if obs_perm is None else torch.as_tensor([int(j) for j in obs_perm], dtype=torch.long)
+            self.register_buffer("obs_perm", None if obs_perm is None else
+                                 torch.as_tensor([int(j) for j in obs_perm], dtype=torch.long))
 
         def _net(self, x, h0=None):
             if self.gru is None:
@@ -200,6 +201,18 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
                 return (out[:, :b] + out[:, b:][..., self.perm]) / 2, z, h
             return (out[:, :b] + out[:, b:] * self._parity) / 2, z, h
 
+        def _check_layout(self, layout):
+            """A mirror-equivariant student acts as its file only with the layout's own mirror map."""
+            if self.signs is None:
+                return
+            from ..policies.symmetry import mirror_map
+
+            perm, signs = mirror_map(layout)
+            mine = np.arange(len(self.signs)) if self.obs_perm is None else self.obs_perm.cpu().numpy()
+            if len(signs) != len(self.signs) or mine.tolist() != perm.tolist() or list(self.signs) != signs.tolist():
+                raise ArgumentError("GRUStudent: its signs / obs_perm are not the mirror map of the layout it is "
+                                    "exported with (mirror_map(layout)); the file would act unlike the student")
+
         def _arrays(self):
             layers = [(m.weight.detach().double().numpy(), m.bias.detach().double().numpy()) for m in self.head
                       if isinstance(m, nn.Linear)]
@@ -218,6 +231,7 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
             from ..policies.learned import MLPPolicy
             from ..policies.recurrent import RecurrentPolicy
 
+            self._check_layout(layout)
             cell, layers = self._arrays()
             sym = "none" if self.signs is None else "mirror"
             if cell is None:
@@ -230,6 +244,7 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
             """Write the recurrent policy directory ``path`` (:func:`~tin_swarm_env.policies.save_policy`)."""
             from ..policies.learned import save_policy
 
+            self._check_layout(layout)
             cell, layers = self._arrays()
             return save_policy(path, layers, "tanh", layout=layout, scenario=scenario, extra=extra, shield=shield,
                                symmetry="none" if self.signs is None else "mirror",
