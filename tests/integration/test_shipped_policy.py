@@ -75,3 +75,22 @@ def test_cli_runs_and_evaluates_the_shipped_policy(tmp_path):
     assert main(["eval", "flat", "--seeds", "1", "--robots", "3", "--policies", "apf", "--model", str(SHARED),
                  "--out", str(out)]) == 0
     assert "shared" in out.with_suffix(".md").read_text()
+
+
+def test_the_mirror_policy_file_is_pickle_free_equivariant_and_brings_robots_in():
+    """agents/models/shared_mirror (docs/figures/shared_mirror.md): small pickle-free data, a
+    mirror-equivariant file (its action on the mirror image of any observation is the mirror image
+    of its action), and it drives robots in on cliff_goal."""
+    from tin_swarm_env.env.observation import mirror_action
+
+    d = ROOT / "agents" / "models" / "shared_mirror"
+    assert sorted(p.name for p in d.iterdir()) == ["policy.json", "weights.npz"]
+    meta = json.loads((d / "policy.json").read_text())
+    assert meta["symmetry"] == "mirror" and meta["shield"] == "safety_cut"
+    env = tse.parallel_env(scenario="cliff_goal", n_robots=6)
+    pol = load_policy(d, env)
+    o = np.random.default_rng(0).uniform(-1, 1, (200, env.layout.size))
+    np.testing.assert_allclose(pol.act_batch(env.layout.mirror(o)), mirror_action(pol.act_batch(o)), atol=1e-9)
+    out = rollout(env, pol, seed=EVAL_SEED0)
+    assert out.count(Reason.FELL) == 0
+    assert out.count(Reason.ARRIVED) >= 5, out.counts()
