@@ -197,8 +197,8 @@ def test_eval_plays_mirror_images_and_a_given_episode_length(tmp_path):
     from tin_swarm_env.apps.evaluate import check_args
 
     scen = tmp_path / "tiny.toml"
-    scen.write_text('max_cycles = 400\n[terrain]\nsource = "flat"\nsize_m = [60.0, 80.0]\n'
-                    '[robots]\ncount = 2\nspawn_region = [2.0, 2.0, 10.0, 20.0]\n[targets]\npositions = [[50.0, 70.0]]\n')
+    scen.write_text('max_cycles = 400\n[terrain]\nsource = "flat"\nsize_m = [60.0, 80.0]\n[robots]\ncount = 2\n'
+                    'spawn_region = [2.0, 2.0, 10.0, 20.0]\n[targets]\npositions = [[50.0, 70.0]]\n')
     played, _, _ = check_args(Args(scenarios=str(scen), mirror=True, policies="apf", out=str(tmp_path / "c")))
     assert [label for label, _ in played] == [str(scen), f"{scen} (mirror ns)"]
     (_, cfg), (_, mir) = played

@@ -46,6 +46,7 @@ __all__ = ["Args", "METRICS", "EVAL_SEED0", "EvalRows", "evaluate", "check_args"
            "ci95", "markdown", "bar_figure", "bar_plot", "parse_models", "policy_rows", "policy_entries", "write_text"]
 
 EVAL_SEED0 = 1_000_000  # evaluation seeds start here; training seeds stay below
+MIRROR_AXIS = "ns"  # the mirror image played by --mirror and the standard suite (scenario/mirror.py axes)
 
 METRICS = [("arrived", "arrived", "{:.1%}"), ("fell", "fell", "{:.1%}"), ("timed_out", "timed out", "{:.1%}"),
            ("stalled", "stalled", "{:.1%}"), ("looping", "looping", "{:.1%}"),
@@ -179,7 +180,6 @@ def check_args(args: Args) -> tuple[list, list, Path]:
     from ..errors import check_range
     from ..scenario import load_scenario, mirror_scenario
     from ..scenario.generators import ALL_FAMILIES, family_weights
-    from .suite import MIRROR_AXIS
 
     check_range("eval", "seeds", args.seeds, 1, integer=True, exc=ArgumentError)
     check_range("eval", "robots", args.robots, 0, integer=True, exc=ArgumentError)
@@ -204,7 +204,8 @@ def check_args(args: Args) -> tuple[list, list, Path]:
         else:
             played.append((s, c))
     if args.mirror:
-        played = [x for s, c in played for x in ((s, c), (f"{s} (mirror {MIRROR_AXIS})", mirror_scenario(c, MIRROR_AXIS)))]
+        played = [x for s, c in played
+                  for x in ((s, c), (f"{s} (mirror {MIRROR_AXIS})", mirror_scenario(c, MIRROR_AXIS)))]
     return played, entries, out
 
 

@@ -61,14 +61,13 @@ import numpy as np
 
 from ..errors import ArgumentError
 from ..world.state import Reason
-from .evaluate import (DEFAULT_SCENARIOS, EVAL_SEED0, Args, EvalRows, policy_entries, print_files, write_csv,
-                       write_text)
+from .evaluate import (DEFAULT_SCENARIOS, EVAL_SEED0, MIRROR_AXIS, Args, EvalRows, policy_entries, print_files,
+                       write_csv, write_text)
 
-__all__ = ["Map", "Split", "SPLITS", "SUITES", "BUDGET_S", "MIRROR_AXIS", "PLAYED", "QUICK", "splits_markdown", "map_config",
-           "check_suite", "run_suite", "leaderboard", "leaderboard_markdown", "header_line"]
+__all__ = ["Map", "Split", "SPLITS", "SUITES", "BUDGET_S", "MIRROR_AXIS", "PLAYED", "QUICK", "splits_markdown",
+           "map_config", "check_suite", "run_suite", "leaderboard", "leaderboard_markdown", "header_line"]
 
 REPO = Path(__file__).resolve().parents[2]  # scenario files of the repository (scenarios/) are read from here
-MIRROR_AXIS = "ns"
 BUDGET_S = 240.0  # one policy's full suite, one core
 
 
