@@ -234,3 +234,23 @@ def test_eval_by_family_plays_each_generated_family_and_its_mirror(tmp_path):
     assert [label for label, _ in played] == [f"generated: {f}" for f in tse.scenario.generators.ALL_FAMILIES]
     with pytest.raises(ArgumentError, match="does not apply to --suite"):
         run_suite(Args(suite="standard", by_family=True, out=str(tmp_path / "s")))
+
+
+def test_the_csv_has_the_median_steps_to_arrive(tmp_path, monkeypatch):
+    """steps_to_arrive_median: the median over the robots that arrived (NaN when none did)."""
+    import tin_swarm_env.apps.evaluate as ev
+
+    runs = iter([np.array([10.0, np.nan, 30.0]), np.array([np.nan, 20.0, 40.0])])
+
+    def fake(o):
+        st = next(runs)
+        n = len(st)
+        z = np.zeros(n)
+        return {"arrived": np.isfinite(st).astype(float), "fell": z, "timed_out": (~np.isfinite(st)).astype(float),
+                "stalled": z, "looping": z, "steps_to_arrive": st, "contacts": z, "return": z}
+
+    monkeypatch.setattr(ev, "episode_metrics", fake)
+    rows = evaluate(Args(scenarios="flat", seeds=2, robots=3, policies="apf", out=str(tmp_path / "m")))
+    assert rows[0]["steps_to_arrive_median"] == 25.0  # median of 10, 30, 20, 40
+    assert rows[0]["steps_to_arrive"] == 25.0 and rows[0]["arrived"] == 4 / 6
+    assert "steps_to_arrive_median" in (tmp_path / "m.csv").read_text().splitlines()[0]

@@ -12,7 +12,8 @@ ones included). Columns (:data:`METRICS`): arrived, fell, timed out, of which st
 (:mod:`~tin_swarm_env.apps.trajectory`), steps to arrive, contacts per robot, return per robot,
 each a mean with a 95% confidence half-width (Student t) over the robot-episodes (``seeds`` x
 robots; steps to arrive over the robots that arrived; robots of one episode are not independent,
-so the interval is somewhat narrow).
+so the interval is somewhat narrow); the CSV also has the median steps to arrive
+(``steps_to_arrive_median``).
 
 **Seed split.** Evaluation seeds are ``seed_offset .. seed_offset + seeds - 1``, with
 ``seed_offset`` at least :data:`EVAL_SEED0` by default; training (``apps/train.py``) uses
@@ -276,6 +277,8 @@ def evaluate(args: Args) -> EvalRows:
                    "seed_offset": args.seed_offset, "max_cycles": env.max_cycles}
             for key, _, _ in METRICS:
                 row[key], row[key + "_ci95"] = ci95(np.concatenate([e[key] for e in eps]))
+            steps = np.concatenate([e["steps_to_arrive"] for e in eps])
+            row["steps_to_arrive_median"] = float(np.nanmedian(steps)) if np.isfinite(steps).any() else np.nan
             rows.append(row)
             print(f"{scen:12s} {label:28s} arrived {row['arrived']:.1%} ± {row['arrived_ci95']:.1%}, "
                   f"fell {row['fell']:.1%}, timed out {row['timed_out']:.1%} (stalled {row['stalled']:.1%}, "
