@@ -13,7 +13,8 @@ the canyon, mesa and hills families (the families there were when it was trained
 came later) and on ``cliff_goal`` and ``ramp``; everything else is held out from it. The splits are
 named for that policy: one trained on another mix has seen other kinds of terrain (the BenchMARL
 MAPPO and RLlib PPO files, ``agents/models/mappo_benchmarl`` and ``ppo_rllib``, trained on every
-generated family, fork and trap included; their seeds: docs/figures/ecosystem_training.md). The splits
+generated family, fork and trap included; their seeds: docs/figures/ecosystem_training.md; so did the
+mirror-equivariant ``agents/models/shared_mirror``, on training seeds: docs/figures/shared_mirror.md). The splits
 (the table in the docs is :func:`splits_markdown` of :data:`SPLITS`):
 
 - **train seeds**: the training families on seeds never trained on (a new terrain per seed);
