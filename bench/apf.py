@@ -78,7 +78,7 @@ def generated_family(family: str, robots: int | None, max_cycles: int | None = N
     """The built-in ``generated`` scenario restricted to one family (``max_cycles``: its episode
     length, default the scenario's; ``k_scan``: see :func:`scanned`)."""
     cfg = load_scenario("generated")
-    cfg = cfg.replace(terrain=dataclasses.replace(cfg.terrain, families=(family,)))
+    cfg = cfg.with_families((family,))
     return tse.parallel_env(scenario=scanned(cfg, k_scan), n_robots=robots, max_cycles=max_cycles)
 
 

@@ -327,7 +327,7 @@ def _observing(cfg, k_breaks: int | None, k_scan: int):
 
 def _generated_env(family: str, k_breaks: int | None = None, k_scan: int = 0):
     cfg = load_scenario("generated")
-    cfg = cfg.replace(terrain=dataclasses.replace(cfg.terrain, families=(family,)))
+    cfg = cfg.with_families((family,))
     return tse.parallel_env(scenario=_observing(cfg, k_breaks, k_scan))
 
 

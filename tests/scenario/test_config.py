@@ -177,3 +177,18 @@ def test_non_utf8_directory_and_huge_scenario_files_are_named(tmp_path):
     p.write_text("# " + "x" * 2_000_000 + "\n")
     with pytest.raises(ScenarioError, match=r"bad\.toml: [\d,]+ bytes; a scenario file has at most"):
         load_scenario(p)
+
+
+def test_with_families_restricts_the_generated_terrain_and_is_checked():
+    from tin_swarm_env.errors import TinSwarmError
+    from tin_swarm_env.scenario import load_scenario
+
+    cfg = load_scenario("generated")
+    assert cfg.with_families(("fork",)).terrain.families == ("fork",)
+    assert cfg.with_families(["trap", "mesa"]).terrain.families == ("trap", "mesa")
+    assert cfg.with_families({"fork": 2.0}).terrain.families == {"fork": 2.0}
+    assert cfg.terrain.families == ()  # the original is left as it was
+    with pytest.raises(TinSwarmError, match="families"):
+        cfg.with_families(("volcano",))
+    with pytest.raises(TinSwarmError, match="families"):
+        cfg.with_families(())

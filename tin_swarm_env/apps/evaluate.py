@@ -31,7 +31,6 @@ row per policy (:mod:`~tin_swarm_env.apps.suite`).
 from __future__ import annotations
 
 import csv
-import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -200,7 +199,7 @@ def check_args(args: Args) -> tuple[list, list, Path]:
     played = []
     for s, c in zip(scens, configs):
         if args.by_family and c.terrain.source == "generated":
-            played += [(f"{s}: {f}", c.replace(terrain=dataclasses.replace(c.terrain, families=(f,))))
+            played += [(f"{s}: {f}", c.with_families((f,)))
                        for f in family_weights(c.terrain.families or ALL_FAMILIES, "families")[0]]
         else:
             played.append((s, c))

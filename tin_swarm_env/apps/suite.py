@@ -168,7 +168,7 @@ def map_config(m: Map, mirror: str = ""):
 
     cfg = load_scenario(_scenario_path(m))
     if m.families:
-        cfg = cfg.replace(terrain=dataclasses.replace(cfg.terrain, families=tuple(m.families)))
+        cfg = cfg.with_families(m.families)
     return mirror_scenario(cfg, mirror) if mirror else cfg
 
 

@@ -306,6 +306,14 @@ class ScenarioConfig:
     def replace(self, **kw) -> ScenarioConfig:
         return dataclasses.replace(self, **kw)
 
+    def with_families(self, families) -> ScenarioConfig:
+        """This scenario with its generated terrain drawn from ``families`` only (names, or
+        ``{name: weight}``); checked like ``[terrain] families``."""
+        fam = dict(families) if isinstance(families, dict) else tuple(families)
+        if not fam:  # (an empty tuple in a TerrainSpec means every family: not what a restriction asks)
+            raise ScenarioError("ScenarioConfig.with_families: no families given; name at least one")
+        return self.replace(terrain=dataclasses.replace(self.terrain, families=fam))
+
 
 _PARTS = {"terrain": TerrainSpec, "robots": RobotsSpec, "world": WorldParams, "targets": EntitiesSpec,
           "assets": EntitiesSpec, "rewards": RewardWeights, "observation": ObservationSpec}
