@@ -184,3 +184,24 @@ def test_apf_with_its_memory_is_mirror_equivariant_over_an_episode():
     a, b = APFPolicy(e), APFPolicy(e)
     for _ in range(3):
         np.testing.assert_allclose(b.act_batch(lay.mirror(o)), mirror_action(a.act_batch(o)), atol=1e-6)
+
+
+def test_check_mirror_map_accepts_the_layouts_own_map_and_names_any_other():
+    import dataclasses
+
+    from tin_swarm_env.env.observation import ObsLayout
+    from tin_swarm_env.errors import ArgumentError
+    from tin_swarm_env.policies.symmetry import check_mirror_map, mirror_map
+
+    plain = ObsLayout()
+    scan = dataclasses.replace(plain, k_scan=6)
+    for lay in (plain, scan):
+        perm, signs = mirror_map(lay)
+        check_mirror_map(lay, perm, signs, "m")  # its own map passes
+    check_mirror_map(plain, None, mirror_map(plain)[1], "m")  # no scan: the identity may be left out
+    perm, signs = mirror_map(scan)
+    bad = signs.copy()
+    bad[0] = -bad[0]
+    for args in ((perm, bad), (None, signs), (perm[:-1], signs[:-1]), (perm, mirror_map(plain)[1])):
+        with pytest.raises(ArgumentError, match="^model X: .*not the mirror map"):
+            check_mirror_map(scan, *args, "model X")

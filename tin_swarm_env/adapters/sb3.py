@@ -226,12 +226,9 @@ def export_sb3_policy(model, path, env_or_layout, scenario: str | None = None, e
     src = env_or_layout.envs[0] if hasattr(env_or_layout, "envs") else env_or_layout  # our VecEnv: a copy
     layout = getattr(src, "layout", src)
     if hasattr(pol, "mirror_mean_value"):  # the file mirrors with the layout's map: the model must have used it
-        from ..policies.symmetry import mirror_map
+        from ..policies.symmetry import check_mirror_map
 
-        perm, signs = mirror_map(layout)
-        if list(pol.mirror_perm) != perm.tolist() or list(pol.mirror_signs) != signs.tolist():
-            raise ArgumentError(f"{where}: its mirror_signs / mirror_perm are not the mirror map of the layout it is "
-                                "exported with (mirror_map(layout)); the file would act unlike the model")
+        check_mirror_map(layout, pol.mirror_perm, pol.mirror_signs, where)
     if scenario is None:
         cfg = getattr(src, "config", None)
         scenario = getattr(cfg, "name", "") if cfg is not None else ""

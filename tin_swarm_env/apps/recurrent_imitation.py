@@ -205,13 +205,10 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
             """A mirror-equivariant student acts as its file only with the layout's own mirror map."""
             if self.signs is None:
                 return
-            from ..policies.symmetry import mirror_map
+            from ..policies.symmetry import check_mirror_map
 
-            perm, signs = mirror_map(layout)
-            mine = np.arange(len(self.signs)) if self.obs_perm is None else self.obs_perm.cpu().numpy()
-            if len(signs) != len(self.signs) or mine.tolist() != perm.tolist() or list(self.signs) != signs.tolist():
-                raise ArgumentError("GRUStudent: its signs / obs_perm are not the mirror map of the layout it is "
-                                    "exported with (mirror_map(layout)); the file would act unlike the student")
+            check_mirror_map(layout, None if self.obs_perm is None else self.obs_perm.cpu().numpy(), self.signs,
+                             "GRUStudent")
 
         def _arrays(self):
             layers = [(m.weight.detach().double().numpy(), m.bias.detach().double().numpy()) for m in self.head

@@ -34,7 +34,7 @@ from ..errors import ArgumentError
 from .base import SafetyShield
 from .network import SHIELDS
 
-__all__ = ["SYMMETRIES", "Mirror", "mirror_signs", "mirror_map", "symmetrize", "file_options"]
+__all__ = ["SYMMETRIES", "Mirror", "mirror_signs", "mirror_map", "check_mirror_map", "symmetrize", "file_options"]
 
 SYMMETRIES = ("none", "mirror")
 
@@ -54,6 +54,18 @@ def mirror_map(layout) -> tuple[np.ndarray, np.ndarray]:
     take these two arrays."""
     lay = layout if isinstance(layout, ObsLayout) else ObsLayout.from_dict(layout)
     return lay.mirror_permutation(), lay.mirror(np.ones(lay.size))
+
+
+def check_mirror_map(layout, perm, signs, who: str) -> None:
+    """ArgumentError naming ``who`` unless ``perm`` (None: the identity) and ``signs`` are
+    :func:`mirror_map` of ``layout``: a mirror-equivariant model exported for ``layout`` acts as its
+    file only if it mirrored observations the way the file will."""
+    want_perm, want_signs = mirror_map(layout)
+    perm = np.arange(len(signs)) if perm is None else np.asarray(perm)
+    if (len(signs) != len(want_signs) or perm.tolist() != want_perm.tolist()
+            or np.asarray(signs, dtype=np.float64).tolist() != want_signs.tolist()):
+        raise ArgumentError(f"{who}: its mirror signs / permutation are not the mirror map of the layout it is "
+                            "exported with (mirror_map(layout)); the file would act unlike the model")
 
 
 class Mirror:
