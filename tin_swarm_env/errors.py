@@ -19,6 +19,8 @@ __all__ = [
     "ParameterError",
     "ArgumentError",
     "PolicyFileError",
+    "CheckpointError",
+    "OutputError",
     "check_range",
     "check_fields",
 ]
@@ -43,6 +45,16 @@ class TinStructureError(TinSwarmError, ValueError):
 class PolicyFileError(TinSwarmError, ValueError):
     """A policy file (policy.json / weights.npz) is missing, malformed or made for other
     observations (names the file and the key)."""
+
+
+class CheckpointError(TinSwarmError, ValueError):
+    """A training run's ``args.json`` or checkpoint file cannot be read, breaks its schema or does
+    not match the run it would resume (names the file, the key, what was found and expected)."""
+
+
+class OutputError(TinSwarmError, OSError):
+    """An output file could not be written (full disk, encoder error, broken pipe...); names the
+    file. The old file at that path, if any, is left as it was and no partial file is left."""
 
 
 class MissingExtraError(TinSwarmError, ImportError):

@@ -74,11 +74,13 @@ def _train(a) -> int:
     from .train import train
 
     if a.resume:
-        from .checkpoint import read_args
+        from ..errors import CheckpointError
+        from .checkpoint import ARGS_FILE, read_args
 
         saved = read_args(Path(a.resume)).get("scenario")
         if saved != a.scenario:
-            raise ArgumentError(f"--resume {a.resume}: that run trained on {saved!r}, not {a.scenario!r}")
+            raise CheckpointError(f"{Path(a.resume) / ARGS_FILE}: key 'scenario': found {saved!r}, expected "
+                                  f"{a.scenario!r} (the scenario given to tin-swarm train)")
     train(a)
     return 0
 

@@ -172,6 +172,8 @@ class Args:
                              lo=1, hi=256)
     resume: str = opt("", "continue the killed run in this directory from its last checkpoint, with the "
                           "arguments it was started with (the other options are not used)")
+    trust_pickle: bool = opt(False, "--resume: allow a checkpoint written by an older version, whose model is an SB3 "
+                             "model.zip (a pickle: loading it runs any code it holds)", flag=True)
 
     def __post_init__(self):
         check_fields(self)
@@ -486,22 +488,65 @@ def train_student(args: Args, out: Path, log=print) -> Path:
     return path
 
 
-def _resumed(args: Args) -> tuple[Args, tuple | None]:
-    """For ``--resume DIR``: the run's saved arguments (all of them: the run continues as it was
-    started) and its last complete checkpoint (None: start it anew)."""
-    from .checkpoint import last_checkpoint, read_args
+def _resumed(args: Args) -> tuple[Args, Path]:
+    """For ``--resume DIR``: the run's saved arguments (all of them, each checked: the run continues
+    as it was started; ``--trust-pickle`` is the one taken from this command) and ``DIR``.
+    CheckpointError naming ``args.json`` and the key when one is unknown, missing or wrong."""
+    from ..errors import CheckpointError
+    from .args import option_name
+    from .checkpoint import ARGS_FILE, read_args
 
     run = Path(args.resume)
     saved = read_args(run)
+    p = run / ARGS_FILE
     known = {f.name for f in dataclasses.fields(Args)}
-    unknown = sorted(set(saved) - known)
-    if unknown:
-        raise ArgumentError(f"--resume {run}: {run / 'args.json'} has unknown arguments {unknown}")
+    for k in sorted(set(saved) - known):
+        raise CheckpointError(f"{p}: key {k!r}: found an unknown argument, expected only the options of "
+                              "tin-swarm train")
+    for k in sorted(known - set(saved) - {"trust_pickle"}):
+        raise CheckpointError(f"{p}: key {k!r}: found nothing (missing), expected the run's {option_name(k)}")
+    for k in ("out_dir", "resume"):
+        if not isinstance(saved[k], str):
+            raise CheckpointError(f"{p}: key {k!r}: found {type(saved[k]).__name__}, expected a string")
+    if saved["resume"]:
+        raise CheckpointError(f"{p}: key 'resume': found {saved['resume']!r}, expected \"\" (a run's own arguments)")
     try:
-        new = Args(**{**saved, "out_dir": str(run), "resume": ""})
+        new = Args(**{**saved, "out_dir": str(run), "resume": "", "trust_pickle": args.trust_pickle})
+        check_args(new)
     except ArgumentError as exc:
-        raise ArgumentError(f"--resume {run}: its args.json: {exc}") from None
-    return new, last_checkpoint(run)
+        raise CheckpointError(f"{p}: {exc}") from None
+    return new, run
+
+
+def run_info(args: Args, vec) -> dict:
+    """What a checkpoint's network was built for (its ``state.json`` ``run``; a resume compares
+    it key by key): scenario, robots, environment copies, observation layout, network."""
+    layout = vec.envs[0].layout
+    info = {"scenario": args.scenario, "n_robots": args.n_robots, "n_copies": len(vec.envs),
+            "obs_size": int(layout.size), "layout": layout.to_dict(), "net_arch": _net_arch(args.net_arch),
+            "policy": "recurrent" if args.recurrent else "mirror" if args.symmetry == "mirror" else "mlp",
+            "lstm_hidden": args.lstm_hidden if args.recurrent else 0, "shield": args.shield}
+    return json.loads(json.dumps(info))  # as it reads back from state.json (tuples as lists)
+
+
+def _resume_model(args: Args, run: Path, vec, tb, trust_pickle: bool):
+    """``(model, checkpoint)`` continuing ``run`` from its last checkpoint, every checkpoint of it
+    read and checked first (:mod:`.checkpoint`); ``(None, None)`` when it has none."""
+    from .checkpoint import LEGACY_MODEL, check_against_model, read_checkpoints, restore, restore_rng
+
+    cks = read_checkpoints(run, n_copies=len(vec.envs), run_info=run_info(args, vec), trust_pickle=trust_pickle)
+    if not cks:
+        return None, None
+    last = cks[-1]
+    if last.legacy:  # an older version's SB3 pickle, allowed by --trust-pickle
+        model = _model_class(args).load(last.path / LEGACY_MODEL, env=vec, device="cpu", tensorboard_log=tb)
+        restore_rng(last.path, last.state, vec, last.torch_rng)
+        return model, last
+    model = build_model(args, vec, tb)
+    for ck in cks:
+        check_against_model(ck, model)
+    restore(last, model, vec)
+    return model, last
 
 
 def train(args: Args) -> Path:
@@ -509,9 +554,9 @@ def train(args: Args) -> Path:
     the path of ``model.zip`` (the pickle-free policy is its sibling ``policy/``; with ``--student
     gru`` the recurrent ``policy/`` itself, :func:`train_student`). With
     ``args.resume`` a killed run continues from its last checkpoint (:mod:`.checkpoint`)."""
-    ckpt = None
+    resume_run, trust_pickle = None, args.trust_pickle
     if args.resume:
-        args, ckpt = _resumed(args)
+        args, resume_run = _resumed(args)
     check_args(args)
     if args.student == "gru" or args.head == "categorical":
         out = run_dir(args)
@@ -520,13 +565,10 @@ def train(args: Args) -> Path:
     torch = require("torch", "train", "Training with Stable-Baselines3")
     require("stable_baselines3", "train", "Training with Stable-Baselines3")
     from ..adapters import make_sb3_vec_env
-    from .checkpoint import restore_rng, write_args, write_checkpoint
+    from .checkpoint import ARGS_FILE, remove_unfinished, write_args, write_checkpoint
 
     torch.set_num_threads(args.torch_threads)
     out = run_dir(args)
-    out.mkdir(parents=True, exist_ok=True)
-    if ckpt is None:
-        write_args(out, dataclasses.asdict(args))
     scen = scenarios_of(args)
     # every robot of every copy is one SB3 sub-environment; a mix holds n_envs copies of each scenario
     kw = {"max_cycles": args.max_cycles} if args.max_cycles else {}
@@ -534,16 +576,25 @@ def train(args: Args) -> Path:
                            n_envs=args.n_envs * len(scen), seed=args.seed, shield=args.shield, **kw)
     rows, t0 = [], time.perf_counter()
     tb = str(out / "tb") if _has("tensorboard") else None
+    info = run_info(args, vec)
 
     def extra(rows_now, next_eval):
         return {"eval_rows": rows_now, "minutes": (time.perf_counter() - t0) / 60, "next_eval": next_eval,
-                "imitation": imitation}
+                "imitation": imitation, "run": info}
 
-    next_eval = None
+    next_eval, model, ckpt = None, None, None
+    if resume_run is not None:
+        try:  # every checkpoint read and checked before anything is written
+            model, ckpt = _resume_model(args, resume_run, vec, tb, trust_pickle)
+        except BaseException:
+            vec.close()
+            raise
+        remove_unfinished(out)
+    out.mkdir(parents=True, exist_ok=True)
+    if not (out / ARGS_FILE).exists() or resume_run is None:
+        write_args(out, {k: v for k, v in dataclasses.asdict(args).items() if k != "trust_pickle"})
     if ckpt is not None:
-        path, state = ckpt
-        model = _model_class(args).load(path / "model.zip", env=vec, device="cpu", tensorboard_log=tb)
-        restore_rng(path, state, vec)
+        path, state = ckpt.path, ckpt.state
         rows, imitation, next_eval = list(state["eval_rows"]), state["imitation"], state["next_eval"]
         t0 -= 60 * state["minutes"]
         print(f"resuming {out} from {path.name}: {model.num_timesteps} of {args.total_timesteps} timesteps done")
