@@ -1,6 +1,8 @@
 """``tin-swarm train --resume``: a tiny training run is SIGKILLed in the middle of writing a
 checkpoint, resumed, and finishes with a complete ``model.zip``, ``policy/`` and ``eval.csv``
-whose evaluation history before the kill is kept; the checkpoint directory logic on its own."""
+whose evaluation history before the kill is kept; checkpoints are data: any damage to any file of a
+real run directory is refused with one line naming the file and changes nothing, a pickle planted
+in a checkpoint does not run, a checkpoint of another network or scenario is refused."""
 
 from __future__ import annotations
 
@@ -81,27 +83,237 @@ def test_a_killed_training_run_resumes_and_finishes_complete(tmp_path):
     assert json.loads((run / "model.json").read_text())["timesteps"] == 384
 
 
-def test_last_checkpoint_skips_unfinished_and_damaged_ones(tmp_path):
-    from tin_swarm_env.apps.checkpoint import last_checkpoint
-
-    root = tmp_path / "checkpoints"
-    assert last_checkpoint(tmp_path) is None
-    for n, state in ((100, {"num_timesteps": 100}), (200, None), (300, {"num_timesteps": 300})):
-        d = root / f"step_{n}"
-        d.mkdir(parents=True)
-        (d / "model.zip").write_bytes(b"")
-        (d / "state.json").write_text(json.dumps(state) if state else "{not json")
-    (root / "step_400").mkdir()  # no files: not complete
-    (root / ".step_500.part").mkdir()
-    path, state = last_checkpoint(tmp_path)
-    assert path.name == "step_300" and state == {"num_timesteps": 300}
-    assert not (root / ".step_500.part").exists()
-    (root / "step_300" / "state.json").write_text("[")
-    assert last_checkpoint(tmp_path)[0].name == "step_100"  # a damaged one: the one before it
-
-
 def test_resume_refuses_a_directory_that_is_not_a_run(tmp_path):
     from tin_swarm_env.apps.cli import main
 
     assert main(["train", "flat", "--resume", str(tmp_path / "nope")]) == 2
     assert main(["train", "flat", "--resume", str(tmp_path)]) == 2
+
+
+# -- checkpoints are data ---------------------------------------------------------------------
+
+TINY = dict(scenario="flat", n_robots=2, n_envs=1, max_cycles=20, total_timesteps=64, n_steps=32, batch_size=32,
+            n_epochs=1, net_arch="8", eval_every=32, eval_episodes=1, checkpoint_every=32, progress_bar=False)
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    """A real run directory: args.json and two checkpoints (step_32, step_64) of a tiny PPO run."""
+    pytest.importorskip("stable_baselines3")
+    import tin_swarm_env.apps.train as T
+
+    run = tmp_path_factory.mktemp("tiny") / "run"
+    T.train(T.Args(**TINY, out_dir=str(run)))
+    assert sorted(p.name for p in (run / "checkpoints").iterdir()) == ["step_32", "step_64"]
+    return run
+
+
+def _copy(run, dest):
+    import shutil
+
+    shutil.copytree(run, dest)
+    return dest
+
+
+def _snapshot(d):
+    return {str(p.relative_to(d)): (p.read_bytes() if p.is_file() else None) for p in sorted(Path(d).rglob("*"))}
+
+
+def _resume(run, *extra):
+    """``tin-swarm train flat --resume RUN``: (exit status, stderr lines, stdout)."""
+    import contextlib
+    import io
+
+    from tin_swarm_env.apps.cli import main
+
+    err, out = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
+        rc = main(["train", "flat", "--resume", str(run), *extra])
+    return rc, err.getvalue().splitlines(), out.getvalue()
+
+
+CKPT_FILES = ["args.json"] + [f"checkpoints/step_{n}/{f}" for n in (32, 64)
+                              for f in ("state.json", "policy.npz", "optimizer.npz", "torch_rng.npy")]
+# a value of another JSON kind than the one there: a number never replaces a number (an int for a float is fine)
+_OTHER = {"number": ["x", [1], {"a": 1}, True, None], "str": [7, [1], {"a": 1}, True, None],
+          "list": [7, "x", {"a": 1}, True, None], "dict": [7, "x", [1], True, None],
+          "bool": [7, "x", [1], {"a": 1}, None], "null": [7, "x", [1], {"a": 1}, True]}
+_NULL_OK = ("imitation", "env_rng[", "rng.python[2]")  # where null is allowed (those paths not swapped)
+
+
+def _kind(v):
+    return ("bool" if isinstance(v, bool) else "number" if isinstance(v, (int, float)) else "str" if isinstance(v, str)
+            else "list" if isinstance(v, list) else "dict" if isinstance(v, dict) else "null")
+
+
+def _paths(v, prefix=""):
+    """Every place in a JSON value (lists: their first and last items), as (label, getter path)."""
+    out = []
+    items = v.items() if isinstance(v, dict) else ((i, x) for i, x in enumerate(v)) if isinstance(v, list) else ()
+    items = list(items)
+    if isinstance(v, list) and len(items) > 2:
+        items = [items[0], items[-1]]
+    for k, x in items:
+        label = f"{prefix}.{k}" if isinstance(k, str) else f"{prefix}[{k}]"
+        label = label.lstrip(".")
+        out.append((label, (k,)))
+        out += [(lab, (k, *path)) for lab, path in _paths(x, label)]
+    return out
+
+
+def _corrupt(path: Path, data):
+    """Apply one drawn corruption to ``path``: random bytes, a truncation or (JSON) a value of another type."""
+    raw = path.read_bytes()
+    how = data.draw(__import__("hypothesis").strategies.sampled_from(
+        ["bytes", "truncate", "swap"] if path.suffix == ".json" else ["bytes", "truncate"]), label="how")
+    st = __import__("hypothesis").strategies
+    if how == "bytes":
+        path.write_bytes(data.draw(st.binary(max_size=2000), label="bytes"))
+    elif how == "truncate":
+        path.write_bytes(raw[:data.draw(st.integers(0, len(raw) - 1), label="keep")])
+    else:
+        doc = json.loads(raw)
+        places = [(lab, p) for lab, p in _paths(doc)
+                  if not lab.startswith(_NULL_OK) and lab not in ("trust_pickle",)]
+        lab, where = data.draw(st.sampled_from(places), label="key")
+        parent = doc
+        for k in where[:-1]:
+            parent = parent[k]
+        parent[where[-1]] = data.draw(st.sampled_from(_OTHER[_kind(parent[where[-1]])]), label="value")
+        path.write_text(json.dumps(doc))
+    return how
+
+
+def test_any_damage_to_any_checkpoint_file_is_one_line_naming_it_and_changes_nothing(tiny_run):
+    import tempfile
+
+    from hypothesis import given, settings, strategies as st
+
+    @settings(max_examples=40, deadline=None, derandomize=True)
+    @given(rel=st.sampled_from(CKPT_FILES), data=st.data())
+    def check(rel, data):
+        with tempfile.TemporaryDirectory() as d:
+            run = _copy(tiny_run, Path(d) / "run")
+            _corrupt(run / rel, data)
+            (run / "checkpoints" / ".step_96.part").mkdir()  # an unfinished one: kept, as everything else
+            before = _snapshot(run)
+            rc, err, _ = _resume(run)
+            assert rc == 2, err
+            assert len(err) == 1 and "Traceback" not in err[0], err
+            assert str(run / rel) in err[0], (rel, err)
+            assert _snapshot(run) == before
+
+    check()
+
+
+def _payload_pickle(marker: Path) -> bytes:
+    import pickle
+
+    return pickle.dumps(_Marker(marker))
+
+
+def test_a_pickle_planted_in_a_checkpoint_does_not_run(tiny_run, tmp_path):
+    import base64
+    import zipfile
+
+    import numpy as np
+
+    marker = tmp_path / "PWNED"
+    payload = _payload_pickle(marker)
+    # 1. the network file of the checkpoint: an object array (np.save pickles it)
+    run = _copy(tiny_run, tmp_path / "a")
+    ck = run / "checkpoints" / "step_64"
+    with open(ck / "policy.npz", "wb") as fh:
+        np.savez(fh, log_std=np.array([_Marker(marker), 1], dtype=object))
+    assert not marker.exists()
+    before = _snapshot(run)
+    rc, err, _ = _resume(run)
+    assert rc == 2 and len(err) == 1 and str(ck / "policy.npz") in err[0], err
+    assert not marker.exists() and _snapshot(run) == before
+    np.load(ck / "policy.npz", allow_pickle=True)["log_std"]  # the control: unpickled, the payload runs
+    assert marker.exists()
+    marker.unlink()
+
+    # 2. an older version's checkpoint: an SB3 model.zip whose data carries a pickle
+    run = _copy(tiny_run, tmp_path / "b")
+    for n in (32, 64):
+        ck = run / "checkpoints" / f"step_{n}"
+        (ck / "policy.npz").unlink()
+        (ck / "optimizer.npz").unlink()
+        st = json.loads((ck / "state.json").read_text())
+        for k in ("format", "version", "n_updates", "run"):
+            del st[k]
+        (ck / "state.json").write_text(json.dumps(st))
+        data = {"policy_class": {":type:": "<class 'abc.ABCMeta'>",
+                                 ":serialized:": base64.b64encode(payload).decode()}}
+        with zipfile.ZipFile(ck / "model.zip", "w") as zf:
+            zf.writestr("data", json.dumps(data))
+    before = _snapshot(run)
+    rc, err, _ = _resume(run)
+    assert rc == 2 and len(err) == 1, err
+    assert str(run / "checkpoints" / "step_32" / "model.zip") in err[0] and "--trust-pickle" in err[0]
+    assert not marker.exists() and _snapshot(run) == before
+    _resume(run, "--trust-pickle")  # the control: with --trust-pickle SB3 unpickles it (and the payload runs)
+    assert marker.exists()
+
+
+class _Marker:
+    """Unpickling it creates the file ``marker`` (the stand-in for any code a pickle can run)."""
+
+    def __init__(self, marker):
+        self.marker = str(marker)
+
+    def __reduce__(self):
+        return (open, (self.marker, "w"))
+
+
+def test_a_checkpoint_of_another_network_or_scenario_is_refused_naming_file_key_found_expected(tiny_run, tmp_path):
+    import numpy as np
+
+    # args.json says 16 units, the checkpoints were built with 8
+    run = _copy(tiny_run, tmp_path / "a")
+    a = json.loads((run / "args.json").read_text())
+    (run / "args.json").write_text(json.dumps({**a, "net_arch": "16"}))
+    before = _snapshot(run)
+    rc, err, _ = _resume(run)
+    assert rc == 2 and len(err) == 1
+    assert str(run / "checkpoints" / "step_32" / "state.json") in err[0] and "'run.net_arch'" in err[0]
+    assert "found [8]" in err[0] and "expected [16]" in err[0]
+    assert _snapshot(run) == before
+    # the run info edited to match as well: the tensors' shapes still do not
+    for n in (32, 64):
+        p = run / "checkpoints" / f"step_{n}" / "state.json"
+        st = json.loads(p.read_text())
+        st["run"]["net_arch"] = [16]
+        p.write_text(json.dumps(st))
+    before = _snapshot(run)
+    rc, err, _ = _resume(run)
+    assert rc == 2 and len(err) == 1
+    assert str(run / "checkpoints" / "step_32" / "policy.npz") in err[0] and "found float32 (2, 8)" in err[0] and "expected float32 (2, 16)" in err[0]
+    assert _snapshot(run) == before
+    # another scenario than the run's
+    import contextlib
+    import io
+
+    from tin_swarm_env.apps.cli import main
+
+    e = io.StringIO()
+    with contextlib.redirect_stderr(e):
+        assert main(["train", "ramp", "--resume", str(tiny_run)]) == 2
+    assert "args.json" in e.getvalue() and "'scenario'" in e.getvalue() and "'flat'" in e.getvalue()
+    # a policy tensor of the right shape but another dtype
+    run = _copy(tiny_run, tmp_path / "b")
+    p = run / "checkpoints" / "step_64" / "policy.npz"
+    arrays = dict(np.load(p))
+    arrays["log_std"] = arrays["log_std"].astype(np.float64)
+    np.savez(p, **arrays)
+    rc, err, _ = _resume(run)
+    assert rc == 2 and str(p) in err[0] and "log_std" in err[0] and "float64" in err[0]
+
+
+def test_json_nested_too_deep_is_refused_before_parsing(tiny_run, tmp_path):
+    run = _copy(tiny_run, tmp_path / "a")
+    p = run / "checkpoints" / "step_64" / "state.json"
+    p.write_text("[" * 100_000 + "]" * 100_000)
+    rc, err, _ = _resume(run)
+    assert rc == 2 and len(err) == 1 and str(p) in err[0] and "nested 100000 levels" in err[0]
