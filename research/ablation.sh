@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # The ablation table (docs/figures/ablation.md) (run by hand, one after the other, ~35 min
 # on 2 cores; agents/reproduce_shared.sh gives the BC+DAgger and BC+DAgger+PPO rows):
-#   bash agents/ablation.sh            # outputs in runs/ablation/*
+#   bash research/ablation.sh            # outputs in runs/ablation/*
 # * ppo_geodesic:  PPO from scratch, geodesic progress reward, the shared policy's terrain mix
-# * ppo_euclidean: the same with the straight-line progress reward (agents/scenarios/*_euclid.toml)
+# * ppo_euclidean: the same with the straight-line progress reward (research/scenarios/*_euclid.toml)
 # * bc_fixed:      BC + DAgger (the shared recipe's imitation) on the fixed maps cliff_goal and ramp only
 # Each PPO run gets MINUTES (default 12) of wall clock; the same network, shield and PPO settings as
 # agents/reproduce_shared.sh.
@@ -17,7 +17,7 @@ PPO="--n-robots 8 --n-envs 2 --net-arch 256,256 --shield safety_cut --learning-r
   --checkpoint-every 1000000 --seed 0 --progress-bar false"
 $PY agents/train_sb3.py --scenario generated,generated,cliff_goal,ramp $PPO --total-timesteps 50000000 \
   --max-minutes "$MINUTES" --out-dir runs/ablation/ppo_geodesic > runs/ablation/ppo_geodesic.log 2>&1
-E=agents/scenarios
+E=research/scenarios
 $PY agents/train_sb3.py --scenario $E/generated_euclid.toml,$E/generated_euclid.toml,$E/cliff_goal_euclid.toml,$E/ramp_euclid.toml \
   $PPO --total-timesteps 50000000 --max-minutes "$MINUTES" --out-dir runs/ablation/ppo_euclidean \
   > runs/ablation/ppo_euclidean.log 2>&1

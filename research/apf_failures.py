@@ -1,8 +1,8 @@
 """Every APF robot that does not arrive, classified by mechanism from its logged boundary-search
 memory (:class:`~tin_swarm_env.policies.bug.BugMemory`) and its track. By hand:
 
-    python bench/apf_failures.py                  # fork, mesa, canyon, trap; 50 held-out seeds x 20 robots;
-                                                  # writes docs/figures/apf_failures.md
+    python research/apf_failures.py                  # fork, mesa, canyon, trap; 50 held-out seeds x 20 robots;
+                                                  # writes research/apf_failures.md
     [--families fork,mesa] [--seeds 50] [--first 0] [--robots N] [--examples 3] [--out FILE] [--print]
 
 Each episode runs through :func:`~tin_swarm_env.apps.rollout.rollout` with the seeds ``bench/apf.py``
@@ -310,7 +310,7 @@ def main(argv=None):
     ap.add_argument("--first", type=int, default=0, help="first held-out seed (k in EVAL_SEED0 + k)")
     ap.add_argument("--robots", type=int, default=None)
     ap.add_argument("--examples", type=int, default=3)
-    ap.add_argument("--out", default=str(ROOT / "docs" / "figures" / "apf_failures.md"))
+    ap.add_argument("--out", default=str(ROOT / "research" / "apf_failures.md"))
     ap.add_argument("--print", action="store_true", help="print only, write no file")
     ap.add_argument("--save", default="", help="also pickle the per-robot records to this file")
     args = ap.parse_args(argv)
@@ -324,14 +324,14 @@ def main(argv=None):
 
         Path(args.save).write_bytes(pickle.dumps(res))
     lines = []
-    cmd = "python bench/apf_failures.py" + ("" if argv is None else " " + " ".join(argv))
+    cmd = "python research/apf_failures.py" + ("" if argv is None else " " + " ".join(argv))
     if argv is None:
-        cmd = "python bench/apf_failures.py " + " ".join(sys.argv[1:])
+        cmd = "python research/apf_failures.py " + " ".join(sys.argv[1:])
     lines.append(f"Measured with `{cmd.strip()}` at commit {commit.strip()}, "
                  f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load average "
                  f"{load0[0]:.2f} / {load0[1]:.2f} / {load0[2]:.2f} at the start.\n")
     lines.append(f"APF robots that did not arrive, {args.seeds} held-out seeds per family (from EVAL_SEED0 + "
-                 f"{args.first}), by mechanism (the classes: `CLASSES` and `classify` in bench/apf_failures.py).\n")
+                 f"{args.first}), by mechanism (the classes: `CLASSES` and `classify` in research/apf_failures.py).\n")
     tables(res, args.examples, lines.append)
     text = "\n".join(lines) + "\n"
     print(text)

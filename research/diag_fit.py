@@ -1,9 +1,9 @@
-"""Why the GRU student underfits APF's labels (docs/figures/teacher_multimodal.md, "Fourth run"): small
-fits of the students of agents/train_multimodal.py on one fixed data set, each until its loss stops
+"""Why the GRU student underfits APF's labels (research/teacher_multimodal.md, "Fourth run"): small
+fits of the students of research/train_multimodal.py on one fixed data set, each until its loss stops
 falling, with the cross-entropy on held-out episodes after every epoch.
 
-    python agents/diag_fit.py collect --out runs/fitdiag/data.npz      # once: the fixed data set
-    python agents/diag_fit.py fit --data runs/fitdiag/data.npz --variants gru,gru_chunk,mlp --epochs 30
+    python research/diag_fit.py collect --out runs/fitdiag/data.npz      # once: the fixed data set
+    python research/diag_fit.py fit --data runs/fitdiag/data.npz --variants gru,gru_chunk,mlp --epochs 30
 
 ``collect``: the recipe's scenarios (``generated, generated, cliff_goal, ramp``, 8 robots), labelled by
 ``apf_student`` (tin_swarm_env/apps/apf_teacher.py): ``--bc`` episodes APF drove (as BC) and ``--dagger``

@@ -1,5 +1,5 @@
-"""What the students of agents/train_multimodal.py do where the map-knowing teacher turns
-(docs/figures/teacher_multimodal.md, "Where it fails"): the teacher (GeodesicPolicy) labels every live
+"""What the students of research/train_multimodal.py do where the map-knowing teacher turns
+(research/teacher_multimodal.md, "Where it fails"): the teacher (GeodesicPolicy) labels every live
 robot-step, on held-out generated seeds, in two regimes:
 
 * ``teacher`` drives: the states imitation trained on (the teacher's own trajectories);
@@ -10,7 +10,7 @@ At the steps where the teacher turns (``|vy| > 0.5`` in its label) it prints the
 classes, the ``-y`` classes, straight on (``vy = 0``), and the side the teacher took; then the share of
 such steps, and how often a robot's commanded side (sign of ``vy``, ignoring zeros) flips, per 100 steps.
 
-    python agents/diag_multimodal.py --scenario runs/eval_multimodal/cfg/gen_canyon.toml \\
+    python research/diag_multimodal.py --scenario runs/eval_multimodal/cfg/gen_canyon.toml \\
         --models mlp_mse=runs/multimodal/mlp_mse/policy,gru_cat=runs/multimodal/gru_cat/policy
 
 ``--teacher apf_student`` labels with APF along the driven trajectory instead (tin_swarm_env/apps/apf_teacher.py:
@@ -18,7 +18,7 @@ it is told each step's executed command); the last column then counts the steps 
 student's side, per 100 robot-steps (the geodesic teacher: 0). The two columns before it count, the same way as
 the student's side flips, the side of the teacher's label (sign of its ``vy``; for a categorical student the
 label snapped to its head's nearest class, as the student only ever commands a class; the raw label's sign
-changes far more often: docs/figures/teacher_multimodal.md, fifth run) and, for APF, the side its memory follows
+changes far more often: research/teacher_multimodal.md, fifth run) and, for APF, the side its memory follows
 (``BugMemory.side``, :func:`~tin_swarm_env.apps.imitation.teacher_side`): with the teacher driving, APF's own
 side flips per 100 steps beside the student's.
 """

@@ -1,12 +1,12 @@
-"""Does a head that reads the side help? (docs/figures/teacher_multimodal.md, fifth run, "Next".) On the fixed
-data set of agents/diag_fit.py: a GRU whose action head also reads a side (one-hot over -1, 0, +1), fitted with
+"""Does a head that reads the side help? (research/teacher_multimodal.md, fifth run, "Next".) On the fixed
+data set of research/diag_fit.py: a GRU whose action head also reads a side (one-hot over -1, 0, +1), fitted with
 APF's side given (teacher forcing: ``Sequence.aux``) beside the side read-out's cross-entropy, and acting with the
 read-out's own side (its argmax) in closed loop; against diag_fit's ``gru_aux1`` (the read-out fitted, the head
 reading the GRU alone) and ``gru_chunk`` (no read-out). Each fitted student then drives ``--seeds`` held-out
 episodes of each ``--drive`` scenario to their end, acting by the mode through the shield, labelled by
 ``apf_student``: the robots' arrival and :func:`diag_fit.side_stats` along their own way. Torch on 1 thread.
 
-    python agents/diag_sidehead.py --data runs/fitdiag6/data.npz --drive gen_canyon.toml,gen_mesa.toml --seeds 3
+    python research/diag_sidehead.py --data runs/fitdiag6/data.npz --drive gen_canyon.toml,gen_mesa.toml --seeds 3
 
 Not a policy file: the side-reading head is an experiment (the file format has no such input).
 """

@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
-# Evaluates the students of agents/train_multimodal.py (docs/figures/teacher_multimodal.md): held-out generated
+# Evaluates the students of research/train_multimodal.py (research/teacher_multimodal.md): held-out generated
 # seeds of the canyon, mesa and fork families (10 seeds x 20 robots, one TOML per family), then canyon_left and its
 # mirror image canyon_right (3 seeds x 20 robots). The categorical students are played three ways: acting by the
 # mode (as trained), by "side" and by a seeded per-robot draw (copies of the file with another "acting").
-#   flock /tmp/heavy.lock bash agents/eval_multimodal.sh families      # then: ... canyons
+#   flock /tmp/heavy.lock bash research/eval_multimodal.sh families      # then: ... canyons
 # The second run (train_multimodal.py --recipe student, files acting by "sample"):
 #   RUN=runs/multimodal2 OUT=runs/eval_multimodal2 TWINS="gru_fb gru_cat0 mlp_cat0" ACTINGS="mode side" \
 #     MODELS=gru_fb=runs/multimodal2/gru_fb/policy,gru_fb_mode=runs/multimodal2/gru_fb_mode/policy,... \
-#     flock /tmp/heavy.lock bash agents/eval_multimodal.sh families
+#     flock /tmp/heavy.lock bash research/eval_multimodal.sh families
 # POLICIES= (empty) leaves APF out (default: apf).
 set -e
 cd "$(dirname "$0")/.."

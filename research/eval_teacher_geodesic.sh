@@ -3,9 +3,9 @@
 # RUN/policy_imitation: BC+DAgger, RUN/policy: after PPO) against APF, the geodesic reference and the shipped
 # policy: held-out generated seeds per family (10 seeds x 20 robots; one TOML per family, written to
 # runs/eval_cfg/), then the standard suite (its mirrored canyon_left/valley, fork/trap, thesis maps, jacksboro).
-# docs/figures/teacher_geodesic.md quotes both tables.
-#   flock /tmp/heavy.lock bash agents/eval_teacher_geodesic.sh            # RUN=runs/geodesic
-#   MODELS=geo_bc=runs/geodesic/policy_imitation POLICIES=apf,geodesic SUITE=0 bash agents/eval_teacher_geodesic.sh
+# research/teacher_geodesic.md quotes both tables.
+#   flock /tmp/heavy.lock bash research/eval_teacher_geodesic.sh            # RUN=runs/geodesic
+#   MODELS=geo_bc=runs/geodesic/policy_imitation POLICIES=apf,geodesic SUITE=0 bash research/eval_teacher_geodesic.sh
 set -e
 cd "$(dirname "$0")/.."
 PY=${PY:-python}

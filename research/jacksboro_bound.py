@@ -1,11 +1,11 @@
 """What the jacksboro bar of issue #22 (>= 95% arrived within 1800 steps, 0 fell; >= 72% within 900)
 asks of APF's boundary search: how much a side rule can buy, and how much wrong-way driving the bar
-tolerates. Writes ``docs/figures/jacksboro_bound.md``:
+tolerates. Writes ``research/jacksboro_bound.md``:
 
-    python bench/jacksboro_bound.py [--seeds 3] [--mirror-seeds 2] [--north-steps 6000] [--out FILE]
+    python research/jacksboro_bound.py [--seeds 3] [--mirror-seeds 2] [--north-steps 6000] [--out FILE]
 
 The APF robots that never arrive on jacksboro are the ones assigned target 1 (67 of 200), see
-``docs/figures/apf_notes.md``. Every variant below is :class:`~tin_swarm_env.policies.APFPolicy`
+``research/apf_notes.md``. Every variant below is :class:`~tin_swarm_env.policies.APFPolicy`
 with one thing changed, the side a *fresh* search starts on (``bug._start_side``, swapped in for
 the run) and/or the turn-back budget (:class:`~tin_swarm_env.policies.bug.BugParams`):
 
@@ -47,7 +47,7 @@ from tin_swarm_env.scenario.mirror import mirror_scenario
 from tin_swarm_env.world.state import Reason
 
 ROOT = Path(__file__).resolve().parents[1]
-HARD = 1  # the target whose robots APF loses (docs/figures/apf_notes.md)
+HARD = 1  # the target whose robots APF loses (research/apf_notes.md)
 BUDGETS = {"as is": BugParams(), "small": BugParams(first_budget=0.5, min_budget=1.0),
            "none": BugParams(first_budget=1e9)}
 VARIANTS = [("rule", "as is"), ("rule", "small"), ("oracle", "as is"), ("oracle", "none"), ("keep", "as is"),
@@ -138,7 +138,7 @@ def _median_hard(eps):
 def _header(argv) -> str:
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
                             text=True, check=False).stdout.strip() or "?"
-    cmd = " ".join(["python bench/jacksboro_bound.py", *argv])
+    cmd = " ".join(["python research/jacksboro_bound.py", *argv])
     return (f"Measured with `{cmd}` at commit {commit}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
             f"load average {_load()} at the start ({os.cpu_count()} cores, shared).")
 
@@ -153,7 +153,7 @@ def main(argv=None):
     p.add_argument("--seeds", type=int, default=3)
     p.add_argument("--mirror-seeds", type=int, default=2)
     p.add_argument("--north-steps", type=int, default=6000, help="episode length of the way-round-north run")
-    p.add_argument("--out", default=str(ROOT / "docs" / "figures" / "jacksboro_bound.md"))
+    p.add_argument("--out", default=str(ROOT / "research" / "jacksboro_bound.md"))
     args = p.parse_args(argv)
     lines = [_header(argv), ""]
 
@@ -164,7 +164,7 @@ def main(argv=None):
     base = load_scenario("jacksboro")
     cfgs = {"": base, "ns": mirror_scenario(base, "ns"), "ew": mirror_scenario(base, "ew")}
     emit(f"jacksboro, 200 robots, 1800-step episodes, seeds 0..{args.seeds - 1} (mirror images: seeds "
-         f"0..{args.mirror_seeds - 1}); the variants are in the module docstring of `bench/jacksboro_bound.py`. "
+         f"0..{args.mirror_seeds - 1}); the variants are in the module docstring of `research/jacksboro_bound.py`. "
          f"Target-{HARD} robots: the robots assigned the target APF loses (67 of 200). s: seconds per row.\n")
     emit("| map | side of a fresh search | budget | arrived by 900 | by 1800 | fell | target-1 robots arrived by "
          "1800 | their median step | s |")

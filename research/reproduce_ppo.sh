@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The two PPO runs of docs/figures/historical_ppo.md: 27 minutes each on the 2-core machine, one after the
-# other (run by hand: bash agents/reproduce_ppo.sh; outputs in runs/), then the table:
+# The two PPO runs of research/historical_ppo.md: 27 minutes each on the 2-core machine, one after the
+# other (run by hand: bash research/reproduce_ppo.sh; outputs in runs/), then the table:
 #   python agents/evaluate.py --scenarios cliff_goal,ramp --seeds 20 \
 #     --models runs/ppo_cliff_goal/model.zip,runs/ppo_ramp/model.zip --out runs/eval
 set -e

@@ -1,8 +1,8 @@
 """How much of issue #22's bars the *observation* allows: an idealised map-less robot, given what a
 sensor could tell it, against the same robot given only what the observation's break slots hold.
-Writes ``docs/figures/sensing_bound.md``:
+Writes ``research/sensing_bound.md``:
 
-    python bench/sensing_bound.py [--families fork] [--seed-offsets 0,100] [--seeds 50]
+    python research/sensing_bound.py [--families fork] [--seed-offsets 0,100] [--seeds 50]
                                   [--jacksboro-seeds 1] [--out FILE]
 
 The idealised robot is a point that plans the shortest 8-connected way to its target on a raster of
@@ -37,7 +37,7 @@ the real observation.
 
 Generated rows: the ``generated`` scenario restricted to one family (``bench/apf.py``'s rows), 20
 robots, held-out seeds ``EVAL_SEED0 + offset`` on, the scenario's episode length. jacksboro rows:
-the target-1 robots (67 of 200, the ones APF loses; ``docs/figures/apf_notes.md``) of seeds
+the target-1 robots (67 of 200, the ones APF loses; ``research/apf_notes.md``) of seeds
 ``0..`` on the part of the map ``--jacksboro-window`` (which holds every target and the spawn
 region), 1800 steps, raster ``--jacksboro-res`` m.
 """
@@ -390,7 +390,7 @@ def _summary(res, max_steps):
 def _header(argv) -> str:
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
                             text=True, check=False).stdout.strip() or "?"
-    cmd = " ".join(["python bench/sensing_bound.py", *argv])
+    cmd = " ".join(["python research/sensing_bound.py", *argv])
     return (f"Measured with `{cmd}` at commit {commit}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
             f"load average {_load()} at the start ({os.cpu_count()} cores, shared).")
 
@@ -453,7 +453,7 @@ def main(argv=None):
     p.add_argument("--chart-cells", type=_cells, default=[ChartParams.cells],
                    help="chart sizes of the chart search rows (ChartParams.cells), comma-separated")
     p.add_argument("--jobs", type=int, default=2)
-    p.add_argument("--out", default=str(ROOT / "docs" / "figures" / "sensing_bound.md"))
+    p.add_argument("--out", default=str(ROOT / "research" / "sensing_bound.md"))
     args = p.parse_args(argv)
     lines = [_header(argv), ""]
 
@@ -461,7 +461,7 @@ def main(argv=None):
         print(line, flush=True)
         lines.append(line)
 
-    emit("The models are in the module docstring of `bench/sensing_bound.py`. arrived: share of the robots run that "
+    emit("The models are in the module docstring of `research/sensing_bound.py`. arrived: share of the robots run that "
          "reach their target within the episode (generated: the scenario's 1000 steps; jacksboro: 1800); by half: "
          "within half of it (jacksboro: 900 steps, issue #22's other bar); steps: "
          "median step of arrival of those that do, beside the shortest drivable path's at top speed (geodesic); "

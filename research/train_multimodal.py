@@ -1,4 +1,4 @@
-"""The multimodal-head experiment (docs/figures/teacher_multimodal.md): three students imitate the
+"""The multimodal-head experiment (research/teacher_multimodal.md): three students imitate the
 map-knowing teacher (GeodesicPolicy) by BC + DAgger on the same data recipe, all mirror-equivariant
 and shielded, differing only in the head and the memory:
 
@@ -6,7 +6,7 @@ and shielded, differing only in the head and the memory:
     mlp_cat  the same MLP with a categorical head (policies/heads.py), fitted by likelihood
     gru_cat  a GRU before that head (memory)
 
-    nice -n 19 python agents/train_multimodal.py --out runs/multimodal [--only mlp_cat,gru_cat]
+    nice -n 19 python research/train_multimodal.py --out runs/multimodal [--only mlp_cat,gru_cat]
 
 The second run (``--recipe student``, variants ``*0`` and ``gru_fb``): DAgger with the student driving
 every step (beta 0 after BC), no stall filter (the stuck states stay, labelled by the teacher), 4
@@ -16,7 +16,7 @@ rounds of 12 episodes, every file acting by a seeded draw ("sample") while it co
     gru_cat0  gru_cat on that recipe
     gru_fb    gru_cat0 with the previous commanded action fed to the GRU (``--feedback action``)
 
-    nice -n 19 python agents/train_multimodal.py --recipe student --out runs/multimodal2
+    nice -n 19 python research/train_multimodal.py --recipe student --out runs/multimodal2
 
 The third run (``--recipe apf``): the student recipe with APF as the teacher along the student's own
 trajectory (``teacher="apf_student"``: tin_swarm_env/apps/apf_teacher.py), so that the labels follow the
@@ -27,16 +27,16 @@ side the student took instead of the map's side:
     gru_apf_plain  gru_fb taught by plain APF, whose odometry reads its own label and whose side never
                    follows the student (the control for the teacher)
 
-    nice -n 19 python agents/train_multimodal.py --recipe apf --out runs/multimodal3
+    nice -n 19 python research/train_multimodal.py --recipe apf --out runs/multimodal3
 
 The fourth run (``--recipe apf_chunk``): the third run's recipe, every fit now in pieces of 64 steps with
 the state carried (truncated backpropagation, ``fit_sequences``' default ``chunk``: the whole-episode fits
-of the first three runs underfit, agents/diag_fit.py), 12 epochs per fit for both students:
+of the first three runs underfit, research/diag_fit.py), 12 epochs per fit for both students:
 
     gru_apf4  gru_apf (GRU 64, previous action fed back) on this recipe
     mlp_apf4  mlp_apf (no memory) on this recipe
 
-    nice -n 19 python agents/train_multimodal.py --recipe apf_chunk --out runs/multimodal4
+    nice -n 19 python research/train_multimodal.py --recipe apf_chunk --out runs/multimodal4
 
 The fifth run (``--recipe apf_aux``): the fourth run's recipe, the GRU also fitted to APF's side
 (``BugMemory.side``, recorded in each sequence's ``aux``) through a side read-out of its state, weighted
@@ -45,7 +45,7 @@ The fifth run (``--recipe apf_aux``): the fourth run's recipe, the GRU also fitt
     gru_aux6  gru_apf4 with the side read-out
     gru_ctl6  gru_apf4 again (no read-out), the control trained in the same run with the same APF
 
-    nice -n 19 python agents/train_multimodal.py --recipe apf_aux --out runs/multimodal6
+    nice -n 19 python research/train_multimodal.py --recipe apf_aux --out runs/multimodal6
 
 The first three recipes were fitted on whole episodes (``chunk`` 0, the default then): this script sets
 :data:`~tin_swarm_env.apps.recurrent_imitation.CHUNK` per recipe (:data:`CHUNKS`), so they run as they did.

@@ -161,7 +161,7 @@ def canyon_variant(request):
 
 
 def _repo_script(relpath: str):
-    """Import a repository script (``agents/diag_fit.py``, ...) by its path, once per session; its
+    """Import a repository script (``research/diag_fit.py``, ...) by its path, once per session; its
     own folder goes on sys.path (scripts there import each other)."""
     path = Path(__file__).resolve().parents[1] / relpath
     name = "_tin_swarm_script_" + relpath.replace("/", "_").removesuffix(".py")

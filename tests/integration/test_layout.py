@@ -89,3 +89,52 @@ def test_docstrings_say_what_is_tested_not_which_issue():
                 if ISSUE.search(doc):
                     bad.append(f"{p.relative_to(ROOT)}: {getattr(node, 'name', '<module>')}: {ISSUE.search(doc)[0]!r}")
     assert bad == [], "docstrings citing issue numbers:\n" + "\n".join(bad)
+
+
+# Beside the package: agents/ holds the shipped policies, their reproduce scripts and the recipes;
+# studies live in research/ (listed in its README); docs/figures/ holds only the figures a page names.
+INCLUDE_OR_LINK = re.compile(r"""(?:--8<--\s*["']|\]\()(?:docs/)?figures/([\w.-]+\.md)""")
+
+
+def figures_named_by_pages(docs: Path) -> set[str]:
+    """The ``docs/figures/*.md`` files a page under ``docs/`` (not a figure itself) includes or links."""
+    return {m.group(1) for page in docs.glob("*.md") for m in INCLUDE_OR_LINK.finditer(page.read_text())}
+
+
+def test_figures_named_by_pages_reads_includes_and_links(tmp_path):
+    (tmp_path / "a.md").write_text('--8<-- "docs/figures/x.md"\nsee [y](figures/y.md) and figures/z.md\n'
+                                   '[w](figures.md#w)\n')
+    assert figures_named_by_pages(tmp_path) == {"x.md", "y.md"}
+
+
+def test_every_figure_page_is_named_by_a_docs_page():
+    figures = {p.name for p in (ROOT / "docs" / "figures").glob("*.md")}
+    assert len(figures) > 10
+    orphans = sorted(figures - figures_named_by_pages(ROOT / "docs"))
+    assert orphans == [], ("docs/figures/ pages no docs/*.md page includes or links (a study note goes to "
+                           "research/, a reference figure into the page that quotes it):\n" + "\n".join(orphans))
+
+
+def test_agents_holds_no_diagnostic_or_one_off_script():
+    agents = ROOT / "agents"
+    assert (agents / "models").is_dir()
+    stray = sorted(p.name for p in agents.iterdir() if p.name.startswith("diag_"))
+    stray += sorted(p.name for p in agents.glob("*.sh") if not p.name.startswith("reproduce_"))
+    assert stray == [], "agents/ keeps shipped models, reproduce_*.sh and recipes; move these to research/: " + str(stray)
+
+
+def test_research_readme_names_every_file_in_research():
+    research = ROOT / "research"
+    readme = (research / "README.md").read_text()
+    files = sorted(p.relative_to(research).as_posix() for p in research.rglob("*")
+                   if p.is_file() and p.name != "README.md" and "__pycache__" not in p.parts)
+    assert len(files) > 10
+    unnamed = [f for f in files if f"`{f}`" not in readme]
+    assert unnamed == [], "research/README.md does not name (as `path`) these files:\n" + "\n".join(unnamed)
+
+
+def test_research_is_not_installed():
+    pyproject = (ROOT / "pyproject.toml").read_text()
+    find = re.search(r"\[tool\.setuptools\.packages\.find\]\s*\ninclude\s*=\s*\[([^\]]*)\]", pyproject)
+    assert find is not None and re.findall(r'"([^"]+)"', find.group(1)) == ["tin_swarm_env*"]
+    assert not (ROOT / "research" / "__init__.py").exists()

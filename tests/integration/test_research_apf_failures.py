@@ -1,4 +1,4 @@
-"""bench/apf_failures.py (run by hand): the rule firings read from the memory log, the loop test and
+"""research/apf_failures.py (run by hand): the rule firings read from the memory log, the loop test and
 the classes, on hand-built logs with exact answers, and one tiny real episode end to end."""
 
 import importlib.util
@@ -13,10 +13,10 @@ from tin_swarm_env.world.state import Reason
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _bench():
-    spec = importlib.util.spec_from_file_location("bench_apf_failures", ROOT / "bench" / "apf_failures.py")
+def _study():
+    spec = importlib.util.spec_from_file_location("research_apf_failures", ROOT / "research" / "apf_failures.py")
     mod = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("bench_apf_failures", mod)  # dataclasses look their module up there
+    sys.modules.setdefault("research_apf_failures", mod)  # dataclasses look their module up there
     spec.loader.exec_module(mod)
     return mod
 
@@ -27,7 +27,7 @@ def _circle(laps, r=20.0, steps_per_lap=100):
 
 
 def test_a_track_driven_twice_round_a_circle_is_a_loop_at_the_first_repeat():
-    af = _bench()
+    af = _study()
     p = _circle(2.0)  # 125.7 m a lap, 100 steps a lap
     step = 2 * 20 * np.sin(np.pi / 100)  # the chord of one step
     t, j, path = af.loop_in_search(p, 0)
@@ -39,7 +39,7 @@ def test_a_track_driven_twice_round_a_circle_is_a_loop_at_the_first_repeat():
 
 
 def test_a_turn_back_between_the_two_passes_is_no_loop():
-    af = _bench()
+    af = _study()
     out_ = np.stack([np.arange(0.0, 100.0), np.zeros(100)], axis=-1)
     back = out_[::-1]
     again = out_
@@ -74,7 +74,7 @@ class _Field:
 
 
 def test_events_read_each_rule_from_two_consecutive_memory_copies():
-    af = _bench()
+    af = _study()
     #         t: 0  1  2   3   4  5  6  7   8
     side = [0, 0, 1, 1, -1, -1, 0, 1, 0]
     rec = [np.inf, np.inf, 50, 50, 50, 50, 50, 50, 50]
@@ -97,7 +97,7 @@ def test_events_read_each_rule_from_two_consecutive_memory_copies():
 
 
 def test_classes_false_and_true_unreachable_and_the_first_side():
-    af = _bench()
+    af = _study()
     n_t = 60
     # robot walks from (100, 0) toward x = 160 (away from the target at the origin), says unreachable
     pos = np.stack([100.0 + np.arange(n_t), np.zeros(n_t)], axis=-1)
@@ -123,7 +123,7 @@ def test_classes_false_and_true_unreachable_and_the_first_side():
 
 
 def test_a_follower_circling_after_its_hit_point_is_a_loop():
-    af = _bench()
+    af = _study()
     c = _circle(3.0) + [200.0, 0.0]
     n_t = len(c)
     rows = {"side": np.r_[0, np.ones(n_t - 1)], "rec": np.r_[np.inf, np.full(n_t - 1, 150.0)]}
@@ -132,7 +132,7 @@ def test_a_follower_circling_after_its_hit_point_is_a_loop():
 
 
 def test_one_tiny_episode_end_to_end(tmp_path):
-    af = _bench()
+    af = _study()
     out = tmp_path / "f.md"
     res = af.main(["--families", "trap", "--seeds", "1", "--robots", "3", "--out", str(out)])
     assert res["_n"] == {"trap": 3}
@@ -143,7 +143,7 @@ def test_one_tiny_episode_end_to_end(tmp_path):
 
 
 def test_a_lap_early_on_then_a_long_straight_drive_is_no_loop_at_the_end():
-    af = _bench()
+    af = _study()
     lap = _circle(1.5)  # one and a half laps, then 700 m straight on
     line = lap[-1] + np.stack([np.arange(1.0, 701.0), np.zeros(700)], axis=-1)
     p = np.concatenate([lap, line])

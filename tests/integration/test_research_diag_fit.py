@@ -1,4 +1,4 @@
-"""agents/diag_fit.py (run by hand, docs/figures/teacher_multimodal.md): its data file round-trips
+"""research/diag_fit.py (run by hand, research/teacher_multimodal.md): its data file round-trips
 exactly, refuses pickles, and its "near a side switch" split is the hand-computed one."""
 
 import numpy as np
@@ -17,7 +17,7 @@ def _seq(T, n, d, rng):
 
 @pytest.fixture
 def diag(repo_script):
-    return repo_script("agents/diag_fit.py")
+    return repo_script("research/diag_fit.py")
 
 
 def test_sequences_round_trip_exactly_in_order(diag, tmp_path):

@@ -1,4 +1,4 @@
-"""agents/diag_multimodal.py (run by hand, docs/figures/teacher_multimodal.md): its side-flip count is
+"""research/diag_multimodal.py (run by hand, research/teacher_multimodal.md): its side-flip count is
 the hand-computed one."""
 
 import numpy as np
@@ -7,7 +7,7 @@ import pytest
 
 @pytest.fixture
 def diag(repo_script):
-    return repo_script("agents/diag_multimodal.py")
+    return repo_script("research/diag_multimodal.py")
 
 
 def test_side_flips_count_changes_between_nonzero_sides_of_live_rows(diag):

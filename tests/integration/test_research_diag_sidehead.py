@@ -1,4 +1,4 @@
-"""agents/diag_sidehead.py (run by hand, docs/figures/teacher_multimodal.md): the side-reading head is exactly
+"""research/diag_sidehead.py (run by hand, research/teacher_multimodal.md): the side-reading head is exactly
 mirror-equivariant, reads the side it is given, and its closed-loop learner acts as the whole-episode forward."""
 
 import numpy as np
@@ -11,7 +11,7 @@ torch = pytest.importorskip("torch")
 
 @pytest.fixture
 def ds(repo_script):
-    return repo_script("agents/diag_sidehead.py")
+    return repo_script("research/diag_sidehead.py")
 
 
 def test_side_head_is_mirror_equivariant_and_reads_the_given_side(ds):

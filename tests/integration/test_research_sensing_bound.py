@@ -1,4 +1,4 @@
-"""bench/sensing_bound.py (run by hand): its planner against a slow obvious reference, and its
+"""research/sensing_bound.py (run by hand): its planner against a slow obvious reference, and its
 idealised robot on hand-built rasters with exact answers."""
 
 import importlib.util
@@ -15,15 +15,15 @@ from scipy.sparse.csgraph import dijkstra
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _bench():
-    spec = importlib.util.spec_from_file_location("bench_sensing_bound", ROOT / "bench" / "sensing_bound.py")
+def _study():
+    spec = importlib.util.spec_from_file_location("research_sensing_bound", ROOT / "research" / "sensing_bound.py")
     mod = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("bench_sensing_bound", mod)  # dataclasses look their module up there
+    sys.modules.setdefault("research_sensing_bound", mod)  # dataclasses look their module up there
     spec.loader.exec_module(mod)
     return mod
 
 
-B = _bench()
+B = _study()
 
 
 def _reference(blocked, s, t):

@@ -1,4 +1,4 @@
-"""The policy docs/figures/teacher_geodesic.md evaluates, committed under agents/models/geodesic_mirror: small
+"""The policy research/teacher_geodesic.md evaluates, committed under agents/models/geodesic_mirror: small
 pickle-free data that records its teacher and symmetry, loads on the core install and turns both ways alike."""
 
 from __future__ import annotations

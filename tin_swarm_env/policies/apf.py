@@ -99,7 +99,7 @@ round for good (never nearer than ``rec``, never back at ``H``). Rule 3's loop f
 case the way Bug1 does: a closed boundary driven round once is left on the next lap at its place
 nearest the target, each such leave in a search ``margin_m`` nearer than the last, so a search
 has finitely many; a closed boundary whose lap comes no nearer than the last such leave is
-still followed on (open: measured in ``docs/figures/apf_notes.md``), as are boundaries that are
+still followed on (open: measured in ``research/apf_notes.md``), as are boundaries that are
 not closed but long (the budget and the border end those).
 
 **Chart search** (``search="chart"``; :mod:`tin_swarm_env.policies.chart`; the default is
@@ -120,7 +120,7 @@ for; last step's break points; a stall anchor and count. Each step:
    With the observation's terrain scan (``[observation] k_scan``: :mod:`tin_swarm_env.env.observation`)
    the point where each beam meets a dangerous break is a wall too, and the cell behind it along
    the beam: a pocket's far wall is charted from its mouth, not only when driven along
-   (``docs/figures/sensing_bound.md`` measures what that buys). A layout with a scan and no break
+   (``research/sensing_bound.md`` measures what that buys). A layout with a scan and no break
    slots (``k_breaks = 0``) is charted from the beams alone, with no wall to slide along (step 3);
    the bug search reads only the break slots, so without them APF is the fields alone.
 2. *Plan* (A*, 8-connected, no corner cut between two shut cells; a step into a cell beside a shut

@@ -20,7 +20,7 @@ ways, a mean-squared-error fit on their mean (:mod:`tin_swarm_env.apps.imitation
   taken (each group's sum in sorted order; at an exact tie ``+y``, then straight), then its class
   of largest logit (the lowest index at a tie). A fine class set spreads a turn over several
   headings, so the single most likely class can be straight on while a turn is more likely
-  than not (docs/figures/teacher_multimodal.md); this asks "which way" before "how far".
+  than not (research/teacher_multimodal.md); this asks "which way" before "how far".
   Deterministic, and mirror-equivariant but for the exact ties.
 * ``"acting": "sample"``: a class drawn from ``p`` by inverse CDF over the class order, with a
   uniform number that is a hash of (``seed``, the robot's row, how many draws that row has made
