@@ -9,15 +9,16 @@ is safe to delete.
 
 from __future__ import annotations
 
+import errno
 import os
 import stat
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
-from .errors import ArgumentError
+from .errors import ArgumentError, OutputError
 
-__all__ = ["atomic_path", "check_outputs"]
+__all__ = ["atomic_path", "check_outputs", "scenario_inputs"]
 
 
 def _umask() -> int:
@@ -26,12 +27,23 @@ def _umask() -> int:
     return m
 
 
+def _naming(exc: OSError, p: Path, tmp) -> OSError:
+    """``exc`` as an :class:`OutputError` naming the target ``p`` (an OSError of a write names no
+    file, or the hidden temporary one); others pass through."""
+    if exc.filename not in (None, tmp, str(tmp)) or isinstance(exc, OutputError):
+        return exc
+    what = exc.strerror or str(exc) or type(exc).__name__
+    return OutputError(exc.errno or errno.EIO, f"{what}; not written (an old file there is unchanged)", str(p))
+
+
 @contextmanager
 def atomic_path(path):
     """Yield a temporary path beside ``path``; on success it is renamed over ``path``, on any
     error (KeyboardInterrupt included) it is removed and ``path`` is left as it was. The result
     keeps the permission bits of the file it replaces (a new file: those a plain ``open`` would
-    give). Raises FileNotFoundError when the directory does not exist."""
+    give). Raises FileNotFoundError when the directory does not exist; an OSError while writing
+    (a full disk, a broken pipe) becomes an :class:`~tin_swarm_env.errors.OutputError` naming
+    ``path``."""
     p = Path(os.fspath(path))
     if not p.parent.exists():
         raise FileNotFoundError(f"{p.parent}: directory does not exist")
@@ -39,32 +51,88 @@ def atomic_path(path):
         mode = stat.S_IMODE(os.stat(p).st_mode)
     except OSError:
         mode = 0o666 & ~_umask()
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".part" + p.suffix, dir=p.parent)
-    os.close(fd)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".part" + p.suffix, dir=p.parent)
+        os.close(fd)
+    except OSError as exc:
+        raise _naming(exc, p, None) from exc
     try:
         yield tmp
         os.chmod(tmp, mode)
         os.replace(tmp, p)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if isinstance(exc, OSError):
+            new = _naming(exc, p, tmp)
+            if new is not exc:
+                raise new from exc
         raise
 
 
-def _same(a: Path, b: Path) -> bool:
+def _identity(p: Path):
+    """``(st_dev, st_ino)`` of an existing path (None: it does not exist or cannot be read)."""
     try:
-        return a.exists() and b.exists() and os.path.samefile(a, b)
-    except OSError:
-        return False
+        st = os.stat(p)
+    except (OSError, ValueError):
+        return None
+    return st.st_dev, st.st_ino
 
 
-def check_outputs(outputs: dict, inputs=()) -> None:
-    """Check output paths before any work starts: ``outputs`` maps an option name (``"--gif"``)
-    to a path (None: not asked for). Each must lie in an existing, writable directory, must not
-    be a directory itself, must not be one of ``inputs`` (files the command reads) and no two
-    outputs may share a path. Raises :class:`ArgumentError` naming the option."""
+def _chain(p: Path) -> list[tuple[Path, object]]:
+    """``p`` and each directory above it, with its resolved path and file identity."""
+    out = []
+    for q in (p, *p.parents):
+        out.append((q.resolve(), _identity(q)))
+    return out
+
+
+def _is_or_inside(out: Path, src: Path) -> bool:
+    """``out`` is the input ``src`` or lies inside it (``src`` a directory), by resolved path or by
+    file identity (the same file or directory through a link, a bind mount or ``..``)."""
+    rs, ids = src.resolve(), _identity(src)
+    for q, qid in _chain(out):
+        if q == rs or (ids is not None and qid == ids):
+            return True
+    return False
+
+
+def scenario_inputs(scenario) -> list[Path]:
+    """The files a scenario (a built-in name or a TOML path) reads: its TOML file and the DEM or TIN
+    file its ``[terrain] path`` names. Empty for one that does not load (its own error comes when
+    the command loads it)."""
+    from .scenario.config import load_scenario
+
+    try:
+        cfg = load_scenario(scenario)
+    except Exception:  # noqa: BLE001 (a bad scenario is refused by the command, with its file and key)
+        p = Path(os.fspath(scenario))
+        return [p] if p.exists() else []
+    out = [Path(cfg.source)] if cfg.source and Path(cfg.source).exists() else []
+    t = cfg.terrain
+    if t.source in ("dem", "tin") and t.path:
+        out.append(Path(cfg.base_dir) / t.path)
+    return out
+
+
+def check_outputs(outputs: dict, inputs=(), *, scenarios=(), dirs: dict | None = None) -> None:
+    """The one check of a command's output paths against everything it reads, before any work.
+
+    ``outputs`` maps an option name (``"--gif"``) to a file path (None: not asked for); ``dirs``
+    the same for output directories a command fills or replaces (``train``'s ``policy/``). Each
+    output file must lie in an existing, writable directory and not be a directory itself; no two
+    outputs may share a path. No output may be an input or lie inside an input directory: the
+    ``inputs`` (files and directories the command reads: a DEM, a ``--policy`` directory, a model)
+    and the files of ``scenarios`` (:func:`scenario_inputs`: each TOML file and the terrain file it
+    names), compared by resolved path and by file identity (``st_dev``/``st_ino``: the same file
+    through a link or a bind mount); nor may an input lie inside an output directory. Raises
+    :class:`ArgumentError` naming the option and the input."""
+    srcs = [Path(os.fspath(s)) for s in inputs if s is not None and str(s) != ""]
+    for sc in scenarios:
+        srcs += scenario_inputs(sc)
+    srcs = [s for s in srcs if s.exists()]
     seen: dict[str, str] = {}
     for opt, path in outputs.items():
         if path is None:
@@ -79,11 +147,18 @@ def check_outputs(outputs: dict, inputs=()) -> None:
             raise ArgumentError(f"{opt} {p}: directory {d} does not exist")
         if not os.access(d, os.W_OK | os.X_OK):
             raise ArgumentError(f"{opt} {p}: directory {d} is not writable")
-        for src in inputs:  # inputs that exist: the same file (also through a link) or the same path
-            s = Path(os.fspath(src)) if src is not None else None
-            if s is not None and s.exists() and (_same(p, s) or p.resolve() == s.resolve()):
-                raise ArgumentError(f"{opt} {p}: is the input {src}; write the output elsewhere")
+        for src in srcs:
+            if _is_or_inside(p, src):
+                what = "is the input" if not src.is_dir() or p.resolve() == src.resolve() else "lies inside the input"
+                raise ArgumentError(f"{opt} {p}: {what} {src}; write the output elsewhere")
         key = os.path.normcase(str(p.resolve()))
         if key in seen:
             raise ArgumentError(f"{opt} and {seen[key]} are the same file {p}; give each output its own path")
         seen[key] = opt
+    for opt, path in (dirs or {}).items():
+        if path is None:
+            continue
+        p = Path(os.fspath(path))
+        for src in srcs:
+            if _is_or_inside(p, src) or _is_or_inside(src, p):
+                raise ArgumentError(f"{opt} {p}: would write over the input {src}; write the output elsewhere")

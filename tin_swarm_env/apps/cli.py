@@ -156,6 +156,8 @@ def main(argv=None) -> int:
         print("tin-swarm: interrupted", file=sys.stderr)
         return 130
     debug = args.debug or os.environ.get("TIN_SWARM_DEBUG", "") not in ("", "0")
+    real_stdout = sys.stdout
+    sys.stdout = _PipeSafe(real_stdout)
     try:
         return args.func(args)
     except KeyboardInterrupt:
@@ -174,6 +176,47 @@ def main(argv=None) -> int:
         print(f"tin-swarm: error: {type(exc).__name__}: {_one_line(exc)} (rerun with --debug for the traceback)",
               file=sys.stderr)
         return 1
+    finally:
+        sys.stdout = real_stdout
+
+
+class _PipeSafe:
+    """``sys.stdout`` for a command: once its reader has gone (``tin-swarm run | head``: a
+    ``BrokenPipeError``), what the command prints is dropped and the command goes on (its files
+    are still written whole), with no traceback and no error line; the file descriptor is pointed
+    at ``/dev/null`` so that nothing fails at exit either."""
+
+    def __init__(self, stream):
+        self._stream, self.broken = stream, False
+
+    def _gone(self):
+        self.broken = True
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, self._stream.fileno())
+            os.close(devnull)
+        except (OSError, ValueError, AttributeError):  # a stream without a descriptor (tests)
+            pass
+
+    def write(self, s):
+        if self.broken:
+            return len(s)
+        try:
+            return self._stream.write(s)
+        except BrokenPipeError:
+            self._gone()
+            return len(s)
+
+    def flush(self):
+        if self.broken:
+            return
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            self._gone()
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
 
 
 def _one_line(exc: BaseException) -> str:

@@ -195,7 +195,11 @@ def check_args(args: Args) -> tuple[list, list, Path]:
     if not args.out:
         out.parent.mkdir(parents=True, exist_ok=True)
     check_outputs({f"--out ({ext})": out.with_suffix(ext) for ext in (".md", ".csv", ".png")},
-                  inputs=[m for _, _, m in entries if m])
+                  inputs=[m for _, _, m in entries if m], scenarios=scens)
+    if args.by_family and not any(c.terrain.source == "generated" for c in configs):
+        raise ArgumentError(f"--by-family: no scenario of {scens} is generated (their [terrain] sources: "
+                            f"{sorted({c.terrain.source for c in configs})}); it splits generated terrains by family "
+                            "and applies to none of them")
     played = []
     for s, c in zip(scens, configs):
         if args.by_family and c.terrain.source == "generated":

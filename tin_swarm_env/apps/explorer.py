@@ -573,7 +573,7 @@ def explore(a: Args) -> int:
     n = a.robots or load_scenario(a.scenario).robots.count
     if robot is not None and robot >= n:
         raise ArgumentError(f"--robot {robot}: the scenario has robots 0..{n - 1}")
-    check_outputs({"--png": a.png}, inputs=(a.scenario,) if os.path.isfile(a.scenario) else ())
+    check_outputs({"--png": a.png}, scenarios=(a.scenario,))
     if a.png:
         matplotlib.use("Agg")
     ex = FieldExplorer(a.scenario, robot=robot, fields=fields, n_robots=a.robots, seed=a.seed,

@@ -198,7 +198,6 @@ class FrameWriter:
                                               macro_block_size=1)
             self._stack.callback(self._sink.close)
         self._tmp = tmp
-        self._stack.push(self._finish)
         return self
 
     def _webp(self, frame):
@@ -213,7 +212,7 @@ class FrameWriter:
             self._stack.callback(self._sink.close)
         self._sink.send(np.ascontiguousarray(frame))
 
-    def add(self, frame) -> None:
+    def _add(self, frame) -> None:
         frame = np.asarray(frame)
         if self.kind == "png":
             self._last = frame
@@ -226,21 +225,97 @@ class FrameWriter:
             self._sink.append_data(frame[: h - h % 2, : w - w % 2])  # H.264 wants even sizes
         self.n_frames += 1
 
-    def _finish(self, et, ev, tb):
-        """On success: the GIF trailer or the PNG (an error here still removes the .part file)."""
-        if et is None:
-            if self.n_frames == 0:
-                raise ArgumentError(f"{self.path}: no frames to write")
-            if self.kind == "png":
-                from PIL import Image
+    def _finalize(self) -> None:
+        """On success, in order: the GIF trailer or the PNG, the encoder closed (ffmpeg flushed and
+        gone), the file closed, then the file checked whole (:func:`check_media_file`); only then
+        does the stack rename it into place."""
+        if self.n_frames == 0:
+            raise ArgumentError(f"{self.path}: no frames to write")
+        if self.kind == "png":
+            from PIL import Image
 
-                Image.fromarray(self._last).save(self._tmp, format="PNG")
-            elif self.kind == "gif":
-                self._sink.close()
-        return False
+            Image.fromarray(self._last).save(self._tmp, format="PNG")
+        elif self.kind == "gif":
+            self._sink.close()
+            self._sink.fh.close()
+        elif self._sink is not None:
+            self._sink.close()
+        check_media_file(self._tmp, self.kind, self.path)
 
     def __exit__(self, et, ev, tb):
-        return self._stack.__exit__(et, ev, tb)
+        if et is None:
+            try:
+                self._finalize()
+            except BaseException as exc:  # the .part file is removed; the error names the file
+                new = _encoder_error(exc, self.path)
+                if self._stack.__exit__(type(new), new, new.__traceback__):
+                    return False  # pragma: no cover - nothing in the stack swallows errors
+                if new is exc:
+                    raise
+                raise new from exc
+            return self._stack.__exit__(None, None, None)
+        return self._stack.__exit__(et, ev, tb)  # an error of the caller's: the .part file removed
+
+    def add(self, frame) -> None:  # noqa: F811 (the encoders' errors name the file)
+        try:
+            self._add(frame)
+        except (OSError, RuntimeError) as exc:
+            new = _encoder_error(exc, self.path)
+            if new is exc:
+                raise
+            raise new from exc
+
+
+def _encoder_error(exc: BaseException, path):
+    """An encoder's failure (an OSError without a file, ffmpeg's IOError text, a RuntimeError) as
+    an :class:`~tin_swarm_env.errors.OutputError` naming ``path``; other errors pass through."""
+    import errno
+
+    from ..errors import OutputError, TinSwarmError
+
+    if isinstance(exc, (TinSwarmError, KeyboardInterrupt, SystemExit)) or not isinstance(exc, (OSError, RuntimeError)):
+        return exc
+    fn = getattr(exc, "filename", None)
+    if isinstance(exc, OSError) and fn is not None and ".part" not in os.path.basename(str(fn)):
+        return exc  # it names its own file
+    first = (getattr(exc, "strerror", None) or str(exc).strip().splitlines()[0:1] or [type(exc).__name__])
+    first = first if isinstance(first, str) else first[0]
+    return OutputError(getattr(exc, "errno", None) or errno.EIO,
+                       f"{first}; not written (an old file there is unchanged)", str(path))
+
+
+def _mp4_complete(b: bytes) -> bool:
+    """The top-level boxes of an MP4 cover the file exactly and include ``ftyp``, ``mdat`` and ``moov``."""
+    i, seen = 0, set()
+    while i + 8 <= len(b):
+        size, kind = struct.unpack(">I4s", b[i:i + 8])
+        if size == 1 and i + 16 <= len(b):
+            size = struct.unpack(">Q", b[i + 8:i + 16])[0]
+        if size < 8 or i + size > len(b):
+            return False
+        seen.add(kind)
+        i += size
+    return i == len(b) and {b"ftyp", b"mdat", b"moov"} <= seen
+
+
+def check_media_file(tmp, kind: str, path) -> None:
+    """Refuse (an :class:`~tin_swarm_env.errors.OutputError` naming ``path``) a written file that
+    is not whole: a GIF without its trailer, a PNG without IEND, a WebP whose RIFF size is not the
+    file's, an MP4 whose boxes do not cover the file or that lacks ``moov`` (an encoder such as
+    ffmpeg that died on a full disk exits without a Python error: its file is checked instead)."""
+    import errno
+
+    from ..errors import OutputError
+
+    with open(tmp, "rb") as fh:
+        b = fh.read()
+    ok = {"gif": lambda: b[:6] == b"GIF89a" and b[-1:] == b";",
+          "png": lambda: b[:8] == b"\x89PNG\r\n\x1a\n" and b[-12:-8] == b"\x00\x00\x00\x00" and b[-8:-4] == b"IEND",
+          "webp": lambda: b[:4] == b"RIFF" and b[8:12] == b"WEBP" and struct.unpack("<I", b[4:8])[0] + 8 == len(b),
+          "mp4": lambda: _mp4_complete(b)}[kind]
+    if len(b) < 12 or not ok():
+        raise OutputError(errno.EIO, f"the {kind.upper()} encoder left an incomplete file ({len(b):,} bytes); not "
+                          "written (an old file there is unchanged)", str(path))
 
 
 def save_gif(frames, path, fps=10):

@@ -193,7 +193,7 @@ def run(a: Args) -> int:
     fields = parse_fields(a.fields)
     check_policy_spec(a.policy, a.trust_pickle)
     check_outputs({"--summary": a.summary, "--gif": a.gif, "--mp4": a.mp4},
-                  inputs=(*((a.scenario,) if os.path.isfile(a.scenario) else ()), a.policy))
+                  inputs=(a.policy,) if os.path.exists(a.policy) else (), scenarios=(a.scenario,))
     if a.gif or a.mp4:
         from ..scenario.config import load_scenario
 

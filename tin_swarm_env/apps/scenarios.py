@@ -50,7 +50,7 @@ def scenarios(a: Args) -> int:
             dest = os.path.join(dest, src.name)
         if os.path.exists(dest) and not a.force:
             raise ArgumentError(f"--copy: {dest} exists; pass --force to overwrite it")
-        check_outputs({"--copy DEST": dest})
+        check_outputs({"--copy DEST": dest}, inputs=(src,))
         with atomic_path(dest) as tmp:
             with open(tmp, "wb") as fh:
                 fh.write(src.read_bytes())

@@ -204,7 +204,8 @@ def check_suite(args: Args):
     if not args.out:
         out.parent.mkdir(parents=True, exist_ok=True)
     check_outputs({f"--out ({what})": p for what, p in _outputs(out).items()},
-                  inputs=[m for _, _, m in entries if m])
+                  inputs=[m for _, _, m in entries if m],
+                  scenarios=[_scenario_path(m) for s in splits for m in s.maps])
     return splits, entries, out
 
 

@@ -518,6 +518,23 @@ def _resumed(args: Args) -> tuple[Args, Path]:
     return new, run
 
 
+RUN_FILES = ("model.zip", "model.json", "eval.csv", "curve.png", "args.json")  # what a run directory holds
+RUN_DIRS = ("policy", "policy_imitation", "checkpoints", "tb")
+
+
+def check_run_outputs(args: Args, out: Path) -> None:
+    """The run directory ``out`` (made if missing) and what train writes into it, checked against
+    every file the run reads (its scenarios and the terrain files they name) before any work:
+    :func:`~tin_swarm_env._atomic.check_outputs`."""
+    from .._atomic import check_outputs
+
+    if out.exists() and not out.is_dir():
+        raise ArgumentError(f"--out-dir {out}: is a file; give a directory")
+    out.mkdir(parents=True, exist_ok=True)
+    check_outputs({f"--out-dir ({n})": out / n for n in RUN_FILES},
+                  dirs={f"--out-dir ({n}/)": out / n for n in RUN_DIRS}, scenarios=scenarios_of(args))
+
+
 def run_info(args: Args, vec) -> dict:
     """What a checkpoint's network was built for (its ``state.json`` ``run``; a resume compares
     it key by key): scenario, robots, environment copies, observation layout, network."""
@@ -560,7 +577,7 @@ def train(args: Args) -> Path:
     check_args(args)
     if args.student == "gru" or args.head == "categorical":
         out = run_dir(args)
-        out.mkdir(parents=True, exist_ok=True)
+        check_run_outputs(args, out)
         return train_student(args, out)
     torch = require("torch", "train", "Training with Stable-Baselines3")
     require("stable_baselines3", "train", "Training with Stable-Baselines3")
@@ -570,6 +587,7 @@ def train(args: Args) -> Path:
     torch.set_num_threads(args.torch_threads)
     out = run_dir(args)
     scen = scenarios_of(args)
+    check_run_outputs(args, out)
     # every robot of every copy is one SB3 sub-environment; a mix holds n_envs copies of each scenario
     kw = {"max_cycles": args.max_cycles} if args.max_cycles else {}
     vec = make_sb3_vec_env(scen if len(scen) > 1 else scen[0], n_robots=args.n_robots,

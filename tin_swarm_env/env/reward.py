@@ -103,7 +103,7 @@ def step_rewards(rw, dist_before, dist_after, state, events, target_idx, live, t
         np.ascontiguousarray(target_idx, dtype=np.int64), np.ascontiguousarray(live, dtype=np.bool_),
         np.ascontiguousarray(events.energy_j, dtype=f64), np.ascontiguousarray(events.collisions, dtype=f64),
         np.ascontiguousarray(events.fell, dtype=np.bool_), np.ascontiguousarray(events.emptied, dtype=np.bool_),
-        bool(timeout))
+        np.full(len(dist_before), bool(timeout)))
 
 
 _NONE, _ARRIVED, _FELL, _BATTERY, _TIMEOUT = (int(Reason.NONE), int(Reason.ARRIVED), int(Reason.FELL),
@@ -121,7 +121,8 @@ def _gain1(before, after):
 @njit(cache=True)
 def _rewards_kernel(rw, before, after, pos, tpos, tidx, live, energy, coll, fell, emptied, timeout):
     """:func:`step_rewards` for every robot in one loop: the terms added in the reference's
-    order (so the float64 sums round the same), then cast to float32."""
+    order (so the float64 sums round the same), then cast to float32. ``timeout (n,)``: the
+    robot's episode ends this step (the vector env's copies end at different steps)."""
     containment, standoff, radius, progress_per_m, on_ring, ring_tol, energy_per_kj, collision, fall, battery_empty, \
         arrival = rw
     n = before.shape[0]
@@ -160,9 +161,9 @@ def _rewards_kernel(rw, before, after, pos, tpos, tidx, live, energy, coll, fell
         if live[i]:
             r32[i] = np.float32(r)
             term[i] = code != _NONE
-            trunc[i] = timeout and code == _NONE
+            trunc[i] = timeout[i] and code == _NONE
             why[i] = _TIMEOUT if trunc[i] else code
-            nxt[i] = code == _NONE and not timeout
+            nxt[i] = code == _NONE and not timeout[i]
             if code == _ARRIVED:
                 n_arrived += 1
         else:

@@ -417,32 +417,11 @@ def _ring(mem: BugMemory, rows, bp: BugParams, *, new, on, g_len, togo, q, to_h,
     mem.g_len[rows] = np.where(new | ~on, 0.0, g_len)
 
 
-def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, bp: BugParams, *, togo, q, moved,
-               crowd_m: float, range_m: float, gap=None, home: bool = True, pass_m: float = 0.0,
-               step_m: float = 1.0, fov_deg: float = 360.0):
-    """One step of the boundary search for the robots in ``rows`` (decoded observations ``d``,
-    attraction ``pull (m, 2)``, distance to go ``togo (m,)``, position ``q (m, 2)`` and distance
-    moved last step ``moved (m,)`` from :func:`odometry`); updates ``mem`` in place and returns
-    what each robot follows: ``(rel (m, 2), normal (m, 2), side (m,))``, the closest point of the
-    followed break (or the remembered one) in the body frame, its normal and the side (0 none),
-    for :func:`~tin_swarm_env.world.fields.follow_field`. The rules are the
-    :mod:`~tin_swarm_env.policies.apf` module docstring's; ``gap (m,)`` marks robots driving
-    through a gap (:func:`pass_gap`: not blocked, they keep their side), ``home=False`` (a mobile
-    target, whose frame drifts) turns the whole-circuit test off; ``fov_deg`` is the sensor's field of view."""
-    m = len(rows)
-    ri = np.arange(m)
-    side, first = mem.side[rows].astype(np.int64), mem.first[rows].astype(np.int64)
-    following = side != 0
-    # the boundary driven since the hit point, signed (+ along the first side's direction)
-    arc = mem.arc[rows] + np.where(following, np.where(side == first, 1.0, -1.0) * moved, 0.0)
-    hit, rec, budget = mem.hit[rows], mem.rec[rows], mem.budget[rows]
-    ended_f, ended_o, unreach = mem.ended_first[rows], mem.ended_other[rows], mem.unreachable[rows]
-    s = sensed(d, pull, params)
-    blocked = s["blocked"] & ~unreach
-    through = np.zeros(m, dtype=bool) if gap is None else np.asarray(gap, dtype=bool)
-    blocked &= ~through
-    # round the whole boundary: back at the hit point, heading on out, after driving round it (passing
-    # H on the way back from a turn, the robot's boundary coordinate starts again from 0 there)
+def _round_hit(mem: BugMemory, rows, bp: BugParams, *, q, hit, side, first, following, arc, togo, home: bool):
+    """Rule 5's whole-circuit test: back at the hit point, heading on out, after driving round it
+    (passing H on the way back from a turn, the robot's boundary coordinate starts again from 0
+    there); and the distance-to-go growth the turn-back budget counts. Returns ``(to_h, far, step,
+    sl, circuit, back, arc, passed, climb)``: ``step`` last step's move, ``sl`` its squared length."""
     to_h = _norm(q - hit)
     far = (mem.far[rows] | (to_h > 4 * bp.home_m)) & following
     step = q - mem.last_q[rows]  # last step's move, and its closest approach to H
@@ -459,6 +438,14 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     passed |= back
     rise = np.where(mem.seen[rows] & following & passed, np.maximum(togo - mem.last_togo[rows], 0.0), 0.0)
     climb = np.where(back, 0.0, mem.climb[rows] + rise)
+    return to_h, far, step, sl, circuit, back, arc, passed, climb
+
+
+def _leave_rules(mem: BugMemory, rows, d: DecodedObs, s: dict, params: FieldParams, bp: BugParams, *, q, hit, togo,
+                 rec, following, step, sl, moved, range_m: float, home: bool, blocked, through):
+    """Rules 2 and 3's leaves (Bug2's m-line, DistBug's clear view) and the clear view's ban after one
+    proved wrong. Returns ``(hn, leave, probed, round_r, r_len)``: ``hn`` the unit direction of H
+    (the m-line's), ``round_r`` robots back round the cycle finder's place (the ban lifted)."""
     # leave (Bug2): on the m-line (the line from H to the target), the way to the target clear, and
     # nearer than where it met the boundary
     hn = hit / np.maximum(_norm(hit), 1e-9)[:, None]
@@ -492,12 +479,19 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     clear = ~in_way.any(axis=-1) & ~probed & (togo - reach < rec - bp.margin_m)
     leave = following & ~blocked & ~through & (togo < rec - bp.margin_m) & on_line
     leave |= following & ~blocked & ~through & clear
-    # the loop finder (Bug1 on whatever boundary the robot is on): passing a place of its leg again
-    # going the same way, home_arc_m or more after it (and 2 home_m away from it on the way), it has
-    # driven round a closed boundary. A lap that passes H is the whole-circuit test's (rule 5); on any
-    # other, it goes round once more to the lap's place of least distance to go and leaves there
-    # (Bug1), rec and probed aside, if that place is margin_m nearer than its last such leave in this
-    # search (so there are finitely many); else it follows on (budget, border, stall end that side)
+    return hn, leave, probed, round_r, r_len
+
+
+def _lap_leave(mem: BugMemory, rows, bp: BugParams, *, q, togo, to_h, following, moved, step, sl, through,
+               home: bool):
+    """The loop finder (Bug1 on whatever boundary the robot is on): passing a place of its leg again
+    going the same way, home_arc_m or more after it (and 2 home_m away from it on the way), it has
+    driven round a closed boundary. A lap that passes H is the whole-circuit test's (rule 5); on any
+    other, it goes round once more to the lap's place of least distance to go and leaves there
+    (Bug1), rec and probed aside, if that place is margin_m nearer than its last such leave in this
+    search (so there are finitely many); else it follows on (budget, border, stall end that side).
+    Returns ``(g_len, at_b1, lvl, b1, b1_q, b1_t)``: ``at_b1`` the robots at their Bug1 leave."""
+    ri = np.arange(len(rows))
     held = np.arange(RING)[None, :] < mem.g_n[rows][:, None]
     g_len = mem.g_len[rows] + np.where(following, moved, 0.0)
     g_p, lq = mem.g_p[rows], mem.last_q[rows]
@@ -525,25 +519,19 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     # there: within home_m of it, and as near as it was or past its least (its distance to go rising again)
     at_b1 = b1 & ~through & ((togo <= b1_t + bp.line_m / 2) | (togo > mem.last_togo[rows])) & (
         (_norm(lq + u_b[:, None] * step - b1_q) < bp.home_m) | (_norm(q - b1_q) < bp.home_m))
-    leave |= at_b1 & ~blocked  # blocked there, it meets the break in its way at once (rule 1)
     lvl = np.where(at_b1, togo, lvl)
     b1 &= ~at_b1
-    side = np.where(leave | at_b1, 0, side)
-    # meet a boundary: a fresh search when nearer than the last hit point, else take the last one up again
-    met = (side == 0) & blocked & ~leave
-    fresh = met & (togo < rec - bp.margin_m)
-    probed |= met & ~fresh
-    kb, start = _start_side(s, pull, rows, bp.split)
-    side = np.where(fresh, start, np.where(met, mem.fside[rows], side))
-    first = np.where(fresh, start, first)
-    hit = np.where(fresh[:, None], q, hit)
-    rec = np.where(fresh, togo, rec)
-    arc = np.where(fresh, 0.0, arc)
-    budget = np.where(fresh, np.maximum(bp.first_budget * togo, bp.min_budget * range_m), budget)
-    ended_f &= ~fresh
-    ended_o &= ~fresh
-    following = side != 0
-    # the followed break: it continues last step's (directions in the robot's frame)
+    return g_len, at_b1, lvl, b1, b1_q, b1_t
+
+
+def _followed_break(mem: BugMemory, rows, d: DecodedObs, s: dict, params: FieldParams, *, q, met, kb, following,
+                    pass_m: float, step_m: float, fov_deg: float):
+    """The break each robot follows: it continues last step's (directions in the robot's frame);
+    meeting a boundary (a fresh search or one taken up again), the break that blocks it; else the
+    remembered point (``virtual``). Returns ``(psi, ang, last_wall, kf, virtual, has_wall, kc, f_rel,
+    f_nrm, t_right, v_ang, cand_end)``: slot ``kc`` (``kf`` -1 none, ``K_b`` the remembered point),
+    its closest point, normal and tangent with the break on the right."""
+    ri = np.arange(len(rows))
     psi = mem.psi[rows]
     k_n = d.b_rel.shape[1]
     ang = np.arctan2(s["e"][..., 1], s["e"][..., 0]) + psi[:, None]
@@ -573,6 +561,17 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     f_rel = np.where(virtual[:, None], v_rel, d.b_rel[ri, kc])
     f_nrm = np.where(virtual[:, None], v_e, d.b_normal[ri, kc])
     t_right = np.stack([ef[:, 1], -ef[:, 0]], axis=-1)  # tangent with the break on the right
+    return psi, ang, last_wall, kf, virtual, has_wall, kc, f_rel, f_nrm, t_right, v_ang, cand_end
+
+
+def _ends_and_turns(mem: BugMemory, rows, d: DecodedObs, s: dict, params: FieldParams, bp: BugParams, *, side,
+                    first, following, fresh, passed, circuit, climb, budget, ended_f, ended_o, unreach, has_wall,
+                    kc, t_right, crowd_m: float):
+    """Where a side ends (the terrain's border, a pinch, a stall, the first time round to H) and
+    where the search turns back (the other side not yet ended, or the budget spent); both sides
+    ended, or round H twice: the target is unreachable. Returns ``(side, budget, ended_f, ended_o,
+    unreach, circ, turn, stall, on_border)``."""
+    ri = np.arange(len(side))
     # the boundary ends on this side: the terrain's border, or a pinch the robot cannot pass
     on_border = has_wall & d.b_border[ri, kc]
     ahead = np.einsum("nj,nkj->nk", side[:, None] * t_right, -s["e"]) > 0.3
@@ -601,7 +600,62 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     side = np.where(turn, -side, side)
     side = np.where(unreach, 0, side)
     stall = np.where(turn | (side == 0), 0, stall)
-    # write back
+    return side, budget, ended_f, ended_o, unreach, circ, turn, stall, on_border
+
+
+def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, bp: BugParams, *, togo, q, moved,
+               crowd_m: float, range_m: float, gap=None, home: bool = True, pass_m: float = 0.0,
+               step_m: float = 1.0, fov_deg: float = 360.0):
+    """One step of the boundary search for the robots in ``rows`` (decoded observations ``d``,
+    attraction ``pull (m, 2)``, distance to go ``togo (m,)``, position ``q (m, 2)`` and distance
+    moved last step ``moved (m,)`` from :func:`odometry`); updates ``mem`` in place and returns
+    what each robot follows: ``(rel (m, 2), normal (m, 2), side (m,))``, the closest point of the
+    followed break (or the remembered one) in the body frame, its normal and the side (0 none),
+    for :func:`~tin_swarm_env.world.fields.follow_field`. The rules are the
+    :mod:`~tin_swarm_env.policies.apf` module docstring's; ``gap (m,)`` marks robots driving
+    through a gap (:func:`pass_gap`: not blocked, they keep their side), ``home=False`` (a mobile
+    target, whose frame drifts) turns the whole-circuit test off; ``fov_deg`` is the sensor's field of view."""
+    side, first = mem.side[rows].astype(np.int64), mem.first[rows].astype(np.int64)
+    following = side != 0
+    # the boundary driven since the hit point, signed (+ along the first side's direction)
+    arc = mem.arc[rows] + np.where(following, np.where(side == first, 1.0, -1.0) * moved, 0.0)
+    hit, rec, budget = mem.hit[rows], mem.rec[rows], mem.budget[rows]
+    ended_f, ended_o, unreach = mem.ended_first[rows], mem.ended_other[rows], mem.unreachable[rows]
+    s = sensed(d, pull, params)
+    blocked = s["blocked"] & ~unreach
+    through = np.zeros(len(rows), dtype=bool) if gap is None else np.asarray(gap, dtype=bool)
+    blocked &= ~through
+    to_h, far, step, sl, circuit, back, arc, passed, climb = _round_hit(
+        mem, rows, bp, q=q, hit=hit, side=side, first=first, following=following, arc=arc, togo=togo, home=home)
+    hn, leave, probed, round_r, r_len = _leave_rules(
+        mem, rows, d, s, params, bp, q=q, hit=hit, togo=togo, rec=rec, following=following, step=step, sl=sl,
+        moved=moved, range_m=range_m, home=home, blocked=blocked, through=through)
+    g_len, at_b1, lvl, b1, b1_q, b1_t = _lap_leave(mem, rows, bp, q=q, togo=togo, to_h=to_h, following=following,
+                                                   moved=moved, step=step, sl=sl, through=through, home=home)
+    leave |= at_b1 & ~blocked  # blocked there, it meets the break in its way at once (rule 1)
+    side = np.where(leave | at_b1, 0, side)
+    # meet a boundary: a fresh search when nearer than the last hit point, else take the last one up again
+    met = (side == 0) & blocked & ~leave
+    fresh = met & (togo < rec - bp.margin_m)
+    probed |= met & ~fresh
+    kb, start = _start_side(s, pull, rows, bp.split)
+    side = np.where(fresh, start, np.where(met, mem.fside[rows], side))
+    first = np.where(fresh, start, first)
+    hit = np.where(fresh[:, None], q, hit)
+    rec = np.where(fresh, togo, rec)
+    arc = np.where(fresh, 0.0, arc)
+    budget = np.where(fresh, np.maximum(bp.first_budget * togo, bp.min_budget * range_m), budget)
+    ended_f &= ~fresh
+    ended_o &= ~fresh
+    following = side != 0
+    psi, ang, last_wall, kf, virtual, has_wall, kc, f_rel, f_nrm, t_right, v_ang, cand_end = _followed_break(
+        mem, rows, d, s, params, q=q, met=met, kb=kb, following=following, pass_m=pass_m, step_m=step_m,
+        fov_deg=fov_deg)
+    side, budget, ended_f, ended_o, unreach, circ, turn, stall, on_border = _ends_and_turns(
+        mem, rows, d, s, params, bp, side=side, first=first, following=following, fresh=fresh, passed=passed,
+        circuit=circuit, climb=climb, budget=budget, ended_f=ended_f, ended_o=ended_o, unreach=unreach,
+        has_wall=has_wall, kc=kc, t_right=t_right, crowd_m=crowd_m)
+    # write back: the search
     mem.side[rows] = side
     mem.fside[rows] = np.where(side != 0, side, mem.fside[rows])
     mem.first[rows] = first
@@ -616,19 +670,31 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     mem.lvl[rows] = np.where(fresh, np.inf, lvl)
     mem.b1[rows] = b1 & (side != 0) & ~turn & ~fresh
     mem.b1_q[rows], mem.b1_t[rows] = b1_q, b1_t
+    t_now = _rot(psi, side[:, None] * t_right)  # the direction of travel along the followed break
     _ring(mem, rows, bp, new=(side != 0) & (met | turn | through | (mem.g_n[rows] == 0)), on=side != 0,
-          g_len=g_len, togo=togo, q=q, to_h=_norm(q - hit), t_now=_rot(psi, side[:, None] * t_right))
+          g_len=g_len, togo=togo, q=q, to_h=_norm(q - hit), t_now=t_now)
+    _remember(mem, rows, d, bp, q=q, hn=hn, side=side, met=met, fresh=fresh, round_r=round_r, r_len=r_len,
+              t_now=t_now, togo=togo, on_border=on_border, ang=ang, last_wall=last_wall, kc=kc, has_wall=has_wall,
+              virtual=virtual, v_ang=v_ang, psi=psi, cand_end=cand_end)
+    on = (side != 0) & (kf >= 0)
+    return np.where(on[:, None], f_rel, 0.0), np.where(on[:, None], f_nrm, 0.0), np.where(on, side, 0)
+
+
+def _remember(mem: BugMemory, rows, d: DecodedObs, bp: BugParams, *, q, hn, side, met, fresh, round_r, r_len, t_now,
+              togo, on_border, ang, last_wall, kc, has_wall, virtual, v_ang, psi, cand_end):
+    """:func:`bug_update`'s write-back of the cycle finder's place, the last step's odometry, the
+    direction set off in from H, the m-line side and the followed break (angle, point, end)."""
+    ri = np.arange(len(rows))
     # the cycle finder's place: set where the search is taken up, moved on at doubling distances
     anew = (met & ~fresh) | round_r
     move_on = anew | (r_len >= mem.r_next[rows])
     mem.r_pt[rows] = np.where(move_on[:, None], q, mem.r_pt[rows])
     mem.r_len[rows] = np.where(move_on, 0.0, r_len)
-    mem.r_dir[rows] = np.where(move_on[:, None], _rot(psi, side[:, None] * t_right), mem.r_dir[rows])
+    mem.r_dir[rows] = np.where(move_on[:, None], t_now, mem.r_dir[rows])
     mem.r_next[rows] = np.where(anew, 2 * bp.home_arc_m, np.where(move_on, 2 * mem.r_next[rows], mem.r_next[rows]))
     mem.last_togo[rows] = togo
     mem.last_q[rows] = q
     # the direction it sets off in from H (first side): the tangent of the followed break
-    t_now = _rot(psi, side[:, None] * t_right)
     mem.t_hit[rows] = np.where(fresh[:, None], t_now, mem.t_hit[rows])
     mem.on_border[rows] = on_border
     off = q[:, 0] * hn[:, 1] - q[:, 1] * hn[:, 0]
@@ -639,5 +705,3 @@ def bug_update(mem: BugMemory, rows, d: DecodedObs, pull, params: FieldParams, b
     mem.has_pt[rows] = (side != 0) & (has_wall | virtual)
     mem.pt_end[rows] = np.where(has_wall, cand_end[ri, kc], mem.pt_end[rows])
     mem.v_steps[rows] = np.where(virtual & (side != 0), mem.v_steps[rows] + 1, 0)
-    on = (side != 0) & (kf >= 0)
-    return np.where(on[:, None], f_rel, 0.0), np.where(on[:, None], f_nrm, 0.0), np.where(on, side, 0)
