@@ -224,12 +224,9 @@ def _check_dem(dem: Dem) -> None:
                              "grid (use dem.fill_nodata() or crop them away)")
 
 
-def robot_mesh(dem: Dem, max_slope_deg: float, max_vertices: int | None = None, max_error_m: float | None = None,
-               *, seed_fraction: float = SEED_FRACTION, crest_fraction: float = CREST_FRACTION,
-               batch_fraction: float = BATCH_FRACTION, false_steep_weight: float = FALSE_STEEP_WEIGHT,
-               vertical_weight: float = VERTICAL_WEIGHT, false_drivable_weight: float = FALSE_DRIVABLE_WEIGHT,
-               flip_passes: int = FLIP_PASSES, flip_vertical_weight: float = FLIP_VERTICAL_WEIGHT):
-    """Vertices ``(V, 3)`` m and triangles ``(T, 3)`` of the robot TIN of ``dem`` (module docstring)."""
+def _check_robot_args(dem, max_slope_deg, max_vertices, max_error_m, seed_fraction, crest_fraction,
+                      batch_fraction) -> None:
+    """:func:`robot_mesh`'s arguments, each refused with a message that names it."""
     _check_dem(dem)
     if max_slope_deg is None or not (np.isfinite(max_slope_deg) and 0 < max_slope_deg < 90):
         raise ArgumentError(f"max_slope_deg must be a number in (0, 90) for method='robot', got {max_slope_deg!r}")
@@ -243,6 +240,15 @@ def robot_mesh(dem: Dem, max_slope_deg: float, max_vertices: int | None = None, 
                     ("batch_fraction", batch_fraction)):
         if not (np.isfinite(f) and 0 <= f <= 1) or (name == "batch_fraction" and f == 0):
             raise ArgumentError(f"{name} must be in [0, 1] (batch_fraction > 0), got {f}")
+
+
+def robot_mesh(dem: Dem, max_slope_deg: float, max_vertices: int | None = None, max_error_m: float | None = None,
+               *, seed_fraction: float = SEED_FRACTION, crest_fraction: float = CREST_FRACTION,
+               batch_fraction: float = BATCH_FRACTION, false_steep_weight: float = FALSE_STEEP_WEIGHT,
+               vertical_weight: float = VERTICAL_WEIGHT, false_drivable_weight: float = FALSE_DRIVABLE_WEIGHT,
+               flip_passes: int = FLIP_PASSES, flip_vertical_weight: float = FLIP_VERTICAL_WEIGHT):
+    """Vertices ``(V, 3)`` m and triangles ``(T, 3)`` of the robot TIN of ``dem`` (module docstring)."""
+    _check_robot_args(dem, max_slope_deg, max_vertices, max_error_m, seed_fraction, crest_fraction, batch_fraction)
     from scipy.spatial import Delaunay
 
     from .greedy import greedy_mesh
