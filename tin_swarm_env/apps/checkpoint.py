@@ -38,6 +38,7 @@ are kept.
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
@@ -51,7 +52,7 @@ import numpy as np
 
 from .._atomic import atomic_path
 from .._safe_json import read_json
-from ..errors import CheckpointError
+from ..errors import CheckpointError, OutputError
 
 __all__ = ["ARGS_FILE", "STATE_FILE", "POLICY_FILE", "OPTIMIZER_FILE", "TORCH_RNG_FILE", "LEGACY_MODEL", "FORMAT",
            "Checkpoint", "write_args", "read_args", "write_checkpoint", "read_checkpoints", "last_checkpoint",
@@ -376,19 +377,27 @@ def write_checkpoint(out: Path, model, vec, extra: dict) -> Path:
     tmp = root / f".step_{n}.part"
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir()
+    name = POLICY_FILE
     try:
         _save_npz(tmp / POLICY_FILE, {k: v.detach().cpu().numpy() for k, v in model.policy.state_dict().items()})
+        name = OPTIMIZER_FILE
         _save_npz(tmp / OPTIMIZER_FILE, _optimizer_arrays(model))
-        np.save(tmp / TORCH_RNG_FILE, torch.get_rng_state().numpy())
+        name = TORCH_RNG_FILE
+        with open(tmp / TORCH_RNG_FILE, "wb") as fh:
+            np.save(fh, torch.get_rng_state().numpy())
         envs = [e.rng_state for e in vec.envs]
         state = {"format": FORMAT, "version": VERSION, "num_timesteps": n, "n_updates": int(model._n_updates),
                  "rng": _rng_state(), "env_rng": envs, **extra}
+        name = STATE_FILE
         with open(tmp / STATE_FILE, "w", encoding="utf-8") as fh:
             json.dump(state, fh, indent=1, allow_nan=False)
             fh.flush()
             os.fsync(fh.fileno())
-    except BaseException:
+    except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)
+        if isinstance(exc, OSError) and not isinstance(exc, OutputError):
+            raise OutputError(exc.errno or errno.EIO, f"{exc.strerror or exc}; the checkpoint was not written (the "
+                              "earlier ones are unchanged)", str(final / name)) from exc
         raise
     if final.exists():
         shutil.rmtree(final)

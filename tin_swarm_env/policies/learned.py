@@ -47,6 +47,7 @@ describes it, its mirror symmetry in distribution and how it acts). Both network
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import shutil
@@ -55,7 +56,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ArgumentError, PolicyFileError
+from ..errors import ArgumentError, OutputError, PolicyFileError
 from .base import SafetyShield, act_dict, unwrap_env
 from .network import (ACTIVATIONS, MAX_ABS_WEIGHT, MAX_JSON_BYTES, MAX_JSON_DEPTH, MAX_LAYER_WIDTH,  # noqa: F401
                       MAX_LAYERS, MAX_PARAMETERS, MAX_WEIGHTS_BYTES, SHIELDS, checked_array, dense)
@@ -251,8 +252,12 @@ def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str
         os.umask(umask)
         os.chmod(tmp, 0o777 & ~umask)
         _swap_into_place(tmp, p)
-    except BaseException:
+    except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)
+        if isinstance(exc, OSError) and not isinstance(exc, OutputError) and (
+                exc.filename is None or str(tmp) in str(exc.filename)):  # a write into the temporary directory
+            raise OutputError(exc.errno or errno.EIO, f"{exc.strerror or exc}; not written (an old policy there "
+                              "is unchanged)", str(p)) from exc
         raise
     return p
 
