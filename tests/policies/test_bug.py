@@ -576,5 +576,5 @@ def test_swinging_to_and_fro_along_a_wall_is_no_lap(obs_row, s):
 
 @pytest.mark.parametrize("key", ["margin_m", "home_arc_m", "stall_crowded", "ring_cos"])
 def test_bug_params_refuse_non_positive_values_by_name(key):
-    with pytest.raises(ValueError, match=f"BugParams.{key} must be > 0"):
+    with pytest.raises(ValueError, match=f"BugParams.{key} must be .*> 0"):
         BugParams(**{key: 0})

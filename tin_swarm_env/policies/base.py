@@ -48,11 +48,23 @@ def act_dict(act_batch, obs: dict, rows=None) -> dict:
     return {k: a[i] for i, k in enumerate(keys)}
 
 
-def check_positive_fields(params) -> None:
-    """Every field of the dataclass ``params`` must be > 0: ValueError naming the class and field."""
+MAX_PARAM = 1e12  # the largest value any policy constant may take (a finite number whose square is finite too)
+
+
+def check_positive_fields(params, limits: dict | None = None) -> None:
+    """Every field of the dataclass ``params`` must be a finite number > 0 and <= :data:`MAX_PARAM`
+    (a field annotated ``int``: an integer; a bool is never a number); ``limits`` maps a field to
+    other :func:`~tin_swarm_env.errors.check_range` keywords (``{"cells": {"hi": 2048}}``). Raises
+    :class:`~tin_swarm_env.errors.ParameterError` (a ValueError) naming the class and field."""
+    import typing
+
+    from ..errors import check_range
+
+    hints = typing.get_type_hints(type(params))
     for f in fields(params):
-        if not getattr(params, f.name) > 0:
-            raise ValueError(f"{type(params).__name__}.{f.name} must be > 0, got {getattr(params, f.name)!r}")
+        kw = {"lo": 0, "lo_open": True, "hi": MAX_PARAM, "integer": hints.get(f.name) is int,
+              **(limits or {}).get(f.name, {})}
+        check_range(type(params).__name__, f.name, getattr(params, f.name), **kw)
 
 
 def unwrap_env(env):

@@ -59,8 +59,9 @@ class BugParams:
     ring_m: float = 5.0
     ring_cos: float = 0.7
 
-    def __post_init__(self):
-        check_positive_fields(self)
+    def __post_init__(self):  # split, ring_cos are cosines, leave_gain a share
+        check_positive_fields(self, {"split": {"hi": 1}, "ring_cos": {"hi": 1}, "leave_gain": {"hi": 1},
+                                     "stall_crowded": {"hi": 10**6}})
 
 
 _FLOAT2 = ("last_rel", "last_act", "hit", "wall_pt", "last_q", "t_hit", "r_pt", "r_dir", "b1_q")

@@ -20,6 +20,9 @@ __all__ = ["ChartMemory", "ChartParams", "chart_update", "plan"]
 OPEN, WALL, STUCK = 0, 1, 2  # chart cell values: not seen blocked, a dangerous break seen there, a stall there
 
 
+MAX_CHART_CELLS = 2048  # ChartParams.cells: a chart is cells^2 bytes per robot (4 MiB at 2048; 200 robots 800 MiB)
+
+
 @dataclass(frozen=True)
 class ChartParams:
     """Constants of the chart search (the module docstring of :mod:`tin_swarm_env.policies.apf`
@@ -60,8 +63,9 @@ class ChartParams:
     behind: float = 0.8
     turn_m: float = 30.0
 
-    def __post_init__(self):
-        check_positive_fields(self)
+    def __post_init__(self):  # the chart is cells x cells bytes per robot: at most MAX_CHART_CELLS a side
+        check_positive_fields(self, {"cells": {"lo": 4, "lo_open": False, "hi": MAX_CHART_CELLS},
+                                     "stall_steps": {"hi": 10**9}})
 
 
 @dataclass

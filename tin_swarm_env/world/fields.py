@@ -42,13 +42,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import ParameterError, check_range
 
 __all__ = ["FIELDS", "FieldParams", "robot_field", "target_field", "break_field", "height_field",
            "follow_field", "away_from", "facing", "asset_field", "fields_at", "HEIGHT_SCALE_M"]
 
 FIELDS = ("robot", "target", "break", "height", "asset")
 HEIGHT_SCALE_M = 10.0
+
+
+MAX_FIELD_VALUE = 1e12  # the largest gain or range a FieldParams takes (its square stays finite)
 
 
 @dataclass(frozen=True)
@@ -72,13 +75,18 @@ class FieldParams:
     fields: tuple[str, ...] = FIELDS
 
     def __post_init__(self):
+        if not isinstance(self.fields, (tuple, list)) or not all(isinstance(f, str) for f in self.fields):
+            raise ParameterError(f"FieldParams.fields must be a tuple of field names ({', '.join(FIELDS)}), got "
+                                 f"{self.fields!r}")
         unknown = set(self.fields) - set(FIELDS)
         if unknown:
             raise ParameterError(f"unknown field(s) {sorted(unknown)}; the fields are {', '.join(FIELDS)}")
         for k in ("robot_range_m", "target_range_m", "break_range_m", "break_decay_m", "follow_engage_m",
-                  "follow_hold_m", "stall_steps", "asset_range_m"):
-            if not getattr(self, k) > 0:
-                raise ParameterError(f"FieldParams.{k} must be > 0, got {getattr(self, k)}")
+                  "follow_hold_m", "asset_range_m", "speed_saturation"):
+            check_range("FieldParams", k, getattr(self, k), 0, MAX_FIELD_VALUE, lo_open=True)
+        for k in ("robot_gain", "target_gain", "break_gain", "height_gain", "asset_gain"):  # 0: the field is off
+            check_range("FieldParams", k, getattr(self, k), 0, MAX_FIELD_VALUE)
+        check_range("FieldParams", "stall_steps", self.stall_steps, 1, 10**9, integer=True)
 
     def on(self, name: str) -> bool:
         return name in self.fields

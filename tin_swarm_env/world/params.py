@@ -9,21 +9,32 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from ..errors import ParameterError, check_range
 from ..terrain.breaks import BREAK_ANGLE_DEG, MAX_SLOPE_DEG
 
 __all__ = ["RobotParams", "SensorParams", "BatteryParams", "WorldParams", "MAX_SPEED_MPS"]
 
 
+MAX_VALUE = 1e12  # the largest value any model parameter takes (finite, and so is its square)
+
+
 def _positive(obj, *names):
     for n in names:
         check_range(type(obj).__name__, n, getattr(obj, n), 0, lo_open=True)
+        check_range(type(obj).__name__, n, getattr(obj, n), hi=MAX_VALUE)
 
 
 def _non_negative(obj, *names):
     for n in names:
         check_range(type(obj).__name__, n, getattr(obj, n), 0)
+        check_range(type(obj).__name__, n, getattr(obj, n), hi=MAX_VALUE)
 
+
+MAX_RADIUS_M = 1000.0  # a robot's body radius
+MAX_RANGE_M = 100_000.0  # a sensor's range (the sensing work grows with the robots within it)
+MAX_DT_S = 3600.0  # one step
 
 # speeds above this make positions overflow or robots skip whole triangles in one step
 MAX_SPEED_MPS = 1000.0
@@ -51,6 +62,7 @@ class RobotParams:
     def __post_init__(self):
         _positive(self, "radius_m", "max_speed_mps", "turn_rate_dps", "max_slope_deg", "max_climb_deg")
         check_range("RobotParams", "max_speed_mps", self.max_speed_mps, hi=MAX_SPEED_MPS)
+        check_range("RobotParams", "radius_m", self.radius_m, hi=MAX_RADIUS_M)
         if self.max_slope_deg >= 90:
             raise ParameterError(f"RobotParams.max_slope_deg must be < 90, got {self.max_slope_deg}")
         if self.max_climb_deg < self.max_slope_deg:
@@ -83,6 +95,9 @@ class SensorParams:
     def __post_init__(self):
         _positive(self, "range_m", "fov_deg")
         _non_negative(self, "height_m")
+        check_range("SensorParams", "range_m", self.range_m, hi=MAX_RANGE_M)
+        if not isinstance(self.check_los, (bool, np.bool_)):
+            raise ParameterError(f"SensorParams.check_los must be true or false, got {self.check_los!r}")
         check_range("SensorParams", "max_candidates", self.max_candidates, 1, 4096, integer=True)
         if self.fov_deg > 360:
             raise ParameterError(f"SensorParams.fov_deg must be in (0, 360], got {self.fov_deg}")
@@ -140,10 +155,15 @@ class WorldParams:
 
     def __post_init__(self):
         _positive(self, "dt_s")
+        check_range("WorldParams", "dt_s", self.dt_s, hi=MAX_DT_S)
+        for k in ("robot", "sensor", "battery"):
+            want = {"robot": RobotParams, "sensor": SensorParams, "battery": BatteryParams}[k]
+            if not isinstance(getattr(self, k), want):
+                raise ParameterError(f"WorldParams.{k} must be a {want.__name__}, got {getattr(self, k)!r}")
         _non_negative(self, "entity_height_m", "entity_speed_mps", "entity_turn_sd_deg")
         check_range("WorldParams", "entity_speed_mps", self.entity_speed_mps, hi=MAX_SPEED_MPS)
-        if len(self.flat_size_m) != 2:
+        if not isinstance(self.flat_size_m, (tuple, list)) or len(self.flat_size_m) != 2:
             raise ParameterError(f"WorldParams.flat_size_m must be (width, height) > 0, got {self.flat_size_m}")
         for v in self.flat_size_m:
-            check_range("WorldParams", "flat_size_m", v, 0, lo_open=True)
+            check_range("WorldParams", "flat_size_m", v, 0, 1e7, lo_open=True)
         check_range("WorldParams", "break_angle_deg", self.break_angle_deg, 0, 180)
