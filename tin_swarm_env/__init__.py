@@ -41,7 +41,7 @@ __version__ = "0.1.0"
 
 _SUBPACKAGES = ("adapters", "apps", "env", "policies", "scenario", "terrain", "tin_swarm_v0", "world")
 _LAZY = {"TinSwarmEnv": "env.tin_swarm", "parallel_env": "env.tin_swarm", "raw_env": "env.tin_swarm",
-         "Reason": "world.state"}
+         "Reason": "world.state", "vector_env": "env.vector", "VectorEnv": "env.vector"}
 
 
 def __getattr__(name):
@@ -63,6 +63,6 @@ register_gymnasium()
 
 __all__ = [
     "ENV_ID", "DemFormatError", "MissingExtraError", "Reason", "TinFormatError", "TinStructureError", "TinSwarmError",
-    "TinSwarmEnv", "__version__", "adapters", "apps", "env", "parallel_env", "policies", "raw_env", "scenario",
-    "terrain", "tin_swarm_v0", "world",
+    "TinSwarmEnv", "VectorEnv", "__version__", "adapters", "apps", "env", "parallel_env", "policies", "raw_env",
+    "scenario", "vector_env", "terrain", "tin_swarm_v0", "world",
 ]

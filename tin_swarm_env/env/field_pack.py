@@ -1,0 +1,133 @@
+"""Many copies' cost-to-go fields in one set of arrays, queried for every robot in one pass.
+
+:class:`~tin_swarm_env.terrain.CostToGoStack` holds the fields of one TIN; the vector env's copies
+stand on different TINs, so :class:`FieldPack` concatenates the distinct fields' own arrays with
+per-field offsets (each field's indices stay local: the query takes views), and
+:func:`distance_copies` measures every robot's distance to go on its field with the per-point
+code of :func:`~tin_swarm_env.terrain._ctg_kernels.distance_stacked` (``_best``): the same bits.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ..terrain._ctg_kernels import _best
+
+__all__ = ["FieldPack", "distance_copies", "EUCLID", "NO_FIELD"]
+
+NO_FIELD = -1  # a robot with no target: distance inf
+EUCLID = -2  # a robot whose copy measures the straight line (euclidean progress, mobile targets)
+
+# the per-field arrays and the size they are counted in: nodes, triangles, vertices, windows, wstart rows
+_KIND = (("nx", "n"), ("ny", "n"), ("dist", "n"), ("tri_nodes", "t"), ("passable", "t"), ("goal_tri", "t"),
+         ("tris", "t"), ("nbrs", "t"), ("vx", "v"), ("vy", "v"), ("twin", "v"), ("wstart", "s"), ("wgeo", "w"),
+         ("wroot", "w"))
+
+
+def _arrays(f) -> dict:
+    c = np.ascontiguousarray
+    return {"nx": c(f._nx, np.float64), "ny": c(f._ny, np.float64), "dist": c(f.node_distance, np.float64),
+            "tri_nodes": c(f._tri_nodes, np.int64), "passable": c(f.passable, np.bool_),
+            "goal_tri": c(f.goal_triangles, np.bool_), "tris": c(f._tris, np.int64),
+            "nbrs": c(f.tin.neighbors, np.int64), "vx": c(f._vx, np.float64), "vy": c(f._vy, np.float64),
+            "twin": c(f._twin, np.int64), "wstart": c(f._wstart, np.int64), "wgeo": c(f._wgeo, np.float64),
+            "wroot": c(f._wroot, np.int64)}
+
+
+class FieldPack:
+    """The distinct :class:`~tin_swarm_env.terrain.CostToGo` fields, concatenated; ``index(f)``
+    is a field's id. Appending a field costs one concatenation per array (O(total))."""
+
+    def __init__(self, fields=()):
+        self.fields: list = []
+        self._where: dict = {}
+        self.a = None
+        self.off = None
+        self.scal = (np.zeros((0, 2)), np.zeros(0), np.zeros(0))  # goal xy, tolerance, eps
+        self.extend(fields)
+
+    def __len__(self) -> int:
+        return len(self.fields)
+
+    def index(self, f) -> int:
+        return self._where[id(f)]
+
+    def __contains__(self, f) -> bool:
+        return id(f) in self._where
+
+    def extend(self, fields) -> None:
+        new = []
+        for f in fields:
+            if id(f) not in self._where and all(g is not f for g in new):
+                new.append(f)
+        if not new:
+            return
+        if self.fields and any(f._tri_nodes.shape[1] != self.fields[0]._tri_nodes.shape[1] for f in new):
+            from ..errors import ArgumentError
+
+            raise ArgumentError("vector env: the copies' cost-to-go fields have different steiner_per_edge")
+        parts = [_arrays(f) for f in new]
+        if self.a is None:
+            self.a = {k: np.ascontiguousarray(np.concatenate([p[k] for p in parts])) for k, _ in _KIND}
+            sizes = {s: [0] for s in "ntvsw"}
+        else:
+            self.a = {k: np.ascontiguousarray(np.concatenate([self.a[k]] + [p[k] for p in parts])) for k, _ in _KIND}
+            sizes = {s: [int(self.off[s][-1])] for s in "ntvsw"}
+        key = {"n": "nx", "t": "passable", "v": "vx", "s": "wstart", "w": "wroot"}
+        for p in parts:
+            for s in "ntvsw":
+                sizes[s].append(sizes[s][-1] + len(p[key[s]]))
+        if self.off is None:
+            self.off = {s: np.array(v, dtype=np.int64) for s, v in sizes.items()}
+        else:
+            self.off = {s: np.concatenate([self.off[s], np.array(sizes[s][1:], dtype=np.int64)]) for s in "ntvsw"}
+        for f in new:
+            self._where[id(f)] = len(self.fields)
+            self.fields.append(f)
+        g, tol, eps = self.scal
+        self.scal = (np.concatenate([g, np.array([f.goal_xy for f in new], dtype=np.float64).reshape(-1, 2)]),
+                     np.concatenate([tol, [float(f.tin.tolerances[0]) for f in new]]),
+                     np.concatenate([eps, [float(f._eps_m) for f in new]]))
+
+    def kernel_args(self) -> tuple:
+        a, o = self.a, self.off
+        if a is None:
+            z, zi = np.zeros(0), np.zeros(1, dtype=np.int64)
+            i0, i3 = np.zeros(0, np.int64), np.zeros((0, 3), np.int64)
+            return (z, z, z, np.zeros((0, 1), np.int64), np.zeros(0, bool), np.zeros(0, bool), i3, i3, z, z, i0, i0,
+                    np.zeros((0, 7)), i0, zi, zi, zi, zi, zi, *self.scal)
+        return (a["nx"], a["ny"], a["dist"], a["tri_nodes"], a["passable"], a["goal_tri"], a["tris"], a["nbrs"],
+                a["vx"], a["vy"], a["twin"], a["wstart"], a["wgeo"], a["wroot"], o["n"], o["t"], o["v"], o["s"], o["w"],
+                *self.scal)
+
+
+@njit(cache=True, parallel=True)
+def _distance_copies(nx, ny, dist, tri_nodes, passable, goal_tri, tris, nbrs, vx, vy, twin, wstart, wgeo, wroot,
+                     on, ot, ov, os_, ow, gxy, tol, eps, fid, pos, tri, tpos, tglob, out):
+    for i in prange(pos.shape[0]):
+        f = fid[i]
+        if f == EUCLID:
+            k = tglob[i]
+            out[i] = np.hypot(tpos[k, 0] - pos[i, 0], tpos[k, 1] - pos[i, 1])
+            continue
+        out[i] = np.inf
+        t = tri[i]
+        if f < 0 or t < 0:
+            continue
+        a0, a1 = on[f], on[f + 1]
+        t0, t1 = ot[f], ot[f + 1]
+        v0, v1 = ov[f], ov[f + 1]
+        w0, w1 = ow[f], ow[f + 1]
+        s0, s1 = os_[f], os_[f + 1]
+        out[i] = _best(nx[a0:a1], ny[a0:a1], dist[a0:a1], tri_nodes[t0:t1], passable[t0:t1], goal_tri[t0:t1],
+                       gxy[f, 0], gxy[f, 1], vx[v0:v1], vy[v0:v1], tris[t0:t1], nbrs[t0:t1], wstart[s0:s1],
+                       wgeo[w0:w1], wroot[w0:w1], pos[i, 0], pos[i, 1], t, tol[f], eps[f], twin[v0:v1])[0]
+    return out
+
+
+def distance_copies(pack: FieldPack, fid, pos, tri_local, tpos, tglob, out) -> np.ndarray:
+    """``out (n,)`` m: robot i's distance to go on field ``fid[i]`` (:data:`EUCLID`: the straight
+    line to target ``tglob[i]`` of ``tpos``; :data:`NO_FIELD`: inf), ``tri_local`` its
+    triangle in its own TIN (-1: inf)."""
+    return _distance_copies(*pack.kernel_args(), fid, pos, tri_local, tpos, tglob, out)

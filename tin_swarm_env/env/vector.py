@@ -1,0 +1,375 @@
+"""The vector env: E copies of the swarm stepped by one call.
+
+``tse.vector_env(scenario, n_envs=E, n_robots=N, seed=s)`` holds E copies of the parallel env's
+swarm (each with its own terrain, targets, robots and episode clock) in flat arrays over the
+``E * N`` robots, copy-major. One :meth:`VectorEnv.step` runs the world step, the distance to go,
+the rewards, the sensing and the observations for every robot of every copy in a handful of
+compiled passes (:mod:`tin_swarm_env.world.batch_kernels`, :mod:`.field_pack`, the single env's
+observation and reward kernels on the flat arrays), with no Python loop over copies or robots;
+only copies that end pay a reset.
+
+**Copies.** ``scenario`` is one scenario (a name, path or
+:class:`~tin_swarm_env.scenario.ScenarioConfig`) or a list of them: copy ``c`` plays
+``scenario[c % len(scenario)]``. A generated scenario draws a new terrain per copy and per reset.
+Every copy must have the same robot count, observation layout, world parameters (robot, sensor,
+battery) and reward terms (refused by name otherwise); scenarios with mobile targets or assets
+are refused (their random walk draws from each copy's generator every step).
+
+**Resets.** Each copy resets on its own when its episode ends (no robot of it is left: every one
+terminated or was truncated at ``max_cycles``): the observations returned for that copy are the
+new episode's, and ``infos["final_obs"][c]`` (with ``infos["_final"][c]`` True) holds the ended
+episode's last observations. The seeds come from one generator seeded by ``seed``:
+``copy_seeds[c]`` is the seed copy ``c`` was last reset with, and copy ``c`` is, bit for bit,
+``parallel_env(scenario_c, n_robots=N, ...).reset_arrays(seed=copy_seeds[c])`` stepped with the
+same actions (``tests/env/test_vector.py``).
+
+**Arrays.** ``reset()`` -> ``obs (E, N, d)`` float32. ``step(actions (E, N, 2))`` ->
+``obs (E, N, d)``, ``rewards (E, N)`` float32, ``terminated``/``truncated (E, N)`` bool, ``infos``:
+``reasons (E, N)`` int8 :class:`~tin_swarm_env.Reason` codes of this step, ``distance_to_go_m
+(E, N)``, ``live (E, N)`` (robots still in their episode after the step and any reset),
+``_final (E,)`` and ``final_obs (E, N, d)``. Robots no longer live read zero observations and
+rewards, as in the parallel env; their actions are ignored. NaN/inf actions are refused naming
+the copy and robot.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+from gymnasium import spaces
+
+from ..errors import ArgumentError, check_range
+from ..world import Reason
+from ..world.batch_kernels import sense_copies, step_copies
+from ..world.pack import _one, join, pack_worlds
+from ..world.sense_kernels import compact
+from ..world.world import serial_if_small
+from .checks import check_seed
+from .field_pack import EUCLID, NO_FIELD, FieldPack, distance_copies
+from .observation import DZ_SCALE_M, OBS_SERIAL_BELOW, _fill, _kernel_offsets
+from .reward import _rewards_kernel
+from .tin_swarm import TinSwarmEnv, _live_actions
+
+__all__ = ["VectorEnv", "vector_env", "MAX_COPIES"]
+
+MAX_COPIES = 1 << 16
+_ARRIVED, _FELL = int(Reason.ARRIVED), int(Reason.FELL)
+
+
+def _same(where: str, k: int, name: str, a, b) -> None:
+    if a != b:
+        raise ArgumentError(f"vector_env: scenario {k} ({where}) has {name} {a!r}, scenario 0 has {b!r}; every "
+                            "copy must share it")
+
+
+class VectorEnv:
+    """E copies of the swarm stepped by one call (see the module docstring)."""
+
+    metadata = {"name": "tin_swarm_v0_vector"}
+
+    def __init__(self, scenario="cliff_goal", n_envs: int = 1, n_robots: int | None = None, seed: int | None = None,
+                 **env_kwargs):
+        check_range("vector_env", "n_envs", n_envs, 1, MAX_COPIES, integer=True, exc=ArgumentError)
+        seed = check_seed(seed, "vector_env")
+        if "render_mode" in env_kwargs and env_kwargs["render_mode"] is not None:
+            raise ArgumentError("vector_env: render_mode is not supported (render a copy with parallel_env and "
+                                "its copy_seeds)")
+        scen = list(scenario) if isinstance(scenario, (list, tuple)) else [scenario]
+        if not scen:
+            raise ArgumentError("vector_env: scenario is an empty list")
+        self._protos = [TinSwarmEnv(scenario=s, n_robots=n_robots, **env_kwargs) for s in scen]
+        p0 = self._protos[0]
+        from .reward import reward_params
+
+        for k, p in enumerate(self._protos):
+            name = p.config.name
+            _same(name, k, "n_robots", p.n, p0.n)
+            _same(name, k, "observation layout", p.layout, p0.layout)
+            _same(name, k, "world parameters", p.world.params, p0.world.params)
+            _same(name, k, "reward terms", reward_params(p.config), reward_params(p0.config))
+            if p.config.targets.mobile or getattr(p.config.assets, "mobile", False):
+                raise ArgumentError(f"vector_env: scenario {k} ({name}) has mobile targets or assets, which the "
+                                    "vector env does not step; use parallel_env")
+        E, N = int(n_envs), p0.n
+        self.n_envs, self.n_robots, self.layout = E, N, p0.layout
+        self.params = p0.world.params
+        self.single_observation_space = spaces.Box(-1.0, 1.0, (self.layout.size,), np.float32)
+        self.single_action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        self.observation_space = spaces.Box(-1.0, 1.0, (E, N, self.layout.size), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (E, N, 2), np.float32)
+        self._rw = reward_params(p0.config)
+        self._M = max(max(p._target_slots for p in self._protos), 1)
+        self._A = max(max(int(p.config.assets.n) for p in self._protos), 1)
+        self.copy_scenario = np.arange(E) % len(scen)
+        self.copy_seeds = np.zeros(E, dtype=np.int64)
+        self._master = np.random.default_rng(seed)
+        R = E * N
+        self._cop = np.repeat(np.arange(E, dtype=np.int64), N)
+        self._off = np.arange(E + 1, dtype=np.int64) * N
+        z = np.zeros
+        self._pos, self._head, self._h = z((R, 2)), z(R), z(R)
+        self._tri = z(R, dtype=np.int64)  # local to the copy's TIN
+        self._speed, self._batt, self._status = z(R), z(R), z(R, dtype=np.int8)
+        self._coll = z(R, dtype=np.int64)
+        self._live = z(R, dtype=bool)
+        self._tglob = np.full(R, -1, dtype=np.int64)
+        self._dist = np.full(R, np.inf)
+        self._fid = np.full(R, NO_FIELD, dtype=np.int64)
+        self._wor = z(R, dtype=np.int64)
+        self._tri_off = z(R, dtype=np.int64)
+        self._steps = z(E, dtype=np.int64)
+        self._max_cycles = z(E, dtype=np.int64)
+        self._tpos, self._tz = z((E * self._M, 2)), z(E * self._M)
+        self._t_rng = np.stack([np.arange(E) * self._M] * 2, axis=1).astype(np.int64)
+        self._apos, self._az = z((E * self._A, 2)), z(E * self._A)
+        self._a_rng = np.stack([np.arange(E) * self._A] * 2, axis=1).astype(np.int64)
+        self._worlds = [None] * E
+        self._fields = [()] * E
+        self._pack = None
+        self._fpack = FieldPack()
+        K = int(self.params.sensor.max_candidates)
+        self._slots = [(np.empty((R, K), np.int64), np.empty((R, K)), np.empty((R, K), np.int8), z(R, np.int64))
+                       for _ in range(3)]
+        P = self.params
+        Bp = P.battery
+        # the scalars World._step passes to the step kernel, computed the same way (the same bits)
+        self._step_p = (float(P.robot.max_speed_mps), float(P.robot.max_climb_deg),
+                        math.radians(P.robot.turn_rate_dps) * P.dt_s, float(P.dt_s),
+                        (Bp.idle_w + Bp.sensing_w) * P.dt_s, float(Bp.drive_j_per_m), float(Bp.climb_j_per_m),
+                        float(2 * P.robot.radius_m))
+        self._own_scale = (float(Bp.capacity_j), float(P.robot.max_speed_mps), np.pi / 2, 90.0)
+        self._ks = (self.layout.k_robots, self.layout.k_targets, self.layout.k_breaks, self.layout.k_assets,
+                    self.layout.k_scan)
+        self._started = False
+
+    # -- resets ------------------------------------------------------------------------------
+    def _draw_seed(self) -> int:
+        return int(self._master.integers(0, 2 ** 63 - 1))
+
+    def reset(self, seed: int | None = None) -> np.ndarray:
+        """Reset every copy; ``seed`` reseeds the generator the copies' seeds are drawn from.
+        Returns ``obs (E, N, d)``."""
+        seed = check_seed(seed)
+        if seed is not None:
+            self._master = np.random.default_rng(seed)
+        obs = np.zeros((self.n_envs, self.n_robots, self.layout.size), dtype=np.float32)
+        for c in range(self.n_envs):
+            obs[c] = self._reset_copy(c, self._draw_seed(), defer=True)
+        self._repack()
+        self._started = True
+        return obs
+
+    def _reset_copy(self, c: int, seed: int, defer: bool = False) -> np.ndarray:
+        """Reset copy ``c`` with ``seed`` through its scenario's parallel env (the same code, so the
+        same episode); returns its observations ``(N, d)``."""
+        p = self._protos[self.copy_scenario[c]]
+        obs = p.reset_arrays(seed=seed)
+        self.copy_seeds[c] = seed
+        s = p.world_state
+        N = self.n_robots
+        rows = slice(c * N, (c + 1) * N)
+        self._pos[rows] = s.positions
+        self._head[rows] = s.headings
+        self._tri[rows] = s.tri_idx
+        self._h[rows] = s.heights
+        self._speed[rows] = s.speeds
+        self._batt[rows] = s.battery_j
+        self._status[rows] = s.status
+        self._coll[rows] = s.collisions
+        self._live[rows] = True
+        world = p.world
+        ent_h = float(self.params.entity_height_m)
+        for ent, M, pos, z, rng, what in ((s.targets, self._M, self._tpos, self._tz, self._t_rng, "targets"),
+                                          (s.assets, self._A, self._apos, self._az, self._a_rng, "assets")):
+            k = len(ent)
+            if k > M:
+                raise ArgumentError(f"vector_env: copy {c} has {k} {what}, more than the {M} slots its scenario "
+                                    "declares")
+            if k:
+                pos[c * M:c * M + k] = ent.positions
+                z[c * M:c * M + k] = world.tin.height_in(ent.positions, ent.tri_idx)
+            rng[c, 1] = c * M + k
+        _ = ent_h
+        tidx = p.target_assignment
+        self._tglob[rows] = np.where(tidx >= 0, c * self._M + tidx, -1)
+        self._dist[rows] = p.distance_to_go()
+        self._fields[c] = p._fields if p._stack is not None else ()
+        self._worlds[c] = world
+        self._steps[c] = 0
+        self._max_cycles[c] = p.max_cycles
+        if not defer:
+            self._place(c)
+        return obs
+
+    def _place(self, c: int) -> None:
+        """Copy ``c``'s world and fields into the packs (appended when new), and its robots'
+        world, triangle offset and field ids."""
+        world = self._worlds[c]
+        if self._pack is None or world not in self._pack:
+            used = {id(w) for w in self._worlds}
+            if self._pack is not None and len(self._pack.worlds) > 2 * len(used) + 8:
+                self._repack()
+                return
+            self._pack = _one(world) if self._pack is None else join([self._pack, _one(world)])
+        self._fpack.extend(self._fields[c])
+        if len(self._fpack) > 2 * sum(len(f) for f in self._fields) + 8:
+            self._repack()
+            return
+        self._set_rows(c)
+
+    def _set_rows(self, c: int) -> None:
+        N = self.n_robots
+        rows = slice(c * N, (c + 1) * N)
+        w = self._pack.index(self._worlds[c])
+        self._wor[rows] = w
+        self._tri_off[rows] = self._pack.tri_off[w]
+        t = self._tglob[rows] - c * self._M
+        if self._fields[c]:
+            ids = np.array([self._fpack.index(f) for f in self._fields[c]], dtype=np.int64)
+            self._fid[rows] = np.where(t >= 0, ids[np.maximum(t, 0)], NO_FIELD)
+        else:
+            self._fid[rows] = np.where(t >= 0, EUCLID, NO_FIELD)
+
+    def _repack(self) -> None:
+        """Rebuild both packs from the worlds and fields in use (drops the ended ones)."""
+        seen, worlds = set(), []
+        for w in self._worlds:
+            if id(w) not in seen:
+                seen.add(id(w))
+                worlds.append(w)
+        self._pack = pack_worlds(worlds)
+        self._fpack = FieldPack([f for fs in self._fields for f in fs])
+        for c in range(self.n_envs):
+            self._set_rows(c)
+
+    # -- step -------------------------------------------------------------------------------------
+    def _check_actions(self, actions) -> np.ndarray:
+        E, N = self.n_envs, self.n_robots
+        try:
+            a = np.asarray(actions, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ArgumentError(f"vector step(actions): not an array of numbers ({exc})") from None
+        if a.shape != (E, N, 2):
+            raise ArgumentError(f"vector step(actions): actions must have shape ({E}, {N}, 2), got {a.shape}")
+        out, bad = _live_actions(np.ascontiguousarray(a.reshape(E * N, 2)), self._live)
+        if bad >= 0:
+            raise ArgumentError(f"vector step(actions): copy {bad // N}, robot_{bad % N}: action "
+                                f"{a.reshape(-1, 2)[bad].tolist()} is not finite")
+        return out
+
+    def step(self, actions):
+        """One step of every copy: ``(obs, rewards, terminated, truncated, infos)`` (see the module
+        docstring)."""
+        if not self._started:
+            raise RuntimeError("call reset() before step()")
+        a = self._check_actions(actions)
+        E, N = self.n_envs, self.n_robots
+        with serial_if_small(E * N):
+            obs, rew, term, trunc, why = self._step(a)
+        live_after = self._live.reshape(E, N)
+        done = ~live_after.any(axis=1)
+        infos = {"reasons": why.reshape(E, N), "distance_to_go_m": self._dist.reshape(E, N).copy(),
+                 "_final": done.copy()}
+        obs = obs.reshape(E, N, -1)
+        final = np.zeros_like(obs)
+        if done.any():
+            final[done] = obs[done]
+            for c in np.flatnonzero(done).tolist():
+                obs[c] = self._reset_copy(c, self._draw_seed())
+                infos["distance_to_go_m"][c] = self._dist[c * N:(c + 1) * N]
+        infos["final_obs"] = final
+        infos["live"] = self._live.reshape(E, N).copy()
+        return obs, rew.reshape(E, N), term.reshape(E, N), trunc.reshape(E, N), infos
+
+    def _step(self, a: np.ndarray):
+        pk = self._pack
+        live = self._live
+        tri_g = self._tri + self._tri_off
+        (pos, tri_g, head, h, speeds, batt, energy, status, fell, emptied, coll) = step_copies(
+            pk.T0, pk.steep, self._wor, self._cop, self._off, self._pos, tri_g, self._head, self._h, self._status,
+            self._batt, a, self._step_p)
+        tri = tri_g - self._tri_off
+        dist = distance_copies(self._fpack, self._fid, pos, tri, self._tpos, self._tglob, np.empty(len(pos)))
+        self._steps += 1
+        timeout = (self._steps >= self._max_cycles)[self._cop]
+        rew, term, why, trunc, live_after, n_arrived = _rewards_kernel(
+            self._rw, self._dist, dist, pos, self._tpos, self._tglob, live, energy, coll.astype(np.float64), fell,
+            emptied, timeout)
+        if n_arrived:
+            status[(why == _ARRIVED) & (status != _FELL)] = _ARRIVED
+        self._pos, self._tri, self._head, self._h, self._speed, self._batt, self._status = (
+            pos, tri, head, h, speeds, batt, status)
+        self._coll = self._coll + coll
+        self._dist = dist
+        obs = self._observe(tri_g, live)
+        self._live = live_after
+        return obs, rew, term, trunc, why
+
+    def _observe(self, tri_g, live) -> np.ndarray:
+        """Sense and encode every robot of every copy (robots not ``live`` read zeros)."""
+        pk = self._pack
+        P = self.params
+        sp = P.sensor
+        n = len(self._pos)
+        px = np.ascontiguousarray(self._pos[:, 0])
+        py = np.ascontiguousarray(self._pos[:, 1])
+        active = self._status == 0
+        present = active | (self._status == int(Reason.BATTERY))
+        sz = np.ascontiguousarray(self._h + sp.height_m)
+        eh = P.entity_height_m
+        for s in self._slots:
+            s[3][:] = 0
+        TG = ((np.ascontiguousarray(self._tpos[:, 0]), np.ascontiguousarray(self._tpos[:, 1]), self._tz + eh,
+               self._t_rng), self._slots[1])
+        AS = ((np.ascontiguousarray(self._apos[:, 0]), np.ascontiguousarray(self._apos[:, 1]), self._az + eh,
+               self._a_rng), self._slots[2])
+        brk, (ro, rt, rd, rstart) = sense_copies(pk, self._wor, self._cop, self._off, px, py, self._head, tri_g, sz,
+                                                 active, present, sp, self._slots[0], TG, AS)
+        tg = compact(*self._slots[1], px, py, self._head, TG[0][0], TG[0][1])
+        at = compact(*self._slots[2], px, py, self._head, AS[0][0], AS[0][1])
+        sin_slope, aspect_rad, slope_deg, _ = pk.tilt
+        heading_compass = np.pi / 2 - self._head
+        tilt = np.arcsin(sin_slope[tri_g] * np.sin(heading_compass - aspect_rad[tri_g]))
+        own_n = (self._batt, self._speed, np.ascontiguousarray(tilt), np.ascontiguousarray(slope_deg[tri_g]))
+        normals, drops, danger, ends = pk.OB
+        obs_off, seg, bdist, closest, boff = brk
+        breaks = (boff, seg, bdist, closest, normals, drops, danger)
+        scan = ((boff, seg, ends) if self.layout.k_scan else
+                (np.zeros(n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, 4))))
+        scan += (self.layout.scan_bearings(),)
+        obs = np.zeros((n, self.layout.size), dtype=np.float32)
+        with serial_if_small(n, OBS_SERIAL_BELOW):
+            _fill(obs, *_kernel_offsets(self.layout), self._ks, self._pos, self._head, self._h, own_n, self._own_scale,
+                  pk.T0[5], tri_g, live, self._tglob, self._tpos, self._tz, (rstart, rt, rd), (tg[4], tg[1], tg[2]),
+                  breaks, self._apos, (at[4], at[1], at[2]), scan, float(sp.range_m), DZ_SCALE_M)
+        return obs
+
+    # -- views -----------------------------------------------------------------------------------
+    @property
+    def live_mask(self) -> np.ndarray:
+        """``(E, N)`` bool, a copy: robots still in their copy's episode."""
+        return self._live.reshape(self.n_envs, self.n_robots).copy()
+
+    @property
+    def steps(self) -> np.ndarray:
+        """``(E,)`` steps taken in each copy's episode."""
+        return self._steps.copy()
+
+    def distance_to_go(self) -> np.ndarray:
+        """``(E, N)`` m, each robot's distance to go (as the reward measures it)."""
+        return self._dist.reshape(self.n_envs, self.n_robots).copy()
+
+    def close(self) -> None:
+        for p in self._protos:
+            p.close()
+
+
+def vector_env(scenario="cliff_goal", n_envs: int = 1, n_robots: int | None = None, seed: int | None = None,
+               **env_kwargs) -> VectorEnv:
+    """E copies of the swarm stepped by one call (:class:`VectorEnv`); ``env_kwargs`` go to each
+    copy's :class:`~tin_swarm_env.env.tin_swarm.TinSwarmEnv` (``max_cycles``...)."""
+    if isinstance(n_envs, bool) or not isinstance(n_envs, numbers.Integral):
+        raise ArgumentError(f"vector_env: n_envs must be an integer >= 1, got {n_envs!r}")
+    return VectorEnv(scenario, n_envs=n_envs, n_robots=n_robots, seed=seed, **env_kwargs)
