@@ -19,6 +19,10 @@ import pytest
 import tin_swarm_env as tse
 from tin_swarm_env.apps.cli import main
 from tin_swarm_env.errors import TinSwarmError
+from tin_swarm_env.policies.bug import BugParams
+from tin_swarm_env.policies.chart import ChartParams
+from tin_swarm_env.world.fields import FieldParams
+from tin_swarm_env.world.params import SensorParams
 
 FLAT = ["--robots", "2", "--max-cycles", "3", "--quiet"]
 
@@ -176,6 +180,51 @@ CASES = [
      "--eval-episodes must be an integer >= 1"),
     ("`train flat --batch-size 0`", "cli", ["train", "flat", "--batch-size", "0"], "--batch-size must be"),
     ("`train flat --net-arch abc`", "cli", ["train", "flat", "--net-arch", "abc"], "--net-arch 'abc'"),
+    # checkpoints are data (tin-swarm train --resume)
+    ("`train flat --resume DIR`, args.json nested 100000 deep", "cli", ["train", "flat", "--resume", "{d}/run_deep"],
+     "nested 100000 levels deep; at most 32"),
+    ("`train flat --resume DIR`, args.json `n_robots: \"eight\"`", "cli",
+     ["train", "flat", "--resume", "{d}/run_type"], "--n-robots must be an integer"),
+    ("`train flat --resume DIR`, args.json with an unknown key", "cli", ["train", "flat", "--resume", "{d}/run_key"],
+     "key 'colour': found an unknown argument"),
+    ("`train ramp --resume DIR` (a run on flat)", "cli", ["train", "ramp", "--resume", "{d}/run_type"],
+     "key 'scenario': found 'flat', expected 'ramp'"),
+    ("`train flat --resume DIR`, a truncated state.json", "cli", ["train", "flat", "--resume", "{d}/run_state"],
+     "state.json: not valid JSON"),
+    ("`train flat --resume DIR`, a checkpoint of another observation layout", "cli",
+     ["train", "flat", "--resume", "{d}/run_layout"], "key 'run.obs_size': found 1, expected"),
+    ("`train flat --resume DIR`, an older checkpoint's model.zip (a pickle)", "cli",
+     ["train", "flat", "--resume", "{d}/run_pickle"], "refused without --trust-pickle"),
+    # no output overwrites an input
+    ("`run dem.toml --summary dem.xyz` (the DEM the scenario reads)", "cli",
+     ["run", "{d}/dem.toml", "--summary", "{d}/dem.xyz", *FLAT], "is the input"),
+    ("`run flat --policy pol --summary pol/notes.md`", "cli",
+     ["run", "flat", "--policy", "{d}/pol", "--summary", "{d}/pol/notes.md", *FLAT], "lies inside the input"),
+    ("`build-tin dem.xyz -o link.xyz` (a link to the DEM)", "cli", ["build-tin", "{d}/dem.xyz", "-o", "{d}/link.xyz"],
+     "is the input"),
+    ("`eval dem.toml --out DIR/...` (the scenario's own name)", "cli",
+     ["eval", "{d}/dem.md", "--out", "{d}/dem", "--seeds", "1"], "is the input"),
+    ("`train pol/s.toml --out-dir .` (a scenario inside the run's policy/)", "cli",
+     ["train", "{d}/run_out/policy/s.toml", "--out-dir", "{d}/run_out"], "would write over the input"),
+    # writes are atomic and checked
+    ("disk full while writing `--gif`", "cli", ["run", "flat", "--gif", "{d}/full.gif", *FLAT],
+     "full.gif: No space left on device; not written"),
+    ("`run flat | head -1` (the reader goes away)", "cli", ["run", "flat", "--summary", "{d}/head.md", *FLAT],
+     "exit 0"),
+    # options that do not apply, parameters checked where they are defined
+    ("`eval flat --by-family`", "cli", ["eval", "flat", "--by-family", "--seeds", "1"],
+     "--by-family: no scenario of ['flat'] is generated"),
+    ("`ChartParams(reach=inf)`", "call", lambda d: ChartParams(reach=float("inf")),
+     "ChartParams.reach must be a finite number"),
+    ("`ChartParams(stall_steps=0.5)`", "call", lambda d: ChartParams(stall_steps=0.5),
+     "ChartParams.stall_steps must be an integer"),
+    ("`ChartParams(cells=10**6)` (a 1 TB chart)", "call", lambda d: ChartParams(cells=10**6),
+     "ChartParams.cells must be an integer >= 4 and <= 2048"),
+    ("`BugParams(stall_crowded=True)`", "call", lambda d: BugParams(stall_crowded=True),
+     "BugParams.stall_crowded must be an integer"),
+    ("`FieldParams(break_gain=nan)`", "call", lambda d: FieldParams(break_gain=float("nan")),
+     "FieldParams.break_gain must be a finite number"),
+    ("`SensorParams(range_m=1e300)`", "call", lambda d: SensorParams(range_m=1e300), "SensorParams.range_m"),
     ("`robots = 5` (not a table)", "load", "robots = 5\n" + BASE + GOAL, "'robots' must be a table"),
     ("`[terrain] method = \"magic\"`", "load",
      'task = "goal"\n[terrain]\nsource = "procedural"\nrecipe = "cliff_goal"\nmethod = "magic"\n',
@@ -205,8 +254,68 @@ def workdir(tmp_path, monkeypatch):
     (tmp_path / "model.zip").write_bytes(b"PK\x05\x06" + bytes(18))
     np.savez(tmp_path / "dem.npz", z=np.zeros((4, 4)))
     (tmp_path / "ok.toml").write_text(toml(""))
+    _inputs(tmp_path)
+    _run_dirs(tmp_path)
     monkeypatch.chdir(tmp_path)
     return tmp_path
+
+
+DEM_SCEN = ('task = "goal"\nmax_cycles = 5\n[terrain]\nsource = "dem"\npath = "dem.xyz"\nmethod = "delaunay"\n'
+            "[robots]\ncount = 2\nmin_separation_m = 1.0\n[targets]\npositions = [[20.0, 20.0]]\n")
+
+
+def _inputs(d: Path):
+    """A scenario reading a DEM (also named dem.md: a TOML file may have any name), a link to the DEM,
+    a policy directory, a scenario inside a run directory's policy/."""
+    from tin_swarm_env.policies.learned import save_policy
+
+    xs, ys = np.meshgrid(np.arange(0.0, 50.0, 5.0), np.arange(0.0, 50.0, 5.0))
+    np.savetxt(d / "dem.xyz", np.c_[xs.ravel(), ys.ravel(), 0.1 * xs.ravel()])
+    (d / "dem.toml").write_text(DEM_SCEN)
+    (d / "dem.md").write_text(DEM_SCEN)
+    (d / "link.xyz").symlink_to(d / "dem.xyz")
+    layout = tse.parallel_env(scenario="flat", n_robots=2).layout
+    save_policy(d / "pol", [(np.zeros((2, layout.size)), np.zeros(2))], layout=layout, scenario="flat")
+    (d / "run_out" / "policy").mkdir(parents=True)
+    (d / "run_out" / "policy" / "s.toml").write_text(DEM_SCEN.replace('"dem.xyz"', '"../../dem.xyz"'))
+
+
+def _run_dirs(d: Path):
+    """Run directories of ``train flat`` (default arguments), each damaged in one way."""
+    import dataclasses
+    import json
+
+    from tin_swarm_env.apps import checkpoint as C
+    from tin_swarm_env.apps import train as T
+
+    args = {k: v for k, v in dataclasses.asdict(T.Args(scenario="flat")).items() if k != "trust_pickle"}
+    for name, a in (("run_deep", None), ("run_type", {**args, "n_robots": "eight"}),
+                    ("run_key", {**args, "colour": "red"}), ("run_state", args), ("run_layout", args),
+                    ("run_pickle", args)):
+        (d / name).mkdir()
+        (d / name / "args.json").write_text("[" * 100_000 + "]" * 100_000 if a is None else json.dumps(a))
+    ck = d / "run_state" / "checkpoints" / "step_64"
+    ck.mkdir(parents=True)
+    (ck / "state.json").write_text('{"num_timesteps": 64, "rng": ')
+    state = {"num_timesteps": 64, "rng": C._rng_state(), "env_rng": [None, None], "eval_rows": [], "minutes": 0.0,
+             "next_eval": 0, "imitation": None}
+    rng = np.zeros(5056, np.uint8)
+    try:  # torch's own state when torch is here (its length is torch's)
+        import torch
+
+        rng = torch.get_rng_state().numpy()
+    except ImportError:  # pragma: no cover
+        pass
+    for name, st in (("run_pickle", state),
+                     ("run_layout", {**state, "format": C.FORMAT, "version": 1, "n_updates": 0,
+                                     "run": {"scenario": "flat", "n_robots": 8, "n_copies": 2, "obs_size": 1,
+                                             "layout": {}, "net_arch": [64, 64], "policy": "mlp", "lstm_hidden": 0,
+                                             "shield": "none"}})):
+        ck = d / name / "checkpoints" / "step_64"
+        ck.mkdir(parents=True)
+        (ck / "state.json").write_text(json.dumps(st))
+        np.save(ck / "torch_rng.npy", rng)
+    (d / "run_pickle" / "checkpoints" / "step_64" / "model.zip").write_bytes(b"PK\x05\x06" + bytes(18))
 
 
 def _patch_for(label: str, monkeypatch):
@@ -214,7 +323,14 @@ def _patch_for(label: str, monkeypatch):
     import tin_swarm_env.apps.run as run
 
     real = run.format_table
-    if label.startswith("disk full"):
+    if label.startswith("disk full while writing `--gif`"):
+        import tin_swarm_env.apps.media as media
+
+        def full_gif(self, frame):
+            raise OSError(28, "No space left on device")  # as a write says it: no file named
+
+        monkeypatch.setattr(media._GifStream, "add", full_gif)
+    elif label.startswith("disk full"):
         import types
 
         import tin_swarm_env._atomic as atomic
@@ -223,6 +339,23 @@ def _patch_for(label: str, monkeypatch):
             raise OSError(28, "No space left on device", "full.md")
 
         monkeypatch.setattr(atomic, "os", types.SimpleNamespace(**{**vars(os), "replace": full}))
+    elif "head -1" in label:
+        import sys
+
+        class Head:
+            def __init__(self):
+                self.lines = 0
+
+            def write(self, s):
+                if self.lines >= 1:
+                    raise BrokenPipeError(32, "Broken pipe")
+                self.lines += s.count("\n")
+                return len(s)
+
+            def flush(self):
+                pass
+
+        monkeypatch.setattr(sys, "stdout", Head())
     elif label.startswith("Ctrl-C"):
         def stop(*a, **k):
             raise KeyboardInterrupt

@@ -535,23 +535,34 @@ def check_run_outputs(args: Args, out: Path) -> None:
                   dirs={f"--out-dir ({n}/)": out / n for n in RUN_DIRS}, scenarios=scenarios_of(args))
 
 
-def run_info(args: Args, vec) -> dict:
+def run_info(args: Args, layout, n_copies: int) -> dict:
     """What a checkpoint's network was built for (its ``state.json`` ``run``; a resume compares
     it key by key): scenario, robots, environment copies, observation layout, network."""
-    layout = vec.envs[0].layout
-    info = {"scenario": args.scenario, "n_robots": args.n_robots, "n_copies": len(vec.envs),
+    info = {"scenario": args.scenario, "n_robots": args.n_robots, "n_copies": n_copies,
             "obs_size": int(layout.size), "layout": layout.to_dict(), "net_arch": _net_arch(args.net_arch),
             "policy": "recurrent" if args.recurrent else "mirror" if args.symmetry == "mirror" else "mlp",
             "lstm_hidden": args.lstm_hidden if args.recurrent else 0, "shield": args.shield}
     return json.loads(json.dumps(info))  # as it reads back from state.json (tuples as lists)
 
 
-def _resume_model(args: Args, run: Path, vec, tb, trust_pickle: bool):
-    """``(model, checkpoint)`` continuing ``run`` from its last checkpoint, every checkpoint of it
-    read and checked first (:mod:`.checkpoint`); ``(None, None)`` when it has none."""
-    from .checkpoint import LEGACY_MODEL, check_against_model, read_checkpoints, restore, restore_rng
+def _read_checkpoints(args: Args, run: Path, trust_pickle: bool) -> list:
+    """Every checkpoint of ``run``, read and checked against this run (its layout from the first
+    scenario, its copies ``n_envs`` per scenario) before anything is built: :mod:`.checkpoint`."""
+    from ..env import parallel_env
+    from .checkpoint import read_checkpoints
 
-    cks = read_checkpoints(run, n_copies=len(vec.envs), run_info=run_info(args, vec), trust_pickle=trust_pickle)
+    scen = scenarios_of(args)
+    layout = parallel_env(scenario=scen[0], n_robots=args.n_robots).layout
+    n_copies = args.n_envs * len(scen)
+    return read_checkpoints(run, n_copies=n_copies, run_info=run_info(args, layout, n_copies),
+                            trust_pickle=trust_pickle)
+
+
+def _resume_model(args: Args, cks: list, vec, tb):
+    """``(model, checkpoint)`` continuing from the last of the checked checkpoints ``cks``, each of
+    them also checked against the network built (:mod:`.checkpoint`); ``(None, None)`` when none."""
+    from .checkpoint import LEGACY_MODEL, check_against_model, restore, restore_rng
+
     if not cks:
         return None, None
     last = cks[-1]
@@ -580,21 +591,23 @@ def train(args: Args) -> Path:
         check_run_outputs(args, out)
         return train_student(args, out)
     torch = require("torch", "train", "Training with Stable-Baselines3")
-    require("stable_baselines3", "train", "Training with Stable-Baselines3")
-    from ..adapters import make_sb3_vec_env
     from .checkpoint import ARGS_FILE, remove_unfinished, write_args, write_checkpoint
 
-    torch.set_num_threads(args.torch_threads)
     out = run_dir(args)
     scen = scenarios_of(args)
     check_run_outputs(args, out)
+    cks = _read_checkpoints(args, resume_run, trust_pickle) if resume_run is not None else None
+    require("stable_baselines3", "train", "Training with Stable-Baselines3")
+    from ..adapters import make_sb3_vec_env
+
+    torch.set_num_threads(args.torch_threads)
     # every robot of every copy is one SB3 sub-environment; a mix holds n_envs copies of each scenario
     kw = {"max_cycles": args.max_cycles} if args.max_cycles else {}
     vec = make_sb3_vec_env(scen if len(scen) > 1 else scen[0], n_robots=args.n_robots,
                            n_envs=args.n_envs * len(scen), seed=args.seed, shield=args.shield, **kw)
     rows, t0 = [], time.perf_counter()
     tb = str(out / "tb") if _has("tensorboard") else None
-    info = run_info(args, vec)
+    info = run_info(args, vec.envs[0].layout, len(vec.envs))
 
     def extra(rows_now, next_eval):
         return {"eval_rows": rows_now, "minutes": (time.perf_counter() - t0) / 60, "next_eval": next_eval,
@@ -603,7 +616,7 @@ def train(args: Args) -> Path:
     next_eval, model, ckpt = None, None, None
     if resume_run is not None:
         try:  # every checkpoint read and checked before anything is written
-            model, ckpt = _resume_model(args, resume_run, vec, tb, trust_pickle)
+            model, ckpt = _resume_model(args, cks, vec, tb)
         except BaseException:
             vec.close()
             raise

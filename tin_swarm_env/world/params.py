@@ -60,9 +60,9 @@ class RobotParams:
     max_climb_deg: float = 45.0
 
     def __post_init__(self):
-        _positive(self, "radius_m", "max_speed_mps", "turn_rate_dps", "max_slope_deg", "max_climb_deg")
         check_range("RobotParams", "max_speed_mps", self.max_speed_mps, hi=MAX_SPEED_MPS)
         check_range("RobotParams", "radius_m", self.radius_m, hi=MAX_RADIUS_M)
+        _positive(self, "radius_m", "max_speed_mps", "turn_rate_dps", "max_slope_deg", "max_climb_deg")
         if self.max_slope_deg >= 90:
             raise ParameterError(f"RobotParams.max_slope_deg must be < 90, got {self.max_slope_deg}")
         if self.max_climb_deg < self.max_slope_deg:
@@ -93,9 +93,9 @@ class SensorParams:
     max_candidates: int = 16
 
     def __post_init__(self):
+        check_range("SensorParams", "range_m", self.range_m, hi=MAX_RANGE_M)
         _positive(self, "range_m", "fov_deg")
         _non_negative(self, "height_m")
-        check_range("SensorParams", "range_m", self.range_m, hi=MAX_RANGE_M)
         if not isinstance(self.check_los, (bool, np.bool_)):
             raise ParameterError(f"SensorParams.check_los must be true or false, got {self.check_los!r}")
         check_range("SensorParams", "max_candidates", self.max_candidates, 1, 4096, integer=True)
@@ -165,5 +165,6 @@ class WorldParams:
         if not isinstance(self.flat_size_m, (tuple, list)) or len(self.flat_size_m) != 2:
             raise ParameterError(f"WorldParams.flat_size_m must be (width, height) > 0, got {self.flat_size_m}")
         for v in self.flat_size_m:
-            check_range("WorldParams", "flat_size_m", v, 0, 1e7, lo_open=True)
+            check_range("WorldParams", "flat_size_m", v, 0, lo_open=True)
+            check_range("WorldParams", "flat_size_m", v, hi=1e7)
         check_range("WorldParams", "break_angle_deg", self.break_angle_deg, 0, 180)
