@@ -20,10 +20,11 @@ __all__ = ["RobotParams", "SensorParams", "BatteryParams", "WorldParams", "MAX_S
 MAX_VALUE = 1e12  # the largest value any model parameter takes (finite, and so is its square)
 
 
-def _positive(obj, *names):
+def _positive(obj, *names, caps=None):
+    """Each named field a finite number > 0, then at most its cap (``caps``; default :data:`MAX_VALUE`)."""
     for n in names:
         check_range(type(obj).__name__, n, getattr(obj, n), 0, lo_open=True)
-        check_range(type(obj).__name__, n, getattr(obj, n), hi=MAX_VALUE)
+        check_range(type(obj).__name__, n, getattr(obj, n), hi=(caps or {}).get(n, MAX_VALUE))
 
 
 def _non_negative(obj, *names):
@@ -60,9 +61,8 @@ class RobotParams:
     max_climb_deg: float = 45.0
 
     def __post_init__(self):
-        check_range("RobotParams", "max_speed_mps", self.max_speed_mps, hi=MAX_SPEED_MPS)
-        check_range("RobotParams", "radius_m", self.radius_m, hi=MAX_RADIUS_M)
-        _positive(self, "radius_m", "max_speed_mps", "turn_rate_dps", "max_slope_deg", "max_climb_deg")
+        _positive(self, "radius_m", "max_speed_mps", "turn_rate_dps", "max_slope_deg", "max_climb_deg",
+                  caps={"max_speed_mps": MAX_SPEED_MPS, "radius_m": MAX_RADIUS_M})
         if self.max_slope_deg >= 90:
             raise ParameterError(f"RobotParams.max_slope_deg must be < 90, got {self.max_slope_deg}")
         if self.max_climb_deg < self.max_slope_deg:
@@ -93,8 +93,7 @@ class SensorParams:
     max_candidates: int = 16
 
     def __post_init__(self):
-        check_range("SensorParams", "range_m", self.range_m, hi=MAX_RANGE_M)
-        _positive(self, "range_m", "fov_deg")
+        _positive(self, "range_m", "fov_deg", caps={"range_m": MAX_RANGE_M})
         _non_negative(self, "height_m")
         if not isinstance(self.check_los, (bool, np.bool_)):
             raise ParameterError(f"SensorParams.check_los must be true or false, got {self.check_los!r}")
