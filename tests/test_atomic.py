@@ -26,3 +26,29 @@ def test_atomic_write_keeps_permissions_and_cleans_up_on_ctrl_c(tmp_path):
             assert os.path.basename(tmp).startswith(".secret.md.") and ".part" in tmp
             raise KeyboardInterrupt
     assert sorted(os.listdir(tmp_path)) == ["secret.md"] and p.read_text() == "new"
+
+
+def test_a_failed_write_names_the_target_and_keeps_the_old_file(tmp_path):
+    """A write error says no file (ENOSPC, EPIPE): atomic_path names the target, the old bytes stay,
+    the hidden .part file goes; an error naming its own file passes through unchanged."""
+    import errno
+
+    import pytest
+
+    from tin_swarm_env._atomic import atomic_path
+    from tin_swarm_env.errors import OutputError
+
+    target = tmp_path / "out.csv"
+    target.write_bytes(b"old")
+    with pytest.raises(OutputError) as ei:
+        with atomic_path(target) as tmp:
+            with open(tmp, "wb") as fh:
+                fh.write(b"partial")
+                raise OSError(errno.ENOSPC, "No space left on device")
+    assert ei.value.filename == str(target) and ei.value.errno == errno.ENOSPC
+    assert target.read_bytes() == b"old" and sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]
+    with pytest.raises(FileNotFoundError) as ei:
+        with atomic_path(target):
+            open(tmp_path / "elsewhere" / "x")  # another file's error: its own name
+    assert not isinstance(ei.value, OutputError) and "elsewhere" in ei.value.filename
+    assert target.read_bytes() == b"old"

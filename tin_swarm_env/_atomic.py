@@ -30,7 +30,10 @@ def _umask() -> int:
 def _naming(exc: OSError, p: Path, tmp) -> OSError:
     """``exc`` as an :class:`OutputError` naming the target ``p`` (an OSError of a write names no
     file, or the hidden temporary one); others pass through."""
-    if exc.filename not in (None, tmp, str(tmp)) or isinstance(exc, OutputError):
+    fn = exc.filename
+    ours = fn is None or str(fn) == str(tmp) or (os.path.basename(str(fn)).startswith(f".{p.name}.") and
+                                                 str(fn).endswith(".part" + p.suffix))
+    if not ours or isinstance(exc, OutputError):
         return exc
     what = exc.strerror or str(exc) or type(exc).__name__
     return OutputError(exc.errno or errno.EIO, f"{what}; not written (an old file there is unchanged)", str(p))
