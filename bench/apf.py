@@ -2,7 +2,8 @@
 stalled and looping robots (:mod:`tin_swarm_env.apps.trajectory`), contacts per robot. By hand:
 
     python bench/apf.py                # the full run; writes the tables to docs/figures/apf.md
-    python bench/apf.py --quick        # a smoke run: 2 seeds a row, 3 per family, jacksboro 1; prints only
+    python bench/apf.py --quick        # a smoke run (seconds): cliff_goal and one generated family, 1 seed of
+                                       # 4 robots, 150-step generated episodes; prints only
     python bench/apf.py --horizon      # also: steps to arrive, APF against GeodesicPolicy, per terrain,
                                        # and jacksboro's horizon analysis
     [--seeds 5] [--robots N] [--jacksboro-seeds 5] [--generated 50] [--only cliff_goal,...] [--out FILE]
@@ -61,7 +62,8 @@ GENERATED_POLICIES = ("apf", "apf, chart search", "geodesic (knows the map)")  #
 GOAL_SCENARIOS = ("cliff_goal", "ramp", "hill", "flat", "jacksboro")
 FILE_SCENARIOS = ("canyon_left", "canyon_right", "valley")  # scenarios/<name>.toml, the thesis's DEM-file maps
 SEARCHES = ("bug", "chart")  # APFPolicy's boundary searches (policies/bug.py, policies/chart.py)
-QUICK = {"seeds": 2, "generated": 3, "jacksboro_seeds": 1}
+QUICK = {"seeds": 1, "generated": 1, "jacksboro_seeds": 1, "robots": 4, "max_cycles": 150}  # upper bounds
+QUICK_ROWS = ["cliff_goal", "generated: canyon"]  # --quick's rows unless --only names others
 
 
 @dataclasses.dataclass
@@ -362,7 +364,8 @@ def main(argv=None):
     args = p.parse_args(argv)
     if args.quick:
         for k, v in QUICK.items():
-            setattr(args, k, min(getattr(args, k), v))
+            setattr(args, k, v if getattr(args, k) is None else min(getattr(args, k), v))
+        args.only = args.only or QUICK_ROWS
     out = args.out if args.out is not None else (None if args.quick else str(ROOT / "docs" / "figures" / "apf.md"))
     lines = [_header(argv), ""]
 

@@ -4,6 +4,7 @@ reflected east-west and reflected north-south (the terrain's ``mirror`` key,
 Writes ``docs/figures/apf_mirror.md``:
 
     python bench/apf_mirror.py [--seeds 20] [--search bug,chart] [--k-scan 32] [--out FILE]
+    python bench/apf_mirror.py --quick     # a smoke run (seconds): canyon, 1 seed of 4 robots, 100 steps; prints only
 
 Each row: ``--seeds`` held-out seeds from ``EVAL_SEED0`` x the scenario's 20 robots, one
 :func:`~tin_swarm_env.apps.rollout.rollout` each (``max_cycles`` of the ``generated`` scenario);
@@ -35,13 +36,15 @@ MIRRORS = (("", "as built"), ("ew", "east-west"), ("ns", "north-south"))
 
 
 SEARCHES = ("bug", "chart")
+QUICK = {"families": ("canyon",), "seeds": 1, "robots": 4, "max_cycles": 100}
 
 
-def row(family: str, mirror: str, seeds: int, search: str = "bug", k_scan: int = 0) -> tuple[float, ...]:
+def row(family: str, mirror: str, seeds: int, search: str = "bug", k_scan: int = 0, robots: int | None = None,
+        max_cycles: int | None = None) -> tuple[float, ...]:
     cfg = load_scenario("generated")
     cfg = cfg.replace(terrain=dataclasses.replace(cfg.terrain, families=(family,), mirror=mirror),
                       observation=dataclasses.replace(cfg.observation, k_scan=k_scan))
-    env = tse.parallel_env(scenario=cfg)
+    env = tse.parallel_env(scenario=cfg, n_robots=robots, max_cycles=max_cycles)
     t = time.perf_counter()
     outs = [rollout(env, APFPolicy(env, search=search), sd) for sd in range(EVAL_SEED0, EVAL_SEED0 + seeds)]
     n = sum(o.n_robots for o in outs)
@@ -57,8 +60,14 @@ def main(argv=None) -> int:
     p.add_argument("--search", type=lambda v: v.split(","), default=list(SEARCHES),
                    help="boundary searches, comma-separated (default bug,chart)")
     p.add_argument("--k-scan", type=int, default=0, help="the observation's terrain scan beams (default 0: none)")
-    p.add_argument("--out", default=str(ROOT / "docs" / "figures" / "apf_mirror.md"))
+    p.add_argument("--out", default=None, help="Markdown file (default docs/figures/apf_mirror.md; none with --quick)")
+    p.add_argument("--quick", action="store_true", help=f"a smoke run (seconds): {QUICK}; prints only")
     a = p.parse_args(argv)
+    families, robots, max_cycles = FAMILIES, None, None
+    if a.quick:
+        families, a.seeds, robots, max_cycles = QUICK["families"], 1, QUICK["robots"], QUICK["max_cycles"]
+    if a.out is None and not a.quick:
+        a.out = str(ROOT / "docs" / "figures" / "apf_mirror.md")
     if a.k_scan < 0:
         p.error(f"--k-scan must be >= 0, got {a.k_scan}")
     bad = [x for x in a.search if x not in SEARCHES]
@@ -75,12 +84,14 @@ def main(argv=None) -> int:
              + (f"; the observation with a {a.k_scan}-beam terrain scan." if a.k_scan else "."), "",
              "| family | search | terrain | arrived | fell | stalled | looping | s |",
              "|---|---|---|---:|---:|---:|---:|---:|"]
-    for fam in FAMILIES:
+    for fam in families:
         for search in a.search:
             for mir, name in MIRRORS:
-                ar, fe, st, lo, s = row(fam, mir, a.seeds, search, a.k_scan)
+                ar, fe, st, lo, s = row(fam, mir, a.seeds, search, a.k_scan, robots, max_cycles)
                 lines.append(f"| {fam} | {search} | {name} | {ar:.1%} | {fe:.1%} | {st:.1%} | {lo:.1%} | {s:.0f} |")
                 print(lines[-1], flush=True)
+    if not a.out:
+        return 0
     out = Path(a.out)
     part = out.with_name(f".{out.name}.part")
     part.write_text("\n".join(lines) + "\n")

@@ -2,6 +2,7 @@
 
     nice -n 10 python bench/cost_to_go.py [--sizes 2500,10000,40000] [--queries 1000000] [--repeat 5]
                                           [--reset-repeats 20]
+    python bench/cost_to_go.py --quick    # a smoke run (seconds): tiny sizes, one repeat
 
 On jacksboro greedy TINs (max_vertices per size, about 2 triangles per vertex: 5k/20k/80k
 triangles; passable = slope <= 30 deg, goal near the centre) prints per TIN: triangles, nodes,
@@ -45,7 +46,11 @@ def main(argv=None):
     ap.add_argument("--queries", type=int, default=1_000_000)
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--reset-repeats", type=int, default=20)
+    ap.add_argument("--quick", action="store_true", help="a smoke run (seconds): one 500-vertex TIN, 10 000 queries, "
+                    "one repeat, one reset")
     a = ap.parse_args(argv)
+    if a.quick:
+        a.sizes, a.queries, a.repeat, a.reset_repeats = "500", 10_000, 1, 1
     dem = tse.terrain.sample_dem("jacksboro")
     rng = np.random.default_rng(0)
     cost_to_go(tse.terrain.build_tin(dem, method="greedy", max_vertices=200), (0.0, 0.0))  # compile/load kernels

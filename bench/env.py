@@ -2,6 +2,8 @@
 
     python bench/env.py [--steps 30] [--processes 12] [--out docs/figures/env.md]
     python bench/env.py --scan 32 [--out docs/figures/env_scan.md]
+    python bench/env.py --quick      # a smoke run of every path (seconds): 100 robots, 2 steps, an 8-beam scan;
+                                     # prints only
 
 For 100, 1 000 and 10 000 robots, in one process and on the same terrain and density, with 1
 and 2 numba threads: the world step alone (step + sensing), the env's batched array path
@@ -147,7 +149,7 @@ def _finish(emit, lines, out):
         print(f"wrote {out}", file=sys.stderr)
 
 
-def scan_cost(k_scan: int, steps: int, out: str | None):
+def scan_cost(k_scan: int, steps: int, out: str | None, sizes=(1000, 10_000)):
     """``--scan``: agent-steps per second of the batched path with and without ``k_scan`` beams."""
     lines = []
 
@@ -164,7 +166,7 @@ def scan_cost(k_scan: int, steps: int, out: str | None):
          f"{REPEATS} interleaved runs of {steps} steps (10 000 robots: {max(3, steps // 5)}) from the same reset.\n")
     emit(f"| robots | without the scan | with {k_scan} beams | with / without |")
     emit("|---:|---:|---:|---:|")
-    for n in (1000, 10_000):
+    for n in sizes:
         st = steps if n <= 1000 else max(3, steps // 5)
         envs = [tse.parallel_env(scenario=config(n, k_scan=k)) for k in (0, k_scan)]
         acts = np.random.default_rng(0).uniform(-1, 1, (n, 2)).astype(np.float32)
@@ -177,7 +179,11 @@ def scan_cost(k_scan: int, steps: int, out: str | None):
     _finish(emit, lines, out)
 
 
-def main(steps: int, out: str | None, processes: int = 0):
+QUICK = {"sizes": (100,), "steps": 2, "render_robots": 50, "scan": 8}  # --quick: every path once (seconds)
+
+
+def main(steps: int, out: str | None, processes: int = 0, sizes=(100, 1000, 10_000), render_robots: int = 500,
+         quick: bool = False):
     lines = []
 
     def emit(line=""):
@@ -186,7 +192,8 @@ def main(steps: int, out: str | None, processes: int = 0):
 
     load = os.getloadavg()
     threads = sorted({1, min(2, numba.config.NUMBA_NUM_THREADS)})
-    emit(f"Measured with `python bench/env.py --steps {steps} --processes {processes}` in one run. Load average at "
+    emit(f"Measured with `python bench/env.py --steps {steps} --processes {processes}{' --quick' if quick else ''}` "
+         "in one run. Load average at "
          f"start {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} on {os.cpu_count()} cores. "
          "Agent-steps per second (higher is better); the same terrain (jacksboro, ~20k triangles), density "
          "(~10 robots within the 60 m range) and actions for each path; each path's best of "
@@ -194,7 +201,7 @@ def main(steps: int, out: str | None, processes: int = 0):
          "warm-up step and a full garbage collection.\n")
     emit("| robots | threads | world step | batched env | dict API | batched/world | dict/batched |")
     emit("|---:|---:|---:|---:|---:|---:|---:|")
-    for n in (100, 1000, 10_000):
+    for n in sizes:
         res = measure(n, steps if n <= 1000 else max(3, steps // 5), threads)
         for k in threads:
             t_world, t_batch, t_dict = res[k]
@@ -209,7 +216,7 @@ def main(steps: int, out: str | None, processes: int = 0):
              f"max {got[-1]:.1%}; {below} of {processes} below 80%.")
 
     numba.set_num_threads(threads[-1])
-    n = 500
+    n = render_robots
     env = tse.parallel_env(scenario=config(n), render_mode="rgb_array")
     env.reset(seed=0)
     acts = {a: np.zeros(2, np.float32) for a in env.agents}
@@ -218,7 +225,7 @@ def main(steps: int, out: str | None, processes: int = 0):
     t_bg = time.perf_counter() - t0
     t_draw = rate(env.render, steps)
     t_step = rate(lambda: env.step(acts), steps)
-    emit(f"\n500 robots: drawing a frame {t_draw * 1e3:.2f} ms vs a step {t_step * 1e3:.2f} ms "
+    emit(f"\n{n} robots: drawing a frame {t_draw * 1e3:.2f} ms vs a step {t_step * 1e3:.2f} ms "
          f"({t_draw / t_step:.0%} of the step); the terrain background once: {t_bg * 1e3:.0f} ms")
     _finish(emit, lines, out)
 
@@ -234,7 +241,13 @@ if __name__ == "__main__":
                    help="measure instead the batched path with a K-beam terrain scan against without (K >= 1)")
     p.add_argument("--out", default=None, help="Markdown file for the table ('' for none; default "
                    "docs/figures/env.md, with --scan docs/figures/env_scan.md)")
+    p.add_argument("--quick", action="store_true",
+                   help=f"a smoke run of every path, printed only (seconds): {QUICK}, no fresh processes")
     a = p.parse_args()
+    if a.quick:
+        main(QUICK["steps"], None, 0, QUICK["sizes"], QUICK["render_robots"], quick=True)
+        scan_cost(QUICK["scan"], QUICK["steps"], None, QUICK["sizes"])
+        sys.exit(0)
     if a.scan < 0 or a.steps < 1:
         p.error(f"--scan must be >= 0 and --steps >= 1, got {a.scan} and {a.steps}")
     if a.out is None:

@@ -1,6 +1,7 @@
 """Generated terrains in the env: time per reset and the APF / random baselines. Run by hand:
 
     nice -n 10 python bench/generated.py [--seeds 50] [--robots 20] [--repeats 20]
+    python bench/generated.py --quick      # a smoke run (seconds): 1 reset, 1 episode of 4 robots, 100 steps
 
 1. Time per reset on a 200 x 200 grid (398 m at 2 m cells, every family): terrain generation,
    greedy meshing (``max_error_m=0.5``), world build (breaks and their index) and the cost-to-go
@@ -60,8 +61,8 @@ def reset_times(repeats: int):
     print(f"  target {TARGET_MS:.0f} ms per reset: {'met' if np.median(whole) <= TARGET_MS else 'NOT met'}")
 
 
-def baselines(seeds: int, robots: int):
-    env = tse.parallel_env(scenario="generated", n_robots=robots)
+def baselines(seeds: int, robots: int, max_cycles: int | None = None):
+    env = tse.parallel_env(scenario="generated", n_robots=robots, max_cycles=max_cycles)
     print(f"\n`generated`, {seeds} seeds x {robots} robots, max_cycles {env.max_cycles}:")
     print("| policy | arrived | fell | timed out | mean arrival step | s/episode |")
     print("|---|---|---|---|---|---|")
@@ -83,10 +84,14 @@ def main():
     ap.add_argument("--seeds", type=int, default=50)
     ap.add_argument("--robots", type=int, default=20)
     ap.add_argument("--repeats", type=int, default=20)
+    ap.add_argument("--quick", action="store_true",
+                    help="a smoke run (seconds): 1 reset, 1 seed of 4 robots and 100 steps")
     a = ap.parse_args()
+    if a.quick:
+        a.repeats, a.seeds, a.robots = 1, 1, 4
     reset_times(a.repeats)
     if a.seeds:
-        baselines(a.seeds, a.robots)
+        baselines(a.seeds, a.robots, 100 if a.quick else None)
 
 
 if __name__ == "__main__":

@@ -3,6 +3,7 @@ width (:data:`tin_swarm_env.apps.media.FRAME_EVERY`, :data:`~tin_swarm_env.apps.
 Run by hand (a few seconds of CPU per run; under ``flock /tmp/heavy.lock`` on the shared machine):
 
     python bench/media.py [--write]     # --write: the table to docs/figures/media.md
+    python bench/media.py --quick       # a smoke run (seconds): 20 robots, 30 steps; prints only
 
 It runs the CLI as a user does (900 steps, a frame every FRAME_EVERY steps), once writing a GIF and
 an MP4 and once a WebP, into a temporary directory, and prints each file's frames and size. The
@@ -41,15 +42,17 @@ def _header(argv) -> str:
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     header = _header(argv)
+    quick = "--quick" in argv  # a smoke run: 20 robots, 30 steps, printed only
+    size = ["--robots", "20", "--max-cycles", "30"] if quick else ["--robots", "200"]
     rows = []
     with tempfile.TemporaryDirectory() as d:
         for run in RUNS:
             args = [a if a.startswith("--") else str(Path(d) / a) for a in run]
-            cmd = [sys.executable, "-m", "tin_swarm_env", "run", "jacksboro", "--robots", "200", *args, "--quiet"]
+            cmd = [sys.executable, "-m", "tin_swarm_env", "run", "jacksboro", *size, *args, "--quiet"]
             t = time.perf_counter()
             r = subprocess.run(cmd, capture_output=True, text=True, check=True)
             s = time.perf_counter() - t
-            shown = "tin-swarm run jacksboro --robots 200 " + " ".join(run)
+            shown = "tin-swarm run jacksboro " + " ".join([*size, *run])
             for line in r.stdout.splitlines():
                 m = re.match(r"wrote (\S+) \((\d+) frames\)", line)
                 if m:
@@ -62,7 +65,7 @@ def main(argv=None) -> int:
             f"rectangle that changed; the WebP is lossless. Before the fixed palette (an adaptive palette per "
             f"whole frame) the same GIF was 45.7 MB (issue 28).\n\n" + "\n".join(table) + "\n")
     print(text)
-    if "--write" in argv:
+    if "--write" in argv and not quick:
         OUT.write_text(text)
         print(f"wrote {OUT}")
     return 0

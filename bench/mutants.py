@@ -2,6 +2,7 @@
 
     flock /tmp/heavy.lock python bench/mutants.py [--only ID,ID] [--list] [--timeout 300]
                                                  [--out docs/figures/mutants.md]
+    python bench/mutants.py --quick      # a smoke run (seconds): every mutant planted and compiled, no tests
 
 Each mutant is one realistic, hand-written change to one line of ``terrain/``, ``world/``,
 ``env/`` or ``policies/learned.py`` (and ``policies/network.py``, its layers) (a sign flip, an off-by-one, swapped axes, a wrong
@@ -277,6 +278,8 @@ def main(argv=None):
     ap.add_argument("--list", action="store_true", help="list the mutants and exit")
     ap.add_argument("--timeout", type=float, default=300.0, help="seconds per mutant run (a timeout counts as killed)")
     ap.add_argument("--out", default=str(ROOT / "docs" / "figures" / "mutants.md"), help="Markdown output ('' none)")
+    ap.add_argument("--quick", action="store_true", help="a smoke run (seconds): every selected mutant planted and "
+                    "compiled, no test run, nothing written")
     a = ap.parse_args(argv)
     muts = MUTANTS
     if a.only:
@@ -292,6 +295,8 @@ def main(argv=None):
     stale = stale_mutants(muts)
     if stale:
         raise SystemExit("\n".join(stale))
+    if a.quick:
+        return _plant_all(muts)
     load = os.getloadavg()[0]
     t_start = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="tin_mutants_") as tmp:
@@ -313,10 +318,7 @@ def main(argv=None):
             f = pkg / m.path
             orig = f.read_text()
             st = f.stat()
-            i = -1
-            for _ in range(max(m.nth, 0) + 1):
-                i = orig.index(m.old, i + 1)
-            f.write_text(orig[:i] + m.new + orig[i + len(m.old):])
+            f.write_text(_planted(orig, m))
             # numba's on-disk cache is checked against each kernel's own file only: a kernel that
             # inlines or calls the mutated one from another file would run its stale cached code
             # (the mutant would "survive" untested). A fresh cache directory per compiled mutant.
@@ -345,6 +347,24 @@ def main(argv=None):
         print(f"SURVIVED {m.id}: {m.path}: {m.old!r} -> {m.new!r}")
     if a.out:
         _write(Path(a.out), rows, killed, len(counted), score, load, total, argv)
+    return 0
+
+
+def _planted(orig: str, m: Mutant) -> str:
+    """``orig`` with mutant ``m``'s change written in at its ``nth`` occurrence (the first: 0)."""
+    i = -1
+    for _ in range(max(m.nth, 0) + 1):
+        i = orig.index(m.old, i + 1)
+    return orig[:i] + m.new + orig[i + len(m.old):]
+
+
+def _plant_all(muts) -> int:
+    """``--quick``: each mutant's changed file still compiles (no test is run); prints one line each."""
+    for m in muts:
+        path = ROOT / "tin_swarm_env" / m.path
+        compile(_planted(path.read_text(), m), str(path), "exec")
+        print(f"planted {m.id:34s} {m.path:22s} compiles; its tests: {' '.join(m.tests)}")
+    print(f"{len(muts)} mutants apply exactly once and compile (--quick: no test run)")
     return 0
 
 

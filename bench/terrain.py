@@ -1,6 +1,7 @@
 """Terrain benchmark on the real jacksboro DEM (matplotlib's sample). Run by hand:
 
-    python bench/terrain.py [--sizes 1000,2000,5000,10000,20000] [--rays 10000] [--quick]
+    python bench/terrain.py [--sizes 1000,2000,5000,10000,20000] [--rays 10000]
+    python bench/terrain.py --quick     # a smoke run (seconds): one 1000-vertex size, 500 rays
     python bench/terrain.py --robot [--write]     # what robots use: VIP, greedy, robot at 2/5/10 %
 
 ``--robot`` (see :func:`robot_tables`) measures, per DEM (jacksboro, jacksboro transposed and
@@ -414,10 +415,12 @@ if __name__ == "__main__":
     p.add_argument("--sizes", default="1000,2000,5000,10000,20000")
     p.add_argument("--rays", type=int, default=10_000)
     p.add_argument("--queries", type=int, default=100_000)
-    p.add_argument("--quick", action="store_true", help="sizes 2000,10000 and 2000 rays")
+    p.add_argument("--quick", action="store_true", help="a smoke run (seconds): size 1000, 500 rays, 10 000 queries")
     ns = p.parse_args()
     if ns.robot:
         robot_tables(write=ns.write)
         raise SystemExit(0)
-    sizes = (2000, 10000) if ns.quick else tuple(int(s) for s in ns.sizes.split(","))
-    main(Args(sizes=sizes, rays=2000 if ns.quick else ns.rays, queries=ns.queries))
+    if ns.quick:
+        main(Args(sizes=(1000,), rays=500, queries=10_000))
+    else:
+        main(Args(sizes=tuple(int(s) for s in ns.sizes.split(",")), rays=ns.rays, queries=ns.queries))

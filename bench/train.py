@@ -3,7 +3,8 @@
     python bench/train.py [--cap-minutes 20] [--eval-every 20000] [--throughput-timesteps 40000]
     python bench/train.py --throughput-timesteps 0 --only scratch --cap-minutes 10   # time to solve only
     python bench/train.py --split [--rollouts 4]   # where PPO's time goes, shipped recipe and variants
-    python bench/train.py --quick                  # the same for the shipped recipe alone, 2 rollouts
+    python bench/train.py --quick                  # a smoke run (seconds): the same for the shipped recipe alone,
+                                                   # 16-step rollouts, 1 epoch, 1 rollout; prints only
 
 1. **Time to solve**: wall-clock minutes on this machine until the policy first reaches 90%
    arrival on cliff_goal (8 robots, evaluated every ``--eval-every`` timesteps on the same 3
@@ -104,6 +105,9 @@ VARIANTS = {"shipped recipe": {},
             "32 robots, 64,64, 3 epochs": {"n_robots": 32, "n_envs": 1, "net_arch": "64,64", "n_epochs": 3}}
 
 
+QUICK = {"n_steps": 16, "n_epochs": 1}  # --quick: the shipped recipe's rollouts cut short (a check, not a figure)
+
+
 def split_throughput(args, rollouts: int) -> dict:
     """Seconds in collection (of which VecEnv.step_wait) and in updates over ``rollouts`` PPO
     rollouts with training arguments ``args``, after one warm-up rollout (compilation, first
@@ -160,7 +164,8 @@ def split_rows(a, argv) -> list[str]:
         print(line, flush=True)
     names = ["shipped recipe"] if a.quick else list(VARIANTS)
     for name in names:
-        r = split_throughput(dataclasses.replace(recipe, **VARIANTS[name]), a.rollouts)
+        args = dataclasses.replace(recipe, **VARIANTS[name], **(QUICK if a.quick else {}))
+        r = split_throughput(args, a.rollouts)
         row = (f"| {name} | {r['sub_envs']} | {r['collect_sps']:.0f} | {r['env_sps']:.0f} | "
                f"{r['env_s'] / r['collect_s']:.0%} | {r['update_sps']:.0f} | {r['collect_s'] / r['wall_s']:.0%} | "
                f"{r['overall_sps']:.0f} |")
@@ -223,9 +228,10 @@ if __name__ == "__main__":
     p.add_argument("--only", choices=("both", "scratch", "bc"), default="both")
     p.add_argument("--split", action="store_true",
                    help="only: collection vs update throughput, shipped recipe and variants (docs/figures/train.md)")
-    p.add_argument("--quick", action="store_true", help="only: --split for the shipped recipe alone, 2 rollouts")
-    p.add_argument("--rollouts", type=int, default=None, help="measured rollouts per row (default 4; 2 with --quick)")
+    p.add_argument("--quick", action="store_true", help=f"a smoke run (seconds): --split for the shipped recipe alone "
+                   f"with {QUICK}, 1 rollout; prints only")
+    p.add_argument("--rollouts", type=int, default=None, help="measured rollouts per row (default 4; 1 with --quick)")
     p.add_argument("--out", default=None, help="Markdown file for the --split table (none with --quick)")
     a = p.parse_args()
-    a.rollouts = a.rollouts or (2 if a.quick else 4)
+    a.rollouts = a.rollouts or (1 if a.quick else 4)
     main(a)

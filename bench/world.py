@@ -1,6 +1,7 @@
 """World-step throughput on the real jacksboro DEM. Run by hand:
 
-    python bench/world.py [--quick] [--out docs/figures/world.md]
+    python bench/world.py [--short] [--out docs/figures/world.md]
+    python bench/world.py --quick       # a smoke run (seconds): tiny sizes, 2 steps; prints only
 
 One world step plus sensing (robots, targets, breaks, with line of sight) on a ~20k-triangle
 greedy TIN of jacksboro, robots packed so that about 10 lie within sensor range of each
@@ -131,7 +132,15 @@ def nbytes(obj):
     return total
 
 
-def main(quick: bool, out: str | None):
+SIZES = {  # per mode: stage rows' robots, best-of reps, {robots: steps} of the rate rows, TIN sizes and steps
+    "full": ((1000, 10_000), 7, {100: 100, 1000: 40, 10_000: 8, 100_000: 3},
+             (1300, 2600, 5100, 10_100, 20_100, 40_100), 40),
+    "short": ((1000, 10_000), 3, {100: 40, 1000: 15, 10_000: 4, 100_000: 2}, (2600, 10_100, 40_100), 15),
+    "quick": ((100,), 1, {100: 2, 1000: 2}, (1300, 2600), 2),
+}
+
+
+def main(mode: str, out: str | None):
     lines = []
 
     def emit(s=""):
@@ -145,7 +154,8 @@ def main(quick: bool, out: str | None):
     params = WorldParams()
     world = World(tin, params)
     threads = sorted({1, min(2, numba.config.NUMBA_NUM_THREADS)})
-    cmd = "python bench/world.py" + (" --quick" if quick else "")
+    stage_sizes, reps, steps_for, tin_sizes, tin_steps = SIZES[mode]
+    cmd = "python bench/world.py" + ("" if mode == "full" else f" --{mode}")
     emit(f"Measured with `{cmd}` in one run. Load average at start {load[0]:.2f} / {load[1]:.2f} / "
          f"{load[2]:.2f} (1 / 5 / 15 min) on "
          f"{os.cpu_count()} cores; numba {numba.__version__}, threading layer "
@@ -153,13 +163,12 @@ def main(quick: bool, out: str | None):
          f"{params.sensor.range_m} m, fov {params.sensor.fov_deg} deg, line of sight on; {len(world.breaks)} break "
          f"segments; robots packed ~{NEIGHBOURS_IN_RANGE} within range of each.\n")
 
-    reps = 3 if quick else 7
     emit(f"**Time per stage** (ms per step; a stage's time is the marginal cost of switching it on; "
          f"best of {reps})\n")
     emit("| robots | threads | " + " | ".join(("move", "neighbours", "robots seen", "breaks", "observation", "reward"))
          + " | total | robot-steps/s |")
     emit("|---:|---:|" + "---:|" * 8)
-    for n in (1000, 10_000):
+    for n in stage_sizes:
         for k in threads:
             numba.set_num_threads(k)
             t = stages(tin, n, reps if n <= 1000 else max(2, reps // 2), np.random.default_rng(1))
@@ -171,9 +180,6 @@ def main(quick: bool, out: str | None):
     emit("| robots | " + " | ".join(f"{k} thread{'s' if k > 1 else ''}" for k in threads)
          + " | speed-up | robots seen/robot |")
     emit("|---:|" + "---:|" * (len(threads) + 2))
-    steps_for = {100: 100, 1000: 40, 10_000: 8, 100_000: 3}
-    if quick:
-        steps_for = {100: 40, 1000: 15, 10_000: 4, 100_000: 2}
     times = {}
     mem = ""
     for n, steps in steps_for.items():
@@ -201,11 +207,11 @@ def main(quick: bool, out: str | None):
     emit(f"- cost vs robots at fixed density ({g[0]}..{g[-1]}): time ~ n^"
          f"{fit_exponent(g, [times[n][k] for n in g]):.2f}")
     tri_counts, tri_times = [], []
-    for nv in ((2600, 10_100, 40_100) if quick else (1300, 2600, 5100, 10_100, 20_100, 40_100)):
+    for nv in tin_sizes:
         t2 = tse.terrain.build_tin(dem, method="greedy", max_vertices=nv)
         w2 = World(t2, params)
         st = make_state(w2, 1000, np.random.default_rng(1))
-        dt, _ = time_steps(w2, st, 15 if quick else 40, np.random.default_rng(2))
+        dt, _ = time_steps(w2, st, tin_steps, np.random.default_rng(2))
         tri_counts.append(t2.n_triangles)
         tri_times.append(dt)
         emit(f"  - {t2.n_triangles} triangles, 1000 robots: {dt * 1e3:.2f} ms/step")
@@ -224,7 +230,13 @@ def main(quick: bool, out: str | None):
 
 if __name__ == "__main__":
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--quick", action="store_true", help="fewer steps and TIN sizes (about a minute)")
-    p.add_argument("--out", default="docs/figures/world.md", help="Markdown file for the tables ('' for none)")
+    p.add_argument("--short", action="store_true", help="fewer steps and TIN sizes (about a minute; what "
+                   "docs/figures/world.md was measured with)")
+    p.add_argument("--quick", action="store_true", help="a smoke run (seconds): 100 and 1000 robots, 2 steps, two "
+                   "small TINs; prints only")
+    p.add_argument("--out", default=None, help="Markdown file for the tables ('' for none; default "
+                   "docs/figures/world.md, none with --quick)")
     a = p.parse_args()
-    main(a.quick, a.out or None)
+    mode = "quick" if a.quick else ("short" if a.short else "full")
+    out = a.out if a.out is not None else (None if a.quick else "docs/figures/world.md")
+    main(mode, out or None)

@@ -120,7 +120,8 @@ def test_agents_holds_no_diagnostic_or_one_off_script():
     assert (agents / "models").is_dir()
     stray = sorted(p.name for p in agents.iterdir() if p.name.startswith("diag_"))
     stray += sorted(p.name for p in agents.glob("*.sh") if not p.name.startswith("reproduce_"))
-    assert stray == [], "agents/ keeps shipped models, reproduce_*.sh and recipes; move these to research/: " + str(stray)
+    assert stray == [], ("agents/ keeps shipped models, reproduce_*.sh and recipes; move these to research/: "
+                         + str(stray))
 
 
 def test_research_readme_names_every_file_in_research():
