@@ -89,6 +89,83 @@ def _torch():
     return require("torch", "train", "The recurrent student")
 
 
+def _check_student_args(obs_size, hidden, head, signs, obs_perm, cell, feedback, aux_weight) -> tuple[int, float]:
+    """:func:`GRUStudent`'s arguments, each refused naming it; returns ``(n_fb, aux_weight)``: the
+    feedback's inputs per step and the side read-out's weight (None: :data:`AUX_WEIGHT`, read now)."""
+    if hidden < 1 or any(int(w) < 1 for w in head):
+        raise ArgumentError(f"GRUStudent: hidden {hidden} and head widths {list(head)} must be positive")
+    if signs is not None and len(signs) != obs_size:
+        raise ArgumentError(f"GRUStudent: signs has {len(signs)} entries for {obs_size} observations")
+    if obs_perm is not None and (signs is None or sorted(int(j) for j in obs_perm) != list(range(obs_size))):
+        raise ArgumentError(f"GRUStudent: obs_perm must be a permutation of 0..{obs_size - 1}, with signs")
+    if cell not in ("gru", None):
+        raise ArgumentError(f"GRUStudent: cell must be 'gru' or None, got {cell!r}")
+    from ..policies.recurrent import FEEDBACKS
+
+    if feedback not in FEEDBACKS or (feedback != "none" and cell is None):
+        raise ArgumentError(f"GRUStudent: feedback must be one of {list(FEEDBACKS)} (not 'none' only with a cell), "
+                            f"got {feedback!r} with cell {cell!r}")
+    aux_weight = AUX_WEIGHT if aux_weight is None else aux_weight
+    if isinstance(aux_weight, bool) or not isinstance(aux_weight, (int, float)) or not np.isfinite(aux_weight) \
+            or aux_weight < 0 or (aux_weight > 0 and cell is None):
+        raise ArgumentError(f"GRUStudent: aux_weight must be a finite number >= 0 (> 0 only with a cell), got "
+                            f"{aux_weight!r} with cell {cell!r}")
+    return FEEDBACKS[feedback], aux_weight
+
+
+class _StudentFiles:
+    """What a :func:`GRUStudent` writes: its numpy policy and its policy directory (the torch module's
+    weights as arrays), for a layout whose mirror map is the student's own."""
+
+    def _check_layout(self, layout):
+        """A mirror-equivariant student acts as its file only with the layout's own mirror map."""
+        if self.signs is None:
+            return
+        from ..policies.symmetry import check_mirror_map
+
+        check_mirror_map(layout, None if self.obs_perm is None else self.obs_perm.cpu().numpy(), self.signs,
+                         "GRUStudent")
+
+    def _arrays(self):
+        linear = _torch().nn.Linear
+        layers = [(m.weight.detach().double().numpy(), m.bias.detach().double().numpy()) for m in self.head
+                  if isinstance(m, linear)]
+        if self.gru is None:
+            return None, layers
+        g = {k: getattr(self.gru, f"{k}_l0").detach().double().numpy()
+             for k in ("weight_ih", "weight_hh", "bias_ih", "bias_hh")}
+        cell = {"cell_W_ih": g["weight_ih"], "cell_W_hh": g["weight_hh"], "cell_b_ih": g["bias_ih"],
+                "cell_b_hh": g["bias_hh"]}
+        return cell, layers
+
+    def policy(self, layout, *, shield: str = "none", env=None):
+        """The numpy :class:`~tin_swarm_env.policies.recurrent.RecurrentPolicy` (an
+        :class:`~tin_swarm_env.policies.MLPPolicy` without a cell) of the current weights (what
+        :meth:`export` writes), for ``layout`` (an ObsLayout)."""
+        from ..policies.learned import MLPPolicy
+        from ..policies.recurrent import RecurrentPolicy
+
+        self._check_layout(layout)
+        cell, layers = self._arrays()
+        sym = "none" if self.signs is None else "mirror"
+        if cell is None:
+            return MLPPolicy(layers, "tanh", layout=layout.to_dict(), shield=shield, env=env, symmetry=sym,
+                             source="<GRUStudent>", head=self.head_entry)
+        return RecurrentPolicy("gru", cell, layers, "tanh", layout=layout.to_dict(), shield=shield, env=env,
+                               symmetry=sym, source="<GRUStudent>", head=self.head_entry, feedback=self.feedback)
+
+    def export(self, path, layout, *, scenario: str = "", shield: str = "none", extra: dict | None = None):
+        """Write the recurrent policy directory ``path`` (:func:`~tin_swarm_env.policies.save_policy`)."""
+        from ..policies.learned import save_policy
+
+        self._check_layout(layout)
+        cell, layers = self._arrays()
+        return save_policy(path, layers, "tanh", layout=layout, scenario=scenario, extra=extra, shield=shield,
+                           symmetry="none" if self.signs is None else "mirror",
+                           cell=None if cell is None else ("gru", cell), head=self.head_entry,
+                           feedback=self.feedback)
+
+
 def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: int = 0, *, classes=None,
                cell: str | None = "gru", acting: str = "mode", feedback: str = "none", aux_weight: float | None = None,
                obs_perm=None):
@@ -108,25 +185,7 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
     nn = torch.nn
     from ..env.observation import ACTION_PARITY
 
-    if hidden < 1 or any(int(w) < 1 for w in head):
-        raise ArgumentError(f"GRUStudent: hidden {hidden} and head widths {list(head)} must be positive")
-    if signs is not None and len(signs) != obs_size:
-        raise ArgumentError(f"GRUStudent: signs has {len(signs)} entries for {obs_size} observations")
-    if obs_perm is not None and (signs is None or sorted(int(j) for j in obs_perm) != list(range(obs_size))):
-        raise ArgumentError(f"GRUStudent: obs_perm must be a permutation of 0..{obs_size - 1}, with signs")
-    if cell not in ("gru", None):
-        raise ArgumentError(f"GRUStudent: cell must be 'gru' or None, got {cell!r}")
-    from ..policies.recurrent import FEEDBACKS
-
-    if feedback not in FEEDBACKS or (feedback != "none" and cell is None):
-        raise ArgumentError(f"GRUStudent: feedback must be one of {list(FEEDBACKS)} (not 'none' only with a cell), "
-                            f"got {feedback!r} with cell {cell!r}")
-    n_fb = FEEDBACKS[feedback]
-    aux_weight = AUX_WEIGHT if aux_weight is None else aux_weight
-    if isinstance(aux_weight, bool) or not isinstance(aux_weight, (int, float)) or not np.isfinite(aux_weight) \
-            or aux_weight < 0 or (aux_weight > 0 and cell is None):
-        raise ArgumentError(f"GRUStudent: aux_weight must be a finite number >= 0 (> 0 only with a cell), got "
-                            f"{aux_weight!r} with cell {cell!r}")
+    n_fb, aux_weight = _check_student_args(obs_size, hidden, head, signs, obs_perm, cell, feedback, aux_weight)
     from ..policies.heads import categorical_head, mirror_permutation
 
     head_entry = None if classes is None else categorical_head(classes, acting)
@@ -137,7 +196,7 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
         if perm is None:
             raise ArgumentError("GRUStudent: classes are not closed under the mirror (vy -> -vy)")
 
-    class _Student(nn.Module):
+    class _Student(_StudentFiles, nn.Module):
         def __init__(self):
             super().__init__()
             torch.manual_seed(seed)
@@ -200,53 +259,6 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
             if self.perm is not None:
                 return (out[:, :b] + out[:, b:][..., self.perm]) / 2, z, h
             return (out[:, :b] + out[:, b:] * self._parity) / 2, z, h
-
-        def _check_layout(self, layout):
-            """A mirror-equivariant student acts as its file only with the layout's own mirror map."""
-            if self.signs is None:
-                return
-            from ..policies.symmetry import check_mirror_map
-
-            check_mirror_map(layout, None if self.obs_perm is None else self.obs_perm.cpu().numpy(), self.signs,
-                             "GRUStudent")
-
-        def _arrays(self):
-            layers = [(m.weight.detach().double().numpy(), m.bias.detach().double().numpy()) for m in self.head
-                      if isinstance(m, nn.Linear)]
-            if self.gru is None:
-                return None, layers
-            g = {k: getattr(self.gru, f"{k}_l0").detach().double().numpy()
-                 for k in ("weight_ih", "weight_hh", "bias_ih", "bias_hh")}
-            cell = {"cell_W_ih": g["weight_ih"], "cell_W_hh": g["weight_hh"], "cell_b_ih": g["bias_ih"],
-                    "cell_b_hh": g["bias_hh"]}
-            return cell, layers
-
-        def policy(self, layout, *, shield: str = "none", env=None):
-            """The numpy :class:`~tin_swarm_env.policies.recurrent.RecurrentPolicy` (an
-            :class:`~tin_swarm_env.policies.MLPPolicy` without a cell) of the current weights (what
-            :meth:`export` writes), for ``layout`` (an ObsLayout)."""
-            from ..policies.learned import MLPPolicy
-            from ..policies.recurrent import RecurrentPolicy
-
-            self._check_layout(layout)
-            cell, layers = self._arrays()
-            sym = "none" if self.signs is None else "mirror"
-            if cell is None:
-                return MLPPolicy(layers, "tanh", layout=layout.to_dict(), shield=shield, env=env, symmetry=sym,
-                                 source="<GRUStudent>", head=self.head_entry)
-            return RecurrentPolicy("gru", cell, layers, "tanh", layout=layout.to_dict(), shield=shield, env=env,
-                                   symmetry=sym, source="<GRUStudent>", head=self.head_entry, feedback=self.feedback)
-
-        def export(self, path, layout, *, scenario: str = "", shield: str = "none", extra: dict | None = None):
-            """Write the recurrent policy directory ``path`` (:func:`~tin_swarm_env.policies.save_policy`)."""
-            from ..policies.learned import save_policy
-
-            self._check_layout(layout)
-            cell, layers = self._arrays()
-            return save_policy(path, layers, "tanh", layout=layout, scenario=scenario, extra=extra, shield=shield,
-                               symmetry="none" if self.signs is None else "mirror",
-                               cell=None if cell is None else ("gru", cell), head=self.head_entry,
-                               feedback=self.feedback)
 
     return _Student()
 
