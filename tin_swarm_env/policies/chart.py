@@ -302,49 +302,22 @@ def _astar(g, sa, sb, ta, tb, ahead, wall_cost, ha, hb, turn, dist, prev, closed
                 nd = dist[a, b] + step
                 if a == sa and b == sb and turn > 0:  # leaving the start against the way it was going
                     nd += turn * 0.5 * (1.0 - (da * ha + db * hb) / step)
-                near = False  # a cell beside a wall costs more: the way keeps a cell off the walls
-                for ea in range(-1, 2):
-                    for eb in range(-1, 2):
-                        xa, xb = na + ea, nb + eb
-                        if 0 <= xa < c and 0 <= xb < c and g[xa, xb] != 0:
-                            near = True
-                if near:
+                if _beside_wall(g, na, nb):  # a cell beside a wall costs more: the way keeps a cell off the walls
                     nd += wall_cost
                 if nd < dist[na, nb]:
                     if dist[na, nb] >= INF:  # first touch: remembered, to be reset
                         if nt == len(touched):
-                            t2 = np.empty(2 * nt, np.int64)
-                            t2[:nt] = touched
-                            touched = t2
+                            touched = _doubled(touched, nt)
                         touched[nt] = na * c + nb
                         nt += 1
                     dist[na, nb] = nd
                     prev[na, nb] = a * c + b
                     if hn == len(heap_k):
-                        k2 = np.empty(2 * hn)
-                        v2 = np.empty(2 * hn, np.int64)
-                        k2[:hn] = heap_k[:hn]
-                        v2[:hn] = heap_v[:hn]
-                        heap_k, heap_v = k2, v2
+                        heap_k, heap_v = _doubled(heap_k, hn), _doubled(heap_v, hn)
                     hn = heap_push(heap_k, heap_v, hn, nd + h(na, nb), na * c + nb)
     wa, wb, cost = sa, sb, np.inf
     if found:
-        # walk back to the start, keep the way
-        way = [ta * c + tb]
-        v = ta * c + tb
-        while v != sa * c + sb:
-            v = prev[v // c, v % c]
-            way.append(v)
-        # way[-1] is the start; the farthest in reach and in line
-        n = len(way)
-        best = n - 1
-        for k in range(n - 2, -1, -1):
-            a, b = way[k] // c, way[k] % c
-            if (a - sa) ** 2 + (b - sb) ** 2 > ahead * ahead and k < n - 2:
-                break
-            if k == n - 2 or _clear(g, sa, sb, a, b):
-                best = k
-        wa, wb = way[best] // c, way[best] % c
+        wa, wb = _way_point(g, prev, sa, sb, ta, tb, ahead)
         cost = dist[ta, tb]
     for k in range(nt):  # leave the work arrays as found
         v = touched[k]
@@ -352,6 +325,50 @@ def _astar(g, sa, sb, ta, tb, ahead, wall_cost, ha, hb, turn, dist, prev, closed
         prev[v // c, v % c] = -1
         closed[v // c, v % c] = False
     return found, wa, wb, cost
+
+
+@njit(cache=True, inline="always")
+def _beside_wall(g, a, b):
+    """A non-open cell among the 8 neighbours of cell (a, b) (or the cell itself) of chart ``g``."""
+    c = g.shape[0]
+    near = False
+    for ea in range(-1, 2):
+        for eb in range(-1, 2):
+            xa, xb = a + ea, b + eb
+            if 0 <= xa < c and 0 <= xb < c and g[xa, xb] != 0:
+                near = True
+    return near
+
+
+@njit(cache=True, inline="always")
+def _doubled(arr, n):
+    """A copy of ``arr``'s first ``n`` entries in an array twice as long (the rest unset)."""
+    out = np.empty(2 * n, arr.dtype)
+    out[:n] = arr[:n]
+    return out
+
+
+@njit(cache=True)
+def _way_point(g, prev, sa, sb, ta, tb, ahead):
+    """The way :func:`_astar` found, walked back from (ta, tb) along ``prev`` to the start (sa, sb):
+    its farthest cell within ``ahead`` cells of the start (straight-line distance) in a straight
+    open line from it (at least the way's first cell), as ``(wa, wb)``."""
+    c = g.shape[0]
+    way = [ta * c + tb]
+    v = ta * c + tb
+    while v != sa * c + sb:
+        v = prev[v // c, v % c]
+        way.append(v)
+    # way[-1] is the start; the farthest in reach and in line
+    n = len(way)
+    best = n - 1
+    for k in range(n - 2, -1, -1):
+        a, b = way[k] // c, way[k] % c
+        if (a - sa) ** 2 + (b - sb) ** 2 > ahead * ahead and k < n - 2:
+            break
+        if k == n - 2 or _clear(g, sa, sb, a, b):
+            best = k
+    return way[best] // c, way[best] % c
 
 
 @njit(cache=True)
