@@ -4,7 +4,7 @@
 **Why.** The map-knowing teacher (GeodesicPolicy) labels each state with the map's shortest way on;
 where both ways round a cliff look alike to the robot, which way that is cannot be told from what the
 robot has seen, so a student that has committed to one side keeps getting labels that say "go the other
-way", and dithers (measured: ``docs/figures/teacher_multimodal.md``). A teacher whose labels follow the
+way", and dithers (measured: ``research/teacher_multimodal.md``). A teacher whose labels follow the
 side the student has taken gives the student nothing it cannot see: APF decides its side from the
 observation when it meets a boundary and then keeps it in its memory
 (:class:`~tin_swarm_env.policies.apf.BugMemory`; the rules: :mod:`tin_swarm_env.policies.apf`).

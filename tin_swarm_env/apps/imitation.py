@@ -45,7 +45,7 @@ and takes the side of a boundary the student drives along, so its labels follow 
 took (the rule: :mod:`tin_swarm_env.apps.apf_teacher`). With ``"apf"`` the odometry reads APF's own label
 even where the learner drove: kept as it was, for the shipped recipe's reproduction.
 What a privileged teacher cannot give a memoryless student (measured:
-``docs/figures/teacher_geodesic.md``): where the shortest way round is left on one map and right on
+``research/teacher_geodesic.md``): where the shortest way round is left on one map and right on
 another that look the same to the robot (a cliff across the way, the pass out of sight), the labels
 for one observation disagree, and a mean-squared-error fit learns their mean, for a mirror-equivariant
 student ``vy = 0``: straight on, into the cliff. The teacher's choice is a function of the map, not

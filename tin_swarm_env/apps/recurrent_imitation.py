@@ -25,9 +25,9 @@ label clipped to [-1, 1], over the kept steps only (live and not stalled). Each 
 previous piece ended in: the state runs over the whole episode, as in the file, while the gradient
 reaches back at most :data:`CHUNK` steps (truncated backpropagation through time), clipped to norm
 :data:`GRAD_CLIP`. Why pieces and not whole episodes (``chunk=0``, one update per episode, as the
-first three runs of docs/figures/teacher_multimodal.md were fitted): with whole episodes a fit makes
+first three runs of research/teacher_multimodal.md were fitted): with whole episodes a fit makes
 a few dozen updates per epoch and is still far above what the network can fit after tens of epochs;
-on one fixed data set of APF's labels (``agents/diag_fit.py``, the fourth run there) the GRU fitted in
+on one fixed data set of APF's labels (``research/diag_fit.py``, the fourth run there) the GRU fitted in
 pieces of 64 steps reaches in 12 epochs the held-out cross-entropy on APF's own trajectories that the
 whole-episode fit reaches in 30 (0.42 nats), and on the student's trajectories 1.46 nats against its 2.46.
 
@@ -81,7 +81,7 @@ __all__ = ["GRUStudent", "fit_sequences", "sequence_loss", "previous_actions", "
 
 GRAD_CLIP = 1.0  # the gradient norm each step of fit_sequences is clipped to
 CHUNK = 64  # fit_sequences' default piece length, steps (module docstring; 0: whole episodes)
-AUX_WEIGHT = 0.0  # GRUStudent's default aux_weight (read at the call; agents/train_multimodal.py sets it per variant)
+AUX_WEIGHT = 0.0  # GRUStudent's default aux_weight (read at the call; research/train_multimodal.py sets it per variant)
 SIDES = (-1, 0, 1)  # the auxiliary read-out's classes, in logit order: the teacher's BugMemory.side
 
 
