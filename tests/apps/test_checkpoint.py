@@ -317,3 +317,24 @@ def test_json_nested_too_deep_is_refused_before_parsing(tiny_run, tmp_path):
     p.write_text("[" * 100_000 + "]" * 100_000)
     rc, err, _ = _resume(run)
     assert rc == 2 and len(err) == 1 and str(p) in err[0] and "nested 100000 levels" in err[0]
+
+
+@pytest.mark.parametrize("rel", CKPT_FILES)
+def test_a_missing_file_is_named_and_nothing_changes(tiny_run, tmp_path, rel):
+    run = _copy(tiny_run, tmp_path / "a")
+    (run / rel).unlink()
+    before = _snapshot(run)
+    rc, err, _ = _resume(run)
+    assert rc == 2 and len(err) == 1 and (str(run / rel) in err[0] or "no args.json" in err[0]), err
+    assert _snapshot(run) == before
+
+
+def test_checkpoints_that_is_a_file_is_refused(tiny_run, tmp_path):
+    import shutil
+
+    run = _copy(tiny_run, tmp_path / "a")
+    shutil.rmtree(run / "checkpoints")
+    (run / "checkpoints").write_text("x")
+    rc, err, _ = _resume(run)
+    assert rc == 2 and str(run / "checkpoints") in err[0] and "not a directory" in err[0], err
+    assert (run / "checkpoints").read_text() == "x"

@@ -437,7 +437,10 @@ def read_checkpoints(run: Path, *, n_copies: int, run_info: dict, trust_pickle: 
     (module docstring); CheckpointError naming the file at the first problem. Nothing is changed
     on disk (unfinished ``.part`` directories: :func:`remove_unfinished`, once the resume goes on)."""
     out = []
-    for p in _steps(Path(run) / "checkpoints"):
+    root = Path(run) / "checkpoints"
+    if root.exists() and not root.is_dir():
+        raise CheckpointError(f"{root}: not a directory of checkpoints (a file of that name)")
+    for p in _steps(root):
         if not p.is_dir():
             raise CheckpointError(f"{p}: not a checkpoint directory (a file of that name)")
         n = int(p.name[5:])
