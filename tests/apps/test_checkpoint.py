@@ -187,7 +187,8 @@ def _corrupt(path: Path, data):
 def test_any_damage_to_any_checkpoint_file_is_one_line_naming_it_and_changes_nothing(tiny_run):
     import tempfile
 
-    from hypothesis import given, settings, strategies as st
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
 
     @settings(max_examples=40, deadline=None, derandomize=True)
     @given(rel=st.sampled_from(CKPT_FILES), data=st.data())
@@ -289,7 +290,8 @@ def test_a_checkpoint_of_another_network_or_scenario_is_refused_naming_file_key_
     before = _snapshot(run)
     rc, err, _ = _resume(run)
     assert rc == 2 and len(err) == 1
-    assert str(run / "checkpoints" / "step_32" / "policy.npz") in err[0] and "found float32 (2, 8)" in err[0] and "expected float32 (2, 16)" in err[0]
+    assert str(run / "checkpoints" / "step_32" / "policy.npz") in err[0]
+    assert "found float32 (2, 8)" in err[0] and "expected float32 (2, 16)" in err[0]
     assert _snapshot(run) == before
     # another scenario than the run's
     import contextlib

@@ -560,8 +560,6 @@ class Args:
 
 def explore(a: Args) -> int:
     """``tin-swarm explore``: the explorer after ``a.steps`` APF steps, in a window or into ``a.png``."""
-    import os
-
     import matplotlib
 
     from .._atomic import atomic_path, check_outputs
