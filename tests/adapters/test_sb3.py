@@ -97,12 +97,15 @@ class TowardTarget:
 def reference_robot_episodes(n_robots, n_envs, seed, max_cycles, copy_episodes):
     """From plain PettingZoo envs (no adapter): per slot c * n_robots + i, the list of
     (return, live steps, global step at which the robot-episode ended) of robot i of copy c."""
+    from tin_swarm_env.env.vector import copy_seed_stream
+
     out = [[] for _ in range(n_envs * n_robots)]
     for c in range(n_envs):
         env = tse.parallel_env(scenario="cliff_goal", n_robots=n_robots, max_cycles=max_cycles)
+        seeds = copy_seed_stream(seed, c)  # the adapter's copy c draws its episodes' seeds from it
         t = 0
         for e in range(copy_episodes):
-            obs, _ = env.reset(seed=seed + c if e == 0 else None)
+            obs, _ = env.reset(seed=int(seeds.integers(0, 2 ** 63 - 1)))
             ret = dict.fromkeys(env.possible_agents, 0.0)
             live = dict.fromkeys(env.possible_agents, 0)
             end = {}

@@ -152,3 +152,14 @@ def test_scan_layout_and_packs_shared():
     v = tse.vector_env(scan, n_envs=3, n_robots=4, seed=1, max_cycles=10)
     _replay(v, [scan], 4, 14, _random(3, 4, 3), max_cycles=10)
     assert len(v._pack.worlds) == 1
+
+
+def test_world_parameters_shared_or_refused_by_name():
+    """Copies may differ in what shapes their own world (the flat plane's size, the slope limit), not in what every
+    robot's step reads (sensor range...)."""
+    v = tse.vector_env(["flat", "cliff_goal"], n_envs=2, n_robots=3, seed=0, max_cycles=6)  # 300 m and 500 m planes
+    _replay(v, ["flat", "cliff_goal"], 3, 8, _random(2, 3, 4), max_cycles=6)
+    cfg = load_scenario("ramp")
+    far = cfg.replace(world=dataclasses.replace(cfg.world, sensor=dataclasses.replace(cfg.world.sensor, range_m=90.0)))
+    with pytest.raises(ArgumentError, match=r"\[world\] sensor.range_m 90.0"):
+        tse.vector_env([cfg, far], n_envs=2)

@@ -1,5 +1,7 @@
 """Stable-Baselines3 adapter: every robot of every environment copy is one sub-environment of
-one SB3 ``VecEnv`` (parameter sharing), stepped through the env's batched array path.
+one SB3 ``VecEnv`` (parameter sharing), stepped through the vector env
+(:func:`tin_swarm_env.vector_env`): one call per step for all copies, the safety shield applied
+to all copies at once.
 
 Contract (what SB3 expects of a ``VecEnv``, and how robots map onto it):
 
@@ -26,9 +28,15 @@ Contract (what SB3 expects of a ``VecEnv``, and how robots map onto it):
   ``info["episode"]["l"]`` counts live steps only (``VecMonitor`` overwrites it).
 * A copy resets automatically when none of its robots is live; the observations returned for
   its robots at that step are the new episode's.
-* Seeding: ``seed(s)`` (or the constructor's ``seed``) gives copy ``c`` the seed ``s + c`` at the
-  next reset; later resets continue each copy's own generator, so two adapters with the same
-  seed and actions produce the same rollouts.
+* Seeding: ``seed(s)`` (or the constructor's ``seed``) restarts, at the next reset, each copy's
+  seed stream (:func:`~tin_swarm_env.env.vector.copy_seed_stream`: copy ``c``'s episodes are
+  reset with seeds drawn from ``np.random.default_rng([s, c])``); the vector env's
+  ``copy_seeds`` (``self.vec.copy_seeds``) are the seeds of the running episodes, so two adapters
+  with the same seed and actions produce the same rollouts, and each copy's episode is the
+  parallel env's ``reset_arrays(seed=copy_seeds[c])``. ``envs[c]`` is a
+  :class:`~tin_swarm_env.env.vector.CopyView` of copy ``c`` (its ``config``, ``layout``,
+  ``steps``, ``live_mask``, ``rng_state``, ``reset_arrays(seed, options)``). ``render_mode`` is
+  not supported (render a copy through ``parallel_env`` with its seed).
 """
 
 from __future__ import annotations
@@ -73,12 +81,11 @@ def vec_class():
         __doc__ = __doc__
 
         def __init__(self, scenario="cliff_goal", n_robots=None, n_envs=1, seed=0, shield="none", **env_kwargs):
-            from ..env import parallel_env
+            from ..env.checks import ENV_ARGS, check_env_kwargs, check_seed
+            from ..env.vector import VectorEnv
+            from ..errors import check_range
             from ..policies.base import SafetyShield
             from ..policies.learned import SHIELDS
-
-            from ..env.checks import ENV_ARGS, check_env_kwargs, check_seed
-            from ..errors import check_range
 
             check_range("make_sb3_vec_env", "n_envs", n_envs, 1, integer=True, exc=ArgumentError)
             check_seed(seed, "make_sb3_vec_env")
@@ -86,24 +93,22 @@ def vec_class():
                                                                                                   "n_robots")))
             if isinstance(scenario, (list, tuple)) and not scenario:
                 raise ArgumentError("make_sb3_vec_env: scenario is an empty list; give a name, a path or a list of them")
-            mix = [scenario] if isinstance(scenario, str) or not hasattr(scenario, "__len__") else list(scenario)
-            self.envs = [parallel_env(scenario=mix[c % len(mix)], n_robots=n_robots, **env_kwargs)
-                         for c in range(n_envs)]
-            e0 = self.envs[0]
-            for e in self.envs[1:]:
-                if e.n != e0.n or e.layout.size != e0.layout.size:
-                    raise ArgumentError(f"a scenario mix needs one robot count and observation size: "
-                                        f"{e0.config.name!r} has {e0.n} robots, {e0.layout.size} observations; "
-                                        f"{e.config.name!r} {e.n}, {e.layout.size} (pass n_robots)")
-            self.n_robots = e0.n
-            self.n_copies = n_envs
             if shield not in SHIELDS:
                 raise ArgumentError(f"shield must be one of {list(SHIELDS)}, got {shield!r}")
+            mix = [scenario] if isinstance(scenario, str) or not hasattr(scenario, "__len__") else list(scenario)
+            env_kwargs = {k: v for k, v in env_kwargs.items() if not (k == "render_mode" and v is None)}
+            self.vec = VectorEnv(mix, n_envs=n_envs, n_robots=n_robots, seed=seed, **env_kwargs)
+            self.envs = self.vec.copies()  # one view per copy (config, layout, steps, live_mask, reset_arrays)
+            self.n_robots = self.vec.n_robots
+            self.n_copies = n_envs
             self.shield = shield
-            self._shields = [SafetyShield(e) for e in self.envs] if shield == "safety_cut" else None
-            super().__init__(n_envs * e0.n, e0.observation_space("robot_0"), e0.action_space("robot_0"))
-            self.render_mode = e0.render_mode
-            self._seeds = [None if seed is None else seed + c for c in range(n_envs)]
+            # the shield of each scenario of the mix, over the rows of its copies (one call per scenario)
+            scen_of_row = np.repeat(self.vec.copy_scenario, self.n_robots)
+            self._shields = None if shield != "safety_cut" else [
+                (SafetyShield(p), scen_of_row == k) for k, p in enumerate(self.vec._protos)]
+            super().__init__(n_envs * self.n_robots, self.vec.single_observation_space, self.vec.single_action_space)
+            self.render_mode = None
+            self._seed = seed
             self._actions = None
             self._obs = None
             self._ep_ret = np.zeros(self.num_envs)
@@ -111,15 +116,14 @@ def vec_class():
 
         # -- VecEnv interface ----------------------------------------------------------------
         def seed(self, seed=None):
-            self._seeds = [None if seed is None else seed + c for c in range(self.n_copies)]
-            return self._seeds
+            """The next :meth:`reset` restarts the copies' seed streams from ``seed``
+            (:func:`~tin_swarm_env.env.vector.copy_seed_stream`); None: they continue."""
+            self._seed = seed
+            return [seed] * self.n_copies
 
         def reset(self):
-            n = self.n_robots
-            obs = np.zeros((self.num_envs, self.observation_space.shape[0]), dtype=np.float32)
-            for c, env in enumerate(self.envs):
-                obs[c * n:(c + 1) * n] = env.reset_arrays(seed=self._seeds[c])
-            self._seeds = [None] * self.n_copies
+            obs = self.vec.reset(seed=self._seed).reshape(self.num_envs, -1)
+            self._seed = None
             self._ep_ret[:] = 0
             self._ep_len[:] = 0
             self._obs = obs
@@ -132,47 +136,47 @@ def vec_class():
             self._actions = float_array(np.reshape(actions, (self.num_envs, -1)) if np.size(actions) == 2 * self.num_envs
                                         else actions, "step_async(actions)", (self.num_envs, 2), finite=False)
 
+        def _shielded(self, act):
+            if self._shields is None:
+                return act
+            out = np.array(act, dtype=np.float32)
+            for sh, rows in self._shields:
+                out[rows] = sh(act[rows], self._obs[rows])
+            return out
+
         def step_wait(self):
-            n = self.n_robots
-            d = self.observation_space.shape[0]
-            obs = np.zeros((self.num_envs, d), dtype=np.float32)
-            rewards = np.zeros(self.num_envs, dtype=np.float32)
-            dones = np.zeros(self.num_envs, dtype=bool)
+            E, N = self.n_copies, self.n_robots
+            live_before = self.vec._live.copy()
+            act = self._shielded(self._actions)
+            o, r, term, trunc, info = self.vec.step(np.reshape(act, (E, N, 2)))
+            obs = o.reshape(self.num_envs, -1)
+            rewards = np.where(live_before, r.reshape(-1), np.float32(0.0)).astype(np.float32)
+            term, trunc = term.reshape(-1), trunc.reshape(-1)
+            ended = term | trunc
+            self._ep_ret += rewards
+            self._ep_len += live_before
             infos = [{} for _ in range(self.num_envs)]
-            for c, env in enumerate(self.envs):
-                sl = slice(c * n, (c + 1) * n)
-                live_before = env.live_mask
-                act = self._actions[sl] if self._shields is None else self._shields[c](self._actions[sl], self._obs[sl])
-                o, r, term, trunc, reasons = env.step_arrays(act)
-                rewards[sl] = np.where(live_before, r, 0.0)
-                ended = term | trunc
-                idx = np.flatnonzero(ended) + c * n
-                self._ep_ret[sl] += rewards[sl]
-                self._ep_len[sl] += live_before
-                for k, j in zip(np.flatnonzero(ended), idx):
-                    infos[j] = {"terminal_observation": o[k].copy(), "TimeLimit.truncated": bool(trunc[k]),
-                                "episode": {"r": float(self._ep_ret[j]), "l": int(self._ep_len[j])},
-                                "reason": Reason(int(reasons[k])).label}
-                dones[idx] = True  # the only done of each robot-episode (frozen slots get none)
-                o = np.where(ended[:, None], 0.0, o)
-                self._ep_ret[idx] = 0
-                self._ep_len[idx] = 0
-                if not env.live_mask.any():  # the copy's episode is over: reset it; frozen slots continue
-                    o = env.reset_arrays()
-                obs[sl] = o
+            final = np.repeat(info["_final"], N)
+            last = np.where(final[:, None], info["final_obs"].reshape(self.num_envs, -1), obs)
+            reasons = info["reasons"].reshape(-1)
+            for j in np.flatnonzero(ended).tolist():
+                infos[j] = {"terminal_observation": last[j].copy(), "TimeLimit.truncated": bool(trunc[j]),
+                            "episode": {"r": float(self._ep_ret[j]), "l": int(self._ep_len[j])},
+                            "reason": Reason(int(reasons[j])).label}
+            self._ep_ret[ended] = 0
+            self._ep_len[ended] = 0
+            obs = np.where((ended & ~final)[:, None], np.float32(0.0), obs)  # frozen until the copy resets
             self._obs = obs
-            return obs.copy(), rewards, dones, infos
+            return obs.copy(), rewards, ended, infos
 
         def close(self):
-            for e in self.envs:
-                e.close()
+            self.vec.close()
 
         def get_images(self):
-            return [e.render() for e in self.envs]
+            return [None for _ in self.envs]
 
         def render(self, mode=None):
-            imgs = self.get_images()
-            return imgs[0] if imgs else None
+            return None
 
         def get_attr(self, attr_name, indices=None):
             return [getattr(self.envs[self._copy(i)], attr_name) for i in self._get_indices(indices)]

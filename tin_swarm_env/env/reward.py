@@ -96,14 +96,15 @@ def step_rewards(rw, dist_before, dist_after, state, events, target_idx, live, t
     ARRIVED. On one thread: a parallel region's start-up costs more than 1 000 robots' rewards
     (bench 2026-11-26: 45 us parallel vs numpy 52 us at 1 000 robots)."""
     f64 = np.float64
+    n = len(dist_before)
     return _rewards_kernel(
-        rw, np.ascontiguousarray(dist_before, dtype=f64), np.ascontiguousarray(dist_after, dtype=f64),
+        np.array([rw], dtype=f64), np.zeros(n, dtype=np.int64), np.ascontiguousarray(dist_before, dtype=f64), np.ascontiguousarray(dist_after, dtype=f64),
         np.ascontiguousarray(state.positions, dtype=f64),
         np.ascontiguousarray(state.targets.positions, dtype=f64).reshape(-1, 2),
         np.ascontiguousarray(target_idx, dtype=np.int64), np.ascontiguousarray(live, dtype=np.bool_),
         np.ascontiguousarray(events.energy_j, dtype=f64), np.ascontiguousarray(events.collisions, dtype=f64),
         np.ascontiguousarray(events.fell, dtype=np.bool_), np.ascontiguousarray(events.emptied, dtype=np.bool_),
-        np.full(len(dist_before), bool(timeout)))
+        np.full(n, bool(timeout)))
 
 
 _NONE, _ARRIVED, _FELL, _BATTERY, _TIMEOUT = (int(Reason.NONE), int(Reason.ARRIVED), int(Reason.FELL),
@@ -119,12 +120,12 @@ def _gain1(before, after):
 
 
 @njit(cache=True)
-def _rewards_kernel(rw, before, after, pos, tpos, tidx, live, energy, coll, fell, emptied, timeout):
+def _rewards_kernel(rws, grp, before, after, pos, tpos, tidx, live, energy, coll, fell, emptied, timeout):
     """:func:`step_rewards` for every robot in one loop: the terms added in the reference's
-    order (so the float64 sums round the same), then cast to float32. ``timeout (n,)``: the
-    robot's episode ends this step (the vector env's copies end at different steps)."""
-    containment, standoff, radius, progress_per_m, on_ring, ring_tol, energy_per_kj, collision, fall, battery_empty, \
-        arrival = rw
+    order (so the float64 sums round the same), then cast to float32. ``rws (G, 11)``: rows of
+    :func:`reward_params` (as floats), robot i reads row ``grp[i]``; ``timeout (n,)``: the robot's
+    episode ends this step (the vector env's copies end at different steps and may differ in
+    their reward terms)."""
     n = before.shape[0]
     r32 = np.empty(n, dtype=np.float32)
     term = np.empty(n, dtype=np.bool_)
@@ -133,6 +134,10 @@ def _rewards_kernel(rw, before, after, pos, tpos, tidx, live, energy, coll, fell
     nxt = np.empty(n, dtype=np.bool_)
     n_arrived = 0
     for i in range(n):
+        g = grp[i]
+        containment = rws[g, 0] != 0.0
+        standoff, radius, progress_per_m, on_ring, ring_tol = rws[g, 1], rws[g, 2], rws[g, 3], rws[g, 4], rws[g, 5]
+        energy_per_kj, collision, fall, battery_empty, arrival = rws[g, 6], rws[g, 7], rws[g, 8], rws[g, 9], rws[g, 10]
         k = tidx[i]
         has = k >= 0
         r = 0.0

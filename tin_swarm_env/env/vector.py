@@ -11,17 +11,22 @@ only copies that end pay a reset.
 **Copies.** ``scenario`` is one scenario (a name, path or
 :class:`~tin_swarm_env.scenario.ScenarioConfig`) or a list of them: copy ``c`` plays
 ``scenario[c % len(scenario)]``. A generated scenario draws a new terrain per copy and per reset.
-Every copy must have the same robot count, observation layout, world parameters (robot, sensor,
-battery) and reward terms (refused by name otherwise); scenarios with mobile targets or assets
-are refused (their random walk draws from each copy's generator every step).
+Every copy must have the same robot count, observation layout and the world parameters every
+robot's step reads (``_SHARED_PARAMS``: body, speed, turn rate, sensor, battery, time step);
+refused by name otherwise. The slope limit, the break angle, the terrain and the reward terms may
+differ per scenario. Scenarios with mobile targets or assets are refused (their random walk
+draws from each copy's generator every step).
 
 **Resets.** Each copy resets on its own when its episode ends (no robot of it is left: every one
 terminated or was truncated at ``max_cycles``): the observations returned for that copy are the
 new episode's, and ``infos["final_obs"][c]`` (with ``infos["_final"][c]`` True) holds the ended
-episode's last observations. The seeds come from one generator seeded by ``seed``:
-``copy_seeds[c]`` is the seed copy ``c`` was last reset with, and copy ``c`` is, bit for bit,
+episode's last observations. **Seeds**: every episode is reset with an explicit seed, drawn from
+its copy's own generator, ``np.random.default_rng([seed, c])`` (:func:`copy_seed_stream`), so a
+copy's episodes do not depend on when the other copies end, and the run is reproducible from one
+seed. ``copy_seeds[c]`` is the seed copy ``c`` was last reset with, and copy ``c`` is, bit for bit,
 ``parallel_env(scenario_c, n_robots=N, ...).reset_arrays(seed=copy_seeds[c])`` stepped with the
-same actions (``tests/env/test_vector.py``).
+same actions (``tests/env/test_vector.py``). :meth:`VectorEnv.reset_copy` resets one copy by hand
+(a seed, and the parallel env's reset options to place robots and targets).
 
 **Arrays.** ``reset()`` -> ``obs (E, N, d)`` float32. ``step(actions (E, N, 2))`` ->
 ``obs (E, N, d)``, ``rewards (E, N)`` float32, ``terminated``/``truncated (E, N)`` bool, ``infos``:
@@ -52,10 +57,31 @@ from .observation import DZ_SCALE_M, OBS_SERIAL_BELOW, _fill, _kernel_offsets
 from .reward import _rewards_kernel
 from .tin_swarm import TinSwarmEnv, _live_actions
 
-__all__ = ["VectorEnv", "vector_env", "MAX_COPIES"]
+__all__ = ["VectorEnv", "vector_env", "MAX_COPIES", "copy_seed_stream", "CopyView"]
 
 MAX_COPIES = 1 << 16
 _ARRIVED, _FELL = int(Reason.ARRIVED), int(Reason.FELL)
+
+
+def copy_seed_stream(seed: int, c: int) -> np.random.Generator:
+    """The generator copy ``c`` of a vector env made with ``seed`` draws its episodes' seeds from
+    (``int(g.integers(0, 2**63 - 1))`` per reset)."""
+    return np.random.default_rng([int(seed), int(c)])
+
+
+# the world parameters the compiled passes read as one value for every copy; the others (the slope
+# limit, the break angle, the flat plane's size) shape each world's own arrays, which the pack keeps per world
+_SHARED_PARAMS = ("robot.radius_m", "robot.max_speed_mps", "robot.turn_rate_dps", "robot.max_climb_deg",
+                  "sensor.range_m", "sensor.fov_deg", "sensor.height_m", "sensor.check_los", "sensor.max_candidates",
+                  "battery.capacity_j", "battery.idle_w", "battery.sensing_w", "battery.drive_j_per_m",
+                  "battery.climb_j_per_m", "dt_s", "entity_height_m")
+
+
+def _param(params, dotted: str):
+    v = params
+    for part in dotted.split("."):
+        v = getattr(v, part)
+    return v
 
 
 def _same(where: str, k: int, name: str, a, b) -> None:
@@ -87,8 +113,8 @@ class VectorEnv:
             name = p.config.name
             _same(name, k, "n_robots", p.n, p0.n)
             _same(name, k, "observation layout", p.layout, p0.layout)
-            _same(name, k, "world parameters", p.world.params, p0.world.params)
-            _same(name, k, "reward terms", reward_params(p.config), reward_params(p0.config))
+            for key in _SHARED_PARAMS:
+                _same(name, k, f"[world] {key}", _param(p.world.params, key), _param(p0.world.params, key))
             if p.config.targets.mobile or getattr(p.config.assets, "mobile", False):
                 raise ArgumentError(f"vector_env: scenario {k} ({name}) has mobile targets or assets, which the "
                                     "vector env does not step; use parallel_env")
@@ -99,14 +125,16 @@ class VectorEnv:
         self.single_action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         self.observation_space = spaces.Box(-1.0, 1.0, (E, N, self.layout.size), np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (E, N, 2), np.float32)
-        self._rw = reward_params(p0.config)
+        # each scenario's reward terms, one row per scenario of the mix (robots read their copy's)
+        self._rws = np.array([reward_params(p.config) for p in self._protos], dtype=np.float64)
         self._M = max(max(p._target_slots for p in self._protos), 1)
         self._A = max(max(int(p.config.assets.n) for p in self._protos), 1)
         self.copy_scenario = np.arange(E) % len(scen)
         self.copy_seeds = np.zeros(E, dtype=np.int64)
-        self._master = np.random.default_rng(seed)
+        self._seed_streams(seed)
         R = E * N
         self._cop = np.repeat(np.arange(E, dtype=np.int64), N)
+        self._scen_of_robot = np.repeat(self.copy_scenario, N).astype(np.int64)
         self._off = np.arange(E + 1, dtype=np.int64) * N
         z = np.zeros
         self._pos, self._head, self._h = z((R, 2)), z(R), z(R)
@@ -145,27 +173,55 @@ class VectorEnv:
         self._started = False
 
     # -- resets ------------------------------------------------------------------------------
-    def _draw_seed(self) -> int:
-        return int(self._master.integers(0, 2 ** 63 - 1))
+    def _seed_streams(self, seed) -> None:
+        if seed is None:
+            seed = int(np.random.SeedSequence().entropy % (2 ** 63))
+        self.base_seed = int(seed)  # the seed the copies' seed streams were made from
+        self._gens = [copy_seed_stream(seed, c) for c in range(self.n_envs)]
+
+    def _draw_seed(self, c: int) -> int:
+        return int(self._gens[c].integers(0, 2 ** 63 - 1))
+
+    def copy_rng_state(self, c: int) -> dict:
+        """The state of copy ``c``'s seed generator (plain data, for checkpoints)."""
+        return self._gens[c].bit_generator.state
+
+    def set_copy_rng_state(self, c: int, state: dict) -> None:
+        g = np.random.default_rng()
+        try:
+            g.bit_generator.state = state
+        except (TypeError, ValueError, KeyError) as exc:
+            raise ArgumentError(f"vector env copy {c}: rng_state is not a generator state ({exc})") from None
+        self._gens[c] = g
 
     def reset(self, seed: int | None = None) -> np.ndarray:
-        """Reset every copy; ``seed`` reseeds the generator the copies' seeds are drawn from.
-        Returns ``obs (E, N, d)``."""
+        """Reset every copy; ``seed`` restarts the copies' seed generators (:func:`copy_seed_stream`),
+        None continues them. Returns ``obs (E, N, d)``."""
         seed = check_seed(seed)
         if seed is not None:
-            self._master = np.random.default_rng(seed)
+            self._seed_streams(seed)
         obs = np.zeros((self.n_envs, self.n_robots, self.layout.size), dtype=np.float32)
         for c in range(self.n_envs):
-            obs[c] = self._reset_copy(c, self._draw_seed(), defer=True)
+            obs[c] = self._reset_copy(c, self._draw_seed(c), defer=True)
         self._repack()
         self._started = True
         return obs
 
-    def _reset_copy(self, c: int, seed: int, defer: bool = False) -> np.ndarray:
+    def reset_copy(self, c: int, seed: int | None = None, options: dict | None = None) -> np.ndarray:
+        """Reset copy ``c`` alone (``seed`` None: the next of its stream), with the parallel env's
+        reset ``options`` (``robot_positions``, ``headings``, ``target_positions``); returns its
+        observations ``(N, d)``."""
+        if not self._started:
+            raise RuntimeError("call reset() before reset_copy()")
+        check_range("reset_copy", "c", c, 0, self.n_envs - 1, integer=True, exc=ArgumentError)
+        seed = check_seed(seed, "reset_copy")
+        return self._reset_copy(int(c), self._draw_seed(c) if seed is None else seed, options=options)
+
+    def _reset_copy(self, c: int, seed: int, defer: bool = False, options: dict | None = None) -> np.ndarray:
         """Reset copy ``c`` with ``seed`` through its scenario's parallel env (the same code, so the
         same episode); returns its observations ``(N, d)``."""
         p = self._protos[self.copy_scenario[c]]
-        obs = p.reset_arrays(seed=seed)
+        obs = p.reset_arrays(seed=seed, options=options)
         self.copy_seeds[c] = seed
         s = p.world_state
         N = self.n_robots
@@ -180,7 +236,6 @@ class VectorEnv:
         self._coll[rows] = s.collisions
         self._live[rows] = True
         world = p.world
-        ent_h = float(self.params.entity_height_m)
         for ent, M, pos, z, rng, what in ((s.targets, self._M, self._tpos, self._tz, self._t_rng, "targets"),
                                           (s.assets, self._A, self._apos, self._az, self._a_rng, "assets")):
             k = len(ent)
@@ -191,7 +246,6 @@ class VectorEnv:
                 pos[c * M:c * M + k] = ent.positions
                 z[c * M:c * M + k] = world.tin.height_in(ent.positions, ent.tri_idx)
             rng[c, 1] = c * M + k
-        _ = ent_h
         tidx = p.target_assignment
         self._tglob[rows] = np.where(tidx >= 0, c * self._M + tidx, -1)
         self._dist[rows] = p.distance_to_go()
@@ -277,7 +331,7 @@ class VectorEnv:
         if done.any():
             final[done] = obs[done]
             for c in np.flatnonzero(done).tolist():
-                obs[c] = self._reset_copy(c, self._draw_seed())
+                obs[c] = self._reset_copy(c, self._draw_seed(c))
                 infos["distance_to_go_m"][c] = self._dist[c * N:(c + 1) * N]
         infos["final_obs"] = final
         infos["live"] = self._live.reshape(E, N).copy()
@@ -295,7 +349,7 @@ class VectorEnv:
         self._steps += 1
         timeout = (self._steps >= self._max_cycles)[self._cop]
         rew, term, why, trunc, live_after, n_arrived = _rewards_kernel(
-            self._rw, self._dist, dist, pos, self._tpos, self._tglob, live, energy, coll.astype(np.float64), fell,
+            self._rws, self._scen_of_robot, self._dist, dist, pos, self._tpos, self._tglob, live, energy, coll.astype(np.float64), fell,
             emptied, timeout)
         if n_arrived:
             status[(why == _ARRIVED) & (status != _FELL)] = _ARRIVED
@@ -361,9 +415,64 @@ class VectorEnv:
         """``(E, N)`` m, each robot's distance to go (as the reward measures it)."""
         return self._dist.reshape(self.n_envs, self.n_robots).copy()
 
+    def copies(self) -> list:
+        """One :class:`CopyView` per copy."""
+        return [CopyView(self, c) for c in range(self.n_envs)]
+
     def close(self) -> None:
         for p in self._protos:
             p.close()
+
+
+class CopyView:
+    """Copy ``c`` of a :class:`VectorEnv` seen as one env: its scenario's ``config``, ``layout``
+    and ``max_cycles``, its ``steps``, ``live_mask``, ``world``/``tin``, its seed generator's
+    ``rng_state`` (read and set), ``reset_arrays(seed, options)`` (:meth:`VectorEnv.reset_copy`)
+    and ``distance_to_go()``. The adapters hand these out where one env per copy is expected."""
+
+    def __init__(self, vec: VectorEnv, c: int):
+        self._vec, self._c = vec, c
+        self._proto = vec._protos[vec.copy_scenario[c]]
+
+    config = property(lambda self: self._proto.config)
+    layout = property(lambda self: self._proto.layout)
+    n = property(lambda self: self._vec.n_robots)
+    possible_agents = property(lambda self: self._proto.possible_agents)
+    max_cycles = property(lambda self: int(self._vec._max_cycles[self._c]))
+    steps = property(lambda self: int(self._vec._steps[self._c]))
+    world = property(lambda self: self._vec._worlds[self._c])
+    tin = property(lambda self: self._vec._worlds[self._c].tin)
+    render_mode = None
+
+    def observation_space(self, agent=None):
+        return self._vec.single_observation_space
+
+    def action_space(self, agent=None):
+        return self._vec.single_action_space
+
+    @property
+    def live_mask(self) -> np.ndarray:
+        return self._vec.live_mask[self._c]
+
+    def distance_to_go(self) -> np.ndarray:
+        return self._vec.distance_to_go()[self._c]
+
+    @property
+    def rng_state(self) -> dict:
+        return self._vec.copy_rng_state(self._c)
+
+    @rng_state.setter
+    def rng_state(self, state: dict) -> None:
+        self._vec.set_copy_rng_state(self._c, state)
+
+    def reset_arrays(self, seed: int | None = None, options: dict | None = None) -> np.ndarray:
+        return self._vec.reset_copy(self._c, seed, options)
+
+    def render(self):
+        return None
+
+    def close(self) -> None:
+        pass
 
 
 def vector_env(scenario="cliff_goal", n_envs: int = 1, n_robots: int | None = None, seed: int | None = None,
