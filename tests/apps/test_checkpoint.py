@@ -340,3 +340,64 @@ def test_checkpoints_that_is_a_file_is_refused(tiny_run, tmp_path):
     rc, err, _ = _resume(run)
     assert rc == 2 and str(run / "checkpoints") in err[0] and "not a directory" in err[0], err
     assert (run / "checkpoints").read_text() == "x"
+
+
+def _swaps(doc):
+    """Every (label, document with the value at label replaced by one of another JSON kind)."""
+    import copy
+
+    for lab, where in _paths(doc):
+        if lab.startswith(_NULL_OK):
+            continue
+        parent = doc
+        for k in where[:-1]:
+            parent = parent[k]
+        for v in _OTHER[_kind(parent[where[-1]])]:
+            new = copy.deepcopy(doc)
+            p = new
+            for k in where[:-1]:
+                p = p[k]
+            p[where[-1]] = v
+            yield f"{lab}={json.dumps(v)}", new
+
+
+def test_every_key_of_state_json_swapped_for_another_type_is_refused_naming_it(tiny_run):
+    """Not drawn at random: every place in a real state.json, each replaced by a value of every other
+    JSON kind, is refused by the schema check with the file and a key on the way to it."""
+    import tin_swarm_env.apps.train as T
+    from tin_swarm_env import parallel_env
+    from tin_swarm_env.apps.checkpoint import check_state
+    from tin_swarm_env.errors import CheckpointError
+
+    p = tiny_run / "checkpoints" / "step_64" / "state.json"
+    doc = json.loads(p.read_text())
+    args = T.Args(**TINY)
+    info = T.run_info(args, parallel_env(scenario="flat", n_robots=2).layout, 1)
+    check_state(p, doc, 64, 1, info)  # the real one passes
+    n = 0
+    for lab, new in _swaps(doc):
+        with pytest.raises(CheckpointError) as ei:
+            check_state(p, new, 64, 1, info)
+        msg = str(ei.value)
+        assert msg.startswith(f"{p}: ") and "\n" not in msg, (lab, msg)
+        top = lab.split("=")[0].split(".")[0].split("[")[0]
+        assert f"'{top}" in msg or "refuses" in msg, (lab, msg)
+        n += 1
+    assert n > 100
+
+
+def test_every_key_of_args_json_swapped_for_another_type_is_refused_naming_it(tiny_run, tmp_path):
+    import tin_swarm_env.apps.train as T
+    from tin_swarm_env.apps.args import option_name
+    from tin_swarm_env.errors import CheckpointError
+
+    doc = json.loads((tiny_run / "args.json").read_text())
+    run = tmp_path / "run"
+    run.mkdir()
+    for lab, new in _swaps(doc):
+        (run / "args.json").write_text(json.dumps(new))
+        with pytest.raises(CheckpointError) as ei:
+            T._resumed(T.Args(resume=str(run)))
+        key = lab.split("=")[0]
+        assert str(run / "args.json") in str(ei.value), (lab, ei.value)
+        assert f"'{key}'" in str(ei.value) or option_name(key) in str(ei.value), (lab, ei.value)

@@ -237,8 +237,8 @@ def _check_rows(path, rows, n: int):
 def _check_run(path, got, expected: dict):
     _typed(path, "run", got, dict, "an object")
     _keys(path, "run", got, tuple(expected))
-    for k, v in expected.items():
-        if got[k] != v:
+    for k, v in expected.items():  # compared as JSON text: true is not 1, 1.0 is not 1
+        if json.dumps(got[k], sort_keys=True) != json.dumps(v, sort_keys=True):
             _bad(path, f"run.{k}", _short(got[k]), f"{_short(v)} (the run being resumed)")
 
 
