@@ -12,11 +12,12 @@ from tin_swarm_env.scenario import list_scenarios  # noqa: E402
 def test_one_member_per_builtin_scenario_and_specs():
     assert sorted(m.name.lower() for m in TinSwarmTask) == sorted(list_scenarios())
     task = TinSwarmTask.RAMP.get_task(config={"n_robots": 3, "max_cycles": 7})
-    env = task.get_env_fun(num_envs=1, continuous_actions=True, seed=0, device="cpu")()
-    assert env.done_on_any is False and env.use_mask is True
+    env = task.get_env_fun(num_envs=4, continuous_actions=True, seed=0, device="cpu")()
+    assert tuple(env.batch_size) == (4,) and env.vec.n_envs == 4  # vectorized: BenchMARL's copies in one env
     assert task._env_kwargs() == {"scenario": "ramp", "n_robots": 3, "max_cycles": 7}
     assert task.max_steps(env) == 7 and task.has_render(env) is False
     assert task.group_map(env) == {"robot": ["robot_0", "robot_1", "robot_2"]}
+    assert env.full_observation_spec["robot", "observation"].shape == (4, 3, 59)
     assert task.observation_spec(env)["robot", "observation"].shape == (3, 59)
     assert task.action_spec(env)["robot", "action"].shape == (3, 2)
     info = task.info_spec(env)  # numbers only: the distance to go and the Reason code
@@ -34,7 +35,7 @@ def test_a_tiny_mappo_experiment_runs(tmp_path):
     cfg = ExperimentConfig.get_from_yaml()
     cfg.max_n_frames = 120
     cfg.on_policy_collected_frames_per_batch = 60
-    cfg.on_policy_n_envs_per_worker = 1
+    cfg.on_policy_n_envs_per_worker = 3  # one vectorized env of 3 copies
     cfg.on_policy_n_minibatch_iters = 1
     cfg.on_policy_minibatch_size = 30
     cfg.evaluation = False

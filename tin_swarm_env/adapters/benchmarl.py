@@ -1,4 +1,6 @@
-"""BenchMARL task: the built-in scenarios as a BenchMARL ``Task`` enum over :func:`make_torchrl_env`.
+"""BenchMARL task: the built-in scenarios as a BenchMARL ``Task`` enum over :func:`make_torchrl_env`,
+a vectorized env (``batch_size [num_envs]``: BenchMARL's ``n_envs_per_worker`` copies stepped by one
+call, as its VMAS tasks are).
 
     from benchmarl.algorithms import MappoConfig
     from benchmarl.experiment import Experiment, ExperimentConfig
@@ -9,10 +11,11 @@
     Experiment(task=task, algorithm_config=MappoConfig.get_from_yaml(), model_config=MlpConfig.get_from_yaml(),
                critic_model_config=MlpConfig.get_from_yaml(), seed=0, config=ExperimentConfig.get_from_yaml()).run()
 
-``config`` holds :func:`tin_swarm_env.parallel_env`'s keyword arguments (``n_robots``,
+``config`` holds :func:`tin_swarm_env.vector_env`'s keyword arguments (``n_robots``,
 ``max_cycles``...; ``scenario`` may name a TOML path instead of the member's built-in scenario);
 ``get_task()`` with no config uses the scenario's defaults (there are no BenchMARL yaml files for
-this task). Every robot is in one group ``"robot"``; continuous actions only. Robots that ended
+this task). Every robot is in one group ``"robot"``; continuous actions only. The specs BenchMARL
+builds its models from are the env's unbatched ones (one copy). Robots that ended
 stay in the batch masked out (``("robot", "mask")`` False, zero observation and reward, ``done``
 True): BenchMARL's algorithms do not read the mask, so those steps are terminal zero-reward
 samples for the critic, as in BenchMARL's own PettingZoo tasks with ``done_on_any=False``.
@@ -52,7 +55,8 @@ class TinSwarmTaskClass(TaskClass):
             raise ArgumentError("continuous_actions must be True: tin_swarm tasks have continuous actions only"
                                 " (Box [-1, 1]^2)")
         kwargs = self._env_kwargs()
-        return lambda: make_torchrl_env(seed=seed, device=device, **kwargs)
+        scenario = kwargs.pop("scenario")
+        return lambda: make_torchrl_env(scenario, n_envs=num_envs, seed=seed, device=device, **kwargs)
 
     def supports_continuous_actions(self) -> bool:
         return True
@@ -70,7 +74,7 @@ class TinSwarmTaskClass(TaskClass):
         return env.group_map
 
     def _observation_part(self, env, key) -> Composite | None:
-        spec = env.observation_spec.clone()
+        spec = env.full_observation_spec_unbatched.clone()
         for group in self.group_map(env):
             for k in list(spec[group].keys()):
                 if k != key:
@@ -89,11 +93,11 @@ class TinSwarmTaskClass(TaskClass):
 
     def state_spec(self, env) -> Composite | None:
         if "state" in env.observation_spec.keys():
-            return Composite({"state": env.observation_spec["state"].clone()})
+            return Composite({"state": env.full_observation_spec_unbatched["state"].clone()})
         return None
 
     def action_spec(self, env) -> Composite:
-        return env.full_action_spec
+        return env.full_action_spec_unbatched
 
     def action_mask_spec(self, env) -> Composite | None:
         return None

@@ -26,7 +26,9 @@ copy's episodes do not depend on when the other copies end, and the run is repro
 seed. ``copy_seeds[c]`` is the seed copy ``c`` was last reset with, and copy ``c`` is, bit for bit,
 ``parallel_env(scenario_c, n_robots=N, ...).reset_arrays(seed=copy_seeds[c])`` stepped with the
 same actions (``tests/env/test_vector.py``). :meth:`VectorEnv.reset_copy` resets one copy by hand
-(a seed, and the parallel env's reset options to place robots and targets).
+(a seed, and the parallel env's reset options to place robots and targets). With
+``autoreset=False`` (the TorchRL env: its collector resets through ``"_reset"``), a copy that
+ended stays ended (no live robot, zero observations and rewards) until :meth:`VectorEnv.reset_copy`.
 
 **Arrays.** ``reset()`` -> ``obs (E, N, d)`` float32. ``step(actions (E, N, 2))`` ->
 ``obs (E, N, d)``, ``rewards (E, N)`` float32, ``terminated``/``truncated (E, N)`` bool, ``infos``:
@@ -96,9 +98,12 @@ class VectorEnv:
     metadata = {"name": "tin_swarm_v0_vector"}
 
     def __init__(self, scenario="cliff_goal", n_envs: int = 1, n_robots: int | None = None, seed: int | None = None,
-                 **env_kwargs):
+                 autoreset: bool = True, **env_kwargs):
         check_range("vector_env", "n_envs", n_envs, 1, MAX_COPIES, integer=True, exc=ArgumentError)
         seed = check_seed(seed, "vector_env")
+        if not isinstance(autoreset, bool):
+            raise ArgumentError(f"vector_env: autoreset must be True or False, got {autoreset!r}")
+        self.autoreset = autoreset
         if "render_mode" in env_kwargs and env_kwargs["render_mode"] is not None:
             raise ArgumentError("vector_env: render_mode is not supported (render a copy with parallel_env and "
                                 "its copy_seeds)")
@@ -328,7 +333,7 @@ class VectorEnv:
                  "_final": done.copy()}
         obs = obs.reshape(E, N, -1)
         final = np.zeros_like(obs)
-        if done.any():
+        if done.any() and self.autoreset:
             final[done] = obs[done]
             for c in np.flatnonzero(done).tolist():
                 obs[c] = self._reset_copy(c, self._draw_seed(c))
