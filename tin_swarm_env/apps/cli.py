@@ -156,8 +156,8 @@ def main(argv=None) -> int:
         print("tin-swarm: interrupted", file=sys.stderr)
         return 130
     debug = args.debug or os.environ.get("TIN_SWARM_DEBUG", "") not in ("", "0")
-    real_stdout = sys.stdout
-    sys.stdout = _PipeSafe(real_stdout)
+    real_stdout, real_stderr = sys.stdout, sys.stderr
+    sys.stdout, sys.stderr = _PipeSafe(real_stdout), _PipeSafe(real_stderr)
     try:
         return args.func(args)
     except KeyboardInterrupt:
@@ -177,11 +177,11 @@ def main(argv=None) -> int:
               file=sys.stderr)
         return 1
     finally:
-        sys.stdout = real_stdout
+        sys.stdout, sys.stderr = real_stdout, real_stderr
 
 
 class _PipeSafe:
-    """``sys.stdout`` for a command: once its reader has gone (``tin-swarm run | head``: a
+    """``sys.stdout`` (and ``sys.stderr``) for a command: once its reader has gone (``tin-swarm run | head``: a
     ``BrokenPipeError``), what the command prints is dropped and the command goes on (its files
     are still written whole), with no traceback and no error line; the file descriptor is pointed
     at ``/dev/null`` so that nothing fails at exit either."""
