@@ -1,4 +1,4 @@
-"""No output overwrites an input, and no failed write reports success (issue #46).
+"""No output overwrites an input, and no failed write reports success.
 
 * every output option of every command pointed at each input of that command (the file itself,
   through a symbolic link, or inside an input directory) is refused naming the input, and no input

@@ -1,4 +1,4 @@
-"""Every parameter dataclass checks itself when it is made (issue #46): NaN, inf, a negative
+"""Every parameter dataclass checks itself when it is made: NaN, inf, a negative
 value, zero where it means nothing, a fraction for a count, a boolean for a number and a size past
 its documented limit are each refused with a :class:`~tin_swarm_env.errors.ParameterError` (a
 ValueError) naming the class and the field, before anything is allocated."""
