@@ -28,9 +28,12 @@ def test_every_error_is_a_tin_swarm_error_and_bad_values_are_value_errors():
                if isinstance(c, type) and issubclass(c, Exception) and c.__module__ == E.__name__]
     assert E.ArgumentError in classes and all(issubclass(c, E.TinSwarmError) for c in classes)
     for c in classes:
-        if c not in (E.TinSwarmError, E.MissingExtraError):
+        if c not in (E.TinSwarmError, E.MissingExtraError, E.OutputError):
             assert issubclass(c, ValueError), c
     assert issubclass(E.MissingExtraError, ImportError) and not issubclass(E.MissingExtraError, ValueError)
+    # a write that failed (full disk, broken pipe) is no bad value: an OSError naming the file
+    assert issubclass(E.OutputError, OSError) and not issubclass(E.OutputError, ValueError)
+    assert E.OutputError(28, "No space left on device", "x.gif").filename == "x.gif"
 
 
 def test_range_ends_open_closed_and_the_exception_class():
