@@ -28,7 +28,8 @@ class ChartParams:
     """Constants of the chart search (the module docstring of :mod:`tin_swarm_env.policies.apf`
     says what each does).
 
-    cells           the chart is ``cells x cells``, centred on the target
+    cells           the chart is ``cells x cells``, centred on the target (4 ..
+                    :data:`MAX_CHART_CELLS`: one byte a cell, per robot)
     reach           its half-width is ``reach`` times the robot's distance to go at its first step
                     plus ``range_reach`` sensor ranges
     range_reach
