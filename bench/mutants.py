@@ -85,7 +85,7 @@ MUTANTS = [
     M("locomotion-rotation-transposed-reference", "world/locomotion.py",  # in body_to_world, the numpy reference
       "ch * c[:, 0] - sh * c[:, 1], sh * c[:, 0] + ch * c[:, 1]",
       "ch * c[:, 0] + sh * c[:, 1], -sh * c[:, 0] + ch * c[:, 1]", LOCO),
-    M("sb3-length-in-steps", "adapters/sb3.py", "self._ep_len[sl] += live_before", "self._ep_len[sl] += 1", SB3),
+    M("sb3-length-in-steps", "adapters/sb3.py", "self._ep_len += live_before", "self._ep_len += 1", SB3),
     # -- env/reward.py --------------------------------------------------------------------------------------
     M("reward-ring-strict", "env/reward.py", "(1.0 if e1 <= ring_tol else 0.0)", "(1.0 if e1 < ring_tol else 0.0)",
       REWARD),
