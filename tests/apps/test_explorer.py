@@ -282,7 +282,7 @@ def test_the_png_has_no_controls_and_the_cost_to_go_over_the_whole_terrain_with_
 
 
 def test_the_png_says_so_when_there_is_no_target(tmp_path):
-    ex = FieldExplorer("ramp", robot=0, n_robots=3, grid=11)
+    ex = FieldExplorer("containment", robot=0, n_robots=3, grid=11)  # (a goal task refuses an empty target list)
     ex.env.reset(seed=0, options={"target_positions": np.zeros((0, 2))})
     ex.save_png(tmp_path / "x.png")
     assert ex.cost_to_go_map() is None and not ex.ax_cost.get_images()

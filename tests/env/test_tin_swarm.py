@@ -248,11 +248,14 @@ def test_arriving_and_running_dry_in_one_step_is_an_arrival_a_fall_beats_both():
 
 
 def test_state_keeps_its_space_when_a_reset_changes_the_target_count():
+    two = tse.parallel_env(scenario="flat", n_robots=3)  # two targets, two slots
+    two.reset(seed=0, options={"target_positions": [two.config.targets.positions[0]]})
+    st = two.state()
+    assert two.state_space.contains(st) and np.all(st[-2:] == 0) and np.any(st[-4:-2] != 0)  # the empty slot is 0
     env = make()  # cliff_goal: one target, one slot
     assert env.state_space.shape == (6 * 6 + 2,)
-    env.reset(seed=0, options={"target_positions": np.zeros((0, 2))})
-    st = env.state()
-    assert env.state_space.contains(st) and np.all(st[-2:] == 0)  # the empty slot is 0
+    with pytest.raises(tse.TinSwarmError, match="empty list.*goal task"):  # a goal episode without a target
+        env.reset(seed=0, options={"target_positions": np.zeros((0, 2))})
     g = env.config.targets.positions[0]
     env.reset(seed=0, options={"target_positions": [g, g]})
     with pytest.raises(tse.TinSwarmError, match="2 targets .* state_space holds 1"):

@@ -306,6 +306,10 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
                     isinstance(v, numbers.Real) for v in tp):
                 tp = [tp]  # one [x, y] pair
             options["target_positions"] = float_array(tp, "options['target_positions']", (-1, 2))
+            if not len(options["target_positions"]) and self.config.task == "goal":
+                raise ArgumentError(f"reset(options['target_positions']): an empty list, but {self.config.name!r} "
+                                    "is a goal task, which needs at least one target (leave the option out to keep "
+                                    "the scenario's targets)")
         if seed is not None or self._np_random is None:
             s = seed if seed is not None else self.config.seed
             self._np_random = np.random.default_rng(s)

@@ -1,0 +1,98 @@
+"""PufferLib: the native PufferEnv steps the vector env into PufferLib's buffers, runs under
+pufferlib.vector's backends, and PuffeRL trains on it with the advantage kernel written for the CPU."""
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pufferlib", reason="pufferlib-core not installed: pip install 'tin_swarm_env[puffer]'")
+torch = pytest.importorskip("torch")
+
+import tin_swarm_env as tse  # noqa: E402
+from tin_swarm_env.adapters.puffer import make_puffer_env, puff_advantage, use_cpu_advantage  # noqa: E402
+
+
+def test_buffers_hold_the_vector_envs_numbers_and_frozen_robots_read_zeros():
+    pe = make_puffer_env("cliff_goal", n_envs=2, n_robots=4, seed=3, max_cycles=120)
+    ve = tse.vector_env("cliff_goal", n_envs=2, n_robots=4, seed=3, max_cycles=120)
+    obs, infos = pe.reset()
+    np.testing.assert_array_equal(obs, ve.reset().reshape(8, -1))
+    assert pe.num_agents == 8 and obs is pe.observations and infos == []
+    ended_once = np.zeros(8, dtype=bool)
+    saw_frozen = False
+    for _ in range(120):
+        act = pe.observations[:, 7:9].astype(np.float64)  # at the target: over the cliff, robots fall one by one
+        live_before = ve.live_mask.reshape(-1)
+        vo, vr, vt, vtr, vi = ve.step(act.reshape(2, 4, 2))
+        o, r, t, tr, infos = pe.step(act)
+        np.testing.assert_array_equal(r, vr.reshape(-1))
+        np.testing.assert_array_equal(t, vt.reshape(-1))
+        np.testing.assert_array_equal(tr, vtr.reshape(-1))
+        np.testing.assert_array_equal(pe.masks, live_before)
+        ended = t | tr
+        assert not (ended & ended_once).any()  # one end per robot-episode
+        ended_once |= ended
+        final = np.repeat(vi["_final"], 4)
+        ended_once[final] = False
+        frozen = ~vi["live"].reshape(-1) & ~final
+        saw_frozen |= bool(frozen.any())
+        assert np.all(o[frozen] == 0) and np.all(r[~live_before] == 0)
+        if ended.any():
+            assert infos and abs(sum(infos[0].values()) - 1.0) < 1e-9
+        np.testing.assert_array_equal(o[~frozen], vo.reshape(8, -1)[~frozen])
+    assert saw_frozen
+
+
+def test_runs_under_pufferlibs_vector_backends():
+    import pufferlib.vector
+
+    v = pufferlib.vector.make(make_puffer_env, env_kwargs={"scenario": "ramp", "n_envs": 2, "n_robots": 3},
+                              backend=pufferlib.vector.Serial, num_envs=2)
+    v.async_reset(0)
+    o, r, d, t, ta, info, env_id, mask = v.recv()
+    assert o.shape == (12, v.single_observation_space.shape[0])
+    v.send(np.zeros((12, 2), dtype=np.float32))
+    o, r, d, t, ta, info, env_id, mask = v.recv()
+    assert np.isfinite(r).all() and o.any()
+    v.close()
+
+
+def _advantage_reference(values, rewards, dones, importance, gamma, lam, rho_clip, c_clip):
+    """PufferLib's puff_advantage_row (extensions/pufferlib.cpp), element by element."""
+    out = np.zeros_like(values)
+    for row in range(values.shape[0]):
+        last = np.float32(0.0)
+        for t in range(values.shape[1] - 2, -1, -1):
+            nonterminal = np.float32(1.0) - dones[row, t + 1]
+            rho = min(importance[row, t], np.float32(rho_clip))
+            c = min(importance[row, t], np.float32(c_clip))
+            delta = rho * (rewards[row, t + 1] + np.float32(gamma) * values[row, t + 1] * nonterminal - values[row, t])
+            last = delta + np.float32(gamma) * np.float32(lam) * c * last * nonterminal
+            out[row, t] = last
+    return out
+
+
+def test_cpu_advantage_kernel_is_pufferlibs():
+    rng = np.random.default_rng(0)
+    v, r, imp = (rng.normal(size=(5, 9)).astype(np.float32) for _ in range(3))
+    imp = np.abs(imp) + np.float32(0.5)
+    d = (rng.random((5, 9)) < 0.2).astype(np.float32)
+    adv = torch.zeros(5, 9)
+    puff_advantage(*(torch.from_numpy(a) for a in (v, r, d, imp)), adv, 0.99, 0.95, 1.0, 1.0)
+    np.testing.assert_allclose(adv.numpy(), _advantage_reference(v, r, d, imp, 0.99, 0.95, 1.0, 1.0), rtol=1e-5,
+                               atol=1e-5)
+    assert adv[:, -1].eq(0).all() and adv.abs().sum() > 0
+
+
+def test_pufferl_trains_on_it(tmp_path):
+    use_cpu_advantage()
+    import importlib.util
+    import sys
+
+    spec = importlib.util.spec_from_file_location("train_puffer", "agents/train_puffer.py")
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules["train_puffer"] = mod
+    spec.loader.exec_module(mod)
+    out = mod.main(["--scenario", "ramp", "--n-envs", "4", "--n-robots", "2", "--max-cycles", "20", "--horizon", "8",
+                    "--minibatch-size", "64", "--max-steps", "400", "--hidden", "8", "--out-dir", str(tmp_path)])
+    state = torch.load(out / "model.pt", weights_only=True)
+    assert (out / "progress.csv").read_text().count("\n") >= 2 and "decoder_mean.weight" in state
