@@ -7,8 +7,8 @@ learned policies (pickle-free directories; SB3 .zip with --trust-pickle true).
     python agents/evaluate.py --suite standard --models "shared=agents/models/shared"     # the standard suite
 
 The arguments are the fields of :class:`tin_swarm_env.apps.evaluate.Args`; the evaluation (one
-:func:`~tin_swarm_env.apps.rollout.rollout` per seed from ``--seed-offset`` (default
-:data:`~tin_swarm_env.apps.evaluate.EVAL_SEED0`), above every
+:func:`~tin_swarm_env.training.rollout.rollout` per seed from ``--seed-offset`` (default
+:data:`~tin_swarm_env.training.evaluation.EVAL_SEED0`), above every
 training seed; arrived, fell, timed out, steps to arrive, contacts per robot, return, each a mean
 with a 95% confidence interval over robot-episodes; the Markdown table, CSV and bar plot written to
 ``--out``) is :func:`tin_swarm_env.apps.evaluate.evaluate`.

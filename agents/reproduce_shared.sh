@@ -3,7 +3,7 @@
 # evaluation table.   bash agents/reproduce_shared.sh        # outputs in runs/shared (log: runs/shared.log)
 # Recipe (all through agents/train_sb3.py):
 # * terrain: generated terrains (a new seeded terrain per reset: canyons, mesas, hills; training seeds
-#   below EVAL_SEED0 (tin_swarm_env.apps.evaluate), evaluation seeds from it, so the table's "generated" rows are terrains never trained on),
+#   below EVAL_SEED0 (tin_swarm_env.training.evaluation), evaluation seeds from it, so the table's "generated" rows are terrains never trained on),
 #   half of the episodes, plus cliff_goal and ramp; hill, valley, the canyon files and jacksboro stay
 #   held out;
 # * behaviour cloning from APF (40 episodes), two DAgger rounds of 20 episodes with beta-mixing (APF

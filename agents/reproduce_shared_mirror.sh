@@ -4,7 +4,7 @@
 # tables.   bash agents/reproduce_shared_mirror.sh     # outputs in runs/shared_mirror (log: runs/shared_mirror.log)
 # Recipe (all through agents/train_sb3.py):
 # * terrain: generated terrains (a new seeded terrain per reset, every family: canyons, mesas, hills,
-#   forks with a dead end, traps; training seeds below EVAL_SEED0 (tin_swarm_env.apps.evaluate),
+#   forks with a dead end, traps; training seeds below EVAL_SEED0 (tin_swarm_env.training.evaluation),
 #   evaluation seeds from it, so the table's "generated" rows are terrains never trained on),
 #   half of the copies, plus cliff_goal and ramp; hill, valley, the canyon files and jacksboro stay
 #   held out;

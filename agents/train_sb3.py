@@ -9,15 +9,16 @@ warm-started by imitation of APF (behaviour cloning, then DAgger).
         --total-timesteps 5000000 --max-minutes 40                                   # then PPO fine-tuning
     python agents/train_sb3.py --scenario ramp --recurrent true                      # sb3-contrib RecurrentPPO
 
-The arguments are the fields of :class:`tin_swarm_env.apps.train.Args` (``--help`` lists them);
-the training itself is :func:`tin_swarm_env.apps.train.train` (environment or scenario mix,
-imitation from :mod:`tin_swarm_env.apps.imitation`, periodic evaluation on held-out seeds, PPO,
+The arguments are the fields of :class:`tin_swarm_env.training.config.Args` (``--help`` lists them);
+the training itself is :func:`tin_swarm_env.training.sb3.train` (environment or scenario mix,
+imitation from :mod:`tin_swarm_env.training.imitation`, periodic evaluation on held-out seeds, PPO,
 saving ``model.zip``, the pickle-free ``policy/``, ``model.json``, ``eval.csv``, ``curve.png``
 into ``--out-dir``, default ``runs/<algo>_<scenarios>_s<seed>``).
 """
 
 from tin_swarm_env.apps.args import parse_dataclass
-from tin_swarm_env.apps.train import Args, train
+from tin_swarm_env.training.config import Args
+from tin_swarm_env.training.sb3 import train
 
 if __name__ == "__main__":
     print(train(parse_dataclass(Args, description=__doc__.splitlines()[0])).parent)

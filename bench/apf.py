@@ -1,5 +1,5 @@
 """APF against its references, in one run: arrived / fell / timed out, and of the timed out the
-stalled and looping robots (:mod:`tin_swarm_env.apps.trajectory`), contacts per robot. By hand:
+stalled and looping robots (:mod:`tin_swarm_env.training.trajectory`), contacts per robot. By hand:
 
     python bench/apf.py                # the full run; writes the tables to docs/figures/apf.md
     python bench/apf.py --quick        # a smoke run (seconds): cliff_goal and one generated family, 1 seed of
@@ -21,7 +21,7 @@ held-out seeds (``EVAL_SEED0`` on, never used in training), APF and GeodesicPoli
 terrain whose env cannot be built is reported as a skipped row with the error.
 ``containment`` has no arrival: its rows give the mean distance to the assigned threat over the
 standoff (1.00 = on the ring) and contacts per robot.
-Every episode runs through :func:`~tin_swarm_env.apps.rollout.rollout`. After the table: the APF
+Every episode runs through :func:`~tin_swarm_env.training.rollout.rollout`. After the table: the APF
 robots that timed out saying their target is unreachable, and how many of them the map reaches
 (false verdicts).
 """
@@ -39,11 +39,11 @@ from pathlib import Path
 import numpy as np
 
 import tin_swarm_env as tse
-from tin_swarm_env.apps.evaluate import EVAL_SEED0
-from tin_swarm_env.apps.rollout import rollout
 from tin_swarm_env.policies import APFPolicy, GeodesicPolicy, RandomPolicy
 from tin_swarm_env.scenario import load_scenario
 from tin_swarm_env.scenario.generators import ALL_FAMILIES
+from tin_swarm_env.training.evaluation import EVAL_SEED0
+from tin_swarm_env.training.rollout import rollout
 from tin_swarm_env.world.state import Reason
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -377,7 +377,7 @@ def main(argv=None):
     emit(f"{args.seeds} seeds per row ({args.jacksboro_seeds} on jacksboro, {args.generated} held-out seeds from "
          f"{EVAL_SEED0 + args.seed_offset} per generated family, {length} there), "
          f"robots: {args.robots or 'the scenario default'}; stalled and "
-         "looping robots are among the timed out (tin_swarm_env/apps/trajectory.py); s: seconds per row.\n")
+         "looping robots are among the timed out (tin_swarm_env/training/trajectory.py); s: seconds per row.\n")
     results = goal_rows(args, emit)
     verdict_rows(results, emit)
     if args.horizon:

@@ -7,8 +7,8 @@ Writes ``docs/figures/apf_mirror.md``:
     python bench/apf_mirror.py --quick     # a smoke run (seconds): canyon, 1 seed of 4 robots, 100 steps; prints only
 
 Each row: ``--seeds`` held-out seeds from ``EVAL_SEED0`` x the scenario's 20 robots, one
-:func:`~tin_swarm_env.apps.rollout.rollout` each (``max_cycles`` of the ``generated`` scenario);
-stalled and looping as in :mod:`tin_swarm_env.apps.trajectory`; one row per boundary search
+:func:`~tin_swarm_env.training.rollout.rollout` each (``max_cycles`` of the ``generated`` scenario);
+stalled and looping as in :mod:`tin_swarm_env.training.trajectory`; one row per boundary search
 (``APFPolicy(search=...)``) of ``--search``; ``--k-scan N`` gives the observation the terrain scan's
 ``N`` beams (``[observation] k_scan``).
 """
@@ -25,10 +25,10 @@ from pathlib import Path
 
 import tin_swarm_env as tse
 from tin_swarm_env import Reason
-from tin_swarm_env.apps.evaluate import EVAL_SEED0
-from tin_swarm_env.apps.rollout import rollout
 from tin_swarm_env.policies import APFPolicy
 from tin_swarm_env.scenario import load_scenario
+from tin_swarm_env.training.evaluation import EVAL_SEED0
+from tin_swarm_env.training.rollout import rollout
 
 ROOT = Path(__file__).resolve().parents[1]
 FAMILIES = ("canyon", "mesa", "fork", "trap")

@@ -21,11 +21,11 @@ import time
 import numpy as np
 
 import tin_swarm_env as tse
-from tin_swarm_env.apps.policy_factory import make_policy
-from tin_swarm_env.apps.rollout import rollout
 from tin_swarm_env.scenario import load_scenario
 from tin_swarm_env.scenario.generators import ALL_FAMILIES, generate
 from tin_swarm_env.terrain import build_tin, cost_to_go
+from tin_swarm_env.training.policy_factory import make_policy
+from tin_swarm_env.training.rollout import rollout
 from tin_swarm_env.world import Reason, World
 
 TARGET_MS = 200.0

@@ -1,7 +1,7 @@
 """The standard evaluation suite's leaderboard for the docs: random, APF, the geodesic reference, the
 shipped SB3 policy (agents/models/shared) and every extra ``--model NAME=DIR``, written to
 docs/figures/standard_suite.md (its first line: the exact command, commit, date and load average),
-.csv (the leaderboard) and _maps.csv (per map). The suite itself is tin_swarm_env/apps/suite.py.
+.csv (the leaderboard) and _maps.csv (per map). The suite itself is tin_swarm_env/training/suite.py.
 
     flock /tmp/heavy.lock python bench/standard_suite.py
     python bench/standard_suite.py --quick      # seconds: one map per split, 1 seed; written to a temporary directory

@@ -54,7 +54,7 @@ def throughput(scenario, n_envs, n_robots, timesteps):
 
     import tin_swarm_env as tse
 
-    torch.set_num_threads(1)  # as apps/train.py: extra torch threads spin-wait against the env
+    torch.set_num_threads(1)  # as training/sb3.py: extra torch threads spin-wait against the env
     vec = tse.adapters.make_sb3_vec_env(scenario, n_robots=n_robots, n_envs=n_envs, seed=0)
     model = PPO("MlpPolicy", vec, n_steps=256, batch_size=1024, n_epochs=5, policy_kwargs={"net_arch": [128, 128]},
                 seed=0, device="cpu", verbose=0)
@@ -67,7 +67,8 @@ def throughput(scenario, n_envs, n_robots, timesteps):
 def time_to_solve(label, cap_minutes, eval_every, target=0.9, **imitation):
     """Train on cliff_goal until an evaluation reaches ``target`` arrival or ``cap_minutes``
     pass; returns ``(minutes to solve or None, timesteps then, env steps/s of PPO, last row)``."""
-    from tin_swarm_env.apps.train import Args, train
+    from tin_swarm_env.training.config import Args
+    from tin_swarm_env.training.sb3 import train
 
     with tempfile.TemporaryDirectory() as tmp:
         args = Args(scenario="cliff_goal", n_robots=8, n_envs=4, n_steps=256, batch_size=1024, n_epochs=5,
@@ -85,11 +86,11 @@ def time_to_solve(label, cap_minutes, eval_every, target=0.9, **imitation):
 
 
 def shipped_recipe():
-    """The :class:`~tin_swarm_env.apps.train.Args` of the ``agents/train_sb3.py`` command in
+    """The :class:`~tin_swarm_env.training.config.Args` of the ``agents/train_sb3.py`` command in
     ``agents/reproduce_shared.sh`` (continuation lines joined, shell variables at their defaults,
     the redirection dropped)."""
     from tin_swarm_env.apps.args import parse_dataclass
-    from tin_swarm_env.apps.train import Args
+    from tin_swarm_env.training.config import Args
 
     text = RECIPE.read_text().replace("\\\n", " ")
     line = next(ln for ln in text.splitlines() if "agents/train_sb3.py" in ln and not ln.lstrip().startswith("#"))
@@ -115,7 +116,8 @@ def split_throughput(args, rollouts: int) -> dict:
     import torch
 
     from tin_swarm_env.adapters import make_sb3_vec_env
-    from tin_swarm_env.apps.train import build_model, scenarios_of
+    from tin_swarm_env.training.config import scenarios_of
+    from tin_swarm_env.training.sb3 import build_model
 
     torch.set_num_threads(args.torch_threads)
     scen = scenarios_of(args)

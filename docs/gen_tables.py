@@ -14,7 +14,7 @@ differs from a fresh generation; ``TIN_SWARM_WRITE_DOCS=1`` (with that test) or
   class's docstring, and a key without one is an error.
 - limits: the named constants behind the checks of bad input.
 - cli: every ``tin-swarm`` subcommand's arguments, read off :func:`tin_swarm_env.apps.cli.build_parser`.
-- suite splits: :data:`tin_swarm_env.apps.suite.SPLITS`, the standard evaluation suite's maps.
+- suite splits: :data:`tin_swarm_env.training.suite.SPLITS`, the standard evaluation suite's maps.
 - modules: every module of the package with the first sentence of its docstring (read with ``ast``,
   nothing imported), the layout table of the contributing page.
 - apf summary: the APF and geodesic rows of ``docs/figures/apf.md`` (written by ``bench/apf.py``), the
@@ -243,7 +243,7 @@ def limits_table() -> str:
 # -- the standard evaluation suite ---------------------------------------------------------------------
 
 def suite_splits_table() -> str:
-    from tin_swarm_env.apps.suite import splits_markdown
+    from tin_swarm_env.training.suite import splits_markdown
 
     return HEADER + splits_markdown()
 
@@ -262,6 +262,7 @@ def cli_table() -> str:
     """Every argument of every ``tin-swarm`` subcommand, read off the parser (which is generated from
     each command's ``Args`` dataclass: the help text and what it accepts are the field's)."""
     import argparse
+    import importlib
 
     from tin_swarm_env.apps.cli import COMMANDS, build_parser
 
@@ -269,8 +270,9 @@ def cli_table() -> str:
     out = []
     for name, cmd in COMMANDS.items():
         mod = cmd.args.split(":")[0]
+        home = importlib.import_module(f"tin_swarm_env.apps.{mod}").Args.__module__  # where the dataclass is written
         out += [f"### tin-swarm {name}", "", f"{_md_text(cmd.help[0].upper() + cmd.help[1:])} "
-                f"(`{mod}.Args` in `tin_swarm_env/apps/{mod}.py`).", "",
+                f"(`{home.rsplit('.', 1)[1]}.Args` in `{home.replace('.', '/')}.py`).", "",
                 "| argument | default | what it is (and accepts) |", "|---|---|---|"]
         for a in sub[name]._actions:
             if isinstance(a, argparse._HelpAction):

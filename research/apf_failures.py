@@ -5,7 +5,7 @@ memory (:class:`~tin_swarm_env.policies.bug.BugMemory`) and its track. By hand:
                                                   # writes research/apf_failures.md
     [--families fork,mesa] [--seeds 50] [--first 0] [--robots N] [--examples 3] [--out FILE] [--print]
 
-Each episode runs through :func:`~tin_swarm_env.apps.rollout.rollout` with the seeds ``bench/apf.py``
+Each episode runs through :func:`~tin_swarm_env.training.rollout.rollout` with the seeds ``bench/apf.py``
 draws (``EVAL_SEED0 + k``), so a robot here is the same robot as in ``docs/figures/apf.md``. After
 every step the script copies the memory of every robot; from two consecutive copies it reads the
 rule that fired (:func:`events`). The episode's cost-to-go field of the robot's target (the map,
@@ -26,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from tin_swarm_env.apps.evaluate import EVAL_SEED0
-from tin_swarm_env.apps.rollout import rollout
 from tin_swarm_env.policies import APFPolicy
+from tin_swarm_env.training.evaluation import EVAL_SEED0
+from tin_swarm_env.training.rollout import rollout
 from tin_swarm_env.world.state import Reason
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -61,7 +61,7 @@ CLASSES = {
 class Log:
     """One episode: ``pos (T + 1, n, 2)`` world positions (row 0 at the reset, row ``t`` after step
     ``t``), ``mem`` name (:data:`FIELDS`) -> ``(T + 1, n)`` copies of the memory after each step's
-    action (row 0 the empty memory), ``out`` the :class:`~tin_swarm_env.apps.rollout.Outcome`,
+    action (row 0 the empty memory), ``out`` the :class:`~tin_swarm_env.training.rollout.Outcome`,
     ``fields`` the episode's cost-to-go fields (one per target) and ``targets (n,)`` each robot's."""
 
     pos: np.ndarray

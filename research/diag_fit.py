@@ -6,14 +6,14 @@ falling, with the cross-entropy on held-out episodes after every epoch.
     python research/diag_fit.py fit --data runs/fitdiag/data.npz --variants gru,gru_chunk,mlp --epochs 30
 
 ``collect``: the recipe's scenarios (``generated, generated, cliff_goal, ramp``, 8 robots), labelled by
-``apf_student`` (tin_swarm_env/apps/apf_teacher.py): ``--bc`` episodes APF drove (as BC) and ``--dagger``
+``apf_student`` (tin_swarm_env/training/apf_teacher.py): ``--bc`` episodes APF drove (as BC) and ``--dagger``
 episodes a categorical MLP student drove by a seeded draw (the states DAgger adds; the student is fitted
 first on the BC episodes, ``--student-epochs``), then ``--val`` more of each on other seeds, held out. The
 file is a plain ``.npz`` (no pickle): per episode ``<split>_<kind>_<k>_<field>``, the fields of
-:class:`~tin_swarm_env.apps.imitation.Sequence`.
+:class:`~tin_swarm_env.training.imitation.Sequence`.
 
 ``fit``: each variant (:data:`VARIANTS`: the network, learning rate, and ``chunk``, the truncated
-backpropagation of :func:`~tin_swarm_env.apps.recurrent_imitation.fit_sequences`) is fitted on the
+backpropagation of :func:`~tin_swarm_env.training.recurrent_imitation.fit_sequences`) is fitted on the
 training episodes from the same seed; after every epoch it prints the training loss (the epoch's running
 mean, as ``fit_sequences`` returns it) and the held-out cross-entropy on APF's own trajectories (``val_bc``)
 and on the student's (``val_dag``), and at the end the held-out cross-entropy split by where the label's
@@ -62,7 +62,7 @@ def save_sequences(path: Path, groups: dict) -> None:
 
 
 def load_sequences(path) -> dict:
-    from tin_swarm_env.apps.imitation import Sequence
+    from tin_swarm_env.training.imitation import Sequence
 
     z = np.load(path, allow_pickle=False)
     groups: dict = {}
@@ -75,10 +75,10 @@ def load_sequences(path) -> dict:
 def collect_cmd(a) -> None:
     import torch
 
-    from tin_swarm_env.apps.imitation import collect
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences
     from tin_swarm_env.env import parallel_env
     from tin_swarm_env.policies.heads import categorical_classes
+    from tin_swarm_env.training.imitation import collect
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent, fit_sequences
 
     torch.set_num_threads(1)
     t0 = time.perf_counter()
@@ -104,8 +104,8 @@ def held_out(student, seqs, near: int = 0) -> tuple[float, float, float, float]:
     share of samples near one."""
     import torch
 
-    from tin_swarm_env.apps.recurrent_imitation import sequence_loss
     from tin_swarm_env.policies.heads import nearest_class
+    from tin_swarm_env.training.recurrent_imitation import sequence_loss
 
     tot, cnt, sw, ns = 0.0, 0, [], []
     with torch.no_grad():
@@ -152,8 +152,8 @@ def side_stats(student, seqs) -> dict:
     teacher's label (of its nearest class)."""
     import torch
 
-    from tin_swarm_env.apps.recurrent_imitation import SIDES, previous_actions
     from tin_swarm_env.policies.heads import nearest_class
+    from tin_swarm_env.training.recurrent_imitation import SIDES, previous_actions
 
     classes = student.classes
     acc, acc_f, acc_0, f_pred, f_true, f_mode, f_label, steps = 0, 0, 0, 0, 0, 0, 0, 0
@@ -191,12 +191,12 @@ def side_stats(student, seqs) -> dict:
 
 def drive(student, layout, scenario: str, seeds: int, steps: int) -> list:
     """Closed loop: ``student``'s file, acting by the mode through the shield, drives ``seeds`` held-out
-    episodes (from :data:`~tin_swarm_env.apps.evaluate.EVAL_SEED0`, ``steps`` steps) of ``scenario``,
+    episodes (from :data:`~tin_swarm_env.training.evaluation.EVAL_SEED0`, ``steps`` steps) of ``scenario``,
     labelled by ``apf_student``; the episodes as Sequences (APF's side in ``aux``), for :func:`side_stats`
     (the student fed what it saw and commanded: its read-out along its own way)."""
-    from tin_swarm_env.apps.evaluate import EVAL_SEED0
-    from tin_swarm_env.apps.imitation import collect
     from tin_swarm_env.policies.heads import categorical_head
+    from tin_swarm_env.training.evaluation import EVAL_SEED0
+    from tin_swarm_env.training.imitation import collect
 
     entry = student.head_entry
     student.head_entry = categorical_head(student.classes, "mode")
@@ -211,9 +211,9 @@ def drive(student, layout, scenario: str, seeds: int, steps: int) -> list:
 def fit_cmd(a) -> None:
     import torch
 
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences
     from tin_swarm_env.env import parallel_env
     from tin_swarm_env.policies.heads import categorical_classes
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent, fit_sequences
 
     torch.set_num_threads(1)
     data = load_sequences(a.data)

@@ -13,13 +13,13 @@ such steps, and how often a robot's commanded side (sign of ``vy``, ignoring zer
     python research/diag_multimodal.py --scenario runs/eval_multimodal/cfg/gen_canyon.toml \\
         --models mlp_mse=runs/multimodal/mlp_mse/policy,gru_cat=runs/multimodal/gru_cat/policy
 
-``--teacher apf_student`` labels with APF along the driven trajectory instead (tin_swarm_env/apps/apf_teacher.py:
+``--teacher apf_student`` labels with APF along the driven trajectory instead (tin_swarm_env/training/apf_teacher.py:
 it is told each step's executed command); the last column then counts the steps at which it took the
 student's side, per 100 robot-steps (the geodesic teacher: 0). The two columns before it count, the same way as
 the student's side flips, the side of the teacher's label (sign of its ``vy``; for a categorical student the
 label snapped to its head's nearest class, as the student only ever commands a class; the raw label's sign
 changes far more often: research/teacher_multimodal.md, fifth run) and, for APF, the side its memory follows
-(``BugMemory.side``, :func:`~tin_swarm_env.apps.imitation.teacher_side`): with the teacher driving, APF's own
+(``BugMemory.side``, :func:`~tin_swarm_env.training.imitation.teacher_side`): with the teacher driving, APF's own
 side flips per 100 steps beside the student's.
 """
 
@@ -30,10 +30,10 @@ import argparse
 import numpy as np
 
 import tin_swarm_env as tse
-from tin_swarm_env.apps.evaluate import EVAL_SEED0
-from tin_swarm_env.apps.imitation import TEACHERS, make_teacher, teacher_side
 from tin_swarm_env.policies import load_policy
 from tin_swarm_env.policies.heads import nearest_class, softmax
+from tin_swarm_env.training.evaluation import EVAL_SEED0
+from tin_swarm_env.training.imitation import TEACHERS, make_teacher, teacher_side
 
 
 def side_flips(side, last, live) -> tuple[int, np.ndarray]:

@@ -71,8 +71,8 @@ def fit_sidehead(model, seqs, epochs: int, lr: float = 1e-3, chunk: int = 64, se
     """fit_sequences' truncated fit (pieces of ``chunk`` steps, the state carried), the head reading APF's side."""
     import torch
 
-    from tin_swarm_env.apps.recurrent_imitation import GRAD_CLIP, previous_actions
     from tin_swarm_env.policies.heads import nearest_class
+    from tin_swarm_env.training.recurrent_imitation import GRAD_CLIP, previous_actions
 
     opt = torch.optim.Adam(model.parameters(), lr=lr)
     rng = np.random.default_rng(seed)
@@ -135,11 +135,11 @@ class TorchLearner:
 def main(argv=None) -> None:
     import torch
 
-    from tin_swarm_env.apps.evaluate import EVAL_SEED0
-    from tin_swarm_env.apps.imitation import collect
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences
     from tin_swarm_env.env import parallel_env
     from tin_swarm_env.policies.heads import categorical_classes
+    from tin_swarm_env.training.evaluation import EVAL_SEED0
+    from tin_swarm_env.training.imitation import collect
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent, fit_sequences
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", default="runs/fitdiag6/data.npz")

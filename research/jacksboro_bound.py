@@ -20,7 +20,7 @@ the run) and/or the turn-back budget (:class:`~tin_swarm_env.policies.bug.BugPar
   is half the distance to go, at least one sensor range of distance-to-go growth), ``none`` (never
   turn back on budget; a boundary that ends still turns the robot).
 
-Every episode is one :func:`~tin_swarm_env.apps.rollout.rollout` of ``max_cycles`` 1800 (the
+Every episode is one :func:`~tin_swarm_env.training.rollout.rollout` of ``max_cycles`` 1800 (the
 shares at 900 are of the same episode). ``--mirror-seeds`` runs the key variants on the
 north-south and east-west mirror images (:func:`~tin_swarm_env.scenario.mirror.mirror_scenario`).
 """
@@ -38,12 +38,12 @@ from pathlib import Path
 import numpy as np
 
 import tin_swarm_env as tse
-from tin_swarm_env.apps.rollout import rollout
 from tin_swarm_env.policies import APFPolicy, GeodesicPolicy
 from tin_swarm_env.policies import bug as bug_mod
 from tin_swarm_env.policies.bug import BugParams
 from tin_swarm_env.scenario import load_scenario
 from tin_swarm_env.scenario.mirror import mirror_scenario
+from tin_swarm_env.training.rollout import rollout
 from tin_swarm_env.world.state import Reason
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -57,12 +57,12 @@ import numpy as np
 from numba import njit
 
 import tin_swarm_env as tse
-from tin_swarm_env.apps.evaluate import EVAL_SEED0
-from tin_swarm_env.apps.rollout import rollout
 from tin_swarm_env.policies import APFPolicy
 from tin_swarm_env.policies.chart import ChartParams, heap_pop, heap_push
 from tin_swarm_env.scenario import load_scenario
 from tin_swarm_env.terrain.breaks import ANGLE
+from tin_swarm_env.training.evaluation import EVAL_SEED0
+from tin_swarm_env.training.rollout import rollout
 from tin_swarm_env.world.state import Reason
 
 ROOT = Path(__file__).resolve().parents[1]

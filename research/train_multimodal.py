@@ -19,7 +19,7 @@ rounds of 12 episodes, every file acting by a seeded draw ("sample") while it co
     nice -n 19 python research/train_multimodal.py --recipe student --out runs/multimodal2
 
 The third run (``--recipe apf``): the student recipe with APF as the teacher along the student's own
-trajectory (``teacher="apf_student"``: tin_swarm_env/apps/apf_teacher.py), so that the labels follow the
+trajectory (``teacher="apf_student"``: tin_swarm_env/training/apf_teacher.py), so that the labels follow the
 side the student took instead of the map's side:
 
     gru_apf        gru_fb taught by apf_student
@@ -48,10 +48,10 @@ The fifth run (``--recipe apf_aux``): the fourth run's recipe, the GRU also fitt
     nice -n 19 python research/train_multimodal.py --recipe apf_aux --out runs/multimodal6
 
 The first three recipes were fitted on whole episodes (``chunk`` 0, the default then): this script sets
-:data:`~tin_swarm_env.apps.recurrent_imitation.CHUNK` per recipe (:data:`CHUNKS`), so they run as they did.
+:data:`~tin_swarm_env.training.recurrent_imitation.CHUNK` per recipe (:data:`CHUNKS`), so they run as they did.
 
 Each writes ``OUT/<name>/policy`` (a pickle-free policy file) and ``OUT/<name>/model.json``
-(:func:`tin_swarm_env.apps.train.train_student`). Torch runs on 1 thread.
+(:func:`tin_swarm_env.training.student.train_student`). Torch runs on 1 thread.
 """
 
 from __future__ import annotations
@@ -61,8 +61,9 @@ import json
 import time
 from pathlib import Path
 
-from tin_swarm_env.apps import recurrent_imitation
-from tin_swarm_env.apps.train import Args, train_student
+from tin_swarm_env.training import recurrent_imitation
+from tin_swarm_env.training.config import Args
+from tin_swarm_env.training.student import train_student
 
 COMMON = dict(scenario="generated,generated,cliff_goal,ramp", bc_robots=8, teacher="geodesic", symmetry="mirror",
               shield="safety_cut", bc_episodes=32, dagger_rounds=2, dagger_episodes=16, dagger_beta=0.5,

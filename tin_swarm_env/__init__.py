@@ -2,8 +2,9 @@
 
 Layers (imports flow downwards only): ``terrain`` (DEM -> TIN, geometry queries), ``world``
 (robots, sensing, locomotion, battery), ``scenario`` (TOML -> config -> initial state), ``env``
-(the PettingZoo parallel environment), ``adapters``/``policies``, ``apps`` (CLI, run, evaluate,
-train, explorer). The documentation's contributing page (docs/contributing.md, "Layout") describes them.
+(the PettingZoo parallel environment and the vector env), ``adapters``/``policies``, ``training`` (the
+training library: recipes, imitation, checkpoints, rollouts, evaluation rows; no CLI), ``apps`` (the
+``tin-swarm`` commands only: run, eval, train, explore...). The documentation's contributing page (docs/contributing.md, "Layout") describes them.
 
 The package root is lazy: it loads only :mod:`.errors`; ``tse.parallel_env``, ``tse.TinSwarmEnv``,
 ``tse.Reason`` and the subpackages load on first use, so ``import tin_swarm_env.terrain`` needs
@@ -39,7 +40,7 @@ from .errors import (  # noqa: E402
 
 __version__ = "0.1.0"
 
-_SUBPACKAGES = ("adapters", "apps", "env", "policies", "scenario", "terrain", "tin_swarm_v0", "world")
+_SUBPACKAGES = ("adapters", "apps", "env", "policies", "scenario", "terrain", "tin_swarm_v0", "training", "world")
 _LAZY = {"TinSwarmEnv": "env.tin_swarm", "parallel_env": "env.tin_swarm", "raw_env": "env.tin_swarm",
          "Reason": "world.state", "vector_env": "env.vector", "VectorEnv": "env.vector"}
 
@@ -64,5 +65,5 @@ register_gymnasium()
 __all__ = [
     "ENV_ID", "DemFormatError", "MissingExtraError", "Reason", "TinFormatError", "TinStructureError", "TinSwarmError",
     "TinSwarmEnv", "VectorEnv", "__version__", "adapters", "apps", "env", "parallel_env", "policies", "raw_env",
-    "scenario", "vector_env", "terrain", "tin_swarm_v0", "world",
+    "scenario", "vector_env", "terrain", "tin_swarm_v0", "training", "world",
 ]

@@ -202,8 +202,8 @@ def test_smoke_train_with_imitation_in_a_subprocess_then_load_and_evaluate_the_p
     shield, then the exported pickle-free policies (before and after PPO): loaded with
     load_policy the network acts as the SB3 model it came from and the policy as that model
     through the shield, and `tin-swarm eval --model DIR` runs it beside random and APF."""
-    from tin_swarm_env.apps.policy_factory import SB3Policy
     from tin_swarm_env.policies import ShieldedPolicy, load_policy
+    from tin_swarm_env.training.policy_factory import SB3Policy
 
     out = tmp_path / "run"
     r = subprocess.run([sys.executable, "-m", "tin_swarm_env", "train", "flat", "--timesteps", "128",
@@ -273,7 +273,7 @@ def test_missing_sb3_names_the_extra(monkeypatch):
 
     monkeypatch.setattr(builtins, "__import__", no_sb3)
     with pytest.raises(MissingExtraError, match=r"tin_swarm_env\[train\]"):
-        from tin_swarm_env.apps.policy_factory import SB3Policy
+        from tin_swarm_env.training.policy_factory import SB3Policy
 
         SB3Policy.load("x.zip")
 

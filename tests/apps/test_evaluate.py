@@ -15,9 +15,9 @@ import tin_swarm_env as tse
 from tin_swarm_env.apps.cli import main
 from tin_swarm_env.apps.evaluate import (EVAL_SEED0, METRICS, Args, bar_figure, ci95, episode_metrics, evaluate,
                                          parse_models, policy_rows)
-from tin_swarm_env.apps.rollout import Outcome
 from tin_swarm_env.apps.suite import run_suite
 from tin_swarm_env.errors import ArgumentError
+from tin_swarm_env.training.rollout import Outcome
 from tin_swarm_env.world.state import Reason
 
 
@@ -85,7 +85,7 @@ def test_eval_default_output_is_named_after_the_scenarios(tmp_path, monkeypatch,
 
 
 def test_eval_checks_models_before_the_first_episode(tmp_path, monkeypatch, capsys):
-    import tin_swarm_env.apps.evaluate as ev
+    import tin_swarm_env.training.evaluation as ev
 
     def no_episodes(*a, **k):
         raise AssertionError("an episode ran before the options were checked")
@@ -238,7 +238,7 @@ def test_eval_by_family_plays_each_generated_family_and_its_mirror(tmp_path):
 
 def test_the_csv_has_the_median_steps_to_arrive(tmp_path, monkeypatch):
     """steps_to_arrive_median: the median over the robots that arrived (NaN when none did)."""
-    import tin_swarm_env.apps.evaluate as ev
+    import tin_swarm_env.training.evaluation as ev
 
     runs = iter([np.array([10.0, np.nan, 30.0]), np.array([np.nan, 20.0, 40.0])])
 

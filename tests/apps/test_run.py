@@ -1,5 +1,5 @@
 """Running episodes (apps/run.py, ``tin-swarm run``): the table, summary and GIF, errors exit 2 and write
-nothing, 200 robots on jacksboro, frames handed to a writer as they come, and the progress bar."""
+nothing, 200 robots on jacksboro, frames handed to a writer as they come."""
 
 from __future__ import annotations
 
@@ -19,17 +19,6 @@ def test_run_hands_frames_to_the_writer_without_keeping_them(tmp_path):
     assert frames == [] and len(got) == 4 and got[0][1] == 64  # steps 0, 2, 4 and the end
     _, kept = run_episodes("flat", robots=2, max_cycles=6, frames_every=2, progress=False, render_width=64)
     assert len(kept) == 4
-
-
-def test_progress_bar_is_tqdm():
-    import tqdm
-
-    from tin_swarm_env.apps.run import progress_bar
-
-    bar = progress_bar(10, "x")
-    assert isinstance(bar, tqdm.tqdm)
-    bar.close()
-    assert progress_bar(10, "x", enabled=False) is None
 
 
 def test_run_writes_table_summary_and_gif(tmp_path, capsys):

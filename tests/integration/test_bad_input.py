@@ -285,8 +285,8 @@ def _run_dirs(d: Path):
     import dataclasses
     import json
 
-    from tin_swarm_env.apps import checkpoint as C
-    from tin_swarm_env.apps import train as T
+    from tin_swarm_env.training import checkpoint as C
+    from tin_swarm_env.training import config as T
 
     args = {k: v for k, v in dataclasses.asdict(T.Args(scenario="flat")).items() if k != "trust_pickle"}
     for name, a in (("run_deep", None), ("run_type", {**args, "n_robots": "eight"}),
@@ -329,7 +329,7 @@ def _patch_for(label: str, monkeypatch):
         def full_gif(self, frame):
             raise OSError(28, "No space left on device")  # as a write says it: no file named
 
-        monkeypatch.setattr(media._GifStream, "add", full_gif)
+        monkeypatch.setattr(media.GifStream, "add", full_gif)
     elif label.startswith("disk full"):
         import types
 

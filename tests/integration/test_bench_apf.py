@@ -48,7 +48,7 @@ def test_verdicts_of_a_policy_whose_memory_saw_fewer_rows():
 
 def test_generated_rows_take_another_held_out_set_and_episode_length():
     bench = _bench()
-    from tin_swarm_env.apps.evaluate import EVAL_SEED0
+    from tin_swarm_env.training.evaluation import EVAL_SEED0
 
     args = SimpleNamespace(generated=3, seed_offset=100, max_cycles=3000, robots=2, only=["generated: fork"],
                            seeds=1, jacksboro_seeds=1, k_scan=0)

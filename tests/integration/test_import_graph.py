@@ -1,7 +1,9 @@
 """No import circle inside the package: the graph of which module imports which (every import
 statement, module-level or inside a function, read with ``ast``; package ``__init__`` re-exports
 left out) has no cycle. Before this test, scenario/config.py and scenario/generators.py imported
-each other (one of them inside a function)."""
+each other (one of them inside a function). Imports flow one way, down the layers of DESIGN.md
+(:data:`LAYERS`): no subpackage imports one of a higher layer, and the training library imports no
+``apps`` module (it is importable without the CLI)."""
 
 from __future__ import annotations
 
@@ -142,3 +144,55 @@ def test_the_private_import_finder_sees_one(tmp_path, monkeypatch):
     (pkg / "sub" / "a.py").write_text("from __future__ import annotations\nfrom . import _kernels\nfrom ._kernels import _k\n")
     monkeypatch.setitem(globals(), "PKG", pkg)  # _modules() reads the module global PKG
     assert private_imports() == ["tin_swarm_env.sub.a: from tin_swarm_env.sub._kernels import _k"]
+
+
+# The subpackages in layer order (DESIGN.md); a module may import its own layer and those below.
+# The top-level helpers (errors, options, _atomic, _safe_json, _registration) are not in a layer.
+LAYERS = (("terrain",), ("world",), ("scenario",), ("env", "adapters", "policies"), ("training",), ("apps",))
+
+
+def layer_of(module: str) -> int | None:
+    """The index in :data:`LAYERS` of ``tin_swarm_env.<sub>...``'s subpackage (None: a top-level module)."""
+    parts = module.split(".")
+    sub = parts[1] if len(parts) > 2 else None
+    return next((i for i, names in enumerate(LAYERS) if sub in names), None)
+
+
+def upward_imports(graph: dict[str, set[str]]) -> list[str]:
+    """``module -> imported`` for every import of a module of a higher layer than the importer's."""
+    out = []
+    for name, deps in sorted(graph.items()):
+        a = layer_of(name)
+        for d in sorted(deps):
+            b = layer_of(d)
+            if a is not None and b is not None and b > a:
+                out.append(f"{name} -> {d}")
+    return out
+
+
+def test_the_layer_finder_sees_an_upward_import():
+    graph = {"tin_swarm_env.training.x": {"tin_swarm_env.apps.cli", "tin_swarm_env.env.vector"},
+             "tin_swarm_env.apps.cli": {"tin_swarm_env.training.x"}, "tin_swarm_env.errors": {"tin_swarm_env.apps.cli"}}
+    assert upward_imports(graph) == ["tin_swarm_env.training.x -> tin_swarm_env.apps.cli"]
+    assert layer_of("tin_swarm_env.training.sb3") == LAYERS.index(("training",))
+    assert layer_of("tin_swarm_env.training") == layer_of("tin_swarm_env.options") is None
+
+
+def test_imports_flow_down_the_layers_and_training_sits_between_env_and_apps():
+    graph = import_graph()
+    assert upward_imports(graph) == []
+    subs = {m.split(".")[1] for m in graph if m.count(".") > 1}
+    assert subs == {n for names in LAYERS for n in names}  # every subpackage has its layer
+    order = [names for names in LAYERS]
+    assert order.index(("env", "adapters", "policies")) < order.index(("training",)) < order.index(("apps",))
+
+
+def test_training_imports_no_apps_module():
+    graph = import_graph()
+    training = {m: deps for m, deps in graph.items() if m.startswith("tin_swarm_env.training.")}
+    assert {"tin_swarm_env.training.sb3", "tin_swarm_env.training.rollout", "tin_swarm_env.training.checkpoint",
+            "tin_swarm_env.training.imitation", "tin_swarm_env.training.evaluation"} <= set(training)
+    assert {m: sorted(d for d in deps if d.startswith("tin_swarm_env.apps")) for m, deps in training.items()
+            if any(d.startswith("tin_swarm_env.apps") for d in deps)} == {}
+    # and the commands do call it: apps/train.py is a command over training/sb3.py
+    assert "tin_swarm_env.training.sb3" in graph["tin_swarm_env.apps.train"]

@@ -229,9 +229,9 @@ def full_disk(tmp_path, monkeypatch):
 
 def _writers(d: Path):
     """``(name, path, write)``: one of each output kind the commands write, ``write()`` writing it."""
-    from tin_swarm_env.apps.evaluate import write_csv
     from tin_swarm_env.policies.learned import save_policy
     from tin_swarm_env.terrain import build_tin, save_tin
+    from tin_swarm_env.training.evaluation import write_csv
 
     dem = tse.terrain.sample_dem("jacksboro")
     layout = tse.parallel_env(scenario="flat", n_robots=2).layout
@@ -296,8 +296,8 @@ def test_a_checkpoint_onto_a_full_disk_leaves_the_checkpoints_there(tmp_path, mo
     """Writing a checkpoint fails: the error says which, the earlier checkpoint is untouched and no
     ``.part`` directory is left."""
     pytest.importorskip("stable_baselines3")
-    import tin_swarm_env.apps.checkpoint as C
-    import tin_swarm_env.apps.train as T
+    import tin_swarm_env.training.checkpoint as C
+    import tin_swarm_env.training.sb3 as T
 
     run = tmp_path / "run"
     calls = []

@@ -4,7 +4,7 @@ exactly, refuses pickles, and its "near a side switch" split is the hand-compute
 import numpy as np
 import pytest
 
-from tin_swarm_env.apps.imitation import Sequence
+from tin_swarm_env.training.imitation import Sequence
 
 torch = pytest.importorskip("torch")
 
@@ -47,7 +47,7 @@ def test_near_a_side_switch_is_the_hand_computed_window(diag):
     """One robot, labels' vy sides + + + 0 + - - - - - - - (classes nearest): one change of side, between
     steps 4 and 5 (the 0 at step 3 is no side); with near=2 steps 3..7 are near it: 5 of 12. The two
     parts' means weigh back to the mean."""
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent
     from tin_swarm_env.policies.heads import categorical_classes
 
     vy = np.array([1, 1, 1, 0, 1, -1, -1, -1, -1, -1, -1, -1], np.float32) * 0.7
@@ -59,7 +59,7 @@ def test_near_a_side_switch_is_the_hand_computed_window(diag):
     assert share == 5 / 12
     assert near * 5 / 12 + elsewhere * 7 / 12 == pytest.approx(mean, rel=1e-6)
     assert near != elsewhere
-    from tin_swarm_env.apps.recurrent_imitation import sequence_loss
+    from tin_swarm_env.training.recurrent_imitation import sequence_loss
 
     with torch.no_grad():
         err = sequence_loss(st, q)[0].numpy()
@@ -80,7 +80,7 @@ def test_side_flips_skip_no_side_and_unkept_steps(diag):
 def test_side_stats_count_the_readout_against_the_teachers_side(diag):
     """A student whose read-out is fitted on a cue task: side_stats' accuracy and flips are the ones
     counted by hand from side_logits."""
-    from tin_swarm_env.apps.recurrent_imitation import SIDES, GRUStudent, fit_sequences, side_logits
+    from tin_swarm_env.training.recurrent_imitation import SIDES, GRUStudent, fit_sequences, side_logits
     from tin_swarm_env.policies.heads import categorical_classes
 
     rng = np.random.default_rng(0)
@@ -108,7 +108,7 @@ def test_drive_records_the_mode_the_student_commanded_and_apfs_side(diag):
     command is the class of the torch student's largest logit on the replayed history (its feedback
     included), and APF's side is recorded (aux)."""
     import tin_swarm_env as tse
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, previous_actions
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent, previous_actions
     from tin_swarm_env.policies.heads import categorical_classes
 
     lay = tse.parallel_env(scenario="cliff_goal", n_robots=3).layout

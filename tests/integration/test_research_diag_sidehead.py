@@ -38,8 +38,8 @@ def test_side_head_is_mirror_equivariant_and_reads_the_given_side(ds):
 
 
 def test_learner_step_by_step_is_the_whole_episode_forward(ds):
-    from tin_swarm_env.apps.imitation import collect
-    from tin_swarm_env.apps.recurrent_imitation import previous_actions
+    from tin_swarm_env.training.imitation import collect
+    from tin_swarm_env.training.recurrent_imitation import previous_actions
     from tin_swarm_env.policies.heads import categorical_classes
 
     lay = tse.parallel_env(scenario="cliff_goal", n_robots=3).layout

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
-from tin_swarm_env.apps.evaluate import EVAL_SEED0
-from tin_swarm_env.apps.rollout import rollout
+from tin_swarm_env.training.evaluation import EVAL_SEED0
+from tin_swarm_env.training.rollout import rollout
 from tin_swarm_env.errors import PolicyFileError
 from tin_swarm_env.policies import load_policy
 from tin_swarm_env.world.state import Reason

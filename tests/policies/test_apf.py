@@ -90,8 +90,8 @@ def test_fields_subset_and_random_policy():
 
 # -- the way round on either side, crowding ----------------------------------------------------
 
-from tin_swarm_env.apps.rollout import rollout  # noqa: E402
 from tin_swarm_env.env.observation import ObsLayout  # noqa: E402
+from tin_swarm_env.training.rollout import rollout  # noqa: E402
 from tin_swarm_env.world.state import Reason  # noqa: E402
 
 

@@ -14,12 +14,12 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
-from tin_swarm_env.apps.rollout import rollout  # noqa: E402
 from tin_swarm_env.env.observation import ObsLayout  # noqa: E402
 from tin_swarm_env.policies import APFPolicy
 from tin_swarm_env.policies.base import decode  # noqa: E402
 from tin_swarm_env.policies.bug import BugMemory, BugParams, bug_update, odometry  # noqa: E402
 from tin_swarm_env.scenario import scenario_from_dict
+from tin_swarm_env.training.rollout import rollout  # noqa: E402
 from tin_swarm_env.world.fields import FieldParams as FP  # noqa: E402
 from tin_swarm_env.world.state import Reason  # noqa: E402
 

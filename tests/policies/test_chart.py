@@ -232,8 +232,8 @@ def test_scan_alone_is_charted_and_keeps_robots_off_the_cliff():
     search, which reads only break slots, is the fields alone and drives every robot off it."""
     import dataclasses
 
-    from tin_swarm_env.apps.rollout import rollout
     from tin_swarm_env.scenario import load_scenario
+    from tin_swarm_env.training.rollout import rollout
     from tin_swarm_env.world.state import Reason
 
     cfg = load_scenario("cliff_goal")

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
-from tin_swarm_env.apps.rollout import rollout
 from tin_swarm_env.policies import GeodesicPolicy
 from tin_swarm_env.policies.geodesic import LOOK_M, clear_of_breaks, eroded
 from tin_swarm_env.scenario import load_scenario
-from tin_swarm_env.terrain.breaks import ANGLE
 from tin_swarm_env.terrain import Tin, cost_to_go, pinch_vertices
+from tin_swarm_env.terrain.breaks import ANGLE
+from tin_swarm_env.training.rollout import rollout
 from tin_swarm_env.world import World
 from tin_swarm_env.world.state import Reason
 

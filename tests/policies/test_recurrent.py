@@ -85,7 +85,7 @@ def rppo(tmp_path_factory):
 
 
 def test_exported_recurrent_policy_acts_as_the_torch_model_over_an_episode(rppo):
-    from tin_swarm_env.apps.train import RecurrentSB3Policy
+    from tin_swarm_env.training.scoring import RecurrentSB3Policy
 
     model, d = rppo
     meta = json.loads((d / "policy.json").read_text())

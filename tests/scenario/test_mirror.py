@@ -83,9 +83,9 @@ def test_a_generated_terrain_mirrors_each_drawn_task():
 
 
 def test_apf_arrives_on_the_mirror_image_of_a_hand_built_case_as_on_the_original():
-    from tin_swarm_env.apps.rollout import rollout
     from tin_swarm_env.env import parallel_env
     from tin_swarm_env.policies import APFPolicy
+    from tin_swarm_env.training.rollout import rollout
 
     arrived = {}
     for axis in ("", "ns"):

@@ -5,7 +5,7 @@
 
 Every subcommand's options are the fields of one ``Args`` dataclass in the module that does the
 work (:data:`COMMANDS`): ``run`` (:mod:`~.run`), ``scenarios`` (:mod:`~.scenarios`), ``explore``
-(:mod:`~.explorer`), ``train`` (:mod:`~.train`), ``eval`` (:mod:`~.evaluate`), ``build-tin``
+(:mod:`~.explorer`), ``train`` (:mod:`~.train`, over :mod:`tin_swarm_env.training`), ``eval`` (:mod:`~.evaluate`), ``build-tin``
 (:mod:`~.build_tin`). A field's help text is its ``--help`` line and its range or choices are
 checked once, when the ``Args`` is built (:mod:`~.args`), so a bad value stops with one line
 naming the option before any work starts.
@@ -26,7 +26,6 @@ import os
 import re
 import sys
 from dataclasses import dataclass, field
-from pathlib import Path
 
 from ..errors import ArgumentError, TinSwarmError
 from .args import add_dataclass_args, dataclass_from_namespace, option_name
@@ -59,7 +58,7 @@ COMMANDS = {
                          "start from"),
     "explore": Command("explorer:Args", "explorer:explore", "the field explorer (a window, or --png OUT.png "
                        "headless)", positional=("scenario",)),
-    "train": Command("train:Args", "cli:_train", "train a shared policy with PPO, optionally after imitation of "
+    "train": Command("train:Args", "train:train_command", "train a shared policy with PPO, optionally after imitation of "
                      "APF, and export it as a policy file (needs the [train] extra)", positional=("scenario",), rename={"total_timesteps": "timesteps"}),
     "eval": Command("evaluate:Args", "cli:_eval", "random, APF and saved policies on the same scenarios and seeds "
                     "(or --suite standard: the standard suite's leaderboard)",
@@ -68,21 +67,6 @@ COMMANDS = {
     "build-tin": Command("build_tin:Args", "build_tin:build_tin", "reduce a DEM to a TIN and write it (.tin/.txt "
                          "or .npz)", positional=("dem",)),
 }
-
-
-def _train(a) -> int:
-    from .train import train
-
-    if a.resume:
-        from ..errors import CheckpointError
-        from .checkpoint import ARGS_FILE, read_args
-
-        saved = read_args(Path(a.resume)).get("scenario")
-        if saved != a.scenario:
-            raise CheckpointError(f"{Path(a.resume) / ARGS_FILE}: key 'scenario': found {saved!r}, expected "
-                                  f"{a.scenario!r} (the scenario given to tin-swarm train)")
-    train(a)
-    return 0
 
 
 def _eval(a) -> int:

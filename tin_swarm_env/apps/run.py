@@ -19,12 +19,13 @@ import numpy as np
 from ..env import parallel_env
 from ..env.tin_swarm import DEFAULT_RENDER_WIDTH_PX, RENDER_WIDTH_PX
 from ..scenario.config import MAX_ROBOTS
+from ..training.evaluation import progress_bar
+from ..training.policy_factory import make_policy
+from ..training.rollout import Outcome, rollout
 from ..world.fields import FIELDS
 from ..world.state import Reason
 from .args import check_args, opt
 from .media import FRAME_EVERY, GIF_WIDTH_PX
-from .policy_factory import make_policy
-from .rollout import Outcome, rollout
 
 __all__ = ["Args", "run", "EpisodeStats", "run_episodes", "format_table", "parse_fields", "fields_problem"]
 
@@ -115,19 +116,6 @@ class EpisodeStats:
                    episode_return=float(o.returns.mean()), seconds=o.seconds)
 
 
-def progress_bar(total: int, desc: str, enabled: bool = True):
-    """A tqdm bar on stderr (rate and ETA) counting ``total`` steps, or None when disabled or
-    tqdm is not installed (then nothing is shown). Also used by ``tin-swarm eval``."""
-    if not enabled:
-        return None
-    try:
-        from tqdm.auto import tqdm
-    except ImportError:  # pragma: no cover - tqdm is a core dependency
-        return None
-    # disable=None: no bar when stderr is not a terminal (logs, CI)
-    return tqdm(total=total, desc=desc, unit="step", leave=False, dynamic_ncols=True, disable=None)
-
-
 def _on_step(bar):
     """A :func:`~.rollout.rollout` ``on_step`` callback advancing ``bar`` with the arrivals/falls."""
     def on_step(env, reasons):
@@ -187,8 +175,8 @@ def run(a: Args) -> int:
     from contextlib import ExitStack
 
     from .._atomic import atomic_path, check_outputs
+    from ..training.policy_factory import check_policy_spec
     from .media import FrameWriter, check_animation
-    from .policy_factory import check_policy_spec
 
     fields = parse_fields(a.fields)
     check_policy_spec(a.policy, a.trust_pickle)

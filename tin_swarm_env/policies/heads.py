@@ -10,7 +10,7 @@ are the classes' logits, ``p = softmax(logits)``, and class ``k`` drives the bod
 ``actions[k]`` (each component in [-1, 1], no two alike). Unlike a mean, such a head can say
 "left or right, not straight on": where a teacher goes round an obstacle one way on one map and
 the other way on another that looks the same, a likelihood fit puts the probability on both
-ways, a mean-squared-error fit on their mean (:mod:`tin_swarm_env.apps.imitation`).
+ways, a mean-squared-error fit on their mean (:mod:`tin_swarm_env.training.imitation`).
 
 * ``"acting": "mode"`` (the default): the class of largest logit; at an exact tie the lowest
   class index (:func:`categorical_classes` orders a heading with ``vy > 0`` before its mirror

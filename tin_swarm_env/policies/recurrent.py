@@ -20,7 +20,7 @@ One step, ``x`` the observation and ``(h, c)`` the state (``c`` only for an LSTM
 **Memory per robot.** Rows are robots, as :class:`~tin_swarm_env.policies.APFPolicy`'s:
 ``act_batch`` row ``i`` is robot ``i`` (or ``rows[i]``), ``act`` gives each agent name a row the
 first time it sees it. A row's state starts at zero when the row is new and after :meth:`reset`
-(which :func:`~tin_swarm_env.apps.rollout.rollout` calls after every env reset), as SB3's
+(which :func:`~tin_swarm_env.training.rollout.rollout` calls after every env reset), as SB3's
 RecurrentPPO zeroes it at an episode start; each call advances the state of the rows it is given.
 
 **Feedback** (``"network": {..., "feedback": "action"}``; absent or ``"none"``: none): the cell

@@ -50,7 +50,7 @@ def mirror_map(layout) -> tuple[np.ndarray, np.ndarray]:
     """``(perm (d,) int64, signs (d,) float64)`` of the reflection for ``layout`` (an :class:`ObsLayout`
     or its ``to_dict()``): the mirror image of ``o (..., d)`` is ``o[..., perm] * signs``
     (:meth:`ObsLayout.mirror`; ``perm`` is the identity but for the scan's beams). The torch
-    networks of :mod:`tin_swarm_env.adapters.sb3` and :mod:`tin_swarm_env.apps.recurrent_imitation`
+    networks of :mod:`tin_swarm_env.adapters.sb3` and :mod:`tin_swarm_env.training.recurrent_imitation`
     take these two arrays."""
     lay = layout if isinstance(layout, ObsLayout) else ObsLayout.from_dict(layout)
     return lay.mirror_permutation(), lay.mirror(np.ones(lay.size))

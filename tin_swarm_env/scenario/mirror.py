@@ -1,7 +1,7 @@
 """Mirror images of scenarios: the terrain and the task reflected across the terrain's middle.
 
 A policy that prefers one side (it learned to go round cliffs to the left) does well on a map and
-badly on its mirror image; the standard evaluation suite (:mod:`tin_swarm_env.apps.suite`) plays
+badly on its mirror image; the standard evaluation suite (:mod:`tin_swarm_env.training.suite`) plays
 every map both ways. The reflections (``axis``):
 
 ====== ==================================================================================

@@ -1,4 +1,4 @@
-"""Stalled and looping (apps/trajectory.py): hand-made trajectories with exact answers, the ring
+"""Stalled and looping (training/trajectory.py): hand-made trajectories with exact answers, the ring
 buffer against a plain list, and rollout's Outcome on a real episode."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tin_swarm_env.apps.trajectory import LOOP_FRACTION, LOOP_STEPS, STALL_STEPS, Track, stalled_looping
+from tin_swarm_env.training.trajectory import LOOP_FRACTION, LOOP_STEPS, STALL_STEPS, Track, stalled_looping
 
 BODY = 1.0  # body length, m
 
@@ -100,7 +100,7 @@ def test_ring_buffer_keeps_the_last_pushes_in_order(n_push, seed):
 
 def test_rollout_reports_stalled_robots_beside_the_reasons():
     import tin_swarm_env as tse
-    from tin_swarm_env.apps.rollout import rollout
+    from tin_swarm_env.training.rollout import rollout
     from tin_swarm_env.world.state import Reason
 
     class Still:
@@ -116,9 +116,9 @@ def test_rollout_reports_stalled_robots_beside_the_reasons():
 
 
 def test_eval_and_run_tables_carry_the_stalled_and_looping_columns():
-    from tin_swarm_env.apps.evaluate import METRICS, episode_metrics
-    from tin_swarm_env.apps.rollout import Outcome
     from tin_swarm_env.apps.run import EpisodeStats, format_table
+    from tin_swarm_env.training.evaluation import METRICS, episode_metrics
+    from tin_swarm_env.training.rollout import Outcome
     from tin_swarm_env.world.state import Reason as R
 
     o = Outcome(seed=0, reasons=np.array([R.ARRIVED, R.TIMEOUT, R.TIMEOUT, R.TIMEOUT], np.int8),

@@ -1,4 +1,4 @@
-"""The recurrent student (apps/recurrent_imitation.py): its policy file acts as the torch model
+"""The recurrent student (training/recurrent_imitation.py): its policy file acts as the torch model
 over whole episodes, it learns what needs memory, and `train --student gru` is checked and runs.
 Tiny budgets only."""
 
@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
-from tin_swarm_env.apps.imitation import Sequence, collect
-from tin_swarm_env.apps.train import Args, check_args
 from tin_swarm_env.errors import ArgumentError
+from tin_swarm_env.training.config import Args, check_args
+from tin_swarm_env.training.imitation import Sequence, collect
 
 torch = pytest.importorskip("torch")
 
@@ -21,9 +21,9 @@ SMALL = {"n_robots": 4, "max_cycles": 50}
 def test_exported_file_acts_as_the_torch_student_over_a_whole_episode(tmp_path, mirror):
     """The file (numpy, memory per robot) and the torch model fed the whole episode at once give
     the same actions at every step of every robot; a second episode after reset() too."""
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences
     from tin_swarm_env.policies import load_policy
     from tin_swarm_env.policies.recurrent import RecurrentPolicy
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent, fit_sequences
 
     env = tse.parallel_env(scenario="cliff_goal", **SMALL)
     lay = env.layout
@@ -47,11 +47,11 @@ def test_a_mirror_student_with_scan_beams_is_equivariant_and_exports_to_the_same
     torch model is equivariant over a whole history, and its file acts as it does."""
     import dataclasses
 
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent
     from tin_swarm_env.env.observation import mirror_action
     from tin_swarm_env.policies import load_policy
     from tin_swarm_env.policies.symmetry import mirror_map
     from tin_swarm_env.scenario import load_scenario
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent
 
     cfg = load_scenario("cliff_goal")
     env = tse.parallel_env(scenario=cfg.replace(observation=dataclasses.replace(cfg.observation, k_scan=6)), **SMALL)
@@ -85,7 +85,7 @@ def test_student_learns_what_only_memory_can_tell():
     cue's sign (times 0.5) in vy. A memoryless policy sees the same zeros after step 0 whatever
     the cue, so its MSE after step 0 is at least the labels' variance there (1/8 per component
     mean); the GRU must get far below it."""
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent, fit_sequences
 
     rng = np.random.default_rng(0)
     T, n, d = 6, 32, 3
@@ -128,9 +128,9 @@ def test_student_gru_options_are_checked_by_name():
 
 
 def test_train_student_gru_runs_bc_and_dagger_and_exports_a_recurrent_file(tmp_path, capsys):
-    from tin_swarm_env.apps.train import train
     from tin_swarm_env.env.observation import mirror_action
     from tin_swarm_env.policies import load_policy
+    from tin_swarm_env.training.sb3 import train
 
     path = train(Args(scenario="cliff_goal", n_robots=3, max_cycles=20, total_timesteps=0, bc_episodes=1,
                       dagger_rounds=1, dagger_beta=0.5, bc_epochs=2, teacher="geodesic", symmetry="mirror",
@@ -154,9 +154,9 @@ def test_categorical_file_acts_as_the_torch_student_over_a_whole_episode(tmp_pat
     """A categorical, mirror-equivariant student (GRU or memoryless): the file's logits equal the
     torch model's at every step of every robot, and its actions are the class of the torch
     model's largest logit (wherever the top two are not within float32 rounding)."""
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences
     from tin_swarm_env.policies import load_policy
     from tin_swarm_env.policies.heads import categorical_classes
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent, fit_sequences
 
     env = tse.parallel_env(scenario="cliff_goal", **SMALL)
     lay = env.layout
@@ -190,8 +190,8 @@ def test_likelihood_fit_keeps_both_sides_where_mse_learns_their_mean():
     for half the robots and "right" for the other half. The mirror-equivariant MSE student
     outputs vy = 0 exactly (straight on); the categorical student puts nearly all probability on
     the two labels' classes, equally, so its mode is a side and not their mean."""
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences
     from tin_swarm_env.policies.heads import categorical_classes, nearest_class, softmax
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent, fit_sequences
 
     lay = tse.parallel_env(scenario="cliff_goal", **SMALL).layout
     signs = lay.mirror_signs()
@@ -233,9 +233,9 @@ def test_head_options_are_checked_by_name():
 
 
 def test_train_head_categorical_runs_and_exports_an_mlp_file(tmp_path, capsys):
-    from tin_swarm_env.apps.train import train
     from tin_swarm_env.policies import load_policy
     from tin_swarm_env.policies.learned import MLPPolicy
+    from tin_swarm_env.training.sb3 import train
 
     path = train(Args(scenario="cliff_goal", n_robots=3, max_cycles=20, total_timesteps=0, bc_episodes=1,
                       dagger_rounds=1, dagger_beta=0.5, bc_epochs=2, teacher="geodesic", symmetry="mirror",
@@ -254,9 +254,9 @@ def test_feedback_file_acts_as_the_torch_student_over_a_whole_episode(tmp_path, 
     episode (recording what it commanded, ``Sequence.driven``); replayed, the file's outputs equal
     the torch model's fed the whole episode and the commands shifted one step (previous_actions),
     at every step of every robot, and the replay commands what drove."""
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences, previous_actions
     from tin_swarm_env.policies import load_policy
     from tin_swarm_env.policies.heads import categorical_classes
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent, fit_sequences, previous_actions
 
     env = tse.parallel_env(scenario="cliff_goal", **SMALL)
     lay = env.layout
@@ -294,7 +294,7 @@ def test_feedback_file_acts_as_the_torch_student_over_a_whole_episode(tmp_path, 
 
 
 def test_previous_actions_shift_clip_and_snap_to_classes():
-    from tin_swarm_env.apps.recurrent_imitation import previous_actions
+    from tin_swarm_env.training.recurrent_imitation import previous_actions
 
     drv = np.array([[[0.875, 0.25]], [[2.0, -0.25]], [[0.0, 0.0]]], np.float32)  # (T=3, n=1, 2)
     q = Sequence(np.zeros((3, 1, 4), np.float32), np.zeros((3, 1, 2), np.float32), np.ones((3, 1), bool),
@@ -312,7 +312,7 @@ def test_feedback_lets_the_gru_keep_the_side_it_drew():
     at the step before (a random side per robot and step): only the fed-back action tells it. A
     GRU without feedback sees the same zeros whatever was drawn (its MSE is at least the labels'
     variance); with feedback it must get far below."""
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent, fit_sequences
 
     rng = np.random.default_rng(0)
     T, n, d = 8, 32, 3
@@ -332,7 +332,7 @@ def test_feedback_lets_the_gru_keep_the_side_it_drew():
 
 
 def test_feedback_options_are_checked_by_name():
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent
 
     with pytest.raises(ArgumentError, match="--feedback action needs --student gru"):
         check_args(Args(feedback="action", head="categorical", bc_episodes=1, total_timesteps=0))
@@ -364,8 +364,8 @@ def _cue_sequences(T, n, d, count, seed=0):
 def test_forward_in_pieces_from_the_carried_state_is_the_whole_forward(categorical):
     """forward_state over consecutive pieces, each from the state the last ended in, gives the whole
     episode's forward at every step (mirror streams and feedback included)."""
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, previous_actions
     from tin_swarm_env.policies.heads import categorical_classes
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent, previous_actions
 
     d = 4
     signs = np.array([1.0, -1.0, 1.0, -1.0])
@@ -385,7 +385,7 @@ def test_forward_in_pieces_from_the_carried_state_is_the_whole_forward(categoric
 
 
 def test_a_chunk_as_long_as_the_episode_is_the_whole_episode_fit_bit_for_bit():
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent, fit_sequences
 
     seqs = _cue_sequences(6, 8, 3, 3)
     a, b = GRUStudent(3, 8, (8,), seed=0), GRUStudent(3, 8, (8,), seed=0)
@@ -401,7 +401,7 @@ def test_truncated_fit_carries_the_state_from_piece_to_piece():
     of the three later pieces are told by the state carried into them alone. A fit that restarted each
     piece from a zero state would see zeros there whatever the cue: its loss at least the labels'
     variance on those 6 of 8 steps; the carried state must take it far below."""
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent, fit_sequences
 
     T = 8
     seqs = _cue_sequences(T, 32, 3, 4)
@@ -414,7 +414,7 @@ def test_truncated_fit_carries_the_state_from_piece_to_piece():
 
 
 def test_fit_sequences_refuses_a_bad_chunk_by_name():
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent, fit_sequences
 
     seqs = _cue_sequences(4, 2, 3, 1)
     for bad in (-1, 2.5, True, "64"):
@@ -436,7 +436,7 @@ def test_side_readout_learns_the_side_only_memory_tells():
     cue; the side read-out must carry it from step 0 to the end: after the fit its argmax is the side at
     every step of every robot (step 0: none), and the loss is the action's plus aux_weight times the
     side's, exactly."""
-    from tin_swarm_env.apps.recurrent_imitation import SIDES, GRUStudent, fit_sequences, sequence_loss, side_logits
+    from tin_swarm_env.training.recurrent_imitation import SIDES, GRUStudent, fit_sequences, sequence_loss, side_logits
 
     seqs = _side_sequences(6, 32, 3, 4)
     for q in seqs:
@@ -463,10 +463,10 @@ def test_side_readout_is_mirror_equivariant_and_not_in_the_file(tmp_path, catego
     swapped (random observations over a history, feedback on); the exported file is the same as the
     file of a student without a read-out that has the same cell and head weights, and acts as the torch
     student's action output."""
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, previous_actions, side_logits
     from tin_swarm_env.env.observation import mirror_action
     from tin_swarm_env.policies import load_policy
     from tin_swarm_env.policies.heads import categorical_classes
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent, previous_actions, side_logits
 
     env = tse.parallel_env(scenario="cliff_goal", **SMALL)
     lay = env.layout
@@ -506,7 +506,7 @@ def test_side_readout_is_mirror_equivariant_and_not_in_the_file(tmp_path, catego
 
 
 def test_side_readout_options_and_targets_are_checked_by_name():
-    from tin_swarm_env.apps.recurrent_imitation import GRUStudent, fit_sequences, side_logits
+    from tin_swarm_env.training.recurrent_imitation import GRUStudent, fit_sequences, side_logits
 
     for bad in (-0.5, float("nan"), True, "1"):
         with pytest.raises(ArgumentError, match="GRUStudent: aux_weight must be a finite number >= 0"):

@@ -1,4 +1,4 @@
-"""Policies by name or path (apps/policy_factory.py): specs checked before any work (names in any case,
+"""Policies by name or path (training/policy_factory.py): specs checked before any work (names in any case,
 directories, policy.json, .zip only when trusted), the built-in baselines and a pickle-free directory."""
 
 from __future__ import annotations
@@ -21,16 +21,16 @@ def test_run_takes_a_pickle_free_policy_directory(tmp_path, capsys):
     assert main(["run", "flat", "--policy", str(tmp_path / "pol"), "--robots", "2", "--max-cycles", "4",
                  "--quiet"]) == 0
     assert "policy " + str(tmp_path / "pol") in capsys.readouterr().out
-    from tin_swarm_env.apps.policy_factory import make_policy
     from tin_swarm_env.policies import MLPPolicy
+    from tin_swarm_env.training.policy_factory import make_policy
 
     assert isinstance(make_policy(env, str(tmp_path / "pol" / "policy.json")), MLPPolicy)
     assert type(make_policy(env, "Random", seed=0)).__name__ == "RandomPolicy"
 
 
 def test_policy_specs_are_checked_before_any_work(tmp_path):
-    from tin_swarm_env.apps.policy_factory import check_policy_spec
     from tin_swarm_env.errors import ArgumentError
+    from tin_swarm_env.training.policy_factory import check_policy_spec
 
     assert [check_policy_spec(s) for s in ("APF", " random ", "Geodesic")] == ["apf", "random", "geodesic"]
     (tmp_path / "pol").mkdir()
@@ -49,8 +49,8 @@ def test_policy_specs_are_checked_before_any_work(tmp_path):
 
 
 def test_make_policy_builds_the_named_baselines():
-    from tin_swarm_env.apps.policy_factory import make_policy
     from tin_swarm_env.policies import APFPolicy, GeodesicPolicy, RandomPolicy
+    from tin_swarm_env.training.policy_factory import make_policy
 
     env = tse.parallel_env(scenario="flat", n_robots=2)
     apf = make_policy(env, "apf", fields=["robot", "target"])

@@ -28,7 +28,7 @@ class Outcome:
     returns       (n,) float  sum of its rewards
     collisions    (n,) int64  collisions it was in
     battery_left  (n,) float  charge left at the end / capacity
-    stalled       (n,) bool   timed out stalled, :mod:`~tin_swarm_env.apps.trajectory`'s definition
+    stalled       (n,) bool   timed out stalled, :mod:`~tin_swarm_env.training.trajectory`'s definition
     looping       (n,) bool   timed out looping (not stalled), the same module's definition
     seed, n_steps (the episode's length), seconds (wall clock); frames: rendered RGB frames
     when asked for.

@@ -29,7 +29,7 @@ for a robot depends on that robot's current state alone (its only memory is the 
 field cache, dropped at each reset), so a label is "what the shortest path says here".
 Symmetry with this teacher: the student should be mirror-equivariant by construction
 (``--symmetry mirror``), not fitted on mirrored samples (:meth:`Demos.mirrored`, refused with
-it in ``apps/train.py``). A mirrored sample claims that the teacher, in the mirror-image world, would
+it in ``training/config.py``). A mirrored sample claims that the teacher, in the mirror-image world, would
 act as the mirror image of its action; APF acts from the observation alone and is
 mirror-equivariant on any observation, so that holds for it. GeodesicPolicy's action is a
 function of the map, not of the observation; it is equivariant only between a map and its
@@ -39,10 +39,10 @@ TIN, and equal-length paths tie differently), so a mirrored label is a claim abo
 ran. An equivariant student gets the symmetry without such labels: fitting ``pi(o) = a`` fits
 ``pi(M o) = M a`` with it, and where the map breaks the tie the observation history, not a
 reflected label, has to say which way.
-``"apf_student"``: :class:`~tin_swarm_env.apps.apf_teacher.StudentAPF`, APF whose memory follows the
+``"apf_student"``: :class:`~tin_swarm_env.training.apf_teacher.StudentAPF`, APF whose memory follows the
 robots along whatever trajectory drove them (its odometry reads the command executed, not its own label)
 and takes the side of a boundary the student drives along, so its labels follow the side the student
-took (the rule: :mod:`tin_swarm_env.apps.apf_teacher`). With ``"apf"`` the odometry reads APF's own label
+took (the rule: :mod:`tin_swarm_env.training.apf_teacher`). With ``"apf"`` the odometry reads APF's own label
 even where the learner drove: kept as it was, for the shipped recipe's reproduction.
 What a privileged teacher cannot give a memoryless student (measured:
 ``research/teacher_geodesic.md``): where the shortest way round is left on one map and right on
@@ -57,7 +57,7 @@ drove, for a short value warm-up (:func:`fit_value`) so that PPO fine-tuning sta
 that is not random: a random critic's advantages would undo the cloned actor in the first updates.
 
 **Seeds.** Episode ``k`` of a collection runs ``scenarios[k % len(scenarios)]`` from
-``reset(seed + k)``; training code keeps these below :data:`~tin_swarm_env.apps.evaluate.EVAL_SEED0`
+``reset(seed + k)``; training code keeps these below :data:`~tin_swarm_env.training.evaluation.EVAL_SEED0`
 (evaluation seeds start there).
 """
 
@@ -84,7 +84,7 @@ def check_teacher(teacher: str, where: str = "teacher") -> str:
 
 def make_teacher(teacher: str, env):
     """The labelling policy ``teacher`` (:data:`TEACHERS`) for ``env``: APFPolicy, GeodesicPolicy or
-    :class:`~tin_swarm_env.apps.apf_teacher.StudentAPF`."""
+    :class:`~tin_swarm_env.training.apf_teacher.StudentAPF`."""
     from ..policies import APFPolicy, GeodesicPolicy
     from .apf_teacher import StudentAPF
 
@@ -152,7 +152,7 @@ class Sequence:
     aux     (T, n)    int8     the side the teacher follows a boundary on at that step, after labelling it
                                (APF's ``BugMemory.side``: +1 the boundary on the robot's right, -1 on its
                                left, 0 none; :func:`teacher_side`), the target of a recurrent student's side
-                               read-out (apps/recurrent_imitation.py); its mirror image is ``-aux``. None: the
+                               read-out (training/recurrent_imitation.py); its mirror image is ``-aux``. None: the
                                teacher has no such memory (``"geodesic"``)
     """
 

@@ -1,5 +1,5 @@
 """APF as the DAgger teacher along the student's own trajectory: ``teacher="apf_student"`` of
-:func:`~tin_swarm_env.apps.imitation.collect` (``tin-swarm train --teacher apf_student``).
+:func:`~tin_swarm_env.training.imitation.collect` (``tin-swarm train --teacher apf_student``).
 
 **Why.** The map-knowing teacher (GeodesicPolicy) labels each state with the map's shortest way on;
 where both ways round a cliff look alike to the robot, which way that is cannot be told from what the
@@ -33,12 +33,12 @@ API), each step of an episode, for every robot row:
 
    From the next step on, APF's label follows the boundary on the side the student is on. Under
    behaviour cloning APF drives itself and both steps change nothing: its own command, and a command
-   equal to its label never runs against the label (``tests/apps/test_apf_teacher.py``, bit for bit).
+   equal to its label never runs against the label (``tests/training/test_apf_teacher.py``, bit for bit).
 
 **Mirror symmetry, exact.** APF is mirror-equivariant, memory included; the adoption compares the
 command with the followed tangent, and reflecting the observations and the commands reflects both
 (the tangent and the side change sign together), so the labels of a mirrored episode are the mirrored
-labels (``tests/apps/test_apf_teacher.py``). Mirrored samples (``--mirror-samples``) are valid with
+labels (``tests/training/test_apf_teacher.py``). Mirrored samples (``--mirror-samples``) are valid with
 this teacher, as with ``"apf"``.
 """
 

@@ -1,4 +1,4 @@
-"""Imitation of APF (apps/imitation.py): the labels, the teacher's memory under DAgger, the mixing
+"""Imitation of APF (training/imitation.py): the labels, the teacher's memory under DAgger, the mixing
 beta, stall cuts, discounted returns and the actor/value fitting. Tiny budgets only."""
 
 from __future__ import annotations
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
-from tin_swarm_env.apps.imitation import _discounted, collect
 from tin_swarm_env.errors import ArgumentError
 from tin_swarm_env.policies import APFPolicy
+from tin_swarm_env.training.imitation import _discounted, collect
 
 SMALL = {"n_robots": 4, "max_cycles": 60}
 
@@ -118,7 +118,7 @@ def test_fit_actor_clones_a_known_linear_teacher_and_sets_the_std():
     pytest.importorskip("torch")
     from stable_baselines3 import PPO
 
-    from tin_swarm_env.apps.imitation import TorchActor, fit_actor, fit_value
+    from tin_swarm_env.training.imitation import TorchActor, fit_actor, fit_value
 
     vec = tse.adapters.make_sb3_vec_env("flat", n_robots=2, n_envs=1, seed=0, max_cycles=10)
     model = PPO("MlpPolicy", vec, seed=0, device="cpu", policy_kwargs={"net_arch": [32, 32]})
@@ -183,9 +183,9 @@ def test_geodesic_teacher_labels_the_states_the_student_visits():
 
 
 def test_teacher_is_validated_by_name_before_any_episode():
-    from tin_swarm_env.apps.apf_teacher import StudentAPF
-    from tin_swarm_env.apps.imitation import TEACHERS, make_teacher
     from tin_swarm_env.policies import GeodesicPolicy
+    from tin_swarm_env.training.apf_teacher import StudentAPF
+    from tin_swarm_env.training.imitation import TEACHERS, make_teacher
 
     assert TEACHERS == ("apf", "geodesic", "apf_student")
     env = tse.parallel_env(scenario="cliff_goal", n_robots=2)
@@ -202,7 +202,7 @@ def test_sequences_record_apfs_side_behind_each_label_and_mirror_it():
     """Sequence.aux is APF's BugMemory.side right after it labelled that step: a fresh APFPolicy fed the
     recorded observations (APF drove: BC) has that side at every step of every robot; the mirror image
     of the data negates it; the map-knowing teacher has no such memory (None)."""
-    from tin_swarm_env.apps.imitation import Sequence, teacher_side
+    from tin_swarm_env.training.imitation import Sequence, teacher_side
 
     kw = {"n_robots": 4, "max_cycles": 200}
     demos = collect("cliff_goal", 1, seed=3, teacher="apf", sequences=True, **kw)

@@ -1,6 +1,6 @@
 """Stalled and looping robots: how a robot that timed out spent the end of its episode.
 
-The one home of the two definitions (``rollout``'s :class:`~tin_swarm_env.apps.rollout.Outcome`,
+The one home of the two definitions (``rollout``'s :class:`~tin_swarm_env.training.rollout.Outcome`,
 ``tin-swarm eval`` and ``bench/apf.py`` all report them through :func:`stalled_looping`):
 
 - **stalled**: its net displacement over its last :data:`STALL_STEPS` (100) steps is under one

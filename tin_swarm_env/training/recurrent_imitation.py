@@ -1,13 +1,13 @@
 """Imitation into a recurrent student: a GRU (torch, one layer) before an MLP head, fitted by BC
 and DAgger on whole episodes per robot, and exported as a recurrent policy file.
 
-    demos = collect(scen, 20, seed, teacher="geodesic", sequences=True)     # apps/imitation.py
+    demos = collect(scen, 20, seed, teacher="geodesic", sequences=True)     # training/imitation.py
     student = GRUStudent(layout.size, hidden=64, head=(64,), signs=layout.mirror_signs())
     fit_sequences(student, demos.sequences)                                  # BC on whole episodes
     demos += collect(..., learner=student.policy(layout), sequences=True)   # DAgger: the numpy file drives
     student.export("runs/gru/policy", layout, scenario="generated")          # policies/recurrent.py
 
-``tin-swarm train --student gru`` runs it (:func:`~tin_swarm_env.apps.train.train_student`).
+``tin-swarm train --student gru`` runs it (:func:`~tin_swarm_env.training.student.train_student`).
 
 **The network** is the recurrent policy file's (:mod:`tin_swarm_env.policies.recurrent`, cell
 ``"gru"``): ``torch.nn.GRU`` with one layer (its weights in torch's layout are the file's
@@ -18,7 +18,7 @@ the same cell, one fed the observations and one their mirror images, their head 
 with ``vy`` of the mirrored one negated, so the student is mirror-equivariant over whole histories.
 
 **Memory per robot, as in the file.** A robot's hidden state starts at zero at the episode's first
-step and runs over every step of the episode (:class:`~tin_swarm_env.apps.imitation.Sequence`);
+step and runs over every step of the episode (:class:`~tin_swarm_env.training.imitation.Sequence`);
 the loss is the mean squared error of the head's output (before the clip) against the teacher's
 label clipped to [-1, 1], over the kept steps only (live and not stalled). Each minibatch is a piece of
 :data:`CHUNK` consecutive steps of one episode (all its robots), started from the state the episode's
@@ -43,7 +43,7 @@ policy file), fitted the same way.
 **Feedback** (``feedback="action"``, the file's ``"network.feedback"``): the GRU also reads the
 action the file commanded at the robot's previous step (``(0, 0)`` at the first), so a sampled
 side can be kept. ``forward(x, prev)`` takes it as ``prev (T, B, 2)``; :func:`fit_sequences`
-builds it from :attr:`Sequence.driven <tin_swarm_env.apps.imitation.Sequence>` shifted one step
+builds it from :attr:`Sequence.driven <tin_swarm_env.training.imitation.Sequence>` shifted one step
 (the command that drove step ``t - 1``; with a categorical head snapped to the nearest class, as the
 file only ever commands a class: the teacher's actions in BC data are not classes). With ``signs``
 the mirrored stream reads the mirrored previous action (``vy`` negated), so equivariance over whole
@@ -53,21 +53,21 @@ histories still holds exactly.
 which side of a boundary it follows (:class:`~tin_swarm_env.policies.apf.BugMemory` ``side``: -1, 0, +1),
 and that memory decides when it turns back; the action's likelihood only says what to do this step. A
 student with ``aux_weight`` has a second, linear read-out of the GRU's output: 3 logits for the side the
-teacher follows at that step (:attr:`Sequence.aux <tin_swarm_env.apps.imitation.Sequence>`, recorded by
-:func:`~tin_swarm_env.apps.imitation.collect` from APF's memory), fitted by cross-entropy beside the
+teacher follows at that step (:attr:`Sequence.aux <tin_swarm_env.training.imitation.Sequence>`, recorded by
+:func:`~tin_swarm_env.training.imitation.collect` from APF's memory), fitted by cross-entropy beside the
 action, the loss per kept sample ``action loss + aux_weight * side cross-entropy``. The side must then be
 linearly readable from the state the head reads, so the GRU is taught to carry it. With ``signs`` the
 mirrored stream's side logits are taken in reverse order (the mirror swaps left and right), so the side
 read-out is mirror-equivariant too. The read-out is not part of the policy file: :meth:`policy` and
 :meth:`export` write the cell and the action head only, so the exported file acts exactly as the torch
-student's action output (``tests/apps/test_recurrent_imitation.py``); the auxiliary loss changes the
+student's action output (``tests/training/test_recurrent_imitation.py``); the auxiliary loss changes the
 file only through the weights it trained. A sequence without ``aux`` (a teacher without that memory)
 adds nothing to the loss.
 
 **DAgger** drives with :meth:`GRUStudent.policy`, the numpy
 :class:`~tin_swarm_env.policies.recurrent.RecurrentPolicy` built from the current weights: the
 learner that collects is the file that ships (its memory reset with every episode), and the
-teacher labels the states it visits (apps/imitation.py).
+teacher labels the states it visits (training/imitation.py).
 """
 
 from __future__ import annotations
@@ -264,7 +264,7 @@ def GRUStudent(obs_size: int, hidden: int = 64, head=(64,), signs=None, seed: in
 
 
 def previous_actions(q, T: int, classes=None) -> np.ndarray:
-    """``(T, n, 2)`` float32: the feedback of a :class:`~tin_swarm_env.apps.imitation.Sequence`'s
+    """``(T, n, 2)`` float32: the feedback of a :class:`~tin_swarm_env.training.imitation.Sequence`'s
     first ``T`` steps, ``q.driven`` shifted one step (zero at step 0), clipped to [-1, 1] and, with
     ``classes``, snapped to the nearest class action (module docstring)."""
     if q.driven is None:
@@ -294,7 +294,7 @@ def _aux_target(q):
 
 def sequence_loss(student, q, T: int | None = None, h0=None, start: int = 0, parts: bool = False):
     """The per-sample loss of ``student`` on steps ``start .. start + T`` of a
-    :class:`~tin_swarm_env.apps.imitation.Sequence` from the cell state ``h0``: ``(err, h)``, ``err`` the
+    :class:`~tin_swarm_env.training.imitation.Sequence` from the cell state ``h0``: ``(err, h)``, ``err`` the
     kept samples' losses (squared error over the 2 components / 2, or the cross-entropy of the class
     nearest the label; with the side read-out and ``q.aux``, plus ``aux_weight`` times the side's
     cross-entropy) in step-robot order, ``h`` the state after the last step. ``parts``: ``(act, side,
@@ -331,7 +331,7 @@ def sequence_loss(student, q, T: int | None = None, h0=None, start: int = 0, par
 
 def side_logits(student, q) -> np.ndarray:
     """``(T, n, 3)`` float64: ``student``'s side read-out (:data:`SIDES` order) over the whole
-    :class:`~tin_swarm_env.apps.imitation.Sequence` ``q`` from a zero state (every step, kept or not)."""
+    :class:`~tin_swarm_env.training.imitation.Sequence` ``q`` from a zero state (every step, kept or not)."""
     torch = _torch()
     if getattr(student, "aux", None) is None:
         raise ArgumentError("side_logits: the student has no side read-out (GRUStudent(aux_weight=...) > 0)")
@@ -345,7 +345,7 @@ def side_logits(student, q) -> np.ndarray:
 def fit_sequences(student, sequences, *, epochs: int = 10, lr: float = 1e-3, seed: int = 0,
                   chunk: int | None = None, callback=None) -> float:
     """Fit ``student`` (:func:`GRUStudent`) to the teacher's labels of ``sequences``
-    (:class:`~tin_swarm_env.apps.imitation.Sequence`; module docstring): Adam, episodes shuffled each
+    (:class:`~tin_swarm_env.training.imitation.Sequence`; module docstring): Adam, episodes shuffled each
     epoch. ``chunk`` None: :data:`CHUNK` (read at the call); 0: one step per episode, the gradient
     through the whole episode; > 0 (truncated backpropagation): the episode's steps in consecutive
     pieces of ``chunk`` steps, one Adam step per piece that holds a kept sample, each piece started

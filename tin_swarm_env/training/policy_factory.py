@@ -1,7 +1,6 @@
-"""Policies by name for the apps: ``"apf"``, ``"apf-chart"`` (APF with the chart search instead of
-the bug search), ``"random"``, ``"geodesic"`` (the map-knowing reference), a pickle-free policy
-directory, or
-(only with ``trust_pickle``) a saved Stable-Baselines3 ``.zip``."""
+"""Policies by name, for the commands and the training library: ``"apf"``, ``"apf-chart"`` (APF
+with the chart search instead of the bug search), ``"random"``, ``"geodesic"`` (the map-knowing
+reference), a pickle-free policy directory, or (only with ``trust_pickle``) a saved Stable-Baselines3 ``.zip``."""
 
 from __future__ import annotations
 

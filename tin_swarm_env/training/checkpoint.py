@@ -19,7 +19,7 @@ pickle anywhere):
 
 Resuming reads every file of every checkpoint and checks it before anything is built or written:
 each file's size, a JSON file's nesting depth before it is parsed, every key of ``state.json``
-(type, range, length) and of ``args.json`` (the :class:`~tin_swarm_env.apps.train.Args` checks),
+(type, range, length) and of ``args.json`` (the :class:`~tin_swarm_env.training.config.Args` checks),
 ``run`` against the run being resumed, each array's dtype and shape (from its header, before it is
 read) against the network the arguments build, and that every number is finite. Anything wrong is
 one :class:`~tin_swarm_env.errors.CheckpointError` naming the file, the key, what was found and what
@@ -130,7 +130,7 @@ def write_args(out: Path, args_dict: dict) -> None:
 def read_args(run: Path) -> dict:
     """The saved arguments of the run directory ``run`` as a JSON object (size and depth checked
     before parsing); :class:`CheckpointError` naming the file otherwise. The values are checked by
-    the caller (:class:`~tin_swarm_env.apps.train.Args`)."""
+    the caller (:class:`~tin_swarm_env.training.config.Args`)."""
     run = Path(run)
     p = run / ARGS_FILE
     if not run.is_dir():

@@ -23,8 +23,8 @@ ROOT = Path(__file__).resolve().parents[2]
 # one (its model already in the .part directory, not yet renamed) it kills itself with SIGKILL
 KILLED_RUN = """
 import os, signal, sys
-import tin_swarm_env.apps.checkpoint as C
-import tin_swarm_env.apps.train as T
+import tin_swarm_env.training.checkpoint as C
+import tin_swarm_env.training.sb3 as T
 
 real, calls = C.write_checkpoint, []
 
@@ -100,7 +100,7 @@ TINY = dict(scenario="flat", n_robots=2, n_envs=1, max_cycles=20, total_timestep
 def tiny_run(tmp_path_factory):
     """A real run directory: args.json and two checkpoints (step_32, step_64) of a tiny PPO run."""
     pytest.importorskip("stable_baselines3")
-    import tin_swarm_env.apps.train as T
+    import tin_swarm_env.training.sb3 as T
 
     run = tmp_path_factory.mktemp("tiny") / "run"
     T.train(T.Args(**TINY, out_dir=str(run)))
@@ -364,10 +364,10 @@ def _swaps(doc):
 def test_every_key_of_state_json_swapped_for_another_type_is_refused_naming_it(tiny_run):
     """Not drawn at random: every place in a real state.json, each replaced by a value of every other
     JSON kind, is refused by the schema check with the file and a key on the way to it."""
-    import tin_swarm_env.apps.train as T
+    import tin_swarm_env.training.config as T
     from tin_swarm_env import parallel_env
-    from tin_swarm_env.apps.checkpoint import check_state
     from tin_swarm_env.errors import CheckpointError
+    from tin_swarm_env.training.checkpoint import check_state
 
     p = tiny_run / "checkpoints" / "step_64" / "state.json"
     doc = json.loads(p.read_text())
@@ -387,9 +387,9 @@ def test_every_key_of_state_json_swapped_for_another_type_is_refused_naming_it(t
 
 
 def test_every_key_of_args_json_swapped_for_another_type_is_refused_naming_it(tiny_run, tmp_path):
-    import tin_swarm_env.apps.train as T
-    from tin_swarm_env.apps.args import option_name
+    import tin_swarm_env.training.config as T
     from tin_swarm_env.errors import CheckpointError
+    from tin_swarm_env.options import option_name
 
     doc = json.loads((tiny_run / "args.json").read_text())
     run = tmp_path / "run"
@@ -397,7 +397,7 @@ def test_every_key_of_args_json_swapped_for_another_type_is_refused_naming_it(ti
     for lab, new in _swaps(doc):
         (run / "args.json").write_text(json.dumps(new))
         with pytest.raises(CheckpointError) as ei:
-            T._resumed(T.Args(resume=str(run)))
+            T.resumed(T.Args(resume=str(run)))
         key = lab.split("=")[0]
         assert str(run / "args.json") in str(ei.value), (lab, ei.value)
         assert f"'{key}'" in str(ei.value) or option_name(key) in str(ei.value), (lab, ei.value)

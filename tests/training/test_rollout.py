@@ -1,4 +1,4 @@
-"""The one episode loop (apps/rollout.py): a standstill times every robot out with the exact idle
+"""The one episode loop (training/rollout.py): a standstill times every robot out with the exact idle
 drain, and the outcome agrees with the dict API's infos and rewards."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import numpy as np
 
 import tin_swarm_env as tse
 from tin_swarm_env import Reason
-from tin_swarm_env.apps.rollout import rollout
+from tin_swarm_env.training.rollout import rollout
 
 
 class Standstill:
@@ -51,7 +51,7 @@ def test_rollout_agrees_with_the_dict_api_infos():
 
 
 def test_summary_counts_every_ending_and_the_median_arrival_step():
-    from tin_swarm_env.apps.rollout import Outcome
+    from tin_swarm_env.training.rollout import Outcome
 
     z = np.zeros(6)
     o = Outcome(seed=0, reasons=np.array([1, 1, 1, 2, 3, 4], np.int8), steps=np.array([10, 30, 20, 5, 9, 50]),

@@ -1,4 +1,4 @@
-"""APF as the DAgger teacher along the student's trajectory (tin_swarm_env/apps/apf_teacher.py): its
+"""APF as the DAgger teacher along the student's trajectory (tin_swarm_env/training/apf_teacher.py): its
 odometry follows the command that moved the robot, it takes the side of a boundary the student drives
 along, it is APF exactly when the student is APF, and it is mirror-equivariant over an episode."""
 
@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
-from tin_swarm_env.apps.apf_teacher import ADOPT, StudentAPF
-from tin_swarm_env.apps.imitation import collect
 from tin_swarm_env.env.observation import mirror_action
 from tin_swarm_env.errors import ArgumentError
 from tin_swarm_env.policies import APFPolicy
+from tin_swarm_env.training.apf_teacher import ADOPT, StudentAPF
+from tin_swarm_env.training.imitation import collect
 
 R = 60.0
 CLIFF = (5.0, 0.0, -1.0, 0.0, 50.0)  # a cliff edge 5 m ahead, running across the way
