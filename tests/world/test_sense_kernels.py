@@ -297,3 +297,43 @@ def test_deep_inside_means_the_sight_start_search_keeps_the_triangle(random_tin)
                 f = min(1e-6 / math.hypot(dx, dy), 1e-3)
                 assert SK.locate1(T, x + dx * f, y + dy * f, int(t)) == t
     assert deep_seen > 150
+
+
+_SORT = []
+
+
+def _sort_contacts():
+    """A compiled caller of the inline ``sort_contacts`` (made once)."""
+    if not _SORT:
+        from tin_swarm_env.world.sense_kernels import sort_contacts
+
+        @numba.njit
+        def run(d, s, c, p0, m):
+            sort_contacts(d, s, c, p0, m)
+
+        _SORT.append(run)
+    return _SORT[0]
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 120), st.integers(0, 2 ** 31), st.integers(1, 6))
+def test_sort_contacts_orders_by_distance_then_index(m, seed, levels):
+    """Insertion below SORT_BY_INSERTION, a merge sort above: both the (distance, index) order of
+    np.lexsort, with many ties (distances drawn from a few levels), the rows before p0 untouched."""
+    from tin_swarm_env.world.sense_kernels import SORT_BY_INSERTION
+
+    run = _sort_contacts()
+    rng = np.random.default_rng(seed)
+    p0 = 3
+    d = np.concatenate([[9.0, 8.0, 7.0], rng.integers(0, levels, m) * 0.5])
+    s = np.concatenate([[5, 4, 3], np.sort(rng.choice(10 * m + 10, m, replace=False))]).astype(np.int64)
+    c = rng.normal(size=(m + p0, 2))
+    c[p0:, 0] = s[p0:]  # a point that travels with its segment
+    order = np.lexsort((s[p0:], d[p0:]))
+    want_d, want_s = d[p0:][order], s[p0:][order]
+    run(d, s, c, p0, m)
+    np.testing.assert_array_equal(d[p0:], want_d)
+    np.testing.assert_array_equal(s[p0:], want_s)
+    np.testing.assert_array_equal(c[p0:, 0], want_s)
+    assert d[:p0].tolist() == [9.0, 8.0, 7.0] and s[:p0].tolist() == [5, 4, 3]
+    assert SORT_BY_INSERTION < 120  # both branches are drawn

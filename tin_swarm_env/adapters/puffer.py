@@ -98,7 +98,8 @@ def puffer_env_class():
     global _CLASS
     if _CLASS is not None:
         return _CLASS
-    pufferlib = require("pufferlib", "puffer", "The PufferLib adapter")
+    require("pufferlib", "puffer", "The PufferLib adapter")
+    import pufferlib
     import pufferlib.spaces  # noqa: F401
 
     from ..env.vector import VectorEnv

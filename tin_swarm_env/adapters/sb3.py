@@ -69,135 +69,133 @@ def make_sb3_vec_env(scenario="cliff_goal", n_robots=None, n_envs=1, seed=0, shi
 _CLASS = None
 
 
+class _VecEnvBody:
+    """The body of ``TinSwarmVecEnv`` (the module docstring), mixed into SB3's ``VecEnv`` by
+    :func:`vec_class` (it can only derive from ``VecEnv`` once SB3 is imported)."""
+
+    def __init__(self, scenario="cliff_goal", n_robots=None, n_envs=1, seed=0, shield="none", **env_kwargs):
+        from ..env.checks import ENV_ARGS, check_env_kwargs, check_seed
+        from ..env.vector import VectorEnv
+        from ..errors import check_range
+        from ..policies.base import SafetyShield
+        from ..policies.learned import SHIELDS
+
+        check_range("make_sb3_vec_env", "n_envs", n_envs, 1, integer=True, exc=ArgumentError)
+        check_seed(seed, "make_sb3_vec_env")
+        check_env_kwargs(env_kwargs, "make_sb3_vec_env", tuple(a for a in ENV_ARGS if a not in ("scenario",
+                                                                                              "n_robots")))
+        if isinstance(scenario, (list, tuple)) and not scenario:
+            raise ArgumentError("make_sb3_vec_env: scenario is an empty list; give a name, a path or a list of them")
+        if shield not in SHIELDS:
+            raise ArgumentError(f"shield must be one of {list(SHIELDS)}, got {shield!r}")
+        mix = [scenario] if isinstance(scenario, str) or not hasattr(scenario, "__len__") else list(scenario)
+        env_kwargs = {k: v for k, v in env_kwargs.items() if not (k == "render_mode" and v is None)}
+        self.vec = VectorEnv(mix, n_envs=n_envs, n_robots=n_robots, seed=seed, **env_kwargs)
+        self.envs = self.vec.copies()  # one view per copy (config, layout, steps, live_mask, reset_arrays)
+        self.n_robots = self.vec.n_robots
+        self.n_copies = n_envs
+        self.shield = shield
+        # the shield of each scenario of the mix, over the rows of its copies (one call per scenario)
+        scen_of_row = np.repeat(self.vec.copy_scenario, self.n_robots)
+        self._shields = None if shield != "safety_cut" else [
+            (SafetyShield(p), scen_of_row == k) for k, p in enumerate(self.vec._protos)]
+        super().__init__(n_envs * self.n_robots, self.vec.single_observation_space, self.vec.single_action_space)
+        self.render_mode = None
+        self._seed = seed
+        self._actions = None
+        self._obs = None
+        self._ep_ret = np.zeros(self.num_envs)
+        self._ep_len = np.zeros(self.num_envs, dtype=np.int64)
+
+    # -- VecEnv interface ----------------------------------------------------------------
+    def seed(self, seed=None):
+        """The next :meth:`reset` restarts the copies' seed streams from ``seed``
+        (:func:`~tin_swarm_env.env.vector.copy_seed_stream`); None: they continue."""
+        self._seed = seed
+        return [seed] * self.n_copies
+
+    def reset(self):
+        obs = self.vec.reset(seed=self._seed).reshape(self.num_envs, -1)
+        self._seed = None
+        self._ep_ret[:] = 0
+        self._ep_len[:] = 0
+        self._obs = obs
+        self.reset_infos = [{} for _ in range(self.num_envs)]
+        return obs.copy()
+
+    def step_async(self, actions):
+        from ..env.checks import float_array
+
+        self._actions = float_array(np.reshape(actions, (self.num_envs, -1)) if np.size(actions) == 2 * self.num_envs
+                                    else actions, "step_async(actions)", (self.num_envs, 2), finite=False)
+
+    def _shielded(self, act):
+        if self._shields is None:
+            return act
+        out = np.array(act, dtype=np.float32)
+        for sh, rows in self._shields:
+            out[rows] = sh(act[rows], self._obs[rows])
+        return out
+
+    def step_wait(self):
+        E, N = self.n_copies, self.n_robots
+        live_before = self.vec._live.copy()
+        act = self._shielded(self._actions)
+        o, r, term, trunc, info = self.vec.step(np.reshape(act, (E, N, 2)))
+        obs = o.reshape(self.num_envs, -1)
+        rewards = np.where(live_before, r.reshape(-1), np.float32(0.0)).astype(np.float32)
+        term, trunc = term.reshape(-1), trunc.reshape(-1)
+        ended = term | trunc
+        self._ep_ret += rewards
+        self._ep_len += live_before
+        infos = [{} for _ in range(self.num_envs)]
+        final = np.repeat(info["_final"], N)
+        last = np.where(final[:, None], info["final_obs"].reshape(self.num_envs, -1), obs)
+        reasons = info["reasons"].reshape(-1)
+        for j in np.flatnonzero(ended).tolist():
+            infos[j] = {"terminal_observation": last[j].copy(), "TimeLimit.truncated": bool(trunc[j]),
+                        "episode": {"r": float(self._ep_ret[j]), "l": int(self._ep_len[j])},
+                        "reason": Reason(int(reasons[j])).label}
+        self._ep_ret[ended] = 0
+        self._ep_len[ended] = 0
+        obs = np.where((ended & ~final)[:, None], np.float32(0.0), obs)  # frozen until the copy resets
+        self._obs = obs
+        return obs.copy(), rewards, ended, infos
+
+    def close(self):
+        self.vec.close()
+
+    def get_images(self):
+        return [None for _ in self.envs]
+
+    def render(self, mode=None):
+        return None
+
+    def get_attr(self, attr_name, indices=None):
+        return [getattr(self.envs[self._copy(i)], attr_name) for i in self._get_indices(indices)]
+
+    def set_attr(self, attr_name, value, indices=None):
+        for c in {self._copy(i) for i in self._get_indices(indices)}:
+            setattr(self.envs[c], attr_name, value)
+
+    def env_method(self, method_name, *method_args, indices=None, **method_kwargs):
+        return [getattr(self.envs[self._copy(i)], method_name)(*method_args, **method_kwargs)
+                for i in self._get_indices(indices)]
+
+    def env_is_wrapped(self, wrapper_class, indices=None):
+        return [False for _ in self._get_indices(indices)]
+
+    def _copy(self, i):
+        return int(i) // self.n_robots
+
+
+
 def vec_class():
-    """The ``TinSwarmVecEnv`` class, made on first use. Long because it is the whole class body:
-    the class derives from SB3's ``VecEnv``, so it can only be defined once SB3 is imported."""
+    """The ``TinSwarmVecEnv`` class (``_VecEnvBody`` over SB3's ``VecEnv``), made on first use."""
     global _CLASS
-    if _CLASS is not None:
-        return _CLASS
-    VecEnv = _vecenv_base()
-
-    class TinSwarmVecEnv(VecEnv):
-        __doc__ = __doc__
-
-        def __init__(self, scenario="cliff_goal", n_robots=None, n_envs=1, seed=0, shield="none", **env_kwargs):
-            from ..env.checks import ENV_ARGS, check_env_kwargs, check_seed
-            from ..env.vector import VectorEnv
-            from ..errors import check_range
-            from ..policies.base import SafetyShield
-            from ..policies.learned import SHIELDS
-
-            check_range("make_sb3_vec_env", "n_envs", n_envs, 1, integer=True, exc=ArgumentError)
-            check_seed(seed, "make_sb3_vec_env")
-            check_env_kwargs(env_kwargs, "make_sb3_vec_env", tuple(a for a in ENV_ARGS if a not in ("scenario",
-                                                                                                  "n_robots")))
-            if isinstance(scenario, (list, tuple)) and not scenario:
-                raise ArgumentError("make_sb3_vec_env: scenario is an empty list; give a name, a path or a list of them")
-            if shield not in SHIELDS:
-                raise ArgumentError(f"shield must be one of {list(SHIELDS)}, got {shield!r}")
-            mix = [scenario] if isinstance(scenario, str) or not hasattr(scenario, "__len__") else list(scenario)
-            env_kwargs = {k: v for k, v in env_kwargs.items() if not (k == "render_mode" and v is None)}
-            self.vec = VectorEnv(mix, n_envs=n_envs, n_robots=n_robots, seed=seed, **env_kwargs)
-            self.envs = self.vec.copies()  # one view per copy (config, layout, steps, live_mask, reset_arrays)
-            self.n_robots = self.vec.n_robots
-            self.n_copies = n_envs
-            self.shield = shield
-            # the shield of each scenario of the mix, over the rows of its copies (one call per scenario)
-            scen_of_row = np.repeat(self.vec.copy_scenario, self.n_robots)
-            self._shields = None if shield != "safety_cut" else [
-                (SafetyShield(p), scen_of_row == k) for k, p in enumerate(self.vec._protos)]
-            super().__init__(n_envs * self.n_robots, self.vec.single_observation_space, self.vec.single_action_space)
-            self.render_mode = None
-            self._seed = seed
-            self._actions = None
-            self._obs = None
-            self._ep_ret = np.zeros(self.num_envs)
-            self._ep_len = np.zeros(self.num_envs, dtype=np.int64)
-
-        # -- VecEnv interface ----------------------------------------------------------------
-        def seed(self, seed=None):
-            """The next :meth:`reset` restarts the copies' seed streams from ``seed``
-            (:func:`~tin_swarm_env.env.vector.copy_seed_stream`); None: they continue."""
-            self._seed = seed
-            return [seed] * self.n_copies
-
-        def reset(self):
-            obs = self.vec.reset(seed=self._seed).reshape(self.num_envs, -1)
-            self._seed = None
-            self._ep_ret[:] = 0
-            self._ep_len[:] = 0
-            self._obs = obs
-            self.reset_infos = [{} for _ in range(self.num_envs)]
-            return obs.copy()
-
-        def step_async(self, actions):
-            from ..env.checks import float_array
-
-            self._actions = float_array(np.reshape(actions, (self.num_envs, -1)) if np.size(actions) == 2 * self.num_envs
-                                        else actions, "step_async(actions)", (self.num_envs, 2), finite=False)
-
-        def _shielded(self, act):
-            if self._shields is None:
-                return act
-            out = np.array(act, dtype=np.float32)
-            for sh, rows in self._shields:
-                out[rows] = sh(act[rows], self._obs[rows])
-            return out
-
-        def step_wait(self):
-            E, N = self.n_copies, self.n_robots
-            live_before = self.vec._live.copy()
-            act = self._shielded(self._actions)
-            o, r, term, trunc, info = self.vec.step(np.reshape(act, (E, N, 2)))
-            obs = o.reshape(self.num_envs, -1)
-            rewards = np.where(live_before, r.reshape(-1), np.float32(0.0)).astype(np.float32)
-            term, trunc = term.reshape(-1), trunc.reshape(-1)
-            ended = term | trunc
-            self._ep_ret += rewards
-            self._ep_len += live_before
-            infos = [{} for _ in range(self.num_envs)]
-            final = np.repeat(info["_final"], N)
-            last = np.where(final[:, None], info["final_obs"].reshape(self.num_envs, -1), obs)
-            reasons = info["reasons"].reshape(-1)
-            for j in np.flatnonzero(ended).tolist():
-                infos[j] = {"terminal_observation": last[j].copy(), "TimeLimit.truncated": bool(trunc[j]),
-                            "episode": {"r": float(self._ep_ret[j]), "l": int(self._ep_len[j])},
-                            "reason": Reason(int(reasons[j])).label}
-            self._ep_ret[ended] = 0
-            self._ep_len[ended] = 0
-            obs = np.where((ended & ~final)[:, None], np.float32(0.0), obs)  # frozen until the copy resets
-            self._obs = obs
-            return obs.copy(), rewards, ended, infos
-
-        def close(self):
-            self.vec.close()
-
-        def get_images(self):
-            return [None for _ in self.envs]
-
-        def render(self, mode=None):
-            return None
-
-        def get_attr(self, attr_name, indices=None):
-            return [getattr(self.envs[self._copy(i)], attr_name) for i in self._get_indices(indices)]
-
-        def set_attr(self, attr_name, value, indices=None):
-            for c in {self._copy(i) for i in self._get_indices(indices)}:
-                setattr(self.envs[c], attr_name, value)
-
-        def env_method(self, method_name, *method_args, indices=None, **method_kwargs):
-            return [getattr(self.envs[self._copy(i)], method_name)(*method_args, **method_kwargs)
-                    for i in self._get_indices(indices)]
-
-        def env_is_wrapped(self, wrapper_class, indices=None):
-            return [False for _ in self._get_indices(indices)]
-
-        def _copy(self, i):
-            return int(i) // self.n_robots
-
-    TinSwarmVecEnv.__name__ = TinSwarmVecEnv.__qualname__ = "TinSwarmVecEnv"
-    _CLASS = TinSwarmVecEnv
-    return TinSwarmVecEnv
+    if _CLASS is None:
+        _CLASS = type("TinSwarmVecEnv", (_VecEnvBody, _vecenv_base()), {"__doc__": __doc__})
+    return _CLASS
 
 
 _TORCH_ACTIVATIONS = {"Tanh": "tanh", "ReLU": "relu", "ELU": "elu", "LeakyReLU": "leaky_relu", "Identity": "identity"}

@@ -41,112 +41,125 @@ def make_torchrl_env(scenario="cliff_goal", *, n_envs: int = 1, n_robots: int | 
     return torch_env_class()(scenario, n_envs=n_envs, n_robots=n_robots, seed=seed, device=device, **env_kwargs)
 
 
-def torch_env_class():
-    """The ``TinSwarmTorchEnv`` class, made on first use (it derives from torchrl's ``EnvBase``)."""
-    global _CLASS
-    if _CLASS is not None:
-        return _CLASS
-    require("torchrl", "torchrl", "The TorchRL adapter")
-    import torch
-    from tensordict import TensorDict
-    from torchrl.data import Bounded, Categorical, Composite, Unbounded
-    from torchrl.envs import EnvBase
+class _TorchEnvBody:
+    """The body of ``TinSwarmTorchEnv``: the vector env as a torchrl ``EnvBase`` with ``batch_size
+    [E]`` (module docstring), mixed into ``EnvBase`` by :func:`torch_env_class`."""
 
-    from ..env.vector import VectorEnv
+    def __init__(self, scenario="cliff_goal", *, n_envs=1, n_robots=None, seed=None, device="cpu", **env_kwargs):
+        import torch
 
-    class TinSwarmTorchEnv(EnvBase):
-        """The vector env as a torchrl ``EnvBase`` with ``batch_size [E]`` (module docstring)."""
+        from ..env.vector import VectorEnv
 
-        def __init__(self, scenario="cliff_goal", *, n_envs=1, n_robots=None, seed=None, device="cpu", **env_kwargs):
-            self.vec = VectorEnv(scenario, n_envs=n_envs, n_robots=n_robots, seed=seed, autoreset=False,
-                                 **env_kwargs)
-            E, N, d = self.vec.n_envs, self.vec.n_robots, self.vec.layout.size
-            super().__init__(batch_size=torch.Size([E]), device=device)
-            self.n_robots = N
-            self.group_map = {"robot": [f"robot_{i}" for i in range(N)]}
-            self.max_cycles = int(self.vec._protos[0].max_cycles)
-            self.render_mode = None
-            en = (E, N)
-            self.observation_spec = Composite(
-                robot=Composite(observation=Bounded(-1.0, 1.0, en + (d,), dtype=torch.float32, device=device),
-                                mask=Categorical(2, en, dtype=torch.bool, device=device),
-                                info=Composite(distance_to_go_m=Unbounded(en, dtype=torch.float64, device=device),
-                                               reason=Unbounded(en, dtype=torch.int64, device=device), shape=en),
-                                shape=en),
-                shape=(E,), device=device)
-            self.action_spec = Composite(
-                robot=Composite(action=Bounded(-1.0, 1.0, en + (2,), dtype=torch.float32, device=device), shape=en),
-                shape=(E,), device=device)
-            self.reward_spec = Composite(
-                robot=Composite(reward=Unbounded(en + (1,), dtype=torch.float32, device=device), shape=en),
-                shape=(E,), device=device)
-            flag = Categorical(2, (E, 1), dtype=torch.bool, device=device)
-            rflag = Categorical(2, en + (1,), dtype=torch.bool, device=device)
-            self.done_spec = Composite(
-                done=flag.clone(), terminated=flag.clone(), truncated=flag.clone(),
-                robot=Composite(done=rflag.clone(), terminated=rflag.clone(), truncated=rflag.clone(), shape=en),
-                shape=(E,), device=device)
-            self._rterm = np.zeros(en, dtype=bool)  # sticky per-robot flags until the copy resets
-            self._rtrunc = np.zeros(en, dtype=bool)
-            self._reason = np.zeros(en, dtype=np.int64)
+        self.vec = VectorEnv(scenario, n_envs=n_envs, n_robots=n_robots, seed=seed, autoreset=False,
+                             **env_kwargs)
+        E, N = self.vec.n_envs, self.vec.n_robots
+        super().__init__(batch_size=torch.Size([E]), device=device)
+        self.n_robots = N
+        self.group_map = {"robot": [f"robot_{i}" for i in range(N)]}
+        self.max_cycles = int(self.vec._protos[0].max_cycles)
+        self.render_mode = None
+        self._specs(E, N, self.vec.layout.size, device)
+        self._rterm = np.zeros((E, N), dtype=bool)  # sticky per-robot flags until the copy resets
+        self._rtrunc = np.zeros((E, N), dtype=bool)
+        self._reason = np.zeros((E, N), dtype=np.int64)
+        self._started = False
+
+    def _specs(self, E, N, d, device):
+        import torch
+        from torchrl.data import Bounded, Categorical, Composite, Unbounded
+
+        en = (E, N)
+        self.observation_spec = Composite(
+            robot=Composite(observation=Bounded(-1.0, 1.0, en + (d,), dtype=torch.float32, device=device),
+                            mask=Categorical(2, en, dtype=torch.bool, device=device),
+                            info=Composite(distance_to_go_m=Unbounded(en, dtype=torch.float64, device=device),
+                                           reason=Unbounded(en, dtype=torch.int64, device=device), shape=en),
+                            shape=en),
+            shape=(E,), device=device)
+        self.action_spec = Composite(
+            robot=Composite(action=Bounded(-1.0, 1.0, en + (2,), dtype=torch.float32, device=device), shape=en),
+            shape=(E,), device=device)
+        self.reward_spec = Composite(
+            robot=Composite(reward=Unbounded(en + (1,), dtype=torch.float32, device=device), shape=en),
+            shape=(E,), device=device)
+        flag = Categorical(2, (E, 1), dtype=torch.bool, device=device)
+        rflag = Categorical(2, en + (1,), dtype=torch.bool, device=device)
+        self.done_spec = Composite(
+            done=flag.clone(), terminated=flag.clone(), truncated=flag.clone(),
+            robot=Composite(done=rflag.clone(), terminated=rflag.clone(), truncated=rflag.clone(), shape=en),
+            shape=(E,), device=device)
+
+    def _t(self, a, dtype=None):
+        """A tensor of its own (never a view of the env's arrays, which the next reset or step changes)."""
+        import torch
+
+        return torch.as_tensor(np.array(a, copy=True), device=self.device, dtype=dtype)
+
+    def _td(self, obs, extra: dict):
+        import torch
+        from tensordict import TensorDict
+
+        v = self.vec
+        live = v._live.reshape(v.n_envs, v.n_robots)
+        en = live.shape
+        info = TensorDict({"distance_to_go_m": self._t(v.distance_to_go()), "reason": self._t(self._reason)},
+                          batch_size=en, device=self.device)
+        robot = TensorDict({"observation": self._t(obs, torch.float32), "mask": self._t(live), "info": info,
+                            "done": self._t(~live[..., None]), "terminated": self._t(self._rterm[..., None]),
+                            "truncated": self._t(self._rtrunc[..., None]), **extra}, batch_size=en,
+                           device=self.device)
+        done = ~live.any(axis=1, keepdims=True)
+        trunc = done & self._rtrunc.any(axis=1, keepdims=True)
+        return TensorDict({"robot": robot, "done": self._t(done), "terminated": self._t(done & ~trunc),
+                           "truncated": self._t(trunc)}, batch_size=self.batch_size, device=self.device)
+
+    def _reset(self, tensordict=None, **kwargs):
+        v = self.vec
+        mask = None
+        if tensordict is not None and "_reset" in tensordict.keys():
+            mask = tensordict["_reset"].reshape(v.n_envs).cpu().numpy().astype(bool)
+        if not self._started or mask is None:
+            self._obs = v.reset()
+            self._started = True
+            mask = np.ones(v.n_envs, dtype=bool)
+        else:
+            for c in np.flatnonzero(mask).tolist():
+                self._obs[c] = v.reset_copy(c)
+        self._rterm[mask] = False
+        self._rtrunc[mask] = False
+        self._reason[mask] = 0
+        return self._td(self._obs, {})
+
+    def _step(self, tensordict):
+        import torch
+
+        v = self.vec
+        a = tensordict["robot", "action"].detach().cpu().numpy()
+        obs, rew, term, trunc, info = v.step(a)
+        self._obs = obs
+        self._rterm |= term
+        self._rtrunc |= trunc
+        ended = term | trunc
+        self._reason[ended] = info["reasons"][ended]
+        return self._td(obs, {"reward": self._t(rew[..., None], torch.float32)})
+
+    def _set_seed(self, seed):
+        if seed is not None:
+            self.vec._seed_streams(int(seed))
             self._started = False
+        return seed
 
-        def _t(self, a, dtype=None):
-            """A tensor of its own (never a view of the env's arrays, which the next reset or step changes)."""
-            return torch.as_tensor(np.array(a, copy=True), device=self.device, dtype=dtype)
 
-        def _td(self, obs, extra: dict):
-            v = self.vec
-            live = v._live.reshape(v.n_envs, v.n_robots)
-            en = live.shape
-            info = TensorDict({"distance_to_go_m": self._t(v.distance_to_go()), "reason": self._t(self._reason)},
-                              batch_size=en, device=self.device)
-            robot = TensorDict({"observation": self._t(obs, torch.float32), "mask": self._t(live), "info": info,
-                                "done": self._t(~live[..., None]), "terminated": self._t(self._rterm[..., None]),
-                                "truncated": self._t(self._rtrunc[..., None]), **extra}, batch_size=en,
-                               device=self.device)
-            done = ~live.any(axis=1, keepdims=True)
-            trunc = done & self._rtrunc.any(axis=1, keepdims=True)
-            return TensorDict({"robot": robot, "done": self._t(done), "terminated": self._t(done & ~trunc),
-                               "truncated": self._t(trunc)}, batch_size=self.batch_size, device=self.device)
 
-        def _reset(self, tensordict=None, **kwargs):
-            v = self.vec
-            mask = None
-            if tensordict is not None and "_reset" in tensordict.keys():
-                mask = tensordict["_reset"].reshape(v.n_envs).cpu().numpy().astype(bool)
-            if not self._started or mask is None:
-                self._obs = v.reset()
-                self._started = True
-                mask = np.ones(v.n_envs, dtype=bool)
-            else:
-                for c in np.flatnonzero(mask).tolist():
-                    self._obs[c] = v.reset_copy(c)
-            self._rterm[mask] = False
-            self._rtrunc[mask] = False
-            self._reason[mask] = 0
-            return self._td(self._obs, {})
+def torch_env_class():
+    """The ``TinSwarmTorchEnv`` class (``_TorchEnvBody`` over torchrl's ``EnvBase``), made on first use."""
+    global _CLASS
+    if _CLASS is None:
+        require("torchrl", "torchrl", "The TorchRL adapter")
+        from torchrl.envs import EnvBase
 
-        def _step(self, tensordict):
-            v = self.vec
-            a = tensordict["robot", "action"].detach().cpu().numpy()
-            obs, rew, term, trunc, info = v.step(a)
-            self._obs = obs
-            self._rterm |= term
-            self._rtrunc |= trunc
-            ended = term | trunc
-            self._reason[ended] = info["reasons"][ended]
-            return self._td(obs, {"reward": self._t(rew[..., None], torch.float32)})
-
-        def _set_seed(self, seed):
-            if seed is not None:
-                self.vec._seed_streams(int(seed))
-                self._started = False
-            return seed
-
-    TinSwarmTorchEnv.__qualname__ = "TinSwarmTorchEnv"
-    _CLASS = TinSwarmTorchEnv
-    return TinSwarmTorchEnv
+        _CLASS = type("TinSwarmTorchEnv", (_TorchEnvBody, EnvBase), {"__doc__": _TorchEnvBody.__doc__})
+    return _CLASS
 
 
 def __getattr__(name):

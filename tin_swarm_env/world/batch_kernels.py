@@ -32,10 +32,12 @@ from .sense_kernels import (
     _mutual,
     _near_row,
     _offsets,
+    _put,
     _touches,
     deep_inside,
     in_view,
     sight1,
+    sort_contacts,
 )
 from .step_kernel import _max0
 
@@ -344,18 +346,9 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
             e = bitems[v] if gridded else v
             cx, cy, d = _closest(px[i], py[i], bax[e], bay[e], bbx[e], bby[e])
             if d <= range_m:
-                p = p0 + m
-                while p > p0 and (dist[p - 1] > d or (dist[p - 1] == d and seg[p - 1] > e)):
-                    dist[p] = dist[p - 1]
-                    seg[p] = seg[p - 1]
-                    closest[p, 0] = closest[p - 1, 0]
-                    closest[p, 1] = closest[p - 1, 1]
-                    p -= 1
-                dist[p] = d
-                seg[p] = e
-                closest[p, 0] = cx
-                closest[p, 1] = cy
+                _put(dist, seg, closest, p0 + m, d, e, cx, cy)
                 m += 1
+        sort_contacts(dist, seg, closest, p0, m)
         for p in range(p0, p0 + m):
             obs[p] = i
     rows = np.empty(n, dtype=np.int64)

@@ -396,18 +396,9 @@ def sense_pass2(T, px, py, head, tri, sz, active, G, range_m, check_los, R, B, b
             e = bitems[w] if cell >= 0 else w
             cx, cy, d = _closest(px[i], py[i], bax[e], bay[e], bbx[e], bby[e])
             if d <= range_m:
-                p = p0 + m  # insertion by (distance, index)
-                while p > p0 and (dist[p - 1] > d or (dist[p - 1] == d and seg[p - 1] > e)):
-                    dist[p] = dist[p - 1]
-                    seg[p] = seg[p - 1]
-                    closest[p, 0] = closest[p - 1, 0]
-                    closest[p, 1] = closest[p - 1, 1]
-                    p -= 1
-                dist[p] = d
-                seg[p] = e
-                closest[p, 0] = cx
-                closest[p, 1] = cy
+                _put(dist, seg, closest, p0 + m, d, e, cx, cy)
                 m += 1
+        sort_contacts(dist, seg, closest, p0, m)
         for p in range(p0, p0 + m):
             obs[p] = i
     # the robot contacts, compacted: rows counted and copied in parallel (row i by iteration i)
@@ -419,6 +410,47 @@ def sense_pass2(T, px, py, head, tri, sz, active, G, range_m, check_los, R, B, b
         if rows[i]:
             _copy_kept(r_idx, r_dist, r_vis, r_cnt, i, start[i], ro, rt, rd)
     return (obs, seg, dist, closest, off), (ro, rt, rd, start)
+
+
+@njit(cache=True, inline="always")
+def _put(dist, seg, closest, p, d, e, cx, cy):
+    dist[p] = d
+    seg[p] = e
+    closest[p, 0] = cx
+    closest[p, 1] = cy
+
+
+SORT_BY_INSERTION = 24  # contacts: fewer are sorted in place by insertion, more by a stable merge sort
+
+
+@njit(cache=True, inline="always")
+def sort_contacts(dist, seg, closest, p0, m):
+    """Order rows ``p0:p0 + m`` (one observer's break contacts, gathered in ascending segment
+    index) by (distance, index): a stable sort by distance, as the insertion the contacts were
+    once placed by. Insertion for a few; a merge sort (O(m log m)) for the many a robot meets
+    where breaks are dense (a generated terrain's: up to ~400 in range), which insertion sorted
+    in O(m^2)."""
+    if m < 2:
+        return
+    if m <= SORT_BY_INSERTION:
+        for q in range(p0 + 1, p0 + m):
+            d = dist[q]
+            e = seg[q]
+            cx = closest[q, 0]
+            cy = closest[q, 1]
+            p = q
+            while p > p0 and dist[p - 1] > d:
+                _put(dist, seg, closest, p, dist[p - 1], seg[p - 1], closest[p - 1, 0], closest[p - 1, 1])
+                p -= 1
+            _put(dist, seg, closest, p, d, e, cx, cy)
+        return
+    order = np.argsort(dist[p0:p0 + m], kind="mergesort")
+    d = dist[p0:p0 + m].copy()
+    e = seg[p0:p0 + m].copy()
+    c = closest[p0:p0 + m].copy()
+    for k in range(m):
+        j = order[k]
+        _put(dist, seg, closest, p0 + k, d[j], e[j], c[j, 0], c[j, 1])
 
 
 # -- terrain breaks ----------------------------------------------------------------------------
