@@ -337,3 +337,29 @@ def test_sort_contacts_orders_by_distance_then_index(m, seed, levels):
     np.testing.assert_array_equal(c[p0:, 0], want_s)
     assert d[:p0].tolist() == [9.0, 8.0, 7.0] and s[:p0].tolist() == [5, 4, 3]
     assert SORT_BY_INSERTION < 120  # both branches are drawn
+
+
+_FRONT = []
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 60), st.integers(0, 4), st.integers(0, 2 ** 31), st.integers(1, 5))
+def test_nearest_to_front_is_the_sorted_prefix_and_keeps_the_set(m, k, seed, levels):
+    if not _FRONT:
+        from tin_swarm_env.world.sense_kernels import nearest_to_front
+
+        @numba.njit
+        def run(d, s, c, p0, m, k):
+            nearest_to_front(d, s, c, p0, m, k)
+
+        _FRONT.append(run)
+    rng = np.random.default_rng(seed)
+    d = rng.integers(0, levels, m) * 0.25
+    s = rng.permutation(m).astype(np.int64) * 3
+    c = np.column_stack([s.astype(float), d])
+    want = np.lexsort((s, d))[:k]
+    d0, s0 = d.copy(), s.copy()
+    _FRONT[0](d, s, c, 0, m, k)
+    np.testing.assert_array_equal(s[:min(k, m)], s0[want])
+    np.testing.assert_array_equal(d[:min(k, m)], d0[want])
+    assert sorted(s.tolist()) == sorted(s0.tolist()) and np.array_equal(c[:, 0], s) and np.array_equal(c[:, 1], d)

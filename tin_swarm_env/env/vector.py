@@ -385,7 +385,8 @@ class VectorEnv:
         AS = ((np.ascontiguousarray(self._apos[:, 0]), np.ascontiguousarray(self._apos[:, 1]), self._az + eh,
                self._a_rng), self._slots[2])
         brk, (ro, rt, rd, rstart) = sense_copies(pk, self._wor, self._cop, self._off, px, py, self._head, tri_g, sz,
-                                                 active, present, sp, self._slots[0], TG, AS)
+                                                 active, present, sp, self._slots[0], TG, AS,
+                                                 k_front=self.layout.k_breaks)  # the slots read the nearest only
         tg = compact(*self._slots[1], px, py, self._head, TG[0][0], TG[0][1])
         at = compact(*self._slots[2], px, py, self._head, AS[0][0], AS[0][1])
         sin_slope, aspect_rad, slope_deg, _ = pk.tilt

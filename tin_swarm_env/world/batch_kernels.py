@@ -36,6 +36,7 @@ from .sense_kernels import (
     _touches,
     deep_inside,
     in_view,
+    nearest_to_front,
     sight1,
     sort_contacts,
 )
@@ -306,7 +307,7 @@ def _sense1(T0, wor, cop, margin, px, py, head, tri, sz, active, G, range_m, hal
 
 @njit(cache=True, parallel=True)
 def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, r_dist, r_vis, r_cnt, B, bcnt,
-            deep):
+            deep, k_front):
     bax, bay, bbx, bby, BX0, BY0, BINV, BNX, BNY, bstart, bitems, bs_off, b_off = B
     n = px.shape[0]
     off = _offsets(bcnt)
@@ -348,7 +349,10 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
             if d <= range_m:
                 _put(dist, seg, closest, p0 + m, d, e, cx, cy)
                 m += 1
-        sort_contacts(dist, seg, closest, p0, m)
+        if k_front < 0:
+            sort_contacts(dist, seg, closest, p0, m)
+        else:
+            nearest_to_front(dist, seg, closest, p0, m, k_front)
         for p in range(p0, p0 + m):
             obs[p] = i
     rows = np.empty(n, dtype=np.int64)
@@ -361,13 +365,15 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
     return (obs, seg, dist, closest, off), (ro, rt, rd, start)
 
 
-def sense_copies(pack, wor, cop, off, px, py, head, tri, sz, active, present, sensor, R, TG, AS):
+def sense_copies(pack, wor, cop, off, px, py, head, tri, sz, active, present, sensor, R, TG, AS, k_front=-1):
     """What every robot of every copy senses: ``(robots (observer, target, distance, start),
     breaks (observer, break, distance, closest, start), targets_rows, assets_rows)``, robot
     and break ids global; ``R``/``TG``/``AS`` the ``(idx, dist, vis, cnt)`` candidate slots
     (``cnt`` zeroed) and the entities ``(ex, ey, ez, rng (E, 2))`` of ``TG``/``AS`` (copy c's are
     ``rng[c, 0]:rng[c, 1]``), the slots of the targets and assets left for
-    :func:`~.sense_kernels.compact`."""
+    :func:`~.sense_kernels.compact`. ``k_front >= 0``: each robot's break contacts hold its
+    ``k_front`` nearest first, in (distance, index) order, and the rest in no order
+    (:func:`~.sense_kernels.nearest_to_front`; -1: all sorted)."""
     r = float(sensor.range_m)
     half_fov = math.radians(sensor.fov_deg) / 2 + 1e-12
     los = bool(sensor.check_los)
@@ -380,5 +386,5 @@ def sense_copies(pack, wor, cop, off, px, py, head, tri, sz, active, present, se
     B = pack.B
     _sense1(pack.T0, wor, cop, pack.margin, px, py, head, tri, sz, active, G, r, half_fov, math.cos(half_fov), los,
             *R, tx, ty, tz, t_rng, *t_slots, ax_, ay_, az_, a_rng, *a_slots, B, bcnt, deep)
-    return _sense2(pack.T0, wor, px, py, sz, tri, active, G[7], r, los, *R, B, bcnt, deep)
+    return _sense2(pack.T0, wor, px, py, sz, tri, active, G[7], r, los, *R, B, bcnt, deep, int(k_front))
 

@@ -453,6 +453,24 @@ def sort_contacts(dist, seg, closest, p0, m):
         _put(dist, seg, closest, p0 + k, d[j], e[j], c[j, 0], c[j, 1])
 
 
+@njit(cache=True, inline="always")
+def nearest_to_front(dist, seg, closest, p0, m, k):
+    """Rows ``p0:p0 + m``: the ``k`` smallest by (distance, index) moved to the front, in that order
+    (a selection, O(m k)); the rest keep no order. The first ``k`` rows are :func:`sort_contacts`'s,
+    for a reader of only those and of the set (the vector env's observation: ``k`` break slots and
+    the scan, which takes a minimum over the set)."""
+    for q in range(min(k, m)):
+        b = p0 + q
+        for r in range(p0 + q + 1, p0 + m):
+            if dist[r] < dist[b] or (dist[r] == dist[b] and seg[r] < seg[b]):
+                b = r
+        if b != p0 + q:
+            a = p0 + q
+            d, e, cx, cy = dist[a], seg[a], closest[a, 0], closest[a, 1]
+            _put(dist, seg, closest, a, dist[b], seg[b], closest[b, 0], closest[b, 1])
+            _put(dist, seg, closest, b, d, e, cx, cy)
+
+
 # -- terrain breaks ----------------------------------------------------------------------------
 
 @njit(cache=True)
