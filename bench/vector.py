@@ -16,10 +16,12 @@ the best of ``REPEATS`` runs. Then the memory of the vector env's state and buff
 what one step allocates per robot at two sizes (numpy allocations, traced: equal per robot at both
 sizes means nothing grows with E beyond the state and output arrays).
 
-Then end-to-end training (collection + update, ``--train-seconds`` each) on the generated mix,
-256 x 16, torch on one thread: SB3 PPO on the SB3 VecEnv and PufferLib's PPO (``pufferl.PuffeRL``)
+Then end-to-end training (collection + update, ``--train-seconds`` each) on jacksboro and on the
+generated mix, 256 x 16, torch on one thread: SB3 PPO on the SB3 VecEnv and PufferLib's PPO (``pufferl.PuffeRL``)
 on the PufferLib env, each with a 64-64 MLP and with the shipped 256-256 network, as robot-steps
-(environment samples) per second over the whole run. The table also goes to ``--out`` with the
+(environment samples) per second over the whole run. The PPO settings are throughput settings, not a
+recipe: 8 steps per sub-environment per rollout (4 096 sub-environments: 32 768 samples), one epoch,
+4 minibatches (SB3); PuffeRL with an 8-step horizon, minibatches of 8 192, one epoch. The table also goes to ``--out`` with the
 command and the load average.
 """
 
@@ -167,8 +169,8 @@ class _MLP:
         return MLP()
 
 
-def train_rates(seconds: float, E=256, N=16) -> dict:
-    """End-to-end training robot-steps/s: SB3 PPO and PufferLib's PPO, 64-64 and 256-256."""
+def train_rates(seconds: float, E=256, N=16, scenario="generated") -> dict:
+    """End-to-end training robot-steps/s on ``scenario``: SB3 PPO and PufferLib's PPO, 64-64 and 256-256."""
     import torch
     from stable_baselines3 import PPO
 
@@ -178,7 +180,7 @@ def train_rates(seconds: float, E=256, N=16) -> dict:
     torch.set_num_threads(1)
     out = {}
     for hidden in ((64, 64), (256, 256)):
-        vec = make_sb3_vec_env("generated", n_robots=N, n_envs=E, seed=0)
+        vec = make_sb3_vec_env(scenario, n_robots=N, n_envs=E, seed=0)
         model = PPO("MlpPolicy", vec, n_steps=8, batch_size=E * N * 8 // 4, n_epochs=1, device="cpu", seed=0,
                     policy_kwargs={"net_arch": list(hidden)})
         chunk = E * N * 8
@@ -193,7 +195,7 @@ def train_rates(seconds: float, E=256, N=16) -> dict:
         sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "agents"))
         from train_puffer import Args, config
 
-        pe = make_puffer_env("generated", n_envs=E, n_robots=N, seed=0)
+        pe = make_puffer_env(scenario, n_envs=E, n_robots=N, seed=0)
         pufferl.PuffeRL.print_dashboard = lambda *a, **k: None
         args = Args(n_envs=E, n_robots=N, horizon=8, minibatch_size=E * N * 2, update_epochs=1)
         tr = pufferl.PuffeRL(config(args, pe.num_agents), pe, _MLP(pe.single_observation_space.shape[0], hidden))
@@ -241,11 +243,13 @@ def main(steps: int, train_seconds: float, out: str | None, sizes=SIZES, quick: 
          f"traced), {per_small:.0f} at a quarter of the copies.")
     emit()
     te, tn = (4, 4) if quick else (256, 16)
-    emit(f"| training robot-steps/s, generated mix, {te} x {tn}, {train_seconds:g} s each | 64-64 MLP | 256-256 MLP |")
+    emit(f"| training robot-steps/s, {te} x {tn}, {train_seconds:g} s each, torch on 1 thread | 64-64 MLP "
+         "| 256-256 MLP |")
     emit("|---|---:|---:|")
-    tr = train_rates(train_seconds, te, tn)
-    for lib, name in (("sb3", "SB3 PPO (VecEnv)"), ("puffer", "PufferLib PPO (pufferl)")):
-        emit(f"| {name} | {tr[(lib, (64, 64))]:.3g} | {tr[(lib, (256, 256))]:.3g} |")
+    for scenario in SCENARIOS:
+        tr = train_rates(train_seconds, te, tn, scenario)
+        for lib, name in (("sb3", "SB3 PPO (VecEnv)"), ("puffer", "PufferLib PPO (pufferl)")):
+            emit(f"| {scenario}: {name} | {tr[(lib, (64, 64))]:.3g} | {tr[(lib, (256, 256))]:.3g} |")
     load = os.getloadavg()
     emit(f"\nLoad average at the end {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f}.")
     if out:
