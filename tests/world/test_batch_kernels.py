@@ -7,8 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import tin_swarm_env as tse
-from tin_swarm_env.world.batch_kernels import grid_build_copies, step_copies
-from tin_swarm_env.world.grid import grid_build
+from tin_swarm_env.world.batch_kernels import step_copies
+from tin_swarm_env.world.grid import grid_build, grid_build_copies
 from tin_swarm_env.world.pack import pack_worlds
 
 

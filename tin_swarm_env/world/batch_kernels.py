@@ -20,31 +20,30 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .grid import grid_cells, sense_cell
-from .locomotion import FELL_INTO, move1
+from .grid import grid_build_copies, grid_cells, sense_cell
+from .locomotion import move1
 from .sense_kernels import (
-    _break_cell,
-    _closest,
     _compact_out,
     _copy_kept,
     _insert,
     _kept,
-    _mutual,
     _near_row,
     _offsets,
-    _put,
     _touches,
+    break_range,
+    count_breaks,
     deep_inside,
+    gather_breaks,
     in_view,
-    nearest_to_front,
+    mark_out_of_view,
+    robot_sight,
     sight1,
-    sort_contacts,
 )
-from .step_kernel import _max0
+from .step_kernel import after_move
 
 __all__ = ["terrain_of", "grid_build_copies", "step_copies", "sense_copies"]
 
-_NONE, _FELL, _BATTERY = 0, 2, 3
+_NONE = 0  # state.Reason.NONE (numba reads plain ints)
 
 
 @njit(cache=True, inline="always")
@@ -55,81 +54,6 @@ def terrain_of(T0, w):
         e_off = T0
     return (vx, vy, vz, tris, nbrs, grad, bstart[bs_off[w]:bs_off[w + 1]], btris, bx0[w], by0[w], binv[w], bnx[w],
             bny[w], edges[e_off[w]:e_off[w + 1]], border[e_off[w]:e_off[w + 1]], tol[w], ztol[w], ms[w])
-
-
-@njit(cache=True)
-def grid_build_copies(x, y, use, off, min_cell):
-    """:func:`~.grid.grid_build` for each copy's points ``off[c]:off[c + 1]`` at once: per copy
-    ``(x0, y0, inv, nx, ny)`` ``(E,)`` arrays and its first cell ``base (E + 1,)``; one counting
-    sort over every point, so ``items[start[base[c] + cell] : start[base[c] + cell + 1]]`` are
-    copy ``c``'s points in that cell, in index order (the same cells as ``grid_build`` on the
-    copy alone)."""
-    E = off.shape[0] - 1
-    n = x.shape[0]
-    X0 = np.zeros(E)
-    Y0 = np.zeros(E)
-    INV = np.empty(E)
-    NX = np.ones(E, dtype=np.int64)
-    NY = np.ones(E, dtype=np.int64)
-    base = np.zeros(E + 1, dtype=np.int64)
-    cs0 = max(min_cell, 1e-9)
-    for c in range(E):
-        m = 0
-        x0 = np.inf
-        y0 = np.inf
-        x1 = -np.inf
-        y1 = -np.inf
-        for i in range(off[c], off[c + 1]):
-            if use[i]:
-                m += 1
-                x0 = min(x0, x[i])
-                y0 = min(y0, y[i])
-                x1 = max(x1, x[i])
-                y1 = max(y1, y[i])
-        if m == 0:
-            INV[c] = 1.0 / cs0
-            base[c + 1] = base[c] + 1
-            continue
-        cs = cs0
-        max_cells = 4 * m + 64
-        while True:
-            nx = int((x1 - x0) / cs) + 1
-            ny = int((y1 - y0) / cs) + 1
-            if nx * ny <= max_cells:
-                break
-            cs *= 2.0
-        X0[c] = x0
-        Y0[c] = y0
-        INV[c] = 1.0 / cs
-        NX[c] = nx
-        NY[c] = ny
-        base[c + 1] = base[c] + nx * ny
-    start = np.zeros(base[E] + 1, dtype=np.int64)
-    cell = np.empty(n, dtype=np.int64)
-    m = 0
-    for c in range(E):
-        for i in range(off[c], off[c + 1]):
-            if use[i]:
-                cx = min(int((x[i] - X0[c]) * INV[c]), NX[c] - 1)
-                cy = min(int((y[i] - Y0[c]) * INV[c]), NY[c] - 1)
-                k = base[c] + cy * NX[c] + cx
-                cell[i] = k
-                start[k + 1] += 1
-                m += 1
-    for k in range(base[E]):
-        start[k + 1] += start[k]
-    fill = start[:-1].copy()
-    items = np.empty(m, dtype=np.int64)
-    gx = np.empty(m)
-    gy = np.empty(m)
-    for i in range(n):
-        if use[i]:
-            k = cell[i]
-            items[fill[k]] = i
-            gx[fill[k]] = x[i]
-            gy[fill[k]] = y[i]
-            fill[k] += 1
-    return X0, Y0, INV, NX, NY, base, start, items, gx, gy
 
 
 @njit(cache=True, parallel=True)
@@ -193,22 +117,8 @@ def _move_all(T0, steep, wor, pos, tri, head, heights, status, battery, cmd, max
         out_head[i] = hd
         speeds[i] = sp
         out_h[i] = z
-        use = idle_j + drive_j_per_m * mv + climb_j_per_m * _max0(cl)
-        if not active:
-            use = 0.0
-        b = _max0(battery[i] - use)
-        batt[i] = b
-        energy[i] = battery[i] - b
-        f = ev == FELL_INTO
-        fell[i] = f
-        if f:
-            st = _FELL
-        e = st == _NONE and b <= 0.0
-        emptied[i] = e
-        if e:
-            st = _BATTERY
-        out_status[i] = st
-        present[i] = st == _NONE or st == _BATTERY
+        batt[i], energy[i], out_status[i], fell[i], emptied[i], present[i] = after_move(
+            st, active, ev, mv, cl, battery[i], idle_j, drive_j_per_m, climb_j_per_m)
     return out_pos, xs, ys, out_tri, out_head, out_h, speeds, batt, energy, out_status, fell, emptied, present
 
 
@@ -254,16 +164,6 @@ def _entity_row_copy(T, i, qx, qy, qz, h, ch, sh, ti, deep, ex, ey, ez, j0, j1, 
     return c
 
 
-@njit(cache=True, inline="always")
-def _break_range(bst, bx0, by0, binv, bnx, bny, b0, b1, x, y):
-    """``(lo, hi, gridded)``: the break-grid rows of ``(x, y)`` in its world's grid (start rows
-    ``bst``), or every break of the world ``b0:b1`` outside the grid."""
-    cell = _break_cell(bx0, by0, binv, bnx, bny, x, y)
-    if cell >= 0:
-        return bst[cell], bst[cell + 1], True
-    return b0, b1, False
-
-
 @njit(cache=True, parallel=True)
 def _sense1(T0, wor, cop, margin, px, py, head, tri, sz, active, G, range_m, half_fov, cos_hf, check_los,
             r_idx, r_dist, r_vis, r_cnt, tx, ty, tz, t_rng, t_idx, t_dist, t_vis, t_cnt,
@@ -285,24 +185,14 @@ def _sense1(T0, wor, cop, margin, px, py, head, tri, sz, active, G, range_m, hal
         sh = math.sin(h)
         k = _near_row(i, px[i], py[i], X0[c], Y0[c], INV[c], NX[c], NY[c], start[base[c]:], items, gx, gy, i, range_m,
                       r2, r_idx, r_dist)
-        for s in range(k):
-            j = r_idx[i, s]
-            r_vis[i, s] = 0
-            if not in_view(px[j] - px[i], py[j] - py[i], r_dist[i, s], ch, sh, h, half_fov, cos_hf):
-                r_idx[i, s] = -1 - j
-        r_cnt[i] = k
+        mark_out_of_view(i, k, px, py, h, ch, sh, half_fov, cos_hf, r_idx, r_dist, r_vis, r_cnt)
         t_cnt[i] = _entity_row_copy(T, i, px[i], py[i], sz[i], h, ch, sh, tri[i], dp, tx, ty, tz, t_rng[c, 0],
                                     t_rng[c, 1], range_m, half_fov, cos_hf, check_los, t_idx, t_dist, t_vis)
         a_cnt[i] = _entity_row_copy(T, i, px[i], py[i], sz[i], h, ch, sh, tri[i], dp, ax_, ay_, az_, a_rng[c, 0],
                                     a_rng[c, 1], range_m, half_fov, cos_hf, check_los, a_idx, a_dist, a_vis)
-        lo, hi, gridded = _break_range(bstart[bs_off[w]:bs_off[w + 1]], BX0[w], BY0[w], BINV[w], BNX[w], BNY[w],
-                                       b_off[w], b_off[w + 1], px[i], py[i])
-        m = 0
-        for v in range(lo, hi):
-            e = bitems[v] if gridded else v
-            if _closest(px[i], py[i], bax[e], bay[e], bbx[e], bby[e])[2] <= range_m:
-                m += 1
-        bcnt[i] = m
+        lo, hi, gridded = break_range(bstart[bs_off[w]:bs_off[w + 1]], BX0[w], BY0[w], BINV[w], BNX[w], BNY[w],
+                                      b_off[w], b_off[w + 1], px[i], py[i])
+        bcnt[i] = count_breaks(px[i], py[i], bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m)
 
 
 @njit(cache=True, parallel=True)
@@ -321,40 +211,13 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
         if not active[i]:
             continue
         w = wor[i]
-        for s in range(r_cnt[i]):
-            j = r_idx[i, s]
-            if j < 0:
-                continue
-            if not check_los:
-                r_vis[i, s] = 1
-                continue
-            m = _mutual(r_idx, r_dist, r_cnt, j, i, r_dist[i, s])
-            if j < i and m >= 0:
-                continue
-            lo = min(i, j)
-            hi = max(i, j)
-            v = sight1(terrain_of(T0, w), px[lo], py[lo], sz[lo], px[hi], py[hi], sz[hi], tri[lo], deep[lo])
-            r_vis[i, s] = v
-            if m >= 0:
-                r_vis[j, m] = v
+        robot_sight(terrain_of(T0, w), i, px, py, sz, tri, deep, check_los, r_idx, r_dist, r_vis, r_cnt)
         if bcnt[i] == 0:
             continue
-        lo, hi, gridded = _break_range(bstart[bs_off[w]:bs_off[w + 1]], BX0[w], BY0[w], BINV[w], BNX[w], BNY[w],
-                                       b_off[w], b_off[w + 1], px[i], py[i])
-        p0 = off[i]
-        m = 0
-        for v in range(lo, hi):
-            e = bitems[v] if gridded else v
-            cx, cy, d = _closest(px[i], py[i], bax[e], bay[e], bbx[e], bby[e])
-            if d <= range_m:
-                _put(dist, seg, closest, p0 + m, d, e, cx, cy)
-                m += 1
-        if k_front < 0:
-            sort_contacts(dist, seg, closest, p0, m)
-        else:
-            nearest_to_front(dist, seg, closest, p0, m, k_front)
-        for p in range(p0, p0 + m):
-            obs[p] = i
+        lo, hi, gridded = break_range(bstart[bs_off[w]:bs_off[w + 1]], BX0[w], BY0[w], BINV[w], BNX[w], BNY[w],
+                                      b_off[w], b_off[w + 1], px[i], py[i])
+        gather_breaks(i, px[i], py[i], bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m, off[i], dist, seg,
+                      closest, obs, k_front)
     rows = np.empty(n, dtype=np.int64)
     for i in prange(n):
         rows[i] = _kept(r_idx, r_vis, r_cnt, i) if active[i] else 0

@@ -20,7 +20,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["SENSE_REACH", "grid_block", "grid_build", "grid_cells", "sense_cell"]
+__all__ = ["SENSE_REACH", "grid_block", "grid_build", "grid_build_copies", "grid_cells", "sense_cell"]
 
 # sensing grids: cells of range / 2, queries scan the 5 x 5 block (6.25 r^2 against 9 r^2 for 3 x 3 of r)
 SENSE_REACH = 2
@@ -31,56 +31,86 @@ def grid_build(x, y, use, min_cell):
     """Bin the points ``(x[i], y[i])`` with ``use[i]`` into a grid with cells of side
     ``>= min_cell``. Returns ``(x0, y0, inv_cs, nx, ny, start (nx*ny + 1,), items (m,), gx (m,), gy (m,))``:
     the points of cell ``c = cy * nx + cx`` are ``items[start[c]:start[c + 1]]``, in index order,
-    and ``gx``/``gy`` their coordinates in that order (read contiguously by the queries)."""
+    and ``gx``/``gy`` their coordinates in that order (read contiguously by the queries). The
+    one-copy case of :func:`grid_build_copies` (one binning code for the env and the vector env)."""
+    X0, Y0, INV, NX, NY, base, start, items, gx, gy = grid_build_copies(
+        x, y, use, np.array([0, x.shape[0]], dtype=np.int64), min_cell)
+    return X0[0], Y0[0], INV[0], NX[0], NY[0], start, items, gx, gy
+
+
+@njit(cache=True)
+def grid_build_copies(x, y, use, off, min_cell):
+    """:func:`~.grid.grid_build` for each copy's points ``off[c]:off[c + 1]`` at once: per copy
+    ``(x0, y0, inv, nx, ny)`` ``(E,)`` arrays and its first cell ``base (E + 1,)``; one counting
+    sort over every point, so ``items[start[base[c] + cell] : start[base[c] + cell + 1]]`` are
+    copy ``c``'s points in that cell, in index order (the same cells as ``grid_build`` on the
+    copy alone)."""
+    E = off.shape[0] - 1
     n = x.shape[0]
-    m = 0
-    x0 = np.inf
-    y0 = np.inf
-    x1 = -np.inf
-    y1 = -np.inf
-    for i in range(n):
-        if use[i]:
-            m += 1
-            x0 = min(x0, x[i])
-            y0 = min(y0, y[i])
-            x1 = max(x1, x[i])
-            y1 = max(y1, y[i])
-    if m == 0:
-        z = np.zeros(0)
-        e = np.zeros(0, dtype=np.int64)
-        return 0.0, 0.0, 1.0 / max(min_cell, 1e-9), 1, 1, np.zeros(2, dtype=np.int64), e, z, z
-    cs = max(min_cell, 1e-9)
-    max_cells = 4 * m + 64
-    while True:
-        nx = int((x1 - x0) / cs) + 1
-        ny = int((y1 - y0) / cs) + 1
-        if nx * ny <= max_cells:
-            break
-        cs *= 2.0
-    inv = 1.0 / cs
-    start = np.zeros(nx * ny + 1, dtype=np.int64)
+    X0 = np.zeros(E)
+    Y0 = np.zeros(E)
+    INV = np.empty(E)
+    NX = np.ones(E, dtype=np.int64)
+    NY = np.ones(E, dtype=np.int64)
+    base = np.zeros(E + 1, dtype=np.int64)
+    cs0 = max(min_cell, 1e-9)
+    for c in range(E):
+        m = 0
+        x0 = np.inf
+        y0 = np.inf
+        x1 = -np.inf
+        y1 = -np.inf
+        for i in range(off[c], off[c + 1]):
+            if use[i]:
+                m += 1
+                x0 = min(x0, x[i])
+                y0 = min(y0, y[i])
+                x1 = max(x1, x[i])
+                y1 = max(y1, y[i])
+        if m == 0:
+            INV[c] = 1.0 / cs0
+            base[c + 1] = base[c] + 1
+            continue
+        cs = cs0
+        max_cells = 4 * m + 64
+        while True:
+            nx = int((x1 - x0) / cs) + 1
+            ny = int((y1 - y0) / cs) + 1
+            if nx * ny <= max_cells:
+                break
+            cs *= 2.0
+        X0[c] = x0
+        Y0[c] = y0
+        INV[c] = 1.0 / cs
+        NX[c] = nx
+        NY[c] = ny
+        base[c + 1] = base[c] + nx * ny
+    start = np.zeros(base[E] + 1, dtype=np.int64)
     cell = np.empty(n, dtype=np.int64)
-    for i in range(n):
-        if use[i]:
-            cx = min(int((x[i] - x0) * inv), nx - 1)
-            cy = min(int((y[i] - y0) * inv), ny - 1)
-            c = cy * nx + cx
-            cell[i] = c
-            start[c + 1] += 1
-    for c in range(nx * ny):
-        start[c + 1] += start[c]
+    m = 0
+    for c in range(E):
+        for i in range(off[c], off[c + 1]):
+            if use[i]:
+                cx = min(int((x[i] - X0[c]) * INV[c]), NX[c] - 1)
+                cy = min(int((y[i] - Y0[c]) * INV[c]), NY[c] - 1)
+                k = base[c] + cy * NX[c] + cx
+                cell[i] = k
+                start[k + 1] += 1
+                m += 1
+    for k in range(base[E]):
+        start[k + 1] += start[k]
     fill = start[:-1].copy()
     items = np.empty(m, dtype=np.int64)
     gx = np.empty(m)
     gy = np.empty(m)
     for i in range(n):
         if use[i]:
-            c = cell[i]
-            items[fill[c]] = i
-            gx[fill[c]] = x[i]
-            gy[fill[c]] = y[i]
-            fill[c] += 1
-    return x0, y0, inv, nx, ny, start, items, gx, gy
+            k = cell[i]
+            items[fill[k]] = i
+            gx[fill[k]] = x[i]
+            gy[fill[k]] = y[i]
+            fill[k] += 1
+    return X0, Y0, INV, NX, NY, base, start, items, gx, gy
 
 
 def sense_cell(range_m: float) -> float:

@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
 from numba import njit, prange
 
 from ..terrain.reference import height_brute, line_of_sight_brute

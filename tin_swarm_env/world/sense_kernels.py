@@ -213,6 +213,82 @@ def _break_cell(x0, y0, inv, nx, ny, x, y):
     return int(fy) * nx + int(fx)
 
 
+@njit(cache=True, inline="always")
+def mark_out_of_view(i, c, px, py, h, ch, sh, half_fov, cos_hf, r_idx, r_dist, r_vis, r_cnt):
+    """Row ``i``'s ``c`` robot candidates: those out of view keep their slot, marked ``-1 - j``."""
+    for s in range(c):
+        j = r_idx[i, s]
+        r_vis[i, s] = 0
+        if not in_view(px[j] - px[i], py[j] - py[i], r_dist[i, s], ch, sh, h, half_fov, cos_hf):
+            r_idx[i, s] = -1 - j  # in range but out of view: keeps its slot, marked negative
+    r_cnt[i] = c
+
+
+@njit(cache=True, inline="always")
+def break_range(bst, bx0, by0, binv, bnx, bny, b0, b1, x, y):
+    """``(lo, hi, gridded)``: the break-grid rows of ``(x, y)`` (start rows ``bst``), or every
+    break ``b0:b1`` of the terrain when the point is outside the grid."""
+    cell = _break_cell(bx0, by0, binv, bnx, bny, x, y)
+    if cell >= 0:
+        return bst[cell], bst[cell + 1], True
+    return b0, b1, False
+
+
+@njit(cache=True, inline="always")
+def count_breaks(x, y, bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m):
+    """How many break segments of rows ``lo:hi`` (:func:`break_range`) lie within ``range_m``."""
+    m = 0
+    for w in range(lo, hi):
+        e = bitems[w] if gridded else w
+        if _closest(x, y, bax[e], bay[e], bbx[e], bby[e])[2] <= range_m:
+            m += 1
+    return m
+
+
+@njit(cache=True, inline="always")
+def gather_breaks(i, x, y, bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m, p0, dist, seg, closest, obs,
+                  k_front):
+    """Robot ``i``'s break contacts (rows ``lo:hi`` of :func:`break_range`, gathered in ascending
+    segment index) written from ``p0`` on: all sorted by (distance, index) (``k_front < 0``,
+    :func:`sort_contacts`) or the ``k_front`` nearest first (:func:`nearest_to_front`)."""
+    m = 0
+    for w in range(lo, hi):
+        e = bitems[w] if gridded else w
+        cx, cy, d = _closest(x, y, bax[e], bay[e], bbx[e], bby[e])
+        if d <= range_m:
+            _put(dist, seg, closest, p0 + m, d, e, cx, cy)
+            m += 1
+    if k_front < 0:
+        sort_contacts(dist, seg, closest, p0, m)
+    else:
+        nearest_to_front(dist, seg, closest, p0, m, k_front)
+    for p in range(p0, p0 + m):
+        obs[p] = i
+
+
+@njit(cache=True, inline="always")
+def robot_sight(T, i, px, py, sz, tri, deep, check_los, r_idx, r_dist, r_vis, r_cnt):
+    """Line of sight of row ``i``'s in-view robot slots: a pair is walked once, from its lower
+    index to its higher; when both see each other in view, the lower-index observer writes both
+    slots (the other skips it), so each slot has exactly one writer."""
+    for s in range(r_cnt[i]):
+        j = r_idx[i, s]
+        if j < 0:
+            continue
+        if not check_los:
+            r_vis[i, s] = 1
+            continue
+        m = _mutual(r_idx, r_dist, r_cnt, j, i, r_dist[i, s])
+        if j < i and m >= 0:
+            continue  # j walks it and writes this slot
+        lo = min(i, j)
+        hi = max(i, j)
+        v = sight1(T, px[lo], py[lo], sz[lo], px[hi], py[hi], sz[hi], tri[lo], deep[lo])
+        r_vis[i, s] = v
+        if m >= 0:
+            r_vis[j, m] = v
+
+
 @njit(cache=True, parallel=True)
 def sense_pass1(T, px, py, head, tri, sz, active, G, range_m, half_fov, cos_hf, margin, check_los, R, TG, AS, B,
                 bcnt, deep):
@@ -243,25 +319,14 @@ def sense_pass1(T, px, py, head, tri, sz, active, G, range_m, half_fov, cos_hf, 
         ch = math.cos(h)
         sh = math.sin(h)
         c = _near_row(i, px[i], py[i], x0, y0, inv, nx, ny, start, items, gx, gy, i, range_m, r2, r_idx, r_dist)
-        for s in range(c):
-            j = r_idx[i, s]
-            r_vis[i, s] = 0
-            if not in_view(px[j] - px[i], py[j] - py[i], r_dist[i, s], ch, sh, h, half_fov, cos_hf):
-                r_idx[i, s] = -1 - j  # in range but out of view: keeps its slot, marked negative
-        r_cnt[i] = c
+        mark_out_of_view(i, c, px, py, h, ch, sh, half_fov, cos_hf, r_idx, r_dist, r_vis, r_cnt)
         t_cnt[i] = _entity_row(T, i, px[i], py[i], sz[i], h, ch, sh, tri[i], dp, tx, ty, tz, tx0, ty0, tinv, tnx, tny,
                                tstart, titems, tgx, tgy, range_m, half_fov, cos_hf, check_los, t_idx, t_dist, t_vis)
         a_cnt[i] = _entity_row(T, i, px[i], py[i], sz[i], h, ch, sh, tri[i], dp, ax_, ay_, az_, ax0, ay0, ainv, anx,
                                any_, astart, aitems, agx, agy, range_m, half_fov, cos_hf, check_los, a_idx, a_dist,
                                a_vis)
-        cell = _break_cell(bx0, by0, binv, bnx, bny, px[i], py[i])
-        lo, hi = (bstart[cell], bstart[cell + 1]) if cell >= 0 else (0, bax.shape[0])
-        m = 0
-        for w in range(lo, hi):
-            e = bitems[w] if cell >= 0 else w
-            if _closest(px[i], py[i], bax[e], bay[e], bbx[e], bby[e])[2] <= range_m:
-                m += 1
-        bcnt[i] = m
+        lo, hi, gridded = break_range(bstart, bx0, by0, binv, bnx, bny, 0, bax.shape[0], px[i], py[i])
+        bcnt[i] = count_breaks(px[i], py[i], bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m)
 
 
 @njit(cache=True, inline="always")
@@ -370,37 +435,12 @@ def sense_pass2(T, px, py, head, tri, sz, active, G, range_m, check_los, R, B, b
         i = items[q]
         if not active[i]:
             continue
-        for s in range(r_cnt[i]):
-            j = r_idx[i, s]
-            if j < 0:
-                continue
-            if not check_los:
-                r_vis[i, s] = 1
-                continue
-            m = _mutual(r_idx, r_dist, r_cnt, j, i, r_dist[i, s])
-            if j < i and m >= 0:
-                continue  # j walks it and writes this slot
-            lo = min(i, j)
-            hi = max(i, j)
-            v = sight1(T, px[lo], py[lo], sz[lo], px[hi], py[hi], sz[hi], tri[lo], deep[lo])
-            r_vis[i, s] = v
-            if m >= 0:
-                r_vis[j, m] = v
+        robot_sight(T, i, px, py, sz, tri, deep, check_los, r_idx, r_dist, r_vis, r_cnt)
         if bcnt[i] == 0:
             continue
-        cell = _break_cell(bx0, by0, binv, bnx, bny, px[i], py[i])
-        lo, hi = (bstart[cell], bstart[cell + 1]) if cell >= 0 else (0, bax.shape[0])
-        p0 = off[i]
-        m = 0
-        for w in range(lo, hi):
-            e = bitems[w] if cell >= 0 else w
-            cx, cy, d = _closest(px[i], py[i], bax[e], bay[e], bbx[e], bby[e])
-            if d <= range_m:
-                _put(dist, seg, closest, p0 + m, d, e, cx, cy)
-                m += 1
-        sort_contacts(dist, seg, closest, p0, m)
-        for p in range(p0, p0 + m):
-            obs[p] = i
+        lo, hi, gridded = break_range(bstart, bx0, by0, binv, bnx, bny, 0, bax.shape[0], px[i], py[i])
+        gather_breaks(i, px[i], py[i], bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m, off[i], dist, seg,
+                      closest, obs, -1)
     # the robot contacts, compacted: rows counted and copied in parallel (row i by iteration i)
     rows = np.empty(n, dtype=np.int64)
     for i in prange(n):

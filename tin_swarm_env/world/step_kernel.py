@@ -19,7 +19,7 @@ from .grid import grid_build
 from .locomotion import FELL_INTO, move1
 from .sense_kernels import collision_counts
 
-__all__ = ["step_kernel"]
+__all__ = ["step_kernel", "after_move"]
 
 _NONE, _FELL, _BATTERY = 0, 2, 3  # state.Reason codes (numba reads plain ints)
 
@@ -28,6 +28,24 @@ _NONE, _FELL, _BATTERY = 0, 2, 3  # state.Reason codes (numba reads plain ints)
 def _max0(v):
     """``np.maximum(v, 0.0)`` for one value (NaN kept, as numpy does)."""
     return v if (v >= 0.0 or v != v) else 0.0
+
+
+@njit(cache=True, inline="always")
+def after_move(st, active, ev, mv, cl, b0, idle_j, drive_j_per_m, climb_j_per_m):
+    """One robot's bookkeeping after :func:`~.locomotion.move1` (its one home: the env's step and
+    the vector env's): :func:`~.battery.drain` term by term, then the status codes (a fall, then an
+    empty battery). Returns ``(battery, energy, status, fell, emptied, present)``."""
+    use = idle_j + drive_j_per_m * mv + climb_j_per_m * _max0(cl)
+    if not active:
+        use = 0.0
+    b = _max0(b0 - use)
+    f = ev == FELL_INTO
+    if f:
+        st = _FELL
+    e = st == _NONE and b <= 0.0
+    if e:
+        st = _BATTERY
+    return b, b0 - b, st, f, e, st == _NONE or st == _BATTERY
 
 
 @njit(cache=True, parallel=True)
@@ -70,23 +88,8 @@ def step_kernel(T, steep, pos, tri, head, heights, status, battery, cmd, max_spe
         out_h[i] = z
         moved[i] = mv
         climb[i] = cl
-        # battery.drain, term by term
-        use = idle_j + drive_j_per_m * mv + climb_j_per_m * _max0(cl)
-        if not active:
-            use = 0.0
-        b = _max0(battery[i] - use)
-        batt[i] = b
-        energy[i] = battery[i] - b
-        f = ev == FELL_INTO
-        fell[i] = f
-        if f:
-            st = _FELL
-        e = st == _NONE and b <= 0.0
-        emptied[i] = e
-        if e:
-            st = _BATTERY
-        out_status[i] = st
-        present[i] = st == _NONE or st == _BATTERY
+        batt[i], energy[i], out_status[i], fell[i], emptied[i], present[i] = after_move(
+            st, active, ev, mv, cl, battery[i], idle_j, drive_j_per_m, climb_j_per_m)
     coll, pairs = collision_counts(xs, ys, present, grid_build(xs, ys, present, diameter), diameter)
     return (out_pos, out_tri, out_head, out_h, speeds, event, moved, climb, batt, energy, out_status, fell, emptied,
             coll, pairs)
