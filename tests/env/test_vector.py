@@ -140,7 +140,7 @@ def test_refused_mixes_and_actions():
     a[1, 2, 0] = np.nan
     with pytest.raises(ArgumentError, match="copy 1, robot_2"):
         v.step(a)
-    with pytest.raises(ArgumentError, match="not an array"):
+    with pytest.raises(ArgumentError, match="real numbers, got dtype <U7"):
         v.step("forward")
 
 
@@ -163,3 +163,39 @@ def test_world_parameters_shared_or_refused_by_name():
     far = cfg.replace(world=dataclasses.replace(cfg.world, sensor=dataclasses.replace(cfg.world.sensor, range_m=90.0)))
     with pytest.raises(ArgumentError, match=r"\[world\] sensor.range_m 90.0"):
         tse.vector_env([cfg, far], n_envs=2)
+
+
+def test_a_refused_reset_copy_leaves_the_copy_as_it_was_and_bad_inputs_are_named():
+    v = tse.vector_env("cliff_goal", n_envs=2, n_robots=3, seed=1)
+    v.reset()
+    a = np.full((2, 3, 2), 0.3)
+    v.step(a)
+    before = (v._pos.copy(), v.copy_seeds.copy(), v.steps.copy(), v._dist.copy())
+    with pytest.raises(ArgumentError, match="copy 0 would have 2 targets"):
+        v.reset_copy(0, seed=5, options={"target_positions": [[200.0, 150.0], [250.0, 150.0]]})
+    for x, y in zip(before, (v._pos, v.copy_seeds, v.steps, v._dist)):
+        np.testing.assert_array_equal(x, y)
+    with pytest.raises(ArgumentError, match="2\\*\\*63"):
+        v.reset_copy(0, seed=2 ** 64)
+    for bad in (np.zeros((2, 3, 2)) + 1j, np.zeros((2, 3, 2), bool)):
+        with pytest.raises(ArgumentError, match="real numbers"):
+            v.step(bad)
+    v.step(a)  # still steps
+
+
+def test_generated_resets_append_to_the_packs_in_place():
+    """A copy's reset appends its world and fields into spare capacity (no copy of the others'), and the packs
+    stay bounded over many resets."""
+    v = tse.vector_env("generated", n_envs=4, n_robots=2, seed=3, max_cycles=2)
+    v.reset()
+    a = np.zeros((4, 2, 2))
+    sizes = []
+    for _ in range(40):
+        buf = v._pack.__dict__.get("_buf", {}).get("tris")
+        v.step(a)
+        if buf is not None and v._pack.__dict__.get("_buf", {}).get("tris") is buf:
+            assert np.shares_memory(v._pack.a["tris"], buf)  # grown in place
+        sizes.append(len(v._pack.worlds))
+    assert max(sizes) <= 2 * 4 + 8 + 4 and len(v._fpack) <= 2 * 4 + 8 + 4
+    _replay(tse.vector_env("generated", n_envs=3, n_robots=2, seed=9, max_cycles=2), ["generated"], 2, 30,
+            _random(3, 2, 7), max_cycles=2)

@@ -179,8 +179,19 @@ class _VecEnvBody:
             setattr(self.envs[c], attr_name, value)
 
     def env_method(self, method_name, *method_args, indices=None, **method_kwargs):
-        return [getattr(self.envs[self._copy(i)], method_name)(*method_args, **method_kwargs)
-                for i in self._get_indices(indices)]
+        """Call the method once per copy (its robots' sub-environments share it) and give each index its
+        copy's result; a copy reset this way (``reset_arrays``) continues from its new observations."""
+        got = {}
+        for i in self._get_indices(indices):
+            c = self._copy(i)
+            if c not in got:
+                got[c] = getattr(self.envs[c], method_name)(*method_args, **method_kwargs)
+                if method_name == "reset_arrays":
+                    rows = slice(c * self.n_robots, (c + 1) * self.n_robots)
+                    self._obs[rows] = got[c]
+                    self._ep_ret[rows] = 0
+                    self._ep_len[rows] = 0
+        return [got[self._copy(i)] for i in self._get_indices(indices)]
 
     def env_is_wrapped(self, wrapper_class, indices=None):
         return [False for _ in self._get_indices(indices)]

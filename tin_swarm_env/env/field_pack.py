@@ -4,7 +4,7 @@
 stand on different TINs, so :class:`FieldPack` concatenates the distinct fields' own arrays with
 per-field offsets (each field's indices stay local: the query takes views), and
 :func:`distance_copies` measures every robot's distance to go on its field with the per-point
-code of :func:`~tin_swarm_env.terrain._ctg_kernels.distance_stacked` (``_best``): the same bits.
+code of :func:`~tin_swarm_env.terrain._ctg_kernels.distance_stacked` (``best_distance``): the same bits.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..terrain._ctg_kernels import _best
+from ..terrain._ctg_kernels import best_distance
 
 __all__ = ["FieldPack", "distance_copies", "EUCLID", "NO_FIELD"]
 
@@ -43,6 +43,7 @@ class FieldPack:
         self.fields: list = []
         self._where: dict = {}
         self.a = None
+        self._buf: dict = {}  # per array: the buffer a holds a prefix of
         self.off = None
         self.scal = (np.zeros((0, 2)), np.zeros(0), np.zeros(0))  # goal xy, tolerance, eps
         self.extend(fields)
@@ -71,8 +72,16 @@ class FieldPack:
         if self.a is None:
             self.a = {k: np.ascontiguousarray(np.concatenate([p[k] for p in parts])) for k, _ in _KIND}
             sizes = {s: [0] for s in "ntvsw"}
-        else:
-            self.a = {k: np.ascontiguousarray(np.concatenate([self.a[k]] + [p[k] for p in parts])) for k, _ in _KIND}
+        else:  # appended in place into spare capacity (doubled when full): O(the new fields' size)
+            for k, _ in _KIND:
+                add = np.concatenate([p[k] for p in parts])
+                n0, n1 = len(self.a[k]), len(self.a[k]) + len(add)
+                b = self._buf.get(k)
+                if b is None or len(b) < n1:
+                    b = self._buf[k] = np.empty((max(2 * n0, n1),) + self.a[k].shape[1:], dtype=self.a[k].dtype)
+                    b[:n0] = self.a[k]
+                b[n0:n1] = add
+                self.a[k] = b[:n1]
             sizes = {s: [int(self.off[s][-1])] for s in "ntvsw"}
         key = {"n": "nx", "t": "passable", "v": "vx", "s": "wstart", "w": "wroot"}
         for p in parts:
@@ -120,7 +129,7 @@ def _distance_copies(nx, ny, dist, tri_nodes, passable, goal_tri, tris, nbrs, vx
         v0, v1 = ov[f], ov[f + 1]
         w0, w1 = ow[f], ow[f + 1]
         s0, s1 = os_[f], os_[f + 1]
-        out[i] = _best(nx[a0:a1], ny[a0:a1], dist[a0:a1], tri_nodes[t0:t1], passable[t0:t1], goal_tri[t0:t1],
+        out[i] = best_distance(nx[a0:a1], ny[a0:a1], dist[a0:a1], tri_nodes[t0:t1], passable[t0:t1], goal_tri[t0:t1],
                        gxy[f, 0], gxy[f, 1], vx[v0:v1], vy[v0:v1], tris[t0:t1], nbrs[t0:t1], wstart[s0:s1],
                        wgeo[w0:w1], wroot[w0:w1], pos[i, 0], pos[i, 1], t, tol[f], eps[f], twin[v0:v1])[0]
     return out

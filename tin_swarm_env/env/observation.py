@@ -306,7 +306,7 @@ class ObsLayout:
 
     # -- the compiled encoder's offsets -----------------------------------------------------------
     def kernel_offsets(self):
-        """``(own, robots, targets, breaks, assets, scan)`` named offsets for :func:`_fill` (the scan's:
+        """``(own, robots, targets, breaks, assets, scan)`` named offsets for :func:`fill_observations` (the scan's:
         its first column)."""
         own = OwnOffsets(*(sl.start for sl in self.own.values()))
 
@@ -461,9 +461,8 @@ def _own(obs, i, o, c, s, own_n, own_scale, planes, tri, target_idx, tpos, tz, p
 
 
 @njit(cache=True, parallel=True)
-def _fill(obs, o, o_rob, o_tgt, o_brk, o_ast, o_scn, ks, pos, head, heights, own_n, own_scale, planes, tri, live,
-          target_idx, tpos, tz,
-          robots, targets, breaks, apos, assets, scan, R, dz_scale):
+def fill_observations(obs, o, o_rob, o_tgt, o_brk, o_ast, o_scn, ks, pos, head, heights, own_n, own_scale, planes,
+                      tri, live, target_idx, tpos, tz, robots, targets, breaks, apos, assets, scan, R, dz_scale):
     """Write every live robot's row of ``obs``; ``o, o_rob, o_tgt, o_brk, o_ast, o_scn`` the offsets of
     :meth:`ObsLayout.kernel_offsets` (passed one by one: numba's parallel loop takes namedtuples
     as arguments, not unpacked inside), ``ks`` the slot counts (robots, targets, breaks, assets,
@@ -514,7 +513,7 @@ def _grouped(contacts, n, k, extra=None):
 
 
 @functools.lru_cache(maxsize=64)
-def _kernel_offsets(layout: ObsLayout):
+def layout_offsets(layout: ObsLayout):
     return layout.kernel_offsets()
 
 
@@ -573,9 +572,9 @@ def build_observations(world, state, readings, target_idx, live, layout: ObsLayo
     scan += (layout.scan_bearings(),)
     obs = np.zeros((n, layout.size), dtype=np.float32)
     with serial_if_small(n, OBS_SERIAL_BELOW):
-        _fill(obs, *_kernel_offsets(layout), ks, state.positions, state.headings, state.heights, own_n, own_scale,
-              world.tin.planes, np.ascontiguousarray(state.tri_idx, dtype=np.int64), live, target_idx,
-              tg.positions.reshape(-1, 2), tz, _grouped(readings.robots, n, ks[0]), _grouped(readings.targets, n, ks[1]), breaks,
-              state.assets.positions.reshape(-1, 2), _grouped(readings.assets, n, ks[3]), scan,
-              float(P.sensor.range_m), DZ_SCALE_M)
+        fill_observations(obs, *layout_offsets(layout), ks, state.positions, state.headings, state.heights, own_n,
+                          own_scale, world.tin.planes, np.ascontiguousarray(state.tri_idx, dtype=np.int64), live,
+                          target_idx, tg.positions.reshape(-1, 2), tz, _grouped(readings.robots, n, ks[0]),
+                          _grouped(readings.targets, n, ks[1]), breaks, state.assets.positions.reshape(-1, 2),
+                          _grouped(readings.assets, n, ks[3]), scan, float(P.sensor.range_m), DZ_SCALE_M)
     return obs

@@ -77,7 +77,7 @@ def compute_rewards(cfg, dist_before, dist_after, state, events, target_idx, liv
 
 
 def reward_params(cfg) -> tuple:
-    """The scenario's reward terms as :func:`_rewards_kernel` reads them (a tuple of floats, built
+    """The scenario's reward terms as :func:`rewards_kernel` reads them (a tuple of floats, built
     once per episode by the env): containment (bool), standoff, arrival radius, then the
     ``[rewards]`` weights progress_per_m, on_ring_per_step, ring_tolerance_m, energy_per_kj,
     collision, fall, battery_empty, arrival."""
@@ -97,8 +97,9 @@ def step_rewards(rw, dist_before, dist_after, state, events, target_idx, live, t
     (bench 2026-11-26: 45 us parallel vs numpy 52 us at 1 000 robots)."""
     f64 = np.float64
     n = len(dist_before)
-    return _rewards_kernel(
-        np.array([rw], dtype=f64), np.zeros(n, dtype=np.int64), np.ascontiguousarray(dist_before, dtype=f64), np.ascontiguousarray(dist_after, dtype=f64),
+    return rewards_kernel(
+        np.array([rw], dtype=f64), np.zeros(n, dtype=np.int64), np.ascontiguousarray(dist_before, dtype=f64),
+        np.ascontiguousarray(dist_after, dtype=f64),
         np.ascontiguousarray(state.positions, dtype=f64),
         np.ascontiguousarray(state.targets.positions, dtype=f64).reshape(-1, 2),
         np.ascontiguousarray(target_idx, dtype=np.int64), np.ascontiguousarray(live, dtype=np.bool_),
@@ -120,7 +121,7 @@ def _gain1(before, after):
 
 
 @njit(cache=True)
-def _rewards_kernel(rws, grp, before, after, pos, tpos, tidx, live, energy, coll, fell, emptied, timeout):
+def rewards_kernel(rws, grp, before, after, pos, tpos, tidx, live, energy, coll, fell, emptied, timeout):
     """:func:`step_rewards` for every robot in one loop: the terms added in the reference's
     order (so the float64 sums round the same), then cast to float32. ``rws (G, 11)``: rows of
     :func:`reward_params` (as floats), robot i reads row ``grp[i]``; ``timeout (n,)``: the robot's

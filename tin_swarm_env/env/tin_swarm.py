@@ -46,7 +46,7 @@ DIST_SERIAL_BELOW = 1536
 
 
 @njit(cache=True)
-def _live_actions(a, live):
+def live_actions(a, live):
     """``(np.where(live[:, None], a, 0.0), i)`` with ``i`` the first robot whose row there is not
     finite (-1: none), in one pass."""
     n = a.shape[0]
@@ -305,6 +305,8 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
             if isinstance(tp, (list, tuple, np.ndarray)) and len(tp) == 2 and all(
                     isinstance(v, numbers.Real) for v in tp):
                 tp = [tp]  # one [x, y] pair
+            if isinstance(tp, (list, tuple)) and len(tp) == 0:
+                tp = np.zeros((0, 2))  # an empty list: no target (a shape numpy cannot tell from [])
             options["target_positions"] = float_array(tp, "options['target_positions']", (-1, 2))
             if not len(options["target_positions"]) and self.config.task == "goal":
                 raise ArgumentError(f"reset(options['target_positions']): an empty list, but {self.config.name!r} "
@@ -374,7 +376,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         already gone read zeros/False. Robots that end this step are not live on the next."""
         if self._wstate is None:
             raise RuntimeError("call reset() before step()")
-        a, i = _live_actions(float_array(actions, "step_arrays(actions)", (self.n, 2), finite=False), self._live)
+        a, i = live_actions(float_array(actions, "step_arrays(actions)", (self.n, 2), finite=False), self._live)
         if i >= 0:
             raise ArgumentError(f"step_arrays(actions): the action of {self.possible_agents[i]} is not finite: "
                                 f"{a[i].tolist()}")
@@ -383,7 +385,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
 
     def _step_arrays(self, a: np.ndarray):
         prev = self._wstate
-        new, events = self._world._step(prev, a)  # a: checked by step_arrays (_live_actions)
+        new, events = self._world._step(prev, a)  # a: checked by step_arrays (live_actions)
         live = self._live
         dist = self._measure(new)
         self._steps += 1

@@ -15,7 +15,7 @@ Every copy must have the same robot count, observation layout and the world para
 robot's step reads (``_SHARED_PARAMS``: body, speed, turn rate, sensor, battery, time step);
 refused by name otherwise. The slope limit, the break angle, the terrain and the reward terms may
 differ per scenario. Scenarios with mobile targets or assets are refused (their random walk
-draws from each copy's generator every step).
+draws from each copy's generator every step); static assets are stepped like targets.
 
 **Resets.** Each copy resets on its own when its episode ends (no robot of it is left: every one
 terminated or was truncated at ``max_cycles``): the observations returned for that copy are the
@@ -28,7 +28,9 @@ seed. ``copy_seeds[c]`` is the seed copy ``c`` was last reset with, and copy ``c
 same actions (``tests/env/test_vector.py``). :meth:`VectorEnv.reset_copy` resets one copy by hand
 (a seed, and the parallel env's reset options to place robots and targets). With
 ``autoreset=False`` (the TorchRL env: its collector resets through ``"_reset"``), a copy that
-ended stays ended (no live robot, zero observations and rewards) until :meth:`VectorEnv.reset_copy`.
+ended stays ended (no live robot, zero observations and rewards) until :meth:`VectorEnv.reset_copy`;
+then the observations of its last step are the ones returned (``final_obs`` stays zero) and
+``_final[c]`` is True on every step until it is reset.
 
 **Arrays.** ``reset()`` -> ``obs (E, N, d)`` float32. ``step(actions (E, N, 2))`` ->
 ``obs (E, N, d)``, ``rewards (E, N)`` float32, ``terminated``/``truncated (E, N)`` bool, ``infos``:
@@ -50,14 +52,14 @@ from gymnasium import spaces
 from ..errors import ArgumentError, check_range
 from ..world import Reason
 from ..world.batch_kernels import sense_copies, step_copies
-from ..world.pack import _one, join, pack_worlds
+from ..world.pack import pack_one, pack_worlds
 from ..world.sense_kernels import compact
 from ..world.world import serial_if_small
 from .checks import check_seed
 from .field_pack import EUCLID, NO_FIELD, FieldPack, distance_copies
-from .observation import DZ_SCALE_M, OBS_SERIAL_BELOW, _fill, _kernel_offsets
-from .reward import _rewards_kernel
-from .tin_swarm import TinSwarmEnv, _live_actions
+from .observation import DZ_SCALE_M, OBS_SERIAL_BELOW, fill_observations, layout_offsets
+from .reward import rewards_kernel
+from .tin_swarm import TinSwarmEnv, live_actions
 
 __all__ = ["VectorEnv", "vector_env", "MAX_COPIES", "copy_seed_stream", "CopyView"]
 
@@ -220,6 +222,8 @@ class VectorEnv:
             raise RuntimeError("call reset() before reset_copy()")
         check_range("reset_copy", "c", c, 0, self.n_envs - 1, integer=True, exc=ArgumentError)
         seed = check_seed(seed, "reset_copy")
+        if seed is not None and seed >= 2 ** 63:
+            raise ArgumentError(f"reset_copy(seed=...): seed must be < 2**63 (copy_seeds holds int64), got {seed}")
         return self._reset_copy(int(c), self._draw_seed(c) if seed is None else seed, options=options)
 
     def _reset_copy(self, c: int, seed: int, defer: bool = False, options: dict | None = None) -> np.ndarray:
@@ -227,8 +231,12 @@ class VectorEnv:
         same episode); returns its observations ``(N, d)``."""
         p = self._protos[self.copy_scenario[c]]
         obs = p.reset_arrays(seed=seed, options=options)
-        self.copy_seeds[c] = seed
         s = p.world_state
+        for ent, M, what in ((s.targets, self._M, "targets"), (s.assets, self._A, "assets")):
+            if len(ent) > M:  # refused before anything of the copy is written: it stays as it was
+                raise ArgumentError(f"vector_env: copy {c} would have {len(ent)} {what}, more than the {M} slots its "
+                                    "scenario declares")
+        self.copy_seeds[c] = seed
         N = self.n_robots
         rows = slice(c * N, (c + 1) * N)
         self._pos[rows] = s.positions
@@ -241,12 +249,9 @@ class VectorEnv:
         self._coll[rows] = s.collisions
         self._live[rows] = True
         world = p.world
-        for ent, M, pos, z, rng, what in ((s.targets, self._M, self._tpos, self._tz, self._t_rng, "targets"),
-                                          (s.assets, self._A, self._apos, self._az, self._a_rng, "assets")):
+        for ent, M, pos, z, rng in ((s.targets, self._M, self._tpos, self._tz, self._t_rng),
+                                    (s.assets, self._A, self._apos, self._az, self._a_rng)):
             k = len(ent)
-            if k > M:
-                raise ArgumentError(f"vector_env: copy {c} has {k} {what}, more than the {M} slots its scenario "
-                                    "declares")
             if k:
                 pos[c * M:c * M + k] = ent.positions
                 z[c * M:c * M + k] = world.tin.height_in(ent.positions, ent.tri_idx)
@@ -271,7 +276,10 @@ class VectorEnv:
             if self._pack is not None and len(self._pack.worlds) > 2 * len(used) + 8:
                 self._repack()
                 return
-            self._pack = _one(world) if self._pack is None else join([self._pack, _one(world)])
+            if self._pack is None:
+                self._pack = pack_one(world).copy()
+            else:
+                self._pack.append(world)  # in place, O(this world's size)
         self._fpack.extend(self._fields[c])
         if len(self._fpack) > 2 * sum(len(f) for f in self._fields) + 8:
             self._repack()
@@ -298,7 +306,7 @@ class VectorEnv:
             if id(w) not in seen:
                 seen.add(id(w))
                 worlds.append(w)
-        self._pack = pack_worlds(worlds)
+        self._pack = pack_worlds(worlds).copy()  # a pack of its own, which append grows
         self._fpack = FieldPack([f for fs in self._fields for f in fs])
         for c in range(self.n_envs):
             self._set_rows(c)
@@ -307,12 +315,15 @@ class VectorEnv:
     def _check_actions(self, actions) -> np.ndarray:
         E, N = self.n_envs, self.n_robots
         try:
-            a = np.asarray(actions, dtype=np.float64)
+            raw = np.asarray(actions)
         except (TypeError, ValueError) as exc:
             raise ArgumentError(f"vector step(actions): not an array of numbers ({exc})") from None
+        if raw.dtype.kind not in "fiu":
+            raise ArgumentError(f"vector step(actions): actions must be real numbers, got dtype {raw.dtype}")
+        a = raw.astype(np.float64)
         if a.shape != (E, N, 2):
             raise ArgumentError(f"vector step(actions): actions must have shape ({E}, {N}, 2), got {a.shape}")
-        out, bad = _live_actions(np.ascontiguousarray(a.reshape(E * N, 2)), self._live)
+        out, bad = live_actions(np.ascontiguousarray(a.reshape(E * N, 2)), self._live)
         if bad >= 0:
             raise ArgumentError(f"vector step(actions): copy {bad // N}, robot_{bad % N}: action "
                                 f"{a.reshape(-1, 2)[bad].tolist()} is not finite")
@@ -353,9 +364,9 @@ class VectorEnv:
         dist = distance_copies(self._fpack, self._fid, pos, tri, self._tpos, self._tglob, np.empty(len(pos)))
         self._steps += 1
         timeout = (self._steps >= self._max_cycles)[self._cop]
-        rew, term, why, trunc, live_after, n_arrived = _rewards_kernel(
-            self._rws, self._scen_of_robot, self._dist, dist, pos, self._tpos, self._tglob, live, energy, coll.astype(np.float64), fell,
-            emptied, timeout)
+        rew, term, why, trunc, live_after, n_arrived = rewards_kernel(
+            self._rws, self._scen_of_robot, self._dist, dist, pos, self._tpos, self._tglob, live, energy,
+            coll.astype(np.float64), fell, emptied, timeout)
         if n_arrived:
             status[(why == _ARRIVED) & (status != _FELL)] = _ARRIVED
         self._pos, self._tri, self._head, self._h, self._speed, self._batt, self._status = (
@@ -401,9 +412,10 @@ class VectorEnv:
         scan += (self.layout.scan_bearings(),)
         obs = np.zeros((n, self.layout.size), dtype=np.float32)
         with serial_if_small(n, OBS_SERIAL_BELOW):
-            _fill(obs, *_kernel_offsets(self.layout), self._ks, self._pos, self._head, self._h, own_n, self._own_scale,
-                  pk.T0[5], tri_g, live, self._tglob, self._tpos, self._tz, (rstart, rt, rd), (tg[4], tg[1], tg[2]),
-                  breaks, self._apos, (at[4], at[1], at[2]), scan, float(sp.range_m), DZ_SCALE_M)
+            fill_observations(obs, *layout_offsets(self.layout), self._ks, self._pos, self._head, self._h, own_n,
+                              self._own_scale, pk.T0[5], tri_g, live, self._tglob, self._tpos, self._tz,
+                              (rstart, rt, rd), (tg[4], tg[1], tg[2]), breaks, self._apos, (at[4], at[1], at[2]),
+                              scan, float(sp.range_m), DZ_SCALE_M)
         return obs
 
     # -- views -----------------------------------------------------------------------------------

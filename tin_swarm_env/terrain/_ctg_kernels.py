@@ -874,7 +874,8 @@ def twins(vorig):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _best(nx, ny, dist, tri_nodes, passable, goal_tri, gx, gy, vx, vy, tris, nbrs, wstart, wgeo, wroot, x, y, t, tol,
+def best_distance(nx, ny, dist, tri_nodes, passable, goal_tri, gx, gy, vx, vy, tris, nbrs, wstart, wgeo, wroot, x, y,
+                  t, tol,
           eps_m, twin):
     """``(distance, source)`` of the point ``(x, y)`` on triangle ``t >= 0``: :func:`query`'s
     candidates, one point (shared by :func:`query` and :func:`distance_stacked`)."""
@@ -921,7 +922,7 @@ def query(nx, ny, dist, parent, tri_nodes, passable, goal_tri, gx, gy, vx, vy, t
           px, py, tidx, tol, eps_m, twin):
     """Distance ``(n,)``, first-leg unit direction ``(n, 2)`` and source ``(n,)`` at each point.
 
-    ``tidx[i]`` is the triangle holding point i (-1 outside). Candidates (:func:`_best`), all
+    ``tidx[i]`` is the triangle holding point i (-1 outside). Candidates (:func:`best_distance`), all
     lengths of drivable paths: ``|p - node_j| + dist[j]`` over the triangle's boundary nodes (the
     triangle is convex), ``|p - goal|`` when the goal lies on it, and ``|p - r| + rd`` for each
     window into it (:func:`tri_windows`) whose wedge holds p; at a pinch vertex (within ``eps_m``),
@@ -940,7 +941,8 @@ def query(nx, ny, dist, parent, tri_nodes, passable, goal_tri, gx, gy, vx, vy, t
             continue
         x = px[i]
         y = py[i]
-        best, arg = _best(nx, ny, dist, tri_nodes, passable, goal_tri, gx, gy, vx, vy, tris, nbrs, wstart, wgeo, wroot,
+        best, arg = best_distance(nx, ny, dist, tri_nodes, passable, goal_tri, gx, gy, vx, vy, tris, nbrs, wstart,
+                                  wgeo, wroot,
                           x, y, t, tol, eps_m, twin)
         out[i] = best
         if best == np.inf:
@@ -998,6 +1000,7 @@ def distance_stacked(off_node, off_tri, off_vert, off_win, nx, ny, dist, tri_nod
                 t = tidx[i]
                 if which[i] != k or t < 0:
                     continue
-                out[i] = _best(nx_k, ny_k, d_k, tn_k, pa_k, gt_k, gx, gy, vx_k, vy_k, tr_k, nbrs, ws_k, wg_k, wr_k,
+                out[i] = best_distance(nx_k, ny_k, d_k, tn_k, pa_k, gt_k, gx, gy, vx_k, vy_k, tr_k, nbrs, ws_k, wg_k,
+                                       wr_k,
                                pos[i, 0], pos[i, 1], t, tol, eps_m, tw_k)[0]
     return out

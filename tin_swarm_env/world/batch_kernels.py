@@ -3,7 +3,7 @@
 Robots are numbered globally, copy-major (copy ``c``'s robots are ``off[c]:off[c + 1]``), and
 stand on the worlds of a :class:`~.pack.WorldPack` (``wor[i]``, the world of robot ``i``;
 triangle indices global). Each pass is the single-world kernel's per-robot code
-(:func:`~.locomotion.move1`, :func:`~.sense_kernels.sight1`, :func:`~.sense_kernels._near_row`,
+(:func:`~.locomotion.move1`, :func:`~.sense_kernels.sight1`, :func:`~.sense_kernels.near_row`,
 the battery and status updates of :func:`~.step_kernel.step_kernel`, the break contacts of
 :func:`~.sense_kernels.sense_pass2`) with the world's arrays chosen per robot
 (:func:`terrain_of`) and every neighbour grid built per copy (:func:`grid_build_copies`), so a
@@ -23,21 +23,21 @@ from numba import njit, prange
 from .grid import grid_build_copies, grid_cells, sense_cell
 from .locomotion import move1
 from .sense_kernels import (
-    _compact_out,
-    _copy_kept,
-    _insert,
-    _kept,
-    _near_row,
-    _offsets,
-    _touches,
     break_range,
+    compact_out,
+    copy_kept,
     count_breaks,
     deep_inside,
     gather_breaks,
     in_view,
+    insert_sorted,
+    kept_count,
     mark_out_of_view,
+    near_row,
+    prefix_offsets,
     robot_sight,
     sight1,
+    touches,
 )
 from .step_kernel import after_move
 
@@ -80,7 +80,7 @@ def _collisions(px, py, cop, G, diameter):
         for cy in range(cy_lo, cy_hi + 1):
             for m in range(st[cy * nx + cx_lo], st[cy * nx + cx_hi + 1]):
                 j = items[m]
-                if j != i and _touches(gx[m] - px[i], gy[m] - py[i], diameter, lo2, hi2):
+                if j != i and touches(gx[m] - px[i], gy[m] - py[i], diameter, lo2, hi2):
                     k += 1
         coll[i] = k
     return coll
@@ -137,7 +137,7 @@ def step_copies(T0, steep, wor, cop, off, pos, tri, head, heights, status, batte
 
 # -- sensing -----------------------------------------------------------------------------------
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _entity_row_copy(T, i, qx, qy, qz, h, ch, sh, ti, deep, ex, ey, ez, j0, j1, range_m, half_fov, cos_hf, check_los,
                      idx, dist, vis):
     """:func:`~.sense_kernels._entity_row` over the entities ``j0:j1`` of the robot's copy (a
@@ -154,7 +154,7 @@ def _entity_row_copy(T, i, qx, qy, qz, h, ch, sh, ti, deep, ex, ey, ez, j0, j1, 
             continue
         d = math.sqrt(d2)
         if d <= range_m:
-            c = _insert(idx, dist, i, c, k, j, d)
+            c = insert_sorted(idx, dist, i, c, k, j, d)
     for s in range(c):
         j = idx[i, s]
         v = 1 if in_view(ex[j] - qx, ey[j] - qy, dist[i, s], ch, sh, h, half_fov, cos_hf) else 0
@@ -183,7 +183,7 @@ def _sense1(T0, wor, cop, margin, px, py, head, tri, sz, active, G, range_m, hal
         h = head[i]
         ch = math.cos(h)
         sh = math.sin(h)
-        k = _near_row(i, px[i], py[i], X0[c], Y0[c], INV[c], NX[c], NY[c], start[base[c]:], items, gx, gy, i, range_m,
+        k = near_row(i, px[i], py[i], X0[c], Y0[c], INV[c], NX[c], NY[c], start[base[c]:], items, gx, gy, i, range_m,
                       r2, r_idx, r_dist)
         mark_out_of_view(i, k, px, py, h, ch, sh, half_fov, cos_hf, r_idx, r_dist, r_vis, r_cnt)
         t_cnt[i] = _entity_row_copy(T, i, px[i], py[i], sz[i], h, ch, sh, tri[i], dp, tx, ty, tz, t_rng[c, 0],
@@ -200,7 +200,7 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
             deep, k_front):
     bax, bay, bbx, bby, BX0, BY0, BINV, BNX, BNY, bstart, bitems, bs_off, b_off = B
     n = px.shape[0]
-    off = _offsets(bcnt)
+    off = prefix_offsets(bcnt)
     tot = off[n]
     obs = np.empty(tot, dtype=np.int64)
     seg = np.empty(tot, dtype=np.int64)
@@ -220,11 +220,11 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
                       closest, obs, k_front)
     rows = np.empty(n, dtype=np.int64)
     for i in prange(n):
-        rows[i] = _kept(r_idx, r_vis, r_cnt, i) if active[i] else 0
-    start, ro, rt, rd = _compact_out(rows)
+        rows[i] = kept_count(r_idx, r_vis, r_cnt, i) if active[i] else 0
+    start, ro, rt, rd = compact_out(rows)
     for i in prange(n):
         if rows[i]:
-            _copy_kept(r_idx, r_dist, r_vis, r_cnt, i, start[i], ro, rt, rd)
+            copy_kept(r_idx, r_dist, r_vis, r_cnt, i, start[i], ro, rt, rd)
     return (obs, seg, dist, closest, off), (ro, rt, rd, start)
 
 

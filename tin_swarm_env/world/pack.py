@@ -106,8 +106,39 @@ class WorldPack:
     def nbytes(self) -> int:
         return int(sum(v.nbytes for v in self.a.values()))
 
+    def copy(self) -> WorldPack:
+        """A pack of its own (its arrays copied): one that :meth:`append` may grow."""
+        return WorldPack(self.worlds, {k: v.copy() for k, v in self.a.items()})
 
-def _one(world) -> WorldPack:
+    def append(self, world) -> None:
+        """Add ``world`` at the end, in place, in O(its size): each global array keeps spare
+        capacity (doubled when full), so a copy's reset does not copy the other worlds' arrays.
+        (Only on a pack of its own: :meth:`copy` one from :func:`pack_worlds`.)"""
+        new = pack_one(world)
+        size = {k: len(self.a[name]) for k, name in _SIZE_OF.items()}
+        buf = self.__dict__.setdefault("_buf", {})
+        for name, key in _GLOBAL:
+            v = new.a[name]
+            if key is not None and size[key]:
+                v = np.where(v >= 0, v + size[key], v) if name == "nbrs" else v + size[key]
+            n0 = len(self.a[name])
+            n1 = n0 + len(v)
+            b = buf.get(name)
+            if b is None or len(b) < n1:
+                grown = np.empty((max(2 * n0, n1, 16),) + self.a[name].shape[1:], dtype=self.a[name].dtype)
+                grown[:n0] = self.a[name]
+                b = buf[name] = grown
+            b[n0:n1] = v
+            self.a[name] = b[:n1]
+        for name in _PER_WORLD:
+            self.a[name] = np.concatenate([self.a[name], new.a[name]])
+        for name, key in _OFFSETS:
+            self.a[name] = np.concatenate([self.a[name], new.a[name][1:] + size[key]]).astype(np.int64)
+        self.worlds = self.worlds + (world,)
+        self._where[id(world)] = len(self.worlds) - 1
+
+
+def pack_one(world) -> WorldPack:
     """The pack of one world (cached on the world: its arrays never change)."""
     got = world.__dict__.get("_world_pack")
     if got is not None:
@@ -166,4 +197,4 @@ def join(packs) -> WorldPack:
 
 def pack_worlds(worlds) -> WorldPack:
     """The :class:`WorldPack` of ``worlds`` (distinct :class:`~.world.World` objects)."""
-    return join([_one(w) for w in worlds])
+    return join([pack_one(w) for w in worlds])

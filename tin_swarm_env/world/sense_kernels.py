@@ -119,7 +119,7 @@ def sight1(T, ax, ay, az, bx, by, bz, ta, deep):
 
 
 @njit(cache=True, inline="always")
-def _insert(idx, dist, i, cnt, k, j, d):
+def insert_sorted(idx, dist, i, cnt, k, j, d):
     """Insert (d, j) into row i's sorted buffer of at most k, ordered by (distance, index)."""
     if cnt == k and (d > dist[i, k - 1] or (d == dist[i, k - 1] and j > idx[i, k - 1])):
         return cnt
@@ -162,7 +162,7 @@ def in_view(dx, dy, d, ch, sh, heading, half_fov, cos_hf):
 
 
 @njit(cache=True, inline="always")
-def _near_row(i, qx, qy, x0, y0, inv, nx, ny, start, items, gx, gy, skip, range_m, r2, idx, dist):
+def near_row(i, qx, qy, x0, y0, inv, nx, ny, start, items, gx, gy, skip, range_m, r2, idx, dist):
     """Row ``i``: the at most K nearest grid points (a :func:`~.grid.grid_build` grid of cells
     ``>= range_m / SENSE_REACH`` (:func:`~.grid.sense_cell`), unpacked) within ``range_m`` of ``(qx, qy)``
     (point ``skip`` left out), nearest first, ties to the lower index; returns how many."""
@@ -181,7 +181,7 @@ def _near_row(i, qx, qy, x0, y0, inv, nx, ny, start, items, gx, gy, skip, range_
                 continue
             d = math.sqrt(d2)
             if d <= range_m:
-                c = _insert(idx, dist, i, c, k, j, d)
+                c = insert_sorted(idx, dist, i, c, k, j, d)
     return c
 
 
@@ -193,7 +193,7 @@ def _entity_row(T, i, qx, qy, qz, h, ch, sh, ti, deep, ex, ey, ez, x0, y0, inv, 
     as ``*args``, which numba does not inline.)"""
     if ex.shape[0] == 0:
         return 0
-    c = _near_row(i, qx, qy, x0, y0, inv, nx, ny, start, items, gx, gy, -1, range_m, (range_m * (1.0 + 1e-9)) ** 2,
+    c = near_row(i, qx, qy, x0, y0, inv, nx, ny, start, items, gx, gy, -1, range_m, (range_m * (1.0 + 1e-9)) ** 2,
                   idx, dist)
     for s in range(c):
         j = idx[i, s]
@@ -245,7 +245,7 @@ def count_breaks(x, y, bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m):
     return m
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)  # called, not inlined: one compiled body for the env and the vector env
 def gather_breaks(i, x, y, bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m, p0, dist, seg, closest, obs,
                   k_front):
     """Robot ``i``'s break contacts (rows ``lo:hi`` of :func:`break_range`, gathered in ascending
@@ -266,7 +266,7 @@ def gather_breaks(i, x, y, bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m,
         obs[p] = i
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)  # called, not inlined: one compiled body for the env and the vector env
 def robot_sight(T, i, px, py, sz, tri, deep, check_los, r_idx, r_dist, r_vis, r_cnt):
     """Line of sight of row ``i``'s in-view robot slots: a pair is walked once, from its lower
     index to its higher; when both see each other in view, the lower-index observer writes both
@@ -318,7 +318,7 @@ def sense_pass1(T, px, py, head, tri, sz, active, G, range_m, half_fov, cos_hf, 
         h = head[i]
         ch = math.cos(h)
         sh = math.sin(h)
-        c = _near_row(i, px[i], py[i], x0, y0, inv, nx, ny, start, items, gx, gy, i, range_m, r2, r_idx, r_dist)
+        c = near_row(i, px[i], py[i], x0, y0, inv, nx, ny, start, items, gx, gy, i, range_m, r2, r_idx, r_dist)
         mark_out_of_view(i, c, px, py, h, ch, sh, half_fov, cos_hf, r_idx, r_dist, r_vis, r_cnt)
         t_cnt[i] = _entity_row(T, i, px[i], py[i], sz[i], h, ch, sh, tri[i], dp, tx, ty, tz, tx0, ty0, tinv, tnx, tny,
                                tstart, titems, tgx, tgy, range_m, half_fov, cos_hf, check_los, t_idx, t_dist, t_vis)
@@ -344,7 +344,7 @@ def _mutual(idx, dist, cnt, j, i, d):
 
 
 @njit(cache=True, inline="always")
-def _kept(idx, vis, cnt, i):
+def kept_count(idx, vis, cnt, i):
     m = 0
     for s in range(cnt[i]):
         if idx[i, s] >= 0 and vis[i, s]:
@@ -353,7 +353,7 @@ def _kept(idx, vis, cnt, i):
 
 
 @njit(cache=True, inline="always")
-def _copy_kept(idx, dist, vis, cnt, i, p, obs, tgt, d):
+def copy_kept(idx, dist, vis, cnt, i, p, obs, tgt, d):
     """Row ``i``'s kept slots, written from position ``p`` on."""
     for s in range(cnt[i]):
         j = idx[i, s]
@@ -365,7 +365,7 @@ def _copy_kept(idx, dist, vis, cnt, i, p, obs, tgt, d):
 
 
 @njit(cache=True, inline="always")
-def _offsets(rows):
+def prefix_offsets(rows):
     """``(n + 1,)`` exclusive prefix sum of ``rows (n,)``: row i's items go to ``[out[i], out[i + 1])``."""
     n = rows.shape[0]
     out = np.empty(n + 1, dtype=np.int64)
@@ -376,8 +376,8 @@ def _offsets(rows):
 
 
 @njit(cache=True, inline="always")
-def _compact_out(rows):
-    start = _offsets(rows)
+def compact_out(rows):
+    start = prefix_offsets(rows)
     tot = start[rows.shape[0]]
     return start, np.empty(tot, dtype=np.int64), np.empty(tot, dtype=np.int64), np.empty(tot)
 
@@ -403,10 +403,10 @@ def compact(idx, dist, vis, cnt, px, py, head, ex, ey):
     n = idx.shape[0]
     rows = np.empty(n, dtype=np.int64)
     for i in range(n):
-        rows[i] = _kept(idx, vis, cnt, i)
-    start, obs, tgt, d = _compact_out(rows)
+        rows[i] = kept_count(idx, vis, cnt, i)
+    start, obs, tgt, d = compact_out(rows)
     for i in range(n):
-        _copy_kept(idx, dist, vis, cnt, i, start[i], obs, tgt, d)
+        copy_kept(idx, dist, vis, cnt, i, start[i], obs, tgt, d)
     return obs, tgt, d, bearings(obs, tgt, px, py, head, ex, ey), start
 
 
@@ -425,7 +425,7 @@ def sense_pass2(T, px, py, head, tri, sz, active, G, range_m, check_los, R, B, b
     bx0, by0, binv, bnx, bny, bstart, bitems = BG
     items = G[6]
     n = px.shape[0]
-    off = _offsets(bcnt)
+    off = prefix_offsets(bcnt)
     tot = off[n]
     obs = np.empty(tot, dtype=np.int64)
     seg = np.empty(tot, dtype=np.int64)
@@ -444,11 +444,11 @@ def sense_pass2(T, px, py, head, tri, sz, active, G, range_m, check_los, R, B, b
     # the robot contacts, compacted: rows counted and copied in parallel (row i by iteration i)
     rows = np.empty(n, dtype=np.int64)
     for i in prange(n):
-        rows[i] = _kept(r_idx, r_vis, r_cnt, i) if active[i] else 0
-    start, ro, rt, rd = _compact_out(rows)
+        rows[i] = kept_count(r_idx, r_vis, r_cnt, i) if active[i] else 0
+    start, ro, rt, rd = compact_out(rows)
     for i in prange(n):
         if rows[i]:
-            _copy_kept(r_idx, r_dist, r_vis, r_cnt, i, start[i], ro, rt, rd)
+            copy_kept(r_idx, r_dist, r_vis, r_cnt, i, start[i], ro, rt, rd)
     return (obs, seg, dist, closest, off), (ro, rt, rd, start)
 
 
@@ -463,7 +463,7 @@ def _put(dist, seg, closest, p, d, e, cx, cy):
 SORT_BY_INSERTION = 24  # contacts: fewer are sorted in place by insertion, more by a stable merge sort
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)  # called, not inlined: one compiled body for the env and the vector env
 def sort_contacts(dist, seg, closest, p0, m):
     """Order rows ``p0:p0 + m`` (one observer's break contacts, gathered in ascending segment
     index) by (distance, index): a stable sort by distance, as the insertion the contacts were
@@ -493,7 +493,7 @@ def sort_contacts(dist, seg, closest, p0, m):
         _put(dist, seg, closest, p0 + k, d[j], e[j], c[j, 0], c[j, 1])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)  # called, not inlined: one compiled body for the env and the vector env
 def nearest_to_front(dist, seg, closest, p0, m, k):
     """Rows ``p0:p0 + m``: the ``k`` smallest by (distance, index) moved to the front, in that order
     (a selection, O(m k)); the rest keep no order. The first ``k`` rows are :func:`sort_contacts`'s,
@@ -568,7 +568,7 @@ def _closest(px, py, ax, ay, bx, by):
 # -- collisions -----------------------------------------------------------------------------
 
 @njit(cache=True, inline="always")
-def _touches(dx, dy, diameter, lo2, hi2):
+def touches(dx, dy, diameter, lo2, hi2):
     """``math.hypot(dx, dy) < diameter``, decided by the squared distance when it is clearly
     inside (``< lo2``) or outside (``> hi2``, a relative margin of 1e-6 on each side, far above
     rounding), so ``hypot`` (a libm call) runs only near the boundary: the same answer."""
@@ -604,7 +604,7 @@ def collision_counts(px, py, present, G, diameter):
         for cy in range(cy_lo, cy_hi + 1):
             for m in range(start[cy * nx + cx_lo], start[cy * nx + cx_hi + 1]):
                 j = items[m]
-                if j != i and _touches(gx[m] - px[i], gy[m] - py[i], diameter, lo2, hi2):
+                if j != i and touches(gx[m] - px[i], gy[m] - py[i], diameter, lo2, hi2):
                     c += 1
                     if j > i:
                         h += 1
@@ -623,7 +623,7 @@ def collision_counts(px, py, present, G, diameter):
         for cy in range(cy_lo, cy_hi + 1):
             for m in range(start[cy * nx + cx_lo], start[cy * nx + cx_hi + 1]):
                 j = items[m]
-                if j > i and _touches(gx[m] - px[i], gy[m] - py[i], diameter, lo2, hi2):
+                if j > i and touches(gx[m] - px[i], gy[m] - py[i], diameter, lo2, hi2):
                     q = p
                     while q > p0 and pairs[q - 1, 1] > j:  # sorted by j
                         pairs[q, 0] = i
