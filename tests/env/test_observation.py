@@ -211,7 +211,7 @@ def test_env_episode_is_bit_identical_for_1_and_2_threads_and_the_plain_encoder(
         two = _episode(env, 15)
     finally:
         numba.set_num_threads(old)
-    monkeypatch.setattr(O, "_fill", O._fill.py_func)
+    monkeypatch.setattr(O, "fill_observations", O.fill_observations.py_func)
     ref = _episode(env, 3)
     for a, b in zip(one, two, strict=True):
         assert a.tobytes() == b.tobytes()
@@ -415,13 +415,13 @@ def test_small_swarms_are_encoded_on_one_thread_and_large_ones_on_all(monkeypatc
     env.reset_arrays(seed=3)
     w, s, r = env.world, env.world_state, env.sensed()
     seen = []
-    kernel = O._fill
+    kernel = O.fill_observations
 
     def spy(*a):
         seen.append(numba.get_num_threads())
         return kernel(*a)
 
-    monkeypatch.setattr(O, "_fill", spy)
+    monkeypatch.setattr(O, "fill_observations", spy)
     k = min(2, numba.config.NUMBA_NUM_THREADS)
     old = numba.get_num_threads()
     try:
