@@ -199,3 +199,11 @@ def test_generated_resets_append_to_the_packs_in_place():
     assert max(sizes) <= 2 * 4 + 8 + 4 and len(v._fpack) <= 2 * 4 + 8 + 4
     _replay(tse.vector_env("generated", n_envs=3, n_robots=2, seed=9, max_cycles=2), ["generated"], 2, 30,
             _random(3, 2, 7), max_cycles=2)
+
+
+def test_one_copy_is_the_single_env():
+    """The single env and copy 0 of a one-copy vector env: the same trajectory, bit for bit, through an
+    auto-reset (both step through the same per-robot kernels: after_move, robot_sight, gather_breaks, ...)."""
+    v = tse.vector_env("hill", n_envs=1, n_robots=6, seed=4, max_cycles=15)
+    resets, _ = _replay(v, ["hill"], 6, 35, _random(1, 6, 5), max_cycles=15)
+    assert resets == 2
