@@ -152,9 +152,9 @@ MUTANTS = [
       WORLD),
     # -- world/battery.py, world/world.py -------------------------------------------------------------------
     M("battery-descent-recharges", "world/step_kernel.py", "climb_j_per_m * _max0(cl)", "climb_j_per_m * cl", WORLD),
-    M("battery-inactive-drains", "world/step_kernel.py", "if not active:\n            use = 0.0",
-      "if False:\n            use = 0.0", WORLD),
-    M("battery-negative", "world/step_kernel.py", "b = _max0(battery[i] - use)", "b = battery[i] - use", WORLD),
+    M("battery-inactive-drains", "world/step_kernel.py", "if not active:\n        use = 0.0",
+      "if False:\n        use = 0.0", WORLD),
+    M("battery-negative", "world/step_kernel.py", "b = _max0(b0 - use)", "b = b0 - use", WORLD),
     M("world-emptied-strict", "world/step_kernel.py", "st == _NONE and b <= 0.0", "st == _NONE and b < 0.0", WORLD),
     M("world-collision-radius", "world/world.py", "diameter = 2 * P.robot.radius_m",
       "diameter = P.robot.radius_m", WORLD + REWARD),
