@@ -8,10 +8,11 @@ stalled and looping robots (:mod:`tin_swarm_env.training.trajectory`), contacts 
                                        # and jacksboro's horizon analysis
     [--seeds 5] [--robots N] [--jacksboro-seeds 5] [--generated 50] [--only cliff_goal,...] [--out FILE]
     [--jobs 2] [--seed-offset 100] [--max-cycles 3000]   # another held-out set, a longer episode
-    [--k-scan 32]                      # every row's observation with the terrain scan's beams
+    [--k-scan 0]                       # every row's observation with that many scan beams (default: as it is, 32)
 
-Policies: the APF baseline with all its fields, the APF without the break field (the thesis's
-"poor ending": falls), :class:`~tin_swarm_env.policies.GeodesicPolicy` (knows the map: an upper
+Policies: the APF baseline with all its fields (its default search, the chart search, on the default
+observation with the terrain scan), APF with the bug search (the default before: a weaker baseline), the
+APF without the break field (the thesis's "poor ending": falls), :class:`~tin_swarm_env.policies.GeodesicPolicy` (knows the map: an upper
 bound, not a baseline) and uniform random actions. Terrains: every built-in goal scenario
 (``jacksboro`` with its 200 robots and 900 steps), the DEM-file scenarios ``scenarios/canyon_left.toml``,
 ``canyon_right.toml`` and ``valley.toml``, the four canyon terrains of
@@ -51,13 +52,13 @@ sys.path.insert(0, str(ROOT / "tests" / "helpers"))
 from canyons import VARIANTS, canyon_config  # noqa: E402
 
 POLICIES = {
-    "apf": lambda env: APFPolicy(env),
-    "apf, chart search": lambda env: APFPolicy(env, search="chart"),
+    "apf": lambda env: APFPolicy(env),  # the default: the chart search
+    "apf, bug search": lambda env: APFPolicy(env, search="bug"),  # the default before the chart search
     "apf, no break field": lambda env: APFPolicy(env, fields=("robot", "target", "height")),
     "geodesic (knows the map)": lambda env: GeodesicPolicy(env),
     "random": lambda env: RandomPolicy(env, seed=0),
 }
-GENERATED_POLICIES = ("apf", "apf, chart search", "geodesic (knows the map)")  # the generated rows: the baseline
+GENERATED_POLICIES = ("apf", "apf, bug search", "geodesic (knows the map)")  # the generated rows: the baseline
 # with either boundary search, and the bound
 GOAL_SCENARIOS = ("cliff_goal", "ramp", "hill", "flat", "jacksboro")
 FILE_SCENARIOS = ("canyon_left", "canyon_right", "valley")  # scenarios/<name>.toml, the thesis's DEM-file maps
@@ -76,7 +77,7 @@ class Row:
     policies: tuple = tuple(POLICIES)
 
 
-def generated_family(family: str, robots: int | None, max_cycles: int | None = None, k_scan: int = 0):
+def generated_family(family: str, robots: int | None, max_cycles: int | None = None, k_scan: int | None = None):
     """The built-in ``generated`` scenario restricted to one family (``max_cycles``: its episode
     length, default the scenario's; ``k_scan``: see :func:`scanned`)."""
     cfg = load_scenario("generated")
@@ -84,10 +85,11 @@ def generated_family(family: str, robots: int | None, max_cycles: int | None = N
     return tse.parallel_env(scenario=scanned(cfg, k_scan), n_robots=robots, max_cycles=max_cycles)
 
 
-def scanned(cfg, k_scan: int):
-    """``cfg`` (a scenario name, file or config) with ``[observation] k_scan`` set (0: as it is)."""
+def scanned(cfg, k_scan: int | None):
+    """``cfg`` (a scenario name, file or config) with ``[observation] k_scan`` set (None: as it is, the
+    default layout's 32 beams; 0: no scan)."""
     cfg = cfg if not isinstance(cfg, str) else load_scenario(cfg)
-    return cfg.replace(observation=dataclasses.replace(cfg.observation, k_scan=k_scan)) if k_scan else cfg
+    return cfg if k_scan is None else cfg.replace(observation=dataclasses.replace(cfg.observation, k_scan=k_scan))
 
 
 def _rows(args) -> list[Row]:
@@ -254,7 +256,7 @@ def containment_rows(args, emit=print):
 
 
 def horizon_rows(args, emit=print):
-    """Why APF times out on jacksboro: for each robot that timed out, the step at which it
+    """Why APF (the bug search) times out on jacksboro: for each robot that timed out, the step at which it
     first followed a break plus the steps the shortest drivable path from there to its target
     takes at top speed (GeodesicPolicy's cost-to-go field). Above ``max_cycles``, no policy
     that first walks straight at the target (as APF must, seeing 150 m) could have arrived."""
@@ -265,7 +267,7 @@ def horizon_rows(args, emit=print):
     emit("| seed | timed out | needed: min | median | max | share within max_cycles |")
     emit("|---:|---:|---:|---:|---:|---:|")
     for sd in range(args.jacksboro_seeds):
-        pol = APFPolicy(env)
+        pol = APFPolicy(env, search="bug")  # the bug search records when it first followed a break
         first_t = np.full(env.n, -1)
         first_xy = np.zeros((env.n, 2))
         clock = [0]
@@ -349,8 +351,9 @@ def main(argv=None):
                    help="the generated rows' episode length (default the scenario's, 1000)")
     p.add_argument("--only", type=lambda s: s.split(","), default=None,
                    help="comma-separated row prefixes (e.g. jacksboro,canyon,generated: fork,containment)")
-    p.add_argument("--k-scan", type=_at_least(0), default=0, metavar="N",
-                   help="every row's scenario with [observation] k_scan = N: the terrain scan's beams (0: as it is)")
+    p.add_argument("--k-scan", type=_at_least(0), default=None, metavar="N",
+                   help="every row's scenario with [observation] k_scan = N: the terrain scan's beams (default: as "
+                        "it is, the default layout's; 0: no scan, the layout before the scan was the default)")
     p.add_argument("--horizon", action="store_true",
                    help="also: APF's steps to arrive against GeodesicPolicy's per terrain; for jacksboro's "
                         "timed-out APF robots, first contact + shortest path at top speed; and APF on jacksboro "

@@ -17,8 +17,8 @@ def test_one_member_per_builtin_scenario_and_specs():
     assert task._env_kwargs() == {"scenario": "ramp", "n_robots": 3, "max_cycles": 7}
     assert task.max_steps(env) == 7 and task.has_render(env) is False
     assert task.group_map(env) == {"robot": ["robot_0", "robot_1", "robot_2"]}
-    assert env.full_observation_spec["robot", "observation"].shape == (4, 3, 59)
-    assert task.observation_spec(env)["robot", "observation"].shape == (3, 59)
+    assert env.full_observation_spec["robot", "observation"].shape == (4, 3, 91)
+    assert task.observation_spec(env)["robot", "observation"].shape == (3, 91)
     assert task.action_spec(env)["robot", "action"].shape == (3, 2)
     info = task.info_spec(env)  # numbers only: the distance to go and the Reason code
     assert set(info["robot", "info"].keys()) == {"distance_to_go_m", "reason"}
@@ -84,7 +84,7 @@ def test_export_gives_the_torch_actors_deterministic_actions(tmp_path):
     with torch.no_grad():  # an untrained actor's means are small: scale the last layer so tanh saturates too
         mlp.params["4", "weight"].mul_(50.0)
     layers, activation, squash = actor_mean_layers(exp)
-    assert [W.shape for W, _ in layers] == [(16, 59), (16, 16), (2, 16)] and (activation, squash) == ("tanh", "tanh")
+    assert [W.shape for W, _ in layers] == [(16, 91), (16, 16), (2, 16)] and (activation, squash) == ("tanh", "tanh")
     env = tse.parallel_env(scenario="ramp", n_robots=3, max_cycles=40)
     obs = real_observations(env, seeds=(0, 1), steps=30, every=3)
     torch_act = deterministic_actions(exp)(obs.astype(np.float32))

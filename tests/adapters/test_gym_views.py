@@ -164,7 +164,7 @@ def test_central_view_equals_the_parallel_env_bit_for_bit():
     for t in range(30):
         o, r, term, trunc, info = view.step(acts[t])
         p, pr, pterm, ptrunc, _ = penv.step_arrays(acts[t])
-        assert np.array_equal(o, p) and o.dtype == np.float32 and o.shape == (5, 59)
+        assert np.array_equal(o, p) and o.dtype == np.float32 and o.shape == (5, 91)
         assert r == float(np.sum(pr, dtype=np.float64))
     assert trunc and not term and info["counts"]["max_cycles"] == int(ptrunc.sum()) > 0
 

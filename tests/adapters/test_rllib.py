@@ -48,7 +48,7 @@ def test_ppo_config_maps_every_robot_to_one_shared_policy():
     assert cfg.is_multi_agent
     # the env it names is the corrected wrapper, with observation spaces per robot
     env = rllib_env_creator(cfg.env_config)
-    assert env.observation_spaces["robot_2"].shape == (59,)
+    assert env.observation_spaces["robot_2"].shape == (91,)
 
 
 def test_one_rllib_ppo_iteration_runs_locally(tmp_path):
@@ -101,7 +101,7 @@ def test_export_gives_the_modules_deterministic_actions(tmp_path, vf_share_layer
     with torch.no_grad():  # an untrained module's means are small: scale the head so the clip matters too
         module.pi.net.mlp[0].weight.mul_(10.0)
     layers, activation = module_mean_layers(module)
-    assert [W.shape for W, _ in layers] == [(16, 59), (16, 16), (2, 16)] and activation == "tanh"
+    assert [W.shape for W, _ in layers] == [(16, 91), (16, 16), (2, 16)] and activation == "tanh"
     obs = real_observations(env, seeds=(0, 1), steps=30, every=3)
     act = deterministic_actions(module, env.action_space("robot_0"))(obs.astype(np.float32))
     assert (np.abs(act) == 1.0).any() and (np.abs(act) < 0.9).any()  # clipped and inner actions
@@ -121,4 +121,4 @@ def test_export_refuses_a_head_with_another_activation(tmp_path):
     with pytest.raises(ArgumentError, match="one activation"):
         module_mean_layers(module)
     module, _ = _tiny_module(head_fcnet_hiddens=[8], head_fcnet_activation="tanh")
-    assert [W.shape for W, _ in module_mean_layers(module)[0]] == [(16, 59), (16, 16), (8, 16), (2, 8)]
+    assert [W.shape for W, _ in module_mean_layers(module)[0]] == [(16, 91), (16, 16), (8, 16), (2, 8)]

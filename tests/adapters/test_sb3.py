@@ -25,18 +25,18 @@ def test_vecenv_contract_shapes_dtypes_and_time_limit():
     v = vec()
     assert isinstance(v, VecEnv) and v.num_envs == 8
     obs = v.reset()
-    assert obs.shape == (8, 59) and obs.dtype == np.float32
+    assert obs.shape == (8, 91) and obs.dtype == np.float32
     rng = np.random.default_rng(0)
     for t in range(30):
         obs, rew, done, info = v.step(rng.uniform(-1, 1, (8, 2)).astype(np.float32))
-        assert obs.shape == (8, 59) and obs.dtype == np.float32
+        assert obs.shape == (8, 91) and obs.dtype == np.float32
         assert rew.shape == (8,) and rew.dtype == np.float32 and done.dtype == bool
         assert len(info) == 8
         assert all(v.observation_space.contains(o) for o in obs)
     # step 30 = max_cycles: every live robot ends, truncated, with its last observation
     assert done.all()
     live_end = [i for i in info if "episode" in i]
-    assert live_end and all(i["TimeLimit.truncated"] and i["terminal_observation"].shape == (59,) for i in live_end)
+    assert live_end and all(i["TimeLimit.truncated"] and i["terminal_observation"].shape == (91,) for i in live_end)
     assert all(i["episode"]["l"] == 30 for i in live_end)
     # auto-reset: the observations returned are the new episode's (robots back in the spawn region)
     assert all(env.steps == 0 and env.live_mask.all() for env in v.envs)

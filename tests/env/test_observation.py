@@ -23,12 +23,13 @@ from tin_swarm_env.env.observation import (
 from tin_swarm_env.errors import ObservationLayoutError
 from tin_swarm_env.policies import APFPolicy
 from tin_swarm_env.scenario import ObservationSpec, load_scenario, scenario_from_dict
+from tin_swarm_env.scenario.config import DEFAULT_K_SCAN
 from tin_swarm_env.terrain import Tin, save_tin
 from tin_swarm_env.world.fields import HEIGHT_SCALE_M
 
 
 def test_field_names_offsets_and_size_agree():
-    lay = ObsLayout(k_robots=2, k_targets=1, k_breaks=5)
+    lay = ObsLayout(k_robots=2, k_targets=1, k_breaks=5, k_scan=0)
     names = lay.names()
     assert len(names) == lay.size == 11 + 4 * 2 + 4 * 1 + 8 * 5
     obs = np.arange(lay.size, dtype=float)[None]  # element i holds i: reading a field reads its index
@@ -228,7 +229,7 @@ ATOL = 1e-5
 
 
 def test_mirror_signs_are_named_per_field_for_every_layout():
-    lay = ObsLayout(k_robots=3, k_targets=2, k_breaks=4, k_assets=1)
+    lay = ObsLayout(k_robots=3, k_targets=2, k_breaks=4, k_assets=1, k_scan=0)
     signs = lay.mirror_signs()
     assert signs.shape == (lay.size,)
     negated = {n for n, s in zip(lay.names(), signs, strict=True) if s < 0}
@@ -239,7 +240,7 @@ def test_mirror_signs_are_named_per_field_for_every_layout():
     assert set(np.unique(signs)) == {-1.0, 1.0}
     assert [n for n, _ in OWN_FIELDS] == list(OWN_PARITY) and set(SLOT_PARITY) >= {f for v in SLOT_FIELDS.values()
                                                                                    for f in v}
-    assert ObsLayout(k_robots=0, k_targets=0, k_breaks=0).mirror_signs().shape == (11,)
+    assert ObsLayout(k_robots=0, k_targets=0, k_breaks=0, k_scan=0).mirror_signs().shape == (11,)
 
 
 def test_mirror_is_an_exact_involution_and_the_action_map_negates_vy():
@@ -257,7 +258,9 @@ def test_mirror_is_an_exact_involution_and_the_action_map_negates_vy():
     np.testing.assert_array_equal(mirror_action(mirror_action(a)), a)
     assert ACTION_PARITY == (1.0, -1.0)
     with pytest.raises(ObservationLayoutError, match="size 59"):
-        ObsLayout().mirror(np.zeros((3, 60)))
+        ObsLayout(k_scan=0).mirror(np.zeros((3, 60)))
+    with pytest.raises(ObservationLayoutError, match="size 91"):  # the default layout: 59 + 32 scan beams
+        ObsLayout().mirror(np.zeros((3, 59)))
     with pytest.raises(ObservationLayoutError, match="size 2"):
         mirror_action(np.zeros(3))
 
@@ -273,7 +276,8 @@ def _world_dict(path, name):
             "robots": {"count": 40, "max_slope_deg": 30.0},
             "sensor": {"fov_deg": 240.0},
             "targets": {"positions": [[0.0, 0.0]], "arrival_radius_m": 2.0},
-            "assets": {"positions": [[0.0, 0.0]]}}
+            "assets": {"positions": [[0.0, 0.0]]},
+            "observation": {"k_scan": 0}}  # slots only: the scan's beams have their own mirror test below
 
 
 def _sorted_slots(lay, obs, part):
@@ -504,7 +508,7 @@ def test_the_mirror_image_permutes_the_beams(square):
     assert list(perm[:s]) == list(range(s))
     with pytest.raises(ObservationLayoutError, match="k_scan = 12"):
         lay.mirror_signs()
-    assert ObsLayout().mirror_signs().shape == (59,)  # no scan: the sign flip is the whole mirror
+    assert ObsLayout(k_scan=0).mirror_signs().shape == (59,)  # no scan: the sign flip is the whole mirror
 
 
 @pytest.mark.parametrize("scenario", ["cliff_goal", "generated"])
@@ -524,9 +528,10 @@ def test_compiled_scan_equals_the_numpy_reference(scenario, observations_match):
 
 
 def test_the_layout_saves_the_scan_and_old_files_still_load():
-    old = ObsLayout().to_dict()
+    old = ObsLayout(k_scan=0).to_dict()
     assert "k_scan" not in old and "scan" not in old["slots"]  # no scan: the dict layouts had before it
-    assert ObsLayout.from_dict(old) == ObsLayout()
+    assert ObsLayout.from_dict(old) == ObsLayout(k_scan=0) != ObsLayout()  # the default has the scan now
+    assert ObsLayout().k_scan == DEFAULT_K_SCAN == 32 and ObsLayout().size == 59 + 32
     lay = ObsLayout(k_scan=32)
     d = json.loads(json.dumps(lay.to_dict()))
     assert d["k_scan"] == 32 and d["slots"]["scan"] == ["d"] and ObsLayout.from_dict(d) == lay

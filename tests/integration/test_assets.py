@@ -22,19 +22,20 @@ def guard(n_robots=6, assets=((100.0, 70.0),), **obs):
 
 
 def test_asset_slots_only_when_the_scenario_has_assets():
-    assert tse.parallel_env(scenario="cliff_goal").layout.size == 59  # no assets: the default size
-    env = tse.parallel_env(scenario=guard())
+    assert tse.parallel_env(scenario="cliff_goal").layout.size == 91  # no assets: the default size (with the scan)
+    env = tse.parallel_env(scenario=guard(k_scan=0))
     assert env.layout.k_assets == DEFAULT_K_ASSETS and env.layout.size == 59 + 4 * DEFAULT_K_ASSETS
-    assert env.layout.assets == slice(59, 59 + 4 * DEFAULT_K_ASSETS)  # last: the other offsets stay
-    assert tse.parallel_env(scenario=guard(k_assets=0)).layout.size == 59
+    assert env.layout.assets == slice(59, 59 + 4 * DEFAULT_K_ASSETS)  # after the breaks: the other offsets stay
+    assert tse.parallel_env(scenario=guard()).layout.scan == slice(67, 67 + 32)  # the scan last, after the assets
+    assert tse.parallel_env(scenario=guard(k_assets=0, k_scan=0)).layout.size == 59
     assert tse.parallel_env(scenario=guard(k_assets=3)).layout.k_assets == 3
     assert ObsLayout.from_spec(ObservationSpec(), n_assets=0) == ObsLayout()
 
 
 def test_layout_without_assets_saves_the_dict_of_before():
-    d = ObsLayout().to_dict()
+    d = ObsLayout(k_scan=0).to_dict()
     assert "k_assets" not in d and set(d["slots"]) == {"robots", "targets", "breaks"}
-    lay = ObsLayout(2, 1, 3, 2)
+    lay = ObsLayout(2, 1, 3, 2, 0)
     d = json.loads(json.dumps(lay.to_dict()))
     assert d["k_assets"] == 2 and ObsLayout.from_dict(d) == lay
     assert lay.names()[-4:] == ["assets[1].valid", "assets[1].x", "assets[1].y", "assets[1].d"]

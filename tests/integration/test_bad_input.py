@@ -52,7 +52,7 @@ def toml(body: str, targets: str = GOAL) -> str:
 # "env": a scenario file's text, made into an env and reset; "call": a function of the temp dir
 CASES = [
     ("`run flat --policy APF` (any case)", "cli", ["run", "flat", "--policy", "APF", *FLAT], "exit 0"),
-    ("`run flat --policy apff`", "cli", ["run", "flat", "--policy", "apff", *FLAT], "give apf, apf-chart, random"),
+    ("`run flat --policy apff`", "cli", ["run", "flat", "--policy", "apff", *FLAT], "give apf, apf-bug, apf-chart, random"),
     ("`run flat --policy model.zip` (no --trust-pickle)", "cli", ["run", "flat", "--policy", "{d}/model.zip", *FLAT],
      "without --trust-pickle"),
     ("`eval flat --model missing/`", "cli", ["eval", "flat", "--model", "{d}/missing", "--seeds", "1"],

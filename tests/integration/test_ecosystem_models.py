@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
+from tin_swarm_env.training.policy_factory import policy_scenario
 from tin_swarm_env.policies import load_policy
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -28,7 +29,7 @@ def test_committed_model_is_small_checked_data(name):
     t = meta["training"]
     assert t["library"] == library and t["action_squash"].startswith(squash)
     assert 0 < t["minutes"] <= 31 and t["args"]["max_minutes"] <= 30  # the wall-clock budget of the run
-    env = tse.parallel_env(scenario=meta["scenario"], n_robots=4)
+    env = tse.parallel_env(scenario=policy_scenario(meta["scenario"], str(d)), n_robots=4)  # the layout it was trained on
     pol = load_policy(d, env)
     sizes = meta["network"]["layer_sizes"]
     assert sizes[0] == env.observation_space("robot_0").shape[0] and sizes[-1] == 2

@@ -108,14 +108,17 @@ def test_drive_records_the_mode_the_student_commanded_and_apfs_side(diag):
     command is the class of the torch student's largest logit on the replayed history (its feedback
     included), and APF's side is recorded (aux)."""
     import tin_swarm_env as tse
+    from tin_swarm_env.env.observation import ObsLayout
+    from tin_swarm_env.scenario import load_scenario
     from tin_swarm_env.training.recurrent_imitation import GRUStudent, previous_actions
     from tin_swarm_env.policies.heads import categorical_classes
 
-    lay = tse.parallel_env(scenario="cliff_goal", n_robots=3).layout
+    old = load_scenario("cliff_goal").with_layout(ObsLayout(k_scan=0))  # the study's layout: no scan (sign-flip mirror)
+    lay = tse.parallel_env(scenario=old, n_robots=3).layout
     classes = categorical_classes()
     st = GRUStudent(lay.size, 8, (8,), signs=lay.mirror_signs(), seed=1, classes=classes, feedback="action",
                     aux_weight=1.0, acting="sample")
-    seqs = diag.drive(st, lay, "cliff_goal", 1, 12)
+    seqs = diag.drive(st, lay, old, 1, 12)
     assert len(seqs) == 1 and st.head_entry["acting"] == "sample"  # the student's own acting is left as it was
     q = seqs[0]
     assert q.aux is not None and q.aux.shape == q.keep.shape and len(q.obs) == 12

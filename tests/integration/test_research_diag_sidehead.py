@@ -5,6 +5,8 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
+from tin_swarm_env.env.observation import ObsLayout
+from tin_swarm_env.scenario import load_scenario
 
 torch = pytest.importorskip("torch")
 
@@ -18,7 +20,7 @@ def test_side_head_is_mirror_equivariant_and_reads_the_given_side(ds):
     from tin_swarm_env.env.observation import mirror_action
     from tin_swarm_env.policies.heads import categorical_classes
 
-    lay = tse.parallel_env(scenario="cliff_goal", n_robots=2).layout
+    lay = tse.parallel_env(scenario=load_scenario("cliff_goal").with_layout(ObsLayout(k_scan=0)), n_robots=2).layout  # research: the sign-flip layout
     m = ds.SideHeadGRU(lay.size, lay.mirror_signs(), categorical_classes(), hidden=8, width=8, seed=1)
     rng = np.random.default_rng(0)
     x = rng.uniform(-1, 1, (6, 3, lay.size)).astype(np.float32)
@@ -42,7 +44,7 @@ def test_learner_step_by_step_is_the_whole_episode_forward(ds):
     from tin_swarm_env.training.recurrent_imitation import previous_actions
     from tin_swarm_env.policies.heads import categorical_classes
 
-    lay = tse.parallel_env(scenario="cliff_goal", n_robots=3).layout
+    lay = tse.parallel_env(scenario=load_scenario("cliff_goal").with_layout(ObsLayout(k_scan=0)), n_robots=3).layout  # research: the sign-flip layout
     classes = categorical_classes()
     m = ds.SideHeadGRU(lay.size, lay.mirror_signs(), classes, hidden=8, width=8, seed=2)
     d = collect("cliff_goal", 1, 4, learner=ds.TorchLearner(m), teacher="apf_student", sequences=True, n_robots=3,

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
+from tin_swarm_env.training.policy_factory import policy_scenario
 from tin_swarm_env.training.evaluation import EVAL_SEED0
 from tin_swarm_env.training.rollout import rollout
 from tin_swarm_env.errors import PolicyFileError
@@ -39,7 +40,8 @@ def test_the_shipped_policy_runs_without_torch_or_pickle():
         "for m in ('torch', 'stable_baselines3'): sys.modules[m] = None  # importing them now fails\n"
         "import tin_swarm_env as tse\n"
         "from tin_swarm_env.policies import load_policy\n"
-        "env = tse.parallel_env(scenario='ramp', n_robots=3)\n"
+        "from tin_swarm_env.training.policy_factory import policy_scenario\n"
+        f"env = tse.parallel_env(scenario=policy_scenario('ramp', {str(SHARED)!r}), n_robots=3)\n"
         "obs, _ = env.reset(seed=0)\n"
         "import numpy as np\n"
         "from tin_swarm_env.policies.learned import dense\n"
@@ -61,7 +63,7 @@ def test_the_shipped_policy_is_refused_by_another_layout(env_with_k_robots):
 
 
 def test_the_shipped_policy_brings_robots_in_on_cliff_goal():
-    env = tse.parallel_env(scenario="cliff_goal", n_robots=6)
+    env = tse.parallel_env(scenario=policy_scenario("cliff_goal", str(SHARED)), n_robots=6)  # its layout
     out = rollout(env, load_policy(SHARED, env), seed=EVAL_SEED0)
     assert out.count(Reason.FELL) == 0
     assert out.count(Reason.ARRIVED) >= 5, out.counts()
@@ -87,7 +89,7 @@ def test_the_mirror_policy_file_is_pickle_free_equivariant_and_brings_robots_in(
     assert sorted(p.name for p in d.iterdir()) == ["policy.json", "weights.npz"]
     meta = json.loads((d / "policy.json").read_text())
     assert meta["symmetry"] == "mirror" and meta["shield"] == "safety_cut"
-    env = tse.parallel_env(scenario="cliff_goal", n_robots=6)
+    env = tse.parallel_env(scenario=policy_scenario("cliff_goal", str(d)), n_robots=6)
     pol = load_policy(d, env)
     o = np.random.default_rng(0).uniform(-1, 1, (200, env.layout.size))
     np.testing.assert_allclose(pol.act_batch(env.layout.mirror(o)), mirror_action(pol.act_batch(o)), atol=1e-9)

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 import tin_swarm_env as tse
+from tin_swarm_env.training.policy_factory import policy_scenario
 from tin_swarm_env.env.observation import mirror_action
 from tin_swarm_env.policies import load_policy
 
@@ -22,7 +23,7 @@ def test_geodesic_teacher_model_is_small_mirror_equivariant_data():
     args = meta["training"]["args"]
     assert meta["training"]["imitation"]["teacher"] == args["teacher"] == "geodesic"
     assert meta["symmetry"] == args["symmetry"] == "mirror" and meta["shield"] == "safety_cut"
-    env = tse.parallel_env(scenario="cliff_goal", n_robots=4)
+    env = tse.parallel_env(scenario=policy_scenario("cliff_goal", str(D)), n_robots=4)
     pol = load_policy(D, env)
     o = np.random.default_rng(2).uniform(-1, 1, (200, env.layout.size))
     np.testing.assert_array_equal(pol.net_batch(env.layout.mirror(o)), mirror_action(pol.net_batch(o)))

@@ -127,7 +127,7 @@ def test_a_robot_following_a_wall_drives_through_a_gap_in_it_once_per_following(
     # back and its command points through the gap
     layout, R = ObsLayout(), 60.0
     env = tse.parallel_env(scenario=canyon_config("left", "east", robots=1))
-    pol = APFPolicy(env)
+    pol = APFPolicy(env, search="bug")
     ends = [(-3.0, -5.0, 0.0, 1.0, 50.0), (3.0, -5.0, 0.0, 1.0, 50.0)]
     wall = [(0.0, -5.0, 0.0, 1.0, 50.0), *ends]
     pol.act_batch(obs_row(layout, R, (0.0, -100.0), wall))

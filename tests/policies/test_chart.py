@@ -244,6 +244,6 @@ def test_scan_alone_is_charted_and_keeps_robots_off_the_cliff():
     assert (pol.charts.grid == 1).any()  # the beams' hits were charted
     assert not (out.reasons == Reason.FELL).any()
     assert (out.reasons == Reason.ARRIVED).sum() >= 15
-    bug = APFPolicy(env)
+    bug = APFPolicy(env, search="bug")
     out = rollout(env, bug, 0)
     assert len(bug.memory.side) == 0 and (out.reasons == Reason.FELL).all()

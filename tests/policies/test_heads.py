@@ -13,6 +13,8 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
+from tin_swarm_env.env.observation import ObsLayout
+from tin_swarm_env.scenario import load_scenario
 from tin_swarm_env.errors import ArgumentError, PolicyFileError
 from tin_swarm_env.policies import load_policy, save_policy
 from tin_swarm_env.policies.heads import (CategoricalHead, categorical_classes, categorical_head, mirror_permutation,
@@ -20,7 +22,9 @@ from tin_swarm_env.policies.heads import (CategoricalHead, categorical_classes, 
 from tin_swarm_env.policies.recurrent import CELLS
 
 ROOT = Path(__file__).resolve().parents[2]
-SCEN = {"scenario": "cliff_goal", "n_robots": 4, "max_cycles": 60}
+# the layout these policy files were written for: no terrain scan (59 elements), the default before it
+# had the scan; a policy file carries its layout and runs on an env built with it (policy_scenario)
+SCEN = {"scenario": load_scenario("cliff_goal").with_layout(ObsLayout(k_scan=0)), "n_robots": 4, "max_cycles": 60}
 
 
 def _env():

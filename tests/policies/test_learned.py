@@ -13,11 +13,15 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
+from tin_swarm_env.env.observation import ObsLayout
+from tin_swarm_env.scenario import load_scenario
 from tin_swarm_env.errors import PolicyFileError, TinSwarmError
 from tin_swarm_env.policies import MLPPolicy, load_policy, save_policy
 from tin_swarm_env.policies.learned import _layout_dict
 
-SCEN = {"scenario": "cliff_goal", "n_robots": 4, "max_cycles": 30}
+# the layout these policy files were written for: no terrain scan (59 elements), the default before it
+# had the scan; a policy file carries its layout and runs on an env built with it (policy_scenario)
+SCEN = {"scenario": load_scenario("cliff_goal").with_layout(ObsLayout(k_scan=0)), "n_robots": 4, "max_cycles": 30}
 
 
 @pytest.fixture(scope="module")

@@ -15,12 +15,16 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
+from tin_swarm_env.env.observation import ObsLayout
+from tin_swarm_env.scenario import load_scenario
 from tin_swarm_env.errors import ArgumentError, PolicyFileError
 from tin_swarm_env.policies import load_policy, save_policy
 from tin_swarm_env.policies.recurrent import CELLS, RecurrentPolicy, cell_step
 
 ROOT = Path(__file__).resolve().parents[2]
-SCEN = {"scenario": "cliff_goal", "n_robots": 4, "max_cycles": 80}
+# the layout these policy files were written for: no terrain scan (59 elements), the default before it
+# had the scan; a policy file carries its layout and runs on an env built with it (policy_scenario)
+SCEN = {"scenario": load_scenario("cliff_goal").with_layout(ObsLayout(k_scan=0)), "n_robots": 4, "max_cycles": 80}
 
 
 def _env(**kw):
@@ -73,7 +77,7 @@ def rppo(tmp_path_factory):
     from tin_swarm_env.adapters.sb3 import export_sb3_policy
 
     torch.set_num_threads(1)
-    vec = tse.adapters.make_sb3_vec_env("cliff_goal", n_robots=4, n_envs=1, seed=0, max_cycles=40)
+    vec = tse.adapters.make_sb3_vec_env(SCEN["scenario"], n_robots=4, n_envs=1, seed=0, max_cycles=40)
     model = RecurrentPPO("MlpLstmPolicy", vec, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu",
                          policy_kwargs={"net_arch": [16], "lstm_hidden_size": 12})
     model.learn(256)

@@ -42,7 +42,7 @@ def test_policy_specs_are_checked_before_any_work(tmp_path):
         check_policy_spec(str(z), option="--model")
     assert check_policy_spec(str(z), trust_pickle=True) == "sb3"
     (tmp_path / "notes.txt").write_text("x")
-    with pytest.raises(ArgumentError, match="is not a policy directory or an SB3 .zip; give apf, apf-chart, random, geodesic"):
+    with pytest.raises(ArgumentError, match="is not a policy directory or an SB3 .zip; give apf, apf-bug, apf-chart, random, geodesic"):
         check_policy_spec(str(tmp_path / "notes.txt"))
     with pytest.raises(ArgumentError, match="--policy 'ppo': no such file or directory"):
         check_policy_spec("ppo")

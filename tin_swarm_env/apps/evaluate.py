@@ -140,13 +140,19 @@ def evaluate(args: Args) -> EvalRows:
         raise ArgumentError(f"--suite {args.suite}: run it with tin_swarm_env.apps.suite.run_suite(args) (evaluate() "
                             "runs SCENARIOS)")
     from ..env import parallel_env
-    from ..training.policy_factory import make_policy
+    from ..training.policy_factory import make_policy, policy_scenario
 
     played, entries, out = check_args(args)
     rows = []
     for scen, cfg in played:
-        env = parallel_env(scenario=cfg, n_robots=args.robots or None, max_cycles=args.max_cycles or None)
+        envs = {}  # one env per observation layout: a policy file runs on the layout it was trained on
         for label, spec, path in entries:
+            p_cfg = policy_scenario(cfg, spec if path is None else path, args.trust_pickle)
+            key = repr(p_cfg.observation)
+            if key not in envs:
+                envs[key] = parallel_env(scenario=p_cfg, n_robots=args.robots or None,
+                                         max_cycles=args.max_cycles or None)
+            env = envs[key]
             pol = make_policy(env, spec if path is None else path, seed=args.seed_offset,
                               trust_pickle=args.trust_pickle)
             row = evaluation_row(env, pol, scen, label, args.seeds, args.seed_offset)

@@ -20,7 +20,7 @@ from ..env import parallel_env
 from ..env.tin_swarm import DEFAULT_RENDER_WIDTH_PX, RENDER_WIDTH_PX
 from ..scenario.config import MAX_ROBOTS
 from ..training.evaluation import progress_bar
-from ..training.policy_factory import make_policy
+from ..training.policy_factory import make_policy, policy_scenario
 from ..training.rollout import Outcome, rollout
 from ..world.fields import FIELDS
 from ..world.state import Reason
@@ -133,7 +133,7 @@ def run_episodes(scenario, policy="apf", robots=None, episodes=1, seed=0, fields
     frames (the first episode's, every ``frames_every`` steps) only when ``frames_every > 0``;
     with ``on_frame`` each frame goes to ``on_frame(frame)`` as it is drawn instead (the list is
     then empty: nothing accumulates in memory). ``policy``: see :func:`~.policy_factory.make_policy`."""
-    env = parallel_env(scenario=scenario, n_robots=robots, max_cycles=max_cycles,
+    env = parallel_env(scenario=policy_scenario(scenario, policy, trust_pickle), n_robots=robots, max_cycles=max_cycles,
                        render_mode="rgb_array" if frames_every else None, render_width=render_width)
     pol = make_policy(env, policy, fields, seed, trust_pickle=trust_pickle)
     out, frames = [], []

@@ -40,8 +40,10 @@ with scan beams the mirror image is not a sign flip and :meth:`ObsLayout.mirror_
 
 ``K_a`` (the assets part, after the breaks so the other offsets never move): the scenario's
 ``[observation] k_assets`` when given, else :data:`DEFAULT_K_ASSETS` when the scenario has assets
-and 0 when it has none, so a scenario without assets keeps the default size 59. ``K_s`` (the scan,
-last): the scenario's ``[observation] k_scan``, default 0 (no scan part).
+and 0 when it has none, so a scenario without assets keeps the default size (59 + ``K_s``). ``K_s``
+(the scan, last): the scenario's ``[observation] k_scan``, default
+:data:`~tin_swarm_env.scenario.config.DEFAULT_K_SCAN` (32 beams; 0: no scan part, the layout of
+policies trained before the scan was in the default, 59 elements).
 
 The 10 m is :data:`DZ_SCALE_M` (the height field's scale, ``world.fields.HEIGHT_SCALE_M``: one
 constant). Empty slots are all zero. Robots no longer in ``agents`` get an all-zero vector.

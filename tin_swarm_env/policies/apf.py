@@ -1,5 +1,8 @@
 """Artificial Potential Field policy with a boundary search: acts from the observation alone, for
-all robots at once. This docstring is the one home of the rule.
+all robots at once. This docstring is the one home of the rule. The default search is the *chart
+search* (below, with the default observation's terrain scan); the *boundary search* (bug rules)
+and the fields alone (no break field) are kept as weaker baselines, with their figures in
+``docs/figures/apf.md`` beside the default's.
 
 **Fields.** The observation (:class:`~tin_swarm_env.env.observation.ObsLayout`) is egocentric, so
 the fields of :mod:`tin_swarm_env.world.fields` are evaluated in the body frame and their sum is
@@ -10,7 +13,7 @@ closes on a robot it sees to within 1.5 body diameters nor on a dangerous break 
 one. What the policy takes from the environment is static: the observation layout, the sensor
 range, the task's standoff, the robot's radius, top speed and time step, never the world state.
 
-**Boundary search** (with the break field on; :mod:`tin_swarm_env.policies.bug`). A robot whose
+**Boundary search** (``search="bug"``, with the break field on; :mod:`tin_swarm_env.policies.bug`). A robot whose
 attraction points into a dangerous break it sees from the safe side within ``follow_engage_m``
 is *blocked*: a potential field alone has a minimum there. The robot then searches along the
 boundary of the ground it may not leave, bug-algorithm style (Lumelsky and Stepanov's Bug2,
@@ -102,8 +105,8 @@ has finitely many; a closed boundary whose lap comes no nearer than the last suc
 still followed on (open: measured in ``research/apf_notes.md``), as are boundaries that are
 not closed but long (the budget and the border end those).
 
-**Chart search** (``search="chart"``; :mod:`tin_swarm_env.policies.chart`; the default is
-``"bug"``, above). Instead of the bug rules, each robot keeps a chart of what it has sensed and
+**Chart search** (``search="chart"``, the default; :mod:`tin_swarm_env.policies.chart`; the bug
+search above is ``search="bug"``). Instead of the bug rules, each robot keeps a chart of what it has sensed and
 heads along the shortest way to its target on it, taking ground it has not sensed as open (the
 free-space assumption of D* and its kin). Memory per robot
 (:class:`~tin_swarm_env.policies.chart.ChartMemory`, constants in
@@ -241,7 +244,7 @@ class APFPolicy:
     counts), so that robots spread around each threat instead of bunching where they arrive.
 
     **Memory and search** (with the break field on): see the module docstring; ``search`` picks
-    the boundary search, ``"bug"`` (the default) or ``"chart"``; ``bug`` and ``chart`` set their
+    the chart search, ``"chart"`` (the default), or the boundary search, ``"bug"`` (a weaker baseline); ``bug`` and ``chart`` set their
     constants (:class:`~tin_swarm_env.policies.bug.BugParams`,
     :class:`~tin_swarm_env.policies.chart.ChartParams`). :attr:`unreachable` lists the
     robots that have shown their target unreachable (they stand still).
@@ -266,7 +269,7 @@ class APFPolicy:
     """
 
     def __init__(self, env, fields=FIELDS, params: FieldParams | None = None, bug: BugParams | None = None,
-                 search: str = "bug", chart: ChartParams | None = None):
+                 search: str = "chart", chart: ChartParams | None = None):
         base = unwrap_env(env)
         cfg = base.config
         self.shield = SafetyShield(env)

@@ -56,7 +56,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ArgumentError, OutputError, PolicyFileError
+from ..env.observation import ObsLayout
+from ..errors import ArgumentError, ObservationLayoutError, OutputError, PolicyFileError
 from .base import SafetyShield, act_dict, unwrap_env
 from .network import (ACTIVATIONS, MAX_ABS_WEIGHT, MAX_JSON_BYTES, MAX_JSON_DEPTH, MAX_LAYER_WIDTH,  # noqa: F401
                       MAX_LAYERS, MAX_PARAMETERS, MAX_WEIGHTS_BYTES, SHIELDS, checked_array, dense)
@@ -64,7 +65,7 @@ from .heads import CategoricalHead, check_head
 from .recurrent import FEEDBACKS, RecurrentPolicy, check_cell, recurrent_network
 from .symmetry import SYMMETRIES, file_options, symmetrize
 
-__all__ = ["MLPPolicy", "ShieldedPolicy", "save_policy", "load_policy", "FORMAT", "VERSION", "ACTIVATIONS",
+__all__ = ["MLPPolicy", "ShieldedPolicy", "save_policy", "load_policy", "policy_layout", "FORMAT", "VERSION", "ACTIVATIONS",
            "SHIELDS"]
 
 FORMAT = "tin_swarm_env.policy"
@@ -280,15 +281,11 @@ def _swap_into_place(tmp: Path, p: Path) -> None:
 # -- loading --------------------------------------------------------------------------------
 
 
-def load_policy(path, env):
-    """Read the policy directory ``path`` (or its ``policy.json``) for ``env``: no pickle, no
-    torch; an :class:`MLPPolicy`, or a :class:`~tin_swarm_env.policies.recurrent.RecurrentPolicy`
-    for a recurrent file. Raises :class:`~tin_swarm_env.errors.PolicyFileError` naming the file and the key for
-    anything wrong: a missing file, bad JSON, unknown format or version, a missing key, unknown
-    activation, weights that do not chain or are not finite, an object array in the weights, an
-    observation size other than the env's, or a layout other than the env's (both named)."""
+def _read_meta(path, who: str = "load_policy") -> tuple[Path, Path, Path, dict]:
+    """The policy directory of ``path`` (or of its ``policy.json``): ``(dir, json path, weights path, meta)``,
+    the JSON read with its size and depth limits and checked (sizes and limits, no weights read yet)."""
     if not isinstance(path, (str, os.PathLike)):
-        raise ArgumentError(f"load_policy(path=...): path must be a policy directory (str or os.PathLike), got "
+        raise ArgumentError(f"{who}(path=...): path must be a policy directory (str or os.PathLike), got "
                             f"{type(path).__name__}")
     p = Path(os.fspath(path))
     d = p.parent if p.name == POLICY_JSON and p.is_file() else p
@@ -311,6 +308,30 @@ def load_policy(path, env):
     except (OSError, UnicodeDecodeError) as exc:
         raise PolicyFileError(f"{jpath}: cannot be read ({exc})") from None
     validate_policy(meta, None, str(jpath), str(wpath))  # sizes and limits before the weights are read
+    return d, jpath, wpath, meta
+
+
+def policy_layout(path) -> ObsLayout:
+    """The observation layout the policy directory ``path`` was trained on (its ``policy.json``'s
+    ``observation.layout``), read without the weights: build the env it runs on with
+    :func:`~tin_swarm_env.scenario.with_layout` (a policy trained before the terrain scan was in the
+    default layout runs on an env built with its own layout; any other env is refused by
+    :func:`load_policy`, naming both layouts)."""
+    _, jpath, _, meta = _read_meta(path, "policy_layout")
+    try:
+        return ObsLayout.from_dict(meta["observation"]["layout"])
+    except ObservationLayoutError as exc:
+        raise PolicyFileError(f"{jpath}: key 'observation.layout': {exc}") from None
+
+
+def load_policy(path, env):
+    """Read the policy directory ``path`` (or its ``policy.json``) for ``env``: no pickle, no
+    torch; an :class:`MLPPolicy`, or a :class:`~tin_swarm_env.policies.recurrent.RecurrentPolicy`
+    for a recurrent file. Raises :class:`~tin_swarm_env.errors.PolicyFileError` naming the file and the key for
+    anything wrong: a missing file, bad JSON, unknown format or version, a missing key, unknown
+    activation, weights that do not chain or are not finite, an object array in the weights, an
+    observation size other than the env's, or a layout other than the env's (both named)."""
+    d, jpath, wpath, meta = _read_meta(path)
     arrays = read_weights(wpath, meta["network"]["layer_sizes"])
     layers = validate_policy(meta, arrays, str(jpath), str(wpath))
     _check_env(meta, env, str(jpath))

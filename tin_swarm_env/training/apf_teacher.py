@@ -63,7 +63,7 @@ class StudentAPF:
 
         if adopt is not None and not 0.0 <= adopt <= 1.0:
             raise ArgumentError(f"StudentAPF: adopt must be in [0, 1] or None, got {adopt!r}")
-        self.apf = APFPolicy(env, **apf_kwargs)
+        self.apf = APFPolicy(env, **{"search": "bug", **apf_kwargs})  # the labels follow the bug search's side
         self.adopt = adopt
         self.adopted = 0  # robot-steps at which APF took the student's side (this episode)
 

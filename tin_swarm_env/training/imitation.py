@@ -63,6 +63,7 @@ that is not random: a random critic's advantages would undo the cloned actor in 
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -269,18 +270,21 @@ def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=No
     if not 0.0 <= beta <= 1.0:
         raise ArgumentError(f"beta must be in [0, 1], got {beta}")
     rng = np.random.default_rng(seed)
-    scenarios = [scenarios] if isinstance(scenarios, str) else list(scenarios)
+    from ..scenario import ScenarioConfig
+
+    # names, files or configs (a config carries its own observation layout)
+    scenarios = [scenarios] if isinstance(scenarios, (str, os.PathLike, ScenarioConfig)) else list(scenarios)
     kw = dict(env_kwargs or {})
     if max_cycles:
         kw["max_cycles"] = max_cycles
-    envs = {s: parallel_env(scenario=s, n_robots=n_robots or None, **kw) for s in scenarios}
-    teachers = {s: make_teacher(teacher, e) for s, e in envs.items()}
+    envs = [parallel_env(scenario=s, n_robots=n_robots or None, **kw) for s in scenarios]
+    teachers = [make_teacher(teacher, e) for e in envs]
     from ..policies.base import SafetyShield
 
-    shields = {s: SafetyShield(e) if shield == "safety_cut" else None for s, e in envs.items()}
+    shields = [SafetyShield(e) if shield == "safety_cut" else None for e in envs]
     parts, reasons, seqs = [], [], []
     for k in range(episodes):
-        s = scenarios[k % len(scenarios)]
+        s = k % len(scenarios)
         o, a, r, why, q = _episode(envs[s], teachers[s], learner, seed + k, gamma, beta, stall_steps, rng, shields[s],
                                    sequences)
         parts.append((o, a, r))

@@ -1,5 +1,6 @@
-"""Policies by name, for the commands and the training library: ``"apf"``, ``"apf-chart"`` (APF
-with the chart search instead of the bug search), ``"random"``, ``"geodesic"`` (the map-knowing
+"""Policies by name, for the commands and the training library: ``"apf"`` (APF with its default
+search, the chart search), ``"apf-bug"`` (APF with the bug search, a weaker baseline), ``"apf-chart"``
+(the same as ``"apf"``, kept as a name), ``"random"``, ``"geodesic"`` (the map-knowing
 reference), a pickle-free policy directory, or (only with ``trust_pickle``) a saved Stable-Baselines3 ``.zip``."""
 
 from __future__ import annotations
@@ -11,9 +12,9 @@ import numpy as np
 
 from ..errors import ArgumentError, MissingExtraError
 
-__all__ = ["make_policy", "check_policy_spec", "SB3Policy", "POLICY_NAMES"]
+__all__ = ["make_policy", "check_policy_spec", "policy_scenario", "SB3Policy", "POLICY_NAMES"]
 
-POLICY_NAMES = ("apf", "apf-chart", "random", "geodesic")
+POLICY_NAMES = ("apf", "apf-bug", "apf-chart", "random", "geodesic")
 
 _PICKLE_WHY = ("an SB3 .zip is a pickle: loading it runs any code the file holds, so load only files you "
                "made or trust")
@@ -42,16 +43,16 @@ def check_policy_spec(spec: str, trust_pickle: bool = False, option: str = "--po
 
 
 def make_policy(env, policy: str, fields=None, seed: int | None = None, trust_pickle: bool = False):
-    """``"apf"`` or ``"apf-chart"`` (with the APF ``fields``, default all; the bug or the chart
-    boundary search), ``"random"`` (seeded), a pickle-free
+    """``"apf"`` / ``"apf-chart"`` or ``"apf-bug"`` (with the APF ``fields``, default all; the chart
+    search, APF's default, or the bug search), ``"random"`` (seeded), a pickle-free
     policy directory (:func:`~tin_swarm_env.policies.load_policy`) or, with ``trust_pickle``, a
     saved SB3 model ``.zip``: an object with ``act_batch(obs (n, d)) -> (n, 2)``."""
     from ..policies import APFPolicy, RandomPolicy, load_policy
     from ..world.fields import FIELDS
 
     kind = check_policy_spec(policy, trust_pickle)
-    if kind in ("apf", "apf-chart"):
-        return APFPolicy(env, fields=tuple(fields) if fields else FIELDS, search="chart" if kind == "apf-chart" else "bug")
+    if kind in ("apf", "apf-bug", "apf-chart"):
+        return APFPolicy(env, fields=tuple(fields) if fields else FIELDS, search="bug" if kind == "apf-bug" else "chart")
     if kind == "random":
         return RandomPolicy(env, seed=seed)
     if kind == "geodesic":  # the map-knowing reference
@@ -61,6 +62,20 @@ def make_policy(env, policy: str, fields=None, seed: int | None = None, trust_pi
     if kind == "dir":
         return load_policy(policy, env)
     return SB3Policy.load(policy)
+
+
+def policy_scenario(scenario, policy: str, trust_pickle: bool = False):
+    """The scenario (a name, a file or a :class:`~tin_swarm_env.scenario.ScenarioConfig`) the policy
+    ``policy`` runs on: for a policy directory, ``scenario`` with the observation layout the policy
+    was trained on (:func:`~tin_swarm_env.policies.policy_layout`, so that a policy trained on an
+    older default layout still runs); for a built-in name or an SB3 ``.zip``, ``scenario`` as given."""
+    from ..policies import policy_layout
+    from ..scenario import ScenarioConfig, load_scenario
+
+    if check_policy_spec(policy, trust_pickle) != "dir":
+        return scenario
+    cfg = scenario if isinstance(scenario, ScenarioConfig) else load_scenario(scenario)
+    return cfg.with_layout(policy_layout(policy))
 
 
 class SB3Policy:

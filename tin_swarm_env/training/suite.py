@@ -183,7 +183,7 @@ def play_policy(label: str, spec: str, path, splits, trust_pickle: bool = False)
     """Play one policy (a built-in name ``spec``, or the policy file ``path``) on every map of
     ``splits``: ``(leaderboard row, per-map rows)``."""
     from ..env import parallel_env
-    from .policy_factory import make_policy
+    from .policy_factory import make_policy, policy_scenario
 
     t0 = time.perf_counter()
     maps, by_split = [], {}
@@ -191,7 +191,8 @@ def play_policy(label: str, spec: str, path, splits, trust_pickle: bool = False)
         for m in s.maps:
             for mirror in PLAYED:
                 t1 = time.perf_counter()
-                env = parallel_env(scenario=map_config(m, mirror), n_robots=m.robots or None,
+                env = parallel_env(scenario=policy_scenario(map_config(m, mirror), spec if path is None else path,
+                                                            trust_pickle), n_robots=m.robots or None,
                                    max_cycles=m.max_cycles or None)
                 pol = make_policy(env, spec if path is None else path, seed=EVAL_SEED0,
                                   trust_pickle=trust_pickle)
