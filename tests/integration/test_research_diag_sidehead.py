@@ -44,10 +44,11 @@ def test_learner_step_by_step_is_the_whole_episode_forward(ds):
     from tin_swarm_env.training.recurrent_imitation import previous_actions
     from tin_swarm_env.policies.heads import categorical_classes
 
-    lay = tse.parallel_env(scenario=load_scenario("cliff_goal").with_layout(ObsLayout(k_scan=0)), n_robots=3).layout  # research: the sign-flip layout
+    old = load_scenario("cliff_goal").with_layout(ObsLayout(k_scan=0))  # the study's layout: a sign-flip mirror
+    lay = tse.parallel_env(scenario=old, n_robots=3).layout
     classes = categorical_classes()
     m = ds.SideHeadGRU(lay.size, lay.mirror_signs(), classes, hidden=8, width=8, seed=2)
-    d = collect("cliff_goal", 1, 4, learner=ds.TorchLearner(m), teacher="apf_student", sequences=True, n_robots=3,
+    d = collect(old, 1, 4, learner=ds.TorchLearner(m), teacher="apf_student", sequences=True, n_robots=3,
                 max_cycles=15)
     q = d.sequences[0]
     with torch.no_grad():

@@ -27,7 +27,7 @@ def test_the_label_follows_the_side_the_student_took(env1, obs_row):
     # step 1: target ahead-left beyond the cliff: APF follows it on the right, turning left (+y)
     lay = env1.layout
     o1 = obs_row(lay, R, (100.0, 30.0), [CLIFF])
-    teach, plain = StudentAPF(env1), APFPolicy(env1)
+    teach, plain = StudentAPF(env1), APFPolicy(env1, search="bug")
     l1 = teach.act_batch(o1)
     np.testing.assert_array_equal(l1, plain.act_batch(o1))
     assert teach.memory.side[0] == 1 and l1[0, 1] > 0.5
@@ -40,7 +40,7 @@ def test_the_label_follows_the_side_the_student_took(env1, obs_row):
     assert teach.memory.side[0] == -1 and plain.memory.side[0] == 1
     assert l2[0, 1] < -0.5 and p2[0, 1] > 0.5  # "go on to the right" against "turn back left"
     # exactly the label of an APF that chose the right-hand side itself (target ahead-right at the meeting)
-    ref = APFPolicy(env1)
+    ref = APFPolicy(env1, search="bug")
     ref.act_batch(obs_row(lay, R, (100.0, -30.0), [CLIFF]))
     assert ref.memory.side[0] == -1
     np.testing.assert_array_equal(l2, ref.act_batch(o2))
@@ -115,7 +115,7 @@ def test_a_student_that_is_apf_gets_apfs_own_actions_bit_for_bit(scenario):
     # seed 0 of both has APF's label leave its side's tangent (a gap, a corner) while it follows
     kw = {"n_robots": 8}
     a = collect(scenario, 1, seed=0, teacher="apf_student", **kw)
-    b = collect(scenario, 1, seed=0, teacher="apf", **kw)
+    b = collect(scenario, 1, seed=0, teacher="apf_bug", **kw)
     assert len(a) == len(b) > 1000
     np.testing.assert_array_equal(a.obs, b.obs)
     np.testing.assert_array_equal(a.actions, b.actions)
@@ -132,7 +132,7 @@ def test_the_odometry_follows_the_robot_the_student_drove():
     # psi, the heading APF integrates from the command it is told moved the robot, equals the true
     # heading change when it is told the student's command; a plain APF, left at its own label, drifts
     env = tse.parallel_env(scenario="cliff_goal", n_robots=6)
-    teach, plain = StudentAPF(env), APFPolicy(env)
+    teach, plain = StudentAPF(env), APFPolicy(env, search="bug")
     obs = env.reset_arrays(seed=1)
     h0 = env.world_state.headings.copy()
     for _ in range(150):
@@ -181,7 +181,7 @@ class _OtherWay:
     (that step's command mirrored); its own APF then steers it back (a student that dithers)."""
 
     def __init__(self, env):
-        self.apf = APFPolicy(env)
+        self.apf = APFPolicy(env, search="bug")
 
     def reset(self):
         self.apf.reset()
@@ -212,5 +212,5 @@ def test_collect_labels_with_the_teacher_told_what_drove():
         env.step_arrays(c)
     np.testing.assert_array_equal(demos.obs, np.concatenate([o[k] for o, k in zip(O, keep)]))
     np.testing.assert_array_equal(demos.actions, np.concatenate([lab[k] for lab, k in zip(L, keep)]))
-    plain = collect("cliff_goal", 1, seed=2, teacher="apf", learner=_OtherWay(env), **kw)
+    plain = collect("cliff_goal", 1, seed=2, teacher="apf_bug", learner=_OtherWay(env), **kw)
     assert len(plain) == len(demos) and not np.array_equal(plain.actions, demos.actions)  # told its own labels

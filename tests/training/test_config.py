@@ -50,7 +50,7 @@ def test_teacher_option_is_checked_by_name_and_geodesic_refuses_mirrored_samples
     with pytest.raises(ArgumentError, match="--teacher must be one of.*got 'oracle'"):
         Args(teacher="oracle")
     assert main(["train", "cliff_goal", "--teacher", "oracle", "--bc-episodes", "1"]) == 2
-    assert "--teacher must be one of apf, geodesic, apf_student, got 'oracle'" in capsys.readouterr().err
+    assert "--teacher must be one of apf, apf_bug, geodesic, apf_student, got 'oracle'" in capsys.readouterr().err
     with pytest.raises(ArgumentError, match="--mirror-samples cannot be combined with --teacher geodesic"):
         check_args(Args(teacher="geodesic", mirror_samples=True, bc_episodes=1))
     check_args(Args(teacher="geodesic", symmetry="mirror", bc_episodes=1))  # the way to get the symmetry

@@ -187,14 +187,15 @@ def test_teacher_is_validated_by_name_before_any_episode():
     from tin_swarm_env.training.apf_teacher import StudentAPF
     from tin_swarm_env.training.imitation import TEACHERS, make_teacher
 
-    assert TEACHERS == ("apf", "geodesic", "apf_student")
+    assert TEACHERS == ("apf", "apf_bug", "geodesic", "apf_student")
     env = tse.parallel_env(scenario="cliff_goal", n_robots=2)
+    assert make_teacher("apf", env).search == "chart" and make_teacher("apf_bug", env).search == "bug"
     assert isinstance(make_teacher("apf", env), APFPolicy) and isinstance(make_teacher("geodesic", env),
                                                                           GeodesicPolicy)
     assert isinstance(make_teacher("apf_student", env), StudentAPF)
     for bad in ("APF", "bug", "", "apf-student"):
-        with pytest.raises(ArgumentError, match=f"teacher {bad!r} is not a teacher; choose from apf, geodesic, "
-                                                "apf_student"):
+        with pytest.raises(ArgumentError, match=f"teacher {bad!r} is not a teacher; choose from apf, apf_bug, "
+                                                "geodesic, apf_student"):
             collect("cliff_goal", 1, seed=0, teacher=bad, **SMALL)
 
 
@@ -205,11 +206,11 @@ def test_sequences_record_apfs_side_behind_each_label_and_mirror_it():
     from tin_swarm_env.training.imitation import Sequence, teacher_side
 
     kw = {"n_robots": 4, "max_cycles": 200}
-    demos = collect("cliff_goal", 1, seed=3, teacher="apf", sequences=True, **kw)
+    demos = collect("cliff_goal", 1, seed=3, teacher="apf_bug", sequences=True, **kw)
     q = demos.sequences[0]
     assert q.aux.dtype == np.int8 and q.aux.shape == q.keep.shape
     env = tse.parallel_env(scenario="cliff_goal", **kw)
-    apf = APFPolicy(env)
+    apf = APFPolicy(env, search="bug")
     for t in range(len(q.obs)):
         apf.act_batch(q.obs[t])
         np.testing.assert_array_equal(q.aux[t], apf.memory.side)

@@ -8,13 +8,21 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
+from tin_swarm_env.env.observation import ObsLayout
 from tin_swarm_env.errors import ArgumentError
+from tin_swarm_env.policies.symmetry import mirror_map
 from tin_swarm_env.training.config import Args, check_args
 from tin_swarm_env.training.imitation import Sequence, collect
 
 torch = pytest.importorskip("torch")
 
 SMALL = {"n_robots": 4, "max_cycles": 50}
+
+
+def _mirror(lay) -> dict:
+    """GRUStudent's mirror arguments for ``lay``: the signs and the permutation of the scan's beams."""
+    perm, signs = mirror_map(lay)
+    return {"signs": signs, "obs_perm": perm}
 
 
 @pytest.mark.parametrize("mirror", [False, True])
@@ -28,7 +36,7 @@ def test_exported_file_acts_as_the_torch_student_over_a_whole_episode(tmp_path, 
     env = tse.parallel_env(scenario="cliff_goal", **SMALL)
     lay = env.layout
     demos = collect("cliff_goal", 2, seed=1, teacher="geodesic", sequences=True, **SMALL)
-    st = GRUStudent(lay.size, 12, (8,), signs=lay.mirror_signs() if mirror else None, seed=3)
+    st = GRUStudent(lay.size, 12, (8,), **(_mirror(lay) if mirror else {}), seed=3)
     fit_sequences(st, demos.sequences, epochs=2)
     st.export(tmp_path / "p", lay, scenario="cliff_goal")
     pol = load_policy(tmp_path / "p", env)
@@ -162,7 +170,7 @@ def test_categorical_file_acts_as_the_torch_student_over_a_whole_episode(tmp_pat
     lay = env.layout
     classes = categorical_classes()
     demos = collect("cliff_goal", 2, seed=1, teacher="geodesic", sequences=True, **SMALL)
-    st = GRUStudent(lay.size, 12, (8,), signs=lay.mirror_signs(), seed=3, classes=classes, cell=cell)
+    st = GRUStudent(lay.size, 12, (8,), **_mirror(lay), seed=3, classes=classes, cell=cell)
     fit_sequences(st, demos.sequences, epochs=2)
     st.export(tmp_path / "p", lay, scenario="cliff_goal")
     pol = load_policy(tmp_path / "p", env)
@@ -193,7 +201,7 @@ def test_likelihood_fit_keeps_both_sides_where_mse_learns_their_mean():
     from tin_swarm_env.policies.heads import categorical_classes, nearest_class, softmax
     from tin_swarm_env.training.recurrent_imitation import GRUStudent, fit_sequences
 
-    lay = tse.parallel_env(scenario="cliff_goal", **SMALL).layout
+    lay = ObsLayout(k_scan=0)  # no scan: the mirror is a sign flip, so the +1 part of the signs is self-mirror
     signs = lay.mirror_signs()
     rng = np.random.default_rng(0)
     T, n = 4, 16
@@ -262,7 +270,7 @@ def test_feedback_file_acts_as_the_torch_student_over_a_whole_episode(tmp_path, 
     lay = env.layout
     classes = categorical_classes() if categorical else None
     bc = collect("cliff_goal", 1, seed=1, teacher="geodesic", sequences=True, **SMALL)
-    st = GRUStudent(lay.size, 12, (8,), signs=lay.mirror_signs(), seed=3, classes=classes, feedback="action",
+    st = GRUStudent(lay.size, 12, (8,), **_mirror(lay), seed=3, classes=classes, feedback="action",
                     acting="sample")  # a draw per robot and step: reset() restarts the streams for the replay
     fit_sequences(st, bc.sequences, epochs=2)
     st.export(tmp_path / "p", lay, scenario="cliff_goal")
@@ -471,7 +479,7 @@ def test_side_readout_is_mirror_equivariant_and_not_in_the_file(tmp_path, catego
     env = tse.parallel_env(scenario="cliff_goal", **SMALL)
     lay = env.layout
     classes = categorical_classes() if categorical else None
-    kw = dict(signs=lay.mirror_signs(), seed=3, classes=classes, feedback="action")
+    kw = dict(**_mirror(lay), seed=3, classes=classes, feedback="action")
     st = GRUStudent(lay.size, 12, (8,), aux_weight=1.0, **kw)
     rng = np.random.default_rng(4)
     T = 7

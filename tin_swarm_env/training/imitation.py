@@ -17,8 +17,10 @@ label is "what APF would do now, having seen what this robot has seen". (A label
 not always what APF would have done on its own trajectory: a robot the learner led into a dead
 end gets APF's turn-back rule, which is the correction DAgger wants.)
 
-**Teachers** (``teacher=``, :data:`TEACHERS`). ``"apf"`` (default): :class:`~tin_swarm_env.policies.APFPolicy`,
-which acts from the observation alone (what the student sees). ``"geodesic"``:
+**Teachers** (``teacher=``, :data:`TEACHERS`). ``"apf"`` (default): :class:`~tin_swarm_env.policies.APFPolicy`
+with its default search (the chart search), which acts from the observation alone (what the student sees);
+``"apf_bug"``: APF with the bug search (the default before; its boundary side is recorded behind each
+label, :func:`teacher_side`). ``"geodesic"``:
 :class:`~tin_swarm_env.policies.GeodesicPolicy`, a *privileged* teacher: it reads the map and the
 world state (the terrain's cost-to-go toward each robot's target, the robot's position and
 heading), so its label is the first leg of the shortest drivable path, which APF, trapped on
@@ -73,7 +75,7 @@ from ..errors import ArgumentError
 __all__ = ["Demos", "Sequence", "TEACHERS", "make_teacher", "collect", "fit_actor", "fit_value", "TorchActor",
            "actor_mean"]
 
-TEACHERS = ("apf", "geodesic", "apf_student")  # the labelling policies of collect(teacher=...) (module docstring)
+TEACHERS = ("apf", "apf_bug", "geodesic", "apf_student")  # the labelling policies of collect(teacher=...) (module docstring)
 
 
 def check_teacher(teacher: str, where: str = "teacher") -> str:
@@ -89,7 +91,11 @@ def make_teacher(teacher: str, env):
     from ..policies import APFPolicy, GeodesicPolicy
     from .apf_teacher import StudentAPF
 
-    return {"apf": APFPolicy, "geodesic": GeodesicPolicy, "apf_student": StudentAPF}[check_teacher(teacher)](env)
+    def apf_bug(e):
+        return APFPolicy(e, search="bug")
+
+    return {"apf": APFPolicy, "apf_bug": apf_bug, "geodesic": GeodesicPolicy,
+            "apf_student": StudentAPF}[check_teacher(teacher)](env)
 
 
 @dataclass
