@@ -17,7 +17,7 @@ bound, not a baseline) and uniform random actions. Terrains: every built-in goal
 (``jacksboro`` with its 200 robots and 900 steps), the DEM-file scenarios ``scenarios/canyon_left.toml``,
 ``canyon_right.toml`` and ``valley.toml``, the four canyon terrains of
 ``tests/helpers/canyons.py`` (pass left or right, travelling east or west) and, with ``--generated K``
-(default 50, 0 leaves them out), one row per generated family (:data:`ALL_FAMILIES`) over K
+(default 50, 0 leaves them out), one row per generated family (:data:`ALL_FAMILIES`, then ``realdem``) over K
 held-out seeds (``EVAL_SEED0`` on, never used in training), APF and GeodesicPolicy only. A
 terrain whose env cannot be built is reported as a skipped row with the error.
 ``containment`` has no arrival: its rows give the mean distance to the assigned threat over the
@@ -42,7 +42,7 @@ import numpy as np
 import tin_swarm_env as tse
 from tin_swarm_env.policies import APFPolicy, GeodesicPolicy, RandomPolicy
 from tin_swarm_env.scenario import load_scenario
-from tin_swarm_env.scenario.generators import ALL_FAMILIES
+from tin_swarm_env.scenario.generators import ALL_FAMILIES, REAL_FAMILIES
 from tin_swarm_env.training.evaluation import EVAL_SEED0
 from tin_swarm_env.training.rollout import rollout
 from tin_swarm_env.world.state import Reason
@@ -108,7 +108,7 @@ def _rows(args) -> list[Row]:
             return tse.parallel_env(scenario=scanned(canyon_config(a, b, robots=args.robots or 20), args.k_scan))
 
         out.append(Row(f"canyon, pass {side}, going {travel}", make, range(args.seeds)))
-    for fam in ALL_FAMILIES if args.generated else ():
+    for fam in ALL_FAMILIES + REAL_FAMILIES if args.generated else ():
         s0 = EVAL_SEED0 + args.seed_offset
         out.append(Row(f"generated: {fam}",
                        lambda f=fam: generated_family(f, args.robots, args.max_cycles, args.k_scan),

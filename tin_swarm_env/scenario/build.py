@@ -17,6 +17,7 @@ sample points (a sliver triangle missed by both does not count).
 from __future__ import annotations
 
 import collections
+import dataclasses
 import functools
 import json
 import weakref
@@ -195,7 +196,9 @@ def build_stage(cfg: ScenarioConfig, rng: np.random.Generator | None = None) -> 
 
 
 def _generated_stage(cfg: ScenarioConfig, rng: np.random.Generator) -> Stage:
-    """Draw a solvable generated task; the TIN and fields made by the check are the ones kept."""
+    """Draw a solvable generated task; the TIN and fields made by the check are the ones kept. A task
+    that draws the robots' slope limit (``params["max_slope_deg"]``, realdem) is meshed and its world
+    built with that limit; one that promises a detour (``detour_min``) is kept only if its field keeps it."""
     from .generators import ALL_FAMILIES, generate
 
     t = cfg.terrain
@@ -203,13 +206,15 @@ def _generated_stage(cfg: ScenarioConfig, rng: np.random.Generator) -> Stage:
     made = {}
 
     def solvable(drawn) -> bool:  # meshed as drawn, then reflected with its task when [terrain] mirror asks
-        tin = mirror_tin(_mesh(drawn.dem, t.method, t.max_vertices, t.max_error_m, max_slope), t.mirror,
+        slope = float(drawn.params.get("max_slope_deg", max_slope))  # realdem draws the robots' limit per task
+        tin = mirror_tin(_mesh(drawn.dem, t.method, t.max_vertices, t.max_error_m, slope), t.mirror,
                          dem_bounds(drawn.dem))
         task = mirror_task(drawn, t.mirror)
-        world = World(tin, cfg.world)
+        world = World(tin, cfg.world if slope == max_slope else dataclasses.replace(
+            cfg.world, robot=dataclasses.replace(cfg.world.robot, max_slope_deg=slope)))
         fields = tuple(T.cost_to_go(world.tin, g, ~world.steep) for g in task.targets)
         made["drawn"], made["task"], made["world"], made["fields"] = drawn, task, world, fields
-        return all(reaches_region(f, task.spawn_region) for f in fields)
+        return all(reaches_region(f, task.spawn_region) and _detour_holds(f, task) for f in fields)
 
     drawn = generate(rng, t.families or ALL_FAMILIES, t.ranges, max_slope_deg=max_slope, solvable=solvable,
                      where=f"{cfg.source} [terrain]")
@@ -217,6 +222,15 @@ def _generated_stage(cfg: ScenarioConfig, rng: np.random.Generator) -> Stage:
     task = made["task"]
     return Stage(made["world"], np.asarray(task.targets, dtype=float).reshape(-1, 2), task.spawn_region,
                  made["fields"], task)
+
+
+def _detour_holds(field, task) -> bool:
+    """Whether the drivable way from the task's spawn centre to ``field``'s goal is at least
+    ``task.detour_min`` times the straight line (always, for a task that promises none)."""
+    if task.detour_min <= 1.0:
+        return True
+    way = float(field.distance_at(task.spawn_centre[None])[0])
+    return bool(np.isfinite(way) and way >= task.detour_min * float(np.hypot(*(field.goal_xy - task.spawn_centre))))
 
 
 def build_world(cfg: ScenarioConfig) -> World:

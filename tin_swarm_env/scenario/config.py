@@ -102,8 +102,9 @@ class TerrainSpec:
     max_error_m     vertical error the greedy reduction may leave
     size_m          (width, height) of a flat plane or a procedural terrain, m
     params          recipe parameters, e.g. ``{cell = 2.0}``
-    families        generated: family names, or ``{name = weight}``; empty: all of them
-                    (:data:`~tin_swarm_env.scenario.generators.ALL_FAMILIES`)
+    families        generated: family names, or ``{name = weight}``; empty: the synthetic ones
+                    (:data:`~tin_swarm_env.scenario.generators.ALL_FAMILIES`; ``realdem``, crops
+                    of real DEMs, is drawn only where named)
     ranges          generated: per-family parameter ranges, ``{family = {parameter = [lo, hi] or choices}}``
     resample        generated: "reset" (a new terrain on every ``reset(seed)``) or "once" (one, from
                     the scenario's seed)

@@ -94,7 +94,24 @@ trap        opening_deg      [100, 150]       the opening's centre, deg from the
                                               travel toward ``side`` (180: straight back)
 trap        gap_deg          [30, 40]         angular width of the opening, deg
 trap        target_u_frac    [-0.15, 0.15]    target's lateral offset, of half the size
+realdem     dem              jacksboro,       the bundled real DEM cropped (``sample_dem``)
+                                 topobathy
+realdem     crop_cells       [24, 48]         side of the crop, in the DEM's coarser cells
+                                              (jacksboro ~92 m, topobathy ~2.4 km)
+realdem     steep_frac       [0.1, 0.4]       share of the map's area too steep to drive: the
+                                              robots' max_slope_deg is drawn to match it
+realdem     detour_min       [1.3, 1.3]       the drivable way from the spawn centre to the
+                                              target over the straight line, at least
+realdem     orient           none, flip_x,    the crop's turn: mirror east-west or north-south,
+                                 flip_y, ...      transpose, quarter turns (the 8 symmetries of
+                                              the square, ``realdem.ORIENTS``)
 =========== ================ ================ ===================================================
+
+``realdem`` (held out: in :data:`REAL_FAMILIES`, not :data:`ALL_FAMILIES`, so a scenario draws it
+only where its ``families`` name it) crops the real DEMs bundled with matplotlib; it has no noise,
+keeps the crop's slope angles and draws the robots' ``max_slope_deg`` per task (the task's
+``params["max_slope_deg"]``, which the scenario builder gives the robots); its spawn and target are
+placed with ``terrain.cost_to_go`` on the crop's TIN (module :mod:`~tin_swarm_env.scenario.realdem`).
 
 ``detour_side``: canyon and mesa put the only way(s) down or up on the drawn ``side``; the
 straight line from the spawn centre to the target always crosses a cliff. Fork puts every way
@@ -118,13 +135,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import terrain as T
 from ..errors import ArgumentError, ScenarioError
 from ..terrain import Dem
 from ..terrain.breaks import MAX_SLOPE_DEG
+from . import realdem as RD
 
-__all__ = ["GeneratedTask", "PARAMS", "ALL_FAMILIES", "DEFAULT_RANGES", "FAMILIES", "HEADINGS", "generate",
+__all__ = ["GeneratedTask", "PARAMS", "ALL_FAMILIES", "REAL_FAMILIES", "DEFAULT_RANGES", "FAMILIES", "HEADINGS", "generate",
            "validate_ranges", "family_weights", "draw_params", "replay", "canyon", "mesa", "hills", "fork", "trap",
-           "NoFitError"]
+           "realdem", "NoFitError"]
 
 HEADINGS = {"north": (0.0, 1.0), "east": (1.0, 0.0), "south": (0.0, -1.0), "west": (-1.0, 0.0)}
 SIDES = ("left", "right", "both")
@@ -182,8 +201,14 @@ PARAMS: dict[str, dict[str, Param]] = {
              "radius_m": _f(28, 50, 5, 1000), "thickness_m": _f(4, 10, 1, 200), "opening_deg": _f(100, 150, 0, 180),
              "gap_deg": _f(30, 40, 10, 180),
              "target_u_frac": _f(-0.15, 0.15, -0.9, 0.9)},
+    "realdem": {"size_m": _COMMON["size_m"], "cell_m": _COMMON["cell_m"], "spawn_m": _COMMON["spawn_m"],
+                "dem": _c("jacksboro", "topobathy"), "crop_cells": _f(24, 48, 8, 80), "steep_frac": _f(0.1, 0.4, 0.02, 0.6),
+                "detour_min": _f(1.3, 1.3, 1.0, 3.0),
+                "orient": _c("none", "flip_x", "flip_y", "rot180", "transpose", "rot90", "rot270", "anti_transpose")},
 }
-ALL_FAMILIES: tuple[str, ...] = tuple(PARAMS)  # every generated family, the default of every family list
+REAL_FAMILIES: tuple[str, ...] = ("realdem",)  # drawn only where a scenario names them (held out of every default mix)
+ALL_FAMILIES: tuple[str, ...] = tuple(f for f in PARAMS if f not in REAL_FAMILIES)  # the synthetic families, the
+# default of every family list (a scenario naming none draws these)
 MAX_GRID_CELLS = 4_000_000  # a generated DEM's cells (size_m / cell_m + 1)^2: ~120 bytes each while it is built
 # and meshed, so ~0.5 GB at the limit (2 km at 1 m); checked before any allocation
 DEFAULT_RANGES: dict[str, dict[str, list]] = {
@@ -207,6 +232,9 @@ class GeneratedTask:
                    None when the family was called directly
     dead_ends      (j, 2, 2) m, fork: each dead end's entry (where a robot coming from the spawn
                    side enters it) and its far end (pocket floor, spur tip, blind canyon's end)
+    detour_min     the drivable way from the spawn centre to each target is at least this many
+                   times the straight line (realdem; 1.0: no such promise); the scenario builder
+                   checks it on its TIN
     """
 
     dem: Dem
@@ -218,6 +246,7 @@ class GeneratedTask:
     passes: np.ndarray
     seed: int | None = None
     dead_ends: np.ndarray = dataclasses.field(default_factory=lambda: _frozen(np.zeros((0, 2, 2))))
+    detour_min: float = 1.0
 
     @property
     def spawn_centre(self) -> np.ndarray:
@@ -729,9 +758,45 @@ def trap(rng: np.random.Generator, **params) -> GeneratedTask:
     return _task("trap", p, x, z, to_world(uv(spawn)), to_world(uv(target)), to_world(uv([opening])), rng)
 
 
+def realdem(rng: np.random.Generator, **params) -> GeneratedTask:
+    """A random crop of a bundled real DEM (:mod:`~tin_swarm_env.scenario.realdem` says how): slopes
+    kept, the robots' slope limit drawn so that ``steep_frac`` of the map is too steep, spawn and
+    target a detour apart on the crop's TIN. ``max_slope_deg`` among ``params`` is ignored (the task's
+    ``params["max_slope_deg"]`` is the drawn limit), so :func:`replay` rebuilds the same task. ``rng``
+    draws the crops' places and the candidate targets and spawn centres (bounded tries; a
+    :class:`NoFitError` says why none fitted)."""
+    p = _resolve("realdem", {k: v for k, v in params.items() if k != "max_slope_deg"})
+    side_m = p["crop_cells"] * RD.source_cell_m(p["dem"])
+    pad = RD.SPLINE_MARGIN * RD.source_cell_m(p["dem"])
+    room = RD.source_extent_m(p["dem"]) - side_m
+    if np.any(room < 2 * pad):
+        raise NoFitError(f"realdem: a crop {p['crop_cells']:g} cells wide does not fit {p['dem']} "
+                         f"({side_m / 1000:.1f} km; {RD.SPLINE_MARGIN:g} cells kept off its edges)")
+    why = "none drawn"
+    for _ in range(RD.CROP_TRIES):
+        x, z = RD.crop_heights(p["dem"], rng.uniform(pad, room - pad), p["crop_cells"], p["size_m"], p["cell_m"],
+                               p["orient"])
+        dem = Dem(z, x, x, source="generated:realdem")
+        tin = T.build_tin(dem, **RD.MESH)
+        limit = RD.steep_quantile_deg(tin, p["steep_frac"])
+        if not RD.SLOPE_LIMITS_DEG[0] <= limit <= RD.SLOPE_LIMITS_DEG[1]:
+            why = f"its slope limit {limit:.1f} deg lies outside {list(RD.SLOPE_LIMITS_DEG)}"
+            continue
+        placed = RD.place(rng, tin, tin.slope_deg <= limit, p["spawn_m"], p["detour_min"], MARGIN_M)
+        if placed is None:
+            why = f"no spawn and target {p['detour_min']:.2f}x apart by the drivable way"
+            continue
+        spawn, target, side = placed
+        p["max_slope_deg"] = limit
+        return GeneratedTask(dem, _square(spawn, p["spawn_m"]), _frozen(np.reshape(target, (1, 2))), "realdem", p,
+                             side, _frozen(np.zeros((0, 2, 2))), detour_min=float(p["detour_min"]))
+    raise NoFitError(f"realdem: no crop of {p['dem']} ({p['crop_cells']:g} cells, steep_frac {p['steep_frac']:.2f}) "
+                     f"fitted in {RD.CROP_TRIES} tries; the last: {why}")
+
+
 FAMILIES: dict[str, Callable[..., GeneratedTask]] = {"canyon": canyon, "mesa": mesa, "hills": hills, "fork": fork,
-                                                     "trap": trap}
-assert tuple(FAMILIES) == ALL_FAMILIES
+                                                     "trap": trap, "realdem": realdem}
+assert tuple(FAMILIES) == tuple(PARAMS) == ALL_FAMILIES + REAL_FAMILIES
 
 
 # -- the dispatcher ---------------------------------------------------------------------------
