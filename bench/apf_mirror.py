@@ -39,11 +39,12 @@ SEARCHES = ("bug", "chart")
 QUICK = {"families": ("canyon",), "seeds": 1, "robots": 4, "max_cycles": 100}
 
 
-def row(family: str, mirror: str, seeds: int, search: str = "bug", k_scan: int = 0, robots: int | None = None,
-        max_cycles: int | None = None) -> tuple[float, ...]:
+def row(family: str, mirror: str, seeds: int, search: str = "chart", k_scan: int | None = None,
+        robots: int | None = None, max_cycles: int | None = None) -> tuple[float, ...]:
     cfg = load_scenario("generated")
     cfg = cfg.replace(terrain=dataclasses.replace(cfg.terrain, families=(family,), mirror=mirror),
-                      observation=dataclasses.replace(cfg.observation, k_scan=k_scan))
+                      observation=dataclasses.replace(cfg.observation,
+                                                      k_scan=cfg.observation.k_scan if k_scan is None else k_scan))
     env = tse.parallel_env(scenario=cfg, n_robots=robots, max_cycles=max_cycles)
     t = time.perf_counter()
     outs = [rollout(env, APFPolicy(env, search=search), sd) for sd in range(EVAL_SEED0, EVAL_SEED0 + seeds)]
@@ -59,7 +60,8 @@ def main(argv=None) -> int:
     p.add_argument("--seeds", type=int, default=20, help="held-out seeds per row (default 20)")
     p.add_argument("--search", type=lambda v: v.split(","), default=list(SEARCHES),
                    help="boundary searches, comma-separated (default bug,chart)")
-    p.add_argument("--k-scan", type=int, default=0, help="the observation's terrain scan beams (default 0: none)")
+    p.add_argument("--k-scan", type=int, default=None,
+                   help="the observation's terrain scan beams (default: the default layout's, 32; 0: none)")
     p.add_argument("--out", default=None, help="Markdown file (default docs/figures/apf_mirror.md; none with --quick)")
     p.add_argument("--quick", action="store_true", help=f"a smoke run (seconds): {QUICK}; prints only")
     a = p.parse_args(argv)
@@ -68,7 +70,7 @@ def main(argv=None) -> int:
         families, a.seeds, robots, max_cycles = QUICK["families"], 1, QUICK["robots"], QUICK["max_cycles"]
     if a.out is None and not a.quick:
         a.out = str(ROOT / "docs" / "figures" / "apf_mirror.md")
-    if a.k_scan < 0:
+    if a.k_scan is not None and a.k_scan < 0:
         p.error(f"--k-scan must be >= 0, got {a.k_scan}")
     bad = [x for x in a.search if x not in SEARCHES]
     if bad:
@@ -81,7 +83,9 @@ def main(argv=None) -> int:
              f" at commit {commit}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load average {load} at "
              f"the start ({os.cpu_count()} cores).", "",
              f"APF, {a.seeds} held-out seeds x 20 robots per row, the same seeds as built and mirrored"
-             + (f"; the observation with a {a.k_scan}-beam terrain scan." if a.k_scan else "."), "",
+             + (f"; the observation with a {a.k_scan}-beam terrain scan." if a.k_scan else
+                "; the default observation (its 32-beam terrain scan)." if a.k_scan is None else
+                "; no terrain scan."), "",
              "| family | search | terrain | arrived | fell | stalled | looping | s |",
              "|---|---|---|---:|---:|---:|---:|---:|"]
     for fam in families:

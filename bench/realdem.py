@@ -12,9 +12,9 @@ reference on held-out seeds. By hand:
    family's draw alone (:func:`~tin_swarm_env.scenario.generators.generate`), median and max over
    ``--repeats`` seeds.
 2. Policies on ``--seeds`` held-out seeds (``EVAL_SEED0`` on) x ``--robots`` robots, episodes of the
-   scenario's length (1 000 steps): the default APF (``APFPolicy(env)`` on the default observation),
-   APF with the chart search reading a 32-beam terrain scan (``search="chart"``, ``[observation]
-   k_scan = 32``, as ``docs/figures/apf_scan32.md``) and :class:`~tin_swarm_env.policies.GeodesicPolicy`
+   scenario's length (1 000 steps): the default APF (``APFPolicy(env)`` on the default observation: the
+   chart search reading the 32-beam terrain scan), APF with the bug search (``search="bug"``, the default
+   before, a weaker baseline) and :class:`~tin_swarm_env.policies.GeodesicPolicy`
    (knows the map: the reference, not a baseline). Arrived, fell and timed out are shares of every
    robot; median steps is over the robots that arrived. Every episode runs through
    :func:`~tin_swarm_env.training.rollout.rollout`.
@@ -43,8 +43,8 @@ from tin_swarm_env.world.state import Reason
 ROOT = Path(__file__).resolve().parents[1]
 K_SCAN = 32
 POLICIES = {  # name -> (k_scan of its env, policy factory)
-    "apf (default)": (None, lambda env: APFPolicy(env)),
-    f"apf, chart search, {K_SCAN}-beam scan": (K_SCAN, lambda env: APFPolicy(env, search="chart")),
+    f"apf (default: chart search, {K_SCAN}-beam scan)": (K_SCAN, lambda env: APFPolicy(env)),
+    "apf, bug search": (K_SCAN, lambda env: APFPolicy(env, search="bug")),
     "geodesic (knows the map)": (None, lambda env: GeodesicPolicy(env)),
 }
 QUICK = {"repeats": 2, "seeds": 1, "robots": 4, "max_cycles": 100}
