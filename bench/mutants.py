@@ -123,8 +123,8 @@ MUTANTS = [
     M("obs-target-dir-x", "env/observation.py", "obs[i, o.target_dir] = (c * dx + s * dy) / d",
       "obs[i, o.target_dir] = (c * dx - s * dy) / d", OBS),
     # -- env/tin_swarm.py -----------------------------------------------------------------------------------
-    M("env-truncate-off-by-one", "env/tin_swarm.py", "live, self._steps >= self.max_cycles)",
-      "live, self._steps > self.max_cycles)", ENV),
+    M("env-truncate-off-by-one", "env/reward.py", "timeout = (steps >= max_cycles)[cop]",
+      "timeout = (steps > max_cycles)[cop]", ENV),  # in end_step, the one bookkeeping of both envs
     M("env-dist-not-updated", "env/tin_swarm.py", "        self._dist = dist\n", "", ENV),
     # -- world/locomotion.py --------------------------------------------------------------------------------
     M("loco-disc-clip", "world/locomotion.py", "c = c / np.maximum(norm, 1.0)[:, None]",
@@ -156,17 +156,17 @@ MUTANTS = [
       "if False:\n        use = 0.0", WORLD),
     M("battery-negative", "world/step_kernel.py", "b = _max0(b0 - use)", "b = b0 - use", WORLD),
     M("world-emptied-strict", "world/step_kernel.py", "st == _NONE and b <= 0.0", "st == _NONE and b < 0.0", WORLD),
-    M("world-collision-radius", "world/world.py", "diameter = 2 * P.robot.radius_m",
-      "diameter = P.robot.radius_m", WORLD + REWARD),
+    M("world-collision-radius", "world/world.py", "float(2 * P.robot.radius_m))",
+      "float(P.robot.radius_m))", WORLD + REWARD),  # in step_scalars, what both envs' step reads
     M("world-collisions-not-summed", "world/world.py", "collisions=state.collisions + coll", "collisions=coll", WORLD),
-    # -- world/sensing.py -----------------------------------------------------------------------------------
-    M("sense-fov-full", "world/sensing.py", "half_fov = math.radians(sp.fov_deg) / 2 + 1e-12",
-      "half_fov = math.radians(sp.fov_deg) + 1e-12", WORLD),
+    # -- world/sensing.py, world/batch_kernels.py (sense_copies: the sensing of both envs) --------------------
+    M("sense-fov-full", "world/batch_kernels.py", "half_fov = math.radians(sensor.fov_deg) / 2 + 1e-12",
+      "half_fov = math.radians(sensor.fov_deg) + 1e-12", WORLD),
     M("sense-bearing-sign", "world/sense_kernels.py", "wrap_pi(math.atan2(dy, dx) - heading)",
       "wrap_pi(math.atan2(dy, dx) + heading)", WORLD),
-    M("sense-no-sensor-height", "world/sensing.py", "sz = np.ascontiguousarray(state.heights + sp.height_m)",
-      "sz = np.ascontiguousarray(state.heights)", WORLD),
-    M("sense-no-entity-height", "world/sensing.py", ") + params.entity_height_m", ")", WORLD),
+    M("sense-no-sensor-height", "world/batch_kernels.py", "sz = np.ascontiguousarray(heights + sensor.height_m)",
+      "sz = np.ascontiguousarray(heights)", WORLD),
+    M("sense-no-entity-height", "world/batch_kernels.py", "eh = params.entity_height_m", "eh = 0.0", WORLD),
     M("sense-nearest-k-skip", "world/sensing.py", "if v >= best[i, k - 1]:", "if v >= best[i, 0]:", WORLD),
     # -- world/fields.py ------------------------------------------------------------------------------------
     M("fields-robot-attracts", "world/fields.py", "force = -(gain * w * w)[..., None] * unit",

@@ -143,9 +143,10 @@ def test_fields_are_built_once_per_tin_and_target():
 
 
 def test_the_envs_one_pass_distance_to_go_is_reward_distance_to_go_bit_for_bit(tmp_path):
-    """The env measures every robot's distance to go with its episode's CostToGoStack (one pass
-    over both targets' fields); :func:`~tin_swarm_env.env.reward.distance_to_go` (one field at a
-    time) is the spec. Random driving round a pit, robots of both targets, live and gone."""
+    """The env measures every robot's distance to go with the vector env's pass over its episode's
+    FieldPack (both targets' fields at once, :func:`~tin_swarm_env.env.reward.measure`);
+    :func:`~tin_swarm_env.env.reward.distance_to_go` (one field at a time) is the spec. Random
+    driving round a pit, robots of both targets, live and gone."""
     from tin_swarm_env.env.reward import distance_to_go
 
     p = _pit_toml(tmp_path, (60.0, 50.0), (40.0, 30.0, 80.0, 70.0))

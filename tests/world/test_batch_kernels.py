@@ -1,15 +1,16 @@
-"""The vector env's compiled passes: per-copy grids equal the single grid on each copy, and one step of
-two copies on two worlds equals each world's own step. (Sensing and observations through them are checked
-end to end against separate parallel envs in tests/env/test_vector.py.)"""
+"""The passes over copies: per-copy grids equal the single grid on each copy, and one step of two
+copies on two worlds equals each world's own step (its one-copy case). (Sensing and observations
+through them are checked end to end against separate parallel envs in tests/env/test_vector.py.)"""
 
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import tin_swarm_env as tse
-from tin_swarm_env.world.batch_kernels import step_copies
 from tin_swarm_env.world.grid import grid_build, grid_build_copies
 from tin_swarm_env.world.pack import pack_worlds
+from tin_swarm_env.world.step_kernel import step_copies
+from tin_swarm_env.world.world import step_scalars
 
 
 @settings(max_examples=60, deadline=None)
@@ -45,14 +46,11 @@ def test_one_step_of_two_copies_is_each_worlds_step():
     cat = lambda f: np.ascontiguousarray(np.concatenate([f(s) for s in states]))  # noqa: E731
     wor = np.repeat([0, 1], 5)
     tri = cat(lambda s: s.tri_idx) + pk.tri_off[wor]
-    P = envs[0].world.params
-    p = (float(P.robot.max_speed_mps), float(P.robot.max_climb_deg), np.radians(P.robot.turn_rate_dps) * P.dt_s,
-         float(P.dt_s), (P.battery.idle_w + P.battery.sensing_w) * P.dt_s, float(P.battery.drive_j_per_m),
-         float(P.battery.climb_j_per_m), float(2 * P.robot.radius_m))
+    p = step_scalars(envs[0].world.params)
     out = step_copies(pk.T0, pk.steep, wor, wor.copy(), np.array([0, 5, 10]), cat(lambda s: s.positions), tri,
                       cat(lambda s: s.headings), cat(lambda s: s.heights), cat(lambda s: s.status),
                       cat(lambda s: s.battery_j), cmd, p)
-    pos, tri2, head, h, speeds, batt, energy, status, fell, emptied, coll = out
+    pos, tri2, head, h, speeds, event, moved, climb, batt, energy, status, fell, emptied, coll, pairs = out
     for c, (e, s) in enumerate(zip(envs, states)):
         new, ev = e.world.step(s, cmd[5 * c:5 * c + 5])
         rows = slice(5 * c, 5 * c + 5)
@@ -62,3 +60,5 @@ def test_one_step_of_two_copies_is_each_worlds_step():
         np.testing.assert_array_equal(batt[rows], new.battery_j)
         np.testing.assert_array_equal(status[rows], new.status)
         np.testing.assert_array_equal(coll[rows], ev.collisions)
+        np.testing.assert_array_equal(moved[rows], ev.moved_m)
+        np.testing.assert_array_equal(event[rows], ev.motion_event)

@@ -11,12 +11,12 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from tin_swarm_env.world import BatteryParams, RobotParams, SensorParams, World, WorldParams, sensing, spawn_positions
+from tin_swarm_env.world import batch_kernels as BK
 from tin_swarm_env.world import locomotion as L
 from tin_swarm_env.world import reference as REF
 from tin_swarm_env.world import sense_kernels as SK
 from tin_swarm_env.world import step_kernel as SPK
 from tin_swarm_env.world import world as world_mod
-from tin_swarm_env.world.grid import grid_build
 from tin_swarm_env.world.state import Reason
 
 THREADS = min(2, numba.config.NUMBA_NUM_THREADS)
@@ -36,10 +36,11 @@ def threads(k):
 def plain_python(monkeypatch):
     """Every parallel kernel of a world step and sensing replaced by its uncompiled loop."""
     with monkeypatch.context() as m:
-        m.setattr(world_mod, "step_kernel", SPK.step_kernel.py_func)
-        m.setattr(SPK, "collision_counts", SK.collision_counts.py_func)
-        for name in ("sense_pass1", "sense_pass2", "collision_counts"):
-            m.setattr(SK, name, getattr(SK, name).py_func)
+        m.setattr(world_mod, "step_copies", SPK.step_copies.py_func)
+        for name in ("move_all", "collisions"):
+            m.setattr(SPK, name, getattr(SPK, name).py_func)
+        for name in ("_sense_passes", "_sense1", "_sense2"):
+            m.setattr(BK, name, getattr(BK, name).py_func)
         m.setattr(L, "move_walk", L.move_walk.py_func)
         m.setattr(REF, "move_kernel", REF.move_kernel.py_func)
         yield
@@ -126,21 +127,6 @@ def test_mutual_sight_is_walked_once_and_copied_to_both_slots():
     assert {(2, 3), (3, 2)} <= seen and not {(0, 1), (1, 0)} & seen
 
 
-@settings(max_examples=30)
-@given(st.integers(0, 10_000), st.integers(0, 120), st.floats(0.1, 50))
-def test_collision_counts_equal_all_pairs(seed, n, diameter):
-    rng = np.random.default_rng(seed)
-    xy = rng.uniform(0, 100, (n, 2))
-    xy[: n // 3] = np.round(xy[: n // 3])  # exact ties and duplicates
-    present = rng.random(n) < 0.8
-    x, y = xy[:, 0].copy(), xy[:, 1].copy()
-    coll, pairs = SK.collision_counts(x, y, present, grid_build(x, y, present, diameter), diameter)
-    d = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
-    touch = (d < diameter) & present[:, None] & present[None, :] & ~np.eye(n, dtype=bool)
-    np.testing.assert_array_equal(coll, touch.sum(axis=1))
-    np.testing.assert_array_equal(pairs.reshape(-1, 2), np.argwhere(np.triu(touch)))
-
-
 def test_break_contacts_are_nearest_first_and_complete(random_tin):
     w, s, _ = _world(random_tin, 5, {"range_m": 150.0}, n=25)
     b = w.sense(s).breaks
@@ -223,13 +209,13 @@ def test_small_swarms_run_on_one_thread_and_large_ones_on_all(random_tin, monkey
     restore the count after), and keep every thread from SERIAL_BELOW on; the results are the same."""
     w, s, rng = _world(random_tin, 3, {"range_m": 60.0}, n=20)
     seen = []
-    kernel = world_mod.step_kernel
+    kernel = world_mod.step_copies
 
     def spy(*a):
         seen.append(numba.get_num_threads())
         return kernel(*a)
 
-    monkeypatch.setattr(world_mod, "step_kernel", spy)
+    monkeypatch.setattr(world_mod, "step_copies", spy)
     cmds = rng.uniform(-1, 1, (1, 20, 2))
     with threads(THREADS):
         small = _run(w, s, cmds)

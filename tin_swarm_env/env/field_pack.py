@@ -14,7 +14,7 @@ from numba import njit, prange
 
 from ..terrain._ctg_kernels import best_distance
 
-__all__ = ["FieldPack", "distance_copies", "EUCLID", "NO_FIELD"]
+__all__ = ["FieldPack", "distance_copies", "field_ids", "EUCLID", "NO_FIELD"]
 
 NO_FIELD = -1  # a robot with no target: distance inf
 EUCLID = -2  # a robot whose copy measures the straight line (euclidean progress, mobile targets)
@@ -111,10 +111,19 @@ class FieldPack:
                 *self.scal)
 
 
-@njit(cache=True, parallel=True)
-def _distance_copies(nx, ny, dist, tri_nodes, passable, goal_tri, tris, nbrs, vx, vy, twin, wstart, wgeo, wroot,
-                     on, ot, ov, os_, ow, gxy, tol, eps, fid, pos, tri, tpos, tglob, out):
-    for i in prange(pos.shape[0]):
+CHUNKS = 16  # runs of robots _distance_copies shares among the threads (as distance_stacked's)
+
+
+@njit(cache=True)
+def _distance_run(lo, hi, nx, ny, dist, tri_nodes, passable, goal_tri, tris, nbrs, vx, vy, twin, wstart, wgeo, wroot,
+                  on, ot, ov, os_, ow, gxy, tol, eps, fid, pos, tri, tpos, tglob, out):
+    """Robots ``lo:hi`` of :func:`_distance_copies`: a field's views are taken when the field changes
+    (a copy's robots are consecutive and share their fields), not per robot."""
+    cur = -1
+    nx_f, ny_f, d_f, wg_f = nx[0:0], ny[0:0], dist[0:0], wgeo[0:0]
+    tn_f, pa_f, gt_f, tr_f, nb_f = tri_nodes[0:0], passable[0:0], goal_tri[0:0], tris[0:0], nbrs[0:0]
+    vx_f, vy_f, tw_f, ws_f, wr_f = vx[0:0], vy[0:0], twin[0:0], wstart[0:0], wroot[0:0]
+    for i in range(lo, hi):
         f = fid[i]
         if f == EUCLID:
             k = tglob[i]
@@ -124,19 +133,45 @@ def _distance_copies(nx, ny, dist, tri_nodes, passable, goal_tri, tris, nbrs, vx
         t = tri[i]
         if f < 0 or t < 0:
             continue
-        a0, a1 = on[f], on[f + 1]
-        t0, t1 = ot[f], ot[f + 1]
-        v0, v1 = ov[f], ov[f + 1]
-        w0, w1 = ow[f], ow[f + 1]
-        s0, s1 = os_[f], os_[f + 1]
-        out[i] = best_distance(nx[a0:a1], ny[a0:a1], dist[a0:a1], tri_nodes[t0:t1], passable[t0:t1], goal_tri[t0:t1],
-                       gxy[f, 0], gxy[f, 1], vx[v0:v1], vy[v0:v1], tris[t0:t1], nbrs[t0:t1], wstart[s0:s1],
-                       wgeo[w0:w1], wroot[w0:w1], pos[i, 0], pos[i, 1], t, tol[f], eps[f], twin[v0:v1])[0]
+        if f != cur:
+            cur = f
+            a0, a1 = on[f], on[f + 1]
+            t0, t1 = ot[f], ot[f + 1]
+            v0, v1 = ov[f], ov[f + 1]
+            w0, w1 = ow[f], ow[f + 1]
+            nx_f, ny_f, d_f = nx[a0:a1], ny[a0:a1], dist[a0:a1]
+            tn_f, pa_f, gt_f, tr_f, nb_f = tri_nodes[t0:t1], passable[t0:t1], goal_tri[t0:t1], tris[t0:t1], nbrs[t0:t1]
+            vx_f, vy_f, tw_f = vx[v0:v1], vy[v0:v1], twin[v0:v1]
+            ws_f, wg_f, wr_f = wstart[os_[f]:os_[f + 1]], wgeo[w0:w1], wroot[w0:w1]
+        out[i] = best_distance(nx_f, ny_f, d_f, tn_f, pa_f, gt_f, gxy[f, 0], gxy[f, 1], vx_f, vy_f, tr_f, nb_f, ws_f,
+                               wg_f, wr_f, pos[i, 0], pos[i, 1], t, tol[f], eps[f], tw_f)[0]
+
+
+@njit(cache=True, parallel=True)
+def _distance_copies(nx, ny, dist, tri_nodes, passable, goal_tri, tris, nbrs, vx, vy, twin, wstart, wgeo, wroot,
+                     on, ot, ov, os_, ow, gxy, tol, eps, fid, pos, tri, tpos, tglob, out):
+    n = pos.shape[0]
+    C = CHUNKS if n >= CHUNKS else 1
+    for c in prange(C):  # every robot's value is computed alone: the same bits on any thread count
+        _distance_run(c * n // C, (c + 1) * n // C, nx, ny, dist, tri_nodes, passable, goal_tri, tris, nbrs, vx, vy,
+                      twin, wstart, wgeo, wroot, on, ot, ov, os_, ow, gxy, tol, eps, fid, pos, tri, tpos, tglob, out)
     return out
 
 
 def distance_copies(pack: FieldPack, fid, pos, tri_local, tpos, tglob, out) -> np.ndarray:
     """``out (n,)`` m: robot i's distance to go on field ``fid[i]`` (:data:`EUCLID`: the straight
     line to target ``tglob[i]`` of ``tpos``; :data:`NO_FIELD`: inf), ``tri_local`` its
-    triangle in its own TIN (-1: inf)."""
+    triangle in its own TIN (-1: inf). The one distance-to-go pass of the env and the vector env
+    (:func:`~.reward.end_step`)."""
     return _distance_copies(*pack.kernel_args(), fid, pos, tri_local, tpos, tglob, out)
+
+
+def field_ids(pack: FieldPack, fields, target_idx) -> np.ndarray:
+    """``(n,)`` the ``fid`` of :func:`distance_copies` for robots assigned ``target_idx`` (-1: none)
+    among targets whose fields are ``fields`` (in ``pack``; empty: every target measured by the
+    straight line, :data:`EUCLID`)."""
+    t = np.asarray(target_idx, dtype=np.int64)
+    if len(fields):
+        ids = np.array([pack.index(f) for f in fields], dtype=np.int64)
+        return np.where(t >= 0, ids[np.maximum(t, 0)], NO_FIELD).astype(np.int64)
+    return np.where(t >= 0, EUCLID, NO_FIELD).astype(np.int64)

@@ -22,27 +22,22 @@ from ..scenario import (
     target_field,
 )
 from ..scenario.config import MAX_ROBOTS
-from ..terrain import CostToGoStack
 from ..world import Reason, World
+from ..world.pack import one_copy
 from ..world.world import serial_if_small
 from .checks import actions_from_dict, check_options, check_scenario_arg, check_seed, float_array
+from .field_pack import FieldPack, field_ids
 from .observation import ObsLayout, build_observations
-from .reward import distance_to_go, reward_params, step_rewards
+from .reward import end_step, measure, reward_params
 
 __all__ = ["TinSwarmEnv", "parallel_env", "raw_env", "env", "RENDER_WIDTH_PX", "DEFAULT_RENDER_WIDTH_PX"]
 
 
+_NO_FIELDS = FieldPack()  # every distance the straight line (read only)
 RENDER_WIDTH_PX = (64, 4096)  # the frame widths render() draws
 DEFAULT_RENDER_WIDTH_PX = 640  # render_width when none is given (also the CLI's frame width, apps.media.GIF_WIDTH_PX)
 
 _REASON_LABEL = {int(r): r.label for r in Reason}  # Reason code -> infos[agent]["reason"]
-_ARRIVED = int(Reason.ARRIVED)  # (numpy compares with a plain int faster than with the enum)
-# robots: fewer have their distance to go measured (the step's geodesic query) on one numba thread. In the env's
-# step the query runs between the world's step and sensing, alone in its parallel region, and near 1 000 robots the
-# other thread's start costs about what its half of the query saves. batched/world, medians of process-alternating
-# idle runs, 2026-11-26: 1 000 robots 0.816 serial vs 0.811 parallel (30 runs each), 2 000 robots 0.837 vs 0.845
-# (4 each). The same bits either way.
-DIST_SERIAL_BELOW = 1536
 
 
 @njit(cache=True)
@@ -203,10 +198,11 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
         self._live = np.zeros(self.n, dtype=bool)
         self._target_idx = np.full(self.n, -1, dtype=np.int64)
         self._readings = None
-        self._steps = 0
+        self._steps = np.zeros(1, dtype=np.int64)  # steps taken in the episode (one copy's clock, end_step's)
         self._fields: tuple = ()  # one CostToGo per target of the episode
-        self._stack = None  # CostToGoStack of _fields where progress is geodesic (one query a step), else None
-        self._rw = None  # reward.reward_params(config), set at reset
+        self._fpack = None  # FieldPack of _fields where progress is geodesic (one query a step), else None
+        self._fid = np.full(self.n, -1, dtype=np.int64)  # each robot's field in _fpack (field_pack.field_ids)
+        self._rws = None  # (1, 11) reward.reward_params(config), set at reset
         self._dist = np.full(self.n, np.inf)  # (n,) m, distance to go after the last reset/step
 
     # -- read-only views for apps, policies' tests and plots ------------------------------------
@@ -273,7 +269,7 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
     @property
     def steps(self) -> int:
         """Steps taken in this episode."""
-        return self._steps
+        return int(self._steps[0])
 
     def sensed(self):
         """What every robot senses now (:class:`~tin_swarm_env.world.SensorReadings`; read-only)."""
@@ -329,16 +325,17 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
                                      label=f"{cfg.source} [targets]")
         self._fields = tuple(self._field(t) for t in targets)
         geodesic = self.config.rewards.progress == "geodesic" and not self.config.targets.mobile
-        self._stack = CostToGoStack(self._fields) if geodesic and self._fields else None
-        self._rw = reward_params(cfg)  # the reward terms as the step's kernel reads them
+        self._set_fields(self._fields if geodesic else ())
+        self._rws = np.array([reward_params(cfg)], dtype=np.float64)  # the reward terms as the step's kernel reads
         reach = np.array([f.triangle_reachable() for f in self._fields]) if len(self._fields) else None
         self._wstate = initial_state(self._world, cfg, self._np_random, self.n, target_positions=targets,
                                      spawn_region=self._stage.spawn_region, reachable=reach,
                                      **{k: options[k] for k in ("robot_positions", "headings") if k in options})
         self._target_idx = assignments(self.n, len(self._wstate.targets))
+        self._fid = field_ids(self._fpack, self._fields if self._fpack is not None else (), self._target_idx)
         self._dist = self._measure(self._wstate)
         self._live = np.ones(self.n, dtype=bool)
-        self._steps = 0
+        self._steps = np.zeros(1, dtype=np.int64)
         self._readings = self._world.sense(self._wstate)
         return build_observations(self._world, self._wstate, self._readings, self._target_idx, self._live,
                                   self.layout)
@@ -357,16 +354,24 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
                 return f
         return target_field(self._world, xy)
 
+    def _set_fields(self, fields) -> None:
+        """The episode's fields as the distance pass reads them: a :class:`~.field_pack.FieldPack` of
+        ``fields`` (kept while they are the same fields: a static task's every reset), or none
+        (every distance the straight line)."""
+        if not fields:
+            self._fpack = None
+        elif self._fpack is None or any(f not in self._fpack for f in fields) or len(self._fpack) > len(fields):
+            self._fpack = FieldPack(fields)
+
     def _measure(self, state) -> np.ndarray:
-        """Distance to go ``(n,)`` m of every robot in ``state`` (the reward's metric): the same bits
-        as :func:`~tin_swarm_env.env.reward.distance_to_go`, geodesic ones from this episode's
-        :class:`~tin_swarm_env.terrain.CostToGoStack` in one compiled pass (tests check both)."""
-        if self._stack is None:
-            return distance_to_go(state, self._target_idx, (None,) * len(self._fields))
-        with serial_if_small(state.n_robots, DIST_SERIAL_BELOW):
-            return self._stack._distance(np.ascontiguousarray(state.positions, dtype=np.float64),
-                                         np.ascontiguousarray(state.tri_idx, dtype=np.int64), self._target_idx,
-                                         np.empty(state.n_robots))
+        """Distance to go ``(n,)`` m of every robot in ``state`` (the reward's metric): the vector env's
+        pass (:func:`~tin_swarm_env.env.reward.measure`), the same bits as
+        :func:`~tin_swarm_env.env.reward.distance_to_go` (tests check both)."""
+        return measure(self._distance_fields(), state.positions, state.tri_idx, state.targets.positions,
+                       self._target_idx)
+
+    def _distance_fields(self) -> tuple:
+        return (self._fpack if self._fpack is not None else _NO_FIELDS), self._fid
 
     def step_arrays(self, actions) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """One step for all robots: ``actions (n, 2)`` (rows of robots no longer live are
@@ -384,16 +389,14 @@ class TinSwarmEnv(ParallelEnv, EzPickle):
             return self._step_arrays(a)
 
     def _step_arrays(self, a: np.ndarray):
-        prev = self._wstate
-        new, events = self._world._step(prev, a)  # a: checked by step_arrays (live_actions)
+        new, events = self._world._step(self._wstate, a)  # a: checked by step_arrays (live_actions)
         live = self._live
-        dist = self._measure(new)
-        self._steps += 1
-        rewards, terminated, reasons, truncated, live_after, n_arrived = step_rewards(
-            self._rw, self._dist, dist, new, events, self._target_idx, live, self._steps >= self.max_cycles)
+        _, one, _ = one_copy(self.n)  # this env is copy 0 of one, as the vector env's bookkeeping reads it
+        dist, rewards, terminated, reasons, truncated, live_after = end_step(
+            self._rws, one, self._distance_fields(), self._dist, new.positions, new.tri_idx, new.targets.positions,
+            self._target_idx, live, events.energy_j, events.collisions, events.fell, events.emptied, self._steps,
+            np.array([self.max_cycles], dtype=np.int64), one, new.status)  # arrived robots leave the terrain
         self._dist = dist
-        if n_arrived:
-            new = self._world.retire(new, reasons == _ARRIVED)  # arrived robots leave the terrain
         self._wstate = new
         self._readings = self._world.sense(new)
         obs = build_observations(self._world, new, self._readings, self._target_idx, live, self.layout)

@@ -4,9 +4,14 @@
 swarm (each with its own terrain, targets, robots and episode clock) in flat arrays over the
 ``E * N`` robots, copy-major. One :meth:`VectorEnv.step` runs the world step, the distance to go,
 the rewards, the sensing and the observations for every robot of every copy in a handful of
-compiled passes (:mod:`tin_swarm_env.world.batch_kernels`, :mod:`.field_pack`, the single env's
-observation and reward kernels on the flat arrays), with no Python loop over copies or robots;
-only copies that end pay a reset.
+compiled passes, with no Python loop over copies or robots; only copies that end pay a reset.
+**One step path**: they are the parallel env's own, which runs them as one copy: the world step
+(:func:`~tin_swarm_env.world.step_kernel.step_copies`, ``World.step``'s), the sensing
+(:func:`~tin_swarm_env.world.batch_kernels.sense_copies`, ``World.sense``'s), the step's bookkeeping
+(:func:`~tin_swarm_env.env.reward.end_step`: distance to go, clocks and truncation, rewards,
+terminations, arrived robots off the terrain) and the observation kernel
+(:func:`~tin_swarm_env.env.observation.fill_observations`); ``tests/integration/test_one_step_path.py``
+checks that each has its one set of callers.
 
 **Copies.** ``scenario`` is one scenario (a name, path or
 :class:`~tin_swarm_env.scenario.ScenarioConfig`) or a list of them: copy ``c`` plays
@@ -43,28 +48,26 @@ the copy and robot.
 
 from __future__ import annotations
 
-import math
 import numbers
 
 import numpy as np
 from gymnasium import spaces
 
 from ..errors import ArgumentError, check_range
-from ..world import Reason
-from ..world.batch_kernels import sense_copies, step_copies
+from ..world.batch_kernels import sense_copies
 from ..world.pack import pack_one, pack_worlds
 from ..world.sense_kernels import compact
-from ..world.world import serial_if_small
+from ..world.step_kernel import step_copies
+from ..world.world import serial_if_small, step_scalars
 from .checks import check_seed
-from .field_pack import EUCLID, NO_FIELD, FieldPack, distance_copies
+from .field_pack import NO_FIELD, FieldPack, field_ids
 from .observation import DZ_SCALE_M, OBS_SERIAL_BELOW, fill_observations, layout_offsets
-from .reward import rewards_kernel
+from .reward import end_step
 from .tin_swarm import TinSwarmEnv, live_actions
 
 __all__ = ["VectorEnv", "vector_env", "MAX_COPIES", "copy_seed_stream", "CopyView"]
 
 MAX_COPIES = 1 << 16
-_ARRIVED, _FELL = int(Reason.ARRIVED), int(Reason.FELL)
 
 
 def copy_seed_stream(seed: int, c: int) -> np.random.Generator:
@@ -156,10 +159,11 @@ class VectorEnv:
         self._tri_off = z(R, dtype=np.int64)
         self._steps = z(E, dtype=np.int64)
         self._max_cycles = z(E, dtype=np.int64)
-        self._tpos, self._tz = z((E * self._M, 2)), z(E * self._M)
-        self._t_rng = np.stack([np.arange(E) * self._M] * 2, axis=1).astype(np.int64)
-        self._apos, self._az = z((E * self._A, 2)), z(E * self._A)
-        self._a_rng = np.stack([np.arange(E) * self._A] * 2, axis=1).astype(np.int64)
+        # targets and assets: M (A) slots per copy, copy c's first k in use (the sensing's (eoff, use))
+        self._tpos, self._tz, self._tuse = z((E * self._M, 2)), z(E * self._M), z(E * self._M, dtype=bool)
+        self._apos, self._az, self._ause = z((E * self._A, 2)), z(E * self._A), z(E * self._A, dtype=bool)
+        self._toff = np.arange(E + 1, dtype=np.int64) * self._M
+        self._aoff = np.arange(E + 1, dtype=np.int64) * self._A
         self._worlds = [None] * E
         self._fields = [()] * E
         self._pack = None
@@ -168,13 +172,8 @@ class VectorEnv:
         self._slots = [(np.empty((R, K), np.int64), np.empty((R, K)), np.empty((R, K), np.int8), z(R, np.int64))
                        for _ in range(3)]
         P = self.params
-        Bp = P.battery
-        # the scalars World._step passes to the step kernel, computed the same way (the same bits)
-        self._step_p = (float(P.robot.max_speed_mps), float(P.robot.max_climb_deg),
-                        math.radians(P.robot.turn_rate_dps) * P.dt_s, float(P.dt_s),
-                        (Bp.idle_w + Bp.sensing_w) * P.dt_s, float(Bp.drive_j_per_m), float(Bp.climb_j_per_m),
-                        float(2 * P.robot.radius_m))
-        self._own_scale = (float(Bp.capacity_j), float(P.robot.max_speed_mps), np.pi / 2, 90.0)
+        self._step_p = step_scalars(P)  # the scalars World._step passes to step_copies (one home)
+        self._own_scale = (float(P.battery.capacity_j), float(P.robot.max_speed_mps), np.pi / 2, 90.0)
         self._ks = (self.layout.k_robots, self.layout.k_targets, self.layout.k_breaks, self.layout.k_assets,
                     self.layout.k_scan)
         self._started = False
@@ -249,17 +248,18 @@ class VectorEnv:
         self._coll[rows] = s.collisions
         self._live[rows] = True
         world = p.world
-        for ent, M, pos, z, rng in ((s.targets, self._M, self._tpos, self._tz, self._t_rng),
-                                    (s.assets, self._A, self._apos, self._az, self._a_rng)):
+        for ent, M, pos, z, use in ((s.targets, self._M, self._tpos, self._tz, self._tuse),
+                                    (s.assets, self._A, self._apos, self._az, self._ause)):
             k = len(ent)
             if k:
                 pos[c * M:c * M + k] = ent.positions
                 z[c * M:c * M + k] = world.tin.height_in(ent.positions, ent.tri_idx)
-            rng[c, 1] = c * M + k
+            use[c * M:(c + 1) * M] = False
+            use[c * M:c * M + k] = True
         tidx = p.target_assignment
         self._tglob[rows] = np.where(tidx >= 0, c * self._M + tidx, -1)
         self._dist[rows] = p.distance_to_go()
-        self._fields[c] = p._fields if p._stack is not None else ()
+        self._fields[c] = p._fields if p._fpack is not None else ()
         self._worlds[c] = world
         self._steps[c] = 0
         self._max_cycles[c] = p.max_cycles
@@ -293,11 +293,7 @@ class VectorEnv:
         self._wor[rows] = w
         self._tri_off[rows] = self._pack.tri_off[w]
         t = self._tglob[rows] - c * self._M
-        if self._fields[c]:
-            ids = np.array([self._fpack.index(f) for f in self._fields[c]], dtype=np.int64)
-            self._fid[rows] = np.where(t >= 0, ids[np.maximum(t, 0)], NO_FIELD)
-        else:
-            self._fid[rows] = np.where(t >= 0, EUCLID, NO_FIELD)
+        self._fid[rows] = field_ids(self._fpack, self._fields[c], np.where(self._tglob[rows] >= 0, t, -1))
 
     def _repack(self) -> None:
         """Rebuild both packs from the worlds and fields in use (drops the ended ones)."""
@@ -357,18 +353,13 @@ class VectorEnv:
         pk = self._pack
         live = self._live
         tri_g = self._tri + self._tri_off
-        (pos, tri_g, head, h, speeds, batt, energy, status, fell, emptied, coll) = step_copies(
+        (pos, tri_g, head, h, speeds, _, _, _, batt, energy, status, fell, emptied, coll, _) = step_copies(
             pk.T0, pk.steep, self._wor, self._cop, self._off, self._pos, tri_g, self._head, self._h, self._status,
             self._batt, a, self._step_p)
         tri = tri_g - self._tri_off
-        dist = distance_copies(self._fpack, self._fid, pos, tri, self._tpos, self._tglob, np.empty(len(pos)))
-        self._steps += 1
-        timeout = (self._steps >= self._max_cycles)[self._cop]
-        rew, term, why, trunc, live_after, n_arrived = rewards_kernel(
-            self._rws, self._scen_of_robot, self._dist, dist, pos, self._tpos, self._tglob, live, energy,
-            coll.astype(np.float64), fell, emptied, timeout)
-        if n_arrived:
-            status[(why == _ARRIVED) & (status != _FELL)] = _ARRIVED
+        dist, rew, term, why, trunc, live_after = end_step(
+            self._rws, self._scen_of_robot, (self._fpack, self._fid), self._dist, pos, tri, self._tpos, self._tglob,
+            live, energy, coll, fell, emptied, self._steps, self._max_cycles, self._cop, status)
         self._pos, self._tri, self._head, self._h, self._speed, self._batt, self._status = (
             pos, tri, head, h, speeds, batt, status)
         self._coll = self._coll + coll
@@ -385,18 +376,14 @@ class VectorEnv:
         n = len(self._pos)
         px = np.ascontiguousarray(self._pos[:, 0])
         py = np.ascontiguousarray(self._pos[:, 1])
-        active = self._status == 0
-        present = active | (self._status == int(Reason.BATTERY))
-        sz = np.ascontiguousarray(self._h + sp.height_m)
-        eh = P.entity_height_m
         for s in self._slots:
             s[3][:] = 0
-        TG = ((np.ascontiguousarray(self._tpos[:, 0]), np.ascontiguousarray(self._tpos[:, 1]), self._tz + eh,
-               self._t_rng), self._slots[1])
-        AS = ((np.ascontiguousarray(self._apos[:, 0]), np.ascontiguousarray(self._apos[:, 1]), self._az + eh,
-               self._a_rng), self._slots[2])
-        brk, (ro, rt, rd, rstart) = sense_copies(pk, self._wor, self._cop, self._off, px, py, self._head, tri_g, sz,
-                                                 active, present, sp, self._slots[0], TG, AS,
+        TG = ((np.ascontiguousarray(self._tpos[:, 0]), np.ascontiguousarray(self._tpos[:, 1]), self._tz, self._toff,
+               self._tuse), self._slots[1])
+        AS = ((np.ascontiguousarray(self._apos[:, 0]), np.ascontiguousarray(self._apos[:, 1]), self._az, self._aoff,
+               self._ause), self._slots[2])
+        brk, (ro, rt, rd, rstart) = sense_copies(pk, self._wor, self._cop, self._off, px, py, self._head, tri_g,
+                                                 self._h, self._status, P, self._slots[0], TG, AS,
                                                  k_front=self.layout.k_breaks)  # the slots read the nearest only
         tg = compact(*self._slots[1], px, py, self._head, TG[0][0], TG[0][1])
         at = compact(*self._slots[2], px, py, self._head, AS[0][0], AS[0][1])

@@ -1,16 +1,17 @@
-"""The vector env's compiled passes: every robot of every copy in one call.
+"""Sensing, the one compiled path of the env and the vector env: what every robot of every copy senses.
 
 Robots are numbered globally, copy-major (copy ``c``'s robots are ``off[c]:off[c + 1]``), and
 stand on the worlds of a :class:`~.pack.WorldPack` (``wor[i]``, the world of robot ``i``;
-triangle indices global). Each pass is the single-world kernel's per-robot code
-(:func:`~.locomotion.move1`, :func:`~.sense_kernels.sight1`, :func:`~.sense_kernels.near_row`,
-the battery and status updates of :func:`~.step_kernel.step_kernel`, the break contacts of
-:func:`~.sense_kernels.sense_pass2`) with the world's arrays chosen per robot
-(:func:`terrain_of`) and every neighbour grid built per copy (:func:`grid_build_copies`), so a
-robot never meets a robot, target or break of another copy, and each copy's results are the
-same bits as its own single env's (``tests/env/test_vector.py`` checks it against separate
-envs). Candidate lists are ordered by (distance, global index); global order within a copy is
-the copy's own order, so ties break the same way.
+triangle indices global). Two parallel passes (:func:`sense_copies`) run the per-robot code of
+:mod:`.sense_kernels` (:func:`~.sense_kernels.near_row`, :func:`~.sense_kernels.entity_row`,
+:func:`~.sense_kernels.robot_sight`, the break contacts) with the world's arrays chosen per robot
+(:func:`terrain_of`) and every neighbour grid (robots, targets, assets) built per copy
+(:func:`~.grid.grid_build_copies`), so a robot never meets a robot, target or break of another
+copy. A single :class:`~.world.World` senses as the one-copy case (:func:`~.sensing.sense`); the
+vector env passes all its copies, so each copy's results are the same bits as its own single
+env's (``tests/env/test_vector.py`` checks it against separate envs). Candidate lists are ordered
+by (distance, global index); global order within a copy is the copy's own order, so ties break
+the same way. (The world step's pass over the copies is :mod:`.step_kernel`.)
 """
 
 from __future__ import annotations
@@ -20,30 +21,29 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .grid import grid_build_copies, grid_cells, sense_cell
-from .locomotion import move1
+from .grid import grid_build_copies, sense_cell
 from .sense_kernels import (
     break_range,
     compact_out,
     copy_kept,
     count_breaks,
     deep_inside,
+    entity_row,
     gather_breaks,
-    in_view,
-    insert_sorted,
     kept_count,
     mark_out_of_view,
     near_row,
     prefix_offsets,
     robot_sight,
-    sight1,
-    touches,
 )
-from .step_kernel import after_move
 
-__all__ = ["terrain_of", "grid_build_copies", "step_copies", "sense_copies"]
+__all__ = ["terrain_of", "sense_copies"]
 
-_NONE = 0  # state.Reason.NONE (numba reads plain ints)
+_NONE, _BATTERY = 0, 3  # state.Reason codes (numba and numpy compare with plain ints fastest)
+# the parallel passes cut the robots into this many runs of consecutive ones, shared among the threads; in a run the
+# views of a robot's world and copy are taken when they change (a copy's robots are consecutive), not per robot
+# (a view costs a reference count). Every robot's row is still computed alone: the same bits on any thread count.
+RUNS = 64
 
 
 @njit(cache=True, inline="always")
@@ -56,148 +56,75 @@ def terrain_of(T0, w):
             bny[w], edges[e_off[w]:e_off[w + 1]], border[e_off[w]:e_off[w + 1]], tol[w], ztol[w], ms[w])
 
 
-@njit(cache=True, parallel=True)
-def _collisions(px, py, cop, G, diameter):
-    """:func:`~.sense_kernels.collision_counts` per copy (grid ``G`` of :func:`grid_build_copies`,
-    cells >= ``diameter``): ``(n,)`` the present robots of its copy closer than ``diameter``."""
-    X0, Y0, INV, NX, NY, base, start, items, gx, gy = G
-    n = px.shape[0]
-    lo2 = -1.0
-    hi2 = -1.0
-    if 1e-100 <= diameter <= 1e100:
-        lo2 = (diameter * (1.0 - 1e-6)) ** 2
-        hi2 = (diameter * (1.0 + 1e-6)) ** 2
-    if not hi2 > 0.0:
-        hi2 = math.inf
-    coll = np.zeros(n, dtype=np.int64)
-    for q in prange(items.shape[0]):
-        i = items[q]
-        c = cop[i]
-        nx = NX[c]
-        st = start[base[c]:]
-        cx_lo, cx_hi, cy_lo, cy_hi = grid_cells(X0[c], Y0[c], INV[c], nx, NY[c], px[i], py[i])
-        k = 0
-        for cy in range(cy_lo, cy_hi + 1):
-            for m in range(st[cy * nx + cx_lo], st[cy * nx + cx_hi + 1]):
-                j = items[m]
-                if j != i and touches(gx[m] - px[i], gy[m] - py[i], diameter, lo2, hi2):
-                    k += 1
-        coll[i] = k
-    return coll
-
-
-@njit(cache=True, parallel=True)
-def _move_all(T0, steep, wor, pos, tri, head, heights, status, battery, cmd, max_speed, max_climb_deg, max_turn, dt,
-              idle_j, drive_j_per_m, climb_j_per_m):
-    n = pos.shape[0]
-    out_pos = np.empty((n, 2))
-    xs = np.empty(n)
-    ys = np.empty(n)
-    out_tri = np.empty(n, dtype=np.int64)
-    out_head = np.empty(n)
-    speeds = np.empty(n)
-    out_h = np.empty(n)
-    batt = np.empty(n)
-    energy = np.empty(n)
-    out_status = np.empty(n, dtype=np.int8)
-    fell = np.empty(n, dtype=np.bool_)
-    emptied = np.empty(n, dtype=np.bool_)
-    present = np.empty(n, dtype=np.bool_)
-    for i in prange(n):
-        T = terrain_of(T0, wor[i])
-        st = status[i]
-        active = st == _NONE
-        x, y, t, hd, sp, ev, z, mv, cl = move1(T, steep, pos[i, 0], pos[i, 1], tri[i], head[i], heights[i], active,
-                                               cmd[i, 0], cmd[i, 1], max_speed, max_climb_deg, max_turn, dt)
-        out_pos[i, 0] = x
-        out_pos[i, 1] = y
-        xs[i] = x
-        ys[i] = y
-        out_tri[i] = t
-        out_head[i] = hd
-        speeds[i] = sp
-        out_h[i] = z
-        batt[i], energy[i], out_status[i], fell[i], emptied[i], present[i] = after_move(
-            st, active, ev, mv, cl, battery[i], idle_j, drive_j_per_m, climb_j_per_m)
-    return out_pos, xs, ys, out_tri, out_head, out_h, speeds, batt, energy, out_status, fell, emptied, present
-
-
-def step_copies(T0, steep, wor, cop, off, pos, tri, head, heights, status, battery, cmd, p):
-    """One world step of every robot of every copy (``p``: the scalars of
-    :func:`~.step_kernel.step_kernel`, ``(max_speed, max_climb_deg, max_turn, dt, idle_j,
-    drive_j_per_m, climb_j_per_m, diameter)``). Returns ``(pos, tri, head, heights, speeds,
-    battery, energy, status, fell, emptied, collisions)``."""
-    max_speed, max_climb_deg, max_turn, dt, idle_j, drive_j, climb_j, diameter = p
-    (pos2, xs, ys, tri2, head2, h2, speeds, batt, energy, status2, fell, emptied, present) = _move_all(
-        T0, steep, wor, pos, tri, head, heights, status, battery, cmd, max_speed, max_climb_deg, max_turn, dt,
-        idle_j, drive_j, climb_j)
-    coll = _collisions(xs, ys, cop, grid_build_copies(xs, ys, present, off, diameter), diameter)
-    return pos2, tri2, head2, h2, speeds, batt, energy, status2, fell, emptied, coll
-
-
 # -- sensing -----------------------------------------------------------------------------------
-
-@njit(cache=True)
-def _entity_row_copy(T, i, qx, qy, qz, h, ch, sh, ti, deep, ex, ey, ez, j0, j1, range_m, half_fov, cos_hf, check_los,
-                     idx, dist, vis):
-    """:func:`~.sense_kernels._entity_row` over the entities ``j0:j1`` of the robot's copy (a
-    scan of the few entities instead of a grid: the same (distance, index) order, so the same
-    slots)."""
-    k = idx.shape[1]
-    r2 = (range_m * (1.0 + 1e-9)) ** 2
-    c = 0
-    for j in range(j0, j1):
-        dx = ex[j] - qx
-        dy = ey[j] - qy
-        d2 = dx * dx + dy * dy
-        if d2 > r2:
-            continue
-        d = math.sqrt(d2)
-        if d <= range_m:
-            c = insert_sorted(idx, dist, i, c, k, j, d)
-    for s in range(c):
-        j = idx[i, s]
-        v = 1 if in_view(ex[j] - qx, ey[j] - qy, dist[i, s], ch, sh, h, half_fov, cos_hf) else 0
-        if v and check_los:
-            v = sight1(T, qx, qy, qz, ex[j], ey[j], ez[j], ti, deep)
-        vis[i, s] = v
-    return c
-
 
 @njit(cache=True, parallel=True)
 def _sense1(T0, wor, cop, margin, px, py, head, tri, sz, active, G, range_m, half_fov, cos_hf, check_los,
-            r_idx, r_dist, r_vis, r_cnt, tx, ty, tz, t_rng, t_idx, t_dist, t_vis, t_cnt,
-            ax_, ay_, az_, a_rng, a_idx, a_dist, a_vis, a_cnt, B, bcnt, deep):
+            r_idx, r_dist, r_vis, r_cnt, tx, ty, tz, TGG, t_idx, t_dist, t_vis, t_cnt,
+            ax_, ay_, az_, AGG, a_idx, a_dist, a_vis, a_cnt, B, bcnt, deep):
+    """First parallel pass over the robots (in grid order, for locality): each present robot's
+    ``deep`` flag (:func:`~.sense_kernels.deep_inside` its triangle); each active observer's robot
+    candidates (``r_*``, (n, K) slots; out of view marked ``-1 - j``), its targets and assets
+    (``t_*``/``a_*``: the entities and their per-copy grids ``TGG``/``AGG``, in sight already) and
+    how many break segments lie in range (``bcnt``; ``B`` the pack's break arrays and grids).
+    Collision-free: every row is written by its own iteration only."""
     bax, bay, bbx, bby, BX0, BY0, BINV, BNX, BNY, bstart, bitems, bs_off, b_off = B
     X0, Y0, INV, NX, NY, base, start, items, gx, gy = G
+    TX0, TY0, TINV, TNX, TNY, tbase, tstart, titems, tgx, tgy = TGG  # (the parallel loop takes arrays, not tuples)
+    AX0, AY0, AINV, ANX, ANY, abase, astart, aitems, agx, agy = AGG
     r2 = (range_m * (1.0 + 1e-9)) ** 2
-    for q in prange(items.shape[0]):
-        i = items[q]
-        w = wor[i]
-        c = cop[i]
-        T = terrain_of(T0, w)
-        dp = deep_inside(T, px[i], py[i], tri[i], margin[w])
-        deep[i] = dp
-        if not active[i]:
-            continue
-        h = head[i]
-        ch = math.cos(h)
-        sh = math.sin(h)
-        k = near_row(i, px[i], py[i], X0[c], Y0[c], INV[c], NX[c], NY[c], start[base[c]:], items, gx, gy, i, range_m,
-                      r2, r_idx, r_dist)
-        mark_out_of_view(i, k, px, py, h, ch, sh, half_fov, cos_hf, r_idx, r_dist, r_vis, r_cnt)
-        t_cnt[i] = _entity_row_copy(T, i, px[i], py[i], sz[i], h, ch, sh, tri[i], dp, tx, ty, tz, t_rng[c, 0],
-                                    t_rng[c, 1], range_m, half_fov, cos_hf, check_los, t_idx, t_dist, t_vis)
-        a_cnt[i] = _entity_row_copy(T, i, px[i], py[i], sz[i], h, ch, sh, tri[i], dp, ax_, ay_, az_, a_rng[c, 0],
-                                    a_rng[c, 1], range_m, half_fov, cos_hf, check_los, a_idx, a_dist, a_vis)
-        lo, hi, gridded = break_range(bstart[bs_off[w]:bs_off[w + 1]], BX0[w], BY0[w], BINV[w], BNX[w], BNY[w],
-                                      b_off[w], b_off[w + 1], px[i], py[i])
-        bcnt[i] = count_breaks(px[i], py[i], bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m)
+    nq = items.shape[0]
+    C = min(nq, RUNS)
+    for run in prange(C):
+        q0 = run * nq // C
+        q1 = (run + 1) * nq // C
+        wc = wor[items[q0]]  # the views of a world and a copy are taken when they change, not per robot
+        cc = cop[items[q0]]
+        T = terrain_of(T0, wc)
+        bst = bstart[bs_off[wc]:bs_off[wc + 1]]
+        st, tst, ast_ = start[base[cc]:], tstart[tbase[cc]:], astart[abase[cc]:]
+        for q in range(q0, q1):
+            i = items[q]
+            w = wor[i]
+            c = cop[i]
+            if w != wc:
+                wc = w
+                T = terrain_of(T0, w)
+                bst = bstart[bs_off[w]:bs_off[w + 1]]
+            if c != cc:
+                cc = c
+                st, tst, ast_ = start[base[c]:], tstart[tbase[c]:], astart[abase[c]:]
+            dp = deep_inside(T, px[i], py[i], tri[i], margin[w])
+            deep[i] = dp
+            if not active[i]:
+                continue
+            h = head[i]
+            ch = math.cos(h)
+            sh = math.sin(h)
+            k = near_row(i, px[i], py[i], X0[c], Y0[c], INV[c], NX[c], NY[c], st, items, gx, gy, i, range_m, r2, r_idx,
+                         r_dist)
+            mark_out_of_view(i, k, px, py, h, ch, sh, half_fov, cos_hf, r_idx, r_dist, r_vis, r_cnt)
+            t_cnt[i] = entity_row(T, i, px[i], py[i], sz[i], h, ch, sh, tri[i], dp, tx, ty, tz, TX0[c], TY0[c],
+                                  TINV[c], TNX[c], TNY[c], tst, titems, tgx, tgy, range_m, half_fov, cos_hf, check_los,
+                                  t_idx, t_dist, t_vis)
+            a_cnt[i] = entity_row(T, i, px[i], py[i], sz[i], h, ch, sh, tri[i], dp, ax_, ay_, az_, AX0[c], AY0[c],
+                                  AINV[c], ANX[c], ANY[c], ast_, aitems, agx, agy, range_m, half_fov, cos_hf, check_los,
+                                  a_idx, a_dist, a_vis)
+            lo, hi, gridded = break_range(bst, BX0[w], BY0[w], BINV[w], BNX[w], BNY[w], b_off[w], b_off[w + 1], px[i],
+                                          py[i])
+            bcnt[i] = count_breaks(px[i], py[i], bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m)
 
 
 @njit(cache=True, parallel=True)
 def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, r_dist, r_vis, r_cnt, B, bcnt,
             deep, k_front):
+    """Second parallel pass: line of sight of every in-view robot slot
+    (:func:`~.sense_kernels.robot_sight`: a pair walked once, each slot with one writer), the break
+    contacts (:func:`~.sense_kernels.gather_breaks`), then the robot contacts compacted (rows
+    counted and copied in parallel). Returns the breaks ``(observer, break, distance, closest (P,
+    2), start (n + 1,))``, observer-major, nearest first (ties: lower index; ``k_front``), and the
+    robots ``(observer, target, distance, start)`` (no bearings: :func:`~.sense_kernels.bearings`
+    computes them when they are read)."""
     bax, bay, bbx, bby, BX0, BY0, BINV, BNX, BNY, bstart, bitems, bs_off, b_off = B
     n = px.shape[0]
     off = prefix_offsets(bcnt)
@@ -206,18 +133,30 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
     seg = np.empty(tot, dtype=np.int64)
     dist = np.empty(tot)
     closest = np.empty((tot, 2))
-    for q in prange(items.shape[0]):
-        i = items[q]
-        if not active[i]:
-            continue
-        w = wor[i]
-        robot_sight(terrain_of(T0, w), i, px, py, sz, tri, deep, check_los, r_idx, r_dist, r_vis, r_cnt)
-        if bcnt[i] == 0:
-            continue
-        lo, hi, gridded = break_range(bstart[bs_off[w]:bs_off[w + 1]], BX0[w], BY0[w], BINV[w], BNX[w], BNY[w],
-                                      b_off[w], b_off[w + 1], px[i], py[i])
-        gather_breaks(i, px[i], py[i], bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m, off[i], dist, seg,
-                      closest, obs, k_front)
+    nq = items.shape[0]
+    C = min(nq, RUNS)
+    for run in prange(C):
+        q0 = run * nq // C
+        q1 = (run + 1) * nq // C
+        wc = wor[items[q0]]  # the views of a world are taken when it changes, not per robot
+        T = terrain_of(T0, wc)
+        bst = bstart[bs_off[wc]:bs_off[wc + 1]]
+        for q in range(q0, q1):
+            i = items[q]
+            if not active[i]:
+                continue
+            w = wor[i]
+            if w != wc:
+                wc = w
+                T = terrain_of(T0, w)
+                bst = bstart[bs_off[w]:bs_off[w + 1]]
+            robot_sight(T, i, px, py, sz, tri, deep, check_los, r_idx, r_dist, r_vis, r_cnt)
+            if bcnt[i] == 0:
+                continue
+            lo, hi, gridded = break_range(bst, BX0[w], BY0[w], BINV[w], BNX[w], BNY[w], b_off[w], b_off[w + 1], px[i],
+                                          py[i])
+            gather_breaks(i, px[i], py[i], bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m, off[i], dist, seg,
+                          closest, obs, k_front)
     rows = np.empty(n, dtype=np.int64)
     for i in prange(n):
         rows[i] = kept_count(r_idx, r_vis, r_cnt, i) if active[i] else 0
@@ -228,26 +167,50 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
     return (obs, seg, dist, closest, off), (ro, rt, rd, start)
 
 
-def sense_copies(pack, wor, cop, off, px, py, head, tri, sz, active, present, sensor, R, TG, AS, k_front=-1):
-    """What every robot of every copy senses: ``(robots (observer, target, distance, start),
-    breaks (observer, break, distance, closest, start), targets_rows, assets_rows)``, robot
-    and break ids global; ``R``/``TG``/``AS`` the ``(idx, dist, vis, cnt)`` candidate slots
-    (``cnt`` zeroed) and the entities ``(ex, ey, ez, rng (E, 2))`` of ``TG``/``AS`` (copy c's are
-    ``rng[c, 0]:rng[c, 1]``), the slots of the targets and assets left for
-    :func:`~.sense_kernels.compact`. ``k_front >= 0``: each robot's break contacts hold its
-    ``k_front`` nearest first, in (distance, index) order, and the rest in no order
+def sense_copies(pack, wor, cop, off, px, py, head, tri, heights, status, params, R, TG, AS, k_front=-1):
+    """What every robot of every copy senses (its one home: :func:`~.sensing.sense` is the one-copy
+    case): ``(breaks (observer, break, distance, closest, start), robots (observer, target, distance,
+    start))``, robot and break ids global. ``heights`` the robots' ground heights, ``status`` their
+    :class:`~.state.Reason` codes, ``params`` the :class:`~.params.WorldParams` (the sensor, the
+    entities' sight height); ``R``/``TG``/``AS`` the ``(idx, dist, vis, cnt)`` candidate slots
+    (``cnt`` zeroed) and the entities ``(ex, ey, ez, eoff (E + 1,), use)`` of ``TG``/``AS`` (copy c's
+    are ``eoff[c]:eoff[c + 1]``, those with ``use``; ``ez`` their ground heights), the slots of the
+    targets and assets left for :func:`~.sense_kernels.compact`. ``k_front >= 0``: each robot's break
+    contacts hold its ``k_front`` nearest first, in (distance, index) order, and the rest in no order
     (:func:`~.sense_kernels.nearest_to_front`; -1: all sorted)."""
+    sensor = params.sensor
     r = float(sensor.range_m)
+    cell = sense_cell(r)
     half_fov = math.radians(sensor.fov_deg) / 2 + 1e-12
     los = bool(sensor.check_los)
-    G = grid_build_copies(px, py, present, off, sense_cell(r))
+    active = status == _NONE
+    present = active | (status == _BATTERY)  # is_present: robots out of battery are still seen
+    sz = np.ascontiguousarray(heights + sensor.height_m)
+    eh = params.entity_height_m
+    (tx, ty, tz, t_off, t_use), t_slots = TG
+    (ax_, ay_, az_, a_off, a_use), a_slots = AS
+    return _sense_passes(pack.T0, pack.B, pack.margin, wor, cop, off, px, py, head, tri, sz, active, present,
+                         (r, cell, half_fov, math.cos(half_fov), los, int(k_front)), R,
+                         (tx, ty, tz + eh, t_off, t_use), t_slots, (ax_, ay_, az_ + eh, a_off, a_use), a_slots)
+
+
+@njit(cache=True)  # compiled: one call from Python a step (each call's argument checks cost ~10 us)
+def _sense_passes(T0, B, margin, wor, cop, off, px, py, head, tri, sz, active, present, S, R, TE, TS, AE, AS):
+    """The grids per copy (robots, targets, assets) and the two passes of :func:`sense_copies`
+    (``S``: range, grid cell, half field of view and its cosine, line of sight, ``k_front``)."""
+    r, cell, half_fov, cos_hf, los, k_front = S
+    r_idx, r_dist, r_vis, r_cnt = R
+    tx, ty, tz, t_off, t_use = TE
+    ax_, ay_, az_, a_off, a_use = AE
+    t_idx, t_dist, t_vis, t_cnt = TS
+    a_idx, a_dist, a_vis, a_cnt = AS
+    G = grid_build_copies(px, py, present, off, cell)
     n = px.shape[0]
     bcnt = np.zeros(n, dtype=np.int64)
     deep = np.empty(n, dtype=np.bool_)
-    (tx, ty, tz, t_rng), t_slots = TG
-    (ax_, ay_, az_, a_rng), a_slots = AS
-    B = pack.B
-    _sense1(pack.T0, wor, cop, pack.margin, px, py, head, tri, sz, active, G, r, half_fov, math.cos(half_fov), los,
-            *R, tx, ty, tz, t_rng, *t_slots, ax_, ay_, az_, a_rng, *a_slots, B, bcnt, deep)
-    return _sense2(pack.T0, wor, px, py, sz, tri, active, G[7], r, los, *R, B, bcnt, deep, int(k_front))
-
+    _sense1(T0, wor, cop, margin, px, py, head, tri, sz, active, G, r, half_fov, cos_hf, los,
+            r_idx, r_dist, r_vis, r_cnt, tx, ty, tz, grid_build_copies(tx, ty, t_use, t_off, cell),
+            t_idx, t_dist, t_vis, t_cnt, ax_, ay_, az_, grid_build_copies(ax_, ay_, a_use, a_off, cell),
+            a_idx, a_dist, a_vis, a_cnt, B, bcnt, deep)
+    return _sense2(T0, wor, px, py, sz, tri, active, G[7], r, los, r_idx, r_dist, r_vis, r_cnt, B, bcnt, deep,
+                   k_front)

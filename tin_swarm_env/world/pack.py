@@ -19,12 +19,14 @@ triangles each.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..terrain import ANGLE
 from .sense_kernels import deep_margin, terrain_arrays
 
-__all__ = ["WorldPack", "pack_worlds", "join"]
+__all__ = ["WorldPack", "pack_worlds", "join", "pack_one", "one_copy"]
 
 
 # the global arrays of a pack, in order, and what their values index (shifted on a join): "v" vertices,
@@ -138,21 +140,32 @@ class WorldPack:
         self._where[id(world)] = len(self.worlds) - 1
 
 
+@functools.lru_cache(maxsize=8)
+def one_copy(n: int) -> tuple:
+    """``(wor, cop, off)`` of ``n`` robots on world 0 of a pack, all in copy 0: how a single
+    :class:`~.world.World` calls the passes over copies (:func:`~.step_kernel.step_copies`,
+    :func:`~.batch_kernels.sense_copies`). Read only (kept per ``n``)."""
+    z = np.zeros(n, dtype=np.int64)
+    return z, z, np.array([0, n], dtype=np.int64)
+
+
 def pack_one(world) -> WorldPack:
-    """The pack of one world (cached on the world: its arrays never change)."""
+    """The pack of one world (cached on the world: its arrays never change; built anew if its
+    ``break_index`` was replaced, which the sensing reads)."""
     got = world.__dict__.get("_world_pack")
-    if got is not None:
-        return got
+    bi = world.break_index
+    if got is not None and got[0] is bi:
+        return got[1]
     T = terrain_arrays(world.tin)
     f64, i64 = np.float64, np.int64
     seg = np.asarray(world.breaks.segments, dtype=f64).reshape(-1, 2, 3)
-    g = world.break_index.grid
+    g = bi.grid
     sin_slope, aspect_rad = world.tin._tilt_tables
     c = np.ascontiguousarray
     a = {"vx": c(T[0], f64), "vy": c(T[1], f64), "vz": c(T[2], f64), "tris": c(T[3], i64), "nbrs": c(T[4], i64),
          "grad": c(T[5], f64), "bstart": c(T[6], i64), "btris": c(T[7], i64), "edges": c(T[13], i64).reshape(-1, 2),
          "border": c(T[14], np.bool_), "steep": c(world.steep, np.bool_),
-         "bax": c(seg[:, 0, 0]), "bay": c(seg[:, 0, 1]), "bbx": c(seg[:, 1, 0]), "bby": c(seg[:, 1, 1]),
+         "bax": c(bi.ax, f64), "bay": c(bi.ay, f64), "bbx": c(bi.bx, f64), "bby": c(bi.by, f64),  # what sensing reads
          "gstart": c(g[5], i64), "gitems": c(g[6], i64),
          "normals": c(world.breaks.normals.reshape(-1, 2), f64), "drops": c(world.breaks.drops_m.reshape(-1), f64),
          "danger": c((world.breaks.kinds != ANGLE).astype(f64)), "ends": c(seg[:, :, :2].reshape(-1, 4)),
@@ -166,7 +179,7 @@ def pack_one(world) -> WorldPack:
     for name, key in _OFFSETS:
         a[name] = np.array([0, len(a[_SIZE_OF[key]])], dtype=i64)
     p = WorldPack((world,), a)
-    world.__dict__["_world_pack"] = p
+    world.__dict__["_world_pack"] = (bi, p)
     return p
 
 

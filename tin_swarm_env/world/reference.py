@@ -75,7 +75,7 @@ def move_kernel(T, steep, pos, tri, head, heights, active, cmd, max_speed, max_c
     distances driven and climbs: ``(pos (n, 2), tri, head, speeds, events, heights, moved,
     climb)``. ``T`` is :func:`~.sense_kernels.terrain_arrays`. Tested against the numpy
     :func:`~.locomotion.move`; the world step runs the same :func:`~.locomotion.move1` inside
-    :func:`~.step_kernel.step_kernel`. Each robot is computed by one iteration from its own inputs only."""
+    :func:`~.step_kernel.move_all`. Each robot is computed by one iteration from its own inputs only."""
     n = pos.shape[0]
     out_pos = np.empty((n, 2))
     out_tri = np.empty(n, dtype=np.int64)

@@ -1,11 +1,17 @@
-"""The compiled, parallel sensing kernels (numba ``prange`` over observers).
+"""The per-observer sensing code: what one robot's row of the sensing passes computes.
 
-Every observer's outputs are computed by one thread from inputs read in a fixed order (grid
-cells in index order, candidates sorted by (distance, index)), and nothing is summed across
-threads, so the results are bit-identical for any thread count and to the same functions run
-as plain Python (``kernel.py_func``: the serial reference loops the tests compare against).
-Per-observer results land in fixed ``(n, K)`` slot arrays and are compacted serially (an O(n)
-prefix sum) into the observer-major contact lists of :mod:`.sensing`.
+The passes themselves (numba ``prange`` over observers) are :mod:`.batch_kernels`'
+(:func:`~.batch_kernels.sense_copies`, the one path of the env and the vector env); the functions
+here are what each iteration runs: candidates from a grid (:func:`near_row`, :func:`entity_row`),
+field of view (:func:`in_view`), line of sight (:func:`sight1`, :func:`robot_sight`), the break
+contacts (:func:`break_range`, :func:`count_breaks`, :func:`gather_breaks`), and the compaction of
+the slots into contact lists (:func:`compact`). Every observer's outputs are computed by one
+thread from inputs read in a fixed order (grid cells in index order, candidates sorted by
+(distance, index)), and nothing is summed across threads, so the results are bit-identical for
+any thread count and to the same functions run as plain Python (``kernel.py_func``: the serial
+reference loops the tests compare against). Per-observer results land in fixed ``(n, K)`` slot
+arrays and are compacted (an O(n) prefix sum) into the observer-major contact lists of
+:mod:`.sensing`.
 
 ``T``, the terrain tuple of :func:`terrain_arrays`, carries what the triangle walks read.
 """
@@ -15,13 +21,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from ..terrain._kernels import bucket_locate1, los_brute1, los_walk1, orient, walk_locate1
 from .angles import wrap_pi
-from .grid import SENSE_REACH, grid_block, grid_cells
+from .grid import SENSE_REACH, grid_block
 
-__all__ = ["terrain_arrays", "sense_pass1", "sense_pass2", "compact", "bearings", "break_grid", "collision_counts",
+__all__ = ["terrain_arrays", "compact", "bearings", "break_grid", "touches", "entity_row", "near_row",
            "sight1", "deep_margin", "deep_inside", "in_view", "FOV_MARGIN", "locate1"]
 
 
@@ -186,7 +192,7 @@ def near_row(i, qx, qy, x0, y0, inv, nx, ny, start, items, gx, gy, skip, range_m
 
 
 @njit(cache=True, inline="always")
-def _entity_row(T, i, qx, qy, qz, h, ch, sh, ti, deep, ex, ey, ez, x0, y0, inv, nx, ny, start, items, gx, gy, range_m,
+def entity_row(T, i, qx, qy, qz, h, ch, sh, ti, deep, ex, ey, ez, x0, y0, inv, nx, ny, start, items, gx, gy, range_m,
                 half_fov, cos_hf, check_los, idx, dist, vis):
     """Row ``i``'s entity candidates (observer at ``(qx, qy, qz)`` in triangle ``ti``, heading
     ``h``), in view and in sight; returns how many. (At most 30 arguments: CPython passes more
@@ -289,46 +295,6 @@ def robot_sight(T, i, px, py, sz, tri, deep, check_los, r_idx, r_dist, r_vis, r_
             r_vis[j, m] = v
 
 
-@njit(cache=True, parallel=True)
-def sense_pass1(T, px, py, head, tri, sz, active, G, range_m, half_fov, cos_hf, margin, check_los, R, TG, AS, B,
-                bcnt, deep):
-    """First parallel pass over the robots (in grid order, for locality): each present
-    robot's ``deep`` flag (:func:`deep_inside` its triangle, ``margin`` :func:`deep_margin`);
-    each active observer's robot candidates (``R = (idx, dist, vis, cnt)``, (n, K) slots; out of
-    view marked ``-1 - j``), its targets and assets (``TG``/``AS``: ``(ex, ey, ez, grid)`` and
-    the slots, in sight already) and how many break segments lie in range (``bcnt``; ``B`` the
-    break arrays and grid). Collision-free: every row is written by its own iteration only."""
-    r_idx, r_dist, r_vis, r_cnt = R
-    t_E, t_idx, t_dist, t_vis, t_cnt = TG
-    tx, ty, tz, TGG = t_E  # (the parallel loop takes arrays, not tuples of them)
-    tx0, ty0, tinv, tnx, tny, tstart, titems, tgx, tgy = TGG
-    a_E, a_idx, a_dist, a_vis, a_cnt = AS
-    ax_, ay_, az_, AGG = a_E
-    ax0, ay0, ainv, anx, any_, astart, aitems, agx, agy = AGG
-    bax, bay, bbx, bby, BG = B
-    bx0, by0, binv, bnx, bny, bstart, bitems = BG
-    x0, y0, inv, nx, ny, start, items, gx, gy = G
-    r2 = (range_m * (1.0 + 1e-9)) ** 2
-    for q in prange(items.shape[0]):
-        i = items[q]
-        dp = deep_inside(T, px[i], py[i], tri[i], margin)
-        deep[i] = dp
-        if not active[i]:
-            continue
-        h = head[i]
-        ch = math.cos(h)
-        sh = math.sin(h)
-        c = near_row(i, px[i], py[i], x0, y0, inv, nx, ny, start, items, gx, gy, i, range_m, r2, r_idx, r_dist)
-        mark_out_of_view(i, c, px, py, h, ch, sh, half_fov, cos_hf, r_idx, r_dist, r_vis, r_cnt)
-        t_cnt[i] = _entity_row(T, i, px[i], py[i], sz[i], h, ch, sh, tri[i], dp, tx, ty, tz, tx0, ty0, tinv, tnx, tny,
-                               tstart, titems, tgx, tgy, range_m, half_fov, cos_hf, check_los, t_idx, t_dist, t_vis)
-        a_cnt[i] = _entity_row(T, i, px[i], py[i], sz[i], h, ch, sh, tri[i], dp, ax_, ay_, az_, ax0, ay0, ainv, anx,
-                               any_, astart, aitems, agx, agy, range_m, half_fov, cos_hf, check_los, a_idx, a_dist,
-                               a_vis)
-        lo, hi, gridded = break_range(bstart, bx0, by0, binv, bnx, bny, 0, bax.shape[0], px[i], py[i])
-        bcnt[i] = count_breaks(px[i], py[i], bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m)
-
-
 @njit(cache=True, inline="always")
 def _mutual(idx, dist, cnt, j, i, d):
     """Slot of ``i`` among ``j``'s in-view candidates, or -1. ``d`` is their distance: ``j``'s row
@@ -408,48 +374,6 @@ def compact(idx, dist, vis, cnt, px, py, head, ex, ey):
     for i in range(n):
         copy_kept(idx, dist, vis, cnt, i, start[i], obs, tgt, d)
     return obs, tgt, d, bearings(obs, tgt, px, py, head, ex, ey), start
-
-
-@njit(cache=True, parallel=True)
-def sense_pass2(T, px, py, head, tri, sz, active, G, range_m, check_los, R, B, bcnt, deep):
-    """Second parallel pass: line of sight of every in-view robot slot (``R``'s ``vis``), the
-    break contacts, then the robot contacts compacted (:func:`compact`, its rows counted and
-    copied in parallel). Sight is symmetric: a pair is walked once, from its lower index to its
-    higher; when both see each other in view, the lower-index observer writes both slots (the
-    other skips it), so each slot has exactly one writer. Returns the breaks ``(observer, break,
-    distance, closest (P, 2), start (n + 1,))``, observer-major, nearest first (ties: lower
-    index), and the robots as :func:`compact` does but without the bearings ``(observer, target,
-    distance, start)``: :func:`bearings` computes them when they are read."""
-    r_idx, r_dist, r_vis, r_cnt = R
-    bax, bay, bbx, bby, BG = B
-    bx0, by0, binv, bnx, bny, bstart, bitems = BG
-    items = G[6]
-    n = px.shape[0]
-    off = prefix_offsets(bcnt)
-    tot = off[n]
-    obs = np.empty(tot, dtype=np.int64)
-    seg = np.empty(tot, dtype=np.int64)
-    dist = np.empty(tot)
-    closest = np.empty((tot, 2))
-    for q in prange(items.shape[0]):
-        i = items[q]
-        if not active[i]:
-            continue
-        robot_sight(T, i, px, py, sz, tri, deep, check_los, r_idx, r_dist, r_vis, r_cnt)
-        if bcnt[i] == 0:
-            continue
-        lo, hi, gridded = break_range(bstart, bx0, by0, binv, bnx, bny, 0, bax.shape[0], px[i], py[i])
-        gather_breaks(i, px[i], py[i], bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m, off[i], dist, seg,
-                      closest, obs, -1)
-    # the robot contacts, compacted: rows counted and copied in parallel (row i by iteration i)
-    rows = np.empty(n, dtype=np.int64)
-    for i in prange(n):
-        rows[i] = kept_count(r_idx, r_vis, r_cnt, i) if active[i] else 0
-    start, ro, rt, rd = compact_out(rows)
-    for i in prange(n):
-        if rows[i]:
-            copy_kept(r_idx, r_dist, r_vis, r_cnt, i, start[i], ro, rt, rd)
-    return (obs, seg, dist, closest, off), (ro, rt, rd, start)
 
 
 @njit(cache=True, inline="always")
@@ -578,58 +502,3 @@ def touches(dx, dy, diameter, lo2, hi2):
     if d2 > hi2:
         return False
     return math.hypot(dx, dy) < diameter
-
-
-@njit(cache=True, parallel=True)
-def collision_counts(px, py, present, G, diameter):
-    """Per robot, the present robots closer than ``diameter`` (``(n,)`` int64; grid ``G`` of the
-    present robots with cells >= ``diameter``), and the pairs ``(C, 2)`` with i < j in (i, j)
-    order (a serial pass over the few robots that touch one)."""
-    x0, y0, inv, nx, ny, start, items, gx, gy = G
-    n = px.shape[0]
-    lo2 = -1.0  # outside [1e-100, 1e100] the squared distance may under/overflow: hypot always
-    hi2 = -1.0
-    if 1e-100 <= diameter <= 1e100:
-        lo2 = (diameter * (1.0 - 1e-6)) ** 2
-        hi2 = (diameter * (1.0 + 1e-6)) ** 2
-    if not hi2 > 0.0:
-        hi2 = math.inf
-    coll = np.zeros(n, dtype=np.int64)
-    higher = np.zeros(n, dtype=np.int64)
-    for q in prange(items.shape[0]):
-        i = items[q]
-        cx_lo, cx_hi, cy_lo, cy_hi = grid_cells(x0, y0, inv, nx, ny, px[i], py[i])
-        c = 0
-        h = 0
-        for cy in range(cy_lo, cy_hi + 1):
-            for m in range(start[cy * nx + cx_lo], start[cy * nx + cx_hi + 1]):
-                j = items[m]
-                if j != i and touches(gx[m] - px[i], gy[m] - py[i], diameter, lo2, hi2):
-                    c += 1
-                    if j > i:
-                        h += 1
-        coll[i] = c
-        higher[i] = h
-    tot = 0
-    for i in range(n):
-        tot += higher[i]
-    pairs = np.empty((tot, 2), dtype=np.int64)
-    p = 0
-    for i in range(n):
-        if higher[i] == 0:
-            continue
-        cx_lo, cx_hi, cy_lo, cy_hi = grid_cells(x0, y0, inv, nx, ny, px[i], py[i])
-        p0 = p
-        for cy in range(cy_lo, cy_hi + 1):
-            for m in range(start[cy * nx + cx_lo], start[cy * nx + cx_hi + 1]):
-                j = items[m]
-                if j > i and touches(gx[m] - px[i], gy[m] - py[i], diameter, lo2, hi2):
-                    q = p
-                    while q > p0 and pairs[q - 1, 1] > j:  # sorted by j
-                        pairs[q, 0] = i
-                        pairs[q, 1] = pairs[q - 1, 1]
-                        q -= 1
-                    pairs[q, 0] = i
-                    pairs[q, 1] = j
-                    p += 1
-    return coll, pairs

@@ -18,7 +18,8 @@ A robot *sees* another robot, a threat/target or an asset when all of these hold
 
 Candidates come from a uniform grid of cell side ``range_m / 2`` (a 5 x 5 block per query) rebuilt
 every call in O(n) (:mod:`.grid`); the per-observer work (candidates, field of view, line of sight, breaks) runs
-in numba ``prange`` loops over observers (:mod:`.sense_kernels`), bit-identical for any thread
+in numba ``prange`` loops over observers (:func:`~.batch_kernels.sense_copies`, the vector env's
+passes, here on one copy; the per-observer code is :mod:`.sense_kernels`), bit-identical for any thread
 count (``NUMBA_NUM_THREADS`` / ``numba.set_num_threads``). Terrain breaks are sensed all round
 (the robot's scan of the terrain it stands on): every break segment within ``range_m`` of the
 robot, found through a static grid whose cells list the segments that can lie within range.
@@ -27,7 +28,6 @@ Contacts are ordered by observer, then distance (ties: lower index).
 
 from __future__ import annotations
 
-import math
 import threading
 from dataclasses import dataclass
 
@@ -35,8 +35,8 @@ import numpy as np
 from numba import njit
 
 from . import sense_kernels as SK
-from .grid import grid_build, sense_cell
-from .state import Reason
+from .batch_kernels import sense_copies
+from .pack import one_copy, pack_one
 
 __all__ = ["Contacts", "BreakContacts", "SensorReadings", "BreakIndex", "sense", "nearest_k"]
 
@@ -267,60 +267,44 @@ def _slots(n, k, which):
     return buf
 
 
-_NO_ENTITIES = {}  # range -> the (ex, ey, ez, grid) of no entities (read only: built once, not per step)
-_NONE, _BATTERY = int(Reason.NONE), int(Reason.BATTERY)  # (comparing with a plain int is ~4x faster than the enum)
+_NO_ENTITIES = (np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(2, dtype=np.int64), np.zeros(0, dtype=np.bool_))
 
 
-def _entities(tin, ent, params, r):
-    """``(ex, ey, ez, grid)`` of the entities (ez: their sight point's height)."""
-    if len(ent) == 0:
-        got = _NO_ENTITIES.get(r)
-        if got is None:
-            z = np.zeros(0)
-            got = _NO_ENTITIES[r] = (z, z, z, grid_build(z, z, np.zeros(0, dtype=np.bool_), sense_cell(r)))
-        return got
+def _entities(tin, ent):
+    """``(ex, ey, ez, off, use)`` of the entities as :func:`~.batch_kernels.sense_copies` reads them
+    (one copy; ez: their ground heights)."""
+    m = len(ent)
+    if m == 0:
+        return _NO_ENTITIES
     ex = np.ascontiguousarray(ent.positions[:, 0])
     ey = np.ascontiguousarray(ent.positions[:, 1])
-    ez = tin.height_in(ent.positions, ent.tri_idx) + params.entity_height_m
-    return ex, ey, ez, grid_build(ex, ey, np.ones(len(ent), dtype=np.bool_), sense_cell(r))
+    return ex, ey, tin.height_in(ent.positions, ent.tri_idx), np.array([0, m], dtype=np.int64), np.ones(m, np.bool_)
 
 
-def sense(tin, break_index: BreakIndex, state, params) -> SensorReadings:
-    """What every robot senses in ``state`` (see the module docstring): two parallel passes
-    over the robots (:func:`~.sense_kernels.sense_pass1`, :func:`~.sense_kernels.sense_pass2`)."""
-    sp = params.sensor
-    r = float(sp.range_m)
+def sense(world, state) -> SensorReadings:
+    """What every robot of ``world`` senses in ``state`` (see the module docstring): the vector env's
+    two parallel passes (:func:`~.batch_kernels.sense_copies`) on the world's pack, as one copy."""
+    tin = world.tin
+    bi = world.break_index
+    r = float(world.params.sensor.range_m)
+    if r > bi.range_m:
+        raise ValueError(f"BreakIndex built for range {bi.range_m} m, asked for {r} m")
     n = state.n_robots
-    k = int(sp.max_candidates)
+    k = int(world.params.sensor.max_candidates)
     x = np.ascontiguousarray(state.positions[:, 0])
     y = np.ascontiguousarray(state.positions[:, 1])
     head = np.ascontiguousarray(state.headings, dtype=np.float64)
-    status = state.status
-    active = status == _NONE
-    present = active | (status == _BATTERY)  # is_present
     tri = np.ascontiguousarray(state.tri_idx, dtype=np.int64)
-    sz = np.ascontiguousarray(state.heights + sp.height_m)
-    half_fov = math.radians(sp.fov_deg) / 2 + 1e-12
-    T = SK.terrain_arrays(tin)
-    G = grid_build(x, y, present, sense_cell(r))
-    R = _slots(n, k, 0)
-    TE, AE = _entities(tin, state.targets, params, r), _entities(tin, state.assets, params, r)
-    TG = (TE, *_slots(n, k, 1))
-    AS = (AE, *_slots(n, k, 2))
-    bi = break_index
-    if r > bi.range_m:
-        raise ValueError(f"BreakIndex built for range {bi.range_m} m, asked for {r} m")
-    B = (bi.ax, bi.ay, bi.bx, bi.by, bi.grid)
-    bcnt = np.zeros(n, dtype=np.int64)
-    deep = np.empty(n, dtype=np.bool_)
-    los = bool(sp.check_los)
-    SK.sense_pass1(T, x, y, head, tri, sz, active, G, r, half_fov, math.cos(half_fov), SK.deep_margin(tin), los, R,
-                   TG, AS, B, bcnt, deep)
-    brk, (ro, rt, rd, rs) = SK.sense_pass2(T, x, y, head, tri, sz, active, G, r, los, R, B, bcnt, deep)
+    TE, AE = _entities(tin, state.targets), _entities(tin, state.assets)
+    TG = (TE, _slots(n, k, 1))
+    AS = (AE, _slots(n, k, 2))
+    wor, cop, off = one_copy(n)
+    brk, (ro, rt, rd, rs) = sense_copies(pack_one(world), wor, cop, off, x, y, head, tri, state.heights,
+                                         state.status, world.params, _slots(n, k, 0), TG, AS)
     h0 = head.copy()  # (the state's own array may be changed before the bearings are read)
     robots = Contacts(ro, rt, rd, lambda: SK.bearings(ro, rt, x, y, h0, x, y), rs)
-    targets = Contacts(*SK.compact(*TG[1:], x, y, head, TE[0], TE[1])) if len(state.targets) else _empty_contacts(n)
-    assets = Contacts(*SK.compact(*AS[1:], x, y, head, AE[0], AE[1])) if len(state.assets) else _empty_contacts(n)
+    targets = Contacts(*SK.compact(*TG[1], x, y, head, TE[0], TE[1])) if len(state.targets) else _empty_contacts(n)
+    assets = Contacts(*SK.compact(*AS[1], x, y, head, AE[0], AE[1])) if len(state.assets) else _empty_contacts(n)
     return SensorReadings(robots=robots, targets=targets, assets=assets, breaks=BreakContacts(*brk),
                           tilt_rad=tin.sensor_tilt_in(tri, head), slope_deg=tin.slope_deg[tri],
                           aspect_deg=tin.aspect_deg[tri])

@@ -12,14 +12,14 @@ import numpy as np
 from ..errors import ArgumentError
 from ..terrain import Tin
 from .entities import make_entities, move_entities
+from .pack import one_copy, pack_one
 from .params import WorldParams
 from .placement import check_placement
-from .sense_kernels import terrain_arrays
 from .sensing import BreakIndex, SensorReadings, sense
 from .state import Entities, Reason, WorldState, copy_rng
-from .step_kernel import step_kernel
+from .step_kernel import step_copies
 
-__all__ = ["World", "StepEvents", "flat_tin", "SERIAL_BELOW"]
+__all__ = ["World", "StepEvents", "flat_tin", "SERIAL_BELOW", "step_scalars"]
 
 SERIAL_BELOW = 256  # robots: fewer run the step's and sensing's kernels on one thread (see serial_if_small)
 
@@ -39,6 +39,17 @@ def serial_if_small(n: int, below: int | None = None):
         yield
     finally:
         numba.set_num_threads(k)
+
+
+def step_scalars(P: WorldParams) -> tuple:
+    """The scalars :func:`~.step_kernel.step_copies` reads, from the world parameters (their one
+    home: the world's step and the vector env's): ``(max_speed, max_climb_deg, max_turn (rad per
+    step), dt, idle_j (the idle and sensing draw of one step), drive_j_per_m, climb_j_per_m,
+    collision diameter)``."""
+    B = P.battery
+    return (float(P.robot.max_speed_mps), float(P.robot.max_climb_deg), math.radians(P.robot.turn_rate_dps) * P.dt_s,
+            float(P.dt_s), float((B.idle_w + B.sensing_w) * P.dt_s), float(B.drive_j_per_m), float(B.climb_j_per_m),
+            float(2 * P.robot.radius_m))
 
 
 def flat_tin(width_m: float, height_m: float) -> Tin:
@@ -135,19 +146,17 @@ class World:
         """:meth:`step` with ``c`` already checked: ``(n, 2)`` C-contiguous float64, all finite (for a
         caller that has checked its commands itself, so the check is not paid twice a step)."""
         P = self.params
-        B = P.battery
-        diameter = 2 * P.robot.radius_m
         # locomotion.move, battery.drain, the status codes and the collision count (the numpy and
-        # kernel references) fused into one compiled call: step_kernel
+        # kernel references) in one compiled pass: step_copies, the vector env's, on a pack of one copy
+        wor, cop, off = one_copy(state.n_robots)
+        pk = pack_one(self)
         with serial_if_small(state.n_robots):
             (pos, tri, head, heights, speeds, ev, moved, climb, new_batt, energy, status, fell, emptied, coll,
-             pairs) = step_kernel(
-                terrain_arrays(self.tin), self.steep, np.ascontiguousarray(state.positions),
+             pairs) = step_copies(
+                pk.T0, pk.steep, wor, cop, off, np.ascontiguousarray(state.positions),
                 np.ascontiguousarray(state.tri_idx), np.ascontiguousarray(state.headings),
                 np.ascontiguousarray(state.heights), np.ascontiguousarray(state.status), state.battery_j, c,
-                float(P.robot.max_speed_mps), float(P.robot.max_climb_deg),
-                math.radians(P.robot.turn_rate_dps) * P.dt_s, float(P.dt_s), (B.idle_w + B.sensing_w) * P.dt_s,
-                float(B.drive_j_per_m), float(B.climb_j_per_m), float(diameter))
+                step_scalars(P))
         rng = copy_rng(state.rng)  # the old state keeps its generator (and its future draws)
         turn_sd = math.radians(P.entity_turn_sd_deg)
         targets = move_entities(self.tin, self.steep, state.targets, P.entity_speed_mps, turn_sd, P.dt_s, rng)
@@ -171,4 +180,4 @@ class World:
     def sense(self, state: WorldState) -> SensorReadings:
         """What every robot senses (see :mod:`.sensing`)."""
         with serial_if_small(state.n_robots):
-            return sense(self.tin, self.break_index, state, self.params)
+            return sense(self, state)
