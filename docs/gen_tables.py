@@ -448,7 +448,25 @@ TABLES = {
 }
 
 
-README_BLOCKS = {"apf-table": apf_summary_rows, "speed": speed_summary}  # README's generated blocks
+def suite_apf_line() -> str:
+    """README's line on the standard suite: the APF row (the default APF of the day) of
+    ``docs/figures/standard_suite.md``, beside the map-knowing reference's arrived."""
+    lines = (ROOT / "docs" / "figures" / "standard_suite.md").read_text(encoding="utf-8").splitlines()
+    head = next(i for i, line in enumerate(lines) if line.startswith("| policy |"))
+    cols = [c.strip() for c in lines[head].strip().strip("|").split("|")]
+    rows = {r[0]: dict(zip(cols, r)) for r in _md_rows(lines, head)}
+    a, g = rows["apf"], rows["geodesic"]
+    source = re.split(r",? \d{4}-\d\d-\d\d", lines[0])[0].rstrip(".")
+    return (f"On the standard suite (`tin-swarm eval --suite standard`: fixed maps and seeds, each also mirrored) "
+            f"the default APF brings {a['arrived %']}% of the robots in ({a['fell %']}% fell; train seeds "
+            f"{a['train seeds %']}%, held-out families {a['held-out families %']}%, thesis maps "
+            f"{a['thesis maps %']}%, real DEM {a['real DEM %']}%, mirror gap {a['mirror gap']} points; median "
+            f"{a['median steps']} steps), the map-knowing reference {g['arrived %']}%. {source}; every row: "
+            "[Baselines](docs/baselines.md#leaderboard).\n")
+
+
+README_BLOCKS = {"apf-table": apf_summary_rows, "speed": speed_summary,  # README's generated blocks
+                 "suite-apf": suite_apf_line}
 
 
 def write_readme_block(name: str) -> None:

@@ -156,3 +156,12 @@ def test_readme_speed_line_is_the_generated_one():
     assert block is not None, "README.md has no speed block"
     assert block.group(1) == GEN.speed_summary()
     assert "robot-steps/s at 1 000 robots" in block.group(1) and "% at 1 000 robots" in block.group(1)
+
+
+def test_readme_suite_line_is_the_generated_one():
+    """README's standard-suite line quotes the APF row of docs/figures/standard_suite.md."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = re.search(r"<!-- suite-apf:start -->\n(.*?)<!-- suite-apf:end -->", text, re.S)
+    assert block is not None, "README.md has no suite-apf block"
+    assert block.group(1) == GEN.suite_apf_line()
+    assert "the default APF brings" in block.group(1) and "% of the robots in" in block.group(1)
