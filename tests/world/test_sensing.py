@@ -14,7 +14,10 @@ from hypothesis import strategies as st
 from tin_swarm_env.terrain import Tin
 from tin_swarm_env.world import (
     Reason,
+    RobotParams,
+    SensorParams,
     World,
+    WorldParams,
     spawn_positions,
 )
 from tin_swarm_env.world.reference import reference_sense
@@ -221,3 +224,21 @@ def test_lazy_robot_bearings_are_those_of_the_sensed_state_after_it_changes_in_p
     s.positions[:] = s.positions[::-1] + 3.0  # the state changes in place before anyone reads a bearing
     s.headings[:] = 2.0
     assert len(want) > 0 and r.bearing_rad.tolist() == want
+
+
+def test_entities_are_sighted_at_their_height_above_the_ground():
+    """A 2 m ridge between a robot (sensor 1 m up) and a target and an asset on the ground beyond it:
+    their sight points ``entity_height_m`` = 5 m up clear the ridge (the line is 3 m up there); at 0 m
+    the ridge hides them."""
+    v = np.array([[0, 0, 0], [100, 0, 0], [100, 100, 0], [0, 100, 0], [50, 0, 2], [50, 100, 2]], float)
+    tin = Tin(v, [[0, 4, 5], [0, 5, 3], [4, 1, 2], [4, 2, 5]])
+    seen = {}
+    for eh in (5.0, 0.0):
+        p = WorldParams(robot=RobotParams(max_slope_deg=60.0, max_climb_deg=60.0),
+                        sensor=SensorParams(range_m=150.0, fov_deg=360.0, height_m=1.0), entity_height_m=eh)
+        w = World(tin, p)
+        s = w.reset(0, [[10.0, 50.0]], headings=0.0, targets=[[90.0, 50.0]], assets=[[90.0, 40.0]])
+        r = w.sense(s)
+        seen[eh] = (r.targets.as_set(), r.assets.as_set())
+    assert seen[5.0] == ({(0, 0)}, {(0, 0)})
+    assert seen[0.0] == (set(), set())
