@@ -1,7 +1,11 @@
 """The chart search under APF (policies/chart.py): the planner against a slow obvious Dijkstra on
 random small charts, hand-built charts with exact answers, the border's half-plane and the
-argument checks. The hand-built terrains (U trap, comb, queue, fork, mirrored) run with both
-searches in test_bug.py."""
+argument checks. The compiled step (chart_update -> _chart_rows): its marks against the numpy
+version it replaced (kept here as the reference), the stored way against the planner's own answer,
+and when it plans again on hand-built charts with exact answers (a wall that appears on the way: it
+plans round it; one far from it: it does not plan; off its way: it plans; at the point it heads
+for: the next point along its way, no plan). The hand-built terrains (U trap, comb, queue, fork,
+mirrored) run with both searches in test_bug.py."""
 
 from __future__ import annotations
 
@@ -15,7 +19,24 @@ from hypothesis import strategies as st
 
 import tin_swarm_env as tse
 from tin_swarm_env.policies import APFPolicy
-from tin_swarm_env.policies.chart import WALL, ChartParams, _astar, _mark_border, plan
+from tin_swarm_env.policies.base import DecodedObs
+from tin_swarm_env.policies.chart import (
+    _ROW_FIELDS,
+    OPEN,
+    ROUTE_PER_CELL,
+    WALL,
+    ChartMemory,
+    ChartParams,
+    _astar,
+    _mark_border,
+    _mark_row,
+    _reset,
+    _search,
+    _store_way,
+    _way_length,
+    chart_update,
+    plan,
+)
 
 
 def dijkstra(g, s, t, wall_cost=2.0):
@@ -247,3 +268,231 @@ def test_scan_alone_is_charted_and_keeps_robots_off_the_cliff():
     bug = APFPolicy(env, search="bug")
     out = rollout(env, bug, 0)
     assert len(bug.memory.side) == 0 and (out.reasons == Reason.FELL).all()
+
+
+def _rot(psi, v):
+    c, s = np.cos(psi), np.sin(psi)
+    return np.stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1]], axis=-1)
+
+
+def reference_marks(grid, cell, q, psi, d, p: ChartParams, last_pts, last_ok):
+    """The numpy marks of the chart search as they were before the compiled step (commit a5f377a's
+    ``chart_update`` up to the stall count), for robots ``0..m-1``: the grids ``(m, C, C)`` are
+    marked in place; returns which changed and this step's points (the next ``last_pts``)."""
+    c = grid.shape[1]
+    h = c // 2
+    rel = d.b_rel
+    k = rel.shape[1]
+    pts = q[:, None, :] + _rot(psi[:, None].repeat(k, 1).ravel(), rel.reshape(-1, 2)).reshape(rel.shape)
+    nrm = _rot(psi[:, None].repeat(k, 1).ravel(), d.b_normal.reshape(-1, 2)).reshape(rel.shape)
+    dist = np.sqrt(np.sum(rel * rel, axis=-1))
+    unit = -rel / np.maximum(dist, 1e-9)[..., None]
+    square = np.abs(np.sum(unit * d.b_normal, axis=-1)) > np.cos(np.radians(5.0))
+    tang = np.stack([-nrm[..., 1], nrm[..., 0]], axis=-1)
+    w = cell[:, None, None]
+    ok = d.b_danger
+    ext, oks = [pts, pts - p.behind * w * nrm], [ok, ok]
+    for s in (-p.extend, p.extend):
+        ext.append(pts + s * w * tang)
+        oks.append(ok & square)
+    gap = np.sqrt(np.sum((pts[:, :, None, :] - last_pts[:, None, :, :]) ** 2, axis=-1))
+    gap = np.where(last_ok[:, None, :], gap, np.inf)
+    j = np.argmin(gap, axis=-1)
+    near = ok & (np.take_along_axis(gap, j[..., None], axis=-1)[..., 0] < p.link * w[..., 0])
+    other = np.take_along_axis(last_pts, j[..., None].repeat(2, -1), axis=1)
+    for f in (0.25, 0.5, 0.75):
+        ext.append(pts + f * (other - pts))
+        oks.append(near)
+    ks = d.s_rel.shape[1]
+    turn = psi[:, None].repeat(ks, 1).ravel()
+    hits = q[:, None, :] + _rot(turn, d.s_rel.reshape(-1, 2)).reshape(d.s_rel.shape)
+    beam = _rot(turn, np.broadcast_to(d.s_dir, d.s_rel.shape).reshape(-1, 2)).reshape(d.s_rel.shape)
+    ext += [hits, hits + p.behind * w * beam]
+    oks += [d.s_hit, d.s_hit]
+    at, on = np.concatenate(ext, axis=1), np.concatenate(oks, axis=1)
+    cw = cell[:, None]
+    on = on & ~((np.floor(at[..., 0] / cw) == 0) & (np.floor(at[..., 1] / cw) == 0))
+    changed = np.zeros(len(q), bool)
+    for r in range(len(q)):
+        for x, y in at[r][on[r]]:
+            a, b = int(np.floor(x / cell[r])) + h, int(np.floor(y / cell[r])) + h
+            if 0 <= a < c and 0 <= b < c and grid[r, a, b] != WALL:
+                grid[r, a, b], changed[r] = WALL, True
+        for (px, py), (nx, ny) in zip(pts[r][d.b_border[r] & ok[r]], nrm[r][d.b_border[r] & ok[r]]):
+            w = cell[r]
+            xs = (np.arange(c) - h + 0.5) * w
+            a, b = int(np.floor((px - 2 * w * nx) / w)) + h, int(np.floor((py - 2 * w * ny) / w)) + h
+            if 0 <= a < c and 0 <= b < c and grid[r, a, b] == WALL:
+                continue
+            shut = ((xs[:, None] - px) * nx + (xs[None, :] - py) * ny < -0.5 * w) & (grid[r] != WALL)
+            changed[r] |= shut.any()
+            grid[r][shut] = WALL
+    return changed, pts
+
+
+def _obs(rng, m, k, ks, span):
+    """Random observations of ``m`` robots: ``k`` break slots, ``ks`` scan beams, points within ``span`` m."""
+    rel = rng.uniform(-span, span, (m, k, 2))
+    ang = rng.uniform(0, 2 * np.pi, (m, k))
+    nrm = np.stack([np.cos(ang), np.sin(ang)], -1)
+    sq = rng.random((m, k)) < 0.3  # some seen square on: the normal points at the robot
+    dist = np.maximum(np.hypot(rel[..., 0], rel[..., 1]), 1e-9)
+    nrm[sq] = -rel[sq] / dist[sq][:, None]
+    danger = rng.random((m, k)) < 0.7
+    bang = np.arange(ks) * 2 * np.pi / max(ks, 1)
+    s_dir = np.stack([np.cos(bang), np.sin(bang)], -1)
+    s_rel = rng.uniform(0, span, (m, ks))[..., None] * s_dir
+    return DecodedObs(has_t=np.ones(m, bool), dist=np.full(m, 10.0), rel_t=np.zeros((m, 2)), dz=np.zeros(m),
+                      grad_z=np.zeros((m, 2)), speed=np.ones(m), r_rel=np.zeros((m, 0, 2)), r_valid=np.zeros((m, 0)),
+                      b_rel=rel, b_normal=nrm, b_danger=danger, b_border=danger & (rng.random((m, k)) < 0.1),
+                      a_rel=np.zeros((m, 0, 2)), a_valid=np.zeros((m, 0)), s_rel=s_rel,
+                      s_hit=rng.random((m, ks)) < 0.6, s_dir=s_dir)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_compiled_marks_are_the_numpy_marks(seed):
+    """Over a few steps of random sightings (break slots, border points, scan hits, points joined
+    to last step's), the compiled marks shut exactly the cells the numpy version shut, say which
+    charts changed, and keep the same points for the next step."""
+    rng = np.random.default_rng(seed)
+    m, k, ks, c = 4, 3, 8, 32
+    p = ChartParams(cells=c)
+    cell = rng.uniform(0.5, 3.0, m)
+    grid_ref, grid = np.zeros((m, c, c), np.uint8), np.zeros((m, c, c), np.uint8)
+    lp_ref, lo_ref = np.zeros((m, k, 2)), np.zeros((m, k), bool)
+    lp, lo = lp_ref.copy(), lo_ref.copy()
+    prm = np.array([p.behind, p.extend, p.link, np.cos(np.radians(5.0))])
+    for _ in range(3):
+        d = _obs(rng, m, k, ks, 12.0)
+        q, psi = rng.uniform(-20, 20, (m, 2)), rng.uniform(-np.pi, np.pi, m)
+        want, pts = reference_marks(grid_ref, cell, q, psi, d, p, lp_ref, lo_ref)
+        lp_ref, lo_ref = pts, d.b_danger.copy()
+        got = [_mark_row(grid[r], cell[r], q[r, 0], q[r, 1], np.cos(psi[r]), np.sin(psi[r]), d.b_rel[r],
+                         d.b_normal[r], d.b_danger[r], d.b_border[r], lp[r], lo[r], d.s_rel[r], d.s_dir,
+                         d.s_hit[r], prm) for r in range(m)]
+        assert got == want.tolist()
+        np.testing.assert_array_equal(grid, grid_ref)
+        np.testing.assert_array_equal(lp, lp_ref)
+        np.testing.assert_array_equal(lo, lo_ref)
+
+
+def _route_cost(g, route, wall_cost=2.0):
+    """The cost of a way ``route`` (flat cells, start first) as the planner counts it."""
+    c = g.shape[0]
+    cost = 0.0
+    for u, v in zip(route[:-1], route[1:]):
+        (a, b), (na, nb) = divmod(int(u), c), divmod(int(v), c)
+        assert max(abs(na - a), abs(nb - b)) == 1 and g[na, nb] == OPEN  # 8-connected, over open cells
+        cost += np.sqrt(2.0) if na != a and nb != b else 1.0
+        block = g[max(na - 1, 0):na + 2, max(nb - 1, 0):nb + 2]
+        cost += wall_cost if (block != OPEN).any() else 0.0
+    return cost
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.floats(0.0, 0.4))
+def test_the_stored_way_is_the_planned_way(seed, density):
+    """The way written into a robot's route runs from its cell to the target's over open cells and
+    costs what the A* says; each cell's shut count is its 3 x 3 block's; a short buffer holds its start."""
+    rng = np.random.default_rng(seed)
+    c = 16
+    g = (rng.random((c, c)) < density).astype(np.uint8)
+    s, t = tuple(int(x) for x in rng.integers(0, c, 2)), (c // 2, c // 2)
+    g[t] = 0
+    dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
+    found, cost, touched, nt = _search(g, *s, *t, 2.0, 0.0, 0.0, 0.0, dist, prev, closed)
+    assert found == plan(g, *s, *t, 1e9)[0]
+    if found:
+        n = _way_length(prev, c, *s, *t)
+        route, shut = np.zeros(n, np.int32), np.zeros(n, np.uint8)
+        assert _store_way(g, prev, *s, *t, n, route, shut) == n
+        assert divmod(int(route[0]), c) == s and divmod(int(route[-1]), c) == t
+        assert _route_cost(g, route) == pytest.approx(cost)
+        for v, k in zip(route, shut):
+            a, b = divmod(int(v), c)
+            assert k == (g[max(a - 1, 0):a + 2, max(b - 1, 0):b + 2] != OPEN).sum()
+        short, sh = np.zeros(3, np.int32), np.zeros(3, np.uint8)
+        assert _store_way(g, prev, *s, *t, n, short, sh) == min(n, 3)
+        assert (short[:min(n, 3)] == route[:3]).all()
+    _reset(dist, prev, closed, touched, nt, c)
+    assert (dist == 1e30).all() and (prev == -1).all() and not closed.any()
+
+
+def _one(q, pts=(), normals=()):
+    """One robot at ``q`` (frame F = body frame, heading 0) seeing dangerous break points ``pts``
+    (F, relative to the target) with their ``normals`` (3 slots), no scan."""
+    rel, nrm, danger = np.zeros((1, 3, 2)), np.zeros((1, 3, 2)), np.zeros((1, 3), bool)
+    for j, (pt, nm) in enumerate(zip(pts, normals)):
+        rel[0, j], nrm[0, j], danger[0, j] = np.subtract(pt, q), nm, True
+    q = np.asarray([q], float)
+    d = DecodedObs(has_t=np.array([True]), dist=np.hypot(*q[0])[None], rel_t=-q, dz=np.zeros(1),
+                   grad_z=np.zeros((1, 2)), speed=np.ones(1), r_rel=np.zeros((1, 0, 2)), r_valid=np.zeros((1, 0)),
+                   b_rel=rel, b_normal=nrm, b_danger=danger, b_border=np.zeros((1, 3), bool),
+                   a_rel=np.zeros((1, 0, 2)), a_valid=np.zeros((1, 0)))
+    return d, q
+
+
+P = ChartParams(cells=32, ahead_m=3.0)  # cells 1 m wide (set below): the way point 3 cells ahead
+
+
+def _step(mem, q, pts=(), normals=()):
+    d, qq = _one(q, pts, normals)
+    chart_update(mem, np.array([0]), d, qq, np.zeros(1), P, 60.0, 1.0, 2.0, np.array([False]))
+
+
+def _fresh():
+    """A robot 10 m west of its target (cell (5, 16); the target's cell is (16, 16)) that has planned once."""
+    mem = ChartMemory.empty(1, 32, 3)
+    mem.cell[:] = 1.0
+    _step(mem, (-10.5, 0.5))
+    assert mem.plans[0] == 1 and mem.way[0].tolist() == [-7.5, 0.5]  # 3 cells east, on its straight way
+    assert mem.route_len[0] == 12
+    return mem
+
+
+def test_a_wall_that_appears_on_the_way_makes_it_plan_round_it():
+    mem = _fresh()
+    _step(mem, (-10.5, 0.5), [(-3.5, 0.5)], [(-1.0, 0.0)])  # a wall across row 16 at column 12, seen square on
+    assert mem.plans[0] == 2
+    shut = {tuple(x) for x in np.argwhere(mem.grid[0] != OPEN)}
+    assert (12, 16) in shut
+    route = [divmod(int(v), 32) for v in mem.route[0, :mem.route_len[0]]]
+    assert route[0] == (5, 16) and route[-1] == (16, 16) and not shut & set(route)
+    assert _route_cost(mem.grid[0], mem.route[0, :mem.route_len[0]]) == pytest.approx(
+        plan(mem.grid[0], 5, 16, 16, 16, 1e9)[3])  # the least-cost way round it
+
+
+def test_a_wall_far_from_the_way_changes_the_chart_but_not_the_way():
+    mem = _fresh()
+    way, route = mem.way.copy(), mem.route.copy()
+    _step(mem, (-10.5, 0.5), [(-3.5, 10.5)], [(-1.0, 0.0)])  # column 12 again, but 10 rows north of the way
+    assert mem.grid[0, 12, 26] == WALL
+    assert mem.plans[0] == 1 and (mem.way == way).all() and (mem.route == route).all()
+    _step(mem, (-10.5, 0.5), [(-3.5, 1.5)], [(-1.0, 0.0)])  # beside the way (row 17, column 12): it plans
+    assert mem.plans[0] == 2
+
+
+def test_off_its_way_it_plans_and_at_its_way_point_it_takes_the_next_one_without_planning():
+    mem = _fresh()
+    _step(mem, (-8.5, 0.5))  # 2 cells on, within two cells of the point it heads for: the next point
+    assert mem.plans[0] == 1 and mem.way[0].tolist() == [-5.5, 0.5] and mem.route_at[0] == 2
+    _step(mem, (-6.5, 0.5))  # 1 cell short of it: still in line
+    assert mem.plans[0] == 1 and mem.way[0].tolist() == [-3.5, 0.5]
+    _step(mem, (-6.5, 4.5))  # pushed 4 cells off its way: it plans from where it is
+    assert mem.plans[0] == 2 and mem.route[0, 0] == 9 * 32 + 20
+
+
+def test_a_robot_at_its_target_cell_heads_for_the_target_and_does_not_plan_again():
+    mem = _fresh()
+    for x in (-7.5, -4.5, -1.5, 0.5, 0.5):
+        _step(mem, (x, 0.5))
+    assert mem.plans[0] == 1 and mem.way[0].tolist() == [0.0, 0.0]
+
+
+def test_memory_per_robot_is_as_documented():
+    """ChartMemory's docstring: C^2 + 5 ROUTE_PER_CELL C + 17 K + 90 bytes a robot (68 237 at 256 cells, K = 3)."""
+    mem = ChartMemory.empty(1, 256, 3)
+    per_robot = sum(getattr(mem, f).nbytes for f in _ROW_FIELDS)
+    assert per_robot == 256**2 + 5 * ROUTE_PER_CELL * 256 + 17 * 3 + 90 == 68237
+    assert "68 237" in ChartMemory.__doc__

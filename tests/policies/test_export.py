@@ -34,11 +34,13 @@ def _reference(layers, obs, squash):
 def test_exported_file_acts_as_the_library_would(env, tmp_path, squash):
     rng = np.random.default_rng(3)
     d = env.observation_space("robot_0").shape[0]
-    layers = _layers(d, rng, scale=3.0)  # large enough that the squash matters
-    lay = unwrap_env(env).layout
-    export_actor(tmp_path / "p", layers, "tanh", squash=squash, layout=lay, scenario="ramp", extra={"x": 1})
     obs = real_observations(env, seeds=(0, 1), steps=20, every=4)
     assert obs.shape[1] == d and len(obs) >= 10
+    (W0, b0), (W1, b1) = _layers(d, rng)
+    k = 1.0 / np.median(np.abs(np.tanh(obs @ W0.T + b0) @ W1.T + b1))  # half the means past +-1: the squash matters
+    layers = [(W0, b0), (W1 * k, b1 * k)]
+    lay = unwrap_env(env).layout
+    export_actor(tmp_path / "p", layers, "tanh", squash=squash, layout=lay, scenario="ramp", extra={"x": 1})
     want = _reference(layers, obs, squash)
     assert (np.abs(want) > 0.95).any() and (np.abs(want) < 0.9).any()  # both saturated and inner actions
     got = load_policy(tmp_path / "p", env).act_batch(obs)

@@ -113,8 +113,9 @@ free-space assumption of D* and its kin). Memory per robot
 :class:`~tin_swarm_env.policies.chart.ChartParams`): the odometry above (``q`` exact); a chart of
 ``cells x cells`` (256 x 256 bytes: 64 KiB) centred on its target in its frame ``F``, cells
 ``2 (reach d0 + range_reach R) / cells`` wide (``d0`` its distance to go at its first step, ``R``
-the sensor range; at least one step at top speed), each open, *wall* or *stuck*; the point it heads
-for; last step's break points; a stall anchor and count. Each step:
+the sensor range; at least one step at top speed), each open, *wall* or *stuck*; the way it planned
+(its first ``2 cells`` cells: 2.5 KiB at 256) and the point it heads for; last step's break points;
+a stall anchor and count. Each step:
 
 1. *Mark*: the cell of every dangerous break point it sees is a wall, and ``extend`` cells either
    side along the break for a point seen square on (not at a break's end); a point within ``link``
@@ -128,9 +129,15 @@ for; last step's break points; a stall anchor and count. Each step:
    the bug search reads only the break slots, so without them APF is the fields alone.
 2. *Plan* (A*, 8-connected, no corner cut between two shut cells; a step into a cell beside a shut
    one costs ``wall_cost`` cells more, a first step against the way it was heading up to ``turn_m``
-   more) the least-cost way over open cells to the target's cell, whenever its chart changed or it
-   is within two cells of the point it heads for. It heads for the farthest cell of that way within
-   ``ahead_m`` (at least 3 cells) that lies in a straight open line on the chart.
+   more) the least-cost way over open cells to the target's cell, and keep it. It plans again only
+   when the rest of that way may have stopped being least-cost: a cell on or beside it (in the 3 x 3
+   block of one of its cells from where the robot is on) became shut; or the robot is more than a
+   cell off it (pushed aside, sliding along a wall); or it stalled (step 4); or the way was longer
+   than ``2 cells`` cells (kept cut there) and its chart changed or it nears the cut. A cell shut
+   anywhere else only makes other ways dearer, so the way kept is still a least-cost one. It heads
+   for the farthest cell of that way within ``ahead_m`` (at least 3 cells) that lies in a straight
+   open line on the chart from its cell; within two cells of that point (or at it) it takes the
+   next such point along the way kept, without planning.
 3. *Drive*: the fields above, with the attraction turned toward that point (the height field off
    while it is not the target itself); where a dangerous break it faces within ``follow_engage_m``
    lies across the attraction, it slides along the break (the follow term) on the side the
@@ -142,8 +149,8 @@ for; last step's break points; a stall anchor and count. Each step:
    charted shut where it is open). It never stands still for want of a way: no unreachable verdict.
 
 *Why it terminates, and where it may not.* Each mark shuts an open cell and the chart is finite, so
-between two forgettings the chart changes finitely often; while it does not change, the robot drives
-a fixed least-cost way: it arrives, or a break across that way comes into its slots and is marked,
+between two forgettings the chart changes finitely often; while nothing on or beside its way changes,
+the robot drives a fixed least-cost way: it arrives, or a break across that way comes into its slots and is marked,
 or it stalls and marks the way stuck. So it meets every dead end once and never circles a charted
 loop. Forgetting (step 5) gives up that argument: a robot that forgets can chart the same cells
 again; ``ChartMemory.forgot`` counts it. Free-space planning also takes the way that looks shortest
@@ -345,7 +352,7 @@ class APFPolicy:
         crowded = ((d.r_valid > 0.5) & (r_d < 2 * self.params.robot_range_m)).any(axis=-1)
         psi = self.memory.psi[rows]
         way = chart_update(ch, rows, d, q, psi, self.chart, self.shield.range_m, self.shield.step_m,
-                           2 * self.shield.edge_m, crowded)
+                           2 * self.shield.edge_m, crowded, self.shield.standoff_m)
         detour = np.any(way != d.rel_t, axis=-1)
         wn = np.sqrt(np.sum(way * way, axis=-1, keepdims=True))
         mag = np.sqrt(np.sum(f["target"] ** 2, axis=-1, keepdims=True))

@@ -2,25 +2,28 @@
 keeps a coarse chart of the dangerous breaks it has seen and heads along the shortest way to its
 target on that chart, taking unseen ground as open (planning under the free-space assumption,
 as D* and its kin do). The rule, and why it terminates, is written once, in the
-:mod:`tin_swarm_env.policies.apf` module docstring. Everything here is batched over robot rows;
-the planner is a compiled A* over each robot's own chart.
+:mod:`tin_swarm_env.policies.apf` module docstring. A step's chart work (marking, stalls, the
+decision to plan, the A* over each robot's own chart, the point it heads for) is one compiled
+pass over all robot rows (:func:`chart_update`); the numpy version it replaced is the reference
+of ``tests/policies/test_chart_kernels.py``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
 from .base import DecodedObs, check_positive_fields
 
-__all__ = ["ChartMemory", "ChartParams", "chart_update", "plan"]
+__all__ = ["ChartMemory", "ChartParams", "ROUTE_PER_CELL", "chart_update", "plan"]
 
 OPEN, WALL, STUCK = 0, 1, 2  # chart cell values: not seen blocked, a dangerous break seen there, a stall there
 
 
 MAX_CHART_CELLS = 2048  # ChartParams.cells: a chart is cells^2 bytes per robot (4 MiB at 2048; 200 robots 800 MiB)
+ROUTE_PER_CELL = 2  # a robot keeps the first ROUTE_PER_CELL * cells cells of its planned way (ChartMemory.route)
 
 
 @dataclass(frozen=True)
@@ -69,6 +72,10 @@ class ChartParams:
                                      "stall_steps": {"hi": 10**9}})
 
 
+_ROW_FIELDS = ("grid", "cell", "way", "dirty", "anchor", "stall", "forgot", "last_pts", "last_ok", "have_way",
+               "route", "route_shut", "route_len", "route_at", "way_at", "plans")
+
+
 @dataclass
 class ChartMemory:
     """What each robot keeps (``n`` rows; its heading ``psi`` in its own frame ``F`` is the odometry
@@ -78,13 +85,25 @@ class ChartMemory:
                                  1 a wall (a dangerous break seen there), 2 stuck (it stalled there)
     cell       (n,)      m       the chart's cell width (0: no chart yet)
     way        (n, 2)    m       the point it heads for, in ``F`` relative to the target
-    dirty      (n,)      bool    its chart changed since it last planned
+    dirty      (n,)      bool    it must plan afresh (no way yet, or it stalled)
     anchor     (n, 2)    m       where it was when the stall count started
     stall      (n,)      int     steps since it was last far enough from ``anchor``
     forgot     (n,)      int     times it forgot its whole chart (no way on it)
     last_pts   (n, K, 2) m       the break points it saw last step, in ``F`` (``last_ok``: which were
     last_ok    (n, K)    bool    dangerous), joined to this step's (``ChartParams.link``)
     have_way   (n,)      bool    ``way`` holds a planned point (its direction counts in ``turn_m``)
+    route      (n, L)    int32   its planned way, start first, as flat cell indices ``a C + b``: the
+                                 first ``L = ROUTE_PER_CELL C`` cells of it (a longer way is cut there)
+    route_shut (n, L)    uint8   shut cells among each route cell's 3 x 3 block when it planned
+    route_len  (n,)      int     cells held in ``route`` (0: none)
+    route_at   (n,)      int     the route cell it is at (within a cell of it)
+    way_at     (n,)      int     the route cell it heads for (``way``)
+    plans      (n,)      int     times it has run the A* (a count for the benchmark and tests)
+
+    Bytes per robot: ``C^2 + 5 ROUTE_PER_CELL C + 17 K + 90`` (the chart, the route, the rest):
+    68 237 at the default 256 cells and 3 break slots (66.6 KiB; the route is 2.5 KiB of it).
+    Besides, for all robots together: one set of A* work arrays (``work``: ``17 C^2`` bytes,
+    1.06 MiB at 256 cells, made at the first plan) and the heap of the one search under way.
     """
 
     grid: np.ndarray
@@ -97,79 +116,174 @@ class ChartMemory:
     last_pts: np.ndarray
     last_ok: np.ndarray
     have_way: np.ndarray
+    route: np.ndarray
+    route_shut: np.ndarray
+    route_len: np.ndarray
+    route_at: np.ndarray
+    way_at: np.ndarray
+    plans: np.ndarray
+    work: tuple | None = None
 
     @classmethod
     def empty(cls, n: int, cells: int, k: int = 0) -> ChartMemory:
+        L = ROUTE_PER_CELL * cells
         return cls(grid=np.zeros((n, cells, cells), np.uint8), cell=np.zeros(n), way=np.zeros((n, 2)),
                    dirty=np.ones(n, bool), anchor=np.zeros((n, 2)), stall=np.zeros(n, np.int64),
                    forgot=np.zeros(n, np.int64),
-                   last_pts=np.zeros((n, k, 2)), last_ok=np.zeros((n, k), bool), have_way=np.zeros(n, bool))
+                   last_pts=np.zeros((n, k, 2)), last_ok=np.zeros((n, k), bool), have_way=np.zeros(n, bool),
+                   route=np.zeros((n, L), np.int32), route_shut=np.zeros((n, L), np.uint8),
+                   route_len=np.zeros(n, np.int64), route_at=np.zeros(n, np.int64), way_at=np.zeros(n, np.int64),
+                   plans=np.zeros(n, np.int64))
 
     def grow(self, n: int) -> ChartMemory:
         have = len(self.cell)
         if n <= have:
             return self
         e = ChartMemory.empty(n - have, self.grid.shape[1], self.last_ok.shape[1])
-        return ChartMemory(**{f.name: np.concatenate([getattr(self, f.name), getattr(e, f.name)])
-                              for f in fields(self)})
+        return ChartMemory(**{f: np.concatenate([getattr(self, f), getattr(e, f)]) for f in _ROW_FIELDS},
+                           work=self.work)
 
-
-def _rot(psi, v):
-    c, s = np.cos(psi), np.sin(psi)
-    return np.stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1]], axis=-1)
+    def work_arrays(self) -> tuple:
+        """The shared A* work arrays ``(dist, prev, closed)``, ``(C, C)`` each (made once)."""
+        if self.work is None:
+            c = self.grid.shape[1]
+            self.work = (np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), np.bool_))
+        return self.work
 
 
 @njit(cache=True)
-def _mark(grid, cell, rows, pts, ok):
-    """Mark points ``pts (m, M, 2)`` (``ok (m, M)``) as walls on the charts of robots ``rows (m,)``;
-    True where a cell changed."""
-    n, m = ok.shape
-    c = grid.shape[1]
+def _border_one(g, w, px, py, nx, ny):
+    """The terrain is a rectangle: a border point ``(px, py)`` with its normal ``(nx, ny)`` (toward
+    the terrain) closes the whole half-plane beyond it on chart ``g`` (cells ``w`` wide). True where
+    a cell changed."""
+    c = g.shape[0]
     h = c // 2
+    a = int(np.floor((px - 2 * w * nx) / w)) + h
+    b = int(np.floor((py - 2 * w * ny) / w)) + h
+    if 0 <= a < c and 0 <= b < c and g[a, b] == WALL:
+        return False  # this side is closed already
+    changed = False
+    for a in range(c):
+        x = (a - h + 0.5) * w - px
+        for b in range(c):
+            if x * nx + ((b - h + 0.5) * w - py) * ny < -0.5 * w and g[a, b] != WALL:
+                g[a, b] = WALL
+                changed = True
+    return changed
+
+
+@njit(cache=True)
+def _mark_border(grid, cell, rows, pts, nrm, ok):
+    """:func:`_border_one` for border points ``pts (m, K, 2)`` with their normals ``nrm`` (``ok (m, K)``)
+    on the charts of robots ``rows (m,)``. True where a cell changed."""
+    n, m = ok.shape
     changed = np.zeros(n, np.bool_)
     for r in range(n):
         i = rows[r]
         if cell[i] <= 0:
             continue
         for k in range(m):
-            if not ok[r, k]:
-                continue
-            a = int(np.floor(pts[r, k, 0] / cell[i])) + h
-            b = int(np.floor(pts[r, k, 1] / cell[i])) + h
-            if 0 <= a < c and 0 <= b < c and grid[i, a, b] != WALL:
-                grid[i, a, b] = 1
+            if ok[r, k] and _border_one(grid[i], cell[i], pts[r, k, 0], pts[r, k, 1], nrm[r, k, 0], nrm[r, k, 1]):
                 changed[r] = True
     return changed
 
 
+@njit(cache=True, inline="always")
+def _wall_at(g, w, x, y):
+    """Chart ``g`` (cells ``w`` wide, centred on the target) shuts the cell of point ``(x, y)``
+    (never the target's own cell; a point off the chart is ignored). True where the cell changed."""
+    fa, fb = np.floor(x / w), np.floor(y / w)
+    if fa == 0 and fb == 0:
+        return False
+    c = g.shape[0]
+    a, b = int(fa) + c // 2, int(fb) + c // 2
+    if 0 <= a < c and 0 <= b < c and g[a, b] != WALL:
+        g[a, b] = WALL
+        return True
+    return False
+
+
 @njit(cache=True)
-def _mark_border(grid, cell, rows, pts, nrm, ok):
-    """The terrain is a rectangle: a border point ``pts (m, K, 2)`` with its normal ``nrm`` (toward
-    the terrain) closes the whole half-plane beyond it on the robot's chart. True where a cell changed."""
-    n, m = ok.shape
-    c = grid.shape[1]
-    h = c // 2
-    changed = np.zeros(n, np.bool_)
-    for r in range(n):
-        i = rows[r]
-        w = cell[i]
-        if w <= 0:
-            continue
-        for k in range(m):
-            if not ok[r, k]:
+def _mark_row(g, w, qx, qy, cs, sn, rel, nrm_b, danger, border, lp, lo, s_rel, s_dir, s_hit, prm):
+    """One robot's marks (apf docstring, chart search step 1) on its chart ``g`` (cells ``w`` wide;
+    ``w <= 0``: no chart, nothing marked): at ``q``, heading ``(cs, sn) = (cos, sin) psi``, it sees
+    break slots ``rel, nrm_b (K, 2)`` (body frame), ``danger``, ``border (K,)``, and scan hits
+    ``s_rel (K_s, 2)`` along ``s_dir`` (``s_hit``); ``lp, lo``: last step's points in ``F``, replaced
+    by this step's. ``prm``: behind, extend, link, cos(5 deg). True where a cell changed."""
+    behind, extend, link, cos_sq = prm[0], prm[1], prm[2], prm[3]
+    k = rel.shape[0]
+    pts = np.empty((k, 2))
+    nrm = np.empty((k, 2))
+    for j in range(k):
+        pts[j, 0] = qx + (cs * rel[j, 0] - sn * rel[j, 1])
+        pts[j, 1] = qy + (sn * rel[j, 0] + cs * rel[j, 1])
+        nrm[j, 0] = cs * nrm_b[j, 0] - sn * nrm_b[j, 1]
+        nrm[j, 1] = sn * nrm_b[j, 0] + cs * nrm_b[j, 1]
+    changed = False
+    if w > 0:
+        for j in range(k):
+            if not danger[j]:
                 continue
-            px, py, nx, ny = pts[r, k, 0], pts[r, k, 1], nrm[r, k, 0], nrm[r, k, 1]
-            a = int(np.floor((px - 2 * w * nx) / w)) + h
-            b = int(np.floor((py - 2 * w * ny) / w)) + h
-            if 0 <= a < c and 0 <= b < c and grid[i, a, b] == WALL:
-                continue  # this side is closed already
-            for a in range(c):
-                x = (a - h + 0.5) * w - px
-                for b in range(c):
-                    if x * nx + ((b - h + 0.5) * w - py) * ny < -0.5 * w and grid[i, a, b] != WALL:
-                        grid[i, a, b] = WALL
-                        changed[r] = True
+            px, py, nx, ny = pts[j, 0], pts[j, 1], nrm[j, 0], nrm[j, 1]
+            changed |= _wall_at(g, w, px, py)
+            t = behind * w  # the cell behind it: a wall two cells thick
+            changed |= _wall_at(g, w, px - t * nx, py - t * ny)
+            d = np.sqrt(rel[j, 0] * rel[j, 0] + rel[j, 1] * rel[j, 1])
+            ux, uy = -rel[j, 0] / max(d, 1e-9), -rel[j, 1] / max(d, 1e-9)
+            if abs(ux * nrm_b[j, 0] + uy * nrm_b[j, 1]) > cos_sq:  # seen square on: a little either side
+                for s in (-extend, extend):
+                    t = s * w
+                    changed |= _wall_at(g, w, px + t * -ny, py + t * nx)
+            best, jb = np.inf, -1  # joined to the nearest point seen last step within link cells
+            for i in range(lp.shape[0]):
+                if lo[i]:
+                    ex, ey = pts[j, 0] - lp[i, 0], pts[j, 1] - lp[i, 1]
+                    e = np.sqrt(ex * ex + ey * ey)
+                    if e < best:
+                        best, jb = e, i
+            if jb >= 0 and best < link * w:
+                for f in (0.25, 0.5, 0.75):
+                    changed |= _wall_at(g, w, px + f * (lp[jb, 0] - px), py + f * (lp[jb, 1] - py))
+        for j in range(s_rel.shape[0]):  # the scan's hits: the wall, and a cell behind it
+            if not s_hit[j]:
+                continue
+            hx = qx + (cs * s_rel[j, 0] - sn * s_rel[j, 1])
+            hy = qy + (sn * s_rel[j, 0] + cs * s_rel[j, 1])
+            bx = cs * s_dir[j, 0] - sn * s_dir[j, 1]
+            by = sn * s_dir[j, 0] + cs * s_dir[j, 1]
+            changed |= _wall_at(g, w, hx, hy)
+            t = behind * w
+            changed |= _wall_at(g, w, hx + t * bx, hy + t * by)
+        for j in range(k):  # the border closes the half-plane beyond it
+            if border[j] and danger[j]:
+                changed |= _border_one(g, w, pts[j, 0], pts[j, 1], nrm[j, 0], nrm[j, 1])
+    lp[:, :] = pts
+    lo[:] = danger
     return changed
+
+
+@njit(cache=True)
+def _stall_row(g, w, qx, qy, way, anchor, stall, limit, body_m, has_t):
+    """Stalls (chart search step 4): a robot not ``max(2 body_m, 1.5 w)`` from ``anchor`` for more
+    than ``limit`` steps shuts (``STUCK``) the open cells at 1/4, 1/2, 3/4 and all of the straight
+    way to ``way``. Returns ``(stall count, stuck)``; ``anchor (2,)`` is updated in place."""
+    dx, dy = qx - anchor[0], qy - anchor[1]
+    if np.sqrt(dx * dx + dy * dy) > max(2 * body_m, 1.5 * w):
+        anchor[0], anchor[1] = qx, qy
+        stall = 0
+    else:
+        stall += 1
+    if not (stall > limit and has_t and w > 0):
+        return stall, False
+    c = g.shape[0]
+    h = c // 2
+    tx, ty = way[0] - qx, way[1] - qy
+    for f in (0.25, 0.5, 0.75, 1.0):
+        a = min(max(int(np.floor((qx + f * tx) / w)) + h, 0), c - 1)
+        b = min(max(int(np.floor((qy + f * ty) / w)) + h, 0), c - 1)
+        if not (a == h and b == h) and g[a, b] == OPEN:
+            g[a, b] = STUCK
+    return 0, True
 
 
 @njit(cache=True)
@@ -261,13 +375,29 @@ def _astar(g, sa, sb, ta, tb, ahead, wall_cost, ha, hb, turn, dist, prev, closed
     False), ``(C, C)`` each, which it leaves as it found them (only the cells it touched are reset):
     the planner of many robots allocates them once and its cost follows the cells searched, not C^2."""
     c = g.shape[0]
+    found, cost, touched, nt = _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed)
+    wa, wb = sa, sb
+    if found:
+        n = _way_length(prev, c, sa, sb, ta, tb)
+        route = np.empty(n, np.int32)
+        _store_way(g, prev, sa, sb, ta, tb, n, route, np.empty(n, np.uint8))
+        k = _pick_way(g, route, n, 0, sa, sb, ahead)
+        wa, wb = route[k] // c, route[k] % c
+    _reset(dist, prev, closed, touched, nt, c)
+    return found, wa, wb, cost
+
+
+@njit(cache=True)
+def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed):
+    """The A* of :func:`plan` on the work arrays of :func:`_astar`, which it leaves filled (``prev``
+    holds the way): ``(found, cost, touched, nt)``, the first ``nt`` of ``touched`` the flat indices
+    of the cells it set (for :func:`_reset`)."""
+    c = g.shape[0]
     INF = 1e30
     cap = 64 * c + 64  # the heap grows by doubling (a cell is pushed at most 8 times)
     heap_k = np.empty(cap)
     heap_v = np.empty(cap, np.int64)
     touched = np.empty(cap, np.int64)
-    nt = 0
-    hn = 0
     dist[sa, sb] = 0.0
     touched[0] = sa * c + sb
     nt = 1
@@ -316,29 +446,36 @@ def _astar(g, sa, sb, ta, tb, ahead, wall_cost, ha, hb, turn, dist, prev, closed
                     if hn == len(heap_k):
                         heap_k, heap_v = _doubled(heap_k, hn), _doubled(heap_v, hn)
                     hn = heap_push(heap_k, heap_v, hn, nd + h(na, nb), na * c + nb)
-    wa, wb, cost = sa, sb, np.inf
-    if found:
-        wa, wb = _way_point(g, prev, sa, sb, ta, tb, ahead)
-        cost = dist[ta, tb]
-    for k in range(nt):  # leave the work arrays as found
+    return found, (dist[ta, tb] if found else np.inf), touched, nt
+
+
+@njit(cache=True)
+def _reset(dist, prev, closed, touched, nt, c):
+    """Leave the work arrays as :func:`_search` found them (only the ``nt`` cells it touched)."""
+    for k in range(nt):
         v = touched[k]
-        dist[v // c, v % c] = INF
+        dist[v // c, v % c] = 1e30
         prev[v // c, v % c] = -1
         closed[v // c, v % c] = False
-    return found, wa, wb, cost
 
 
 @njit(cache=True, inline="always")
 def _beside_wall(g, a, b):
     """A non-open cell among the 8 neighbours of cell (a, b) (or the cell itself) of chart ``g``."""
+    return _shut_near(g, a, b) > 0
+
+
+@njit(cache=True, inline="always")
+def _shut_near(g, a, b):
+    """How many of the 3 x 3 cells round cell (a, b) of chart ``g`` (itself included) are not open."""
     c = g.shape[0]
-    near = False
+    n = 0
     for ea in range(-1, 2):
         for eb in range(-1, 2):
             xa, xb = a + ea, b + eb
             if 0 <= xa < c and 0 <= xb < c and g[xa, xb] != 0:
-                near = True
-    return near
+                n += 1
+    return n
 
 
 @njit(cache=True, inline="always")
@@ -350,168 +487,222 @@ def _doubled(arr, n):
 
 
 @njit(cache=True)
-def _way_point(g, prev, sa, sb, ta, tb, ahead):
-    """The way :func:`_astar` found, walked back from (ta, tb) along ``prev`` to the start (sa, sb):
-    its farthest cell within ``ahead`` cells of the start (straight-line distance) in a straight
-    open line from it (at least the way's first cell), as ``(wa, wb)``."""
-    c = g.shape[0]
-    way = [ta * c + tb]
+def _way_length(prev, c, sa, sb, ta, tb):
+    """Cells on the way :func:`_search` found from (sa, sb) to (ta, tb), both ends included."""
+    n = 1
     v = ta * c + tb
     while v != sa * c + sb:
         v = prev[v // c, v % c]
-        way.append(v)
-    # way[-1] is the start; the farthest in reach and in line
-    n = len(way)
-    best = n - 1
-    for k in range(n - 2, -1, -1):
-        a, b = way[k] // c, way[k] % c
-        if (a - sa) ** 2 + (b - sb) ** 2 > ahead * ahead and k < n - 2:
-            break
-        if k == n - 2 or _clear(g, sa, sb, a, b):
-            best = k
-    return way[best] // c, way[best] % c
+        n += 1
+    return n
 
 
 @njit(cache=True)
-def _plan_rows(grid, cell, q, way, dirty, forgot, have_way, rows, ahead_m, wall_cost, turn_m):
-    """Plan for each robot row in ``rows`` whose chart changed (``dirty``) or that is near its way
-    point; writes ``way`` (F, m). Forgetting ends with an empty chart, on which there is always a way."""
-    c = grid.shape[1]
+def _store_way(g, prev, sa, sb, ta, tb, n, route, shut):
+    """Write the way :func:`_search` found (``n`` cells, :func:`_way_length`) into ``route``, start
+    first, as flat indices, and into ``shut`` the shut cells of each one's 3 x 3 block on chart ``g``;
+    a way longer than ``route`` is cut there. Returns the cells written."""
+    c = g.shape[0]
+    v = ta * c + tb
+    for k in range(n - 1, -1, -1):
+        if k < len(route):
+            route[k] = v
+            shut[k] = _shut_near(g, v // c, v % c)
+        if k > 0:
+            v = prev[v // c, v % c]
+    return min(n, len(route))
+
+
+@njit(cache=True)
+def _pick_way(g, route, n, at, sa, sb, ahead):
+    """The point to head for from cell (sa, sb), at cell ``at`` of ``route`` (``n`` cells): the
+    index of its farthest cell after ``at`` within ``ahead`` cells of (sa, sb) (straight-line
+    distance) that is in a straight open line from it on chart ``g`` (at least the next cell;
+    ``at`` itself at the way's end)."""
+    c = g.shape[0]
+    best = at
+    for k in range(at + 1, n):
+        a, b = route[k] // c, route[k] % c
+        if (a - sa) ** 2 + (b - sb) ** 2 > ahead * ahead and k > at + 1:
+            break
+        if k == at + 1 or _clear(g, sa, sb, a, b):
+            best = k
+    return best
+
+
+@njit(cache=True)
+def _route_open(g, route, shut, at, n):
+    """No cell on or beside ``route[at:n]`` has been shut on chart ``g`` since it was planned (its
+    3 x 3 blocks hold no more shut cells than ``shut`` says): the rest of the way costs what it did."""
+    c = g.shape[0]
+    for k in range(at, n):
+        if _shut_near(g, route[k] // c, route[k] % c) > shut[k]:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _locate(route, lo, hi, sa, sb, c):
+    """The cell of ``route[lo:hi + 1]`` nearest cell (sa, sb) (Chebyshev distance; the last of
+    equals): ``(index, distance)``."""
+    best, bd = lo, 1 << 30
+    for k in range(lo, hi + 1):
+        d = max(abs(route[k] // c - sa), abs(route[k] % c - sb))
+        if d <= bd:
+            best, bd = k, d
+    return best, bd
+
+
+@njit(cache=True)
+def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route, shut):
+    """Plan on chart ``g`` from cell (sa, sb) to the target's cell (chart search steps 2 and 5):
+    A*, and if there is no way, again after forgetting its stuck cells, then the walls within 3
+    cells of (sa, sb), then the whole chart (on which there is always a way). Stores the way in
+    ``route``/``shut`` (:func:`_store_way`). Returns ``(found, cells stored, index of the point to
+    head for, forgot the whole chart)``."""
+    c = g.shape[0]
     h = c // 2
-    dist = np.empty((0, 0))  # the work arrays, made when the first robot plans
-    prev = np.empty((0, 0), np.int64)
-    closed = np.empty((0, 0), np.bool_)
-    for r in range(len(rows)):
-        i = rows[r]
-        if cell[i] <= 0:
-            continue
-        w = cell[i]
-        sa = min(max(int(np.floor(q[r, 0] / w)) + h, 0), c - 1)
-        sb = min(max(int(np.floor(q[r, 1] / w)) + h, 0), c - 1)
-        dx, dy = way[i, 0] - q[r, 0], way[i, 1] - q[r, 1]
-        if not dirty[i] and dx * dx + dy * dy > (2 * w) ** 2:
-            continue
-        if dist.shape[0] == 0:
-            dist = np.full((c, c), 1e30)
-            prev = np.full((c, c), -1, np.int64)
-            closed = np.zeros((c, c), np.bool_)
-        ahead = max(ahead_m / w, 3.0)
-        nrm = np.sqrt(dx * dx + dy * dy)
-        ha, hb = (dx / nrm, dy / nrm) if nrm > 1e-9 and have_way[i] else (0.0, 0.0)
-        tc = turn_m / w if nrm > 1e-9 and have_way[i] else 0.0
-        ok, wa, wb, _ = _astar(grid[i], sa, sb, h, h, ahead, wall_cost, ha, hb, tc, dist, prev, closed)
-        g = grid[i]
-        if not ok:  # 1. forget the stalls
+    for attempt in range(4):
+        if attempt == 1:  # 1. forget the stalls
             for a in range(c):
                 for b in range(c):
                     if g[a, b] == STUCK:
                         g[a, b] = OPEN
-            ok, wa, wb, _ = _astar(g, sa, sb, h, h, ahead, wall_cost, ha, hb, tc, dist, prev, closed)
-        if not ok:  # 2. forget the walls round where it stands (a corner mapped shut)
+        elif attempt == 2:  # 2. forget the walls round where it stands (a corner mapped shut)
             for a in range(max(sa - 3, 0), min(sa + 4, c)):
                 for b in range(max(sb - 3, 0), min(sb + 4, c)):
                     g[a, b] = OPEN
-            ok, wa, wb, _ = _astar(g, sa, sb, h, h, ahead, wall_cost, ha, hb, tc, dist, prev, closed)
-        if not ok:  # 3. forget the chart: it starts again from what it sees
+        elif attempt == 3:  # 3. forget the chart: it starts again from what it sees
             g[:, :] = OPEN
-            forgot[i] += 1
-            ok, wa, wb, _ = _astar(g, sa, sb, h, h, ahead, wall_cost, ha, hb, tc, dist, prev, closed)
+        found, _, touched, nt = _search(g, sa, sb, h, h, wall_cost, ha, hb, tc, dist, prev, closed)
+        n = 0
+        if found:
+            n = _store_way(g, prev, sa, sb, h, h, _way_length(prev, c, sa, sb, h, h), route, shut)
+        _reset(dist, prev, closed, touched, nt, c)
+        if found:
+            return True, n, _pick_way(g, route, n, 0, sa, sb, ahead), attempt == 3
+    return False, 0, 0, True
+
+
+@njit(cache=True)
+def _next_way(i, g, w, qx, qy, changed, m_route, m_shut, m_len, m_at, m_way_at, way, dirty, have_way, forgot,
+              work, prm):
+    """Robot ``i``'s way after this step's marks (chart search step 2, its chart ``g`` cells ``w``
+    wide; ``changed``: a cell of it was shut this step). It plans afresh (A*) when it has no way,
+    stalled, was more than a cell off its way, or a cell on or beside the rest of its way was shut
+    (its way cut at ``ROUTE_PER_CELL C`` cells: any cell, or near the cut); else, within two cells
+    of the point it heads for (or at it), or with its target within ``ahead`` cells (so that a
+    target in a straight open line is headed for itself, and its stand-off rules), it picks the next
+    one along its way. True if it planned."""
+    ahead_m, wall_cost, turn_m = prm[0], prm[1], prm[2]
+    c = g.shape[0]
+    h = c // 2
+    sa = min(max(int(np.floor(qx / w)) + h, 0), c - 1)
+    sb = min(max(int(np.floor(qy / w)) + h, 0), c - 1)
+    ahead = max(ahead_m / w, 3.0)
+    route, shut, n, at = m_route[i], m_shut[i], m_len[i], m_at[i]
+    need = dirty[i] or n == 0
+    if not need:
+        at, off = _locate(route, at, min(n - 1, m_way_at[i] + 2), sa, sb, c)
+        m_at[i] = at
+        cut = route[n - 1] != h * c + h
+        need = off > 1 or (changed and (cut or not _route_open(g, route, shut, at, n))) or (
+            cut and n - at <= ahead + 2)
+    dx, dy = way[i, 0] - qx, way[i, 1] - qy
+    if need:
+        nrm = np.sqrt(dx * dx + dy * dy)
+        ha, hb = (dx / nrm, dy / nrm) if nrm > 1e-9 and have_way[i] else (0.0, 0.0)
+        tc = turn_m / w if nrm > 1e-9 and have_way[i] else 0.0
+        ok, n, k, fg = _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, work[0], work[1], work[2], route, shut)
+        forgot[i] += fg
         dirty[i] = False
         have_way[i] = ok
-        if ok:
-            if wa == h and wb == h:
-                way[i, 0] = 0.0
-                way[i, 1] = 0.0
-            else:
-                way[i, 0] = (wa - h + 0.5) * w
-                way[i, 1] = (wb - h + 0.5) * w
+        m_len[i], m_at[i], m_way_at[i] = n, 0, k
+    elif dx * dx + dy * dy <= (2 * w) ** 2 or at >= m_way_at[i] or qx * qx + qy * qy <= (ahead * w) ** 2:
+        k = _pick_way(g, route, n, at, sa, sb, ahead)
+        m_way_at[i] = k
+    else:
+        return False
+    if m_len[i] > 0:
+        v = route[m_way_at[i]]
+        if v == h * c + h:
+            way[i, 0] = 0.0
+            way[i, 1] = 0.0
+        else:
+            way[i, 0] = (v // c - h + 0.5) * w
+            way[i, 1] = (v % c - h + 0.5) * w
+    return need
+
+
+@njit(cache=True)
+def _chart_rows(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_normal, b_danger, b_border,
+                s_rel, s_dir, s_hit, prm):
+    """:func:`chart_update`'s compiled pass over robot rows ``rows (m,)`` (the memory ``mem``: the
+    arrays of :data:`_ROW_FIELDS`, in order; ``work``: the A* work arrays; ``prm``: :func:`_prm`)."""
+    grid, cell, way, dirty, anchor, stall, forgot, last_pts, last_ok, have_way = mem[:10]
+    route, shut, route_len, route_at, way_at, plans = mem[10:]
+    c = grid.shape[1]
+    for r in range(len(rows)):
+        i = rows[r]
+        qx, qy = q[r, 0], q[r, 1]
+        if cell[i] <= 0 and has_t[r]:  # its first step: a chart centred on its target
+            cell[i] = max(prm[0], 2 * (prm[1] * dist_t[r] + prm[2] * prm[3]) / c)
+            anchor[i, 0], anchor[i, 1] = qx, qy
+            dirty[i] = True
+        w = cell[i]
+        g = grid[i]
+        changed = _mark_row(g, w, qx, qy, cs[r], sn[r], b_rel[r], b_normal[r], b_danger[r], b_border[r],
+                            last_pts[i], last_ok[i], s_rel[r], s_dir, s_hit[r], prm[4:8])
+        limit = 2 * prm[8] if crowded[r] else prm[8]
+        stall[i], stuck = _stall_row(g, w, qx, qy, way[i], anchor[i], stall[i], limit, prm[9], has_t[r])
+        if stuck:
+            dirty[i] = True
+        if w <= 0 or not has_t[r]:  # no chart, or no target: no way to plan
+            continue
+        if _next_way(i, g, w, qx, qy, changed, route, shut, route_len, route_at, way_at, way, dirty, have_way,
+                     forgot, work, prm[10:13]):
+            plans[i] += 1
+
+
+def _prm(params: ChartParams, range_m: float, step_m: float, body_m: float) -> np.ndarray:
+    """The constants :func:`_chart_rows` reads, in its order."""
+    return np.array([max(params.min_cell_m, step_m), params.reach, params.range_reach, range_m,
+                     params.behind, params.extend, params.link, np.cos(np.radians(5.0)),
+                     params.stall_steps, body_m, params.ahead_m, params.wall_cost, params.turn_m], np.float64)
+
+
+def _rot(psi, v):
+    c, s = np.cos(psi), np.sin(psi)
+    return np.stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1]], axis=-1)
+
+
+def _f64(a, shape=None):
+    return np.ascontiguousarray(a if shape is None else np.reshape(a, shape), dtype=np.float64)
 
 
 def chart_update(mem: ChartMemory, rows, d: DecodedObs, q, psi, params: ChartParams, range_m: float,
-                 step_m: float, body_m: float, crowded) -> np.ndarray:
+                 step_m: float, body_m: float, crowded, standoff_m: float = 0.0) -> np.ndarray:
     """Advance the charts of robots ``rows`` by one observation and return the body-frame vector
     to the point each heads for ``(m, 2)`` (the target's own vector ``rel_t`` when its way is
-    open straight to it)."""
-    c = params.cells
-    new = (mem.cell[rows] <= 0) & d.has_t
-    if new.any():
-        r = rows[new]
-        mem.cell[r] = np.maximum(max(params.min_cell_m, step_m),
-                                 2 * (params.reach * d.dist[new] + params.range_reach * range_m) / c)
-        mem.anchor[r] = q[new]
-        mem.dirty[r] = True
-    # what it sees: the dangerous breaks' closest points, and a little of each wall either side
-    # (not past a break's end: the closest point of a break seen at its end is that end)
-    rel = d.b_rel
-    pts = q[:, None, :] + _rot(psi[:, None].repeat(rel.shape[1], 1).ravel(), rel.reshape(-1, 2)).reshape(rel.shape)
-    nrm = _rot(psi[:, None].repeat(rel.shape[1], 1).ravel(), d.b_normal.reshape(-1, 2)).reshape(rel.shape)
-    dist = np.sqrt(np.sum(rel * rel, axis=-1))
-    unit = -rel / np.maximum(dist, 1e-9)[..., None]  # from the point toward the robot
-    square = np.abs(np.sum(unit * d.b_normal, axis=-1)) > np.cos(np.radians(5.0))
-    tang = np.stack([-nrm[..., 1], nrm[..., 0]], axis=-1)
-    w = mem.cell[rows][:, None, None]
-    ok = d.b_danger
-    ext = [pts, pts - params.behind * w * nrm]  # the wall, and a cell behind it (no diagonal leak)
-    oks = [ok, ok]
-    for s in (-params.extend, params.extend):
-        ext.append(pts + s * w * tang)
-        oks.append(ok & square)
-    # a wall driven along: each point joined to the nearest point seen last step within link cells
-    # (closest points jump along a break of long edges, and a chart wall with a hole lets the way through)
-    if mem.last_ok.shape[1] != ok.shape[1]:
+    open straight to it, or when that point lies within ``standoff_m`` of the target: the ring
+    around a threat is the target field's to hold, never a point inside it). One compiled pass over
+    the rows (:func:`_chart_rows`)."""
+    rows = np.ascontiguousarray(rows, dtype=np.int64)
+    m, k = len(rows), d.b_rel.shape[1]
+    if mem.last_ok.shape[1] != k:
         n_all = len(mem.cell)
-        mem.last_pts, mem.last_ok = np.zeros((n_all, ok.shape[1], 2)), np.zeros((n_all, ok.shape[1]), bool)
-    lp, lo = mem.last_pts[rows], mem.last_ok[rows]
-    if ok.shape[1]:  # (no break slots: a scan alone)
-        gap = np.sqrt(np.sum((pts[:, :, None, :] - lp[:, None, :, :]) ** 2, axis=-1))  # (m, K, K)
-        gap = np.where(lo[:, None, :], gap, np.inf)
-        j = np.argmin(gap, axis=-1)
-        near = ok & (np.take_along_axis(gap, j[..., None], axis=-1)[..., 0] < params.link * w[..., 0])
-        other = np.take_along_axis(lp, j[..., None].repeat(2, -1), axis=1)
-        for f in (0.25, 0.5, 0.75):
-            ext.append(pts + f * (other - pts))
-            oks.append(near)
-    mem.last_pts[rows], mem.last_ok[rows] = pts, ok
-    if d.s_rel is not None and d.s_rel.shape[1]:  # the scan's hits: the wall, and a cell behind it
-        k = d.s_rel.shape[1]
-        turn = psi[:, None].repeat(k, 1).ravel()
-        hits = q[:, None, :] + _rot(turn, d.s_rel.reshape(-1, 2)).reshape(d.s_rel.shape)
-        # each beam's direction from its bearing, exact even for a hit 0 m away
-        beam = _rot(turn, np.broadcast_to(d.s_dir, d.s_rel.shape).reshape(-1, 2)).reshape(d.s_rel.shape)
-        ext += [hits, hits + params.behind * w * beam]
-        oks += [d.s_hit, d.s_hit]
-    at = np.concatenate(ext, axis=1)
-    on = np.concatenate(oks, axis=1)
-    # never the target's own cell
-    h = c // 2
-    cw = mem.cell[rows][:, None]
-    tgt = (np.floor(at[..., 0] / cw) == 0) & (np.floor(at[..., 1] / cw) == 0)
-    on = on & ~tgt
-    rr = np.asarray(rows, np.int64)
-    changed = _mark(mem.grid, mem.cell, rr, at.astype(np.float64), on)
-    changed |= _mark_border(mem.grid, mem.cell, rr, pts.astype(np.float64), nrm.astype(np.float64),
-                            d.b_border & d.b_danger)
-    mem.dirty[rows] |= changed
-    # stalls: a body length from the anchor resets the count
-    moved = np.sqrt(np.sum((q - mem.anchor[rows]) ** 2, axis=-1)) > np.maximum(2 * body_m, 1.5 * mem.cell[rows])
-    mem.anchor[rows] = np.where(moved[:, None], q, mem.anchor[rows])
-    mem.stall[rows] = np.where(moved, 0, mem.stall[rows] + 1)
-    limit = np.where(crowded, 2 * params.stall_steps, params.stall_steps)
-    stuck = (mem.stall[rows] > limit) & d.has_t & (mem.cell[rows] > 0)
-    if stuck.any():  # the straight way to the point it heads for is shut: mark it so
-        r = rows[stuck]
-        to = mem.way[r] - q[stuck]
-        for f in (0.25, 0.5, 0.75, 1.0):
-            p = q[stuck] + f * to
-            a = np.clip(np.floor(p[:, 0] / mem.cell[r]).astype(np.int64) + h, 0, c - 1)
-            b = np.clip(np.floor(p[:, 1] / mem.cell[r]).astype(np.int64) + h, 0, c - 1)
-            ok = ~((a == h) & (b == h)) & (mem.grid[r, a, b] == OPEN)
-            mem.grid[r[ok], a[ok], b[ok]] = STUCK
-        mem.stall[r] = 0
-        mem.dirty[r] = True
-    _plan_rows(mem.grid, mem.cell, q.astype(np.float64), mem.way, mem.dirty, mem.forgot, mem.have_way,
-               np.asarray(rows, np.int64), params.ahead_m, params.wall_cost, params.turn_m)
+        mem.last_pts, mem.last_ok = np.zeros((n_all, k, 2)), np.zeros((n_all, k), bool)
+    if d.s_rel is not None and d.s_rel.shape[1]:  # the scan's hits (K_s, 2) beams
+        s_rel, s_hit, s_dir = _f64(d.s_rel), np.ascontiguousarray(d.s_hit, bool), _f64(d.s_dir, (-1, 2))
+    else:
+        s_rel, s_hit, s_dir = np.zeros((m, 0, 2)), np.zeros((m, 0), bool), np.zeros((0, 2))
+    psi = np.asarray(psi, dtype=np.float64)
+    _chart_rows(tuple(getattr(mem, f) for f in _ROW_FIELDS), mem.work_arrays(), rows, _f64(q), np.cos(psi),
+                np.sin(psi), np.ascontiguousarray(d.has_t, bool), _f64(d.dist),
+                np.ascontiguousarray(crowded, bool), _f64(d.b_rel), _f64(d.b_normal),
+                np.ascontiguousarray(d.b_danger, bool), np.ascontiguousarray(d.b_border, bool), s_rel, s_dir,
+                s_hit, _prm(params, range_m, step_m, body_m))
     way = mem.way[rows]
-    at_t = (way[:, 0] == 0.0) & (way[:, 1] == 0.0)
+    at_t = ((way[:, 0] == 0.0) & (way[:, 1] == 0.0)) | (np.sum(way * way, axis=-1) < standoff_m ** 2)
     out = _rot(-psi, way - q)
     return np.where(at_t[:, None] | ~(mem.cell[rows] > 0)[:, None], d.rel_t, out)
