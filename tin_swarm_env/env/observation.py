@@ -407,13 +407,25 @@ def _break_slots(obs, i, sl, K, start, idx, dist, closest, normals, drops, dange
 def _scan_beams(obs, i, at, K, start, idx, ends, bearings, danger, pos, head, R):
     """Scan beams of robot ``i`` (columns ``at .. at + K``): along bearing ``head + bearings[k]``,
     the distance to the first dangerous break among its contacts ``start[i]:start[i + 1]`` that
-    the beam crosses, over ``R`` (1 when none within ``R``; ``ends (B, 4)``: ax, ay, bx, by)."""
+    the beam crosses, over ``R`` (1 when none within ``R``; ``ends (B, 4)``: ax, ay, bx, by). A
+    robot with no dangerous contact reads 1 on every beam without a beam's trigonometry: the
+    cost is ``K`` crossings per dangerous contact, nothing more for a robot on open ground."""
+    first = start[i + 1]
+    for p in range(start[i], start[i + 1]):
+        j = idx[p]
+        if j >= 0 and danger[j] != 0.0:
+            first = p
+            break
+    if first == start[i + 1]:
+        for k in range(K):
+            obs[i, at + k] = 1.0
+        return
     for k in range(K):
         a = head[i] + bearings[k]
         dx = np.cos(a)
         dy = np.sin(a)
         best = R
-        for p in range(start[i], start[i + 1]):
+        for p in range(first, start[i + 1]):
             j = idx[p]
             if j < 0 or danger[j] == 0.0:
                 continue
