@@ -426,16 +426,10 @@ MEASURES = (("slope", "slope class, firm points"), ("ctg_med", "cost-to-go error
 
 def trust_builders():
     """``{name: fn(dem, n_vertices, slope_deg) -> Tin}``: the builders the trust tables compare."""
-    from tin_swarm_env.terrain.robot import robot_mesh
-
-    def robot_half(dem, n, s):  # half the budget by greedy insertion, half on the robot error (slope class)
-        v, t = robot_mesh(dem, s, n, seed_fraction=0.5)
-        return tse.terrain.Tin(v, t, source=f"{dem.source} (robot, seed 0.5)")
-
     return {"greedy": lambda dem, n, s: build_tin(dem, method="greedy", max_vertices=n),
             "greedy-Delaunay": lambda dem, n, s: build_tin(dem, method="greedy", max_vertices=n, delaunay=True),
             "robot": lambda dem, n, s: build_tin(dem, method="robot", max_vertices=n, max_slope_deg=s),
-            "robot seed 0.5": robot_half}
+            "trust": lambda dem, n, s: build_tin(dem, method="trust", max_vertices=n, max_slope_deg=s)}
 
 
 def _group(name):
@@ -529,7 +523,7 @@ def trust_main(write=False, quick=False, fractions=(0.02, 0.05, 0.10, 0.20), n_c
     load = os.getloadavg()[0]
     builders = trust_builders()
     if quick:
-        builders = {k: builders[k] for k in ("greedy", "robot seed 0.5")}
+        builders = {k: builders[k] for k in ("greedy", "trust")}
         fractions = (0.05,)
     res, floors, times, cases = trust_tables(builders, fractions, n_crops, quick=quick)
     root = Path(__file__).resolve().parents[1]
@@ -543,7 +537,7 @@ def trust_main(write=False, quick=False, fractions=(0.02, 0.05, 0.10, 0.20), n_c
               "diagonal, 2 m above ground, against a dense bilinear march. ✗: the bar of issue 45 missed "
               "(slope >= 97%, reach >= 99%, line of sight >= 97% or floor - 2 points, cost-to-go median <= floor "
               "+ 2 points and p90 <= floor + 6 points). Build time: one build, seconds (the slowest over the group).",
-              "", "![each measure against the fraction of cells](../../bench/figures/terrain_trust.png)"]
+              "", "![each measure against the fraction of cells](bench/figures/terrain_trust.png)"]
     lines = trust_report(res, floors, times, cases, list(builders), fractions, header)
     trust_curve(res, cases, list(builders), fractions, png)
     print("\n".join(lines))
