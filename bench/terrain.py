@@ -513,6 +513,54 @@ def trust_curve(res, cases, methods, fractions, path):
     plt.close(fig)
 
 
+def build_costs(builders, repeat=3):
+    """Lines: per builder, the best of ``repeat`` build times and the peak traced memory (tracemalloc: numpy
+    buffers included) for jacksboro at 10 % of its cells (slope 20 deg) and a 128 x 128 crop of it at 10 %."""
+    import tracemalloc
+
+    j = tse.terrain.sample_dem("jacksboro")
+    crop = tse.terrain.Dem(j.z[100:228, 100:228], j.x[100:228], j.y[100:228], source="jacksboro 128x128 crop")
+    out = ["| builder | DEM | vertices | build s (best of 3) | peak memory MB |", "|---|---|---:|---:|---:|"]
+    for name, fn in builders.items():
+        for dem in (j, crop):
+            n = int(round(0.1 * dem.z.size))
+            fn(dem, 200, 20.0)  # warm up
+            _, dt = timed(lambda fn=fn, dem=dem, n=n: fn(dem, n, 20.0), repeat)
+            tracemalloc.start()
+            fn(dem, n, 20.0)
+            peak = tracemalloc.get_traced_memory()[1]
+            tracemalloc.stop()
+            out.append(f"| {name} | {dem.source} | {n} | {dt:.3f} | {peak / 1e6:.0f} |")
+            print(out[-1], flush=True)
+    return out
+
+
+def scenario_ways(builders):
+    """Lines: the drivable way (cost-to-go, m) from the jacksboro scenario's spawn centre to each of its
+    targets at its 20 deg limit on both full surfaces and on each builder's TIN at the scenario's 10 000
+    vertices, beside the straight line: a TIN whose way is shorter than both full surfaces' has bridged
+    steep ground that the ground has (the APF figure on such a TIN measures an easier map)."""
+    from tin_swarm_env.scenario import load_scenario
+    from tin_swarm_env.terrain.robot import full_surface
+
+    cfg = load_scenario("jacksboro")
+    s = cfg.world.robot.max_slope_deg
+    x0, y0, x1, y1 = cfg.robots.spawn_region
+    spawn = np.array([0.5 * (x0 + x1), 0.5 * (y0 + y1)])
+    targets = np.asarray(cfg.targets.positions, dtype=float)
+    dem = tse.terrain.sample_dem("jacksboro")
+    tins = {"full surface": full_surface(dem), "other diagonal": other_diagonal(dem)}
+    tins.update({name: fn(dem, cfg.terrain.max_vertices, s) for name, fn in builders.items()})
+    out = ["| surface | " + " | ".join(f"target {k} ({t[0]:.0f}, {t[1]:.0f})" for k, t in enumerate(targets)) + " |",
+           "|---|" + "---:|" * len(targets),
+           "| straight line | " + " | ".join(f"{np.hypot(*(t - spawn)):.0f}" for t in targets) + " |"]
+    for name, tin in tins.items():
+        d = [tse.terrain.cost_to_go(tin, t, tin.slope_deg <= s).distance_at(spawn[None])[0] for t in targets]
+        out.append(f"| {name} | " + " | ".join(f"{v:.0f}" for v in d) + " |")
+        print(out[-1], flush=True)
+    return out
+
+
 def trust_main(write=False, quick=False, fractions=(0.02, 0.05, 0.10, 0.20), n_crops=20):
     """The trust tables (``--trust``) and, with ``write``, docs/figures/terrain_robot.md and its curve."""
     import os
@@ -539,6 +587,10 @@ def trust_main(write=False, quick=False, fractions=(0.02, 0.05, 0.10, 0.20), n_c
               "+ 2 points and p90 <= floor + 6 points). Build time: one build, seconds (the slowest over the group).",
               "", "![each measure against the fraction of cells](bench/figures/terrain_trust.png)"]
     lines = trust_report(res, floors, times, cases, list(builders), fractions, header)
+    lines += ["", "### Build cost at 10 % of the cells (20 deg)", ""] + build_costs(builders, 1 if quick else 3)
+    lines += ["", "### The jacksboro scenario's ways (m, spawn centre to each target, 20 deg, 10 000 vertices)", "",
+              "Shorter than both full surfaces: the TIN has bridged steep ground the ground keeps.", ""]
+    lines += scenario_ways(builders)
     trust_curve(res, cases, list(builders), fractions, png)
     print("\n".join(lines))
     print(f"curve: {png}")
