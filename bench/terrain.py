@@ -1,7 +1,7 @@
 """Terrain benchmark on the real jacksboro DEM (matplotlib's sample). Run by hand:
 
     python bench/terrain.py [--sizes 1000,2000,5000,10000,20000] [--rays 10000]
-    python bench/terrain.py --quick     # a smoke run (seconds): one 1000-vertex size, 500 rays
+    python bench/terrain.py --quick     # a smoke run (seconds): one 1000-vertex size, 500 rays, a tiny --trust
     python bench/terrain.py --trust [--write]     # what robots use (issue 45): 2/5/10/20 % of the cells
 
 ``--trust`` (:func:`trust_main`; ``--robot`` is its old name) scores each builder of
@@ -619,5 +619,6 @@ if __name__ == "__main__":
         raise SystemExit(0)
     if ns.quick:
         main(Args(sizes=(1000,), rays=500, queries=10_000))
+        trust_main(quick=True)  # the trust measures too (tiny: jacksboro 20 deg, greedy and trust at 5 %)
     else:
         main(Args(sizes=tuple(int(s) for s in ns.sizes.split(",")), rays=ns.rays, queries=ns.queries))
