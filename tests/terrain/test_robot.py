@@ -479,9 +479,11 @@ def test_trust_budget_gives_that_many_dem_vertices(rows, cols, frac, seed):
     assert np.isclose(tin.areas.sum(), (rows - 1) * (cols - 1) * 100.0)  # covers the whole grid
 
 
-def test_trust_needs_max_slope():
-    with pytest.raises(ArgumentError, match="max_slope_deg"):
+def test_trust_needs_max_slope_and_a_stop_and_says_trust():
+    with pytest.raises(ArgumentError, match=r"max_slope_deg must be a number in \(0, 90\) for method='trust'"):
         build_tin(grid_dem_at(np.zeros((5, 5)), 1.0), method="trust", max_vertices=10)
+    with pytest.raises(ArgumentError, match="method='trust' needs max_vertices, max_error_m or both"):
+        build_tin(grid_dem_at(np.zeros((5, 5)), 1.0), method="trust", max_slope_deg=20)
 
 
 def test_max_slope_is_refused_for_other_methods():

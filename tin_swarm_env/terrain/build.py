@@ -78,7 +78,10 @@ def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices:
         from .robot import TRUST_SETTINGS, robot_mesh
 
         kw = TRUST_SETTINGS if method == "trust" else {}
-        v, t = robot_mesh(dem, max_slope_deg, max_vertices, max_error_m, **kw)
+        try:
+            v, t = robot_mesh(dem, max_slope_deg, max_vertices, max_error_m, **kw)
+        except ArgumentError as e:  # the robot builder's messages, naming the method asked for
+            raise ArgumentError(str(e).replace("method='robot'", f"method={method!r}")) from None
         return Tin(v, t, source=f"{dem.source} ({method}, {max_slope_deg:g} deg)")
     if np.isnan(dem.z).any():
         raise DemFormatError(f"{dem.source}: {dem.n_nodata} NODATA cells; fill or crop them first")
