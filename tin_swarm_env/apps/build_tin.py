@@ -36,12 +36,12 @@ class Args:
                    "sample:topobathy")
     output: str = opt("", "output .tin or .txt (thesis text) or .npz", check=_required, short="-o", required=True)
     method: str | None = opt(None, "reduction (default: greedy with --max-error-m, else vip; delaunay for point "
-                             "clouds; robot needs --max-slope-deg)", choices=METHODS)
+                             "clouds; robot and trust need --max-slope-deg)", choices=METHODS)
     max_vertices: int | None = opt(None, f"vertex budget (vip default: {VIP_DEFAULT_VERTICES})", lo=4)
-    max_error_m: float | None = opt(None, "greedy/robot: largest vertical error kept (m)", lo=0)
+    max_error_m: float | None = opt(None, "greedy/robot/trust: largest vertical error kept (m)", lo=0)
     min_significance_m: float | None = opt(None, "vip: drop points less significant than this (m)", lo=0)
-    max_slope_deg: float | None = opt(None, "robot: the robots' steepest drivable slope, whose class the TIN keeps "
-                                      "(deg)", lo=0, lo_open=True, hi=90, hi_open=True)
+    max_slope_deg: float | None = opt(None, "robot/trust: the robots' steepest drivable slope, whose class the TIN "
+                                      "keeps (deg)", lo=0, lo_open=True, hi=90, hi_open=True)
     png: str | None = opt(None, "also draw the TIN coloured by slope into this PNG file")
 
     def __post_init__(self):

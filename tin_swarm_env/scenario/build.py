@@ -73,13 +73,13 @@ def _cached_tin(key: str):
 
 def _mesh(dem, method: str, max_vertices: int, max_error_m: float, max_slope_deg: float | None = None):
     """The TIN of a DEM as a scenario's ``[terrain]`` asks for it (the one place these keys are read);
-    method "robot" keeps the slope class at the robots' ``max_slope_deg``."""
+    methods "robot" and "trust" keep the slope class at the robots' ``max_slope_deg``."""
     kw = {}
     if max_vertices:
         kw["max_vertices"] = max_vertices
-    if method in ("greedy", "robot") and max_error_m:
+    if method in ("greedy", "robot", "trust") and max_error_m:
         kw["max_error_m"] = max_error_m
-    if method == "robot":
+    if method in ("robot", "trust"):
         kw["max_slope_deg"] = max_slope_deg
     return T.build_tin(dem, method=method, **kw)
 
@@ -102,7 +102,7 @@ def build_tin_for(cfg: ScenarioConfig):
     stamp = _file_stamp(base / t.path) if t.source in ("dem", "tin") else None
     key = json.dumps({"source": t.source, "recipe": t.recipe, "path": t.path, "method": t.method,
                       "max_vertices": t.max_vertices, "max_error_m": t.max_error_m, "params": t.params,
-                      "max_slope_deg": cfg.world.robot.max_slope_deg if t.method == "robot" else None,
+                      "max_slope_deg": cfg.world.robot.max_slope_deg if t.method in ("robot", "trust") else None,
                       "mirror": t.mirror,
                       "_where": cfg.source, "_base": str(base), "_stamp": stamp}, sort_keys=True)
     return _cached_tin(key)

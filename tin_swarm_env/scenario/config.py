@@ -97,7 +97,8 @@ class TerrainSpec:
     source          "procedural" | "sample" | "dem" | "tin" | "flat" | "generated"
     recipe          procedural recipe name (:mod:`tin_swarm_env.scenario.terrains`)
     path            DEM or TIN file (relative to the scenario file), or a sample DEM's name
-    method          reduction of a DEM: "vip" | "greedy" | "delaunay" | "robot" (the robots' max_slope_deg)
+    method          reduction of a DEM: "vip" | "greedy" | "delaunay" | "robot" | "trust" (these two: the
+                    robots' max_slope_deg)
     max_vertices    vertex budget of the reduction; 0: not set
     max_error_m     vertical error the greedy reduction may leave
     size_m          (width, height) of a flat plane or a procedural terrain, m

@@ -13,7 +13,8 @@ __all__ = ["build_tin"]
 MAX_CELL_ASPECT = 1e6  # dx/dy (or dy/dx) of a DEM's cells: up to here every builder's mesh passes the validity
 # check (points are triangulated in grid units, see triangulate.MAX_SPACING_RATIO); beyond it rounding in the
 # check's tolerances makes T-junctions, so such a DEM is refused before any work (resample it)
-METHODS = ("vip", "greedy", "delaunay", "robot")
+METHODS = ("vip", "greedy", "delaunay", "robot", "trust")
+SLOPE_METHODS = ("robot", "trust")  # the methods that take the robots' max_slope_deg
 
 
 def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices: int | None = None,
@@ -36,6 +37,10 @@ def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices:
     "robot"    keeps what robots use: the slope class at ``max_slope_deg`` (required), terrain
                breaks, crests and drivable connectivity, vertical error as tie-breaker
                (:mod:`~.robot`); ``max_vertices`` and/or ``max_error_m``.
+    "trust"    the robot method with half the budget by greedy insertion and the rest inserted
+               where the slope class is wrong (:data:`~.robot.TRUST_SETTINGS`): the builder
+               measured best on issue 45's measures (docs/figures/terrain_robot.md);
+               ``max_slope_deg`` required.
     "delaunay" every point, Delaunay in x, y. The default (and only choice) for a
                :class:`PointCloud`; ``max_vertices`` smaller than the cloud is an error.
     ========== ================================================================================
@@ -49,8 +54,8 @@ def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices:
         method = "delaunay" if isinstance(dem, PointCloud) else "vip"
     if method not in METHODS:
         raise ArgumentError(f"unknown method {method!r}; expected one of {METHODS}")
-    if max_slope_deg is not None and method != "robot":
-        raise ArgumentError(f"max_slope_deg applies to method='robot', not {method!r}")
+    if max_slope_deg is not None and method not in SLOPE_METHODS:
+        raise ArgumentError(f"max_slope_deg applies to method='robot' or 'trust', not {method!r}")
     if isinstance(dem, PointCloud):
         return _cloud_tin(dem, method, max_vertices)
     if not isinstance(dem, Dem):
@@ -67,13 +72,17 @@ def build_tin(dem: Dem | PointCloud, method: str | None = None, *, max_vertices:
         if min_significance_m is not None:
             raise ArgumentError("min_significance_m applies to method='vip'")
         return _greedy_tin(dem, max_vertices, max_error_m, delaunay)
-    if method == "robot":
+    if method in SLOPE_METHODS:
         if min_significance_m is not None:
             raise ArgumentError("min_significance_m applies to method='vip'")
-        from .robot import robot_mesh
+        from .robot import TRUST_SETTINGS, robot_mesh
 
-        v, t = robot_mesh(dem, max_slope_deg, max_vertices, max_error_m)
-        return Tin(v, t, source=f"{dem.source} (robot, {max_slope_deg:g} deg)")
+        kw = TRUST_SETTINGS if method == "trust" else {}
+        try:
+            v, t = robot_mesh(dem, max_slope_deg, max_vertices, max_error_m, **kw)
+        except ArgumentError as e:  # the robot builder's messages, naming the method asked for
+            raise ArgumentError(str(e).replace("method='robot'", f"method={method!r}")) from None
+        return Tin(v, t, source=f"{dem.source} ({method}, {max_slope_deg:g} deg)")
     if np.isnan(dem.z).any():
         raise DemFormatError(f"{dem.source}: {dem.n_nodata} NODATA cells; fill or crop them first")
     return Tin.from_points(dem.points(), source=f"{dem.source} (delaunay)")
