@@ -349,3 +349,43 @@ def test_nearest_to_front_is_the_sorted_prefix_and_keeps_the_set(m, k, seed, lev
     np.testing.assert_array_equal(s[:min(k, m)], s0[want])
     np.testing.assert_array_equal(d[:min(k, m)], d0[want])
     assert sorted(s.tolist()) == sorted(s0.tolist()) and np.array_equal(c[:, 0], s) and np.array_equal(c[:, 1], d)
+
+
+# -- the break grid: each cell lists every segment within range of a point of it, in index order
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2 ** 31), st.floats(1.0, 80.0), st.integers(1, 60), st.sampled_from([1.0, 20.0, 150.0]))
+def test_the_break_grid_lists_every_segment_in_range_of_a_point_of_its_cell(seed, r, m, spread):
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(-100, 100, (m, 2))
+    b = a + rng.normal(0, spread, (m, 2))
+    ax, ay, bx, by = (np.ascontiguousarray(v) for v in (a[:, 0], a[:, 1], b[:, 0], b[:, 1]))
+    x0, y0, inv, nx, ny, start, items = SK.break_grid(ax, ay, bx, by, r, -120.0, -120.0, 120.0, 120.0)
+    cs = 1.0 / inv
+    grid_pts = [(x0 + i * cs, y0 + j * cs) for i in range(0, nx, max(nx // 6, 1)) for j in range(0, ny, max(ny // 6, 1))]
+    for x, y in np.concatenate([rng.uniform(-125, 125, (200, 2)), np.array(grid_pts).reshape(-1, 2)]):
+        lo, hi, gridded = SK.break_range(start, x0, y0, inv, nx, ny, 0, m, x, y)
+        got = items[lo:hi] if gridded else np.arange(m)
+        assert np.all(np.diff(got) > 0)  # ascending segment index
+        near = [e for e in range(m) if SK._closest(x, y, ax[e], ay[e], bx[e], by[e])[2] <= r]
+        assert set(near) <= set(got.tolist())
+
+
+def test_cell_distance_is_the_distance_to_the_square():
+    """Against a dense sampling of the square and the segment (the sampled distance is an upper bound
+    within the sampling step); a segment across the square is within a diagonal."""
+    rng = np.random.default_rng(1)
+    u = np.linspace(0.0, 1.0, 81)
+    for _ in range(200):
+        ax, ay, bx, by = rng.uniform(-30, 30, 4)
+        cx, cy, cs = *rng.uniform(-10, 10, 2), rng.uniform(0.5, 8.0)
+        sx, sy = ax + u * (bx - ax), ay + u * (by - ay)
+        qx = np.clip(sx, cx, cx + cs)
+        qy = np.clip(sy, cy, cy + cs)
+        sampled = np.hypot(sx - qx, sy - qy).min()
+        d = SK.cell_distance(ax, ay, bx, by, cx, cy, cs)
+        step = np.hypot(bx - ax, by - ay) / 80
+        if sampled <= step:  # across (or at) the square: within a diagonal
+            assert d <= max(sampled + 1e-9, cs * math.sqrt(2) + 1e-9)
+        else:
+            assert sampled - step - 1e-9 <= d <= sampled + 1e-9
