@@ -42,7 +42,7 @@ def _run(kernel, K, ends, danger, x, y, head, R):
     start = np.array([0, len(ends)], dtype=np.int64)
     idx = np.arange(len(ends), dtype=np.int64)
     kernel(obs, 0, 3, K, start, idx, ends, 2 * np.pi * np.arange(K) / K, danger, np.array([[x, y]]),
-           np.array([head]), math.cos(head), math.sin(head), R)
+           np.array([head]), math.cos(head), math.sin(head), R, np.full((K, 4), np.nan))
     return obs[0, 3:]
 
 

@@ -98,6 +98,7 @@ _DEFAULT = ObservationSpec()
 # serial vs 0.49 parallel, 500 robots 0.62 vs 0.63, 1 000 robots 0.96 vs 0.92 (bench/world.py's isolated stage,
 # 2048 before, favoured one thread longer). The same bits either way
 OBS_SERIAL_BELOW = 768
+OBS_RUNS = 64  # fill_observations cuts the rows into this many runs (each with its scratch) among the threads
 
 
 def _ratio(v, scale):
@@ -449,8 +450,8 @@ def beam_span(ax, ay, bx, by, c, s, K):
         span += 2.0 * math.pi
     if span > math.pi - 2.0 * step:
         return 0, K - 1
-    lo = math.ceil((fa - SPAN_MARGIN) / step)
-    hi = math.floor((fa + span + SPAN_MARGIN) / step)
+    lo = math.ceil((fa - SPAN_MARGIN) * (K / (2.0 * math.pi)))
+    hi = math.floor((fa + span + SPAN_MARGIN) * (K / (2.0 * math.pi)))
     if hi - lo + 1 >= K:
         return 0, K - 1
     return int(lo), int(hi)
@@ -483,26 +484,28 @@ def crossing(dx, dy, ex, ey, wx, wy, best):
 
 
 @njit(cache=True, inline="always")
-def scan_beams(obs, i, at, K, start, idx, ends, bearings, danger, pos, head, c, s, R):
+def scan_beams(obs, i, at, K, start, idx, ends, bearings, danger, pos, head, c, s, R, b):
     """Scan beams of robot ``i`` (columns ``at .. at + K``): along bearing ``head + bearings[k]``
     (``bearings`` :meth:`ObsLayout.scan_bearings`, ``2 pi k / K``), the distance to the first
     dangerous break among its contacts ``start[i]:start[i + 1]`` that the beam crosses
     (:func:`crossing`), over ``R`` (1 when none within ``R``; ``ends (B, 4)``: ax, ay, bx, by;
-    ``(c, s)`` the heading's cos and sin). Each dangerous contact is crossed with the beams of its
+    ``(c, s)`` the heading's cos and sin; ``b`` a ``(K, 4)`` scratch, overwritten). Each dangerous contact is crossed with the beams of its
     wedge only (:func:`beam_span`: ~3 of ``K``), and a beam's direction (a cos and a sin) is computed
     when first needed: O(contacts x 3 + beams touched) a robot instead of O(contacts x K) and ``K``
     cos/sin pairs. The minimum over the same crossings, so the same bits as every beam against every
     contact."""
     px = pos[i, 0]
     py = pos[i, 1]
-    b = np.empty((0, 4))
+    used = False
     for p in range(start[i], start[i + 1]):
         j = idx[p]
         if j < 0 or danger[j] == 0.0:
             continue
-        if b.shape[0] == 0:
-            b = np.zeros((K, 4))  # per beam: best, cos, sin, direction known (1.0)
-            b[:, 0] = R
+        if not used:
+            used = True
+            for k in range(K):  # per beam: best, cos, sin, direction known (1.0)
+                b[k, 0] = R
+                b[k, 3] = 0.0
         wx = ends[j, 0] - px
         wy = ends[j, 1] - py
         lo, hi = beam_span(wx, wy, ends[j, 2] - px, ends[j, 3] - py, c, s, K)
@@ -515,7 +518,7 @@ def scan_beams(obs, i, at, K, start, idx, ends, bearings, danger, pos, head, c, 
                 b[k, 3] = 1.0
             b[k, 0] = crossing(b[k, 1], b[k, 2], ends[j, 2] - ends[j, 0], ends[j, 3] - ends[j, 1], wx, wy, b[k, 0])
     for k in range(K):
-        obs[i, at + k] = b[k, 0] / R if b.shape[0] else 1.0
+        obs[i, at + k] = b[k, 0] / R if used else 1.0
 
 
 @njit(cache=True, inline="always")
@@ -566,20 +569,24 @@ def fill_observations(obs, o, o_rob, o_tgt, o_brk, o_ast, o_scn, ks, pos, head, 
     as_, ai, ad = assets
     ss, si, se, sbr = scan
     kr, kt, kb, ka, ks_ = ks
-    for i in prange(pos.shape[0]):  # one row per iteration: bit-identical for any thread count
-        if not live[i]:
-            continue
-        c = np.cos(head[i])
-        s = np.sin(head[i])
-        _own(obs, i, o, c, s, own_n, own_scale, planes, tri, target_idx, tpos, tz, pos, heights, R, dz_scale)
-        _point_slots(obs, i, o_rob, kr, rs, ri, rd, pos, pos, c, s, R)
-        _point_slots(obs, i, o_tgt, kt, ts, ti, td, tpos, pos, c, s, R)
-        _break_slots(obs, i, o_brk, kb, bs, bi, bd, bc, bn, bdrop, bdanger, pos, c, s, R, dz_scale)
-        _point_slots(obs, i, o_ast, ka, as_, ai, ad, apos, pos, c, s, R)
-        if ks_:
-            scan_beams(obs, i, o_scn, ks_, ss, si, se, sbr, bdanger, pos, head, c, s, R)
-        for m in range(obs.shape[1]):
-            obs[i, m] = min(max(obs[i, m], -1.0), 1.0)
+    n = pos.shape[0]
+    C = min(n, OBS_RUNS)
+    for run in prange(C):  # runs of rows, each row computed alone: bit-identical for any thread count
+        b = np.empty((max(ks_, 1), 4))  # the scan's scratch, one per run
+        for i in range(run * n // C, (run + 1) * n // C):
+            if not live[i]:
+                continue
+            c = np.cos(head[i])
+            s = np.sin(head[i])
+            _own(obs, i, o, c, s, own_n, own_scale, planes, tri, target_idx, tpos, tz, pos, heights, R, dz_scale)
+            _point_slots(obs, i, o_rob, kr, rs, ri, rd, pos, pos, c, s, R)
+            _point_slots(obs, i, o_tgt, kt, ts, ti, td, tpos, pos, c, s, R)
+            _break_slots(obs, i, o_brk, kb, bs, bi, bd, bc, bn, bdrop, bdanger, pos, c, s, R, dz_scale)
+            _point_slots(obs, i, o_ast, ka, as_, ai, ad, apos, pos, c, s, R)
+            if ks_:
+                scan_beams(obs, i, o_scn, ks_, ss, si, se, sbr, bdanger, pos, head, c, s, R, b)
+            for m in range(obs.shape[1]):
+                obs[i, m] = min(max(obs[i, m], -1.0), 1.0)
 
 
 def _grouped(contacts, n, k, extra=None):
