@@ -389,3 +389,26 @@ def test_cell_distance_is_the_distance_to_the_square():
             assert d <= max(sampled + 1e-9, cs * math.sqrt(2) + 1e-9)
         else:
             assert sampled - step - 1e-9 <= d <= sampled + 1e-9
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.integers(0, 2 ** 31), st.floats(0.5, 200.0), st.sampled_from([0.0, 1e-3, 1.0, 50.0, 1e4]),
+       st.sampled_from([0.0, 1e3, 5e6]), st.floats(-1e-6, 1e-6))
+def test_range_class_agrees_with_the_exact_distance_outside_its_band(seed, r, length, base, rel):
+    """On points at random and at the range's edge (within 1e-6 of it, on either side: the band and
+    just outside it), near segments of every length, at coordinates up to UTM's."""
+    rng = np.random.default_rng(seed)
+    lo2, hi2 = r * r * (1 - SK.RANGE_BAND), r * r * (1 + SK.RANGE_BAND)
+    for _ in range(20):
+        a = base + rng.uniform(-100, 100, 2)
+        b = a + length * rng.normal(0, 1, 2)
+        u = rng.uniform(-0.5, 1.5)
+        foot = a + min(max(u, 0.0), 1.0) * (b - a)
+        n = rng.normal(0, 1, 2)
+        if 0.0 < u < 1.0 and np.hypot(*(b - a)) > 0:
+            n = np.array([-(b - a)[1], (b - a)[0]])
+        p = foot + r * (1 + rel) * n / np.hypot(*n)
+        for x, y in (p, base + rng.uniform(-150, 150, 2)):
+            d = SK._closest(x, y, a[0], a[1], b[0], b[1])[2]
+            v = SK.range_class(x, y, a[0], a[1], b[0], b[1], lo2, hi2)
+            assert v == 2 or (v == 1) == (d <= r)

@@ -29,7 +29,7 @@ from .grid import SENSE_REACH, grid_block
 
 __all__ = ["terrain_arrays", "compact", "bearings", "break_grid", "touches", "entity_row", "near_row",
            "sight1", "deep_margin", "deep_inside", "in_view", "FOV_MARGIN", "locate1", "cell_distance",
-           "BREAK_CELL"]
+           "BREAK_CELL", "range_class", "RANGE_BAND"]
 
 
 def terrain_arrays(tin):
@@ -243,24 +243,64 @@ def break_range(bst, bx0, by0, binv, bnx, bny, b0, b1, x, y):
 
 @njit(cache=True, inline="always")
 def count_breaks(x, y, bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m):
-    """How many break segments of rows ``lo:hi`` (:func:`break_range`) lie within ``range_m``."""
+    """How many break segments of rows ``lo:hi`` (:func:`break_range`) lie within ``range_m``: each told
+    by :func:`range_class` (no division, no root), the few in its band by :func:`_closest` (the test
+    :func:`gather_breaks` makes), so the same count."""
     m = 0
+    lo2 = range_m * range_m * (1.0 - RANGE_BAND)
+    hi2 = range_m * range_m * (1.0 + RANGE_BAND)
     for w in range(lo, hi):
         e = bitems[w] if gridded else w
-        if _closest(x, y, bax[e], bay[e], bbx[e], bby[e])[2] <= range_m:
+        v = range_class(x, y, bax[e], bay[e], bbx[e], bby[e], lo2, hi2)
+        if v == 1 or (v == 2 and _closest(x, y, bax[e], bay[e], bbx[e], bby[e])[2] <= range_m):
             m += 1
     return m
+
+
+RANGE_BAND = 1e-6  # relative, on the squared range: range_class defers to the exact distance within it
+
+
+@njit(cache=True, inline="always")
+def range_class(x, y, ax, ay, bx, by, lo2, hi2):
+    """Whether segment ``a -> b`` lies within range of ``(x, y)``, from its squared distance without a
+    division or a root (to the nearer end, or ``cross^2`` against ``lo2 L^2`` / ``hi2 L^2`` along the
+    segment): 1 clearly in (``< lo2``), 0 clearly out (``> hi2``), 2 in the band between, where only
+    :func:`_closest`'s distance decides. ``lo2, hi2`` the squared range times ``1 -/+``
+    :data:`RANGE_BAND`; both distances are within ~1e-15 (1 + L / range + |coordinates| / range) of
+    the true one, far inside the band (coordinates below 1e7 m, segments below 1e6 ranges), so
+    outside it they agree with :func:`_closest`'s test."""
+    apx = x - ax
+    apy = y - ay
+    abx = bx - ax
+    aby = by - ay
+    dot = apx * abx + apy * aby
+    L2 = abx * abx + aby * aby
+    if dot <= 0.0:
+        d2 = apx * apx + apy * apy
+        return 1 if d2 < lo2 else (0 if d2 > hi2 else 2)
+    if dot >= L2:
+        qx = x - bx
+        qy = y - by
+        d2 = qx * qx + qy * qy
+        return 1 if d2 < lo2 else (0 if d2 > hi2 else 2)
+    cr = apx * aby - apy * abx
+    c2 = cr * cr
+    return 1 if c2 < lo2 * L2 else (0 if c2 > hi2 * L2 else 2)
 
 
 @njit(cache=True)  # called, not inlined: one compiled body for the env and the vector env
 def gather_breaks(i, x, y, bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m, p0, dist, seg, closest, obs,
                   k_front):
     """Robot ``i``'s break contacts (rows ``lo:hi`` of :func:`break_range`, gathered in ascending
-    segment index) written from ``p0`` on: all sorted by (distance, index) (``k_front < 0``,
+    segment index; those :func:`range_class` puts clearly out skipped before :func:`_closest`) written from
+    ``p0`` on: all sorted by (distance, index) (``k_front < 0``,
     :func:`sort_contacts`) or the ``k_front`` nearest first (:func:`nearest_to_front`)."""
     m = 0
+    hi2 = range_m * range_m * (1.0 + RANGE_BAND)
     for w in range(lo, hi):
         e = bitems[w] if gridded else w
+        if range_class(x, y, bax[e], bay[e], bbx[e], bby[e], 0.0, hi2) == 0:
+            continue  # clearly out of range: no division, no root
         cx, cy, d = _closest(x, y, bax[e], bay[e], bbx[e], bby[e])
         if d <= range_m:
             _put(dist, seg, closest, p0 + m, d, e, cx, cy)
