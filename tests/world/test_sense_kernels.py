@@ -349,3 +349,66 @@ def test_nearest_to_front_is_the_sorted_prefix_and_keeps_the_set(m, k, seed, lev
     np.testing.assert_array_equal(s[:min(k, m)], s0[want])
     np.testing.assert_array_equal(d[:min(k, m)], d0[want])
     assert sorted(s.tolist()) == sorted(s0.tolist()) and np.array_equal(c[:, 0], s) and np.array_equal(c[:, 1], d)
+
+
+# -- the break grid: each cell lists every segment within range of a point of it, in index order
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2 ** 31), st.floats(1.0, 80.0), st.integers(1, 60), st.sampled_from([1.0, 20.0, 150.0]))
+def test_the_break_grid_lists_every_segment_in_range_of_a_point_of_its_cell(seed, r, m, spread):
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(-100, 100, (m, 2))
+    b = a + rng.normal(0, spread, (m, 2))
+    ax, ay, bx, by = (np.ascontiguousarray(v) for v in (a[:, 0], a[:, 1], b[:, 0], b[:, 1]))
+    x0, y0, inv, nx, ny, start, items = SK.break_grid(ax, ay, bx, by, r, -120.0, -120.0, 120.0, 120.0)
+    cs = 1.0 / inv
+    grid_pts = [(x0 + i * cs, y0 + j * cs) for i in range(0, nx, max(nx // 6, 1)) for j in range(0, ny, max(ny // 6, 1))]
+    for x, y in np.concatenate([rng.uniform(-125, 125, (200, 2)), np.array(grid_pts).reshape(-1, 2)]):
+        lo, hi, gridded = SK.break_range(start, x0, y0, inv, nx, ny, 0, m, x, y)
+        got = items[lo:hi] if gridded else np.arange(m)
+        assert np.all(np.diff(got) > 0)  # ascending segment index
+        near = [e for e in range(m) if SK._closest(x, y, ax[e], ay[e], bx[e], by[e])[2] <= r]
+        assert set(near) <= set(got.tolist())
+
+
+def test_cell_distance_is_the_distance_to_the_square():
+    """Against a dense sampling of the square and the segment (the sampled distance is an upper bound
+    within the sampling step); a segment across the square is within a diagonal."""
+    rng = np.random.default_rng(1)
+    u = np.linspace(0.0, 1.0, 81)
+    for _ in range(200):
+        ax, ay, bx, by = rng.uniform(-30, 30, 4)
+        cx, cy, cs = *rng.uniform(-10, 10, 2), rng.uniform(0.5, 8.0)
+        sx, sy = ax + u * (bx - ax), ay + u * (by - ay)
+        qx = np.clip(sx, cx, cx + cs)
+        qy = np.clip(sy, cy, cy + cs)
+        sampled = np.hypot(sx - qx, sy - qy).min()
+        d = SK.cell_distance(ax, ay, bx, by, cx, cy, cs)
+        step = np.hypot(bx - ax, by - ay) / 80
+        if sampled <= step:  # across (or at) the square: within a diagonal
+            assert d <= max(sampled + 1e-9, cs * math.sqrt(2) + 1e-9)
+        else:
+            assert sampled - step - 1e-9 <= d <= sampled + 1e-9
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.integers(0, 2 ** 31), st.floats(0.5, 200.0), st.sampled_from([0.0, 1e-3, 1.0, 50.0, 1e4]),
+       st.sampled_from([0.0, 1e3, 5e6]), st.floats(-1e-6, 1e-6))
+def test_range_class_agrees_with_the_exact_distance_outside_its_band(seed, r, length, base, rel):
+    """On points at random and at the range's edge (within 1e-6 of it, on either side: the band and
+    just outside it), near segments of every length, at coordinates up to UTM's."""
+    rng = np.random.default_rng(seed)
+    lo2, hi2 = r * r * (1 - SK.RANGE_BAND), r * r * (1 + SK.RANGE_BAND)
+    for _ in range(20):
+        a = base + rng.uniform(-100, 100, 2)
+        b = a + length * rng.normal(0, 1, 2)
+        u = rng.uniform(-0.5, 1.5)
+        foot = a + min(max(u, 0.0), 1.0) * (b - a)
+        n = rng.normal(0, 1, 2)
+        if 0.0 < u < 1.0 and np.hypot(*(b - a)) > 0:
+            n = np.array([-(b - a)[1], (b - a)[0]])
+        p = foot + r * (1 + rel) * n / np.hypot(*n)
+        for x, y in (p, base + rng.uniform(-150, 150, 2)):
+            d = SK._closest(x, y, a[0], a[1], b[0], b[1])[2]
+            v = SK.range_class(x, y, a[0], a[1], b[0], b[1], lo2, hi2)
+            assert v == 2 or (v == 1) == (d <= r)

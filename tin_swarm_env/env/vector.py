@@ -171,6 +171,7 @@ class VectorEnv:
         K = int(self.params.sensor.max_candidates)
         self._slots = [(np.empty((R, K), np.int64), np.empty((R, K)), np.empty((R, K), np.int8), z(R, np.int64))
                        for _ in range(3)]
+        self._brk_buf = (z(0, np.int64), z(0, np.int64), z(0), z((0, 2)))  # the break contacts, reused each step
         P = self.params
         self._step_p = step_scalars(P)  # the scalars World._step passes to step_copies (one home)
         self._own_scale = (float(P.battery.capacity_j), float(P.robot.max_speed_mps), np.pi / 2, 90.0)
@@ -384,7 +385,10 @@ class VectorEnv:
                self._ause), self._slots[2])
         brk, (ro, rt, rd, rstart) = sense_copies(pk, self._wor, self._cop, self._off, px, py, self._head, tri_g,
                                                  self._h, self._status, P, self._slots[0], TG, AS,
-                                                 k_front=self.layout.k_breaks)  # the slots read the nearest only
+                                                 k_front=self.layout.k_breaks,  # the slots read the nearest only
+                                                 buffers=self._brk_buf)
+        if len(brk[0]) > len(self._brk_buf[0]):
+            self._brk_buf = brk[:4]  # grown: kept for the next steps (read only within this one)
         tg = compact(*self._slots[1], px, py, self._head, TG[0][0], TG[0][1])
         at = compact(*self._slots[2], px, py, self._head, AS[0][0], AS[0][1])
         sin_slope, aspect_rad, slope_deg, _ = pk.tilt

@@ -225,8 +225,8 @@ class SensorReadings:
 
 
 class BreakIndex:
-    """A static grid over the break segments: each cell (side ``>= piece_m``, the sensor
-    range) lists every segment that can lie within ``piece_m`` of a point in it
+    """A static grid over the break segments: each cell (side ``>= piece_m / 2``, ``piece_m`` the
+    sensor range) lists every segment that can lie within ``piece_m`` of a point in it
     (:func:`~.sense_kernels.break_grid`), over the bounds given (the TIN's)."""
 
     def __init__(self, breaks, piece_m: float, bounds=None):
