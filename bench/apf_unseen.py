@@ -43,9 +43,9 @@ median steps of the robots that arrived. After the table: where the APF robots t
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import importlib.util
 import math
+import os
 import subprocess
 import sys
 import tempfile
@@ -336,7 +336,8 @@ def main(argv=None) -> int:
     p.add_argument("--robots", type=apf._at_least(1), default=20, help="robots per episode (default 20)")
     p.add_argument("--cap", type=apf._at_least(1), default=2500, metavar="N",
                    help="the reference's episode length; the horizon is twice its median steps, at most this")
-    p.add_argument("--only", type=lambda s: s.split(","), default=None, help=f"comma-separated shapes of {list(SHAPES)}")
+    p.add_argument("--only", type=lambda s: s.split(","), default=None,
+                   help=f"comma-separated shapes of {list(SHAPES)}")
     p.add_argument("--jobs", type=int, default=1, help="processes for the episodes (results do not depend on it)")
     p.add_argument("--quick", action="store_true", help=f"a smoke run ({QUICK}); prints only, unless --out is given")
     p.add_argument("--out", default=None, help="Markdown file (default docs/figures/apf_unseen.md; none with --quick)")
@@ -348,10 +349,11 @@ def main(argv=None) -> int:
     bad = [s for s in args.only or () if s not in SHAPES]
     if bad:
         p.error(f"--only: unknown shape(s) {bad}; choose from {','.join(SHAPES)}")
-    out = args.out if args.out is not None else (None if args.quick else str(ROOT / "docs" / "figures" / "apf_unseen.md"))
+    out = args.out if args.out is not None else (None if args.quick else
+                                                 str(ROOT / "docs" / "figures" / "apf_unseen.md"))
     cmd = " ".join(["python bench/apf_unseen.py", *argv])
     lines = [f"Measured with `{cmd}` at commit {_commit()}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
-             f"load average {apf._load()} at the start ({__import__('os').cpu_count()} cores, shared).", ""]
+             f"load average {apf._load()} at the start ({os.cpu_count()} cores, shared).", ""]
 
     def emit(line=""):
         print(line, flush=True)
