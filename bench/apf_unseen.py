@@ -140,11 +140,10 @@ def diag_trench(X, Y):
 
 
 def pillars(X, Y):
-    d = np.full(X.shape, np.inf)
-    for j, y in enumerate(np.arange(20.0, 290.0, 26.0 * math.sqrt(3) / 2)):
+    d, dy = np.full(X.shape, np.inf), 26.0 * math.sqrt(3) / 2  # a hexagonal lattice, 26 m between centres
+    for j in range(-6, 7):  # row 0 on the straight line (y = 150): pillars centred on it at x = 95, 121, ...
         for x in np.arange(95.0 + (13.0 if j % 2 else 0.0), 235.0, 26.0):
-            d = np.minimum(d, np.hypot(X - x, Y - y))
-    # the row nearest y = 150 (j = 6, y = 155.1) is shifted: a pillar at x = 95 + 26 k covers the line
+            d = np.minimum(d, np.hypot(X - x, Y - 150.0 - j * dy))
     return _cliff_wall(d, 8.0, 10.0), (262.0, 150.0)
 
 
@@ -210,19 +209,30 @@ def shape_config(name: str, folder, image: str = "", robots: int = 20, max_cycle
     return mirror_scenario(cfg, image) if image else cfg
 
 
+CLIFF_DEG = 60.0  # steeper: a cliff (the generators' cliff_min_deg for a 30 deg robot); between max_slope_deg
+# and this: hillside too steep to drive
+GROUND = {"u_pocket": "cliff", "s_walls": "hillside", "crater": "both", "diag_trench": "cliff", "pillars": "cliff",
+          "ridge_saddle": "hillside", "spiral": "cliff", "switchback": "cliff", "nested_u": "hillside"}
+
+
 def solvability(cfg, samples: int = 400) -> dict:
     """``way_m``: the drivable way from the spawn region's centre to the target (the cost-to-go
-    field; inf: none); ``straight_m``; ``blocked``: the share of the straight line's sample points on
-    ground the robots cannot drive (a steep triangle, or off the TIN)."""
+    field; inf: none); ``corners_m``: the same from the spawn region's corners; ``straight_m``;
+    ``blocked``: the share of the straight line's sample points on ground the robots cannot drive
+    (a steep triangle, or off the TIN), ``hillside`` and ``cliff`` those of them under and over
+    :data:`CLIFF_DEG`."""
     stage = build_stage(cfg)
     field, goal = stage.fields[0], stage.targets[0]
     x0, y0, x1, y1 = stage.spawn_region
     start = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
     line = start + np.linspace(0.0, 1.0, samples)[:, None] * (goal - start)
     tri = stage.world.tin.locate(line)
+    slope = np.where(tri < 0, 90.0, stage.world.tin.slope_deg[np.maximum(tri, 0)])
     bad = (tri < 0) | stage.world.steep[np.maximum(tri, 0)]
-    return {"way_m": float(field.distance_at(start[None])[0]), "straight_m": float(np.hypot(*(goal - start))),
-            "blocked": float(bad.mean())}
+    corners = np.array([[x0, y0], [x0, y1], [x1, y0], [x1, y1]])
+    return {"way_m": float(field.distance_at(start[None])[0]), "corners_m": field.distance_at(corners),
+            "straight_m": float(np.hypot(*(goal - start))), "blocked": float(bad.mean()),
+            "hillside": float(np.mean(bad & (slope <= CLIFF_DEG))), "cliff": float(np.mean(bad & (slope > CLIFF_DEG)))}
 
 
 _ROWS: list = []  # (shape, image, max_cycles, robots) per row, set before the worker processes fork
@@ -365,11 +375,15 @@ def main(argv=None) -> int:
          "stalled and looping: of the timed out; median steps: of the robots that arrived.\n")
     with tempfile.TemporaryDirectory(prefix="apf_unseen_") as folder:
         _FOLDER[:] = [folder]
-        emit("| shape | way / straight line | straight line blocked |")
-        emit("|---|---:|---:|")
+        emit("The shapes: the drivable way from the spawn region's centre to the target (the cost-to-go field) "
+             "against the straight line, and the share of the straight line on ground the robots cannot drive, "
+             f"hillside ({STEEP_DEG:.0f} deg; up to {CLIFF_DEG:.0f}) and cliff (steeper).\n")
+        emit("| shape | ground | way / straight line | straight line blocked: hillside | cliff |")
+        emit("|---|---|---:|---:|---:|")
         for shape in args.only or SHAPES:
             sol = solvability(shape_config(shape, folder))
-            emit(f"| {shape} | {sol['way_m']:.0f} m / {sol['straight_m']:.0f} m | {sol['blocked']:.0%} |")
+            emit(f"| {shape} | {GROUND[shape]} | {sol['way_m']:.0f} m / {sol['straight_m']:.0f} m | "
+                 f"{sol['hillside']:.0%} | {sol['cliff']:.0%} |")
         emit("\n| shape | image | policy | steps | arrived | fell | timed out | battery | stalled | looping "
              "| median steps |")
         emit("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|")
