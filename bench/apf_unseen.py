@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import json
 import math
 import os
 import subprocess
@@ -274,69 +275,108 @@ def _run(rows_jobs, jobs: int):
 
 
 def _stats(outs, horizon: int) -> dict:
+    """One row's counts at ``horizon``, the median steps of the robots that arrived (None: none did) and,
+    of the timed-out robots, ``where``: how many, the medians of their distance-to-go (the map's) at the
+    start and the end, and of their end points x and y (m)."""
     reasons = np.concatenate([_cut(o, horizon)[0] for o in outs])
     steps = np.concatenate([_cut(o, horizon)[1] for o in outs])
-    timed = np.concatenate([o.reasons == Reason.TIMEOUT for o in outs]) & (reasons == Reason.TIMEOUT)
-    n = len(reasons)
+    timed = reasons == Reason.TIMEOUT
+    ran_out = timed & np.concatenate([o.reasons == Reason.TIMEOUT for o in outs])  # stalled/looping: to its end
     got = reasons == Reason.ARRIVED
-    return {"n": n, "arrived": int(got.sum()), "fell": int(np.sum(reasons == Reason.FELL)),
-            "timed_out": int(np.sum(reasons == Reason.TIMEOUT)), "battery": int(np.sum(reasons == Reason.BATTERY)),
-            "stalled": int(np.concatenate([o.stalled for o in outs])[timed].sum()),
-            "looping": int(np.concatenate([o.looping for o in outs])[timed].sum()),
-            "median": float(np.median(steps[got])) if got.any() else float("nan")}
+    end = [np.concatenate([o.end[k] for o in outs])[timed] for k in range(3)]
+    where = [int(timed.sum())] + ([float(np.median(end[0])), float(np.median(end[1])),
+                                   float(np.median(end[2][:, 0])), float(np.median(end[2][:, 1]))]
+                                  if timed.any() else [])
+    return {"n": len(reasons), "arrived": int(got.sum()), "fell": int(np.sum(reasons == Reason.FELL)),
+            "timed_out": int(timed.sum()), "battery": int(np.sum(reasons == Reason.BATTERY)),
+            "stalled": int(np.concatenate([o.stalled for o in outs])[ran_out].sum()),
+            "looping": int(np.concatenate([o.looping for o in outs])[ran_out].sum()),
+            "median": float(np.median(steps[got])) if got.any() else None, "where": where}
 
 
-def shape_rows(shape: str, args, emit) -> dict:
-    """Both images of ``shape``: the reference at ``args.cap``, the horizon, then APF; returns
-    ``{(image, policy): (stats, outcomes)}`` and emits the rows (the two images of a policy side by side)."""
+def run_shape(shape: str, args, cmd: str) -> dict:
+    """Both images of ``shape``: the reference at ``args.cap``, the horizon, then APF. A record (JSON-able):
+    ``rows[image][policy]`` the stats of :func:`_stats`, with the run's seeds, robots, horizon, command,
+    commit and load averages."""
     seeds = range(args.seeds)
-    res, t = {}, time.perf_counter()
+    res, t, load = {}, time.perf_counter(), apf._load()
     geo = POLICY_NAMES[0]
     for image, _ in IMAGES:
         _ROWS.append((shape, image, args.cap, args.robots))
         res[(image, geo)] = _run([(len(_ROWS) - 1, geo, s) for s in seeds], args.jobs)
     meds = [_stats(res[(im, geo)], args.cap)["median"] for im, _ in IMAGES]
-    horizon = args.cap if any(np.isnan(meds)) else min(args.cap, 50 * math.ceil(2 * max(meds) / 50))
+    horizon = args.cap if None in meds else min(args.cap, 50 * math.ceil(2 * max(meds) / 50))
     for image, _ in IMAGES:
         _ROWS.append((shape, image, horizon, args.robots))
         res[(image, "apf")] = _run([(len(_ROWS) - 1, "apf", s) for s in seeds], args.jobs)
-    out = {}
-    for name in POLICY_NAMES:
-        for image, label in IMAGES:
-            s = _stats(res[(image, name)], horizon)
-            out[(image, name)] = (s, res[(image, name)])
-            n = s["n"]
-            med = "" if np.isnan(s["median"]) else f"{s['median']:.0f}"
-            emit(f"| {shape} | {label} | {name} | {horizon} | {s['arrived'] / n:.1%} | {s['fell'] / n:.1%} | "
-                 f"{s['timed_out'] / n:.1%} | {s['battery'] / n:.1%} | {s['stalled'] / n:.1%} | "
-                 f"{s['looping'] / n:.1%} | {med} |")
     print(f"  ({shape}: {time.perf_counter() - t:.0f} s)", flush=True)
-    return out
+    return {"shape": shape, "seeds": args.seeds, "robots": args.robots, "cap": args.cap, "horizon": horizon,
+            "command": cmd, "commit": _commit(), "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+            "load_start": load, "load_end": apf._load(), "seconds": round(time.perf_counter() - t),
+            "rows": {image: {name: _stats(res[(image, name)], horizon) for name in POLICY_NAMES}
+                     for image, _ in IMAGES}}
 
 
-def where_rows(results: dict, emit):
+def result_rows(records: dict, emit):
+    """The table: per shape and policy, its two images side by side (rows one after the other)."""
+    emit("| shape | image | policy | seeds x robots | steps | arrived | fell | timed out | battery | stalled "
+         "| looping | median steps |")
+    emit("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for shape, rec in records.items():
+        for name in POLICY_NAMES:
+            for image, label in IMAGES:
+                s = rec["rows"][image][name]
+                n = s["n"]
+                med = "" if s["median"] is None else f"{s['median']:.0f}"
+                emit(f"| {shape} | {label} | {name} | {rec['seeds']} x {rec['robots']} | {rec['horizon']} | "
+                     f"{s['arrived'] / n:.1%} | {s['fell'] / n:.1%} | {s['timed_out'] / n:.1%} | "
+                     f"{s['battery'] / n:.1%} | {s['stalled'] / n:.1%} | {s['looping'] / n:.1%} | {med} |")
+    emit("")
+    for name in POLICY_NAMES:
+        tot = [rec["rows"][image][name] for rec in records.values() for image, _ in IMAGES]
+        n, got = sum(s["n"] for s in tot), sum(s["arrived"] for s in tot)
+        emit(f"- **{name}**, all shapes and images: {got} / {n} robots arrived ({got / max(n, 1):.1%}), "
+             f"{sum(s['fell'] for s in tot)} fell.")
+
+
+def where_rows(records: dict, emit):
     """Per shape and image, APF robots that timed out: how many, their median distance-to-go (the
     map's) at the start and at the end, and their median end point."""
     emit("\nAPF robots that timed out: distance-to-go on the map (m, median) at the start and at the end, and "
          "their median end point (x, y) m; rows with none left out")
     emit("| shape | image | timed out | distance-to-go at start | at end | end point (median) |")
     emit("|---|---|---:|---:|---:|---|")
-    for shape, per in results.items():
+    for shape, rec in records.items():
         for image, label in IMAGES:
-            outs = per[(image, "apf")][1]
-            sel = [(o.end, o.reasons == Reason.TIMEOUT) for o in outs]
-            d0 = np.concatenate([e[0][m] for e, m in sel])
-            if not len(d0):
-                continue
-            d1 = np.concatenate([e[1][m] for e, m in sel])
-            xy = np.concatenate([e[2][m] for e, m in sel])
-            emit(f"| {shape} | {label} | {len(d0)} | {np.median(d0):.0f} | {np.median(d1):.0f} | "
-                 f"({np.median(xy[:, 0]):.0f}, {np.median(xy[:, 1]):.0f}) |")
+            w = rec["rows"][image]["apf"]["where"]
+            if w[0]:
+                emit(f"| {shape} | {label} | {w[0]} | {w[1]:.0f} | {w[2]:.0f} | ({w[3]:.0f}, {w[4]:.0f}) |")
+
+
+def runs_rows(records: dict, emit):
+    emit("\nThe runs (one per shape where the bench ran shape by shape, `--parts`):\n")
+    for shape, rec in records.items():
+        emit(f"- {shape}: `{rec['command']}` at commit {rec['commit']}, {rec['date']}, load average "
+             f"{rec['load_start']} at the start, {rec['load_end']} at the end, {rec['seconds']} s.")
 
 
 def _commit() -> str:
     return subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                           check=False).stdout.strip() or "?"
+
+
+def _record(shape: str, args, cmd: str) -> dict:
+    """Shape ``shape``'s record: read from ``args.parts`` when there, else run (and saved there)."""
+    part = Path(args.parts) / f"{shape}.json" if args.parts else None
+    if part is not None and part.exists():
+        return json.loads(part.read_text())
+    rec = run_shape(shape, args, cmd)
+    if part is not None:
+        part.parent.mkdir(parents=True, exist_ok=True)
+        tmp = part.with_suffix(".json.tmp")
+        tmp.write_text(json.dumps(rec, indent=1) + "\n")
+        tmp.replace(part)
+    return rec
 
 
 def main(argv=None) -> int:
@@ -348,9 +388,13 @@ def main(argv=None) -> int:
                    help="the reference's episode length; the horizon is twice its median steps, at most this")
     p.add_argument("--only", type=lambda s: s.split(","), default=None,
                    help=f"comma-separated shapes of {list(SHAPES)}")
+    p.add_argument("--parts", default=None, metavar="DIR",
+                   help="shape by shape: a shape's results are read from DIR/<shape>.json when there, else run and "
+                        "saved there (run each shape with --only, then once without to write the whole table)")
     p.add_argument("--jobs", type=int, default=1, help="processes for the episodes (results do not depend on it)")
     p.add_argument("--quick", action="store_true", help=f"a smoke run ({QUICK}); prints only, unless --out is given")
-    p.add_argument("--out", default=None, help="Markdown file (default docs/figures/apf_unseen.md; none with --quick)")
+    p.add_argument("--out", default=None, help="Markdown file (default docs/figures/apf_unseen.md; none with --quick "
+                                                "or with --parts and --only)")
     args = p.parse_args(argv)
     if args.quick:
         args.only = args.only or QUICK["only"]
@@ -359,20 +403,23 @@ def main(argv=None) -> int:
     bad = [s for s in args.only or () if s not in SHAPES]
     if bad:
         p.error(f"--only: unknown shape(s) {bad}; choose from {','.join(SHAPES)}")
-    out = args.out if args.out is not None else (None if args.quick else
+    out = args.out if args.out is not None else (None if args.quick or (args.parts and args.only) else
                                                  str(ROOT / "docs" / "figures" / "apf_unseen.md"))
     cmd = " ".join(["python bench/apf_unseen.py", *argv])
-    lines = [f"Measured with `{cmd}` at commit {_commit()}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
-             f"load average {apf._load()} at the start ({os.cpu_count()} cores, shared).", ""]
+    lines = [f"Written by `{cmd}` at commit {_commit()}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
+             f"load average {apf._load()} at the start ({os.cpu_count()} cores, shared); each shape's own run is "
+             "listed at the end.", ""]
 
     def emit(line=""):
         print(line, flush=True)
         lines.append(line)
 
-    emit(f"{args.seeds} seeds x {args.robots} robots per shape, image and policy. Episode length (steps): twice "
-         f"the reference's median steps to arrive on the shape (the larger image's), rounded up to 50, at most "
-         f"{args.cap}; the reference ran {args.cap}-step episodes, scored at that horizon. battery: ran flat; "
-         "stalled and looping: of the timed out; median steps: of the robots that arrived.\n")
+    emit(f"Seeds x robots per shape, image and policy: in the table (default {args.seeds} x {args.robots}). "
+         "Episode length (steps): twice the reference's median steps to arrive on the shape (the larger image's), "
+         f"rounded up to 50, at most the cap ({args.cap}); the reference ran cap-step episodes, scored at that "
+         "horizon. battery: ran flat; stalled and looping: of the timed out that ran to the end; median steps: "
+         "of the robots that arrived.\n")
+    shapes = args.only or list(SHAPES)
     with tempfile.TemporaryDirectory(prefix="apf_unseen_") as folder:
         _FOLDER[:] = [folder]
         emit("The shapes: the drivable way from the spawn region's centre to the target (the cost-to-go field) "
@@ -380,21 +427,15 @@ def main(argv=None) -> int:
              f"hillside ({STEEP_DEG:.0f} deg; up to {CLIFF_DEG:.0f}) and cliff (steeper).\n")
         emit("| shape | ground | way / straight line | straight line blocked: hillside | cliff |")
         emit("|---|---|---:|---:|---:|")
-        for shape in args.only or SHAPES:
+        for shape in shapes:
             sol = solvability(shape_config(shape, folder))
             emit(f"| {shape} | {GROUND[shape]} | {sol['way_m']:.0f} m / {sol['straight_m']:.0f} m | "
-                 f"{sol['hillside']:.0%} | {sol['cliff']:.0%} |")
-        emit("\n| shape | image | policy | steps | arrived | fell | timed out | battery | stalled | looping "
-             "| median steps |")
-        emit("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|")
-        results = {shape: shape_rows(shape, args, emit) for shape in args.only or SHAPES}
+                 f"{sol['hillside']:.1%} | {sol['cliff']:.1%} |")
         emit("")
-        for name in POLICY_NAMES:
-            tot = [v[0] for per in results.values() for (_, nm), v in per.items() if nm == name]
-            n = sum(s["n"] for s in tot)
-            emit(f"- **{name}**, all shapes and images: {sum(s['arrived'] for s in tot)} / {n} arrived "
-                 f"({sum(s['arrived'] for s in tot) / n:.1%}), {sum(s['fell'] for s in tot)} fell.")
-        where_rows(results, emit)
+        records = {shape: _record(shape, args, cmd) for shape in shapes}
+    result_rows(records, emit)
+    where_rows(records, emit)
+    runs_rows(records, emit)
     emit(f"\nLoad average at the end: {apf._load()}.")
     if out:
         tmp = Path(out).with_suffix(".md.tmp")
