@@ -496,3 +496,52 @@ def test_memory_per_robot_is_as_documented():
     per_robot = sum(getattr(mem, f).nbytes for f in _ROW_FIELDS)
     assert per_robot == 256**2 + 5 * ROUTE_PER_CELL * 256 + 17 * 3 + 90 == 68237
     assert "68 237" in ChartMemory.__doc__
+
+
+def _plan_row_on(g, sa, sb):
+    from tin_swarm_env.policies.chart import _plan_row
+
+    c = g.shape[0]
+    work = (np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), np.bool_))
+    route = np.zeros(ROUTE_PER_CELL * c, np.int32)
+    shut = np.zeros(ROUTE_PER_CELL * c, np.uint8)
+    found, n, k, forgot = _plan_row(g, sa, sb, 3.0, 2.0, 0.0, 0.0, 0.0, *work, route, shut)
+    return found, [(int(v) // c, int(v) % c) for v in route[:n]], forgot
+
+
+def test_with_no_open_way_it_takes_the_way_through_the_fewest_walls_and_keeps_its_chart():
+    """A pass narrower than a cell is charted shut by its two sides: with no open way the robot plans
+    through the fewest wall cells (the thin place of a wall two cells thick elsewhere), forgetting
+    nothing; once it has stalled there (stuck), through the next fewest."""
+    from tin_swarm_env.policies.chart import STUCK
+
+    g = np.zeros((16, 16), np.uint8)  # target at the centre (8, 8); the robot at (1, 8)
+    g[4:6, :] = WALL  # a wall across the whole chart, two cells thick ...
+    g[5, 13] = 0  # ... but for one cell at column 13 (the narrow pass charted shut)
+    before = g.copy()
+    found, way, forgot = _plan_row_on(g, 1, 8)
+    assert found and not forgot
+    assert (g == before).all()  # no wall forgotten (the rule before forgot the 7 x 7 walls round it)
+    crossed = [(a, b) for a, b in way if g[a, b] == WALL]
+    assert crossed == [(4, 13)]  # one wall cell, at the thin place
+    g[4, 13] = STUCK  # it drove there and stalled: the next way crosses two wall cells, not the stuck one
+    found, way, forgot = _plan_row_on(g, 1, 8)
+    assert found and not forgot and (4, 13) not in way
+    assert sum(g[a, b] == WALL for a, b in way) == 2
+    g[:] = 0
+    g[4, :] = WALL  # a wall one cell thick with an open gap at its far end, column 0
+    g[4, 0] = 0
+    found, way, _ = _plan_row_on(g, 1, 8)
+    assert found and all(g[a, b] == 0 for a, b in way)  # an open way, however long, before any wall
+
+
+def test_a_wall_mark_never_turns_a_stuck_cell_back_and_a_stall_marks_walls_stuck():
+    from tin_swarm_env.policies.chart import STUCK, _stall_row, _wall_at
+
+    g = np.zeros((8, 8), np.uint8)
+    g[5, 4] = STUCK
+    assert not _wall_at(g, 1.0, 1.5, 0.5) and g[5, 4] == STUCK  # cell (5, 4) is x in [1, 2), y in [0, 1)
+    g[6, 4] = WALL
+    anchor = np.zeros(2)
+    stall, stuck = _stall_row(g, 1.0, 0.5, 0.5, np.array([2.5, 0.5]), anchor, 10, 5, 0.5, True)
+    assert stuck and g[6, 4] == STUCK  # the wall it drove into on its straight way is stuck now

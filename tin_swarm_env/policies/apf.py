@@ -144,9 +144,15 @@ a stall anchor and count. Each step:
    attraction leans to. The shield is unchanged.
 4. *Stall*: not two body lengths (or 1.5 cells) from where it was ``stall_steps`` steps ago (twice
    that with robots near): the cells on the straight line to the point it heads for become *stuck*.
-5. *No way*: it forgets its stuck cells, then the walls within 3 cells of where it stands, then its
-   whole chart, planning again after each (a corner sensed through ``K_b`` closest points can be
-   charted shut where it is open). It never stands still for want of a way: no unreachable verdict.
+5. *No way* over open cells: it takes the way through the fewest walls instead (A* again, a wall
+   cell entered, or a diagonal step past one, costing ``cells`` more; stuck cells stay shut). On
+   real terrain a pass narrower than about two cells (the chart's cells are sized by the distance
+   to go, the passes by the hillside) is charted shut by the walls of its two sides, and a robot
+   in a channel that narrow has every neighbouring cell shut: the way through the fewest walls is
+   the narrowest charted gap, which it then tries. Where it stalls (step 4) the cells on its
+   straight way become stuck, walls included (a wall cell never turns a stuck one back), so it
+   tries the next gap. Failing that it forgets its stuck cells, then its whole chart, planning
+   again after each. It never stands still for want of a way: no unreachable verdict.
 
 *Why it terminates, and where it may not.* Each mark shuts an open cell and the chart is finite, so
 between two forgettings the chart changes finitely often; while nothing on or beside its way changes,

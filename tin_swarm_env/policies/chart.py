@@ -197,7 +197,7 @@ def _wall_at(g, w, x, y):
         return False
     c = g.shape[0]
     a, b = int(fa) + c // 2, int(fb) + c // 2
-    if 0 <= a < c and 0 <= b < c and g[a, b] != WALL:
+    if 0 <= a < c and 0 <= b < c and g[a, b] == OPEN:  # a stuck cell stays stuck (step 5)
         g[a, b] = WALL
         return True
     return False
@@ -265,8 +265,8 @@ def _mark_row(g, w, qx, qy, cs, sn, rel, nrm_b, danger, border, lp, lo, s_rel, s
 @njit(cache=True)
 def _stall_row(g, w, qx, qy, way, anchor, stall, limit, body_m, has_t):
     """Stalls (chart search step 4): a robot not ``max(2 body_m, 1.5 w)`` from ``anchor`` for more
-    than ``limit`` steps shuts (``STUCK``) the open cells at 1/4, 1/2, 3/4 and all of the straight
-    way to ``way``. Returns ``(stall count, stuck)``; ``anchor (2,)`` is updated in place."""
+    than ``limit`` steps marks ``STUCK`` the cells (open or wall) at 1/4, 1/2, 3/4 and all of the
+    straight way to ``way``. Returns ``(stall count, stuck)``; ``anchor (2,)`` is updated in place."""
     dx, dy = qx - anchor[0], qy - anchor[1]
     if np.sqrt(dx * dx + dy * dy) > max(2 * body_m, 1.5 * w):
         anchor[0], anchor[1] = qx, qy
@@ -281,7 +281,7 @@ def _stall_row(g, w, qx, qy, way, anchor, stall, limit, body_m, has_t):
     for f in (0.25, 0.5, 0.75, 1.0):
         a = min(max(int(np.floor((qx + f * tx) / w)) + h, 0), c - 1)
         b = min(max(int(np.floor((qy + f * ty) / w)) + h, 0), c - 1)
-        if not (a == h and b == h) and g[a, b] == OPEN:
+        if not (a == h and b == h) and g[a, b] != STUCK:  # a wall it drove into too (step 5)
             g[a, b] = STUCK
     return 0, True
 
@@ -388,10 +388,12 @@ def _astar(g, sa, sb, ta, tb, ahead, wall_cost, ha, hb, turn, dist, prev, closed
 
 
 @njit(cache=True)
-def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed):
+def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cross=0.0):
     """The A* of :func:`plan` on the work arrays of :func:`_astar`, which it leaves filled (``prev``
     holds the way): ``(found, cost, touched, nt)``, the first ``nt`` of ``touched`` the flat indices
-    of the cells it set (for :func:`_reset`)."""
+    of the cells it set (for :func:`_reset`). ``cross > 0``: wall cells may be entered too, each
+    for ``cross`` more, and so may a diagonal step past one (stuck cells stay shut): the way through
+    the fewest walls (chart search step 5)."""
     c = g.shape[0]
     INF = 1e30
     cap = 64 * c + 64  # the heap grows by doubling (a cell is pushed at most 8 times)
@@ -425,12 +427,21 @@ def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed):
                 if da == 0 and db == 0:
                     continue
                 na, nb = a + da, b + db
-                if na < 0 or nb < 0 or na >= c or nb >= c or g[na, nb] != 0 or closed[na, nb]:
+                if na < 0 or nb < 0 or na >= c or nb >= c or closed[na, nb]:
                     continue
-                if da != 0 and db != 0 and (g[a + da, b] != 0 or g[a, b + db] != 0):
+                v = g[na, nb]
+                if v == STUCK or (v == WALL and cross <= 0.0):
                     continue
                 step = s2 if da != 0 and db != 0 else 1.0
                 nd = dist[a, b] + step
+                if v == WALL:
+                    nd += cross
+                if da != 0 and db != 0:  # no corner cut between shut cells (through walls: at a price)
+                    c1, c2 = g[a + da, b], g[a, b + db]
+                    if c1 == STUCK or c2 == STUCK or (cross <= 0.0 and (c1 != 0 or c2 != 0)):
+                        continue
+                    if c1 == WALL or c2 == WALL:
+                        nd += cross
                 if a == sa and b == sb and turn > 0:  # leaving the start against the way it was going
                     nd += turn * 0.5 * (1.0 - (da * ha + db * hb) / step)
                 if _beside_wall(g, na, nb):  # a cell beside a wall costs more: the way keeps a cell off the walls
@@ -556,25 +567,23 @@ def _locate(route, lo, hi, sa, sb, c):
 @njit(cache=True)
 def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route, shut):
     """Plan on chart ``g`` from cell (sa, sb) to the target's cell (chart search steps 2 and 5):
-    A*, and if there is no way, again after forgetting its stuck cells, then the walls within 3
-    cells of (sa, sb), then the whole chart (on which there is always a way). Stores the way in
+    A* over open cells; if there is no way, the way through the fewest walls (each wall cell entered
+    costs a chart's width in cells, stuck cells stay shut), then that again after forgetting its
+    stuck cells, then on a forgotten chart (on which there is always a way). Stores the way in
     ``route``/``shut`` (:func:`_store_way`). Returns ``(found, cells stored, index of the point to
     head for, forgot the whole chart)``."""
     c = g.shape[0]
     h = c // 2
     for attempt in range(4):
-        if attempt == 1:  # 1. forget the stalls
+        cross = 0.0 if attempt == 0 else float(c)
+        if attempt == 2:  # forget the stalls
             for a in range(c):
                 for b in range(c):
                     if g[a, b] == STUCK:
                         g[a, b] = OPEN
-        elif attempt == 2:  # 2. forget the walls round where it stands (a corner mapped shut)
-            for a in range(max(sa - 3, 0), min(sa + 4, c)):
-                for b in range(max(sb - 3, 0), min(sb + 4, c)):
-                    g[a, b] = OPEN
-        elif attempt == 3:  # 3. forget the chart: it starts again from what it sees
+        elif attempt == 3:  # forget the chart: it starts again from what it sees
             g[:, :] = OPEN
-        found, _, touched, nt = _search(g, sa, sb, h, h, wall_cost, ha, hb, tc, dist, prev, closed)
+        found, _, touched, nt = _search(g, sa, sb, h, h, wall_cost, ha, hb, tc, dist, prev, closed, cross)
         n = 0
         if found:
             n = _store_way(g, prev, sa, sb, h, h, _way_length(prev, c, sa, sb, h, h), route, shut)
