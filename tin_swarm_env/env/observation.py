@@ -405,7 +405,7 @@ def _break_slots(obs, i, sl, K, start, idx, dist, closest, normals, drops, dange
         obs[i, b + sl.danger] = danger[j]
 
 
-ANGLE_ERROR = 1e-3  # rad: a bound on how far :func:`approx_angle` is off (2e-4 at worst: tests/env/test_scan_beams.py)
+ANGLE_ERROR = 1e-3  # rad: a bound on how far :func:`approx_angle` is off (2e-4 at worst: tests/env/test_observation.py)
 SPAN_MARGIN = 0.02  # rad: :func:`beam_span` takes the beams this close to the wedge too
 
 
