@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 import tin_swarm_env as tse
+from tin_swarm_env._atomic import atomic_path
 from tin_swarm_env.policies import APFPolicy, GeodesicPolicy, RandomPolicy
 from tin_swarm_env.scenario import load_scenario
 from tin_swarm_env.scenario.generators import ALL_FAMILIES, REAL_FAMILIES
@@ -392,10 +393,9 @@ def main(argv=None):
         longer_rows(args, emit)
     emit(f"\nLoad average at the end: {_load()}.")
     if out:
-        tmp = Path(out).with_suffix(".md.tmp")
-        tmp.parent.mkdir(parents=True, exist_ok=True)
-        tmp.write_text("\n".join(lines) + "\n")
-        tmp.replace(out)  # whole file or nothing
+        Path(out).parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(out) as tmp:  # the whole file or nothing
+            Path(tmp).write_text("\n".join(lines) + "\n")
         print(f"wrote {out}")
 
 

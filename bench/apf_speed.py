@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 import tin_swarm_env as tse
+from tin_swarm_env._atomic import atomic_path
 from tin_swarm_env.policies import APFPolicy
 from tin_swarm_env.policies.chart import ChartParams
 from tin_swarm_env.scenario import load_scenario
@@ -118,9 +119,8 @@ def main(argv=None):
         emit(f"| {name} | {rs / t_pol:.3g} | {rs / t_env:.3g} | {t_env / t_pol:.1%} | {live / rs:.0%} | {plans} |")
     emit(f"\nLoad average at the end: {' / '.join(f'{x:.2f}' for x in os.getloadavg())}.")
     if args.out:
-        tmp = Path(args.out).with_suffix(".md.tmp")
-        tmp.write_text("\n".join(lines) + "\n")
-        tmp.replace(args.out)
+        with atomic_path(args.out) as tmp:  # the whole file or nothing
+            Path(tmp).write_text("\n".join(lines) + "\n")
         print(f"wrote {args.out}")
 
 

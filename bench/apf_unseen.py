@@ -56,6 +56,7 @@ from pathlib import Path
 import numpy as np
 
 import tin_swarm_env as tse
+from tin_swarm_env._atomic import atomic_path
 from tin_swarm_env.scenario import scenario_from_dict
 from tin_swarm_env.scenario.build import build_stage
 from tin_swarm_env.scenario.mirror import mirror_scenario
@@ -438,10 +439,9 @@ def main(argv=None) -> int:
     runs_rows(records, emit)
     emit(f"\nLoad average at the end: {apf._load()}.")
     if out:
-        tmp = Path(out).with_suffix(".md.tmp")
-        tmp.parent.mkdir(parents=True, exist_ok=True)
-        tmp.write_text("\n".join(lines) + "\n")
-        tmp.replace(out)
+        Path(out).parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(out) as tmp:  # the whole file or nothing
+            Path(tmp).write_text("\n".join(lines) + "\n")
         print(f"wrote {out}")
     return 0
 
