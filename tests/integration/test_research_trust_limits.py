@@ -57,15 +57,3 @@ def test_a_corner_raised_square_is_firm_on_two_quarters(tl):
     assert full.tolist() == [[True, True, True, True]] and other.tolist() == [[False, True, True, False]]
     full, other = tl.quarter_classes(dem, 50.0)
     assert not full.any() and other.tolist() == [[False, True, True, False]]
-
-
-def test_ideal_cdt_keeps_the_cliff_lines_as_edges(tl):
-    pytest.importorskip("triangle")
-    dem = _step()
-    steep = full_surface_slope_deg(dem) > 20.0
-    tin = tl.ideal_cdt(dem, steep, 0.5)
-    assert tin.n_vertices == 8  # the DEM's corners and the two ends of each cliff line
-    own, oracle = tl.firm_accuracy(dem, 20.0, tin)
-    assert own == 1.0 and oracle == 1.0
-    e = {tuple(sorted(map(tuple, tin.vertices[list(k), :2].tolist()))) for k in tin.edges}
-    assert ((2.0, 0.0), (2.0, 5.0)) in e and ((3.0, 0.0), (3.0, 5.0)) in e
