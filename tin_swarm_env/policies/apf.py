@@ -111,10 +111,10 @@ heads along the shortest way to its target on it, taking ground it has not sense
 free-space assumption of D* and its kin). Memory per robot
 (:class:`~tin_swarm_env.policies.chart.ChartMemory`, constants in
 :class:`~tin_swarm_env.policies.chart.ChartParams`): the odometry above (``q`` exact); a chart of
-``cells x cells`` (256 x 256 bytes: 64 KiB) centred on its target in its frame ``F``, cells
+``cells x cells`` (512 x 512 bytes: 256 KiB) centred on its target in its frame ``F``, cells
 ``2 (reach d0 + range_reach R) / cells`` wide (``d0`` its distance to go at its first step, ``R``
 the sensor range; at least one step at top speed), each open, *wall* or *stuck*; the way it planned
-(its first ``2 cells`` cells: 2.5 KiB at 256) and the point it heads for; last step's break points;
+(its first ``2 cells`` cells: 5 KiB at 512) and the point it heads for; last step's break points;
 a stall anchor and count. Each step:
 
 1. *Mark*: the cell ``inset`` (half a cell) beyond every dangerous break point it sees is a wall

@@ -60,7 +60,7 @@ class ChartParams:
                     between them too (a wall driven along leaves no holes on the chart)
     """
 
-    cells: int = 256
+    cells: int = 512
     reach: float = 1.5
     range_reach: float = 2.0
     min_cell_m: float = 1.0
@@ -107,9 +107,10 @@ class ChartMemory:
     plans      (n,)      int     times it has run the A* (a count for the benchmark and tests)
 
     Bytes per robot: ``C^2 + 5 ROUTE_PER_CELL C + 17 K + 90`` (the chart, the route, the rest):
-    68 237 at the default 256 cells and 3 break slots (66.6 KiB; the route is 2.5 KiB of it).
-    Besides, for all robots together: one set of A* work arrays (``work``: ``17 C^2`` bytes,
-    1.06 MiB at 256 cells, made at the first plan) and the heap of the one search under way.
+    68 237 at 256 cells and 3 break slots (66.6 KiB; the route is 2.5 KiB of it), 267 405 at the
+    default 512 (261 KiB). Besides, for all robots together: one set of A* work arrays (``work``:
+    ``17 C^2`` bytes, 1.06 MiB at 256 cells, 4.25 MiB at 512, made at the first plan) and the heap of
+    the one search under way.
     """
 
     grid: np.ndarray
