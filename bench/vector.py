@@ -2,6 +2,15 @@
 
     python bench/vector.py [--steps 20] [--train-seconds 60] [--out docs/figures/vector.md]
     python bench/vector.py --quick      # a smoke run of every path (seconds); prints only
+    python bench/vector.py --only generated --sizes 256x16 --raw-only   # one row, the raw env alone (prints only)
+    python bench/vector.py --only generated --sizes 16x256 --raw-only --spawn-m 60
+
+The generated mix cannot run 16 x 256: its tasks draw a square spawn region of 22-30 m a side
+(``spawn_m``, scenario/generators.py: "about 25-50 robots at 2 m separation"), and 256 robots 2 m apart
+do not fit in it (random placement jams near 0.55 of the area covered by 1 m disks: ~85-155 robots;
+even a hexagonal packing holds at most ~140-260), so the reset raises a PlacementError and the row
+reads "-". ``--spawn-m S`` runs the generated rows on the same mix with every family's spawn region
+``S`` m a side (a labelled variant: the robots' density differs from the mix's).
 
 For E x N in (1 024 x 4), (256 x 16), (64 x 64), (16 x 256), on jacksboro and on the generated mix
 (a new generated terrain per copy and per reset), in one process: robot-steps per second of the raw
@@ -83,8 +92,8 @@ def world_rate(R, steps):
     return _WORLD[R]
 
 
-def path_rates(scenario, E, N, steps) -> dict:
-    """Robot-steps/s of every path at E x N."""
+def path_rates(scenario, E, N, steps, raw_only: bool = False) -> dict:
+    """Robot-steps/s of every path at E x N (``raw_only``: the raw vector env alone)."""
     import torch
 
     from tin_swarm_env.adapters import make_sb3_vec_env
@@ -97,6 +106,8 @@ def path_rates(scenario, E, N, steps) -> dict:
     v = tse.vector_env(scenario, n_envs=E, n_robots=N, seed=0)
     v.reset()
     out["raw"] = _best(lambda: v.step(a), steps, R)
+    if raw_only:
+        return out
     te = make_torchrl_env(scenario, n_envs=E, n_robots=N, seed=0)
     td = [te.reset()]
     ta = torch.as_tensor(a, dtype=torch.float32)
@@ -208,7 +219,37 @@ def train_rates(seconds: float, E=256, N=16, scenario="generated") -> dict:
     return out
 
 
-def main(steps: int, train_seconds: float, out: str | None, sizes=SIZES, quick: bool = False) -> None:
+def wide_generated(spawn_m: float):
+    """The generated mix with every family's spawn region ``spawn_m`` m a side (``--spawn-m``)."""
+    import dataclasses
+
+    from tin_swarm_env.scenario import load_scenario
+    from tin_swarm_env.scenario.generators import ALL_FAMILIES
+
+    cfg = load_scenario("generated")
+    ranges = {f: {"spawn_m": [float(spawn_m), float(spawn_m)]} for f in ALL_FAMILIES}
+    return cfg.replace(terrain=dataclasses.replace(cfg.terrain, ranges=ranges))
+
+
+def _row(scenario, E, N, steps, raw_only, spawn_m, emit):
+    label = scenario if not (spawn_m and scenario == "generated") else f"generated (spawn_m {spawn_m:g})"
+    scen = wide_generated(spawn_m) if label != scenario else scenario
+    try:
+        r = path_rates(scen, E, N, steps, raw_only)
+    except tse.TinSwarmError as exc:  # e.g. a generated terrain's spawn region cannot hold N robots
+        emit(f"| {label} | {E} x {N} | – | – | – | – | – | – | – | – |")
+        print(f"  {label} {E} x {N}: {exc}", file=sys.stderr)
+        return
+    if raw_only:
+        emit(f"| {label} | {E} x {N} | {r['raw']:.3g} | | | | | | | |")
+        return
+    w = world_rate(E * N, steps)
+    emit(f"| {label} | {E} x {N} | {r['raw']:.3g} | {r['torchrl']:.3g} | {r['sb3']:.3g} | {r['puffer']:.3g} "
+         f"| {w:.3g} | {r['raw'] / w:.0%} | {r['torchrl'] / r['raw']:.0%} | {r['sb3'] / r['raw']:.0%} |")
+
+
+def main(steps: int, train_seconds: float, out: str | None, sizes=SIZES, quick: bool = False,
+         scenarios=SCENARIOS, raw_only: bool = False, spawn_m: float | None = None) -> None:
     import numba
 
     lines = []
@@ -219,23 +260,20 @@ def main(steps: int, train_seconds: float, out: str | None, sizes=SIZES, quick: 
 
     load = os.getloadavg()
     emit(f"Measured with `python bench/vector.py --steps {steps} --train-seconds {train_seconds:g}"
-         f"{' --quick' if quick else ''}`, {numba.get_num_threads()} numba threads, load average at the start "
+         f"{' --quick' if quick else ''}{' --raw-only' if raw_only else ''}"
+         f"{f' --spawn-m {spawn_m:g}' if spawn_m else ''}`, {numba.get_num_threads()} numba threads, load average at the start "
          f"{load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} on {os.cpu_count()} cores.")
     emit()
     emit("| scenario | E x N | raw vector env | TorchRL env | SB3 VecEnv | PufferLib env | single-env world rate "
          "| raw / world | TorchRL / raw | SB3 / raw |")
     emit("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for scenario in SCENARIOS:
+    for scenario in scenarios:
         for E, N in sizes:
-            try:
-                r = path_rates(scenario, E, N, steps)
-            except tse.TinSwarmError as exc:  # e.g. a generated terrain's spawn region cannot hold N robots
-                emit(f"| {scenario} | {E} x {N} | – | – | – | – | – | – | – | – |")
-                print(f"  {scenario} {E} x {N}: {exc}", file=sys.stderr)
-                continue
-            w = world_rate(E * N, steps)
-            emit(f"| {scenario} | {E} x {N} | {r['raw']:.3g} | {r['torchrl']:.3g} | {r['sb3']:.3g} | {r['puffer']:.3g} "
-                 f"| {w:.3g} | {r['raw'] / w:.0%} | {r['torchrl'] / r['raw']:.0%} | {r['sb3'] / r['raw']:.0%} |")
+            _row(scenario, E, N, steps, raw_only, spawn_m, emit)
+    if raw_only:
+        load = os.getloadavg()
+        print(f"\nLoad average at the end {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f}.")
+        return
     state, per_big, per_small = memory(*((8, 4) if quick else (1024, 4)))
     emit()
     emit(f"Memory at {'8' if quick else '1 024'} x 4 on jacksboro: state and buffers {state / 2 ** 20:.1f} MiB "
@@ -265,8 +303,17 @@ if __name__ == "__main__":
     p.add_argument("--train-seconds", type=float, default=60.0, help="seconds of each training run")
     p.add_argument("--out", default=None, help="write the table here (Markdown)")
     p.add_argument("--quick", action="store_true", help="a smoke run of every path (seconds); prints only")
+    p.add_argument("--only", nargs="+", choices=SCENARIOS, default=SCENARIOS, help="these scenarios only")
+    p.add_argument("--sizes", nargs="+", default=None, help="E x N sizes, e.g. 256x16 (default: all four)")
+    p.add_argument("--raw-only", action="store_true", help="the raw vector env alone: no adapters, memory or "
+                   "training (prints only)")
+    p.add_argument("--spawn-m", type=float, default=None, help="generated rows: every family's spawn region this "
+                   "many m a side (a labelled variant; the mix's is 22-30 m, too small for 256 robots)")
     a = p.parse_args()
+    sizes = SIZES if a.sizes is None else tuple(tuple(int(v) for v in z.lower().split("x")) for z in a.sizes)
     if a.quick:
-        main(QUICK["steps"], QUICK["train_seconds"], None, QUICK["sizes"], quick=True)
+        main(QUICK["steps"], QUICK["train_seconds"], None, QUICK["sizes"], quick=True, scenarios=tuple(a.only),
+             raw_only=a.raw_only, spawn_m=a.spawn_m)
     else:
-        main(a.steps, a.train_seconds, a.out)
+        main(a.steps, a.train_seconds, None if a.raw_only else a.out, sizes, scenarios=tuple(a.only),
+             raw_only=a.raw_only, spawn_m=a.spawn_m)
