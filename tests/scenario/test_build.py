@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import tin_swarm_env as tse
-from tin_swarm_env.errors import ScenarioError
+from tin_swarm_env.errors import PlacementError, ScenarioError
 from tin_swarm_env.scenario import load_scenario, scenario_from_dict
 from tin_swarm_env.scenario.build import build_tin_for
 from tin_swarm_env.terrain import Dem, build_tin, save_tin
@@ -197,3 +197,17 @@ def test_robot_scenario_runs(tmp_path):
     env = tse.parallel_env(scenario=str(robot_scenario(tmp_path, 25.0)), n_robots=2, max_cycles=3)
     env.reset(seed=0)
     assert "robot" in env.tin.source
+
+
+def test_a_spawn_region_too_small_for_the_robots_names_the_knobs_that_make_room(tmp_path):
+    """256 robots 2 m apart do not fit a canyon's ~25 m spawn square: the error says what to change, and
+    the change it names (a wider generated spawn_m) places them all."""
+    p = tmp_path / "g.toml"
+    p.write_text('[terrain]\nsource = "generated"\nfamilies = ["canyon"]\n')
+    with pytest.raises(PlacementError, match=r"could only place \d+ of 256 robots.*n_robots.*spawn_region.*"
+                                             r"ranges spawn_m.*min_separation_m"):
+        tse.parallel_env(scenario=str(p), n_robots=256).reset(seed=0)
+    p.write_text('[terrain]\nsource = "generated"\nfamilies = ["canyon"]\nranges = {canyon = {spawn_m = [70, 70]}}\n')
+    env = tse.parallel_env(scenario=str(p), n_robots=256)
+    obs, _ = env.reset(seed=0)
+    assert len(obs) == 256

@@ -305,10 +305,15 @@ def initial_state(world: World, cfg: ScenarioConfig, rng: np.random.Generator, n
         groups = None
         if reachable is not None and len(reachable):
             groups = assignments(n_robots, len(reachable))
-        pos = spawn_positions(world.tin, world.steep, n_robots, rng,
-                              region=cfg.robots.spawn_region if spawn_region is None else spawn_region,
-                              min_separation_m=cfg.robots.min_separation_m,
-                              allowed=reachable if groups is not None else None, groups=groups)
+        try:
+            pos = spawn_positions(world.tin, world.steep, n_robots, rng,
+                                  region=cfg.robots.spawn_region if spawn_region is None else spawn_region,
+                                  min_separation_m=cfg.robots.min_separation_m,
+                                  allowed=reachable if groups is not None else None, groups=groups)
+        except PlacementError as e:  # say which knobs make room
+            raise PlacementError(f"{e}: place fewer robots (n_robots), widen the spawn region ([robots] "
+                                 "spawn_region; a generated terrain's: [terrain] ranges spawn_m) or lower "
+                                 "[robots] min_separation_m") from None
     else:
         pos = np.asarray(robot_positions, dtype=np.float64)
         if pos.shape != (n_robots, 2):
