@@ -299,6 +299,7 @@ def initial_state(world: World, cfg: ScenarioConfig, rng: np.random.Generator, n
     a PlacementError naming it. ``spawn_region`` replaces the scenario's (a generated task's);
     ``reachable (m, T)`` bool, per target the triangles it can be reached from: robot ``i``
     spawns only where its assigned target (:func:`assignments`) can be reached."""
+    region = cfg.robots.spawn_region if spawn_region is None else spawn_region
     if robot_positions is None:
         if headings is not None:
             raise ArgumentError("headings need robot_positions")
@@ -306,8 +307,7 @@ def initial_state(world: World, cfg: ScenarioConfig, rng: np.random.Generator, n
         if reachable is not None and len(reachable):
             groups = assignments(n_robots, len(reachable))
         try:
-            pos = spawn_positions(world.tin, world.steep, n_robots, rng,
-                                  region=cfg.robots.spawn_region if spawn_region is None else spawn_region,
+            pos = spawn_positions(world.tin, world.steep, n_robots, rng, region=region,
                                   min_separation_m=cfg.robots.min_separation_m,
                                   allowed=reachable if groups is not None else None, groups=groups)
         except PlacementError as e:  # say which knobs make room
@@ -318,7 +318,6 @@ def initial_state(world: World, cfg: ScenarioConfig, rng: np.random.Generator, n
         pos = np.asarray(robot_positions, dtype=np.float64)
         if pos.shape != (n_robots, 2):
             raise ArgumentError(f"robot_positions must have shape ({n_robots}, 2), got {pos.shape}")
-    region = cfg.robots.spawn_region if spawn_region is None else spawn_region
     tg, at = _entity_positions(world, cfg, rng, region, target_positions)
     return world.reset(rng, pos, headings, targets=tg, targets_mobile=cfg.targets.mobile, assets=at,
                        assets_mobile=cfg.assets.mobile)
