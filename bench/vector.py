@@ -138,7 +138,7 @@ def memory(E=1024, N=4) -> tuple[int, float, float]:
         v.step(a)
         if e == E:
             arrays = [x for x in vars(v).values() if isinstance(x, np.ndarray)]
-            arrays += [x for s in v._slots for x in s] + list(v._brk_buf) + list(v._pack.a.values())
+            arrays += [x for s in v._slots for x in s] + list(v._rows) + list(v._pack.a.values())
             arrays += list(v._fpack.a.values()) if v._fpack.a is not None else []
             state = sum(x.nbytes for x in arrays)
         tracemalloc.start()

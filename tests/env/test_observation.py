@@ -580,10 +580,11 @@ def test_decoded_scan_hits_are_body_frame_vectors_and_an_absent_robot_has_none(s
 def every_beam(K, ends, danger, x, y, head, R):
     """The scan by every beam against every dangerous segment (the obvious loop)."""
     out = np.empty(K)
-    bearings = 2 * np.pi * np.arange(K) / K
-    for k in range(K):
-        a = head + bearings[k]
-        dx, dy = np.cos(a), np.sin(a)
+    units = ObsLayout(k_scan=K).scan_units()  # the bearings 2 pi k / K as (cos, sin)
+    c, s = math.cos(head), math.sin(head)
+    for k in range(K):  # the beam's direction: the heading turned by its bearing
+        cb, sb = units[k]
+        dx, dy = c * cb - s * sb, s * cb + c * sb
         best = R
         for j in range(len(ends)):
             if danger[j] == 0.0:
@@ -605,8 +606,8 @@ def _run(kernel, K, ends, danger, x, y, head, R):
     obs = np.full((1, K + 3), -7.0)
     start = np.array([0, len(ends)], dtype=np.int64)
     idx = np.arange(len(ends), dtype=np.int64)
-    kernel(obs, 0, 3, K, start, idx, ends, 2 * np.pi * np.arange(K) / K, danger, np.array([[x, y]]),
-           np.array([head]), math.cos(head), math.sin(head), R, np.full((K, 4), np.nan))
+    kernel(obs, 0, 3, K, start, idx, ends, ObsLayout(k_scan=K).scan_units(), danger, np.array([[x, y]]),
+           math.cos(head), math.sin(head), R, np.full((K, 3), np.nan))
     return obs[0, 3:]
 
 

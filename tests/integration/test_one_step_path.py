@@ -37,6 +37,8 @@ CALLERS = {
     "count_breaks": {"world/batch_kernels.py:_sense1"},
     "robot_sight": {"world/batch_kernels.py:_sense2"},
     "gather_breaks": {"world/batch_kernels.py:_sense2"},
+    "break_row": {"world/batch_kernels.py:_sense2"},
+    "scan_contact": {"world/sense_kernels.py:break_row", "env/observation.py:scan_beams"},
     "_sense1": {"world/batch_kernels.py:_sense_passes"},
     "_sense2": {"world/batch_kernels.py:_sense_passes"},
     "_sense_passes": {"world/batch_kernels.py:sense_copies"},

@@ -412,3 +412,73 @@ def test_range_class_agrees_with_the_exact_distance_outside_its_band(seed, r, le
             d = SK._closest(x, y, a[0], a[1], b[0], b[1])[2]
             v = SK.range_class(x, y, a[0], a[1], b[0], b[1], lo2, hi2)
             assert v == 2 or (v == 1) == (d <= r)
+
+
+# -- break_row: the vector env's break contacts kept as the observation reads them, with the scan
+
+_ROW = []
+
+
+def _break_row_runs():
+    """Compiled runners: break_row over every segment (ungridded), and the list path it replaces
+    (gather_breaks sorted, then the observation's scan_beams over the list)."""
+    if not _ROW:
+        from tin_swarm_env.env.observation import scan_beams
+
+        @numba.njit
+        def row(x, y, ax, ay, bx, by, items, r, S, OB, c, s):
+            b = np.empty((max(S[3].shape[1], 1), 3))
+            SK.break_row(0, x, y, (ax, ay, bx, by, items), 0, ax.shape[0], False, r, S, OB, c, s, b)
+
+        @numba.njit
+        def listed(x, y, ax, ay, bx, by, items, r, danger, ends, units, c, s, K):
+            m = ax.shape[0]
+            dist, seg, cl, obs = np.empty(m), np.empty(m, np.int64), np.empty((m, 2)), np.empty(m, np.int64)
+            n = SK.count_breaks(x, y, ax, ay, bx, by, items, 0, m, False, r)
+            SK.gather_breaks(0, x, y, ax, ay, bx, by, items, 0, m, False, r, 0, dist, seg, cl, obs, -1)
+            out = np.zeros((1, max(K, 1)))
+            pos = np.array([[x, y]])
+            start = np.array([0, n], dtype=np.int64)
+            if K:
+                scan_beams(out, 0, 0, K, start, seg, ends, units, danger, pos, c, s, r, np.empty((K, 3)))
+            return n, dist[:n].copy(), seg[:n].copy(), cl[:n].copy(), out
+
+        _ROW.extend([row, listed])
+    return _ROW
+
+
+@settings(max_examples=120, deadline=None)
+@given(st.integers(0, 2 ** 31), st.integers(0, 40), st.integers(0, 4), st.sampled_from([0, 1, 5, 32]),
+       st.sampled_from([0.0, 0.5, 4.0]), st.floats(-math.pi, math.pi))
+def test_break_row_keeps_the_nearest_and_the_scan_of_the_listed_contacts(seed, m, kb, K, grain, heading):
+    """break_row's ``kb`` slots are the first ``kb`` of the sorted contact list (distance, then index;
+    ``grain`` > 0 puts segment ends on a grid of that step, so distances tie) and its scan is the
+    observation's scan_beams over that list, bit for bit; empty slots read -1, a robot with no
+    dangerous contact reads a clear scan (1)."""
+    from tin_swarm_env.env.observation import ObsLayout
+
+    row, listed = _break_row_runs()
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(-70, 70, (m, 2))
+    b = a + rng.normal(0, 15, (m, 2))
+    if grain:
+        a, b = np.round(a / grain) * grain, np.round(b / grain) * grain
+    ax, ay, bx, by = (np.ascontiguousarray(v) for v in (a[:, 0], a[:, 1], b[:, 0], b[:, 1]))
+    ends = np.ascontiguousarray(np.column_stack([a, b]))
+    danger = (rng.uniform(size=m) < 0.7).astype(np.float64)
+    units = ObsLayout(k_scan=K).scan_units()
+    c, s = math.cos(heading), math.sin(heading)
+    items = np.zeros(0, dtype=np.int64)
+    r = 60.0
+    S = (np.full((1, kb), 7, np.int64), np.zeros((1, kb)), np.zeros((1, kb, 2)), np.zeros((1, K)))
+    row(0.0, 0.0, ax, ay, bx, by, items, r, S, (danger, ends, units), c, s)
+    n, dist, seg, cl, scan = listed(0.0, 0.0, ax, ay, bx, by, items, r, danger, ends, units, c, s, K)
+    k = min(kb, n)
+    np.testing.assert_array_equal(S[0][0, :k], seg[:k])
+    np.testing.assert_array_equal(S[1][0, :k], dist[:k])
+    np.testing.assert_array_equal(S[2][0, :k], cl[:k])
+    assert (S[0][0, k:] == -1).all()
+    if K:
+        np.testing.assert_array_equal(S[3][0], scan[0, :K])
+        if not (danger[seg] != 0).any():
+            assert (S[3][0] == 1.0).all()

@@ -63,6 +63,7 @@ from ..errors import ObservationLayoutError
 from ..scenario.config import ObservationSpec
 from ..terrain import ANGLE
 from ..world.fields import HEIGHT_SCALE_M as DZ_SCALE_M
+from ..world.scan_kernels import ANGLE_ERROR, SPAN_MARGIN, approx_angle, beam_span, crossing, scan_contact, scan_start  # noqa: F401 (re-exported)
 from ..world.world import serial_if_small
 
 __all__ = ["ObsLayout", "build_observations", "OWN_FIELDS", "SLOT_FIELDS", "DZ_SCALE_M", "DEFAULT_K_ASSETS",
@@ -99,6 +100,7 @@ _DEFAULT = ObservationSpec()
 # 2048 before, favoured one thread longer). The same bits either way
 OBS_SERIAL_BELOW = 768
 OBS_RUNS = 64  # fill_observations cuts the rows into this many runs (each with its scratch) among the threads
+NO_SCAN = np.zeros((0, 1))  # fill_observations' ``scan`` ``pre`` when it computes the scan itself
 
 
 def _ratio(v, scale):
@@ -259,6 +261,11 @@ class ObsLayout:
         (the one place it is written: the encoder, its reference and the decoder read it here)."""
         return 2 * np.pi * np.arange(self.k_scan) / max(self.k_scan, 1)
 
+    def scan_units(self) -> np.ndarray:
+        """``(K_s, 2)``: each beam's bearing as ``(cos, sin)`` (:meth:`scan_bearings`): the body-frame unit
+        vectors the scan turns by the heading (:func:`~tin_swarm_env.world.scan_kernels.scan_start`)."""
+        return _scan_units(self.k_scan)
+
     def mirror_permutation(self) -> np.ndarray:
         """``(size,)`` int64: element ``j`` of the mirrored observation is element ``perm[j]`` of the
         observation (before its sign, :meth:`mirror`): the identity but for the scan's beams,
@@ -320,6 +327,14 @@ class ObsLayout:
 
         return (own, slot(PointSlot, "robots"), slot(PointSlot, "targets"), slot(BreakSlot, "breaks"),
                 slot(PointSlot, "assets"), self.part_slice("scan").start)
+
+
+@functools.lru_cache(maxsize=64)
+def _scan_units(k: int) -> np.ndarray:
+    b = 2 * np.pi * np.arange(k) / max(k, 1)
+    out = np.ascontiguousarray(np.column_stack([np.cos(b), np.sin(b)]))
+    out.setflags(write=False)
+    return out
 
 
 @functools.lru_cache(maxsize=64)
@@ -405,95 +420,15 @@ def _break_slots(obs, i, sl, K, start, idx, dist, closest, normals, drops, dange
         obs[i, b + sl.danger] = danger[j]
 
 
-ANGLE_ERROR = 1e-3  # rad: a bound on how far :func:`approx_angle` is off (2e-4 at worst: tests/env/test_observation.py)
-SPAN_MARGIN = 0.02  # rad: :func:`beam_span` takes the beams this close to the wedge too
-
-
 @njit(cache=True, inline="always")
-def approx_angle(x, y):
-    """``atan2(y, x)`` within :data:`ANGLE_ERROR` (a polynomial on the octant, no libm call; ``(x, y)``
-    not both 0): where the exact angle is not needed, only which beams are near it."""
-    ax = abs(x)
-    ay = abs(y)
-    a = min(ax, ay) / max(ax, ay)
-    s = a * a
-    r = ((-0.0464964749 * s + 0.15931422) * s - 0.327622764) * s * a + a
-    if ay > ax:
-        r = 0.5 * math.pi - r
-    if x < 0.0:
-        r = math.pi - r
-    return -r if y < 0.0 else r
-
-
-@njit(cache=True, inline="always")
-def beam_span(ax, ay, bx, by, c, s, K):
-    """``(lo, hi)``: the scan beams ``lo..hi`` (taken mod ``K``, ``-K <= lo <= hi < 2 K``; beam ``k`` at
-    bearing ``k step``, ``step = 2 pi / K``, from the heading ``(c, s) = (cos, sin)``) that can cross
-    the segment ``a -> b`` (ends relative to the robot): every beam within :data:`SPAN_MARGIN` of the
-    wedge of directions the segment subtends, found by :func:`approx_angle` in the body frame.
-    ``(0, K - 1)`` (every beam) where the wedge is ill-defined: an end within ~1e-6 (L + 1) m of the
-    robot (``L`` the segment's length), or a wedge within two steps of a half-turn (the robot next
-    to the segment). The margin is far above what the angle's error (:data:`ANGLE_ERROR`), the
-    crossing's tolerance (1e-12 of the segment: < 1e-6 rad at that distance) and rounding can turn a
-    beam by, so no beam outside ``lo..hi`` passes :func:`scan_beams`' exact test. No libm call: a few
-    multiplications and three divisions."""
-    step = 2.0 * math.pi / K
-    tiny2 = 2e-12 * ((bx - ax) ** 2 + (by - ay) ** 2 + 1.0)  # >= (1e-6 (L + 1))^2
-    if ax * ax + ay * ay < tiny2 or bx * bx + by * by < tiny2:
-        return 0, K - 1
-    fa = approx_angle(c * ax + s * ay, c * ay - s * ax)
-    fb = approx_angle(c * bx + s * by, c * by - s * bx)
-    if ax * by - ay * bx < 0.0:  # b comes first counter-clockwise
-        fa, fb = fb, fa
-    span = fb - fa
-    if span < 0.0:
-        span += 2.0 * math.pi
-    if span > math.pi - 2.0 * step:
-        return 0, K - 1
-    lo = math.ceil((fa - SPAN_MARGIN) * (K / (2.0 * math.pi)))
-    hi = math.floor((fa + span + SPAN_MARGIN) * (K / (2.0 * math.pi)))
-    if hi - lo + 1 >= K:
-        return 0, K - 1
-    return int(lo), int(hi)
-
-
-@njit(cache=True, inline="always")
-def crossing(dx, dy, ex, ey, wx, wy, best):
-    """Where the beam ``(dx, dy)`` from the robot crosses the segment ``w -> w + e`` (relative to the
-    robot) if nearer than ``best``, else ``best``: ``t`` of ``t d = w + u e`` when ``-1e-12 <= u <= 1 +
-    1e-12`` and ``0 <= t < best``. A crossing clearly missed (``u`` or ``t`` outside by a margin, told
-    by multiplications) is refused before the divisions; what is left is decided by the two
-    quotients, so the answer is the quotients' test bit for bit."""
-    den = dx * ey - dy * ex  # beam x segment
-    if abs(den) < 1e-12:
-        return best  # parallel: it runs along the break, never into it
-    nt = wx * ey - wy * ex
-    nu = wx * dy - wy * dx
-    ad = abs(den)
-    if den < 0.0:
-        nt = -nt
-        nu = -nu
-    lim = best * ad * (1.0 + 1e-9)
-    if nt < -1e-200 * ad or (nt > lim and lim > 1e-280) or nu < -2e-12 * ad or nu > 1.000001 * ad:
-        return best  # t < 0, t >= best, u < -1e-12 or u > 1 + 1e-12, each by a margin over the rounding
-    t = (wx * ey - wy * ex) / den  # along the beam
-    u = (wx * dy - wy * dx) / den  # along the segment
-    if -1e-12 <= u <= 1.0 + 1e-12 and 0.0 <= t < best:  # (a beam through a shared end meets one)
-        return t
-    return best
-
-
-@njit(cache=True, inline="always")
-def scan_beams(obs, i, at, K, start, idx, ends, bearings, danger, pos, head, c, s, R, b):
-    """Scan beams of robot ``i`` (columns ``at .. at + K``): along bearing ``head + bearings[k]``
-    (``bearings`` :meth:`ObsLayout.scan_bearings`, ``2 pi k / K``), the distance to the first
-    dangerous break among its contacts ``start[i]:start[i + 1]`` that the beam crosses
-    (:func:`crossing`), over ``R`` (1 when none within ``R``; ``ends (B, 4)``: ax, ay, bx, by;
-    ``(c, s)`` the heading's cos and sin; ``b`` a ``(K, 4)`` scratch, overwritten). Each dangerous contact is crossed with the beams of its
-    wedge only (:func:`beam_span`: ~3 of ``K``), and a beam's direction (a cos and a sin) is computed
-    when first needed: O(contacts x 3 + beams touched) a robot instead of O(contacts x K) and ``K``
-    cos/sin pairs. The minimum over the same crossings, so the same bits as every beam against every
-    contact."""
+def scan_beams(obs, i, at, K, start, idx, ends, units, danger, pos, c, s, R, b):
+    """Scan beams of robot ``i`` (columns ``at .. at + K``): along bearing ``2 pi k / K`` from the heading
+    (``units`` :meth:`ObsLayout.scan_units`, the bearings' cos and sin), the distance to the first
+    dangerous break among its contacts ``start[i]:start[i + 1]`` that the beam crosses, over ``R`` (1 when
+    none within ``R``; ``ends (B, 4)``: ax, ay, bx, by; ``(c, s)`` the heading's cos and sin; ``b`` a
+    ``(K, 3)`` scratch, overwritten). Each dangerous contact is crossed with the beams of its wedge only
+    (:func:`~tin_swarm_env.world.scan_kernels.scan_contact`): O(contacts + K) a robot, the minimum over
+    the same crossings as every beam against every contact, so the same bits."""
     px = pos[i, 0]
     py = pos[i, 1]
     used = False
@@ -503,20 +438,8 @@ def scan_beams(obs, i, at, K, start, idx, ends, bearings, danger, pos, head, c, 
             continue
         if not used:
             used = True
-            for k in range(K):  # per beam: best, cos, sin, direction known (1.0)
-                b[k, 0] = R
-                b[k, 3] = 0.0
-        wx = ends[j, 0] - px
-        wy = ends[j, 1] - py
-        lo, hi = beam_span(wx, wy, ends[j, 2] - px, ends[j, 3] - py, c, s, K)
-        for kk in range(lo, hi + 1):
-            k = kk + K if kk < 0 else (kk - K if kk >= K else kk)
-            if b[k, 3] == 0.0:
-                a = head[i] + bearings[k]
-                b[k, 1] = np.cos(a)
-                b[k, 2] = np.sin(a)
-                b[k, 3] = 1.0
-            b[k, 0] = crossing(b[k, 1], b[k, 2], ends[j, 2] - ends[j, 0], ends[j, 3] - ends[j, 1], wx, wy, b[k, 0])
+            scan_start(b, c, s, units, R, K)
+        scan_contact(b, ends[j, 0] - px, ends[j, 1] - py, ends[j, 2] - ends[j, 0], ends[j, 3] - ends[j, 1], c, s, K)
     for k in range(K):
         obs[i, at + k] = b[k, 0] / R if used else 1.0
 
@@ -561,18 +484,20 @@ def fill_observations(obs, o, o_rob, o_tgt, o_brk, o_ast, o_scn, ks, pos, head, 
     scan beams); ``robots``/``targets``/``assets`` ``(start, idx, dist)`` and ``breaks`` ``(start,
     idx, dist, closest, normals, drops, danger)``: the sensor readings' contacts, grouped by
     observer and nearest first (:func:`_grouped`), and the break set's arrays; ``apos (k, 2)``;
-    ``scan`` ``(start, idx, ends, bearings)``: every break contact of each observer, the segments'
-    ends and the beams' bearings (:meth:`ObsLayout.scan_bearings`)."""
+    ``scan`` ``(start, idx, ends, units, pre)``: every break contact of each observer, the segments'
+    ends and the beams' unit vectors (:meth:`ObsLayout.scan_units`) the scan is computed from
+    (:func:`scan_beams`), or, when ``pre (n, K)`` has rows, the scan as the sensing pass computed it
+    (the vector env's :func:`~tin_swarm_env.world.sense_kernels.break_row`, the same bits), copied."""
     rs, ri, rd = robots  # (numba's parallel loops take arrays, not tuples of them)
     ts, ti, td = targets
     bs, bi, bd, bc, bn, bdrop, bdanger = breaks
     as_, ai, ad = assets
-    ss, si, se, sbr = scan
+    ss, si, se, sun, spre = scan
     kr, kt, kb, ka, ks_ = ks
     n = pos.shape[0]
     C = min(n, OBS_RUNS)
     for run in prange(C):  # runs of rows, each row computed alone: bit-identical for any thread count
-        b = np.empty((max(ks_, 1), 4))  # the scan's scratch, one per run
+        b = np.empty((max(ks_, 1), 3))  # the scan's scratch, one per run
         for i in range(run * n // C, (run + 1) * n // C):
             if not live[i]:
                 continue
@@ -583,8 +508,11 @@ def fill_observations(obs, o, o_rob, o_tgt, o_brk, o_ast, o_scn, ks, pos, head, 
             _point_slots(obs, i, o_tgt, kt, ts, ti, td, tpos, pos, c, s, R)
             _break_slots(obs, i, o_brk, kb, bs, bi, bd, bc, bn, bdrop, bdanger, pos, c, s, R, dz_scale)
             _point_slots(obs, i, o_ast, ka, as_, ai, ad, apos, pos, c, s, R)
-            if ks_:
-                scan_beams(obs, i, o_scn, ks_, ss, si, se, sbr, bdanger, pos, head, c, s, R, b)
+            if ks_ and spre.shape[0]:
+                for k in range(ks_):  # computed by the sensing pass (the vector env: break_row)
+                    obs[i, o_scn + k] = spre[i, k]
+            elif ks_:
+                scan_beams(obs, i, o_scn, ks_, ss, si, se, sun, bdanger, pos, c, s, R, b)
             for m in range(obs.shape[1]):
                 obs[i, m] = min(max(obs[i, m], -1.0), 1.0)
 
@@ -665,7 +593,7 @@ def build_observations(world, state, readings, target_idx, live, layout: ObsLayo
     breaks = _grouped(readings.breaks, n, ks[2], "closest") + arrays[:3]
     scan = (_all_contacts(readings.breaks, n) + arrays[3:] if layout.k_scan
             else (np.zeros(n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, 4))))
-    scan += (layout.scan_bearings(),)
+    scan += (layout.scan_units(), NO_SCAN)
     obs = np.zeros((n, layout.size), dtype=np.float32)
     with serial_if_small(n, OBS_SERIAL_BELOW):
         fill_observations(obs, *layout_offsets(layout), ks, state.positions, state.headings, state.heights, own_n,

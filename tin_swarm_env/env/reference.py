@@ -92,8 +92,8 @@ def _scan(obs, world, state, readings, layout, R):
     for i in range(state.n_robots):
         j = c.break_idx[c.observer == i]
         j = j[br.kinds[j] != ANGLE] if len(br) else j[:0]
-        ang = state.headings[i] + layout.scan_bearings()
-        d = np.stack([np.cos(ang), np.sin(ang)], -1)[:, None, :]  # (k, 1, 2)
+        ch, sh, u = np.cos(state.headings[i]), np.sin(state.headings[i]), layout.scan_units()
+        d = np.stack([ch * u[:, 0] - sh * u[:, 1], sh * u[:, 0] + ch * u[:, 1]], -1)[:, None, :]  # (k, 1, 2)
         a = br.segments[j, 0, :2][None]  # (1, m, 2)
         e = br.segments[j, 1, :2][None] - a
         w = a - state.positions[i]

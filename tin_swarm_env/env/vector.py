@@ -61,13 +61,16 @@ from ..world.step_kernel import step_copies
 from ..world.world import serial_if_small, step_scalars
 from .checks import check_seed
 from .field_pack import NO_FIELD, FieldPack, field_ids
-from .observation import DZ_SCALE_M, OBS_SERIAL_BELOW, fill_observations, layout_offsets
+from .observation import DZ_SCALE_M, NO_SCAN, OBS_SERIAL_BELOW, fill_observations, layout_offsets
 from .reward import end_step
 from .tin_swarm import TinSwarmEnv, live_actions
 
 __all__ = ["VectorEnv", "vector_env", "MAX_COPIES", "copy_seed_stream", "CopyView"]
 
 MAX_COPIES = 1 << 16
+
+
+_NO_IDX = np.zeros(0, dtype=np.int64)
 
 
 def copy_seed_stream(seed: int, c: int) -> np.random.Generator:
@@ -171,7 +174,12 @@ class VectorEnv:
         K = int(self.params.sensor.max_candidates)
         self._slots = [(np.empty((R, K), np.int64), np.empty((R, K)), np.empty((R, K), np.int8), z(R, np.int64))
                        for _ in range(3)]
-        self._brk_buf = (z(0, np.int64), z(0, np.int64), z(0), z((0, 2)))  # the break contacts, reused each step
+        kb, ks = self.layout.k_breaks, self.layout.k_scan
+        # what the observation reads of the break contacts, filled by the sensing pass each step (break_row): each
+        # robot's kb nearest and its scan; no contact list is kept
+        self._rows = (np.empty((R, kb), np.int64), np.empty((R, kb)), np.empty((R, kb, 2)), np.empty((R, ks)),
+                      self.layout.scan_units())
+        self._rows_start = np.arange(R + 1, dtype=np.int64) * kb
         P = self.params
         self._step_p = step_scalars(P)  # the scalars World._step passes to step_copies (one home)
         self._own_scale = (float(P.battery.capacity_j), float(P.robot.max_speed_mps), np.pi / 2, 90.0)
@@ -383,12 +391,8 @@ class VectorEnv:
                self._tuse), self._slots[1])
         AS = ((np.ascontiguousarray(self._apos[:, 0]), np.ascontiguousarray(self._apos[:, 1]), self._az, self._aoff,
                self._ause), self._slots[2])
-        brk, (ro, rt, rd, rstart) = sense_copies(pk, self._wor, self._cop, self._off, px, py, self._head, tri_g,
-                                                 self._h, self._status, P, self._slots[0], TG, AS,
-                                                 k_front=self.layout.k_breaks,  # the slots read the nearest only
-                                                 buffers=self._brk_buf)
-        if len(brk[0]) > len(self._brk_buf[0]):
-            self._brk_buf = brk[:4]  # grown: kept for the next steps (read only within this one)
+        _, (ro, rt, rd, rstart) = sense_copies(pk, self._wor, self._cop, self._off, px, py, self._head, tri_g,
+                                               self._h, self._status, P, self._slots[0], TG, AS, rows=self._rows)
         tg = compact(*self._slots[1], px, py, self._head, TG[0][0], TG[0][1])
         at = compact(*self._slots[2], px, py, self._head, AS[0][0], AS[0][1])
         sin_slope, aspect_rad, slope_deg, _ = pk.tilt
@@ -396,11 +400,10 @@ class VectorEnv:
         tilt = np.arcsin(sin_slope[tri_g] * np.sin(heading_compass - aspect_rad[tri_g]))
         own_n = (self._batt, self._speed, np.ascontiguousarray(tilt), np.ascontiguousarray(slope_deg[tri_g]))
         normals, drops, danger, ends = pk.OB
-        obs_off, seg, bdist, closest, boff = brk
-        breaks = (boff, seg, bdist, closest, normals, drops, danger)
-        scan = ((boff, seg, ends) if self.layout.k_scan else
-                (np.zeros(n + 1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, 4))))
-        scan += (self.layout.scan_bearings(),)
+        bidx, bdist, bclosest, bscan, units = self._rows
+        breaks = (self._rows_start, bidx.reshape(-1), bdist.reshape(-1), bclosest.reshape(-1, 2), normals, drops,
+                  danger)
+        scan = (self._rows_start, _NO_IDX, ends, units, bscan if self.layout.k_scan else NO_SCAN)
         obs = np.zeros((n, self.layout.size), dtype=np.float32)
         with serial_if_small(n, OBS_SERIAL_BELOW):
             fill_observations(obs, *layout_offsets(self.layout), self._ks, self._pos, self._head, self._h, own_n,

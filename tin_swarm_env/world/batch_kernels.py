@@ -24,6 +24,7 @@ from numba import njit, prange
 from .grid import grid_build_copies, sense_cell
 from .sense_kernels import (
     break_range,
+    break_row,
     compact_out,
     copy_kept,
     count_breaks,
@@ -61,13 +62,13 @@ def terrain_of(T0, w):
 @njit(cache=True, parallel=True)
 def _sense1(T0, wor, cop, margin, px, py, head, tri, sz, active, G, range_m, half_fov, cos_hf, check_los,
             r_idx, r_dist, r_vis, r_cnt, tx, ty, tz, TGG, t_idx, t_dist, t_vis, t_cnt,
-            ax_, ay_, az_, AGG, a_idx, a_dist, a_vis, a_cnt, B, bcnt, deep):
+            ax_, ay_, az_, AGG, a_idx, a_dist, a_vis, a_cnt, B, bcnt, deep, count):
     """First parallel pass over the robots (in grid order, for locality): each present robot's
     ``deep`` flag (:func:`~.sense_kernels.deep_inside` its triangle); each active observer's robot
     candidates (``r_*``, (n, K) slots; out of view marked ``-1 - j``), its targets and assets
     (``t_*``/``a_*``: the entities and their per-copy grids ``TGG``/``AGG``, in sight already) and
-    how many break segments lie in range (``bcnt``; ``B`` the pack's break arrays and grids).
-    Collision-free: every row is written by its own iteration only."""
+    how many break segments lie in range (``bcnt``, when ``count``: not for :func:`~.sense_kernels.break_row`;
+    ``B`` the pack's break arrays and grids). Collision-free: every row is written by its own iteration only."""
     bax, bay, bbx, bby, BX0, BY0, BINV, BNX, BNY, bstart, bitems, bs_off, b_off = B
     X0, Y0, INV, NX, NY, base, start, items, gx, gy = G
     TX0, TY0, TINV, TNX, TNY, tbase, tstart, titems, tgx, tgy = TGG  # (the parallel loop takes arrays, not tuples)
@@ -110,14 +111,15 @@ def _sense1(T0, wor, cop, margin, px, py, head, tri, sz, active, G, range_m, hal
             a_cnt[i] = entity_row(T, i, px[i], py[i], sz[i], h, ch, sh, tri[i], dp, ax_, ay_, az_, AX0[c], AY0[c],
                                   AINV[c], ANX[c], ANY[c], ast_, aitems, agx, agy, range_m, half_fov, cos_hf, check_los,
                                   a_idx, a_dist, a_vis)
-            lo, hi, gridded = break_range(bst, BX0[w], BY0[w], BINV[w], BNX[w], BNY[w], b_off[w], b_off[w + 1], px[i],
-                                          py[i])
-            bcnt[i] = count_breaks(px[i], py[i], bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m)
+            if count:
+                lo, hi, gridded = break_range(bst, BX0[w], BY0[w], BINV[w], BNX[w], BNY[w], b_off[w], b_off[w + 1],
+                                              px[i], py[i])
+                bcnt[i] = count_breaks(px[i], py[i], bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m)
 
 
 @njit(cache=True, parallel=True)
 def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, r_dist, r_vis, r_cnt, B, bcnt,
-            deep, k_front, BO):
+            deep, k_front, BO, head, S, OB):
     """Second parallel pass: line of sight of every in-view robot slot
     (:func:`~.sense_kernels.robot_sight`: a pair walked once, each slot with one writer), the break
     contacts (:func:`~.sense_kernels.gather_breaks`), then the robot contacts compacted (rows
@@ -125,9 +127,12 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
     2), start (n + 1,))``, observer-major, nearest first (ties: lower index; ``k_front``), and the
     robots ``(observer, target, distance, start)`` (no bearings: :func:`~.sense_kernels.bearings`
     computes them when they are read). The break contacts are written into ``BO`` (observer, break,
-    distance, closest buffers) when it holds them, else into new arrays of their size."""
+    distance, closest buffers) when it holds them, else into new arrays of their size. With slot rows
+    ``S`` (:func:`~.sense_kernels.break_row`'s; ``OB`` its danger, ends and beam units) the break contacts
+    are kept there instead, with the scan, and none is returned."""
     bax, bay, bbx, bby, BX0, BY0, BINV, BNX, BNY, bstart, bitems, bs_off, b_off = B
     n = px.shape[0]
+    fused = S[0].shape[0] > 0  # break_row's slot rows instead of the contact list
     off = prefix_offsets(bcnt)
     tot = off[n]
     obs, seg, dist, closest = BO
@@ -144,6 +149,7 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
         wc = wor[items[q0]]  # the views of a world are taken when it changes, not per robot
         T = terrain_of(T0, wc)
         bst = bstart[bs_off[wc]:bs_off[wc + 1]]
+        b = np.empty((max(S[3].shape[1], 1), 3))  # break_row's scan scratch, one per run
         for q in range(q0, q1):
             i = items[q]
             if not active[i]:
@@ -154,6 +160,12 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
                 T = terrain_of(T0, w)
                 bst = bstart[bs_off[w]:bs_off[w + 1]]
             robot_sight(T, i, px, py, sz, tri, deep, check_los, r_idx, r_dist, r_vis, r_cnt)
+            if fused:
+                lo, hi, gridded = break_range(bst, BX0[w], BY0[w], BINV[w], BNX[w], BNY[w], b_off[w], b_off[w + 1],
+                                              px[i], py[i])
+                break_row(i, px[i], py[i], (bax, bay, bbx, bby, bitems), lo, hi, gridded, range_m, S, OB,
+                          math.cos(head[i]), math.sin(head[i]), b)
+                continue
             if bcnt[i] == 0:
                 continue
             lo, hi, gridded = break_range(bst, BX0[w], BY0[w], BINV[w], BNX[w], BNY[w], b_off[w], b_off[w + 1], px[i],
@@ -171,10 +183,12 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
 
 
 _NO_BUFFERS = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, 2)))
+_NO_ROWS = (np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0)), np.zeros((0, 0, 2)), np.zeros((0, 0)))
+_NO_UNITS = np.zeros((0, 2))
 
 
 def sense_copies(pack, wor, cop, off, px, py, head, tri, heights, status, params, R, TG, AS, k_front=-1,
-                 buffers=None):
+                 buffers=None, rows=None):
     """What every robot of every copy senses (its one home: :func:`~.sensing.sense` is the one-copy
     case): ``(breaks (observer, break, distance, closest, start), robots (observer, target, distance,
     start))``, robot and break ids global. ``heights`` the robots' ground heights, ``status`` their
@@ -187,7 +201,11 @@ def sense_copies(pack, wor, cop, off, px, py, head, tri, heights, status, params
     (:func:`~.sense_kernels.nearest_to_front`; -1: all sorted). ``buffers``: ``(observer, break, distance,
     closest)`` arrays the break contacts are written into when they are long enough (the returned
     arrays are then their first rows, valid until the next call with them: no allocation and no
-    fresh pages a step, ~9 MB at 4 096 robots on generated terrains); None: new arrays."""
+    fresh pages a step, ~9 MB at 4 096 robots on generated terrains); None: new arrays. ``rows``: what the
+    observation reads instead of the contact list, ``(idx (n, kb), dist (n, kb), closest (n, kb, 2), scan (n,
+    K), units (K, 2))`` filled in place (:func:`~.sense_kernels.break_row`: each robot's ``kb`` nearest
+    break contacts and its ``K``-beam scan, the same bits as the observation encoder computes from the
+    list); the returned break contacts are then empty."""
     sensor = params.sensor
     r = float(sensor.range_m)
     cell = sense_cell(r)
@@ -202,14 +220,16 @@ def sense_copies(pack, wor, cop, off, px, py, head, tri, heights, status, params
     return _sense_passes(pack.T0, pack.B, pack.margin, wor, cop, off, px, py, head, tri, sz, active, present,
                          (r, cell, half_fov, math.cos(half_fov), los, int(k_front)), R,
                          (tx, ty, tz + eh, t_off, t_use), t_slots, (ax_, ay_, az_ + eh, a_off, a_use), a_slots,
-                         _NO_BUFFERS if buffers is None else buffers)
+                         _NO_BUFFERS if buffers is None else buffers, _NO_ROWS if rows is None else rows[:4],
+                         (pack.OB[2], pack.OB[3], _NO_UNITS if rows is None else rows[4]))
 
 
 @njit(cache=True)  # compiled: one call from Python a step (each call's argument checks cost ~10 us)
-def _sense_passes(T0, B, margin, wor, cop, off, px, py, head, tri, sz, active, present, S, R, TE, TS, AE, AS, BO):
+def _sense_passes(T0, B, margin, wor, cop, off, px, py, head, tri, sz, active, present, S, R, TE, TS, AE, AS, BO,
+                  SR, OB):
     """The grids per copy (robots, targets, assets) and the two passes of :func:`sense_copies`
     (``S``: range, grid cell, half field of view and its cosine, line of sight, ``k_front``; ``BO`` the
-    break contacts' buffers)."""
+    break contacts' buffers; ``SR``, ``OB``: :func:`~.sense_kernels.break_row`'s slot rows and arrays)."""
     r, cell, half_fov, cos_hf, los, k_front = S
     r_idx, r_dist, r_vis, r_cnt = R
     tx, ty, tz, t_off, t_use = TE
@@ -220,9 +240,12 @@ def _sense_passes(T0, B, margin, wor, cop, off, px, py, head, tri, sz, active, p
     n = px.shape[0]
     bcnt = np.zeros(n, dtype=np.int64)
     deep = np.empty(n, dtype=np.bool_)
+    if SR[0].shape[0]:  # every robot's slot rows empty and its scan clear, but those break_row fills
+        SR[0][:] = -1
+        SR[3][:] = 1.0
     _sense1(T0, wor, cop, margin, px, py, head, tri, sz, active, G, r, half_fov, cos_hf, los,
             r_idx, r_dist, r_vis, r_cnt, tx, ty, tz, grid_build_copies(tx, ty, t_use, t_off, cell),
             t_idx, t_dist, t_vis, t_cnt, ax_, ay_, az_, grid_build_copies(ax_, ay_, a_use, a_off, cell),
-            a_idx, a_dist, a_vis, a_cnt, B, bcnt, deep)
+            a_idx, a_dist, a_vis, a_cnt, B, bcnt, deep, SR[0].shape[0] == 0)
     return _sense2(T0, wor, px, py, sz, tri, active, G[7], r, los, r_idx, r_dist, r_vis, r_cnt, B, bcnt, deep,
-                   k_front, BO)
+                   k_front, BO, head, SR, OB)

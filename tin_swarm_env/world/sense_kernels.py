@@ -26,10 +26,11 @@ from numba import njit
 from ..terrain._kernels import bucket_locate1, los_brute1, los_walk1, orient, walk_locate1
 from .angles import wrap_pi
 from .grid import SENSE_REACH, grid_block
+from .scan_kernels import scan_contact, scan_start
 
 __all__ = ["terrain_arrays", "compact", "bearings", "break_grid", "touches", "entity_row", "near_row",
            "sight1", "deep_margin", "deep_inside", "in_view", "FOV_MARGIN", "locate1", "cell_distance",
-           "BREAK_CELL", "range_class", "RANGE_BAND"]
+           "BREAK_CELL", "range_class", "RANGE_BAND", "break_row"]
 
 
 def terrain_arrays(tin):
@@ -311,6 +312,65 @@ def gather_breaks(i, x, y, bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m,
         nearest_to_front(dist, seg, closest, p0, m, k_front)
     for p in range(p0, p0 + m):
         obs[p] = i
+
+
+@njit(cache=True)  # called, not inlined
+def break_row(i, x, y, B, lo, hi, gridded, range_m, S, OB, c, s, b):
+    """Robot ``i``'s break contacts (rows ``lo:hi`` of :func:`break_range`, as :func:`gather_breaks`
+    finds them: the same tests on the same numbers) kept only as what the observation reads: its
+    ``kb`` nearest by (distance, index) in slot row ``i`` (``S``: ``(idx (n, kb), dist, closest (n, kb,
+    2), scan (n, K))``, ``idx`` -1 in empty slots), and with ``K`` beams its scan, each dangerous contact
+    crossed as it is found (:func:`~.scan_kernels.scan_contact`: the minimum over the crossings
+    :func:`~tin_swarm_env.env.observation.scan_beams` makes over the gathered list, so the same bits),
+    over ``range_m`` (1 where no dangerous contact). No contact list is written, so no count pass
+    is needed. ``B`` the segments ``(ax, ay, bx, by, items)``; ``OB`` ``(danger, ends (B, 4), units (K, 2))``;
+    ``(c, s)`` the heading's cos and sin; ``b`` a ``(K, 3)`` scratch."""
+    bax, bay, bbx, bby, bitems = B
+    s_idx, s_dist, s_cl, scan = S
+    danger, ends, units = OB
+    kb = s_idx.shape[1]
+    K = scan.shape[1]
+    for q in range(kb):
+        s_idx[i, q] = -1
+    m = 0
+    used = False
+    hi2 = range_m * range_m * (1.0 + RANGE_BAND)
+    for w in range(lo, hi):
+        e = bitems[w] if gridded else w
+        if range_class(x, y, bax[e], bay[e], bbx[e], bby[e], 0.0, hi2) == 0:
+            continue
+        cx, cy, d = _closest(x, y, bax[e], bay[e], bbx[e], bby[e])
+        if d > range_m:
+            continue
+        if kb:
+            m = _keep_nearest(s_idx, s_dist, s_cl, i, m, kb, e, d, cx, cy)
+        if K and danger[e] != 0.0:
+            if not used:
+                used = True
+                scan_start(b, c, s, units, range_m, K)
+            scan_contact(b, ends[e, 0] - x, ends[e, 1] - y, ends[e, 2] - ends[e, 0], ends[e, 3] - ends[e, 1], c, s, K)
+    for k in range(K):
+        scan[i, k] = b[k, 0] / range_m if used else 1.0
+
+
+@njit(cache=True, inline="always")
+def _keep_nearest(idx, dist, cl, i, m, k, e, d, cx, cy):
+    """Insert contact ``(d, e)`` (closest point ``(cx, cy)``) into row ``i``'s ``m`` kept, sorted by
+    (distance, index), at most ``k``; returns the new count."""
+    if m == k and (d > dist[i, k - 1] or (d == dist[i, k - 1] and e > idx[i, k - 1])):
+        return m
+    p = m if m < k else k - 1
+    while p > 0 and (dist[i, p - 1] > d or (dist[i, p - 1] == d and idx[i, p - 1] > e)):
+        idx[i, p] = idx[i, p - 1]
+        dist[i, p] = dist[i, p - 1]
+        cl[i, p, 0] = cl[i, p - 1, 0]
+        cl[i, p, 1] = cl[i, p - 1, 1]
+        p -= 1
+    idx[i, p] = e
+    dist[i, p] = d
+    cl[i, p, 0] = cx
+    cl[i, p, 1] = cy
+    return min(m + 1, k)
 
 
 @njit(cache=True)  # called, not inlined: one compiled body for the env and the vector env
