@@ -325,32 +325,6 @@ def test_sort_contacts_orders_by_distance_then_index(m, seed, levels):
     assert SORT_BY_INSERTION < 120  # both branches are drawn
 
 
-_FRONT = []
-
-
-@settings(max_examples=60, deadline=None)
-@given(st.integers(0, 60), st.integers(0, 4), st.integers(0, 2 ** 31), st.integers(1, 5))
-def test_nearest_to_front_is_the_sorted_prefix_and_keeps_the_set(m, k, seed, levels):
-    if not _FRONT:
-        from tin_swarm_env.world.sense_kernels import nearest_to_front
-
-        @numba.njit
-        def run(d, s, c, p0, m, k):
-            nearest_to_front(d, s, c, p0, m, k)
-
-        _FRONT.append(run)
-    rng = np.random.default_rng(seed)
-    d = rng.integers(0, levels, m) * 0.25
-    s = rng.permutation(m).astype(np.int64) * 3
-    c = np.column_stack([s.astype(float), d])
-    want = np.lexsort((s, d))[:k]
-    d0, s0 = d.copy(), s.copy()
-    _FRONT[0](d, s, c, 0, m, k)
-    np.testing.assert_array_equal(s[:min(k, m)], s0[want])
-    np.testing.assert_array_equal(d[:min(k, m)], d0[want])
-    assert sorted(s.tolist()) == sorted(s0.tolist()) and np.array_equal(c[:, 0], s) and np.array_equal(c[:, 1], d)
-
-
 # -- the break grid: each cell lists every segment within range of a point of it, in index order
 
 @settings(max_examples=60, deadline=None)
@@ -435,7 +409,7 @@ def _break_row_runs():
             m = ax.shape[0]
             dist, seg, cl, obs = np.empty(m), np.empty(m, np.int64), np.empty((m, 2)), np.empty(m, np.int64)
             n = SK.count_breaks(x, y, ax, ay, bx, by, items, 0, m, False, r)
-            SK.gather_breaks(0, x, y, ax, ay, bx, by, items, 0, m, False, r, 0, dist, seg, cl, obs, -1)
+            SK.gather_breaks(0, x, y, ax, ay, bx, by, items, 0, m, False, r, 0, dist, seg, cl, obs)
             out = np.zeros((1, max(K, 1)))
             pos = np.array([[x, y]])
             start = np.array([0, n], dtype=np.int64)

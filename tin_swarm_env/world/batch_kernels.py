@@ -119,28 +119,24 @@ def _sense1(T0, wor, cop, margin, px, py, head, tri, sz, active, G, range_m, hal
 
 @njit(cache=True, parallel=True)
 def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, r_dist, r_vis, r_cnt, B, bcnt,
-            deep, k_front, BO, head, S, OB):
+            deep, head, S, OB):
     """Second parallel pass: line of sight of every in-view robot slot
     (:func:`~.sense_kernels.robot_sight`: a pair walked once, each slot with one writer), the break
     contacts (:func:`~.sense_kernels.gather_breaks`), then the robot contacts compacted (rows
     counted and copied in parallel). Returns the breaks ``(observer, break, distance, closest (P,
-    2), start (n + 1,))``, observer-major, nearest first (ties: lower index; ``k_front``), and the
+    2), start (n + 1,))``, observer-major, nearest first (ties: lower index), and the
     robots ``(observer, target, distance, start)`` (no bearings: :func:`~.sense_kernels.bearings`
-    computes them when they are read). The break contacts are written into ``BO`` (observer, break,
-    distance, closest buffers) when it holds them, else into new arrays of their size. With slot rows
-    ``S`` (:func:`~.sense_kernels.break_row`'s; ``OB`` its danger, ends and beam units) the break contacts
+    computes them when they are read). With slot rows ``S`` (:func:`~.sense_kernels.break_row`'s; ``OB`` its danger, ends and beam units) the break contacts
     are kept there instead, with the scan, and none is returned."""
     bax, bay, bbx, bby, BX0, BY0, BINV, BNX, BNY, bstart, bitems, bs_off, b_off = B
     n = px.shape[0]
     fused = S[0].shape[0] > 0  # break_row's slot rows instead of the contact list
     off = prefix_offsets(bcnt)
     tot = off[n]
-    obs, seg, dist, closest = BO
-    if obs.shape[0] < tot:
-        obs = np.empty(tot, dtype=np.int64)
-        seg = np.empty(tot, dtype=np.int64)
-        dist = np.empty(tot)
-        closest = np.empty((tot, 2))
+    obs = np.empty(tot, dtype=np.int64)
+    seg = np.empty(tot, dtype=np.int64)
+    dist = np.empty(tot)
+    closest = np.empty((tot, 2))
     nq = items.shape[0]
     C = min(nq, RUNS)
     for run in prange(C):
@@ -171,7 +167,7 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
             lo, hi, gridded = break_range(bst, BX0[w], BY0[w], BINV[w], BNX[w], BNY[w], b_off[w], b_off[w + 1], px[i],
                                           py[i])
             gather_breaks(i, px[i], py[i], bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m, off[i], dist, seg,
-                          closest, obs, k_front)
+                          closest, obs)
     rows = np.empty(n, dtype=np.int64)
     for i in prange(n):
         rows[i] = kept_count(r_idx, r_vis, r_cnt, i) if active[i] else 0
@@ -182,13 +178,11 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
     return (obs[:tot], seg[:tot], dist[:tot], closest[:tot], off), (ro, rt, rd, start)
 
 
-_NO_BUFFERS = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, 2)))
 _NO_ROWS = (np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0)), np.zeros((0, 0, 2)), np.zeros((0, 0)))
 _NO_UNITS = np.zeros((0, 2))
 
 
-def sense_copies(pack, wor, cop, off, px, py, head, tri, heights, status, params, R, TG, AS, k_front=-1,
-                 buffers=None, rows=None):
+def sense_copies(pack, wor, cop, off, px, py, head, tri, heights, status, params, R, TG, AS, rows=None):
     """What every robot of every copy senses (its one home: :func:`~.sensing.sense` is the one-copy
     case): ``(breaks (observer, break, distance, closest, start), robots (observer, target, distance,
     start))``, robot and break ids global. ``heights`` the robots' ground heights, ``status`` their
@@ -196,12 +190,7 @@ def sense_copies(pack, wor, cop, off, px, py, head, tri, heights, status, params
     entities' sight height); ``R``/``TG``/``AS`` the ``(idx, dist, vis, cnt)`` candidate slots
     (``cnt`` zeroed) and the entities ``(ex, ey, ez, eoff (E + 1,), use)`` of ``TG``/``AS`` (copy c's
     are ``eoff[c]:eoff[c + 1]``, those with ``use``; ``ez`` their ground heights), the slots of the
-    targets and assets left for :func:`~.sense_kernels.compact`. ``k_front >= 0``: each robot's break
-    contacts hold its ``k_front`` nearest first, in (distance, index) order, and the rest in no order
-    (:func:`~.sense_kernels.nearest_to_front`; -1: all sorted). ``buffers``: ``(observer, break, distance,
-    closest)`` arrays the break contacts are written into when they are long enough (the returned
-    arrays are then their first rows, valid until the next call with them: no allocation and no
-    fresh pages a step, ~9 MB at 4 096 robots on generated terrains); None: new arrays. ``rows``: what the
+    targets and assets left for :func:`~.sense_kernels.compact`. ``rows``: what the
     observation reads instead of the contact list, ``(idx (n, kb), dist (n, kb), closest (n, kb, 2), scan (n,
     K), units (K, 2))`` filled in place (:func:`~.sense_kernels.break_row`: each robot's ``kb`` nearest
     break contacts and its ``K``-beam scan, the same bits as the observation encoder computes from the
@@ -218,19 +207,18 @@ def sense_copies(pack, wor, cop, off, px, py, head, tri, heights, status, params
     (tx, ty, tz, t_off, t_use), t_slots = TG
     (ax_, ay_, az_, a_off, a_use), a_slots = AS
     return _sense_passes(pack.T0, pack.B, pack.margin, wor, cop, off, px, py, head, tri, sz, active, present,
-                         (r, cell, half_fov, math.cos(half_fov), los, int(k_front)), R,
+                         (r, cell, half_fov, math.cos(half_fov), los), R,
                          (tx, ty, tz + eh, t_off, t_use), t_slots, (ax_, ay_, az_ + eh, a_off, a_use), a_slots,
-                         _NO_BUFFERS if buffers is None else buffers, _NO_ROWS if rows is None else rows[:4],
+                         _NO_ROWS if rows is None else rows[:4],
                          (pack.OB[2], pack.OB[3], _NO_UNITS if rows is None else rows[4]))
 
 
 @njit(cache=True)  # compiled: one call from Python a step (each call's argument checks cost ~10 us)
-def _sense_passes(T0, B, margin, wor, cop, off, px, py, head, tri, sz, active, present, S, R, TE, TS, AE, AS, BO,
-                  SR, OB):
+def _sense_passes(T0, B, margin, wor, cop, off, px, py, head, tri, sz, active, present, S, R, TE, TS, AE, AS, SR,
+                  OB):
     """The grids per copy (robots, targets, assets) and the two passes of :func:`sense_copies`
-    (``S``: range, grid cell, half field of view and its cosine, line of sight, ``k_front``; ``BO`` the
-    break contacts' buffers; ``SR``, ``OB``: :func:`~.sense_kernels.break_row`'s slot rows and arrays)."""
-    r, cell, half_fov, cos_hf, los, k_front = S
+    (``S``: range, grid cell, half field of view and its cosine, line of sight; ``SR``, ``OB``: :func:`~.sense_kernels.break_row`'s slot rows and arrays)."""
+    r, cell, half_fov, cos_hf, los = S
     r_idx, r_dist, r_vis, r_cnt = R
     tx, ty, tz, t_off, t_use = TE
     ax_, ay_, az_, a_off, a_use = AE
@@ -248,4 +236,4 @@ def _sense_passes(T0, B, margin, wor, cop, off, px, py, head, tri, sz, active, p
             t_idx, t_dist, t_vis, t_cnt, ax_, ay_, az_, grid_build_copies(ax_, ay_, a_use, a_off, cell),
             a_idx, a_dist, a_vis, a_cnt, B, bcnt, deep, SR[0].shape[0] == 0)
     return _sense2(T0, wor, px, py, sz, tri, active, G[7], r, los, r_idx, r_dist, r_vis, r_cnt, B, bcnt, deep,
-                   k_front, BO, head, SR, OB)
+                   head, SR, OB)

@@ -290,12 +290,10 @@ def range_class(x, y, ax, ay, bx, by, lo2, hi2):
 
 
 @njit(cache=True)  # called, not inlined: one compiled body for the env and the vector env
-def gather_breaks(i, x, y, bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m, p0, dist, seg, closest, obs,
-                  k_front):
+def gather_breaks(i, x, y, bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m, p0, dist, seg, closest, obs):
     """Robot ``i``'s break contacts (rows ``lo:hi`` of :func:`break_range`, gathered in ascending
     segment index; those :func:`range_class` puts clearly out skipped before :func:`_closest`) written from
-    ``p0`` on: all sorted by (distance, index) (``k_front < 0``,
-    :func:`sort_contacts`) or the ``k_front`` nearest first (:func:`nearest_to_front`)."""
+    ``p0`` on, sorted by (distance, index) (:func:`sort_contacts`)."""
     m = 0
     hi2 = range_m * range_m * (1.0 + RANGE_BAND)
     for w in range(lo, hi):
@@ -306,10 +304,7 @@ def gather_breaks(i, x, y, bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m,
         if d <= range_m:
             _put(dist, seg, closest, p0 + m, d, e, cx, cy)
             m += 1
-    if k_front < 0:
-        sort_contacts(dist, seg, closest, p0, m)
-    else:
-        nearest_to_front(dist, seg, closest, p0, m, k_front)
+    sort_contacts(dist, seg, closest, p0, m)
     for p in range(p0, p0 + m):
         obs[p] = i
 
@@ -516,24 +511,6 @@ def sort_contacts(dist, seg, closest, p0, m):
     for k in range(m):
         j = order[k]
         _put(dist, seg, closest, p0 + k, d[j], e[j], c[j, 0], c[j, 1])
-
-
-@njit(cache=True)  # called, not inlined: one compiled body for the env and the vector env
-def nearest_to_front(dist, seg, closest, p0, m, k):
-    """Rows ``p0:p0 + m``: the ``k`` smallest by (distance, index) moved to the front, in that order
-    (a selection, O(m k)); the rest keep no order. The first ``k`` rows are :func:`sort_contacts`'s,
-    for a reader of only those and of the set (the vector env's observation: ``k`` break slots and
-    the scan, which takes a minimum over the set)."""
-    for q in range(min(k, m)):
-        b = p0 + q
-        for r in range(p0 + q + 1, p0 + m):
-            if dist[r] < dist[b] or (dist[r] == dist[b] and seg[r] < seg[b]):
-                b = r
-        if b != p0 + q:
-            a = p0 + q
-            d, e, cx, cy = dist[a], seg[a], closest[a, 0], closest[a, 1]
-            _put(dist, seg, closest, a, dist[b], seg[b], closest[b, 0], closest[b, 1])
-            _put(dist, seg, closest, b, d, e, cx, cy)
 
 
 # -- terrain breaks ----------------------------------------------------------------------------
