@@ -192,19 +192,19 @@ def _seen(q, pts, normals, border=None):
 def test_a_wall_driven_along_is_charted_without_holes_and_two_cells_thick():
     from tin_swarm_env.policies.chart import ChartMemory, chart_update
 
-    p = ChartParams(cells=32, extend=0.01)  # link 1.5 cells, behind 0.8 cell (the defaults)
+    p = ChartParams(cells=32, extend=0.01)  # link 1.5 cells, inset 0.5 cell, behind 0.8 cell (the defaults)
     rows = np.array([0])
 
     def chart(ys):
         mem = ChartMemory.empty(1, 32, 3)
         mem.cell[:] = 1.0  # cells 1 m wide; cell index = floor(x / 1 m) + 16
-        for y in ys:  # a wall x = 11.5 m, normal -x (the robot on its west side), seen square on at y
-            d, q = _seen((5.0, y), [(11.5, y)], [(-1.0, 0.0)])
+        for y in ys:  # a wall x = 11.2 m, normal -x (the robot on its west side), seen square on at y
+            d, q = _seen((5.0, y), [(11.2, y)], [(-1.0, 0.0)])
             chart_update(mem, rows, d, q, np.zeros(1), p, 60.0, 1.0, 2.0, np.array([False]))
         return sorted(map(tuple, np.argwhere(mem.grid[0] == WALL).tolist()))
 
     # seen at y 0.9 m (row 16) then 2.3 m (row 18), 1.4 m apart: the join shuts row 17 of the wall
-    # (column 27) between them; column 28 is the cell behind each point seen (x 12.3 m)
+    # (column 27: x 11.7 m, half a cell beyond it) between them; column 28 is the cell behind each (x 12.5 m)
     assert chart([0.9, 2.3]) == [(27, 16), (27, 17), (27, 18), (28, 16), (28, 18)]
     # 1.6 m apart (over 1.5 cells): no join, row 17 stays open
     assert chart([0.9, 2.5]) == [(27, 16), (27, 18), (28, 16), (28, 18)]
@@ -231,25 +231,45 @@ def test_a_robot_that_stalls_charts_its_straight_way_stuck_after_stall_steps():
 def test_scan_hits_are_charted_with_the_cell_behind_each_and_misses_are_not():
     from tin_swarm_env.policies.chart import ChartMemory, chart_update
 
-    p = ChartParams(cells=32)  # behind 0.8 cell
+    p = ChartParams(cells=32)  # inset 0.5 cell, behind 0.8 cell
     mem = ChartMemory.empty(1, 32, 3)
     mem.cell[:] = 1.0  # cells 1 m wide; cell index = floor(x / 1 m) + 16
     d, q = _seen((-10.5, 0.5), [], [])  # robot 10 m west of its target, heading 0 (frame F = body frame)
-    k = 4  # beams east, north, west, south: east meets a wall 6 m ahead, north one 3 m away, the others nothing
-    d.s_rel = np.array([[[6.0, 0.0], [0.0, 3.0], [-60.0, 0.0], [0.0, -60.0]]])
+    k = 4  # beams east, north, west, south: east meets a wall 5.8 m ahead, north one 2.8 m away, the others nothing
+    d.s_rel = np.array([[[5.8, 0.0], [0.0, 2.8], [-60.0, 0.0], [0.0, -60.0]]])
     d.s_hit = np.array([[True, True, False, False]])
     d.s_dir = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
     assert d.s_rel.shape == (1, k, 2)
     chart_update(mem, np.array([0]), d, q, np.zeros(1), p, 60.0, 1.0, 2.0, np.array([False]))
     walls = sorted(map(tuple, np.argwhere(mem.grid[0] == WALL).tolist()))
-    # east hit at x -4.5 m (column 11), the cell behind it at x -3.7 m (column 12), row 16 (y 0.5);
-    # north hit at y 3.5 (row 19) and behind it y 4.3 (row 20), column 5 (x -10.5)
+    # east hit at x -4.7 m: half a cell on, x -4.2 m (column 11), the cell behind that at x -3.4 m (column 12),
+    # row 16 (y 0.5); north hit at y 3.3: y 3.8 (row 19) and behind it y 4.6 (row 20), column 5 (x -10.5)
     assert walls == [(5, 19), (5, 20), (11, 16), (12, 16)]
+
+
+def test_a_cell_mostly_on_the_safe_side_of_a_break_stays_open():
+    """A gap 2.75 cells wide between two cliffs (10 m between pillars at 3.6 m cells): the cell that
+    holds a break point is shut only if the point lies in its safe half; each mark is half a cell
+    beyond the break. Before, the cell holding the point was shut: the gap was charted 2 cells wide,
+    and on a diagonal (no corner cut) shut."""
+    from tin_swarm_env.policies.chart import ChartMemory, chart_update
+
+    p = ChartParams(cells=32, extend=0.01)
+    mem = ChartMemory.empty(1, 32, 3)
+    mem.cell[:] = 1.0  # cells 1 m wide; cell index = floor(x / 1 m) + 16
+    # at x -5.5 m (column 10): a cliff's edge at y -1.2 (its ground south, normal +y) and one at y 1.55
+    d, q = _seen((-10.5, 0.5), [(-5.5, -1.2), (-5.5, 1.55)], [(0.0, 1.0), (0.0, -1.0)])
+    chart_update(mem, np.array([0]), d, q, np.zeros(1), p, 60.0, 1.0, 2.0, np.array([False]))
+    walls = sorted(map(tuple, np.argwhere(mem.grid[0] == WALL).tolist()))
+    # marks at y -1.7 (row 14) and -2.5 (row 13); y 2.05 and 2.85 (row 18): rows 15-17 open. Row 17
+    # (y 1 to 2) holds the north point but lies 55% on the gap's side: open (it was shut before)
+    assert walls == [(10, 13), (10, 14), (10, 18)]
 
 
 def test_scan_alone_is_charted_and_keeps_robots_off_the_cliff():
     """A scenario with a terrain scan and no break slots: the chart search reads the beams, so its
-    robots keep off cliff_goal's cliff (0 fell, most arrive: 19 of 20 on seed 0), where the bug
+    robots keep off cliff_goal's cliff (0 fell, most arrive: 17 of 20 on seed 0 at 256 cells; 14 at
+    the default 512, where the 32 beams' marks are sparser for the finer cells), where the bug
     search, which reads only break slots, is the fields alone and drives every robot off it."""
     import dataclasses
 
@@ -260,11 +280,12 @@ def test_scan_alone_is_charted_and_keeps_robots_off_the_cliff():
     cfg = load_scenario("cliff_goal")
     cfg = cfg.replace(observation=dataclasses.replace(cfg.observation, k_breaks=0, k_scan=32))
     env = tse.parallel_env(scenario=cfg)
-    pol = APFPolicy(env, search="chart")
-    out = rollout(env, pol, 0)
-    assert (pol.charts.grid == 1).any()  # the beams' hits were charted
-    assert not (out.reasons == Reason.FELL).any()
-    assert (out.reasons == Reason.ARRIVED).sum() >= 15
+    for cells, most in ((256, 15), (512, 12)):
+        pol = APFPolicy(env, search="chart", chart=ChartParams(cells=cells))
+        out = rollout(env, pol, 0)
+        assert (pol.charts.grid == 1).any()  # the beams' hits were charted
+        assert not (out.reasons == Reason.FELL).any()
+        assert (out.reasons == Reason.ARRIVED).sum() >= most
     bug = APFPolicy(env, search="bug")
     out = rollout(env, bug, 0)
     assert len(bug.memory.side) == 0 and (out.reasons == Reason.FELL).all()
@@ -291,9 +312,10 @@ def reference_marks(grid, cell, q, psi, d, p: ChartParams, last_pts, last_ok):
     tang = np.stack([-nrm[..., 1], nrm[..., 0]], axis=-1)
     w = cell[:, None, None]
     ok = d.b_danger
-    ext, oks = [pts, pts - p.behind * w * nrm], [ok, ok]
+    mark = pts - p.inset * w * nrm  # inset cells beyond the break
+    ext, oks = [mark, mark - p.behind * w * nrm], [ok, ok]
     for s in (-p.extend, p.extend):
-        ext.append(pts + s * w * tang)
+        ext.append(mark + s * w * tang)
         oks.append(ok & square)
     gap = np.sqrt(np.sum((pts[:, :, None, :] - last_pts[:, None, :, :]) ** 2, axis=-1))
     gap = np.where(last_ok[:, None, :], gap, np.inf)
@@ -301,13 +323,13 @@ def reference_marks(grid, cell, q, psi, d, p: ChartParams, last_pts, last_ok):
     near = ok & (np.take_along_axis(gap, j[..., None], axis=-1)[..., 0] < p.link * w[..., 0])
     other = np.take_along_axis(last_pts, j[..., None].repeat(2, -1), axis=1)
     for f in (0.25, 0.5, 0.75):
-        ext.append(pts + f * (other - pts))
+        ext.append(mark + f * (other - pts))
         oks.append(near)
     ks = d.s_rel.shape[1]
     turn = psi[:, None].repeat(ks, 1).ravel()
     hits = q[:, None, :] + _rot(turn, d.s_rel.reshape(-1, 2)).reshape(d.s_rel.shape)
     beam = _rot(turn, np.broadcast_to(d.s_dir, d.s_rel.shape).reshape(-1, 2)).reshape(d.s_rel.shape)
-    ext += [hits, hits + p.behind * w * beam]
+    ext += [hits + p.inset * w * beam, hits + (p.inset + p.behind) * w * beam]
     oks += [d.s_hit, d.s_hit]
     at, on = np.concatenate(ext, axis=1), np.concatenate(oks, axis=1)
     cw = cell[:, None]
@@ -362,7 +384,7 @@ def test_compiled_marks_are_the_numpy_marks(seed):
     grid_ref, grid = np.zeros((m, c, c), np.uint8), np.zeros((m, c, c), np.uint8)
     lp_ref, lo_ref = np.zeros((m, k, 2)), np.zeros((m, k), bool)
     lp, lo = lp_ref.copy(), lo_ref.copy()
-    prm = np.array([p.behind, p.extend, p.link, np.cos(np.radians(5.0))])
+    prm = np.array([p.behind, p.extend, p.link, np.cos(np.radians(5.0)), p.inset])
     for _ in range(3):
         d = _obs(rng, m, k, ks, 12.0)
         q, psi = rng.uniform(-20, 20, (m, 2)), rng.uniform(-np.pi, np.pi, m)
@@ -453,7 +475,7 @@ def _fresh():
 
 def test_a_wall_that_appears_on_the_way_makes_it_plan_round_it():
     mem = _fresh()
-    _step(mem, (-10.5, 0.5), [(-3.5, 0.5)], [(-1.0, 0.0)])  # a wall across row 16 at column 12, seen square on
+    _step(mem, (-10.5, 0.5), [(-3.9, 0.5)], [(-1.0, 0.0)])  # a wall across row 16 at column 12, seen square on
     assert mem.plans[0] == 2
     shut = {tuple(x) for x in np.argwhere(mem.grid[0] != OPEN)}
     assert (12, 16) in shut
@@ -466,10 +488,10 @@ def test_a_wall_that_appears_on_the_way_makes_it_plan_round_it():
 def test_a_wall_far_from_the_way_changes_the_chart_but_not_the_way():
     mem = _fresh()
     way, route = mem.way.copy(), mem.route.copy()
-    _step(mem, (-10.5, 0.5), [(-3.5, 10.5)], [(-1.0, 0.0)])  # column 12 again, but 10 rows north of the way
+    _step(mem, (-10.5, 0.5), [(-3.9, 10.5)], [(-1.0, 0.0)])  # column 12 again, but 10 rows north of the way
     assert mem.grid[0, 12, 26] == WALL
     assert mem.plans[0] == 1 and (mem.way == way).all() and (mem.route == route).all()
-    _step(mem, (-10.5, 0.5), [(-3.5, 1.5)], [(-1.0, 0.0)])  # beside the way (row 17, column 12): it plans
+    _step(mem, (-10.5, 0.5), [(-3.9, 1.5)], [(-1.0, 0.0)])  # beside the way (row 17, column 12): it plans
     assert mem.plans[0] == 2
 
 
@@ -545,3 +567,46 @@ def test_a_wall_mark_never_turns_a_stuck_cell_back_and_a_stall_marks_walls_stuck
     anchor = np.zeros(2)
     stall, stuck = _stall_row(g, 1.0, 0.5, 0.5, np.array([2.5, 0.5]), anchor, 10, 5, 0.5, True)
     assert stuck and g[6, 4] == STUCK  # the wall it drove into on its straight way is stuck now
+
+
+def _pillar_chart(p: ChartParams, d0: float = 231.0, range_m: float = 60.0):
+    """The chart (its cells sized as a robot's first step sizes them, ``d0`` m from its target) of a
+    hexagonal field of cliff pillars 16 m across, 26 m between centres (10 m gaps), every edge point
+    seen from 4 m off it (each point as the compiled marks chart it): bench/apf_unseen.py's pillars,
+    the target 30 m east of the field. Returns the chart, the cell width and the start's cell."""
+    c = p.cells
+    w = max(p.min_cell_m, 2 * (p.reach * d0 + p.range_reach * range_m) / c)
+    g = np.zeros((c, c), np.uint8)
+    prm = np.array([p.behind, p.extend, p.link, np.cos(np.radians(5.0)), p.inset])
+    none = np.zeros((0, 2))
+    for j in range(-6, 7):
+        for x in np.arange(-167.0 + (13.0 if j % 2 else 0.0), -27.0, 26.0):  # the target at (0, 0)
+            for th in np.linspace(0.0, 2 * np.pi, 72, endpoint=False):
+                n = np.array([np.cos(th), np.sin(th)])
+                q = np.array([x, j * 13.0 * np.sqrt(3)]) + 12.0 * n  # 4 m off the edge, facing it
+                _mark_row(g, w, q[0], q[1], 1.0, 0.0, -4.0 * n[None], n[None], np.array([True]),
+                          np.array([False]), np.zeros((1, 2)), np.zeros(1, bool), none, none,
+                          np.zeros(0, bool), prm)
+    h = c // 2
+    return g, w, (int(np.floor(-d0 / w)) + h, h)
+
+
+def test_a_pillar_field_with_10_m_gaps_is_charted_open_at_the_default_cells():
+    """The pillars' way is nearly straight (233 m against 231 m): at the default 512 cells (1.8 m at
+    231 m to go) the chart keeps it open, through the field; at 256 cells (3.6 m) the marks shut every
+    gap (cells holding a break point shut, as before ``inset``) and the way goes round the field (its
+    north end, 150 m off the line: the robots searched along the field's face and ran out of time)."""
+    p = ChartParams()
+    assert p.cells == 512
+    g, w, (sa, sb) = _pillar_chart(p)
+    assert w == pytest.approx(2 * (1.5 * 231.0 + 120.0) / 512)
+    found = plan(g, sa, sb, 256, 256, 3.0)[0]
+    way = _plan_row_on(g, sa, sb)[1]
+    off_line = max(abs(b - 256) for _, b in way) * w
+    assert found and off_line < 20.0  # through the field, within 20 m of the straight line
+    g, w, (sa, sb) = _pillar_chart(ChartParams(cells=256, inset=0.0))  # the chart before
+    way = _plan_row_on(g, sa, sb)[1]
+    assert max(abs(b - 128) for _, b in way) * w > 100.0  # round the field
+    g, w, (sa, sb) = _pillar_chart(ChartParams(cells=256))  # inset alone opens it on these perfect sightings
+    way = _plan_row_on(g, sa, sb)[1]  # (not in the closed loop: the beams' marks shut it, 1 robot of 10 arrived)
+    assert max(abs(b - 128) for _, b in way) * w < 20.0

@@ -111,19 +111,21 @@ heads along the shortest way to its target on it, taking ground it has not sense
 free-space assumption of D* and its kin). Memory per robot
 (:class:`~tin_swarm_env.policies.chart.ChartMemory`, constants in
 :class:`~tin_swarm_env.policies.chart.ChartParams`): the odometry above (``q`` exact); a chart of
-``cells x cells`` (256 x 256 bytes: 64 KiB) centred on its target in its frame ``F``, cells
+``cells x cells`` (512 x 512 bytes: 256 KiB) centred on its target in its frame ``F``, cells
 ``2 (reach d0 + range_reach R) / cells`` wide (``d0`` its distance to go at its first step, ``R``
 the sensor range; at least one step at top speed), each open, *wall* or *stuck*; the way it planned
-(its first ``2 cells`` cells: 2.5 KiB at 256) and the point it heads for; last step's break points;
+(its first ``2 cells`` cells: 5 KiB at 512) and the point it heads for; last step's break points;
 a stall anchor and count. Each step:
 
-1. *Mark*: the cell of every dangerous break point it sees is a wall, and ``extend`` cells either
+1. *Mark*: the cell ``inset`` (half a cell) beyond every dangerous break point it sees is a wall
+   (a cell mostly on the point's safe side stays open: a gap is charted about as wide as it is),
+   and ``extend`` cells either
    side along the break for a point seen square on (not at a break's end); a point within ``link``
    cells of one seen last step shuts the cells between them (a wall driven along leaves no hole);
    the terrain is a rectangle, so a border point (``b_border``) shuts the whole half-plane beyond it.
    With the observation's terrain scan (``[observation] k_scan``: :mod:`tin_swarm_env.env.observation`)
-   the point where each beam meets a dangerous break is a wall too, and the cell behind it along
-   the beam: a pocket's far wall is charted from its mouth, not only when driven along
+   the point where each beam meets a dangerous break is a wall too (``inset`` on along the beam), and
+   the cell behind it along the beam: a pocket's far wall is charted from its mouth, not only when driven along
    (``research/sensing_bound.md`` measures what that buys). A layout with a scan and no break
    slots (``k_breaks = 0``) is charted from the beams alone, with no wall to slide along (step 3);
    the bug search reads only the break slots, so without them APF is the fields alone.

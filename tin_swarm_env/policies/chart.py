@@ -46,6 +46,11 @@ class ChartParams:
                     off the walls)
     extend          a break point seen square on (not at its end) shuts the chart this many cells
                     either side of it along the break as well
+    inset           a break point (a scan hit) shuts the cell this many cells beyond it (away from
+                    its safe side; a hit: on along the beam), not the cell that holds it: at 0.5 a
+                    cell is shut only where most of it lies beyond the break, so a gap between two
+                    breaks is charted about as wide as it is (shutting the cell that holds each
+                    point charted it a cell narrower on average); ``behind`` counts from there
     turn_m          a way that sets off against the way the robot was heading costs up to this much
                     more (it keeps to its way unless another is this much shorter: no dithering
                     between two ways of about the same length as the chart grows)
@@ -55,7 +60,7 @@ class ChartParams:
                     between them too (a wall driven along leaves no holes on the chart)
     """
 
-    cells: int = 256
+    cells: int = 512
     reach: float = 1.5
     range_reach: float = 2.0
     min_cell_m: float = 1.0
@@ -66,10 +71,11 @@ class ChartParams:
     link: float = 1.5
     behind: float = 0.8
     turn_m: float = 30.0
+    inset: float = 0.5
 
     def __post_init__(self):  # the chart is cells x cells bytes per robot: at most MAX_CHART_CELLS a side
         check_positive_fields(self, {"cells": {"lo": 4, "lo_open": False, "hi": MAX_CHART_CELLS},
-                                     "stall_steps": {"hi": 10**9}})
+                                     "stall_steps": {"hi": 10**9}, "inset": {"lo_open": False, "hi": 1.0}})
 
 
 _ROW_FIELDS = ("grid", "cell", "way", "dirty", "anchor", "stall", "forgot", "last_pts", "last_ok", "have_way",
@@ -101,9 +107,10 @@ class ChartMemory:
     plans      (n,)      int     times it has run the A* (a count for the benchmark and tests)
 
     Bytes per robot: ``C^2 + 5 ROUTE_PER_CELL C + 17 K + 90`` (the chart, the route, the rest):
-    68 237 at the default 256 cells and 3 break slots (66.6 KiB; the route is 2.5 KiB of it).
-    Besides, for all robots together: one set of A* work arrays (``work``: ``17 C^2`` bytes,
-    1.06 MiB at 256 cells, made at the first plan) and the heap of the one search under way.
+    68 237 at 256 cells and 3 break slots (66.6 KiB; the route is 2.5 KiB of it), 267 405 at the
+    default 512 (261 KiB). Besides, for all robots together: one set of A* work arrays (``work``:
+    ``17 C^2`` bytes, 1.06 MiB at 256 cells, 4.25 MiB at 512, made at the first plan) and the heap of
+    the one search under way.
     """
 
     grid: np.ndarray
@@ -209,8 +216,10 @@ def _mark_row(g, w, qx, qy, cs, sn, rel, nrm_b, danger, border, lp, lo, s_rel, s
     ``w <= 0``: no chart, nothing marked): at ``q``, heading ``(cs, sn) = (cos, sin) psi``, it sees
     break slots ``rel, nrm_b (K, 2)`` (body frame), ``danger``, ``border (K,)``, and scan hits
     ``s_rel (K_s, 2)`` along ``s_dir`` (``s_hit``); ``lp, lo``: last step's points in ``F``, replaced
-    by this step's. ``prm``: behind, extend, link, cos(5 deg). True where a cell changed."""
+    by this step's. ``prm``: behind, extend, link, cos(5 deg) and inset (0 if left out). True where a
+    cell changed."""
     behind, extend, link, cos_sq = prm[0], prm[1], prm[2], prm[3]
+    inset = prm[4] if prm.shape[0] > 4 else 0.0
     k = rel.shape[0]
     pts = np.empty((k, 2))
     nrm = np.empty((k, 2))
@@ -224,7 +233,8 @@ def _mark_row(g, w, qx, qy, cs, sn, rel, nrm_b, danger, border, lp, lo, s_rel, s
         for j in range(k):
             if not danger[j]:
                 continue
-            px, py, nx, ny = pts[j, 0], pts[j, 1], nrm[j, 0], nrm[j, 1]
+            nx, ny = nrm[j, 0], nrm[j, 1]
+            px, py = pts[j, 0] - inset * w * nx, pts[j, 1] - inset * w * ny  # the mark: inset cells beyond it
             changed |= _wall_at(g, w, px, py)
             t = behind * w  # the cell behind it: a wall two cells thick
             changed |= _wall_at(g, w, px - t * nx, py - t * ny)
@@ -242,8 +252,8 @@ def _mark_row(g, w, qx, qy, cs, sn, rel, nrm_b, danger, border, lp, lo, s_rel, s
                     if e < best:
                         best, jb = e, i
             if jb >= 0 and best < link * w:
-                for f in (0.25, 0.5, 0.75):
-                    changed |= _wall_at(g, w, px + f * (lp[jb, 0] - px), py + f * (lp[jb, 1] - py))
+                for f in (0.25, 0.5, 0.75):  # (inset as this point's mark)
+                    changed |= _wall_at(g, w, px + f * (lp[jb, 0] - pts[j, 0]), py + f * (lp[jb, 1] - pts[j, 1]))
         for j in range(s_rel.shape[0]):  # the scan's hits: the wall, and a cell behind it
             if not s_hit[j]:
                 continue
@@ -251,8 +261,9 @@ def _mark_row(g, w, qx, qy, cs, sn, rel, nrm_b, danger, border, lp, lo, s_rel, s
             hy = qy + (sn * s_rel[j, 0] + cs * s_rel[j, 1])
             bx = cs * s_dir[j, 0] - sn * s_dir[j, 1]
             by = sn * s_dir[j, 0] + cs * s_dir[j, 1]
-            changed |= _wall_at(g, w, hx, hy)
-            t = behind * w
+            t = inset * w
+            changed |= _wall_at(g, w, hx + t * bx, hy + t * by)
+            t = (inset + behind) * w
             changed |= _wall_at(g, w, hx + t * bx, hy + t * by)
         for j in range(k):  # the border closes the half-plane beyond it
             if border[j] and danger[j]:
@@ -651,6 +662,7 @@ def _chart_rows(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_nor
     grid, cell, way, dirty, anchor, stall, forgot, last_pts, last_ok, have_way = mem[:10]
     route, shut, route_len, route_at, way_at, plans = mem[10:]
     c = grid.shape[1]
+    mark_prm = np.array([prm[4], prm[5], prm[6], prm[7], prm[13]])
     for r in range(len(rows)):
         i = rows[r]
         qx, qy = q[r, 0], q[r, 1]
@@ -661,7 +673,7 @@ def _chart_rows(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_nor
         w = cell[i]
         g = grid[i]
         changed = _mark_row(g, w, qx, qy, cs[r], sn[r], b_rel[r], b_normal[r], b_danger[r], b_border[r],
-                            last_pts[i], last_ok[i], s_rel[r], s_dir, s_hit[r], prm[4:8])
+                            last_pts[i], last_ok[i], s_rel[r], s_dir, s_hit[r], mark_prm)
         limit = 2 * prm[8] if crowded[r] else prm[8]
         stall[i], stuck = _stall_row(g, w, qx, qy, way[i], anchor[i], stall[i], limit, prm[9], has_t[r])
         if stuck:
@@ -677,7 +689,8 @@ def _prm(params: ChartParams, range_m: float, step_m: float, body_m: float) -> n
     """The constants :func:`_chart_rows` reads, in its order."""
     return np.array([max(params.min_cell_m, step_m), params.reach, params.range_reach, range_m,
                      params.behind, params.extend, params.link, np.cos(np.radians(5.0)),
-                     params.stall_steps, body_m, params.ahead_m, params.wall_cost, params.turn_m], np.float64)
+                     params.stall_steps, body_m, params.ahead_m, params.wall_cost, params.turn_m, params.inset],
+                    np.float64)
 
 
 def _rot(psi, v):
