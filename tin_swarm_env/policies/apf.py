@@ -131,8 +131,11 @@ a stall anchor and count. Each step:
    the bug search reads only the break slots, so without them APF is the fields alone.
 2. *Plan* (A*, 8-connected, no corner cut between two shut cells; a step into a cell beside a shut
    one costs ``wall_cost`` cells more, a first step against the way it was heading up to ``turn_m``
-   more) the least-cost way over open cells to the target's cell, and keep it. It plans again only
-   when the rest of that way may have stopped being least-cost: a cell on or beside it (in the 3 x 3
+   more) the least-cost way over open cells to the target's cell, and keep it. On a fine chart (a
+   pass, ``pass_m`` = 3 body diameters, at least ``pinch_cells`` cells wide) an open cell between
+   two shut cells on opposite sides counts as a wall: a gap charted one cell wide is narrower than
+   a pass there, and is most often a hole between two sightings of one wall (beams far apart).
+   It plans again only when the rest of that way may have stopped being least-cost: a cell on or beside it (in the 3 x 3
    block of one of its cells from where the robot is on) became shut; or the robot is more than a
    cell off it (pushed aside, sliding along a wall); or it stalled (step 4); or the way was longer
    than ``2 cells`` cells (kept cut there) and its chart changed or it nears the cut. A cell shut
@@ -360,7 +363,7 @@ class APFPolicy:
         crowded = ((d.r_valid > 0.5) & (r_d < 2 * self.params.robot_range_m)).any(axis=-1)
         psi = self.memory.psi[rows]
         way = chart_update(ch, rows, d, q, psi, self.chart, self.shield.range_m, self.shield.step_m,
-                           2 * self.shield.edge_m, crowded, self.shield.standoff_m)
+                           2 * self.shield.edge_m, crowded, self.shield.standoff_m, self.shield.pass_m)
         detour = np.any(way != d.rel_t, axis=-1)
         wn = np.sqrt(np.sum(way * way, axis=-1, keepdims=True))
         mag = np.sqrt(np.sum(f["target"] ** 2, axis=-1, keepdims=True))

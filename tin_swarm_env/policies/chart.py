@@ -58,6 +58,11 @@ class ChartParams:
                     shut too: a wall two cells thick leaks no diagonal way through its holes
     link            a break point within this many cells of one seen last step shuts the cells
                     between them too (a wall driven along leaves no holes on the chart)
+    pinch_cells     a cell between two shut cells on opposite sides (a gap charted one cell wide)
+                    is left out of the plan (step 5 crosses it at a wall's price) on a chart whose
+                    cells are fine enough that a pass (``SafetyShield.pass_m``: 3 body diameters)
+                    is at least this many cells wide: such a gap is narrower than a pass, most often
+                    a hole between two sightings of one wall; on a coarser chart it may be a real pass
     """
 
     cells: int = 512
@@ -72,6 +77,7 @@ class ChartParams:
     behind: float = 0.8
     turn_m: float = 30.0
     inset: float = 0.5
+    pinch_cells: float = 1.5
 
     def __post_init__(self):  # the chart is cells x cells bytes per robot: at most MAX_CHART_CELLS a side
         check_positive_fields(self, {"cells": {"lo": 4, "lo_open": False, "hi": MAX_CHART_CELLS},
@@ -399,12 +405,13 @@ def _astar(g, sa, sb, ta, tb, ahead, wall_cost, ha, hb, turn, dist, prev, closed
 
 
 @njit(cache=True)
-def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cross=0.0):
+def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cross=0.0, pinch=False):
     """The A* of :func:`plan` on the work arrays of :func:`_astar`, which it leaves filled (``prev``
     holds the way): ``(found, cost, touched, nt)``, the first ``nt`` of ``touched`` the flat indices
     of the cells it set (for :func:`_reset`). ``cross > 0``: wall cells may be entered too, each
     for ``cross`` more, and so may a diagonal step past one (stuck cells stay shut): the way through
-    the fewest walls (chart search step 5)."""
+    the fewest walls (chart search step 5). ``pinch``: an open cell (not the target's) between two
+    shut cells on opposite sides (:func:`_pinched`) counts as a wall."""
     c = g.shape[0]
     INF = 1e30
     cap = 64 * c + 64  # the heap grows by doubling (a cell is pushed at most 8 times)
@@ -441,6 +448,8 @@ def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cros
                 if na < 0 or nb < 0 or na >= c or nb >= c or closed[na, nb]:
                     continue
                 v = g[na, nb]
+                if pinch and v == OPEN and not (na == ta and nb == tb) and _pinched(g, na, nb):
+                    v = WALL  # a gap one cell wide: narrower than a pass
                 if v == STUCK or (v == WALL and cross <= 0.0):
                     continue
                 step = s2 if da != 0 and db != 0 else 1.0
@@ -479,6 +488,17 @@ def _reset(dist, prev, closed, touched, nt, c):
         dist[v // c, v % c] = 1e30
         prev[v // c, v % c] = -1
         closed[v // c, v % c] = False
+
+
+@njit(cache=True, inline="always")
+def _pinched(g, a, b):
+    """Cell (a, b) of chart ``g`` lies between two shut cells on opposite sides (north and south,
+    east and west, or across a diagonal): a gap one cell wide. Cells on the chart's edge never do."""
+    c = g.shape[0]
+    if a <= 0 or b <= 0 or a >= c - 1 or b >= c - 1:
+        return False
+    return ((g[a - 1, b] != 0 and g[a + 1, b] != 0) or (g[a, b - 1] != 0 and g[a, b + 1] != 0)
+            or (g[a - 1, b - 1] != 0 and g[a + 1, b + 1] != 0) or (g[a - 1, b + 1] != 0 and g[a + 1, b - 1] != 0))
 
 
 @njit(cache=True, inline="always")
@@ -576,13 +596,13 @@ def _locate(route, lo, hi, sa, sb, c):
 
 
 @njit(cache=True)
-def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route, shut):
+def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route, shut, pinch=False):
     """Plan on chart ``g`` from cell (sa, sb) to the target's cell (chart search steps 2 and 5):
-    A* over open cells; if there is no way, the way through the fewest walls (each wall cell entered
-    costs a chart's width in cells, stuck cells stay shut), then that again after forgetting its
-    stuck cells, then on a forgotten chart (on which there is always a way). Stores the way in
-    ``route``/``shut`` (:func:`_store_way`). Returns ``(found, cells stored, index of the point to
-    head for, forgot the whole chart)``."""
+    A* over open cells (``pinch``: but gaps one cell wide, :func:`_search`); if there is no way, the
+    way through the fewest walls (each wall cell entered costs a chart's width in cells, stuck cells
+    stay shut), then that again after forgetting its stuck cells, then on a forgotten chart (on
+    which there is always a way). Stores the way in ``route``/``shut`` (:func:`_store_way`).
+    Returns ``(found, cells stored, index of the point to head for, forgot the whole chart)``."""
     c = g.shape[0]
     h = c // 2
     for attempt in range(4):
@@ -594,7 +614,7 @@ def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route
                         g[a, b] = OPEN
         elif attempt == 3:  # forget the chart: it starts again from what it sees
             g[:, :] = OPEN
-        found, _, touched, nt = _search(g, sa, sb, h, h, wall_cost, ha, hb, tc, dist, prev, closed, cross)
+        found, _, touched, nt = _search(g, sa, sb, h, h, wall_cost, ha, hb, tc, dist, prev, closed, cross, pinch)
         n = 0
         if found:
             n = _store_way(g, prev, sa, sb, h, h, _way_length(prev, c, sa, sb, h, h), route, shut)
@@ -614,7 +634,7 @@ def _next_way(i, g, w, qx, qy, changed, m_route, m_shut, m_len, m_at, m_way_at, 
     of the point it heads for (or at it), or with its target within ``ahead`` cells (so that a
     target in a straight open line is headed for itself, and its stand-off rules), it picks the next
     one along its way. True if it planned."""
-    ahead_m, wall_cost, turn_m = prm[0], prm[1], prm[2]
+    ahead_m, wall_cost, turn_m, pinch_m = prm[0], prm[1], prm[2], prm[4]
     c = g.shape[0]
     h = c // 2
     sa = min(max(int(np.floor(qx / w)) + h, 0), c - 1)
@@ -633,7 +653,8 @@ def _next_way(i, g, w, qx, qy, changed, m_route, m_shut, m_len, m_at, m_way_at, 
         nrm = np.sqrt(dx * dx + dy * dy)
         ha, hb = (dx / nrm, dy / nrm) if nrm > 1e-9 and have_way[i] else (0.0, 0.0)
         tc = turn_m / w if nrm > 1e-9 and have_way[i] else 0.0
-        ok, n, k, fg = _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, work[0], work[1], work[2], route, shut)
+        ok, n, k, fg = _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, work[0], work[1], work[2], route, shut,
+                                 0.0 < w <= pinch_m)
         forgot[i] += fg
         dirty[i] = False
         have_way[i] = ok
@@ -681,16 +702,17 @@ def _chart_rows(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_nor
         if w <= 0 or not has_t[r]:  # no chart, or no target: no way to plan
             continue
         if _next_way(i, g, w, qx, qy, changed, route, shut, route_len, route_at, way_at, way, dirty, have_way,
-                     forgot, work, prm[10:13]):
+                     forgot, work, prm[10:15]):
             plans[i] += 1
 
 
-def _prm(params: ChartParams, range_m: float, step_m: float, body_m: float) -> np.ndarray:
-    """The constants :func:`_chart_rows` reads, in its order."""
+def _prm(params: ChartParams, range_m: float, step_m: float, body_m: float, pass_m: float = 0.0) -> np.ndarray:
+    """The constants :func:`_chart_rows` reads, in its order (the last: the widest cell at which
+    gaps one cell wide are left out of the plan, ``ChartParams.pinch_cells``; 0: none)."""
     return np.array([max(params.min_cell_m, step_m), params.reach, params.range_reach, range_m,
                      params.behind, params.extend, params.link, np.cos(np.radians(5.0)),
-                     params.stall_steps, body_m, params.ahead_m, params.wall_cost, params.turn_m, params.inset],
-                    np.float64)
+                     params.stall_steps, body_m, params.ahead_m, params.wall_cost, params.turn_m, params.inset,
+                     pass_m / params.pinch_cells], np.float64)
 
 
 def _rot(psi, v):
@@ -703,12 +725,14 @@ def _f64(a, shape=None):
 
 
 def chart_update(mem: ChartMemory, rows, d: DecodedObs, q, psi, params: ChartParams, range_m: float,
-                 step_m: float, body_m: float, crowded, standoff_m: float = 0.0) -> np.ndarray:
+                 step_m: float, body_m: float, crowded, standoff_m: float = 0.0, pass_m: float = 0.0) -> np.ndarray:
     """Advance the charts of robots ``rows`` by one observation and return the body-frame vector
     to the point each heads for ``(m, 2)`` (the target's own vector ``rel_t`` when its way is
     open straight to it, or when that point lies within ``standoff_m`` of the target: the ring
-    around a threat is the target field's to hold, never a point inside it). One compiled pass over
-    the rows (:func:`_chart_rows`)."""
+    around a threat is the target field's to hold, never a point inside it). ``pass_m``: the
+    narrowest gap the robot drives through (``SafetyShield.pass_m``; 0: every open cell may be
+    planned through, ``ChartParams.pinch_cells``). One compiled pass over the rows
+    (:func:`_chart_rows`)."""
     rows = np.ascontiguousarray(rows, dtype=np.int64)
     m, k = len(rows), d.b_rel.shape[1]
     if mem.last_ok.shape[1] != k:
@@ -723,7 +747,7 @@ def chart_update(mem: ChartMemory, rows, d: DecodedObs, q, psi, params: ChartPar
                 np.sin(psi), np.ascontiguousarray(d.has_t, bool), _f64(d.dist),
                 np.ascontiguousarray(crowded, bool), _f64(d.b_rel), _f64(d.b_normal),
                 np.ascontiguousarray(d.b_danger, bool), np.ascontiguousarray(d.b_border, bool), s_rel, s_dir,
-                s_hit, _prm(params, range_m, step_m, body_m))
+                s_hit, _prm(params, range_m, step_m, body_m, pass_m))
     way = mem.way[rows]
     at_t = ((way[:, 0] == 0.0) & (way[:, 1] == 0.0)) | (np.sum(way * way, axis=-1) < standoff_m ** 2)
     out = _rot(-psi, way - q)
