@@ -39,13 +39,20 @@ from tin_swarm_env.policies.chart import (
 )
 
 
-def dijkstra(g, s, t, wall_cost=2.0):
+def dijkstra(g, s, t, wall_cost=2.0, pinch=False):
     """The least cost from cell s to cell t over open cells, 8-connected, no corner cutting, a step
-    into a cell with a shut neighbour costing ``wall_cost`` more (inf: no way)."""
+    into a cell with a shut neighbour costing ``wall_cost`` more (inf: no way); ``pinch``: an open
+    cell other than t, not on the chart's edge, between two shut cells on opposite sides (a gap one
+    cell wide) is not entered either."""
     c = g.shape[0]
 
     def shut(a, b):
         return 0 <= a < c and 0 <= b < c and g[a, b] != 0
+
+    def pinched(a, b):
+        inside = 0 < a < c - 1 and 0 < b < c - 1
+        pairs = ((1, 0), (0, 1), (1, 1), (1, -1))
+        return inside and any(shut(a + ea, b + eb) and shut(a - ea, b - eb) for ea, eb in pairs)
 
     best = {s: 0.0}
     heap = [(0.0, s)]
@@ -59,6 +66,8 @@ def dijkstra(g, s, t, wall_cost=2.0):
             for db in (-1, 0, 1):
                 na, nb = a + da, b + db
                 if (da, db) == (0, 0) or not (0 <= na < c and 0 <= nb < c) or g[na, nb] != 0:
+                    continue
+                if pinch and (na, nb) != t and pinched(na, nb):
                     continue
                 if da and db and (shut(a + da, b) or shut(a, b + db)):
                     continue
@@ -85,6 +94,26 @@ def test_plan_costs_what_a_plain_dijkstra_costs(seed, density):
     if found:
         assert cost == pytest.approx(ref)
         assert g[wa, wb] == 0
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.floats(0.0, 0.45))
+def test_with_pinch_the_search_leaves_out_gaps_one_cell_wide_as_a_plain_dijkstra_does(seed, density):
+    """``_search(..., pinch=True)`` over open cells costs what the plain Dijkstra costs when it never
+    enters a cell between two shut cells on opposite sides (but the target's cell)."""
+    rng = np.random.default_rng(seed)
+    c = 12
+    g = (rng.random((c, c)) < density).astype(np.uint8)
+    s, t = (int(rng.integers(0, c)), 0), (int(rng.integers(0, c)), c - 1)
+    g[s] = g[t] = 0
+    dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
+    found, cost, touched, nt = _search(g, *s, *t, 2.0, 0.0, 0.0, 0.0, dist, prev, closed, 0.0, True)
+    ref = dijkstra(g, s, t, pinch=True)
+    assert found == (ref < math.inf)
+    if found:
+        assert cost == pytest.approx(ref)
+    _reset(dist, prev, closed, touched, nt, c)
+    assert dijkstra(g, s, t) <= ref  # leaving cells out never makes a way shorter
 
 
 @settings(max_examples=30, deadline=None)
@@ -520,14 +549,14 @@ def test_memory_per_robot_is_as_documented():
     assert "68 237" in ChartMemory.__doc__
 
 
-def _plan_row_on(g, sa, sb):
+def _plan_row_on(g, sa, sb, pinch=False):
     from tin_swarm_env.policies.chart import _plan_row
 
     c = g.shape[0]
     work = (np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), np.bool_))
     route = np.zeros(ROUTE_PER_CELL * c, np.int32)
     shut = np.zeros(ROUTE_PER_CELL * c, np.uint8)
-    found, n, k, forgot = _plan_row(g, sa, sb, 3.0, 2.0, 0.0, 0.0, 0.0, *work, route, shut)
+    found, n, k, forgot = _plan_row(g, sa, sb, 3.0, 2.0, 0.0, 0.0, 0.0, *work, route, shut, pinch)
     return found, [(int(v) // c, int(v) % c) for v in route[:n]], forgot
 
 
@@ -604,9 +633,65 @@ def test_a_pillar_field_with_10_m_gaps_is_charted_open_at_the_default_cells():
     way = _plan_row_on(g, sa, sb)[1]
     off_line = max(abs(b - 256) for _, b in way) * w
     assert found and off_line < 20.0  # through the field, within 20 m of the straight line
+    way = _plan_row_on(g, sa, sb, pinch=True)[1]  # 1.8 m cells: gaps one cell wide left out (pinch_cells)
+    assert all(g[a, b] == OPEN for a, b in way)  # an open way: the 10 m gaps are wider than one cell
+    assert max(abs(b - 256) for _, b in way) * w < 20.0
     g, w, (sa, sb) = _pillar_chart(ChartParams(cells=256, inset=0.0))  # the chart before
     way = _plan_row_on(g, sa, sb)[1]
     assert max(abs(b - 128) for _, b in way) * w > 100.0  # round the field
     g, w, (sa, sb) = _pillar_chart(ChartParams(cells=256))  # inset alone opens it on these perfect sightings
     way = _plan_row_on(g, sa, sb)[1]  # (not in the closed loop: the beams' marks shut it, 1 robot of 10 arrived)
     assert max(abs(b - 128) for _, b in way) * w < 20.0
+
+
+def _walled(mem):
+    """Robot 0's chart (32 cells, target cell (16, 16)): a wall two cells thick across it at columns
+    10-11, with a hole one cell wide on the robot's straight way (row 16) and a gap two cells wide at
+    rows 24-25."""
+    g = mem.grid[0]
+    g[10:12, :] = WALL
+    g[10:12, 24:26] = OPEN
+    g[10:12, 16] = OPEN
+
+
+@pytest.mark.parametrize("pass_m, cell, through_hole", [(0.0, 1.0, True), (3.0, 1.0, False), (3.0, 1.9, False),
+                                                         (3.0, 2.1, True), (1.4, 1.0, True)])
+def test_on_a_fine_chart_the_way_keeps_out_of_a_gap_one_cell_wide(pass_m, cell, through_hole):
+    """A gap one cell wide is left out of the plan where a pass (pass_m) is at least pinch_cells (1.5)
+    cells wide: the way goes round by the gap two cells wide; with no such gap it crosses the narrow
+    one as it would a wall, forgetting nothing. On a coarser chart, or with no pass_m, it goes
+    through the narrow gap (a real pass, perhaps)."""
+    mem = ChartMemory.empty(1, 32, 3)
+    mem.cell[:] = cell
+    _walled(mem)
+    d, q = _one((-10.5 * cell, 0.5 * cell))  # cell (5, 16)
+    chart_update(mem, np.array([0]), d, q, np.zeros(1), P, 60.0, 1.0, 2.0, np.array([False]), pass_m=pass_m)
+    route = [divmod(int(v), 32) for v in mem.route[0, :mem.route_len[0]]]
+    assert route[0] == (5, 16) and route[-1] == (16, 16) and mem.forgot[0] == 0
+    assert all(mem.grid[0][a, b] == OPEN for a, b in route)
+    assert ((10, 16) in route) == through_hole
+    assert any(a == 10 and b in (24, 25) for a, b in route) == (not through_hole)
+    if not through_hole:  # the wide gap shut too: the way through the fewest walls takes the narrow gap
+        mem = ChartMemory.empty(1, 32, 3)
+        mem.cell[:] = cell
+        _walled(mem)
+        mem.grid[0, 10:12, 24:26] = WALL
+        chart_update(mem, np.array([0]), d, q, np.zeros(1), P, 60.0, 1.0, 2.0, np.array([False]), pass_m=pass_m)
+        route = [divmod(int(v), 32) for v in mem.route[0, :mem.route_len[0]]]
+        assert (10, 16) in route and (11, 16) in route and mem.forgot[0] == 0
+        assert (mem.grid[0, 10:12, 16] == OPEN).all()  # crossed at a wall's price, not charted shut
+
+
+def test_a_target_in_a_gap_one_cell_wide_is_still_reached_over_open_cells():
+    """The target's own cell is never left out of the plan: here it lies between two wall cells."""
+    c = 16
+    g = np.zeros((c, c), np.uint8)
+    g[7, 8] = g[9, 8] = WALL  # north and south of the target's cell (8, 8): it is pinched, its row is not
+    dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
+    found, cost, touched, nt = _search(g, 8, 1, 8, 8, 2.0, 0.0, 0.0, 0.0, dist, prev, closed, 0.0, True)
+    assert found and cost == pytest.approx(dijkstra(g, (8, 1), (8, 8)))  # as without the rule
+    _reset(dist, prev, closed, touched, nt, c)
+    g[7, 7] = g[9, 7] = WALL  # (8, 7) now lies between (7, 7) and (9, 7): the way comes round by (8, 9)
+    found, cost, touched, nt = _search(g, 8, 1, 8, 8, 2.0, 0.0, 0.0, 0.0, dist, prev, closed, 0.0, True)
+    ref = dijkstra(g, (8, 1), (8, 8), pinch=True)
+    assert found and cost == pytest.approx(ref) and ref > dijkstra(g, (8, 1), (8, 8))
