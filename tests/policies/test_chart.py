@@ -542,11 +542,11 @@ def test_a_robot_at_its_target_cell_heads_for_the_target_and_does_not_plan_again
 
 
 def test_memory_per_robot_is_as_documented():
-    """ChartMemory's docstring: C^2 + 5 ROUTE_PER_CELL C + 17 K + 90 bytes a robot (68 237 at 256 cells, K = 3)."""
+    """ChartMemory's docstring: C^2 + 5 ROUTE_PER_CELL C + 17 K + 91 bytes a robot (68 238 at 256 cells, K = 3)."""
     mem = ChartMemory.empty(1, 256, 3)
     per_robot = sum(getattr(mem, f).nbytes for f in _ROW_FIELDS)
-    assert per_robot == 256**2 + 5 * ROUTE_PER_CELL * 256 + 17 * 3 + 90 == 68237
-    assert "68 237" in ChartMemory.__doc__
+    assert per_robot == 256**2 + 5 * ROUTE_PER_CELL * 256 + 17 * 3 + 91 == 68238
+    assert "68 238" in ChartMemory.__doc__
 
 
 def _plan_row_on(g, sa, sb, pinch=False):
@@ -695,3 +695,91 @@ def test_a_target_in_a_gap_one_cell_wide_is_still_reached_over_open_cells():
     found, cost, touched, nt = _search(g, 8, 1, 8, 8, 2.0, 0.0, 0.0, 0.0, dist, prev, closed, 0.0, True)
     ref = dijkstra(g, (8, 1), (8, 8), pinch=True)
     assert found and cost == pytest.approx(ref) and ref > dijkstra(g, (8, 1), (8, 8))
+
+
+def _ringed(rng, c, walled):
+    """A chart ``c`` cells a side with random walls and stuck cells, the target's cell (c // 2, c // 2)
+    open inside a ring of walls (a way in through it when not ``walled``; some rings have a hole one
+    cell wide, which the pinch rule shuts)."""
+    g = (rng.random((c, c)) < rng.uniform(0.0, 0.3)).astype(np.uint8)
+    g[rng.random((c, c)) < 0.03] = 2
+    h = c // 2
+    yy, xx = np.mgrid[0:c, 0:c]
+    r = np.hypot(yy - h, xx - h)
+    rad = rng.uniform(2.0, c / 3)
+    g[(r >= rad) & (r < rad + 1.5)] = WALL
+    if not walled:
+        g[h, int(h + rad):int(h + rad + 2)] = OPEN
+        if rng.random() < 0.5:  # a gap two cells wide, else one
+            g[h + 1, int(h + rad):int(h + rad + 2)] = OPEN
+    g[h, h] = OPEN
+    return g
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.booleans(), st.booleans())
+def test_the_flood_from_the_target_says_walled_in_exactly_when_the_search_finds_no_open_way(seed, walled, pinch):
+    """_walled_in (a flood over the cells the A* may enter, from the target) is True exactly when the
+    A* over open cells finds no way, with or without the pinch rule; with a small budget it may only
+    say False; it leaves its work array as it found it."""
+    from tin_swarm_env.policies.chart import _walled_in
+
+    rng = np.random.default_rng(seed)
+    c = 24
+    g = _ringed(rng, c, walled)
+    s = (int(rng.integers(0, c)), int(rng.integers(0, c)))
+    dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
+    found, _, touched, nt = _search(g, *s, c // 2, c // 2, 2.0, 0.0, 0.0, 0.0, dist, prev, closed, 0.0, pinch)
+    _reset(dist, prev, closed, touched, nt, c)
+    assert _walled_in(g, *s, c // 2, c // 2, pinch, c * c, closed) == (not found)
+    assert not closed.any()
+    if found:
+        assert not _walled_in(g, *s, c // 2, c // 2, pinch, 3, closed)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.booleans(), st.booleans())
+def test_planning_with_the_flood_first_gives_the_same_way_and_chart_as_without(seed, walled, pinch):
+    """_plan_row with the flood (flood > 0) answers as without it, bit for bit: found, the way stored
+    (cells and shut counts), the point to head for, whether it forgot, and the chart it leaves
+    (stuck cells forgotten, or the whole chart, the same), with the target walled in or not."""
+    from tin_swarm_env.policies.chart import _plan_row
+
+    rng = np.random.default_rng(seed)
+    c = 24
+    g = _ringed(rng, c, walled)
+    s = (int(rng.integers(0, c)), int(rng.integers(0, c)))
+    out = []
+    for flood in (0, c * c, 5):
+        gg = g.copy()
+        work = (np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), np.bool_))
+        route, shut = np.zeros(ROUTE_PER_CELL * c, np.int32), np.zeros(ROUTE_PER_CELL * c, np.uint8)
+        found, n, k, forgot = _plan_row(gg, *s, 3.0, 2.0, 0.0, 0.0, 0.0, *work, route, shut, pinch, flood)
+        out.append((found, n, k, forgot, route[:n].tolist(), shut[:n].tolist(), gg.tobytes()))
+        assert (work[0] == 1e30).all() and (work[1] == -1).all() and not work[2].any()
+    assert out[0] == out[1] == out[2]
+
+
+def test_a_target_walled_in_is_planned_to_through_the_fewest_walls_with_or_without_the_flood():
+    """The case the flood is for (a crater charted round its target): no open way; the flood from the
+    target closes inside the ring and the A* over open cells is skipped; the way through the fewest
+    walls is the same as without the flood."""
+    from tin_swarm_env.policies.chart import _plan_row, _walled_in
+
+    c = 32
+    g = np.zeros((c, c), np.uint8)
+    g[10:22, 10:22] = WALL
+    g[12:20, 12:20] = OPEN  # a ring two cells thick round the target's cell (16, 16)
+    g[10, 16] = OPEN  # thinner in one place: one wall cell to cross there
+    closed = np.zeros((c, c), np.bool_)
+    assert _walled_in(g, 2, 16, 16, 16, False, c * c, closed) and not closed.any()
+    assert not _walled_in(g, 14, 14, 16, 16, False, c * c, closed)  # from inside the ring: open
+    out = []
+    for flood in (0, c * c):
+        work = (np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), np.bool_))
+        route, shut = np.zeros(ROUTE_PER_CELL * c, np.int32), np.zeros(ROUTE_PER_CELL * c, np.uint8)
+        found, n, k, forgot = _plan_row(g, 2, 16, 3.0, 2.0, 0.0, 0.0, 0.0, *work, route, shut, False, flood)
+        out.append((found, n, k, forgot, route[:n].tolist(), shut[:n].tolist()))
+    assert out[0] == out[1]
+    way = [divmod(v, c) for v in out[0][4]]
+    assert out[0][0] and not out[0][3] and [(a, b) for a, b in way if g[a, b] == WALL] == [(11, 16)]

@@ -85,7 +85,7 @@ class ChartParams:
 
 
 _ROW_FIELDS = ("grid", "cell", "way", "dirty", "anchor", "stall", "forgot", "last_pts", "last_ok", "have_way",
-               "route", "route_shut", "route_len", "route_at", "way_at", "plans")
+               "route", "route_shut", "route_len", "route_at", "way_at", "plans", "walled")
 
 
 @dataclass
@@ -111,9 +111,11 @@ class ChartMemory:
     route_at   (n,)      int     the route cell it is at (within a cell of it)
     way_at     (n,)      int     the route cell it heads for (``way``)
     plans      (n,)      int     times it has run the A* (a count for the benchmark and tests)
+    walled     (n,)      bool    its last way crossed a shut cell (no way over open cells): its next
+                                 plan first floods from the target (:func:`_walled_in`)
 
-    Bytes per robot: ``C^2 + 5 ROUTE_PER_CELL C + 17 K + 90`` (the chart, the route, the rest):
-    68 237 at 256 cells and 3 break slots (66.6 KiB; the route is 2.5 KiB of it), 267 405 at the
+    Bytes per robot: ``C^2 + 5 ROUTE_PER_CELL C + 17 K + 91`` (the chart, the route, the rest):
+    68 238 at 256 cells and 3 break slots (66.6 KiB; the route is 2.5 KiB of it), 267 406 at the
     default 512 (261 KiB). Besides, for all robots together: one set of A* work arrays (``work``:
     ``17 C^2`` bytes, 1.06 MiB at 256 cells, 4.25 MiB at 512, made at the first plan) and the heap of
     the one search under way.
@@ -135,6 +137,7 @@ class ChartMemory:
     route_at: np.ndarray
     way_at: np.ndarray
     plans: np.ndarray
+    walled: np.ndarray
     work: tuple | None = None
 
     @classmethod
@@ -146,7 +149,7 @@ class ChartMemory:
                    last_pts=np.zeros((n, k, 2)), last_ok=np.zeros((n, k), bool), have_way=np.zeros(n, bool),
                    route=np.zeros((n, L), np.int32), route_shut=np.zeros((n, L), np.uint8),
                    route_len=np.zeros(n, np.int64), route_at=np.zeros(n, np.int64), way_at=np.zeros(n, np.int64),
-                   plans=np.zeros(n, np.int64))
+                   plans=np.zeros(n, np.int64), walled=np.zeros(n, bool))
 
     def grow(self, n: int) -> ChartMemory:
         have = len(self.cell)
@@ -584,6 +587,19 @@ def _route_open(g, route, shut, at, n):
 
 
 @njit(cache=True)
+def _crosses(g, route, n, pinch):
+    """A cell of ``route[1:n]`` (after its start) is shut on chart ``g``, or (``pinch``) lies in a gap
+    one cell wide, but the target's (the way went through the fewest walls)."""
+    c = g.shape[0]
+    h = c // 2
+    for k in range(1, n):
+        a, b = route[k] // c, route[k] % c
+        if g[a, b] != OPEN or (pinch and not (a == h and b == h) and _pinched(g, a, b)):
+            return True
+    return False
+
+
+@njit(cache=True)
 def _locate(route, lo, hi, sa, sb, c):
     """The cell of ``route[lo:hi + 1]`` nearest cell (sa, sb) (Chebyshev distance; the last of
     equals): ``(index, distance)``."""
@@ -596,17 +612,70 @@ def _locate(route, lo, hi, sa, sb, c):
 
 
 @njit(cache=True)
-def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route, shut, pinch=False):
+def _walled_in(g, sa, sb, ta, tb, pinch, budget, seen):
+    """True when the A* over open cells of :func:`_search` (``cross`` 0, ``pinch``) from cell
+    (sa, sb) would not reach cell (ta, tb): a flood from (ta, tb) over the cells that search may
+    enter (its steps taken backwards: the same cells, the same corners) closes within ``budget``
+    cells without meeting (sa, sb). False when it meets it or outgrows the budget (then nothing is
+    known). ``seen (C, C)`` all False, left so (the A*'s ``closed``)."""
+    c = g.shape[0]
+    if sa == ta and sb == tb:
+        return False
+    if g[ta, tb] != OPEN:
+        return True
+    queue = np.empty(min(budget, 64 * c + 64), np.int64)
+    queue[0] = ta * c + tb
+    seen[ta, tb] = True
+    head, nq = 0, 1
+    met = False
+    while head < nq and not met:
+        v = queue[head]
+        head += 1
+        a, b = v // c, v % c
+        for da in range(-1, 2):
+            for db in range(-1, 2):
+                na, nb = a + da, b + db
+                if (da == 0 and db == 0) or na < 0 or nb < 0 or na >= c or nb >= c or seen[na, nb]:
+                    continue
+                if da != 0 and db != 0 and (g[a + da, b] != 0 or g[a, b + db] != 0):
+                    continue  # no corner cut, either way
+                if na == sa and nb == sb:
+                    met = True
+                    break
+                if g[na, nb] != OPEN or (pinch and _pinched(g, na, nb)):
+                    continue
+                if nq == budget:
+                    met = True  # outgrew the budget: nothing known
+                    break
+                if nq == len(queue):
+                    queue = _doubled(queue, nq)
+                seen[na, nb] = True
+                queue[nq] = na * c + nb
+                nq += 1
+            if met:
+                break
+    for k in range(nq):
+        seen[queue[k] // c, queue[k] % c] = False
+    return not met
+
+
+@njit(cache=True)
+def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route, shut, pinch=False, flood=0):
     """Plan on chart ``g`` from cell (sa, sb) to the target's cell (chart search steps 2 and 5):
     A* over open cells (``pinch``: but gaps one cell wide, :func:`_search`); if there is no way, the
     way through the fewest walls (each wall cell entered costs a chart's width in cells, stuck cells
     stay shut), then that again after forgetting its stuck cells, then on a forgotten chart (on
     which there is always a way). Stores the way in ``route``/``shut`` (:func:`_store_way`).
-    Returns ``(found, cells stored, index of the point to head for, forgot the whole chart)``."""
+    Returns ``(found, cells stored, index of the point to head for, forgot the whole chart)``.
+    ``flood > 0``: first a flood of at most that many cells from the target (:func:`_walled_in`);
+    if it shows no way over open cells, the A* over open cells is not run (the same answer, without
+    the search over every cell the robot can reach)."""
     c = g.shape[0]
     h = c // 2
     for attempt in range(4):
         cross = 0.0 if attempt == 0 else float(c)
+        if attempt == 0 and flood > 0 and _walled_in(g, sa, sb, h, h, pinch, flood, closed):
+            continue
         if attempt == 2:  # forget the stalls
             for a in range(c):
                 for b in range(c):
@@ -626,14 +695,16 @@ def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route
 
 @njit(cache=True)
 def _next_way(i, g, w, qx, qy, changed, m_route, m_shut, m_len, m_at, m_way_at, way, dirty, have_way, forgot,
-              work, prm):
+              work, prm, walled):
     """Robot ``i``'s way after this step's marks (chart search step 2, its chart ``g`` cells ``w``
     wide; ``changed``: a cell of it was shut this step). It plans afresh (A*) when it has no way,
     stalled, was more than a cell off its way, or a cell on or beside the rest of its way was shut
     (its way cut at ``ROUTE_PER_CELL C`` cells: any cell, or near the cut); else, within two cells
     of the point it heads for (or at it), or with its target within ``ahead`` cells (so that a
     target in a straight open line is headed for itself, and its stand-off rules), it picks the next
-    one along its way. True if it planned."""
+    one along its way. True if it planned. A robot whose last way crossed a shut cell (``walled``)
+    floods from the target before it plans (:func:`_plan_row`'s ``flood``: the same way, found
+    sooner where the target is walled in on its chart)."""
     ahead_m, wall_cost, turn_m, pinch_m = prm[0], prm[1], prm[2], prm[4]
     c = g.shape[0]
     h = c // 2
@@ -653,8 +724,11 @@ def _next_way(i, g, w, qx, qy, changed, m_route, m_shut, m_len, m_at, m_way_at, 
         nrm = np.sqrt(dx * dx + dy * dy)
         ha, hb = (dx / nrm, dy / nrm) if nrm > 1e-9 and have_way[i] else (0.0, 0.0)
         tc = turn_m / w if nrm > 1e-9 and have_way[i] else 0.0
+        pinch = 0.0 < w <= pinch_m
+        flood = c * c // 4 if walled[i] else 0
         ok, n, k, fg = _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, work[0], work[1], work[2], route, shut,
-                                 0.0 < w <= pinch_m)
+                                 pinch, flood)
+        walled[i] = ok and _crosses(g, route, n, pinch)
         forgot[i] += fg
         dirty[i] = False
         have_way[i] = ok
@@ -681,7 +755,7 @@ def _chart_rows(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_nor
     """:func:`chart_update`'s compiled pass over robot rows ``rows (m,)`` (the memory ``mem``: the
     arrays of :data:`_ROW_FIELDS`, in order; ``work``: the A* work arrays; ``prm``: :func:`_prm`)."""
     grid, cell, way, dirty, anchor, stall, forgot, last_pts, last_ok, have_way = mem[:10]
-    route, shut, route_len, route_at, way_at, plans = mem[10:]
+    route, shut, route_len, route_at, way_at, plans, walled = mem[10:]
     c = grid.shape[1]
     mark_prm = np.array([prm[4], prm[5], prm[6], prm[7], prm[13]])
     for r in range(len(rows)):
@@ -702,7 +776,7 @@ def _chart_rows(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_nor
         if w <= 0 or not has_t[r]:  # no chart, or no target: no way to plan
             continue
         if _next_way(i, g, w, qx, qy, changed, route, shut, route_len, route_at, way_at, way, dirty, have_way,
-                     forgot, work, prm[10:15]):
+                     forgot, work, prm[10:15], walled):
             plans[i] += 1
 
 
