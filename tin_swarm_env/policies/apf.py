@@ -150,7 +150,10 @@ a stall anchor and count. Each step:
 4. *Stall*: not two body lengths (or 1.5 cells) from where it was ``stall_steps`` steps ago (twice
    that with robots near): the cells on the straight line to the point it heads for become *stuck*.
 5. *No way* over open cells: it takes the way through the fewest walls instead (A* again, a wall
-   cell entered, or a diagonal step past one, costing ``cells`` more; stuck cells stay shut). On
+   cell entered, or a diagonal step past one, costing ``cells`` more; stuck cells stay shut). A
+   robot whose last way went through walls first floods its chart from the target: where that
+   closes short of it (a target walled in on its chart), the search over open cells is skipped
+   (the same way, without searching every cell it can reach). On
    real terrain a pass narrower than about two cells (the chart's cells are sized by the distance
    to go, the passes by the hillside) is charted shut by the walls of its two sides, and a robot
    in a channel that narrow has every neighbouring cell shut: the way through the fewest walls is
