@@ -7,7 +7,7 @@ ratio to the env alone in the same process. By hand:
     [--steps 900] [--seed 0] [--k-scan 32] [--repeats 3] [--out docs/figures/apf_speed.md]
 
 Rows: the chart search (``APFPolicy(env, search="chart")``) at the default
-:class:`~tin_swarm_env.policies.chart.ChartParams` (256 cells) and at 512 cells, and the bug search
+:class:`~tin_swarm_env.policies.chart.ChartParams` (512 cells) and at 256 cells, and the bug search
 (``search="bug"``). Each run is one episode from the same reset with a fresh policy, its actions
 recorded; the env alone then replays those actions from the same reset, so it drives the same
 trajectory (the same robots live, arriving, colliding) with no policy. Each the best of
@@ -38,8 +38,8 @@ from tin_swarm_env.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 POLICIES = {
-    "chart search, 256 cells (default ChartParams)": lambda env: APFPolicy(env, search="chart"),
-    "chart search, 512 cells": lambda env: APFPolicy(env, search="chart", chart=ChartParams(cells=512)),
+    "chart search, 512 cells (default ChartParams)": lambda env: APFPolicy(env, search="chart"),
+    "chart search, 256 cells": lambda env: APFPolicy(env, search="chart", chart=ChartParams(cells=256)),
     "bug search": lambda env: APFPolicy(env, search="bug"),
 }
 QUICK = {"robots": 20, "steps": 30, "repeats": 1}

@@ -39,13 +39,20 @@ from tin_swarm_env.policies.chart import (
 )
 
 
-def dijkstra(g, s, t, wall_cost=2.0):
+def dijkstra(g, s, t, wall_cost=2.0, pinch=False):
     """The least cost from cell s to cell t over open cells, 8-connected, no corner cutting, a step
-    into a cell with a shut neighbour costing ``wall_cost`` more (inf: no way)."""
+    into a cell with a shut neighbour costing ``wall_cost`` more (inf: no way); ``pinch``: an open
+    cell other than t, not on the chart's edge, between two shut cells on opposite sides (a gap one
+    cell wide) is not entered either."""
     c = g.shape[0]
 
     def shut(a, b):
         return 0 <= a < c and 0 <= b < c and g[a, b] != 0
+
+    def pinched(a, b):
+        inside = 0 < a < c - 1 and 0 < b < c - 1
+        pairs = ((1, 0), (0, 1), (1, 1), (1, -1))
+        return inside and any(shut(a + ea, b + eb) and shut(a - ea, b - eb) for ea, eb in pairs)
 
     best = {s: 0.0}
     heap = [(0.0, s)]
@@ -59,6 +66,8 @@ def dijkstra(g, s, t, wall_cost=2.0):
             for db in (-1, 0, 1):
                 na, nb = a + da, b + db
                 if (da, db) == (0, 0) or not (0 <= na < c and 0 <= nb < c) or g[na, nb] != 0:
+                    continue
+                if pinch and (na, nb) != t and pinched(na, nb):
                     continue
                 if da and db and (shut(a + da, b) or shut(a, b + db)):
                     continue
@@ -85,6 +94,26 @@ def test_plan_costs_what_a_plain_dijkstra_costs(seed, density):
     if found:
         assert cost == pytest.approx(ref)
         assert g[wa, wb] == 0
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.floats(0.0, 0.45))
+def test_with_pinch_the_search_leaves_out_gaps_one_cell_wide_as_a_plain_dijkstra_does(seed, density):
+    """``_search(..., pinch=True)`` over open cells costs what the plain Dijkstra costs when it never
+    enters a cell between two shut cells on opposite sides (but the target's cell)."""
+    rng = np.random.default_rng(seed)
+    c = 12
+    g = (rng.random((c, c)) < density).astype(np.uint8)
+    s, t = (int(rng.integers(0, c)), 0), (int(rng.integers(0, c)), c - 1)
+    g[s] = g[t] = 0
+    dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
+    found, cost, touched, nt = _search(g, *s, *t, 2.0, 0.0, 0.0, 0.0, dist, prev, closed, 0.0, True)
+    ref = dijkstra(g, s, t, pinch=True)
+    assert found == (ref < math.inf)
+    if found:
+        assert cost == pytest.approx(ref)
+    _reset(dist, prev, closed, touched, nt, c)
+    assert dijkstra(g, s, t) <= ref  # leaving cells out never makes a way shorter
 
 
 @settings(max_examples=30, deadline=None)
@@ -192,19 +221,19 @@ def _seen(q, pts, normals, border=None):
 def test_a_wall_driven_along_is_charted_without_holes_and_two_cells_thick():
     from tin_swarm_env.policies.chart import ChartMemory, chart_update
 
-    p = ChartParams(cells=32, extend=0.01)  # link 1.5 cells, behind 0.8 cell (the defaults)
+    p = ChartParams(cells=32, extend=0.01)  # link 1.5 cells, inset 0.5 cell, behind 0.8 cell (the defaults)
     rows = np.array([0])
 
     def chart(ys):
         mem = ChartMemory.empty(1, 32, 3)
         mem.cell[:] = 1.0  # cells 1 m wide; cell index = floor(x / 1 m) + 16
-        for y in ys:  # a wall x = 11.5 m, normal -x (the robot on its west side), seen square on at y
-            d, q = _seen((5.0, y), [(11.5, y)], [(-1.0, 0.0)])
+        for y in ys:  # a wall x = 11.2 m, normal -x (the robot on its west side), seen square on at y
+            d, q = _seen((5.0, y), [(11.2, y)], [(-1.0, 0.0)])
             chart_update(mem, rows, d, q, np.zeros(1), p, 60.0, 1.0, 2.0, np.array([False]))
         return sorted(map(tuple, np.argwhere(mem.grid[0] == WALL).tolist()))
 
     # seen at y 0.9 m (row 16) then 2.3 m (row 18), 1.4 m apart: the join shuts row 17 of the wall
-    # (column 27) between them; column 28 is the cell behind each point seen (x 12.3 m)
+    # (column 27: x 11.7 m, half a cell beyond it) between them; column 28 is the cell behind each (x 12.5 m)
     assert chart([0.9, 2.3]) == [(27, 16), (27, 17), (27, 18), (28, 16), (28, 18)]
     # 1.6 m apart (over 1.5 cells): no join, row 17 stays open
     assert chart([0.9, 2.5]) == [(27, 16), (27, 18), (28, 16), (28, 18)]
@@ -231,25 +260,45 @@ def test_a_robot_that_stalls_charts_its_straight_way_stuck_after_stall_steps():
 def test_scan_hits_are_charted_with_the_cell_behind_each_and_misses_are_not():
     from tin_swarm_env.policies.chart import ChartMemory, chart_update
 
-    p = ChartParams(cells=32)  # behind 0.8 cell
+    p = ChartParams(cells=32)  # inset 0.5 cell, behind 0.8 cell
     mem = ChartMemory.empty(1, 32, 3)
     mem.cell[:] = 1.0  # cells 1 m wide; cell index = floor(x / 1 m) + 16
     d, q = _seen((-10.5, 0.5), [], [])  # robot 10 m west of its target, heading 0 (frame F = body frame)
-    k = 4  # beams east, north, west, south: east meets a wall 6 m ahead, north one 3 m away, the others nothing
-    d.s_rel = np.array([[[6.0, 0.0], [0.0, 3.0], [-60.0, 0.0], [0.0, -60.0]]])
+    k = 4  # beams east, north, west, south: east meets a wall 5.8 m ahead, north one 2.8 m away, the others nothing
+    d.s_rel = np.array([[[5.8, 0.0], [0.0, 2.8], [-60.0, 0.0], [0.0, -60.0]]])
     d.s_hit = np.array([[True, True, False, False]])
     d.s_dir = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
     assert d.s_rel.shape == (1, k, 2)
     chart_update(mem, np.array([0]), d, q, np.zeros(1), p, 60.0, 1.0, 2.0, np.array([False]))
     walls = sorted(map(tuple, np.argwhere(mem.grid[0] == WALL).tolist()))
-    # east hit at x -4.5 m (column 11), the cell behind it at x -3.7 m (column 12), row 16 (y 0.5);
-    # north hit at y 3.5 (row 19) and behind it y 4.3 (row 20), column 5 (x -10.5)
+    # east hit at x -4.7 m: half a cell on, x -4.2 m (column 11), the cell behind that at x -3.4 m (column 12),
+    # row 16 (y 0.5); north hit at y 3.3: y 3.8 (row 19) and behind it y 4.6 (row 20), column 5 (x -10.5)
     assert walls == [(5, 19), (5, 20), (11, 16), (12, 16)]
+
+
+def test_a_cell_mostly_on_the_safe_side_of_a_break_stays_open():
+    """A gap 2.75 cells wide between two cliffs (10 m between pillars at 3.6 m cells): the cell that
+    holds a break point is shut only if the point lies in its safe half; each mark is half a cell
+    beyond the break. Before, the cell holding the point was shut: the gap was charted 2 cells wide,
+    and on a diagonal (no corner cut) shut."""
+    from tin_swarm_env.policies.chart import ChartMemory, chart_update
+
+    p = ChartParams(cells=32, extend=0.01)
+    mem = ChartMemory.empty(1, 32, 3)
+    mem.cell[:] = 1.0  # cells 1 m wide; cell index = floor(x / 1 m) + 16
+    # at x -5.5 m (column 10): a cliff's edge at y -1.2 (its ground south, normal +y) and one at y 1.55
+    d, q = _seen((-10.5, 0.5), [(-5.5, -1.2), (-5.5, 1.55)], [(0.0, 1.0), (0.0, -1.0)])
+    chart_update(mem, np.array([0]), d, q, np.zeros(1), p, 60.0, 1.0, 2.0, np.array([False]))
+    walls = sorted(map(tuple, np.argwhere(mem.grid[0] == WALL).tolist()))
+    # marks at y -1.7 (row 14) and -2.5 (row 13); y 2.05 and 2.85 (row 18): rows 15-17 open. Row 17
+    # (y 1 to 2) holds the north point but lies 55% on the gap's side: open (it was shut before)
+    assert walls == [(10, 13), (10, 14), (10, 18)]
 
 
 def test_scan_alone_is_charted_and_keeps_robots_off_the_cliff():
     """A scenario with a terrain scan and no break slots: the chart search reads the beams, so its
-    robots keep off cliff_goal's cliff (0 fell, most arrive: 19 of 20 on seed 0), where the bug
+    robots keep off cliff_goal's cliff (0 fell, most arrive: 17 of 20 on seed 0 at 256 cells; 14 at
+    the default 512, where the 32 beams' marks are sparser for the finer cells), where the bug
     search, which reads only break slots, is the fields alone and drives every robot off it."""
     import dataclasses
 
@@ -260,11 +309,12 @@ def test_scan_alone_is_charted_and_keeps_robots_off_the_cliff():
     cfg = load_scenario("cliff_goal")
     cfg = cfg.replace(observation=dataclasses.replace(cfg.observation, k_breaks=0, k_scan=32))
     env = tse.parallel_env(scenario=cfg)
-    pol = APFPolicy(env, search="chart")
-    out = rollout(env, pol, 0)
-    assert (pol.charts.grid == 1).any()  # the beams' hits were charted
-    assert not (out.reasons == Reason.FELL).any()
-    assert (out.reasons == Reason.ARRIVED).sum() >= 15
+    for cells, most in ((256, 15), (512, 12)):
+        pol = APFPolicy(env, search="chart", chart=ChartParams(cells=cells))
+        out = rollout(env, pol, 0)
+        assert (pol.charts.grid == 1).any()  # the beams' hits were charted
+        assert not (out.reasons == Reason.FELL).any()
+        assert (out.reasons == Reason.ARRIVED).sum() >= most
     bug = APFPolicy(env, search="bug")
     out = rollout(env, bug, 0)
     assert len(bug.memory.side) == 0 and (out.reasons == Reason.FELL).all()
@@ -291,9 +341,10 @@ def reference_marks(grid, cell, q, psi, d, p: ChartParams, last_pts, last_ok):
     tang = np.stack([-nrm[..., 1], nrm[..., 0]], axis=-1)
     w = cell[:, None, None]
     ok = d.b_danger
-    ext, oks = [pts, pts - p.behind * w * nrm], [ok, ok]
+    mark = pts - p.inset * w * nrm  # inset cells beyond the break
+    ext, oks = [mark, mark - p.behind * w * nrm], [ok, ok]
     for s in (-p.extend, p.extend):
-        ext.append(pts + s * w * tang)
+        ext.append(mark + s * w * tang)
         oks.append(ok & square)
     gap = np.sqrt(np.sum((pts[:, :, None, :] - last_pts[:, None, :, :]) ** 2, axis=-1))
     gap = np.where(last_ok[:, None, :], gap, np.inf)
@@ -301,13 +352,13 @@ def reference_marks(grid, cell, q, psi, d, p: ChartParams, last_pts, last_ok):
     near = ok & (np.take_along_axis(gap, j[..., None], axis=-1)[..., 0] < p.link * w[..., 0])
     other = np.take_along_axis(last_pts, j[..., None].repeat(2, -1), axis=1)
     for f in (0.25, 0.5, 0.75):
-        ext.append(pts + f * (other - pts))
+        ext.append(mark + f * (other - pts))
         oks.append(near)
     ks = d.s_rel.shape[1]
     turn = psi[:, None].repeat(ks, 1).ravel()
     hits = q[:, None, :] + _rot(turn, d.s_rel.reshape(-1, 2)).reshape(d.s_rel.shape)
     beam = _rot(turn, np.broadcast_to(d.s_dir, d.s_rel.shape).reshape(-1, 2)).reshape(d.s_rel.shape)
-    ext += [hits, hits + p.behind * w * beam]
+    ext += [hits + p.inset * w * beam, hits + (p.inset + p.behind) * w * beam]
     oks += [d.s_hit, d.s_hit]
     at, on = np.concatenate(ext, axis=1), np.concatenate(oks, axis=1)
     cw = cell[:, None]
@@ -362,7 +413,7 @@ def test_compiled_marks_are_the_numpy_marks(seed):
     grid_ref, grid = np.zeros((m, c, c), np.uint8), np.zeros((m, c, c), np.uint8)
     lp_ref, lo_ref = np.zeros((m, k, 2)), np.zeros((m, k), bool)
     lp, lo = lp_ref.copy(), lo_ref.copy()
-    prm = np.array([p.behind, p.extend, p.link, np.cos(np.radians(5.0))])
+    prm = np.array([p.behind, p.extend, p.link, np.cos(np.radians(5.0)), p.inset])
     for _ in range(3):
         d = _obs(rng, m, k, ks, 12.0)
         q, psi = rng.uniform(-20, 20, (m, 2)), rng.uniform(-np.pi, np.pi, m)
@@ -453,7 +504,7 @@ def _fresh():
 
 def test_a_wall_that_appears_on_the_way_makes_it_plan_round_it():
     mem = _fresh()
-    _step(mem, (-10.5, 0.5), [(-3.5, 0.5)], [(-1.0, 0.0)])  # a wall across row 16 at column 12, seen square on
+    _step(mem, (-10.5, 0.5), [(-3.9, 0.5)], [(-1.0, 0.0)])  # a wall across row 16 at column 12, seen square on
     assert mem.plans[0] == 2
     shut = {tuple(x) for x in np.argwhere(mem.grid[0] != OPEN)}
     assert (12, 16) in shut
@@ -466,10 +517,10 @@ def test_a_wall_that_appears_on_the_way_makes_it_plan_round_it():
 def test_a_wall_far_from_the_way_changes_the_chart_but_not_the_way():
     mem = _fresh()
     way, route = mem.way.copy(), mem.route.copy()
-    _step(mem, (-10.5, 0.5), [(-3.5, 10.5)], [(-1.0, 0.0)])  # column 12 again, but 10 rows north of the way
+    _step(mem, (-10.5, 0.5), [(-3.9, 10.5)], [(-1.0, 0.0)])  # column 12 again, but 10 rows north of the way
     assert mem.grid[0, 12, 26] == WALL
     assert mem.plans[0] == 1 and (mem.way == way).all() and (mem.route == route).all()
-    _step(mem, (-10.5, 0.5), [(-3.5, 1.5)], [(-1.0, 0.0)])  # beside the way (row 17, column 12): it plans
+    _step(mem, (-10.5, 0.5), [(-3.9, 1.5)], [(-1.0, 0.0)])  # beside the way (row 17, column 12): it plans
     assert mem.plans[0] == 2
 
 
@@ -491,21 +542,21 @@ def test_a_robot_at_its_target_cell_heads_for_the_target_and_does_not_plan_again
 
 
 def test_memory_per_robot_is_as_documented():
-    """ChartMemory's docstring: C^2 + 5 ROUTE_PER_CELL C + 17 K + 90 bytes a robot (68 237 at 256 cells, K = 3)."""
+    """ChartMemory's docstring: C^2 + 5 ROUTE_PER_CELL C + 17 K + 91 bytes a robot (68 238 at 256 cells, K = 3)."""
     mem = ChartMemory.empty(1, 256, 3)
     per_robot = sum(getattr(mem, f).nbytes for f in _ROW_FIELDS)
-    assert per_robot == 256**2 + 5 * ROUTE_PER_CELL * 256 + 17 * 3 + 90 == 68237
-    assert "68 237" in ChartMemory.__doc__
+    assert per_robot == 256**2 + 5 * ROUTE_PER_CELL * 256 + 17 * 3 + 91 == 68238
+    assert "68 238" in ChartMemory.__doc__
 
 
-def _plan_row_on(g, sa, sb):
+def _plan_row_on(g, sa, sb, pinch=False):
     from tin_swarm_env.policies.chart import _plan_row
 
     c = g.shape[0]
     work = (np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), np.bool_))
     route = np.zeros(ROUTE_PER_CELL * c, np.int32)
     shut = np.zeros(ROUTE_PER_CELL * c, np.uint8)
-    found, n, k, forgot = _plan_row(g, sa, sb, 3.0, 2.0, 0.0, 0.0, 0.0, *work, route, shut)
+    found, n, k, forgot = _plan_row(g, sa, sb, 3.0, 2.0, 0.0, 0.0, 0.0, *work, route, shut, pinch)
     return found, [(int(v) // c, int(v) % c) for v in route[:n]], forgot
 
 
@@ -545,3 +596,190 @@ def test_a_wall_mark_never_turns_a_stuck_cell_back_and_a_stall_marks_walls_stuck
     anchor = np.zeros(2)
     stall, stuck = _stall_row(g, 1.0, 0.5, 0.5, np.array([2.5, 0.5]), anchor, 10, 5, 0.5, True)
     assert stuck and g[6, 4] == STUCK  # the wall it drove into on its straight way is stuck now
+
+
+def _pillar_chart(p: ChartParams, d0: float = 231.0, range_m: float = 60.0):
+    """The chart (its cells sized as a robot's first step sizes them, ``d0`` m from its target) of a
+    hexagonal field of cliff pillars 16 m across, 26 m between centres (10 m gaps), every edge point
+    seen from 4 m off it (each point as the compiled marks chart it): bench/apf_unseen.py's pillars,
+    the target 30 m east of the field. Returns the chart, the cell width and the start's cell."""
+    c = p.cells
+    w = max(p.min_cell_m, 2 * (p.reach * d0 + p.range_reach * range_m) / c)
+    g = np.zeros((c, c), np.uint8)
+    prm = np.array([p.behind, p.extend, p.link, np.cos(np.radians(5.0)), p.inset])
+    none = np.zeros((0, 2))
+    for j in range(-6, 7):
+        for x in np.arange(-167.0 + (13.0 if j % 2 else 0.0), -27.0, 26.0):  # the target at (0, 0)
+            for th in np.linspace(0.0, 2 * np.pi, 72, endpoint=False):
+                n = np.array([np.cos(th), np.sin(th)])
+                q = np.array([x, j * 13.0 * np.sqrt(3)]) + 12.0 * n  # 4 m off the edge, facing it
+                _mark_row(g, w, q[0], q[1], 1.0, 0.0, -4.0 * n[None], n[None], np.array([True]),
+                          np.array([False]), np.zeros((1, 2)), np.zeros(1, bool), none, none,
+                          np.zeros(0, bool), prm)
+    h = c // 2
+    return g, w, (int(np.floor(-d0 / w)) + h, h)
+
+
+def test_a_pillar_field_with_10_m_gaps_is_charted_open_at_the_default_cells():
+    """The pillars' way is nearly straight (233 m against 231 m): at the default 512 cells (1.8 m at
+    231 m to go) the chart keeps it open, through the field; at 256 cells (3.6 m) the marks shut every
+    gap (cells holding a break point shut, as before ``inset``) and the way goes round the field (its
+    north end, 150 m off the line: the robots searched along the field's face and ran out of time)."""
+    p = ChartParams()
+    assert p.cells == 512
+    g, w, (sa, sb) = _pillar_chart(p)
+    assert w == pytest.approx(2 * (1.5 * 231.0 + 120.0) / 512)
+    found = plan(g, sa, sb, 256, 256, 3.0)[0]
+    way = _plan_row_on(g, sa, sb)[1]
+    off_line = max(abs(b - 256) for _, b in way) * w
+    assert found and off_line < 20.0  # through the field, within 20 m of the straight line
+    way = _plan_row_on(g, sa, sb, pinch=True)[1]  # 1.8 m cells: gaps one cell wide left out (pinch_cells)
+    assert all(g[a, b] == OPEN for a, b in way)  # an open way: the 10 m gaps are wider than one cell
+    assert max(abs(b - 256) for _, b in way) * w < 20.0
+    g, w, (sa, sb) = _pillar_chart(ChartParams(cells=256, inset=0.0))  # the chart before
+    way = _plan_row_on(g, sa, sb)[1]
+    assert max(abs(b - 128) for _, b in way) * w > 100.0  # round the field
+    g, w, (sa, sb) = _pillar_chart(ChartParams(cells=256))  # inset alone opens it on these perfect sightings
+    way = _plan_row_on(g, sa, sb)[1]  # (not in the closed loop: the beams' marks shut it, 1 robot of 10 arrived)
+    assert max(abs(b - 128) for _, b in way) * w < 20.0
+
+
+def _walled(mem):
+    """Robot 0's chart (32 cells, target cell (16, 16)): a wall two cells thick across it at columns
+    10-11, with a hole one cell wide on the robot's straight way (row 16) and a gap two cells wide at
+    rows 24-25."""
+    g = mem.grid[0]
+    g[10:12, :] = WALL
+    g[10:12, 24:26] = OPEN
+    g[10:12, 16] = OPEN
+
+
+@pytest.mark.parametrize("pass_m, cell, through_hole", [(0.0, 1.0, True), (3.0, 1.0, False), (3.0, 1.9, False),
+                                                         (3.0, 2.1, True), (1.4, 1.0, True)])
+def test_on_a_fine_chart_the_way_keeps_out_of_a_gap_one_cell_wide(pass_m, cell, through_hole):
+    """A gap one cell wide is left out of the plan where a pass (pass_m) is at least pinch_cells (1.5)
+    cells wide: the way goes round by the gap two cells wide; with no such gap it crosses the narrow
+    one as it would a wall, forgetting nothing. On a coarser chart, or with no pass_m, it goes
+    through the narrow gap (a real pass, perhaps)."""
+    mem = ChartMemory.empty(1, 32, 3)
+    mem.cell[:] = cell
+    _walled(mem)
+    d, q = _one((-10.5 * cell, 0.5 * cell))  # cell (5, 16)
+    chart_update(mem, np.array([0]), d, q, np.zeros(1), P, 60.0, 1.0, 2.0, np.array([False]), pass_m=pass_m)
+    route = [divmod(int(v), 32) for v in mem.route[0, :mem.route_len[0]]]
+    assert route[0] == (5, 16) and route[-1] == (16, 16) and mem.forgot[0] == 0
+    assert all(mem.grid[0][a, b] == OPEN for a, b in route)
+    assert ((10, 16) in route) == through_hole
+    assert any(a == 10 and b in (24, 25) for a, b in route) == (not through_hole)
+    if not through_hole:  # the wide gap shut too: the way through the fewest walls takes the narrow gap
+        mem = ChartMemory.empty(1, 32, 3)
+        mem.cell[:] = cell
+        _walled(mem)
+        mem.grid[0, 10:12, 24:26] = WALL
+        chart_update(mem, np.array([0]), d, q, np.zeros(1), P, 60.0, 1.0, 2.0, np.array([False]), pass_m=pass_m)
+        route = [divmod(int(v), 32) for v in mem.route[0, :mem.route_len[0]]]
+        assert (10, 16) in route and (11, 16) in route and mem.forgot[0] == 0
+        assert (mem.grid[0, 10:12, 16] == OPEN).all()  # crossed at a wall's price, not charted shut
+
+
+def test_a_target_in_a_gap_one_cell_wide_is_still_reached_over_open_cells():
+    """The target's own cell is never left out of the plan: here it lies between two wall cells."""
+    c = 16
+    g = np.zeros((c, c), np.uint8)
+    g[7, 8] = g[9, 8] = WALL  # north and south of the target's cell (8, 8): it is pinched, its row is not
+    dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
+    found, cost, touched, nt = _search(g, 8, 1, 8, 8, 2.0, 0.0, 0.0, 0.0, dist, prev, closed, 0.0, True)
+    assert found and cost == pytest.approx(dijkstra(g, (8, 1), (8, 8)))  # as without the rule
+    _reset(dist, prev, closed, touched, nt, c)
+    g[7, 7] = g[9, 7] = WALL  # (8, 7) now lies between (7, 7) and (9, 7): the way comes round by (8, 9)
+    found, cost, touched, nt = _search(g, 8, 1, 8, 8, 2.0, 0.0, 0.0, 0.0, dist, prev, closed, 0.0, True)
+    ref = dijkstra(g, (8, 1), (8, 8), pinch=True)
+    assert found and cost == pytest.approx(ref) and ref > dijkstra(g, (8, 1), (8, 8))
+
+
+def _ringed(rng, c, walled):
+    """A chart ``c`` cells a side with random walls and stuck cells, the target's cell (c // 2, c // 2)
+    open inside a ring of walls (a way in through it when not ``walled``; some rings have a hole one
+    cell wide, which the pinch rule shuts)."""
+    g = (rng.random((c, c)) < rng.uniform(0.0, 0.3)).astype(np.uint8)
+    g[rng.random((c, c)) < 0.03] = 2
+    h = c // 2
+    yy, xx = np.mgrid[0:c, 0:c]
+    r = np.hypot(yy - h, xx - h)
+    rad = rng.uniform(2.0, c / 3)
+    g[(r >= rad) & (r < rad + 1.5)] = WALL
+    if not walled:
+        g[h, int(h + rad):int(h + rad + 2)] = OPEN
+        if rng.random() < 0.5:  # a gap two cells wide, else one
+            g[h + 1, int(h + rad):int(h + rad + 2)] = OPEN
+    g[h, h] = OPEN
+    return g
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.booleans(), st.booleans())
+def test_the_flood_from_the_target_says_walled_in_exactly_when_the_search_finds_no_open_way(seed, walled, pinch):
+    """_walled_in (a flood over the cells the A* may enter, from the target) is True exactly when the
+    A* over open cells finds no way, with or without the pinch rule; with a small budget it may only
+    say False; it leaves its work array as it found it."""
+    from tin_swarm_env.policies.chart import _walled_in
+
+    rng = np.random.default_rng(seed)
+    c = 24
+    g = _ringed(rng, c, walled)
+    s = (int(rng.integers(0, c)), int(rng.integers(0, c)))
+    dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
+    found, _, touched, nt = _search(g, *s, c // 2, c // 2, 2.0, 0.0, 0.0, 0.0, dist, prev, closed, 0.0, pinch)
+    _reset(dist, prev, closed, touched, nt, c)
+    assert _walled_in(g, *s, c // 2, c // 2, pinch, c * c, closed) == (not found)
+    assert not closed.any()
+    if found:
+        assert not _walled_in(g, *s, c // 2, c // 2, pinch, 3, closed)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.booleans(), st.booleans())
+def test_planning_with_the_flood_first_gives_the_same_way_and_chart_as_without(seed, walled, pinch):
+    """_plan_row with the flood (flood > 0) answers as without it, bit for bit: found, the way stored
+    (cells and shut counts), the point to head for, whether it forgot, and the chart it leaves
+    (stuck cells forgotten, or the whole chart, the same), with the target walled in or not."""
+    from tin_swarm_env.policies.chart import _plan_row
+
+    rng = np.random.default_rng(seed)
+    c = 24
+    g = _ringed(rng, c, walled)
+    s = (int(rng.integers(0, c)), int(rng.integers(0, c)))
+    out = []
+    for flood in (0, c * c, 5):
+        gg = g.copy()
+        work = (np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), np.bool_))
+        route, shut = np.zeros(ROUTE_PER_CELL * c, np.int32), np.zeros(ROUTE_PER_CELL * c, np.uint8)
+        found, n, k, forgot = _plan_row(gg, *s, 3.0, 2.0, 0.0, 0.0, 0.0, *work, route, shut, pinch, flood)
+        out.append((found, n, k, forgot, route[:n].tolist(), shut[:n].tolist(), gg.tobytes()))
+        assert (work[0] == 1e30).all() and (work[1] == -1).all() and not work[2].any()
+    assert out[0] == out[1] == out[2]
+
+
+def test_a_target_walled_in_is_planned_to_through_the_fewest_walls_with_or_without_the_flood():
+    """The case the flood is for (a crater charted round its target): no open way; the flood from the
+    target closes inside the ring and the A* over open cells is skipped; the way through the fewest
+    walls is the same as without the flood."""
+    from tin_swarm_env.policies.chart import _plan_row, _walled_in
+
+    c = 32
+    g = np.zeros((c, c), np.uint8)
+    g[10:22, 10:22] = WALL
+    g[12:20, 12:20] = OPEN  # a ring two cells thick round the target's cell (16, 16)
+    g[10, 16] = OPEN  # thinner in one place: one wall cell to cross there
+    closed = np.zeros((c, c), np.bool_)
+    assert _walled_in(g, 2, 16, 16, 16, False, c * c, closed) and not closed.any()
+    assert not _walled_in(g, 14, 14, 16, 16, False, c * c, closed)  # from inside the ring: open
+    out = []
+    for flood in (0, c * c):
+        work = (np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), np.bool_))
+        route, shut = np.zeros(ROUTE_PER_CELL * c, np.int32), np.zeros(ROUTE_PER_CELL * c, np.uint8)
+        found, n, k, forgot = _plan_row(g, 2, 16, 3.0, 2.0, 0.0, 0.0, 0.0, *work, route, shut, False, flood)
+        out.append((found, n, k, forgot, route[:n].tolist(), shut[:n].tolist()))
+    assert out[0] == out[1]
+    way = [divmod(v, c) for v in out[0][4]]
+    assert out[0][0] and not out[0][3] and [(a, b) for a, b in way if g[a, b] == WALL] == [(11, 16)]

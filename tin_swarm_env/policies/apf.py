@@ -111,26 +111,31 @@ heads along the shortest way to its target on it, taking ground it has not sense
 free-space assumption of D* and its kin). Memory per robot
 (:class:`~tin_swarm_env.policies.chart.ChartMemory`, constants in
 :class:`~tin_swarm_env.policies.chart.ChartParams`): the odometry above (``q`` exact); a chart of
-``cells x cells`` (256 x 256 bytes: 64 KiB) centred on its target in its frame ``F``, cells
+``cells x cells`` (512 x 512 bytes: 256 KiB) centred on its target in its frame ``F``, cells
 ``2 (reach d0 + range_reach R) / cells`` wide (``d0`` its distance to go at its first step, ``R``
 the sensor range; at least one step at top speed), each open, *wall* or *stuck*; the way it planned
-(its first ``2 cells`` cells: 2.5 KiB at 256) and the point it heads for; last step's break points;
+(its first ``2 cells`` cells: 5 KiB at 512) and the point it heads for; last step's break points;
 a stall anchor and count. Each step:
 
-1. *Mark*: the cell of every dangerous break point it sees is a wall, and ``extend`` cells either
+1. *Mark*: the cell ``inset`` (half a cell) beyond every dangerous break point it sees is a wall
+   (a cell mostly on the point's safe side stays open: a gap is charted about as wide as it is),
+   and ``extend`` cells either
    side along the break for a point seen square on (not at a break's end); a point within ``link``
    cells of one seen last step shuts the cells between them (a wall driven along leaves no hole);
    the terrain is a rectangle, so a border point (``b_border``) shuts the whole half-plane beyond it.
    With the observation's terrain scan (``[observation] k_scan``: :mod:`tin_swarm_env.env.observation`)
-   the point where each beam meets a dangerous break is a wall too, and the cell behind it along
-   the beam: a pocket's far wall is charted from its mouth, not only when driven along
+   the point where each beam meets a dangerous break is a wall too (``inset`` on along the beam), and
+   the cell behind it along the beam: a pocket's far wall is charted from its mouth, not only when driven along
    (``research/sensing_bound.md`` measures what that buys). A layout with a scan and no break
    slots (``k_breaks = 0``) is charted from the beams alone, with no wall to slide along (step 3);
    the bug search reads only the break slots, so without them APF is the fields alone.
 2. *Plan* (A*, 8-connected, no corner cut between two shut cells; a step into a cell beside a shut
    one costs ``wall_cost`` cells more, a first step against the way it was heading up to ``turn_m``
-   more) the least-cost way over open cells to the target's cell, and keep it. It plans again only
-   when the rest of that way may have stopped being least-cost: a cell on or beside it (in the 3 x 3
+   more) the least-cost way over open cells to the target's cell, and keep it. On a fine chart (a
+   pass, ``pass_m`` = 3 body diameters, at least ``pinch_cells`` cells wide) an open cell between
+   two shut cells on opposite sides counts as a wall: a gap charted one cell wide is narrower than
+   a pass there, and is most often a hole between two sightings of one wall (beams far apart).
+   It plans again only when the rest of that way may have stopped being least-cost: a cell on or beside it (in the 3 x 3
    block of one of its cells from where the robot is on) became shut; or the robot is more than a
    cell off it (pushed aside, sliding along a wall); or it stalled (step 4); or the way was longer
    than ``2 cells`` cells (kept cut there) and its chart changed or it nears the cut. A cell shut
@@ -145,7 +150,10 @@ a stall anchor and count. Each step:
 4. *Stall*: not two body lengths (or 1.5 cells) from where it was ``stall_steps`` steps ago (twice
    that with robots near): the cells on the straight line to the point it heads for become *stuck*.
 5. *No way* over open cells: it takes the way through the fewest walls instead (A* again, a wall
-   cell entered, or a diagonal step past one, costing ``cells`` more; stuck cells stay shut). On
+   cell entered, or a diagonal step past one, costing ``cells`` more; stuck cells stay shut). A
+   robot whose last way went through walls first floods its chart from the target: where that
+   closes short of it (a target walled in on its chart), the search over open cells is skipped
+   (the same way, without searching every cell it can reach). On
    real terrain a pass narrower than about two cells (the chart's cells are sized by the distance
    to go, the passes by the hillside) is charted shut by the walls of its two sides, and a robot
    in a channel that narrow has every neighbouring cell shut: the way through the fewest walls is
@@ -358,7 +366,7 @@ class APFPolicy:
         crowded = ((d.r_valid > 0.5) & (r_d < 2 * self.params.robot_range_m)).any(axis=-1)
         psi = self.memory.psi[rows]
         way = chart_update(ch, rows, d, q, psi, self.chart, self.shield.range_m, self.shield.step_m,
-                           2 * self.shield.edge_m, crowded, self.shield.standoff_m)
+                           2 * self.shield.edge_m, crowded, self.shield.standoff_m, self.shield.pass_m)
         detour = np.any(way != d.rel_t, axis=-1)
         wn = np.sqrt(np.sum(way * way, axis=-1, keepdims=True))
         mag = np.sqrt(np.sum(f["target"] ** 2, axis=-1, keepdims=True))

@@ -46,6 +46,11 @@ class ChartParams:
                     off the walls)
     extend          a break point seen square on (not at its end) shuts the chart this many cells
                     either side of it along the break as well
+    inset           a break point (a scan hit) shuts the cell this many cells beyond it (away from
+                    its safe side; a hit: on along the beam), not the cell that holds it: at 0.5 a
+                    cell is shut only where most of it lies beyond the break, so a gap between two
+                    breaks is charted about as wide as it is (shutting the cell that holds each
+                    point charted it a cell narrower on average); ``behind`` counts from there
     turn_m          a way that sets off against the way the robot was heading costs up to this much
                     more (it keeps to its way unless another is this much shorter: no dithering
                     between two ways of about the same length as the chart grows)
@@ -53,9 +58,14 @@ class ChartParams:
                     shut too: a wall two cells thick leaks no diagonal way through its holes
     link            a break point within this many cells of one seen last step shuts the cells
                     between them too (a wall driven along leaves no holes on the chart)
+    pinch_cells     a cell between two shut cells on opposite sides (a gap charted one cell wide)
+                    is left out of the plan (step 5 crosses it at a wall's price) on a chart whose
+                    cells are fine enough that a pass (``SafetyShield.pass_m``: 3 body diameters)
+                    is at least this many cells wide: such a gap is narrower than a pass, most often
+                    a hole between two sightings of one wall; on a coarser chart it may be a real pass
     """
 
-    cells: int = 256
+    cells: int = 512
     reach: float = 1.5
     range_reach: float = 2.0
     min_cell_m: float = 1.0
@@ -66,14 +76,16 @@ class ChartParams:
     link: float = 1.5
     behind: float = 0.8
     turn_m: float = 30.0
+    inset: float = 0.5
+    pinch_cells: float = 1.5
 
     def __post_init__(self):  # the chart is cells x cells bytes per robot: at most MAX_CHART_CELLS a side
         check_positive_fields(self, {"cells": {"lo": 4, "lo_open": False, "hi": MAX_CHART_CELLS},
-                                     "stall_steps": {"hi": 10**9}})
+                                     "stall_steps": {"hi": 10**9}, "inset": {"lo_open": False, "hi": 1.0}})
 
 
 _ROW_FIELDS = ("grid", "cell", "way", "dirty", "anchor", "stall", "forgot", "last_pts", "last_ok", "have_way",
-               "route", "route_shut", "route_len", "route_at", "way_at", "plans")
+               "route", "route_shut", "route_len", "route_at", "way_at", "plans", "walled")
 
 
 @dataclass
@@ -99,11 +111,14 @@ class ChartMemory:
     route_at   (n,)      int     the route cell it is at (within a cell of it)
     way_at     (n,)      int     the route cell it heads for (``way``)
     plans      (n,)      int     times it has run the A* (a count for the benchmark and tests)
+    walled     (n,)      bool    its last way crossed a shut cell (no way over open cells): its next
+                                 plan first floods from the target (:func:`_walled_in`)
 
-    Bytes per robot: ``C^2 + 5 ROUTE_PER_CELL C + 17 K + 90`` (the chart, the route, the rest):
-    68 237 at the default 256 cells and 3 break slots (66.6 KiB; the route is 2.5 KiB of it).
-    Besides, for all robots together: one set of A* work arrays (``work``: ``17 C^2`` bytes,
-    1.06 MiB at 256 cells, made at the first plan) and the heap of the one search under way.
+    Bytes per robot: ``C^2 + 5 ROUTE_PER_CELL C + 17 K + 91`` (the chart, the route, the rest):
+    68 238 at 256 cells and 3 break slots (66.6 KiB; the route is 2.5 KiB of it), 267 406 at the
+    default 512 (261 KiB). Besides, for all robots together: one set of A* work arrays (``work``:
+    ``17 C^2`` bytes, 1.06 MiB at 256 cells, 4.25 MiB at 512, made at the first plan) and the heap of
+    the one search under way.
     """
 
     grid: np.ndarray
@@ -122,6 +137,7 @@ class ChartMemory:
     route_at: np.ndarray
     way_at: np.ndarray
     plans: np.ndarray
+    walled: np.ndarray
     work: tuple | None = None
 
     @classmethod
@@ -133,7 +149,7 @@ class ChartMemory:
                    last_pts=np.zeros((n, k, 2)), last_ok=np.zeros((n, k), bool), have_way=np.zeros(n, bool),
                    route=np.zeros((n, L), np.int32), route_shut=np.zeros((n, L), np.uint8),
                    route_len=np.zeros(n, np.int64), route_at=np.zeros(n, np.int64), way_at=np.zeros(n, np.int64),
-                   plans=np.zeros(n, np.int64))
+                   plans=np.zeros(n, np.int64), walled=np.zeros(n, bool))
 
     def grow(self, n: int) -> ChartMemory:
         have = len(self.cell)
@@ -209,8 +225,10 @@ def _mark_row(g, w, qx, qy, cs, sn, rel, nrm_b, danger, border, lp, lo, s_rel, s
     ``w <= 0``: no chart, nothing marked): at ``q``, heading ``(cs, sn) = (cos, sin) psi``, it sees
     break slots ``rel, nrm_b (K, 2)`` (body frame), ``danger``, ``border (K,)``, and scan hits
     ``s_rel (K_s, 2)`` along ``s_dir`` (``s_hit``); ``lp, lo``: last step's points in ``F``, replaced
-    by this step's. ``prm``: behind, extend, link, cos(5 deg). True where a cell changed."""
+    by this step's. ``prm``: behind, extend, link, cos(5 deg) and inset (0 if left out). True where a
+    cell changed."""
     behind, extend, link, cos_sq = prm[0], prm[1], prm[2], prm[3]
+    inset = prm[4] if prm.shape[0] > 4 else 0.0
     k = rel.shape[0]
     pts = np.empty((k, 2))
     nrm = np.empty((k, 2))
@@ -224,7 +242,8 @@ def _mark_row(g, w, qx, qy, cs, sn, rel, nrm_b, danger, border, lp, lo, s_rel, s
         for j in range(k):
             if not danger[j]:
                 continue
-            px, py, nx, ny = pts[j, 0], pts[j, 1], nrm[j, 0], nrm[j, 1]
+            nx, ny = nrm[j, 0], nrm[j, 1]
+            px, py = pts[j, 0] - inset * w * nx, pts[j, 1] - inset * w * ny  # the mark: inset cells beyond it
             changed |= _wall_at(g, w, px, py)
             t = behind * w  # the cell behind it: a wall two cells thick
             changed |= _wall_at(g, w, px - t * nx, py - t * ny)
@@ -242,8 +261,8 @@ def _mark_row(g, w, qx, qy, cs, sn, rel, nrm_b, danger, border, lp, lo, s_rel, s
                     if e < best:
                         best, jb = e, i
             if jb >= 0 and best < link * w:
-                for f in (0.25, 0.5, 0.75):
-                    changed |= _wall_at(g, w, px + f * (lp[jb, 0] - px), py + f * (lp[jb, 1] - py))
+                for f in (0.25, 0.5, 0.75):  # (inset as this point's mark)
+                    changed |= _wall_at(g, w, px + f * (lp[jb, 0] - pts[j, 0]), py + f * (lp[jb, 1] - pts[j, 1]))
         for j in range(s_rel.shape[0]):  # the scan's hits: the wall, and a cell behind it
             if not s_hit[j]:
                 continue
@@ -251,8 +270,9 @@ def _mark_row(g, w, qx, qy, cs, sn, rel, nrm_b, danger, border, lp, lo, s_rel, s
             hy = qy + (sn * s_rel[j, 0] + cs * s_rel[j, 1])
             bx = cs * s_dir[j, 0] - sn * s_dir[j, 1]
             by = sn * s_dir[j, 0] + cs * s_dir[j, 1]
-            changed |= _wall_at(g, w, hx, hy)
-            t = behind * w
+            t = inset * w
+            changed |= _wall_at(g, w, hx + t * bx, hy + t * by)
+            t = (inset + behind) * w
             changed |= _wall_at(g, w, hx + t * bx, hy + t * by)
         for j in range(k):  # the border closes the half-plane beyond it
             if border[j] and danger[j]:
@@ -388,12 +408,13 @@ def _astar(g, sa, sb, ta, tb, ahead, wall_cost, ha, hb, turn, dist, prev, closed
 
 
 @njit(cache=True)
-def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cross=0.0):
+def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cross=0.0, pinch=False):
     """The A* of :func:`plan` on the work arrays of :func:`_astar`, which it leaves filled (``prev``
     holds the way): ``(found, cost, touched, nt)``, the first ``nt`` of ``touched`` the flat indices
     of the cells it set (for :func:`_reset`). ``cross > 0``: wall cells may be entered too, each
     for ``cross`` more, and so may a diagonal step past one (stuck cells stay shut): the way through
-    the fewest walls (chart search step 5)."""
+    the fewest walls (chart search step 5). ``pinch``: an open cell (not the target's) between two
+    shut cells on opposite sides (:func:`_pinched`) counts as a wall."""
     c = g.shape[0]
     INF = 1e30
     cap = 64 * c + 64  # the heap grows by doubling (a cell is pushed at most 8 times)
@@ -430,6 +451,8 @@ def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cros
                 if na < 0 or nb < 0 or na >= c or nb >= c or closed[na, nb]:
                     continue
                 v = g[na, nb]
+                if pinch and v == OPEN and not (na == ta and nb == tb) and _pinched(g, na, nb):
+                    v = WALL  # a gap one cell wide: narrower than a pass
                 if v == STUCK or (v == WALL and cross <= 0.0):
                     continue
                 step = s2 if da != 0 and db != 0 else 1.0
@@ -468,6 +491,17 @@ def _reset(dist, prev, closed, touched, nt, c):
         dist[v // c, v % c] = 1e30
         prev[v // c, v % c] = -1
         closed[v // c, v % c] = False
+
+
+@njit(cache=True, inline="always")
+def _pinched(g, a, b):
+    """Cell (a, b) of chart ``g`` lies between two shut cells on opposite sides (north and south,
+    east and west, or across a diagonal): a gap one cell wide. Cells on the chart's edge never do."""
+    c = g.shape[0]
+    if a <= 0 or b <= 0 or a >= c - 1 or b >= c - 1:
+        return False
+    return ((g[a - 1, b] != 0 and g[a + 1, b] != 0) or (g[a, b - 1] != 0 and g[a, b + 1] != 0)
+            or (g[a - 1, b - 1] != 0 and g[a + 1, b + 1] != 0) or (g[a - 1, b + 1] != 0 and g[a + 1, b - 1] != 0))
 
 
 @njit(cache=True, inline="always")
@@ -553,6 +587,19 @@ def _route_open(g, route, shut, at, n):
 
 
 @njit(cache=True)
+def _crosses(g, route, n, pinch):
+    """A cell of ``route[1:n]`` (after its start) is shut on chart ``g``, or (``pinch``) lies in a gap
+    one cell wide, but the target's (the way went through the fewest walls)."""
+    c = g.shape[0]
+    h = c // 2
+    for k in range(1, n):
+        a, b = route[k] // c, route[k] % c
+        if g[a, b] != OPEN or (pinch and not (a == h and b == h) and _pinched(g, a, b)):
+            return True
+    return False
+
+
+@njit(cache=True)
 def _locate(route, lo, hi, sa, sb, c):
     """The cell of ``route[lo:hi + 1]`` nearest cell (sa, sb) (Chebyshev distance; the last of
     equals): ``(index, distance)``."""
@@ -565,17 +612,70 @@ def _locate(route, lo, hi, sa, sb, c):
 
 
 @njit(cache=True)
-def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route, shut):
+def _walled_in(g, sa, sb, ta, tb, pinch, budget, seen):
+    """True when the A* over open cells of :func:`_search` (``cross`` 0, ``pinch``) from cell
+    (sa, sb) would not reach cell (ta, tb): a flood from (ta, tb) over the cells that search may
+    enter (its steps taken backwards: the same cells, the same corners) closes within ``budget``
+    cells without meeting (sa, sb). False when it meets it or outgrows the budget (then nothing is
+    known). ``seen (C, C)`` all False, left so (the A*'s ``closed``)."""
+    c = g.shape[0]
+    if sa == ta and sb == tb:
+        return False
+    if g[ta, tb] != OPEN:
+        return True
+    queue = np.empty(min(budget, 64 * c + 64), np.int64)
+    queue[0] = ta * c + tb
+    seen[ta, tb] = True
+    head, nq = 0, 1
+    met = False
+    while head < nq and not met:
+        v = queue[head]
+        head += 1
+        a, b = v // c, v % c
+        for da in range(-1, 2):
+            for db in range(-1, 2):
+                na, nb = a + da, b + db
+                if (da == 0 and db == 0) or na < 0 or nb < 0 or na >= c or nb >= c or seen[na, nb]:
+                    continue
+                if da != 0 and db != 0 and (g[a + da, b] != 0 or g[a, b + db] != 0):
+                    continue  # no corner cut, either way
+                if na == sa and nb == sb:
+                    met = True
+                    break
+                if g[na, nb] != OPEN or (pinch and _pinched(g, na, nb)):
+                    continue
+                if nq == budget:
+                    met = True  # outgrew the budget: nothing known
+                    break
+                if nq == len(queue):
+                    queue = _doubled(queue, nq)
+                seen[na, nb] = True
+                queue[nq] = na * c + nb
+                nq += 1
+            if met:
+                break
+    for k in range(nq):
+        seen[queue[k] // c, queue[k] % c] = False
+    return not met
+
+
+@njit(cache=True)
+def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route, shut, pinch=False, flood=0):
     """Plan on chart ``g`` from cell (sa, sb) to the target's cell (chart search steps 2 and 5):
-    A* over open cells; if there is no way, the way through the fewest walls (each wall cell entered
-    costs a chart's width in cells, stuck cells stay shut), then that again after forgetting its
-    stuck cells, then on a forgotten chart (on which there is always a way). Stores the way in
-    ``route``/``shut`` (:func:`_store_way`). Returns ``(found, cells stored, index of the point to
-    head for, forgot the whole chart)``."""
+    A* over open cells (``pinch``: but gaps one cell wide, :func:`_search`); if there is no way, the
+    way through the fewest walls (each wall cell entered costs a chart's width in cells, stuck cells
+    stay shut), then that again after forgetting its stuck cells, then on a forgotten chart (on
+    which there is always a way). Stores the way in ``route``/``shut`` (:func:`_store_way`).
+    Returns ``(found, cells stored, index of the point to head for, forgot the whole chart)``.
+    ``flood > 0``: first a flood of at most that many cells from the target (:func:`_walled_in`);
+    if it shows no way over open cells, the A* over open cells is not run (the same answer, without
+    the search over every cell the robot can reach)."""
     c = g.shape[0]
     h = c // 2
     for attempt in range(4):
         cross = 0.0 if attempt == 0 else float(c)
+        if attempt == 0 and flood > 0 and _walled_in(g, sa, sb, h, h, pinch, flood, closed):
+            continue
         if attempt == 2:  # forget the stalls
             for a in range(c):
                 for b in range(c):
@@ -583,7 +683,7 @@ def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route
                         g[a, b] = OPEN
         elif attempt == 3:  # forget the chart: it starts again from what it sees
             g[:, :] = OPEN
-        found, _, touched, nt = _search(g, sa, sb, h, h, wall_cost, ha, hb, tc, dist, prev, closed, cross)
+        found, _, touched, nt = _search(g, sa, sb, h, h, wall_cost, ha, hb, tc, dist, prev, closed, cross, pinch)
         n = 0
         if found:
             n = _store_way(g, prev, sa, sb, h, h, _way_length(prev, c, sa, sb, h, h), route, shut)
@@ -595,15 +695,17 @@ def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route
 
 @njit(cache=True)
 def _next_way(i, g, w, qx, qy, changed, m_route, m_shut, m_len, m_at, m_way_at, way, dirty, have_way, forgot,
-              work, prm):
+              work, prm, walled):
     """Robot ``i``'s way after this step's marks (chart search step 2, its chart ``g`` cells ``w``
     wide; ``changed``: a cell of it was shut this step). It plans afresh (A*) when it has no way,
     stalled, was more than a cell off its way, or a cell on or beside the rest of its way was shut
     (its way cut at ``ROUTE_PER_CELL C`` cells: any cell, or near the cut); else, within two cells
     of the point it heads for (or at it), or with its target within ``ahead`` cells (so that a
     target in a straight open line is headed for itself, and its stand-off rules), it picks the next
-    one along its way. True if it planned."""
-    ahead_m, wall_cost, turn_m = prm[0], prm[1], prm[2]
+    one along its way. True if it planned. A robot whose last way crossed a shut cell (``walled``)
+    floods from the target before it plans (:func:`_plan_row`'s ``flood``: the same way, found
+    sooner where the target is walled in on its chart)."""
+    ahead_m, wall_cost, turn_m, pinch_m = prm[0], prm[1], prm[2], prm[4]
     c = g.shape[0]
     h = c // 2
     sa = min(max(int(np.floor(qx / w)) + h, 0), c - 1)
@@ -622,7 +724,11 @@ def _next_way(i, g, w, qx, qy, changed, m_route, m_shut, m_len, m_at, m_way_at, 
         nrm = np.sqrt(dx * dx + dy * dy)
         ha, hb = (dx / nrm, dy / nrm) if nrm > 1e-9 and have_way[i] else (0.0, 0.0)
         tc = turn_m / w if nrm > 1e-9 and have_way[i] else 0.0
-        ok, n, k, fg = _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, work[0], work[1], work[2], route, shut)
+        pinch = 0.0 < w <= pinch_m
+        flood = c * c // 4 if walled[i] else 0
+        ok, n, k, fg = _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, work[0], work[1], work[2], route, shut,
+                                 pinch, flood)
+        walled[i] = ok and _crosses(g, route, n, pinch)
         forgot[i] += fg
         dirty[i] = False
         have_way[i] = ok
@@ -649,8 +755,9 @@ def _chart_rows(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_nor
     """:func:`chart_update`'s compiled pass over robot rows ``rows (m,)`` (the memory ``mem``: the
     arrays of :data:`_ROW_FIELDS`, in order; ``work``: the A* work arrays; ``prm``: :func:`_prm`)."""
     grid, cell, way, dirty, anchor, stall, forgot, last_pts, last_ok, have_way = mem[:10]
-    route, shut, route_len, route_at, way_at, plans = mem[10:]
+    route, shut, route_len, route_at, way_at, plans, walled = mem[10:]
     c = grid.shape[1]
+    mark_prm = np.array([prm[4], prm[5], prm[6], prm[7], prm[13]])
     for r in range(len(rows)):
         i = rows[r]
         qx, qy = q[r, 0], q[r, 1]
@@ -661,7 +768,7 @@ def _chart_rows(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_nor
         w = cell[i]
         g = grid[i]
         changed = _mark_row(g, w, qx, qy, cs[r], sn[r], b_rel[r], b_normal[r], b_danger[r], b_border[r],
-                            last_pts[i], last_ok[i], s_rel[r], s_dir, s_hit[r], prm[4:8])
+                            last_pts[i], last_ok[i], s_rel[r], s_dir, s_hit[r], mark_prm)
         limit = 2 * prm[8] if crowded[r] else prm[8]
         stall[i], stuck = _stall_row(g, w, qx, qy, way[i], anchor[i], stall[i], limit, prm[9], has_t[r])
         if stuck:
@@ -669,15 +776,17 @@ def _chart_rows(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_nor
         if w <= 0 or not has_t[r]:  # no chart, or no target: no way to plan
             continue
         if _next_way(i, g, w, qx, qy, changed, route, shut, route_len, route_at, way_at, way, dirty, have_way,
-                     forgot, work, prm[10:13]):
+                     forgot, work, prm[10:15], walled):
             plans[i] += 1
 
 
-def _prm(params: ChartParams, range_m: float, step_m: float, body_m: float) -> np.ndarray:
-    """The constants :func:`_chart_rows` reads, in its order."""
+def _prm(params: ChartParams, range_m: float, step_m: float, body_m: float, pass_m: float = 0.0) -> np.ndarray:
+    """The constants :func:`_chart_rows` reads, in its order (the last: the widest cell at which
+    gaps one cell wide are left out of the plan, ``ChartParams.pinch_cells``; 0: none)."""
     return np.array([max(params.min_cell_m, step_m), params.reach, params.range_reach, range_m,
                      params.behind, params.extend, params.link, np.cos(np.radians(5.0)),
-                     params.stall_steps, body_m, params.ahead_m, params.wall_cost, params.turn_m], np.float64)
+                     params.stall_steps, body_m, params.ahead_m, params.wall_cost, params.turn_m, params.inset,
+                     pass_m / params.pinch_cells], np.float64)
 
 
 def _rot(psi, v):
@@ -690,12 +799,14 @@ def _f64(a, shape=None):
 
 
 def chart_update(mem: ChartMemory, rows, d: DecodedObs, q, psi, params: ChartParams, range_m: float,
-                 step_m: float, body_m: float, crowded, standoff_m: float = 0.0) -> np.ndarray:
+                 step_m: float, body_m: float, crowded, standoff_m: float = 0.0, pass_m: float = 0.0) -> np.ndarray:
     """Advance the charts of robots ``rows`` by one observation and return the body-frame vector
     to the point each heads for ``(m, 2)`` (the target's own vector ``rel_t`` when its way is
     open straight to it, or when that point lies within ``standoff_m`` of the target: the ring
-    around a threat is the target field's to hold, never a point inside it). One compiled pass over
-    the rows (:func:`_chart_rows`)."""
+    around a threat is the target field's to hold, never a point inside it). ``pass_m``: the
+    narrowest gap the robot drives through (``SafetyShield.pass_m``; 0: every open cell may be
+    planned through, ``ChartParams.pinch_cells``). One compiled pass over the rows
+    (:func:`_chart_rows`)."""
     rows = np.ascontiguousarray(rows, dtype=np.int64)
     m, k = len(rows), d.b_rel.shape[1]
     if mem.last_ok.shape[1] != k:
@@ -710,7 +821,7 @@ def chart_update(mem: ChartMemory, rows, d: DecodedObs, q, psi, params: ChartPar
                 np.sin(psi), np.ascontiguousarray(d.has_t, bool), _f64(d.dist),
                 np.ascontiguousarray(crowded, bool), _f64(d.b_rel), _f64(d.b_normal),
                 np.ascontiguousarray(d.b_danger, bool), np.ascontiguousarray(d.b_border, bool), s_rel, s_dir,
-                s_hit, _prm(params, range_m, step_m, body_m))
+                s_hit, _prm(params, range_m, step_m, body_m, pass_m))
     way = mem.way[rows]
     at_t = ((way[:, 0] == 0.0) & (way[:, 1] == 0.0)) | (np.sum(way * way, axis=-1) < standoff_m ** 2)
     out = _rot(-psi, way - q)
