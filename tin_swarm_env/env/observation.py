@@ -63,7 +63,8 @@ from ..errors import ObservationLayoutError
 from ..scenario.config import ObservationSpec
 from ..terrain import ANGLE
 from ..world.fields import HEIGHT_SCALE_M as DZ_SCALE_M
-from ..world.scan_kernels import ANGLE_ERROR, SPAN_MARGIN, approx_angle, beam_span, crossing, scan_contact, scan_start  # noqa: F401 (re-exported)
+from ..world.scan_kernels import (  # noqa: F401 (re-exported: the scan's primitives, world/scan_kernels.py)
+    ANGLE_ERROR, SPAN_MARGIN, approx_angle, beam_span, crossing, scan_contact, scan_start)
 from ..world.world import serial_if_small
 
 __all__ = ["ObsLayout", "build_observations", "OWN_FIELDS", "SLOT_FIELDS", "DZ_SCALE_M", "DEFAULT_K_ASSETS",
@@ -259,7 +260,7 @@ class ObsLayout:
     def scan_bearings(self) -> np.ndarray:
         """``(K_s,)`` rad: each scan beam's bearing from the heading, counter-clockwise, ``2 pi k / K_s``
         (the one place it is written: the encoder, its reference and the decoder read it here)."""
-        return 2 * np.pi * np.arange(self.k_scan) / max(self.k_scan, 1)
+        return _bearings(self.k_scan)
 
     def scan_units(self) -> np.ndarray:
         """``(K_s, 2)``: each beam's bearing as ``(cos, sin)`` (:meth:`scan_bearings`): the body-frame unit
@@ -329,9 +330,14 @@ class ObsLayout:
                 slot(PointSlot, "assets"), self.part_slice("scan").start)
 
 
+def _bearings(k: int) -> np.ndarray:
+    """``(k,)`` the scan beams' bearings, ``2 pi j / k`` (:meth:`ObsLayout.scan_bearings`)."""
+    return 2 * np.pi * np.arange(k) / max(k, 1)
+
+
 @functools.lru_cache(maxsize=64)
 def _scan_units(k: int) -> np.ndarray:
-    b = 2 * np.pi * np.arange(k) / max(k, 1)
+    b = _bearings(k)
     out = np.ascontiguousarray(np.column_stack([np.cos(b), np.sin(b)]))
     out.setflags(write=False)
     return out

@@ -126,8 +126,9 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
     counted and copied in parallel). Returns the breaks ``(observer, break, distance, closest (P,
     2), start (n + 1,))``, observer-major, nearest first (ties: lower index), and the
     robots ``(observer, target, distance, start)`` (no bearings: :func:`~.sense_kernels.bearings`
-    computes them when they are read). With slot rows ``S`` (:func:`~.sense_kernels.break_row`'s; ``OB`` its danger, ends and beam units) the break contacts
-    are kept there instead, with the scan, and none is returned."""
+    computes them when they are read). With slot rows ``S`` (:func:`~.sense_kernels.break_row`'s; ``OB``
+    its danger, ends and beam units) the break contacts are kept there instead, with the scan, and none
+    is returned."""
     bax, bay, bbx, bby, BX0, BY0, BINV, BNX, BNY, bstart, bitems, bs_off, b_off = B
     n = px.shape[0]
     fused = S[0].shape[0] > 0  # break_row's slot rows instead of the contact list
@@ -217,7 +218,8 @@ def sense_copies(pack, wor, cop, off, px, py, head, tri, heights, status, params
 def _sense_passes(T0, B, margin, wor, cop, off, px, py, head, tri, sz, active, present, S, R, TE, TS, AE, AS, SR,
                   OB):
     """The grids per copy (robots, targets, assets) and the two passes of :func:`sense_copies`
-    (``S``: range, grid cell, half field of view and its cosine, line of sight; ``SR``, ``OB``: :func:`~.sense_kernels.break_row`'s slot rows and arrays)."""
+    (``S``: range, grid cell, half field of view and its cosine, line of sight; ``SR``, ``OB``:
+    :func:`~.sense_kernels.break_row`'s slot rows and arrays)."""
     r, cell, half_fov, cos_hf, los = S
     r_idx, r_dist, r_vis, r_cnt = R
     tx, ty, tz, t_off, t_use = TE
