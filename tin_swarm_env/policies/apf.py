@@ -182,6 +182,8 @@ beyond it and nothing sensed closing it, a following robot drives through it onc
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from ..world.fields import (
@@ -302,6 +304,8 @@ class APFPolicy:
                 per_ring = -(-cfg.robots.count // n_threats)
                 spacing = 2 * np.pi * self.shield.standoff_m / max(per_ring, 1)
                 params = FieldParams(robot_range_m=max(params.robot_range_m, 1.1 * spacing))
+            if search == "chart":  # the chart search's own break-field decay (ChartParams.break_decay_m)
+                params = dataclasses.replace(params, break_decay_m=(chart or ChartParams()).break_decay_m)
         self.params = FieldParams(**{**params.__dict__, "fields": tuple(fields)})
         self.bug = bug or BugParams()
         if search not in ("bug", "chart"):
