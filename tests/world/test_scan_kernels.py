@@ -1,15 +1,19 @@
 """The terrain scan's per-robot code (world/scan_kernels.py): beam directions turned by the heading,
-and one segment crossed with the beams of its wedge, on hand-built cases with exact answers. (The
+and one segment crossed with the beams of its wedge, on hand-built cases with exact answers; many
+segments' wedges in two passes (scan_wedges) against one segment at a time on random fields. (The
 wedge against every beam on random segments: tests/env/test_observation.py; break_row against the
 list path: tests/world/test_sense_kernels.py.)"""
 
 import math
 
+import numba
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tin_swarm_env.env.observation import ObsLayout
-from tin_swarm_env.world.scan_kernels import scan_contact, scan_start
+from tin_swarm_env.world.scan_kernels import scan_contact, scan_start, scan_wedges
 
 
 @pytest.mark.parametrize("heading", [0.0, 0.7, -2.5, math.pi])
@@ -37,3 +41,50 @@ def test_scan_contact_crosses_only_the_beams_of_its_wedge_and_keeps_the_nearer()
     assert b[:, 0].tolist() == [10.0, 7.0, 60.0, 60.0]
     scan_contact(b, 30.0, -5.0, 0.0, 10.0, 1.0, 0.0, K)  # farther again: no change
     assert b[0, 0] == 10.0
+
+
+def test_scan_wedges_crosses_the_hand_built_walls_as_scan_contact():
+    """The walls above at once: the east beam at 10 (the nearer of x = 10 and x = 20), the north at 7."""
+    K = 4
+    b = np.empty((K, 3))
+    scan_start(b, 1.0, 0.0, ObsLayout(k_scan=K).scan_units(), 60.0, K)
+    geo = np.array([[20.0, -5.0, 0.0, 10.0], [10.0, -5.0, 0.0, 10.0], [-1.0, 7.0, 2.0, 0.0]])
+    scan_wedges(b, geo, 3, np.full((8, 2), -1, np.int64), 1.0, 0.0, K)
+    assert b[:, 0].tolist() == [10.0, 7.0, 60.0, 60.0]
+
+
+@numba.njit
+def _both(geo, units, c, s, K, R):
+    """The scan of the segments ``geo`` one at a time (scan_contact) and by scan_wedges."""
+    one = np.empty((K, 3))
+    two = np.empty((K, 3))
+    scan_start(one, c, s, units, R, K)
+    scan_start(two, c, s, units, R, K)
+    for j in range(geo.shape[0]):
+        scan_contact(one, geo[j, 0], geo[j, 1], geo[j, 2], geo[j, 3], c, s, K)
+    scan_wedges(two, geo, geo.shape[0], np.empty((2 * geo.shape[0] + 2, 2), np.int64), c, s, K)
+    return one[:, 0].copy(), two[:, 0].copy()
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(0, 2 ** 31), st.sampled_from([1, 2, 3, 4, 7, 32, 33, 64]), st.integers(0, 60),
+       st.floats(-10.0, 10.0), st.sampled_from(["free", "near", "through", "tiny"]))
+def test_scan_wedges_equals_one_segment_at_a_time(seed, K, m, heading, kind):
+    """Random segments around the robot (anywhere, some ends next to it, some through it, tiny ones):
+    every beam's best is the same bits as scan_contact's, compiled and as plain Python."""
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(-70, 70, (m, 2))
+    e = rng.normal(0, 15, (m, 2))
+    if kind == "near":
+        a = rng.uniform(-1e-3, 1e-3, (m, 2)) * rng.choice([1.0, 1e-6], (m, 1))
+    elif kind == "through":
+        e = -2 * a
+    elif kind == "tiny":
+        e = rng.normal(0, 1e-6, (m, 2))
+    geo = np.ascontiguousarray(np.column_stack([a, e]))
+    units = ObsLayout(k_scan=K).scan_units()
+    c, s = math.cos(heading), math.sin(heading)
+    one, two = _both(geo, units, c, s, K, 60.0)
+    assert one.view(np.int64).tolist() == two.view(np.int64).tolist()
+    one, two = _both.py_func(geo, units, c, s, K, 60.0)
+    assert one.view(np.int64).tolist() == two.view(np.int64).tolist()

@@ -388,6 +388,29 @@ def test_range_class_agrees_with_the_exact_distance_outside_its_band(seed, r, le
             assert v == 2 or (v == 1) == (d <= r)
 
 
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 2 ** 31), st.floats(0.5, 200.0), st.sampled_from([0.0, 1e-3, 1.0, 50.0, 1e4]),
+       st.sampled_from([0.0, 1e3, 5e6]), st.floats(-1e-6, 1e-6))
+def test_out_of_range_is_range_class_saying_clearly_out(seed, r, length, base, rel):
+    """The branch-free test is range_class's ``0`` (with ``lo2 = 0``): on points at random and at the
+    range's edge, on segments of every length (points too), and at a segment's ends and its feet."""
+    rng = np.random.default_rng(seed)
+    hi2 = r * r * (1 + SK.RANGE_BAND)
+    for _ in range(20):
+        a = base + rng.uniform(-100, 100, 2)
+        b = a + length * rng.normal(0, 1, 2)
+        n = rng.normal(0, 1, 2)
+        pts = [base + rng.uniform(-150, 150, 2), a, b, a + r * (1 + rel) * n / np.hypot(*n),
+               b + r * (1 + rel) * n / np.hypot(*n)]
+        if length:
+            perp = np.array([-(b - a)[1], (b - a)[0]])
+            pts.append(a + rng.uniform(0, 1) * (b - a) + r * (1 + rel) * perp / max(np.hypot(*perp), 1e-300))
+        for x, y in pts:
+            want = SK.range_class(x, y, a[0], a[1], b[0], b[1], 0.0, hi2) == 0
+            assert SK.out_of_range(x, y, a[0], a[1], b[0], b[1], hi2) == want
+            assert SK.out_of_range.py_func(x, y, a[0], a[1], b[0], b[1], hi2) == want
+
+
 # -- break_row: the vector env's break contacts kept as the observation reads them, with the scan
 
 _ROW = []
@@ -401,8 +424,8 @@ def _break_row_runs():
 
         @numba.njit
         def row(x, y, ax, ay, bx, by, items, r, S, OB, c, s):
-            b = np.empty((max(S[3].shape[1], 1), 3))
-            SK.break_row(0, x, y, (ax, ay, bx, by, items), 0, ax.shape[0], False, r, S, OB, c, s, b)
+            W = SK.break_scratch(S[3].shape[1])
+            SK.break_row(0, x, y, (ax, ay, bx, by, items), 0, ax.shape[0], False, r, S, OB, c, s, W)
 
         @numba.njit
         def listed(x, y, ax, ay, bx, by, items, r, danger, ends, units, c, s, K):
@@ -422,7 +445,8 @@ def _break_row_runs():
 
 
 @settings(max_examples=120, deadline=None)
-@given(st.integers(0, 2 ** 31), st.integers(0, 40), st.integers(0, 4), st.sampled_from([0, 1, 5, 32]),
+@given(st.integers(0, 2 ** 31), st.sampled_from([0, 1, 2, 7, 40, SK.BREAK_CHUNK, SK.BREAK_CHUNK + 1, 300]),
+       st.integers(0, 4), st.sampled_from([0, 1, 5, 32]),
        st.sampled_from([0.0, 0.5, 4.0]), st.floats(-math.pi, math.pi))
 def test_break_row_keeps_the_nearest_and_the_scan_of_the_listed_contacts(seed, m, kb, K, grain, heading):
     """break_row's ``kb`` slots are the first ``kb`` of the sorted contact list (distance, then index;

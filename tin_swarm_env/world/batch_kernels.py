@@ -25,6 +25,7 @@ from .grid import grid_build_copies, sense_cell
 from .sense_kernels import (
     break_range,
     break_row,
+    break_scratch,
     compact_out,
     copy_kept,
     count_breaks,
@@ -146,7 +147,7 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
         wc = wor[items[q0]]  # the views of a world are taken when it changes, not per robot
         T = terrain_of(T0, wc)
         bst = bstart[bs_off[wc]:bs_off[wc + 1]]
-        b = np.empty((max(S[3].shape[1], 1), 3))  # break_row's scan scratch, one per run
+        W = break_scratch(S[3].shape[1])  # break_row's scratch, one per run
         for q in range(q0, q1):
             i = items[q]
             if not active[i]:
@@ -161,7 +162,7 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
                 lo, hi, gridded = break_range(bst, BX0[w], BY0[w], BINV[w], BNX[w], BNY[w], b_off[w], b_off[w + 1],
                                               px[i], py[i])
                 break_row(i, px[i], py[i], (bax, bay, bbx, bby, bitems), lo, hi, gridded, range_m, S, OB,
-                          math.cos(head[i]), math.sin(head[i]), b)
+                          math.cos(head[i]), math.sin(head[i]), W)
                 continue
             if bcnt[i] == 0:
                 continue

@@ -158,7 +158,6 @@ def pack_one(world) -> WorldPack:
         return got[1]
     T = terrain_arrays(world.tin)
     f64, i64 = np.float64, np.int64
-    seg = np.asarray(world.breaks.segments, dtype=f64).reshape(-1, 2, 3)
     g = bi.grid
     sin_slope, aspect_rad = world.tin._tilt_tables
     c = np.ascontiguousarray
@@ -168,7 +167,8 @@ def pack_one(world) -> WorldPack:
          "bax": c(bi.ax, f64), "bay": c(bi.ay, f64), "bbx": c(bi.bx, f64), "bby": c(bi.by, f64),  # what sensing reads
          "gstart": c(g[5], i64), "gitems": c(g[6], i64),
          "normals": c(world.breaks.normals.reshape(-1, 2), f64), "drops": c(world.breaks.drops_m.reshape(-1), f64),
-         "danger": c((world.breaks.kinds != ANGLE).astype(f64)), "ends": c(seg[:, :, :2].reshape(-1, 4)),
+         "danger": c((world.breaks.kinds != ANGLE).astype(f64)),
+         "ends": c(np.column_stack([bi.ax, bi.ay, bi.bx, bi.by]), f64),  # bax.. side by side (break_row reads it)
          "sin_slope": c(sin_slope, f64), "aspect_rad": c(aspect_rad, f64), "slope_deg": c(world.tin.slope_deg, f64),
          "aspect_deg": c(world.tin.aspect_deg, f64)}
     for name, v, dt in (("bx0", T[8], f64), ("by0", T[9], f64), ("binv", T[10], f64), ("bnx", T[11], i64),

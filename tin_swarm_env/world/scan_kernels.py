@@ -8,9 +8,9 @@ direction, the heading's ``(cos, sin)`` turned by the beam's bearing (``units``,
 beam, no libm call); :func:`scan_contact` crosses one dangerous break segment with the beams of its
 wedge only (:func:`beam_span`, ~1 beam of 32); the scan is the minimum over the crossings, so the
 same bits in any order of the contacts. The observation encoder runs it over a robot's contact list
-(:func:`~tin_swarm_env.env.observation.scan_beams`); the vector env's sensing pass runs it while it
-gathers the contacts (:func:`~.sense_kernels.break_row`): the same functions on the same numbers,
-so the same bits.
+(:func:`~tin_swarm_env.env.observation.scan_beams`); the vector env's sensing pass runs
+:func:`scan_wedges` over the dangerous contacts it gathers (:func:`~.sense_kernels.break_row`): the
+same wedges and crossings on the same numbers, so the same bits.
 """
 
 from __future__ import annotations
@@ -19,7 +19,8 @@ import math
 
 from numba import njit
 
-__all__ = ["ANGLE_ERROR", "SPAN_MARGIN", "approx_angle", "beam_span", "crossing", "scan_start", "scan_contact"]
+__all__ = ["ANGLE_ERROR", "SPAN_MARGIN", "approx_angle", "beam_span", "crossing", "scan_start", "scan_contact",
+           "scan_wedges"]
 
 ANGLE_ERROR = 1e-3  # rad: a bound on how far :func:`approx_angle` is off (2e-4 at worst: tests/env/test_observation.py)
 SPAN_MARGIN = 0.02  # rad: :func:`beam_span` takes the beams this close to the wedge too
@@ -118,3 +119,33 @@ def scan_contact(b, wx, wy, ex, ey, c, s, K):
     for kk in range(lo, hi + 1):
         k = kk + K if kk < 0 else (kk - K if kk >= K else kk)
         b[k, 0] = crossing(b[k, 1], b[k, 2], ex, ey, wx, wy, b[k, 0])
+
+
+@njit(cache=True, inline="always")
+def scan_wedges(b, geo, nc, pairs, c, s, K):
+    """:func:`scan_contact` over the ``nc`` dangerous segments ``geo[j] = (wx, wy, ex, ey)`` (``w -> w + e``
+    relative to the robot), the same crossings in two passes: first every wedge (:func:`beam_span`), its
+    at most two beams written as ``(beam, j)`` to ``pairs ((2 nc + 2, 2)`` scratch; a wider wedge, rare,
+    crossed at once by :func:`scan_contact`), then every pair's :func:`crossing`. Each beam's best is the
+    minimum over its crossings, so the same bits in any order; in two passes no branch waits on a wedge
+    (computed long before it is read), which the beam loop of :func:`scan_contact` did per contact."""
+    p = 0
+    for j in range(nc):
+        wx = geo[j, 0]
+        wy = geo[j, 1]
+        ex = geo[j, 2]
+        ey = geo[j, 3]
+        lo, hi = beam_span(wx, wy, wx + ex, wy + ey, c, s, K)
+        if hi - lo > 1:
+            scan_contact(b, wx, wy, ex, ey, c, s, K)
+            continue
+        k = lo + K if lo < 0 else (lo - K if lo >= K else lo)  # (lo, lo + 1), of which hi - lo + 1 count
+        pairs[p, 0] = k
+        pairs[p, 1] = j
+        pairs[p + 1, 0] = k + 1 if k + 1 < K else k + 1 - K
+        pairs[p + 1, 1] = j
+        p += hi - lo + 1
+    for q in range(p):
+        k = pairs[q, 0]
+        j = pairs[q, 1]
+        b[k, 0] = crossing(b[k, 1], b[k, 2], geo[j, 2], geo[j, 3], geo[j, 0], geo[j, 1], b[k, 0])

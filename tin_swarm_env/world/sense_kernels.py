@@ -26,11 +26,11 @@ from numba import njit
 from ..terrain._kernels import bucket_locate1, los_brute1, los_walk1, orient, walk_locate1
 from .angles import wrap_pi
 from .grid import SENSE_REACH, grid_block
-from .scan_kernels import scan_contact, scan_start
+from .scan_kernels import scan_start, scan_wedges
 
 __all__ = ["terrain_arrays", "compact", "bearings", "break_grid", "touches", "entity_row", "near_row",
            "sight1", "deep_margin", "deep_inside", "in_view", "FOV_MARGIN", "locate1", "cell_distance",
-           "BREAK_CELL", "range_class", "RANGE_BAND", "break_row"]
+           "BREAK_CELL", "range_class", "out_of_range", "RANGE_BAND", "break_row", "break_scratch", "BREAK_CHUNK"]
 
 
 def terrain_arrays(tin):
@@ -289,6 +289,24 @@ def range_class(x, y, ax, ay, bx, by, lo2, hi2):
     return 1 if c2 < lo2 * L2 else (0 if c2 > hi2 * L2 else 2)
 
 
+@njit(cache=True, inline="always")
+def out_of_range(x, y, ax, ay, bx, by, hi2):
+    """``range_class(x, y, ax, ay, bx, by, 0.0, hi2) == 0`` (segment ``a -> b`` clearly out of range), the
+    same products and comparisons, every case computed and the one that applies selected, so no branch
+    waits on the test."""
+    apx = x - ax
+    apy = y - ay
+    abx = bx - ax
+    aby = by - ay
+    dot = apx * abx + apy * aby
+    L2 = abx * abx + aby * aby
+    qx = x - bx
+    qy = y - by
+    cr = apx * aby - apy * abx
+    d2 = apx * apx + apy * apy if dot <= 0.0 else (qx * qx + qy * qy if dot >= L2 else cr * cr)
+    return d2 > hi2 * (1.0 if dot <= 0.0 or dot >= L2 else L2)
+
+
 @njit(cache=True)  # called, not inlined: one compiled body for the env and the vector env
 def gather_breaks(i, x, y, bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m, p0, dist, seg, closest, obs):
     """Robot ``i``'s break contacts (rows ``lo:hi`` of :func:`break_range`, gathered in ascending
@@ -309,20 +327,38 @@ def gather_breaks(i, x, y, bax, bay, bbx, bby, bitems, lo, hi, gridded, range_m,
         obs[p] = i
 
 
+BREAK_CHUNK = 128  # break_row takes a robot's candidate segments this many at a time
+
+
+@njit(cache=True, inline="always")
+def break_scratch(K):
+    """:func:`break_row`'s scratch (one per thread's run of robots): ``(b (K, 3)`` the scan's beams,
+    ``near (BREAK_CHUNK,)`` a chunk's segments in range, ``geo (BREAK_CHUNK, 4)`` its dangerous ones
+    relative to the robot, ``pairs (2 BREAK_CHUNK + 2, 2))`` their beams (:func:`~.scan_kernels.scan_wedges`)."""
+    return (np.empty((max(K, 1), 3)), np.empty(BREAK_CHUNK, dtype=np.int64), np.empty((BREAK_CHUNK, 4)),
+            np.empty((2 * BREAK_CHUNK + 2, 2), dtype=np.int64))
+
+
 @njit(cache=True)  # called, not inlined
-def break_row(i, x, y, B, lo, hi, gridded, range_m, S, OB, c, s, b):
+def break_row(i, x, y, B, lo, hi, gridded, range_m, S, OB, c, s, W):
     """Robot ``i``'s break contacts (rows ``lo:hi`` of :func:`break_range`, as :func:`gather_breaks`
     finds them: the same tests on the same numbers) kept only as what the observation reads: its
     ``kb`` nearest by (distance, index) in slot row ``i`` (``S``: ``(idx (n, kb), dist, closest (n, kb,
-    2), scan (n, K))``, ``idx`` -1 in empty slots), and with ``K`` beams its scan, each dangerous contact
-    crossed as it is found (:func:`~.scan_kernels.scan_contact`: the minimum over the crossings
+    2), scan (n, K))``, ``idx`` -1 in empty slots), and with ``K`` beams its scan, the dangerous contacts
+    crossed by :func:`~.scan_kernels.scan_wedges` (the minimum over the crossings
     :func:`~tin_swarm_env.env.observation.scan_beams` makes over the gathered list, so the same bits),
     over ``range_m`` (1 where no dangerous contact). No contact list is written, so no count pass
-    is needed. ``B`` the segments ``(ax, ay, bx, by, items)``; ``OB`` ``(danger, ends (B, 4), units (K, 2))``;
-    ``(c, s)`` the heading's cos and sin; ``b`` a ``(K, 3)`` scratch."""
-    bax, bay, bbx, bby, bitems = B
+    is needed. ``B`` the segments ``(ax, ay, bx, by, items)``; ``OB`` ``(danger, ends (B, 4), units (K, 2))``,
+    ``ends`` the same numbers as ``B``'s ``(ax, ay, bx, by)`` side by side (a segment's four in one cache line:
+    the pack builds both from the break index) and the ones read here;
+    ``(c, s)`` the heading's cos and sin; ``W`` the scratch of :func:`break_scratch`. The rows are taken
+    :data:`BREAK_CHUNK` at a time, each in three passes with few branches on fresh results (those that
+    stall the pipeline when mispredicted): the segments in range (:func:`_near_chunk`), the nearest kept
+    and the dangerous ones listed (:func:`_keep_chunk`), the scan (:func:`~.scan_kernels.scan_wedges`).
+    The kept slots and the scan do not depend on the order the contacts come in, so the same bits."""
     s_idx, s_dist, s_cl, scan = S
     danger, ends, units = OB
+    b, near, geo, pairs = W
     kb = s_idx.shape[1]
     K = scan.shape[1]
     for q in range(kb):
@@ -330,22 +366,56 @@ def break_row(i, x, y, B, lo, hi, gridded, range_m, S, OB, c, s, b):
     m = 0
     used = False
     hi2 = range_m * range_m * (1.0 + RANGE_BAND)
-    for w in range(lo, hi):
-        e = bitems[w] if gridded else w
-        if range_class(x, y, bax[e], bay[e], bbx[e], bby[e], 0.0, hi2) == 0:
+    for w0 in range(lo, hi, BREAK_CHUNK):
+        nb = _near_chunk(x, y, ends, B[4], w0, min(w0 + BREAK_CHUNK, hi), gridded, hi2, near)
+        m, nc = _keep_chunk(i, x, y, near, nb, range_m, S, m, danger, ends, geo)
+        if K == 0 or nc == 0:
             continue
-        cx, cy, d = _closest(x, y, bax[e], bay[e], bbx[e], bby[e])
+        if not used:
+            used = True
+            scan_start(b, c, s, units, range_m, K)
+        scan_wedges(b, geo, nc, pairs, c, s, K)
+    for k in range(K):
+        scan[i, k] = b[k, 0] / range_m if used else 1.0
+
+
+@njit(cache=True, inline="always")
+def _near_chunk(x, y, ends, bitems, w0, w1, gridded, hi2, near):
+    """The segments of rows ``w0:w1`` not clearly out of range (:func:`out_of_range`), written to
+    ``near`` in row order without a branch on the test; returns how many."""
+    nb = 0
+    for w in range(w0, w1):
+        e = bitems[w] if gridded else w
+        near[nb] = e
+        nb += 0 if out_of_range(x, y, ends[e, 0], ends[e, 1], ends[e, 2], ends[e, 3], hi2) else 1
+    return nb
+
+
+@njit(cache=True, inline="always")
+def _keep_chunk(i, x, y, near, nb, range_m, S, m, danger, ends, geo):
+    """The ``nb`` segments ``near``: those within ``range_m`` (:func:`_closest`) kept in row ``i``'s slots
+    (:func:`_keep_nearest`, ``m`` kept so far) and, when dangerous, written to ``geo`` as ``(wx, wy, ex, ey)``
+    (``w -> w + e`` relative to the robot). Returns ``(m, how many in geo)``."""
+    s_idx, s_dist, s_cl, scan = S
+    kb = s_idx.shape[1]
+    nc = 0
+    for q in range(nb):
+        e = near[q]
+        ax = ends[e, 0]
+        ay = ends[e, 1]
+        bx = ends[e, 2]
+        by = ends[e, 3]
+        cx, cy, d = _closest(x, y, ax, ay, bx, by)
         if d > range_m:
             continue
         if kb:
             m = _keep_nearest(s_idx, s_dist, s_cl, i, m, kb, e, d, cx, cy)
-        if K and danger[e] != 0.0:
-            if not used:
-                used = True
-                scan_start(b, c, s, units, range_m, K)
-            scan_contact(b, ends[e, 0] - x, ends[e, 1] - y, ends[e, 2] - ends[e, 0], ends[e, 3] - ends[e, 1], c, s, K)
-    for k in range(K):
-        scan[i, k] = b[k, 0] / range_m if used else 1.0
+        geo[nc, 0] = ax - x
+        geo[nc, 1] = ay - y
+        geo[nc, 2] = bx - ax
+        geo[nc, 3] = by - ay
+        nc += 1 if danger[e] != 0.0 else 0
+    return m, nc
 
 
 @njit(cache=True, inline="always")
