@@ -211,3 +211,32 @@ def test_robots_meeting_head_on_in_a_corridor_pass_each_other(mirror):
                                mirror)
     assert np.all(reasons == Reason.ARRIVED), reasons
     assert steps.max() <= 250, steps
+
+
+# -- real hillside: passes narrower than pass_m (the realdem family) ---------------------------
+
+from tin_swarm_env.policies.chart import ChartParams  # noqa: E402
+from tin_swarm_env.world.fields import FieldParams  # noqa: E402
+
+
+def test_the_chart_search_uses_its_own_break_decay_and_the_bug_search_the_field_default():
+    env = tse.parallel_env(scenario="cliff_goal")
+    assert APFPolicy(env).params.break_decay_m == ChartParams().break_decay_m == 0.5
+    assert APFPolicy(env, chart=ChartParams(break_decay_m=1.25)).params.break_decay_m == 1.25
+    assert APFPolicy(env, search="bug").params.break_decay_m == FieldParams().break_decay_m == 2.5
+    assert APFPolicy(env, params=FieldParams(break_decay_m=3.0)).params.break_decay_m == 3.0  # given: kept
+
+
+def test_on_real_hillside_the_robots_leave_a_pocket_by_its_narrow_exit():
+    """realdem held-out seed 1000003: 20 robots start in a pocket of a jacksboro crop whose only
+    drivable exit is a gap of a few metres between two hillsides too steep to drive (the map-knowing
+    reference brings all 20 in). The default chart search brings them in; with the constants before
+    (the pinch rule from 1.5 cells, the break field's 2.5 m decay) the gap was charted shut or
+    pushed them back, and none arrived. No robot falls either way."""
+    from tin_swarm_env.scenario import load_scenario
+
+    env = tse.parallel_env(scenario=load_scenario("generated").with_families(("realdem",)))
+    new = rollout(env, APFPolicy(env), 1_000_003)
+    old = rollout(env, APFPolicy(env, chart=ChartParams(pinch_cells=1.5, break_decay_m=2.5)), 1_000_003)
+    assert new.count(Reason.ARRIVED) >= 18 and new.count(Reason.FELL) == 0, new.reasons
+    assert old.count(Reason.ARRIVED) <= 5 and old.count(Reason.FELL) == 0, old.reasons

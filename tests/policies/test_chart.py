@@ -633,7 +633,7 @@ def test_a_pillar_field_with_10_m_gaps_is_charted_open_at_the_default_cells():
     way = _plan_row_on(g, sa, sb)[1]
     off_line = max(abs(b - 256) for _, b in way) * w
     assert found and off_line < 20.0  # through the field, within 20 m of the straight line
-    way = _plan_row_on(g, sa, sb, pinch=True)[1]  # 1.8 m cells: gaps one cell wide left out (pinch_cells)
+    way = _plan_row_on(g, sa, sb, pinch=True)[1]  # the pinch rule forced on: gaps one cell wide left out
     assert all(g[a, b] == OPEN for a, b in way)  # an open way: the 10 m gaps are wider than one cell
     assert max(abs(b - 256) for _, b in way) * w < 20.0
     g, w, (sa, sb) = _pillar_chart(ChartParams(cells=256, inset=0.0))  # the chart before
@@ -654,10 +654,10 @@ def _walled(mem):
     g[10:12, 16] = OPEN
 
 
-@pytest.mark.parametrize("pass_m, cell, through_hole", [(0.0, 1.0, True), (3.0, 1.0, False), (3.0, 1.9, False),
-                                                         (3.0, 2.1, True), (1.4, 1.0, True)])
+@pytest.mark.parametrize("pass_m, cell, through_hole", [(0.0, 1.0, True), (3.0, 1.0, False), (3.0, 1.19, False),
+                                                         (3.0, 1.21, True), (2.4, 1.0, True)])
 def test_on_a_fine_chart_the_way_keeps_out_of_a_gap_one_cell_wide(pass_m, cell, through_hole):
-    """A gap one cell wide is left out of the plan where a pass (pass_m) is at least pinch_cells (1.5)
+    """A gap one cell wide is left out of the plan where a pass (pass_m) is at least pinch_cells (2.5)
     cells wide: the way goes round by the gap two cells wide; with no such gap it crosses the narrow
     one as it would a wall, forgetting nothing. On a coarser chart, or with no pass_m, it goes
     through the narrow gap (a real pass, perhaps)."""

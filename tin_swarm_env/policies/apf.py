@@ -132,9 +132,10 @@ a stall anchor and count. Each step:
 2. *Plan* (A*, 8-connected, no corner cut between two shut cells; a step into a cell beside a shut
    one costs ``wall_cost`` cells more, a first step against the way it was heading up to ``turn_m``
    more) the least-cost way over open cells to the target's cell, and keep it. On a fine chart (a
-   pass, ``pass_m`` = 3 body diameters, at least ``pinch_cells`` cells wide) an open cell between
-   two shut cells on opposite sides counts as a wall: a gap charted one cell wide is narrower than
-   a pass there, and is most often a hole between two sightings of one wall (beams far apart).
+   pass, ``pass_m`` = 3 body diameters, at least ``pinch_cells`` = 2.5 cells wide) an open cell between
+   two shut cells on opposite sides counts as a wall: a gap charted one cell wide is much narrower than
+   a pass there, and is most often a hole between two sightings of one wall (beams far apart); on a
+   coarser chart it is kept (real hillside has passes a little narrower than ``pass_m``).
    It plans again only when the rest of that way may have stopped being least-cost: a cell on or beside it (in the 3 x 3
    block of one of its cells from where the robot is on) became shut; or the robot is more than a
    cell off it (pushed aside, sliding along a wall); or it stalled (step 4); or the way was longer
@@ -144,7 +145,9 @@ a stall anchor and count. Each step:
    open line on the chart from its cell; within two cells of that point (or at it) it takes the
    next such point along the way kept, without planning.
 3. *Drive*: the fields above, with the attraction turned toward that point (the height field off
-   while it is not the target itself); where a dangerous break it faces within ``follow_engage_m``
+   while it is not the target itself) and the break field's decay ``ChartParams.break_decay_m``
+   (0.5 m: the way keeps off the walls, so the field is a cushion at the wall, and a funnel a few
+   body lengths wide does not push the robot back out); where a dangerous break it faces within ``follow_engage_m``
    lies across the attraction, it slides along the break (the follow term) on the side the
    attraction leans to. The shield is unchanged.
 4. *Stall*: not two body lengths (or 1.5 cells) from where it was ``stall_steps`` steps ago (twice
