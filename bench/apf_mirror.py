@@ -3,14 +3,15 @@ reflected east-west and reflected north-south (the terrain's ``mirror`` key,
 :mod:`tin_swarm_env.scenario.mirror`), so a rule that prefers one side shows as a gap between rows.
 Writes ``docs/figures/apf_mirror.md``:
 
-    python bench/apf_mirror.py [--seeds 20] [--search bug,chart] [--k-scan 32] [--out FILE]
+    python bench/apf_mirror.py [--seeds 20] [--search bug,chart] [--k-scan 32] [--jobs 1] [--out FILE]
     python bench/apf_mirror.py --quick     # a smoke run (seconds): canyon, 1 seed of 4 robots, 100 steps; prints only
 
 Each row: ``--seeds`` held-out seeds from ``EVAL_SEED0`` x the scenario's 20 robots, one
 :func:`~tin_swarm_env.training.rollout.rollout` each (``max_cycles`` of the ``generated`` scenario);
 stalled and looping as in :mod:`tin_swarm_env.training.trajectory`; one row per boundary search
 (``APFPolicy(search=...)``) of ``--search``; ``--k-scan N`` gives the observation the terrain scan's
-``N`` beams (``[observation] k_scan``).
+``N`` beams (``[observation] k_scan``); ``--jobs J`` runs the rows in J processes (the figures do not
+depend on it; a row's seconds do, with the load).
 """
 
 from __future__ import annotations
@@ -54,6 +55,21 @@ def row(family: str, mirror: str, seeds: int, search: str = "chart", k_scan: int
             time.perf_counter() - t)
 
 
+def _row(job):
+    return row(*job)
+
+
+def _rows(jobs: list, n: int):
+    """:func:`row` of every job, in order, in ``n`` processes (in this one for ``n = 1``)."""
+    if n <= 1:
+        yield from map(_row, jobs)
+        return
+    import multiprocessing
+
+    with multiprocessing.get_context("fork").Pool(n) as pool:
+        yield from pool.imap(_row, jobs, chunksize=1)
+
+
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -62,6 +78,7 @@ def main(argv=None) -> int:
                    help="boundary searches, comma-separated (default bug,chart)")
     p.add_argument("--k-scan", type=int, default=None,
                    help="the observation's terrain scan beams (default: the default layout's, 32; 0: none)")
+    p.add_argument("--jobs", type=int, default=1, help="processes, one row each at a time (default 1)")
     p.add_argument("--out", default=None, help="Markdown file (default docs/figures/apf_mirror.md; none with --quick)")
     p.add_argument("--quick", action="store_true", help=f"a smoke run (seconds): {QUICK}; prints only")
     a = p.parse_args(argv)
@@ -70,6 +87,8 @@ def main(argv=None) -> int:
         families, a.seeds, robots, max_cycles = QUICK["families"], 1, QUICK["robots"], QUICK["max_cycles"]
     if a.out is None and not a.quick:
         a.out = str(ROOT / "docs" / "figures" / "apf_mirror.md")
+    if a.jobs < 1:
+        p.error(f"--jobs must be >= 1, got {a.jobs}")
     if a.k_scan is not None and a.k_scan < 0:
         p.error(f"--k-scan must be >= 0, got {a.k_scan}")
     bad = [x for x in a.search if x not in SEARCHES]
@@ -88,12 +107,12 @@ def main(argv=None) -> int:
                 "; no terrain scan."), "",
              "| family | search | terrain | arrived | fell | stalled | looping | s |",
              "|---|---|---|---:|---:|---:|---:|---:|"]
-    for fam in families:
-        for search in a.search:
-            for mir, name in MIRRORS:
-                ar, fe, st, lo, s = row(fam, mir, a.seeds, search, a.k_scan, robots, max_cycles)
-                lines.append(f"| {fam} | {search} | {name} | {ar:.1%} | {fe:.1%} | {st:.1%} | {lo:.1%} | {s:.0f} |")
-                print(lines[-1], flush=True)
+    jobs = [(fam, mir, a.seeds, search, a.k_scan, robots, max_cycles)
+            for fam in families for search in a.search for mir, _ in MIRRORS]
+    for (fam, mir, _, search, *_), (ar, fe, st, lo, s) in zip(jobs, _rows(jobs, a.jobs)):
+        lines.append(f"| {fam} | {search} | {dict(MIRRORS)[mir]} | {ar:.1%} | {fe:.1%} | {st:.1%} | {lo:.1%} "
+                     f"| {s:.0f} |")
+        print(lines[-1], flush=True)
     if not a.out:
         return 0
     out = Path(a.out)
