@@ -6,8 +6,10 @@ built here (numpy arrays written to a temporary ``.npz``, played through ``scena
     python bench/apf_unseen.py                 # the full run: 10 seeds x 20 robots per shape and image
     python bench/apf_unseen.py --quick         # a smoke run (seconds): one shape, 1 seed of 4 robots; prints only
     [--seeds 10] [--robots 20] [--only u_pocket,spiral,...] [--cap 2500] [--jobs 1] [--out FILE]
+    [--method robot] [--only crater@robot,...] # the shapes' TIN built by another [terrain] method
 
-Every shape is a 300 x 300 m map of 2 m cells (the scenario's greedy TIN, 0.5 m error), the robots'
+Every shape is a 300 x 300 m map of 2 m cells (the scenario's greedy TIN, 0.5 m error, unless ``--method``
+names another builder of :data:`~tin_swarm_env.terrain.build.METHODS`: its rows are labelled with it),the robots'
 default 30 deg slope limit; 20 robots spawn in ``SPAWN`` on the west side and the target lies east,
 where the straight way crosses ground the robots cannot drive: a *cliff* (a sheer one-cell step of
 6-14 m) or *steep hillside* (a 40 deg slope, no break in it, just too steep to climb or to drive down).
@@ -34,7 +36,10 @@ nested_u       steep     two nested U pockets of 12 m ridges, both opening towar
 Episode length: GeodesicPolicy (knows the map) runs first with ``--cap`` steps; each shape's horizon
 is twice its median steps to arrive (the larger of the two images), rounded up to 50 steps, and both
 policies are scored at that horizon (the reference's episodes are cut there: ``max_cycles`` only ends
-an episode, so its first steps are the same). Per row: arrived, fell, timed out (with the battery
+an episode, so its first steps are the same). APF's episodes run on to twice that (at most the cap),
+and the last two columns score both at twice the horizon: an observation-only robot pays for every dead
+end it has to look into, so a shape with nested pockets can take it longer than twice the map-knowing
+reference's time (the battery lasts about 2 000 steps). Per row: arrived, fell, timed out (with the battery
 empty: none expected), stalled and looping (of the timed out, :mod:`tin_swarm_env.training.trajectory`),
 median steps of the robots that arrived. After the table: where the APF robots that timed out ended
 (the median of their distance-to-go on the map at the start and at the end, their median end point).
@@ -60,6 +65,7 @@ from tin_swarm_env._atomic import atomic_path
 from tin_swarm_env.scenario import scenario_from_dict
 from tin_swarm_env.scenario.build import build_stage
 from tin_swarm_env.scenario.mirror import mirror_scenario
+from tin_swarm_env.terrain.build import METHODS
 from tin_swarm_env.training.rollout import rollout
 from tin_swarm_env.world.state import Reason
 
@@ -84,6 +90,7 @@ IMAGES = (("", "as built"), ("ns", "mirror (north-south)"))
 SIZE_M, CELL_M = 300.0, 2.0
 STEEP_DEG = 40.0  # the hillside shapes' slope: above the robots' 30 deg, far below a cliff
 SPAWN = (16.0, 125.0, 46.0, 175.0)  # x0, y0, x1, y1 m: the robots' spawn region, west side
+METHOD = "greedy"  # the scenario's [terrain] method unless --method names another
 QUICK = {"only": ["u_pocket"], "seeds": 1, "robots": 4, "cap": 600}
 
 
@@ -194,9 +201,11 @@ def write_dem(name: str, folder) -> Path:
     return p
 
 
-def shape_config(name: str, folder, image: str = "", robots: int = 20, max_cycles: int = 1000):
+def shape_config(name: str, folder, image: str = "", robots: int = 20, max_cycles: int = 1000,
+                 method: str = METHOD):
     """The scenario of shape ``name`` (its DEM written into ``folder`` if not there yet), ``image``
-    "" as built or "ns" its mirror image (terrain, spawn region and target reflected)."""
+    "" as built or "ns" its mirror image (terrain, spawn region and target reflected), its TIN built
+    by ``method`` (0.5 m error)."""
     p = Path(folder) / f"{name}.npz"
     if not p.exists():
         write_dem(name, folder)
@@ -204,7 +213,7 @@ def shape_config(name: str, folder, image: str = "", robots: int = 20, max_cycle
     _, target = SHAPES[name](X[:2, :2], Y[:2, :2])
     cfg = scenario_from_dict({
         "name": f"unseen_{name}", "task": "goal", "max_cycles": max_cycles,
-        "terrain": {"source": "dem", "path": p.name, "method": "greedy", "max_error_m": 0.5},
+        "terrain": {"source": "dem", "path": p.name, "method": method, "max_error_m": 0.5},
         "robots": {"count": robots, "spawn_region": list(SPAWN)},
         "targets": {"positions": [list(target)], "arrival_radius_m": 8.0},
     }, source=f"bench/apf_unseen.py ({name})", base_dir=str(folder))
@@ -237,7 +246,7 @@ def solvability(cfg, samples: int = 400) -> dict:
             "hillside": float(np.mean(bad & (slope <= CLIFF_DEG))), "cliff": float(np.mean(bad & (slope > CLIFF_DEG)))}
 
 
-_ROWS: list = []  # (shape, image, max_cycles, robots) per row, set before the worker processes fork
+_ROWS: list = []  # (shape, image, max_cycles, robots, TIN method) per row, set before the worker processes fork
 _FOLDER: list = []  # the temporary folder of the DEM files
 _ENVS: dict = {}  # row index -> its env, in this process
 
@@ -246,11 +255,12 @@ def _episode(job):
     """One episode ``(row index, policy name, seed)`` with a fresh policy: its Outcome, with the
     timed-out robots' distance-to-go at the start and the end, and their end points."""
     k, name, seed = job
-    shape, image, max_cycles, robots = _ROWS[k]
+    shape, image, max_cycles, robots, method = _ROWS[k]
     env = _ENVS.get(k)
     if env is None:
         _ENVS.clear()  # one env per process at a time: the rows run one after the other
-        env = _ENVS[k] = tse.parallel_env(scenario=shape_config(shape, _FOLDER[0], image, robots, max_cycles))
+        env = _ENVS[k] = tse.parallel_env(scenario=shape_config(shape, _FOLDER[0], image, robots, max_cycles,
+                                                                method))
     env.reset_arrays(seed=seed)
     field = env.target_fields[0]
     d0 = field.distance_at(env.world_state.positions.copy())
@@ -295,49 +305,61 @@ def _stats(outs, horizon: int) -> dict:
             "median": float(np.median(steps[got])) if got.any() else None, "where": where}
 
 
-def run_shape(shape: str, args, cmd: str) -> dict:
-    """Both images of ``shape``: the reference at ``args.cap``, the horizon, then APF. A record (JSON-able):
-    ``rows[image][policy]`` the stats of :func:`_stats`, with the run's seeds, robots, horizon, command,
-    commit and load averages."""
+def run_shape(shape: str, args, cmd: str, method: str = METHOD) -> dict:
+    """Both images of ``shape`` (its TIN built by ``method``): the reference at ``args.cap``, the horizon,
+    then APF, whose episodes run to twice the horizon (at most the cap). A record (JSON-able):
+    ``rows[image][policy]`` the stats of :func:`_stats` at the horizon, ``at_long[image][policy]``
+    the robots arrived and fallen by ``long`` steps (twice the horizon, at most the cap), with the run's seeds,
+    robots, horizon, command, commit and load averages."""
     seeds = range(args.seeds)
     res, t, load = {}, time.perf_counter(), apf._load()
     geo = POLICY_NAMES[0]
     for image, _ in IMAGES:
-        _ROWS.append((shape, image, args.cap, args.robots))
+        _ROWS.append((shape, image, args.cap, args.robots, method))
         res[(image, geo)] = _run([(len(_ROWS) - 1, geo, s) for s in seeds], args.jobs)
     meds = [_stats(res[(im, geo)], args.cap)["median"] for im, _ in IMAGES]
     horizon = args.cap if None in meds else min(args.cap, 50 * math.ceil(2 * max(meds) / 50))
+    long = min(args.cap, 2 * horizon)
     for image, _ in IMAGES:
-        _ROWS.append((shape, image, horizon, args.robots))
+        _ROWS.append((shape, image, long, args.robots, method))
         res[(image, "apf")] = _run([(len(_ROWS) - 1, "apf", s) for s in seeds], args.jobs)
     print(f"  ({shape}: {time.perf_counter() - t:.0f} s)", flush=True)
-    return {"shape": shape, "seeds": args.seeds, "robots": args.robots, "cap": args.cap, "horizon": horizon,
+    return {"shape": shape, "method": method, "seeds": args.seeds, "robots": args.robots, "cap": args.cap,
+            "horizon": horizon, "long": long,
             "command": cmd, "commit": _commit(), "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
             "load_start": load, "load_end": apf._load(), "seconds": round(time.perf_counter() - t),
             "rows": {image: {name: _stats(res[(image, name)], horizon) for name in POLICY_NAMES}
-                     for image, _ in IMAGES}}
+                     for image, _ in IMAGES},
+            "at_long": {image: {name: {k: _stats(res[(image, name)], long)[k] for k in ("arrived", "fell")}
+                                for name in POLICY_NAMES} for image, _ in IMAGES}}
 
 
 def result_rows(records: dict, emit):
     """The table: per shape and policy, its two images side by side (rows one after the other)."""
     emit("| shape | image | policy | seeds x robots | steps | arrived | fell | timed out | battery | stalled "
-         "| looping | median steps |")
-    emit("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+         "| looping | median steps | twice the steps: arrived | fell |")
+    emit("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for shape, rec in records.items():
         for name in POLICY_NAMES:
             for image, label in IMAGES:
                 s = rec["rows"][image][name]
                 n = s["n"]
                 med = "" if s["median"] is None else f"{s['median']:.0f}"
+                lg = rec.get("at_long", {}).get(image, {}).get(name)  # records before the long horizon: none
+                long = f"{lg['arrived'] / n:.1%} | {lg['fell'] / n:.1%}" if lg else " | "
                 emit(f"| {shape} | {label} | {name} | {rec['seeds']} x {rec['robots']} | {rec['horizon']} | "
                      f"{s['arrived'] / n:.1%} | {s['fell'] / n:.1%} | {s['timed_out'] / n:.1%} | "
-                     f"{s['battery'] / n:.1%} | {s['stalled'] / n:.1%} | {s['looping'] / n:.1%} | {med} |")
+                     f"{s['battery'] / n:.1%} | {s['stalled'] / n:.1%} | {s['looping'] / n:.1%} | {med} | {long} |")
     emit("")
     for name in POLICY_NAMES:
         tot = [rec["rows"][image][name] for rec in records.values() for image, _ in IMAGES]
         n, got = sum(s["n"] for s in tot), sum(s["arrived"] for s in tot)
+        lg = [rec["at_long"][image][name] for rec in records.values() if "at_long" in rec for image, _ in IMAGES]
+        n2 = sum(rec["rows"][image][name]["n"] for rec in records.values() if "at_long" in rec for image, _ in IMAGES)
+        long = (f"; by twice the steps (shapes run so): {sum(s['arrived'] for s in lg)} / {n2} "
+                f"({sum(s['arrived'] for s in lg) / max(n2, 1):.1%}), {sum(s['fell'] for s in lg)} fell") if lg else ""
         emit(f"- **{name}**, all shapes and images: {got} / {n} robots arrived ({got / max(n, 1):.1%}), "
-             f"{sum(s['fell'] for s in tot)} fell.")
+             f"{sum(s['fell'] for s in tot)} fell{long}.")
 
 
 def where_rows(records: dict, emit):
@@ -366,12 +388,19 @@ def _commit() -> str:
                           check=False).stdout.strip() or "?"
 
 
-def _record(shape: str, args, cmd: str) -> dict:
-    """Shape ``shape``'s record: read from ``args.parts`` when there, else run (and saved there)."""
-    part = Path(args.parts) / f"{shape}.json" if args.parts else None
+def label(shape: str, method: str = METHOD) -> str:
+    """A shape's name in the tables: with its TIN method where that is not the default's."""
+    return shape if method == METHOD else f"{shape} ({method} TIN)"
+
+
+def _record(shape: str, args, cmd: str, method: str = METHOD) -> dict:
+    """Shape ``shape``'s record: read from ``args.parts`` when there (``<shape>.json``, or
+    ``<shape>@<method>.json`` for another TIN method), else run (and saved there)."""
+    name = shape if method == METHOD else f"{shape}@{method}"
+    part = Path(args.parts) / f"{name}.json" if args.parts else None
     if part is not None and part.exists():
         return json.loads(part.read_text())
-    rec = run_shape(shape, args, cmd)
+    rec = run_shape(shape, args, cmd, method)
     if part is not None:
         part.parent.mkdir(parents=True, exist_ok=True)
         tmp = part.with_suffix(".json.tmp")
@@ -388,11 +417,14 @@ def main(argv=None) -> int:
     p.add_argument("--cap", type=apf._at_least(1), default=2500, metavar="N",
                    help="the reference's episode length; the horizon is twice its median steps, at most this")
     p.add_argument("--only", type=lambda s: s.split(","), default=None,
-                   help=f"comma-separated shapes of {list(SHAPES)}")
+                   help=f"comma-separated shapes of {list(SHAPES)}, each optionally as shape@method (its TIN "
+                        "built by that method instead of --method's)")
     p.add_argument("--parts", default=None, metavar="DIR",
                    help="shape by shape: a shape's results are read from DIR/<shape>.json when there, else run and "
                         "saved there (run each shape with --only, then once without to write the whole table)")
     p.add_argument("--jobs", type=int, default=1, help="processes for the episodes (results do not depend on it)")
+    p.add_argument("--method", default=METHOD, choices=METHODS,
+                   help=f"the shapes' TIN builder ([terrain] method; default {METHOD}): rows labelled with it")
     p.add_argument("--quick", action="store_true", help=f"a smoke run ({QUICK}); prints only, unless --out is given")
     p.add_argument("--out", default=None, help="Markdown file (default docs/figures/apf_unseen.md; none with --quick "
                                                 "or with --parts and --only)")
@@ -401,9 +433,13 @@ def main(argv=None) -> int:
         args.only = args.only or QUICK["only"]
         for k in ("seeds", "robots", "cap"):
             setattr(args, k, min(getattr(args, k), QUICK[k]))
-    bad = [s for s in args.only or () if s not in SHAPES]
+    shapes = [(s.partition("@")[0], s.partition("@")[2] or args.method) for s in args.only or SHAPES]
+    bad = [s for s, _ in shapes if s not in SHAPES]
     if bad:
         p.error(f"--only: unknown shape(s) {bad}; choose from {','.join(SHAPES)}")
+    bad = [m for _, m in shapes if m not in METHODS]
+    if bad:
+        p.error(f"--only: unknown TIN method(s) {bad} after '@'; choose from {','.join(METHODS)}")
     out = args.out if args.out is not None else (None if args.quick or (args.parts and args.only) else
                                                  str(ROOT / "docs" / "figures" / "apf_unseen.md"))
     cmd = " ".join(["python bench/apf_unseen.py", *argv])
@@ -419,8 +455,8 @@ def main(argv=None) -> int:
          "Episode length (steps): twice the reference's median steps to arrive on the shape (the larger image's), "
          f"rounded up to 50, at most the cap ({args.cap}); the reference ran cap-step episodes, scored at that "
          "horizon. battery: ran flat; stalled and looping: of the timed out that ran to the end; median steps: "
-         "of the robots that arrived.\n")
-    shapes = args.only or list(SHAPES)
+         "of the robots that arrived; twice the steps: both scored at twice the episode length, to which APF's "
+         "episodes run on (at most the cap).\n")
     with tempfile.TemporaryDirectory(prefix="apf_unseen_") as folder:
         _FOLDER[:] = [folder]
         emit("The shapes: the drivable way from the spawn region's centre to the target (the cost-to-go field) "
@@ -428,12 +464,12 @@ def main(argv=None) -> int:
              f"hillside ({STEEP_DEG:.0f} deg; up to {CLIFF_DEG:.0f}) and cliff (steeper).\n")
         emit("| shape | ground | way / straight line | straight line blocked: hillside | cliff |")
         emit("|---|---|---:|---:|---:|")
-        for shape in shapes:
-            sol = solvability(shape_config(shape, folder))
-            emit(f"| {shape} | {GROUND[shape]} | {sol['way_m']:.0f} m / {sol['straight_m']:.0f} m | "
+        for shape, method in shapes:
+            sol = solvability(shape_config(shape, folder, method=method))
+            emit(f"| {label(shape, method)} | {GROUND[shape]} | {sol['way_m']:.0f} m / {sol['straight_m']:.0f} m | "
                  f"{sol['hillside']:.1%} | {sol['cliff']:.1%} |")
         emit("")
-        records = {shape: _record(shape, args, cmd) for shape in shapes}
+        records = {label(shape, method): _record(shape, args, cmd, method) for shape, method in shapes}
     result_rows(records, emit)
     where_rows(records, emit)
     runs_rows(records, emit)

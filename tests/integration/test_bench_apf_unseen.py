@@ -64,3 +64,19 @@ def test_mirror_reflects_the_task(folder):
     (tx, ty), = a.targets.positions
     assert b.targets.positions[0] == pytest.approx((tx, BENCH.SIZE_M - ty))
     assert b.terrain.mirror == "ns"
+
+
+def test_another_tin_method_is_built_and_labelled(folder):
+    """``--method`` / ``--only shape@method``: the shape's TIN is built by that method, and its rows say so;
+    the default method's rows carry the bare shape name."""
+    cfg = BENCH.shape_config("crater", folder, method="robot")
+    assert cfg.terrain.method == "robot"
+    assert BENCH.shape_config("crater", folder).terrain.method == BENCH.METHOD == "greedy"
+    assert BENCH.label("crater", "robot") == "crater (robot TIN)"
+    assert BENCH.label("crater") == "crater"
+
+
+def test_an_unknown_method_after_at_is_refused_by_name(capsys):
+    with pytest.raises(SystemExit):
+        BENCH.main(["--only", "crater@nosuch", "--quick"])
+    assert "nosuch" in capsys.readouterr().err
