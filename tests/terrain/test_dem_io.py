@@ -125,6 +125,34 @@ def test_npy_and_npz(tmp_path):
         load_dem(tmp_path / "junk.npz")
 
 
+def test_a_small_cell_size_alone_is_metres_and_small_coordinates_are_degrees(tmp_path):
+    """No coordinates, only dx/dy: metres, however small (5 mm cells stay 5 mm); the same spacing as
+    x/y coordinate vectors (or named longitude/latitude) inside degrees' range: degrees."""
+    z = np.zeros((5, 6))
+    np.savez(tmp_path / "mm.npz", z=z, dx=0.005)
+    dem = load_dem(tmp_path / "mm.npz")
+    assert (dem.dx, dem.dy) == (0.005, 0.005)
+    np.savez(tmp_path / "deg.npz", z=z, x=10.0 + 0.005 * np.arange(6), y=45.0 + 0.005 * np.arange(5))
+    m_lon, m_lat = metres_per_degree(45.01)
+    dem = load_dem(tmp_path / "deg.npz")
+    assert dem.dx == pytest.approx(0.005 * m_lon) and dem.dy == pytest.approx(0.005 * m_lat)
+
+
+@pytest.mark.parametrize("keys, match", [
+    ({"x": np.arange(6.0) * 5}, "'x' given without the other axis"),
+    ({"longitude": np.arange(6.0)}, "'longitude' given without the other axis"),
+    ({"lat": np.arange(5.0)}, "'lat' given without the other axis"),
+    ({"x": np.arange(6.0), "y": np.arange(5.0), "dx": 2.0}, r"both coordinates \('x', 'y'\) and a cell size \(dx\)"),
+    ({"longitude": np.arange(6.0), "latitude": np.arange(5.0) + 100}, r"latitudes \('latitude'\) must lie within"),
+    ({"longitude": np.arange(6.0), "latitude": np.arange(5.0) + 88}, "must lie within -90..90 degrees, got 88..92"),
+])
+def test_coordinates_that_leave_the_scale_to_a_guess_are_refused_by_name(tmp_path, keys, match):
+    np.savez(tmp_path / "d.npz", z=np.zeros((5, 6)), **keys)
+    with pytest.raises(DemFormatError, match=match) as e:
+        load_dem(tmp_path / "d.npz")
+    assert "d.npz" in str(e.value)
+
+
 def test_unknown_suffix_and_missing_file(tmp_path):
     with pytest.raises(DemFormatError, match="unknown DEM suffix"):
         load_dem(write(tmp_path / "x.dem", "1"))

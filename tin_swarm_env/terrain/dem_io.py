@@ -41,9 +41,11 @@ def load_dem(path, *, geographic: bool | None = None) -> Dem | PointCloud:
 
     ``geographic``: whether x/y are longitude/latitude degrees, converted to metres with
     :func:`~tin_swarm_env.terrain.dem.geographic_to_metres`. ``None`` (default) decides for
-    ``.npz``/``.tif`` files: coordinates named longitude/latitude, or extents inside
-    ±180/±90 with cells under 0.01°, are taken as degrees. Text and ``.asc`` files are metres
-    unless ``geographic=True``.
+    ``.npz``/``.tif`` files: coordinates named longitude/latitude, or coordinates (``x``/``y``
+    or the extents) inside ±180/±90 with cells under 0.01°, are taken as degrees; a cell size
+    alone (``dx``/``dy``, no coordinates) is metres. Text and ``.asc`` files are metres unless
+    ``geographic=True``. Coordinates of one axis without the other's, or coordinates and a cell
+    size together, are refused (which to trust would be a guess); so are latitudes beyond ±90.
     """
     p = Path(os.fspath(path))
     if not p.exists():
@@ -281,14 +283,22 @@ def dem_from_arrays(d: dict, source: str, geographic: bool | None = None) -> Dem
     xkey = next((k for k in ("x", "longitude", "lon") if k in d), None)
     ykey = next((k for k in ("y", "latitude", "lat") if k in d), None)
     named_geo = xkey in ("longitude", "lon") or ykey in ("latitude", "lat")
-    if xkey and ykey:
+    if bool(xkey) != bool(ykey):  # one axis's coordinates alone: the other's spacing would be a guess
+        have, want = (xkey, "'y', 'latitude' or 'lat'") if xkey else (ykey, "'x', 'longitude' or 'lon'")
+        raise DemFormatError(f"{source}: '{have}' given without the other axis's coordinates ({want})")
+    spacing = [k for k in ("dx", "dy") if k in d]
+    if xkey and spacing:
+        raise DemFormatError(f"{source}: both coordinates ('{xkey}', '{ykey}') and a cell size ({', '.join(spacing)}) "
+                             "given; keep one")
+    extents = not xkey and all(k in d for k in ("xmin", "xmax", "ymin", "ymax"))
+    if xkey:
         x = _as_real(d[xkey], f"'{xkey}'", source).reshape(-1)
         y = _as_real(d[ykey], f"'{ykey}'", source).reshape(-1)
         if x.size != cols or y.size != rows:
             raise DemFormatError(f"{source}: '{xkey}' ({x.size}) / '{ykey}' ({y.size}) do not match '{zkey}' {z.shape}")
         # coordinates stored in float32 (topobathy) wobble by ~1e-6: snap near-regular ones
         x, y = _snap_regular(x), _snap_regular(y)
-    elif all(k in d for k in ("xmin", "xmax", "ymin", "ymax")):
+    elif extents:
         # matplotlib's sample layout: extents are cell edges, rows are image rows (north first);
         # its jacksboro file stores the north edge in 'ymin'. We only need the extent.
         x_lo, x_hi = sorted((_scalar(d, "xmin", source), _scalar(d, "xmax", source)))
@@ -309,11 +319,14 @@ def dem_from_arrays(d: dict, source: str, geographic: bool | None = None) -> Dem
         x, z = x[::-1], z[:, ::-1]
     if y.size > 1 and y[1] < y[0]:
         y, z = y[::-1], z[::-1]
-    if geographic is None:
+    if geographic is None:  # degrees: named so, or coordinates given (not a cell size alone) in degrees' range, tiny cells
         small_cells = x.size > 1 and y.size > 1 and (x[1] - x[0]) < 0.01 and (y[1] - y[0]) < 0.01
         in_range = np.all(np.abs(y) <= 90) and np.all(np.abs(x) <= 360)
-        geographic = named_geo or (small_cells and in_range)
+        geographic = named_geo or ((bool(xkey) or extents) and small_cells and in_range)
     if geographic:
+        if not np.all(np.abs(y) <= 90):
+            raise DemFormatError(f"{source}: latitudes ('{ykey or 'y'}') must lie within -90..90 degrees, got "
+                                 f"{y.min():g}..{y.max():g}")
         x, y, _ = geographic_to_metres(x, y)
     return Dem(z, x, y, source=source)
 
