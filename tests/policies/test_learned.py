@@ -143,6 +143,10 @@ JSON_EDITS = {
                      r"'observation\.layout'.*element 0 = 'own\.charge'.*environment's layout"),
     "transform": (lambda j: j["network"].update(action_transform="tanh"), r"'network\.action_transform'"),
     "sizes_type": (lambda j: j["network"].update(layer_sizes="59,32,2"), r"'layer_sizes' must be list"),
+    "misspelt_shield": (lambda j: j.update(shiled="safety_cut"), r"policy\.json: unknown key 'shiled'; known at the top"),
+    "network_extra": (lambda j: j["network"].update(colour="red"), r"unknown key 'network\.colour'"),
+    "observation_extra": (lambda j: j["observation"].update(scale=2), r"unknown key 'observation\.scale'"),
+    "action_extra": (lambda j: j["action"].update(dtype="f4"), r"unknown key 'action\.dtype'"),
 }
 
 

@@ -415,6 +415,26 @@ def _get(d, key, typ, where):
     return v
 
 
+KEYS = {  # the keys a policy file may hold, per table ("training" is the trainer's own record: any keys)
+    "": ("format", "version", "network", "observation", "action", "scenario", "training", "shield", "symmetry", "head"),
+    "network": ("type", "layer_sizes", "activation", "action_transform", "cell", "input_size", "hidden_size",
+                "feedback"),
+    "observation": ("size", "layout"),
+    "action": ("size", "low", "high"),
+}
+
+
+def _unknown_keys(meta: dict, jname: str):
+    """Refuse a key no table of :data:`KEYS` names (a misspelt ``shield`` would load a policy without it)."""
+    for table, known in KEYS.items():
+        d = meta if not table else meta.get(table)
+        extra = sorted(set(d) - set(known)) if isinstance(d, dict) else []
+        if extra:
+            where = f"'{table}.{extra[0]}'" if table else f"'{extra[0]}'"
+            raise PolicyFileError(f"{jname}: unknown key {where}; known {'in ' + repr(table) if table else 'at the top'}"
+                                  f": {list(known)}")
+
+
 def validate_policy(meta, arrays: dict | None, jname: str, wname: str) -> list:
     """Check a policy description and its weights (``arrays``; None: the description alone);
     return ``[(W, b), ...]`` float64."""
@@ -426,6 +446,7 @@ def validate_policy(meta, arrays: dict | None, jname: str, wname: str) -> list:
     ver = _get(meta, "version", int, jname)
     if ver != VERSION:
         raise PolicyFileError(f"{jname}: key 'version' is {ver}; this tin_swarm_env reads version {VERSION}")
+    _unknown_keys(meta, jname)
     net = _get(meta, "network", dict, jname)
     if _get(net, "type", str, f"{jname} [network]") not in NETWORK_TYPES:
         raise PolicyFileError(f"{jname}: key 'network.type' is {net['type']!r}; expected one of {list(NETWORK_TYPES)}")
