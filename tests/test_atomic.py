@@ -8,7 +8,8 @@ import stat
 
 import pytest
 
-from tin_swarm_env._atomic import atomic_path
+from tin_swarm_env._atomic import atomic_path, check_suffix, output_stem, stem_file
+from tin_swarm_env.errors import ArgumentError
 
 
 def test_atomic_write_keeps_permissions_and_cleans_up_on_ctrl_c(tmp_path):
@@ -35,7 +36,6 @@ def test_a_failed_write_names_the_target_and_keeps_the_old_file(tmp_path):
 
     import pytest
 
-    from tin_swarm_env._atomic import atomic_path
     from tin_swarm_env.errors import OutputError
 
     target = tmp_path / "out.csv"
@@ -52,3 +52,21 @@ def test_a_failed_write_names_the_target_and_keeps_the_old_file(tmp_path):
             open(tmp_path / "elsewhere" / "x")  # another file's error: its own name
     assert not isinstance(ei.value, OutputError) and "elsewhere" in ei.value.filename
     assert target.read_bytes() == b"old"
+
+
+def test_an_output_stem_drops_only_a_suffix_it_writes_and_refuses_a_directory(tmp_path):
+    assert output_stem(tmp_path / "run.md") == tmp_path / "run"
+    assert output_stem(tmp_path / "run.CSV") == tmp_path / "run"
+    assert output_stem(tmp_path / "a.b") == tmp_path / "a.b"
+    assert stem_file(tmp_path / "a.b", ".md") == tmp_path / "a.b.md"
+    with pytest.raises(ArgumentError, match=r"--out .*: is a directory"):
+        output_stem(tmp_path)
+
+
+def test_check_suffix_names_the_option_and_the_suffix():
+    check_suffix("--summary", None, (".md",))
+    check_suffix("--summary", "x.MD", (".md",))
+    with pytest.raises(ArgumentError, match=r"--summary x\.npz: the suffix '\.npz'; this option writes \.md"):
+        check_suffix("--summary", "x.npz", (".md",))
+    with pytest.raises(ArgumentError, match="no suffix"):
+        check_suffix("--summary", "x", (".md", ".txt"))

@@ -18,7 +18,9 @@ from pathlib import Path
 
 from .errors import ArgumentError, OutputError
 
-__all__ = ["atomic_path", "check_outputs", "scenario_inputs"]
+__all__ = ["atomic_path", "check_outputs", "check_suffix", "output_stem", "scenario_inputs", "stem_file"]
+
+STEM_SUFFIXES = (".md", ".csv", ".png")  # what a command given an output stem (OUT) writes as OUT.md, ...
 
 
 def _umask() -> int:
@@ -165,3 +167,30 @@ def check_outputs(outputs: dict, inputs=(), *, scenarios=(), dirs: dict | None =
         for src in srcs:
             if _is_or_inside(p, src) or _is_or_inside(src, p):
                 raise ArgumentError(f"{opt} {p}: would write over the input {src}; write the output elsewhere")
+
+
+def output_stem(out, option: str = "--out") -> Path:
+    """The stem ``OUT`` of a command that writes ``OUT.md``, ``OUT.csv``, ...: ``out`` less one of
+    :data:`STEM_SUFFIXES` (``run.md`` -> ``run``); any other dot stays in the name (``a.b`` ->
+    ``a.b.md``, not ``a.md``). An existing directory is refused, naming ``option``."""
+    p = Path(os.fspath(out))
+    if p.is_dir():
+        raise ArgumentError(f"{option} {p}: is a directory; give a file stem: OUT.md, OUT.csv, ... are written "
+                            f"(e.g. {p / 'eval'})")
+    return p.with_suffix("") if p.suffix.lower() in STEM_SUFFIXES else p
+
+
+def stem_file(stem: Path, ext: str) -> Path:
+    """``stem`` + ``ext`` (``ext`` appended, never replacing a dot in the stem's name)."""
+    return stem.with_name(stem.name + ext)
+
+
+def check_suffix(option: str, path, suffixes: tuple) -> None:
+    """Refuse an output ``path`` (None: not asked for) whose suffix is not one of ``suffixes``,
+    naming ``option``: a typo must not write a table over a file of another kind."""
+    if path is None:
+        return
+    suffix = Path(os.fspath(path)).suffix.lower()
+    if suffix not in suffixes:
+        what = f"the suffix {suffix!r}" if suffix else "no suffix"
+        raise ArgumentError(f"{option} {path}: {what}; this option writes {' or '.join(suffixes)}")

@@ -112,6 +112,18 @@ def test_eval_prints_and_returns_every_file_it_writes(tmp_path, capsys):
     assert sorted(tmp_path.iterdir()) == sorted(want)  # nothing else (no .part file left)
 
 
+def test_eval_out_is_a_stem_and_an_existing_directory_is_refused(tmp_path):
+    """``--out DIR`` (an existing directory) is refused by name before any episode; a dot in the stem
+    stays in the names (``a.b`` -> ``a.b.md``), and a suffix of its own is the stem's (``e.md`` -> ``e.md``)."""
+    with pytest.raises(ArgumentError, match=r"--out .*: is a directory; give a file stem"):
+        evaluate(Args(scenarios="flat", seeds=1, robots=2, policies="apf", out=str(tmp_path)))
+    assert list(tmp_path.iterdir()) == [] and not (tmp_path.parent / f"{tmp_path.name}.md").exists()
+    rows = evaluate(Args(scenarios="flat", seeds=1, robots=2, policies="apf", out=str(tmp_path / "a.b")))
+    assert [p.name for p in rows.files] == ["a.b.md", "a.b.csv", "a.b.png"]
+    rows = evaluate(Args(scenarios="flat", seeds=1, robots=2, policies="apf", out=str(tmp_path / "e.md")))
+    assert [p.name for p in rows.files] == ["e.md", "e.csv", "e.png"]
+
+
 def test_the_command_line_prints_the_files_and_needs_a_scenario_or_a_suite(tmp_path, capsys):
     assert main(["eval", "flat", "--seeds", "1", "--robots", "2", "--policies", "random", "--out",
                  str(tmp_path / "c")]) == 0

@@ -48,6 +48,20 @@ def test_run_errors_exit_2(tmp_path, capsys):
     assert "'.avi'" in capsys.readouterr().err and not list(tmp_path.iterdir())  # the suffix picks the format
 
 
+def test_run_summary_writes_only_a_markdown_or_text_file(tmp_path, capsys):
+    """``--summary t.tin`` (a typo, or another kind of file) is refused before any episode, naming the
+    option and the suffix; the file there is left as it was."""
+    other = tmp_path / "t.tin"
+    other.write_text("a TIN file")
+    assert main(["run", "flat", "--robots", "2", "--max-cycles", "3", "--summary", str(other), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "--summary" in err and "'.tin'" in err and ".md or .txt" in err
+    assert other.read_text() == "a TIN file"
+    assert main(["run", "flat", "--robots", "2", "--max-cycles", "3", "--summary", str(tmp_path / "s.md"),
+                 "--quiet"]) == 0
+    assert (tmp_path / "s.md").read_text().startswith("|") or "arrived" in (tmp_path / "s.md").read_text()
+
+
 def test_run_jacksboro_with_200_robots_finishes_and_writes_a_gif(tmp_path):
     gif = tmp_path / "jacksboro.gif"
     r = subprocess.run([sys.executable, "-m", "tin_swarm_env", "run", "jacksboro", "--robots", "200",

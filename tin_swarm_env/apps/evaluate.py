@@ -34,6 +34,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from .._atomic import stem_file
 from ..errors import ArgumentError
 from ..options import check_args as check_fields
 from ..options import opt
@@ -94,7 +95,7 @@ def check_args(args: Args) -> tuple[list, list, Path]:
     names the option (no seeds, no scenario, an unknown policy name, a model that is missing or a
     .zip without trust_pickle, an output that cannot be written); a scenario that does not load
     raises its own error, naming the file and key."""
-    from .._atomic import check_outputs
+    from .._atomic import check_outputs, output_stem
     from ..errors import check_range
     from ..scenario import load_scenario, mirror_scenario
     from ..scenario.generators import ALL_FAMILIES, family_weights
@@ -109,10 +110,10 @@ def check_args(args: Args) -> tuple[list, list, Path]:
         raise ArgumentError("--quick applies to --suite only")
     configs = [load_scenario(s) for s in scens]  # a missing file or a bad key is refused before any episode
     entries = policy_entries(args, "eval")
-    out = Path(args.out or default_out(scens))
+    out = output_stem(args.out or default_out(scens))
     if not args.out:
         out.parent.mkdir(parents=True, exist_ok=True)
-    check_outputs({f"--out ({ext})": out.with_suffix(ext) for ext in (".md", ".csv", ".png")},
+    check_outputs({f"--out ({ext})": stem_file(out, ext) for ext in (".md", ".csv", ".png")},
                   inputs=[m for _, _, m in entries if m], scenarios=scens)
     if args.by_family and not any(c.terrain.source == "generated" for c in configs):
         raise ArgumentError(f"--by-family: no scenario of {scens} is generated (their [terrain] sources: "
@@ -161,8 +162,8 @@ def evaluate(args: Args) -> EvalRows:
                   f"fell {row['fell']:.1%}, timed out {row['timed_out']:.1%} (stalled {row['stalled']:.1%}, "
                   f"looping {row['looping']:.1%}), return {row['return']:.1f}", flush=True)
     md = markdown(rows)
-    files = [write_text(out.with_suffix(".md"), md + "\n"), write_csv(out.with_suffix(".csv"), rows),
-             bar_plot(rows, out.with_suffix(".png"))]
+    files = [write_text(stem_file(out, ".md"), md + "\n"), write_csv(stem_file(out, ".csv"), rows),
+             bar_plot(rows, stem_file(out, ".png"))]
     print(md)
     print_files(files)
     return EvalRows(rows, files)

@@ -82,7 +82,7 @@ class Args:
     render_width: int = opt(GIF_WIDTH_PX, "width of GIF/MP4 frames in pixels", lo=RENDER_WIDTH_PX[0],
                             hi=RENDER_WIDTH_PX[1])
     max_cycles: int | None = opt(None, "steps per episode (default: the scenario's)", lo=1)
-    summary: str | None = opt(None, "also write the table to this Markdown file")
+    summary: str | None = opt(None, "also write the table to this Markdown file (.md or .txt)")
     quiet: bool = opt(False, "no progress bar", flag=True)
 
     def __post_init__(self):
@@ -174,12 +174,13 @@ def run(a: Args) -> int:
     print the table (and write ``--summary``), stream the first episode to ``--gif``/``--mp4``."""
     from contextlib import ExitStack
 
-    from .._atomic import atomic_path, check_outputs
+    from .._atomic import atomic_path, check_outputs, check_suffix
     from ..training.policy_factory import check_policy_spec
     from .media import FrameWriter, check_animation
 
     fields = parse_fields(a.fields)
     check_policy_spec(a.policy, a.trust_pickle)
+    check_suffix("--summary", a.summary, (".md", ".txt"))
     check_outputs({"--summary": a.summary, "--gif": a.gif, "--mp4": a.mp4},
                   inputs=(a.policy,) if os.path.exists(a.policy) else (), scenarios=(a.scenario,))
     if a.gif or a.mp4:

@@ -42,7 +42,7 @@ def check_suite(args: Args):
     ``entries`` the rows ``(label, spec, path or None)``; ArgumentError names the option that does
     not apply to a suite (scenarios, ``--seeds``, ``--robots``, ``--seed-offset``: the suite fixes them),
     a bad model or output, or a scenario file the suite reads that is missing."""
-    from .._atomic import check_outputs
+    from .._atomic import check_outputs, output_stem
 
     if args.suite not in SUITES:
         raise ArgumentError(f"--suite {args.suite!r}: choose from {', '.join(SUITES)}")
@@ -60,7 +60,7 @@ def check_suite(args: Args):
         for m in s.maps:
             scenario_path(m)
     entries = policy_entries(args, "eval --suite")
-    out = Path(args.out or Path("runs") / f"suite_{args.suite}{'_quick' if args.quick else ''}")
+    out = output_stem(args.out or Path("runs") / f"suite_{args.suite}{'_quick' if args.quick else ''}")
     if not args.out:
         out.parent.mkdir(parents=True, exist_ok=True)
     check_outputs({f"--out ({what})": p for what, p in outputs(out).items()},

@@ -63,6 +63,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._atomic import stem_file
 from ..errors import ArgumentError
 from ..world.state import Reason
 from .evaluation import EVAL_SEED0, MIRROR_AXIS
@@ -167,8 +168,7 @@ def map_config(m: Map, mirror: str = ""):
 
 def outputs(out: Path) -> dict:
     """The files a suite run writes, by what they hold (OUT.md, OUT.csv, OUT_maps.csv)."""
-    return {"md": out.with_suffix(".md"), "csv": out.with_suffix(".csv"),
-            "maps csv": out.with_name(out.name + "_maps.csv")}
+    return {"md": stem_file(out, ".md"), "csv": stem_file(out, ".csv"), "maps csv": stem_file(out, "_maps.csv")}
 
 def _play(env, pol, seeds: int) -> list[dict]:
     from .rollout import rollout
