@@ -64,6 +64,18 @@ def test_explore_cli_writes_a_png_that_is_not_blank(tmp_path):
     assert main(["explore", "ramp", "--png", str(tmp_path / "x.png"), "--fields", "magnetism"]) == 2
 
 
+def test_explore_steps_beyond_the_episode_are_refused_before_any_step(tmp_path, capsys):
+    """``--steps 10**11`` ran on for ever: more steps than the scenario's max_cycles are refused by name."""
+    from tin_swarm_env.scenario import load_scenario
+
+    m = load_scenario("flat").max_cycles
+    assert main(["explore", "flat", "--png", str(tmp_path / "e.png"), "--robots", "1", "--steps", str(m + 1)]) == 2
+    err = capsys.readouterr().err
+    assert f"--steps {m + 1}" in err and f"max_cycles = {m}" in err and not (tmp_path / "e.png").exists()
+    assert main(["explore", "flat", "--png", str(tmp_path / "e.png"), "--robots", "1", "--steps", "100000000000"]) == 2
+    assert "--steps" in capsys.readouterr().err
+
+
 def test_run_writes_an_mp4_and_record_video_parallel_works(tmp_path):
     pytest.importorskip("imageio_ffmpeg", reason="the video extra: pip install 'tin_swarm_env[video]'")
     out = tmp_path / "flat.mp4"

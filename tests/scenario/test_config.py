@@ -26,6 +26,22 @@ def test_a_scenario_by_path(tmp_path):
     assert env.config.name == "mine"
 
 
+def test_a_built_in_name_is_the_built_in_whatever_lies_in_the_working_directory(tmp_path, monkeypatch):
+    """``./flat/`` (a directory) and ``./ramp`` (a file) do not shadow the built-ins ``flat`` and ``ramp``;
+    a bare name that is no built-in but a file here is that file; ``./ramp.toml`` is a file."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "flat").mkdir()
+    (tmp_path / "ramp").write_text("not toml [")
+    assert load_scenario("flat").name == "flat" and load_scenario("ramp").name == "ramp"
+    shutil.copy(SCENARIO_DIR / "hill.toml", tmp_path / "mine")
+    assert load_scenario("mine").name == "mine"
+    shutil.copy(SCENARIO_DIR / "hill.toml", tmp_path / "ramp.toml")
+    assert load_scenario("ramp.toml").name == "ramp" and load_scenario("ramp.toml").terrain.source == \
+        load_scenario("hill").terrain.source
+    with pytest.raises(ScenarioError, match="unknown scenario 'atlantis'"):
+        load_scenario("atlantis")
+
+
 def write(tmp_path, text, name="bad.toml"):
     p = tmp_path / name
     p.write_text(text)

@@ -55,7 +55,7 @@ import numpy as np
 from ..env import parallel_env
 from ..errors import ArgumentError, PlacementError
 from ..policies import APFPolicy
-from ..scenario.config import MAX_ROBOTS
+from ..scenario.config import MAX_CYCLES, MAX_ROBOTS
 from ..world.fields import FIELDS
 from .args import check_args, opt
 from .explorer_controls import ExplorerControls
@@ -249,7 +249,7 @@ class Args:
     fields: str | None = opt(None, "fields switched on, comma-separated, e.g. robot,target,break (default: all of "
                              + ",".join(FIELDS) + ")", check=fields_problem)
     robots: int | None = opt(None, "number of robots (default: the scenario's)", lo=1, hi=MAX_ROBOTS)
-    steps: int = opt(0, "APF steps to take before drawing", lo=0)
+    steps: int = opt(0, "APF steps to take before drawing (at most the scenario's max_cycles)", lo=0, hi=MAX_CYCLES)
     seed: int = opt(0, "reset seed", lo=0)
     cost_to_go: bool = opt(False, "overlay contours of the selected robot's target's cost-to-go (m of drivable path)",
                            flag=True)
@@ -273,7 +273,11 @@ def explore(a: Args) -> int:
 
     fields = parse_fields(a.fields, FIELDS)
     robot = a.robot_index
-    n = a.robots or load_scenario(a.scenario).robots.count
+    cfg = load_scenario(a.scenario)
+    n = a.robots or cfg.robots.count
+    if a.steps > cfg.max_cycles:
+        raise ArgumentError(f"--steps {a.steps}: the episode ends after the scenario's max_cycles = {cfg.max_cycles} "
+                            "steps")
     if robot is not None and robot >= n:
         raise ArgumentError(f"--robot {robot}: the scenario has robots 0..{n - 1}")
     check_outputs({"--png": a.png}, scenarios=(a.scenario,))

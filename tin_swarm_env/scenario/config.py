@@ -577,10 +577,13 @@ def scenario_file(name: str) -> Path:
 
 
 def load_scenario(name_or_path) -> ScenarioConfig:
-    """A built-in scenario by name (``"cliff_goal"``) or a TOML file by path."""
+    """A built-in scenario by name (``"cliff_goal"``) or a TOML file by path. A bare name (no
+    ``.toml``, no directory) of a built-in scenario is the built-in one, whatever lies in the working
+    directory under that name (``./ramp``, ``./flat/``); write ``./ramp.toml`` for a file."""
     s = os.fspath(name_or_path)
     p = Path(s)
-    if not (s.endswith(".toml") or os.sep in s or p.exists()):
+    bare = not (s.endswith(".toml") or os.sep in s or "/" in s)
+    if bare and ((SCENARIO_DIR / f"{s}.toml").is_file() or not p.exists()):
         p = scenario_file(s)
     if not p.exists():
         raise ScenarioError(f"{p}: no such scenario file")
