@@ -108,6 +108,13 @@ def test_asc_errors(tmp_path):
         load_dem(write(tmp_path / "c.asc", ASC.replace("cellsize 10\n", "")))
 
 
+def test_asc_data_may_start_with_nan_and_an_infinite_value_is_named_by_line(tmp_path):
+    dem = load_dem(write(tmp_path / "n.asc", ASC.replace("1 2 3", "nan 2 3")))  # a data row, not a header key
+    assert np.isnan(dem.z[1, 0]) and dem.z[1, 1] == 2 and dem.n_nodata == 2
+    with pytest.raises(DemFormatError, match=r"i\.asc:8: an infinite elevation 'inf'"):
+        load_dem(write(tmp_path / "i.asc", ASC.replace("4 -9999 6", "4 inf 6")))
+
+
 def test_npy_and_npz(tmp_path):
     z = np.arange(12.0).reshape(3, 4)
     np.save(tmp_path / "z.npy", z)

@@ -179,7 +179,7 @@ def _asc_header(p: Path, text_lines: list[str]) -> tuple[dict[str, float], dict[
             i += 1
             continue
         key = parts[0].lower()
-        if key[0].isdigit() or key[0] in "+-.":
+        if _is_number(parts[0]):  # the first data row (it may start with nan or inf)
             break
         if key not in _ASC_KEYS:
             raise DemFormatError(f"{p}:{i + 1}: unknown ESRI ASCII header key {parts[0]!r}")
@@ -194,6 +194,14 @@ def _asc_header(p: Path, text_lines: list[str]) -> tuple[dict[str, float], dict[
         header_line[key] = i + 1
         i += 1
     return header, header_line, i
+
+
+def _is_number(tok: str) -> bool:
+    try:
+        float(tok)
+    except ValueError:
+        return False
+    return True
 
 
 def _asc_geometry(p: Path, header: dict, header_line: dict) -> tuple[int, int, float, float, float, float]:
@@ -234,9 +242,12 @@ def _asc_values(p: Path, text_lines: list[str], first: int, nrows: int, ncols: i
     for j in range(first, len(text_lines)):
         for tok in text_lines[j].split():
             try:
-                values.append(float(tok))
+                v = float(tok)
             except ValueError:
                 raise DemFormatError(f"{p}:{j + 1}: not a number: {tok!r}") from None
+            if v in (np.inf, -np.inf):  # NaN is no data; an infinite height is an error, named where it is
+                raise DemFormatError(f"{p}:{j + 1}: an infinite elevation {tok!r}")
+            values.append(v)
     if len(values) != nrows * ncols:
         raise DemFormatError(
             f"{p}: header says {nrows} rows x {ncols} cols = {nrows * ncols} values, "
