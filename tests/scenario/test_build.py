@@ -211,3 +211,27 @@ def test_a_spawn_region_too_small_for_the_robots_names_the_knobs_that_make_room(
     env = tse.parallel_env(scenario=str(p), n_robots=256)
     obs, _ = env.reset(seed=0)
     assert len(obs) == 256
+
+
+def _dem_scenario(tmp_path, path, extra=""):
+    p = tmp_path / "s.toml"
+    p.write_text(f'task = "goal"\n[terrain]\nsource = "dem"\npath = "{path}"\n{extra}\n[robots]\ncount = 2\n'
+                 '[targets]\npositions = [[100.0, 100.0]]\n')
+    return p
+
+
+@pytest.mark.parametrize("path, extra, exc, match", [
+    ("dem.npz", "max_vertices = 3", "ArgumentError", r"\[terrain\] \(method = 'greedy', max_vertices = 3.*\): "
+                                                     r"max_vertices must be an integer >= 4"),
+    (".", "", "DemFormatError", r"\[terrain\] path: .*: is a directory, not a DEM file"),
+    ("nan.npz", "", "DemFormatError", r"\[terrain\] path: .*nan\.npz: every cell is NODATA"),
+])
+def test_a_terrain_error_names_the_scenario_file_and_its_terrain_keys(tmp_path, path, extra, exc, match):
+    """Errors raised while the scenario's terrain is read or reduced keep their class and lead with the
+    scenario file and ``[terrain]`` (the DEM's own error alone did not say which scenario asked for it)."""
+    np.savez(tmp_path / "dem.npz", z=np.random.default_rng(0).random((20, 20)) * 5, dx=10.0)
+    np.savez(tmp_path / "nan.npz", z=np.full((20, 20), np.nan), dx=10.0)
+    p = _dem_scenario(tmp_path, path, extra)
+    with pytest.raises(getattr(tse.errors, exc), match=match) as e:
+        tse.parallel_env(scenario=str(p))
+    assert str(e.value).startswith(f"{p} [terrain]")

@@ -180,9 +180,9 @@ def run(a: Args) -> int:
 
     fields = parse_fields(a.fields)
     check_policy_spec(a.policy, a.trust_pickle)
-    check_suffix("--summary", a.summary, (".md", ".txt"))
     check_outputs({"--summary": a.summary, "--gif": a.gif, "--mp4": a.mp4},
                   inputs=(a.policy,) if os.path.exists(a.policy) else (), scenarios=(a.scenario,))
+    check_suffix("--summary", a.summary, (".md", ".txt"))
     if a.gif or a.mp4:
         from ..scenario.config import load_scenario
 

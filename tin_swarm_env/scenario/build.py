@@ -17,6 +17,7 @@ sample points (a sliver triangle missed by both does not count).
 from __future__ import annotations
 
 import collections
+import contextlib
 import dataclasses
 import functools
 import json
@@ -27,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import terrain as T
-from ..errors import ArgumentError, PlacementError, ScenarioError
+from ..errors import ArgumentError, DemFormatError, PlacementError, ScenarioError, TinFormatError, TinStructureError
 from ..world import World, WorldState, spawn_positions
 from .config import ScenarioConfig
 from ._reflect import dem_bounds, mirror_task, mirror_tin
@@ -53,7 +54,8 @@ def _cached_tin(key: str):
         p = base / spec["path"]
         if not p.exists():
             raise ScenarioError(f"{where} [terrain] path: TIN file {str(p)!r} does not exist")
-        return T.load_tin(p)
+        with _naming(f"{where} [terrain] path"):
+            return T.load_tin(p)
     if src == "procedural":
         dem = make_dem(spec["recipe"], spec["params"], f"{where} [terrain]")
     elif src == "sample":
@@ -65,10 +67,25 @@ def _cached_tin(key: str):
         p = base / spec["path"]
         if not p.exists():
             raise ScenarioError(f"{where} [terrain] path: DEM file {str(p)!r} does not exist")
-        dem = T.load_dem(p)
-        if isinstance(dem, T.Dem) and dem.n_nodata:
-            dem = dem.fill_nodata()
-    return _mesh(dem, spec["method"], spec["max_vertices"], spec["max_error_m"], spec.get("max_slope_deg"))
+        with _naming(f"{where} [terrain] path"):
+            dem = T.load_dem(p)
+            if isinstance(dem, T.Dem) and dem.n_nodata:
+                dem = dem.fill_nodata()
+    keys = ", ".join(f"{k} = {spec[k]!r}" for k in ("method", "max_vertices", "max_error_m") if spec[k])
+    with _naming(f"{where} [terrain] ({keys})"):
+        return _mesh(dem, spec["method"], spec["max_vertices"], spec["max_error_m"], spec.get("max_slope_deg"))
+
+
+@contextlib.contextmanager
+def _naming(where: str):
+    """Re-raise a terrain error (a DEM or TIN file's, a reduction's argument) with the scenario file
+    and its ``[terrain]`` keys in front: the same class, so callers catching it still do."""
+    try:
+        yield
+    except (DemFormatError, TinFormatError, TinStructureError, ArgumentError) as exc:
+        if str(exc).startswith(where):
+            raise
+        raise type(exc)(f"{where}: {exc}") from None
 
 
 def _mesh(dem, method: str, max_vertices: int, max_error_m: float, max_slope_deg: float | None = None):
