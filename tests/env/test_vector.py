@@ -121,6 +121,12 @@ def test_bad_n_envs(n_envs):
         tse.vector_env("ramp", n_envs=n_envs)
 
 
+def test_an_unknown_keyword_is_refused_by_name():
+    with pytest.raises(ArgumentError, match=r"vector_env: unknown argument 'colour'.*'max_cycles'"):
+        tse.vector_env("ramp", n_envs=2, colour=3)
+    assert tse.vector_env("ramp", n_envs=2, n_robots=2, max_cycles=5).n_envs == 2  # parallel_env's own are kept
+
+
 def test_refused_mixes_and_actions():
     with pytest.raises(ArgumentError, match="n_robots"):
         tse.vector_env(["ramp", "hill"], n_envs=2)  # 20 and 30 robots

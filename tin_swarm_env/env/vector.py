@@ -48,6 +48,7 @@ the copy and robot.
 
 from __future__ import annotations
 
+import inspect
 import numbers
 
 import numpy as np
@@ -112,6 +113,11 @@ class VectorEnv:
         if not isinstance(autoreset, bool):
             raise ArgumentError(f"vector_env: autoreset must be True or False, got {autoreset!r}")
         self.autoreset = autoreset
+        known = set(inspect.signature(TinSwarmEnv.__init__).parameters) - {"self", "scenario", "n_robots"}
+        unknown = sorted(set(env_kwargs) - known)
+        if unknown:
+            raise ArgumentError(f"vector_env: unknown argument {unknown[0]!r}; besides scenario, n_envs, n_robots, "
+                                f"seed and autoreset it takes parallel_env's {sorted(known)}")
         if "render_mode" in env_kwargs and env_kwargs["render_mode"] is not None:
             raise ArgumentError("vector_env: render_mode is not supported (render a copy with parallel_env and "
                                 "its copy_seeds)")
