@@ -231,6 +231,21 @@ def test_missing_or_unreadable_files_are_named(saved, tmp_path, what):
         load_policy(p, env())
 
 
+def test_a_file_of_the_directory_loads_it_and_a_directory_in_a_file_s_place_is_named(saved, tmp_path):
+    """``.../weights.npz`` (or ``policy.json``) stands for its directory; a directory where ``weights.npz``
+    should be is 'not a file' (it said 'missing'); a plain file given as the directory is named so."""
+    p = _copy(saved, tmp_path)
+    assert load_policy(p / "weights.npz", env()).act_batch(np.zeros((1, 59))).shape == (1, 2)
+    other = tmp_path / "file.txt"
+    other.write_text("x")
+    with pytest.raises(PolicyFileError, match=r"file\.txt: is a file, not a policy directory"):
+        load_policy(other, env())
+    (p / "weights.npz").unlink()
+    (p / "weights.npz").mkdir()
+    with pytest.raises(PolicyFileError, match=r"weights\.npz: is not a file"):
+        load_policy(p, env())
+
+
 def test_policy_file_error_is_a_tin_swarm_error_and_value_error():
     assert issubclass(PolicyFileError, TinSwarmError) and issubclass(PolicyFileError, ValueError)
 

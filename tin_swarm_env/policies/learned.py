@@ -288,13 +288,15 @@ def _read_meta(path, who: str = "load_policy") -> tuple[Path, Path, Path, dict]:
         raise ArgumentError(f"{who}(path=...): path must be a policy directory (str or os.PathLike), got "
                             f"{type(path).__name__}")
     p = Path(os.fspath(path))
-    d = p.parent if p.name == POLICY_JSON and p.is_file() else p
+    d = p.parent if p.name in (POLICY_JSON, WEIGHTS) and p.is_file() else p  # a file of it: its directory
     jpath, wpath = d / POLICY_JSON, d / WEIGHTS
     if not d.is_dir():
-        raise PolicyFileError(f"{d}: no such policy directory (expected {POLICY_JSON} and {WEIGHTS} in it)")
+        what = "is a file, not a policy directory" if d.is_file() else "no such policy directory"
+        raise PolicyFileError(f"{d}: {what} (expected {POLICY_JSON} and {WEIGHTS} in it)")
     for f in (jpath, wpath):
         if not f.is_file():
-            raise PolicyFileError(f"{f}: missing; a policy directory holds {POLICY_JSON} and {WEIGHTS}")
+            what = "is not a file" if f.exists() else "missing"
+            raise PolicyFileError(f"{f}: {what}; a policy directory holds {POLICY_JSON} and {WEIGHTS}")
     for f, limit in ((jpath, MAX_JSON_BYTES), (wpath, MAX_WEIGHTS_BYTES)):
         if f.stat().st_size > limit:
             raise PolicyFileError(f"{f}: {f.stat().st_size:,} bytes; a policy file has at most {limit:,} (networks of "
