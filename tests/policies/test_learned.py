@@ -97,6 +97,16 @@ def test_layout_mismatch_is_refused_naming_both(saved, tmp_path):
         load_policy(saved, _env_with_k(6, tmp_path))
 
 
+def test_a_layout_that_differs_only_in_a_scale_names_the_scale(saved, tmp_path):
+    """Counts and names equal, one scale changed: the message shows that key on both sides (it printed two
+    identical summaries)."""
+    p = _copy(saved, tmp_path)
+    _edit_json(p, lambda j: j["observation"]["layout"]["scales"].update(dz_scale_m=20.0))
+    with pytest.raises(PolicyFileError, match=r"'scales\.dz_scale_m': 20\.0.*environment's layout.*"
+                                              r"'scales\.dz_scale_m': 10\.0"):
+        load_policy(p, env())
+
+
 def _env_with_k(k, dd):
     """The cliff_goal env with ``k`` robot slots, from a scenario file written in ``dd``."""
     from tin_swarm_env.scenario import SCENARIO_DIR

@@ -537,4 +537,21 @@ def _brief(lay, other) -> str:
     if isinstance(names, list) and isinstance(onames, list) and names != onames:
         i = next((i for i, (a, b) in enumerate(zip(names, onames)) if a != b), min(len(names), len(onames)))
         ks["names"] = f"{len(names)} elements, element {i} = {names[i] if i < len(names) else None!r}"
+    elif isinstance(other, dict):  # the counts and names agree: show the first other entry that differs
+        diff = _first_difference(lay, other)
+        if diff:
+            ks[diff[0]] = diff[1]
     return str(ks)
+
+
+def _first_difference(a: dict, b: dict, where: str = ""):
+    """``(dotted key, a's value)`` of the first key (sorted, depth first) where ``a`` and ``b`` differ; None
+    if they are equal."""
+    for k in sorted(set(a) | set(b), key=str):
+        va, vb = a.get(k), b.get(k)
+        if va == vb:
+            continue
+        if isinstance(va, dict) and isinstance(vb, dict):
+            return _first_difference(va, vb, f"{where}{k}.")
+        return f"{where}{k}", va
+    return None
