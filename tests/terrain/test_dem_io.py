@@ -128,8 +128,11 @@ def test_npy_and_npz(tmp_path):
     with pytest.raises(DemFormatError, match="no elevation array"):
         load_dem(tmp_path / "bad.npz")
     (tmp_path / "junk.npz").write_bytes(b"not a zip")
-    with pytest.raises(DemFormatError, match="not a readable"):
+    with pytest.raises(DemFormatError, match=r"junk\.npz: not an \.npz archive \(a zip of \.npy arrays"):
         load_dem(tmp_path / "junk.npz")
+    (tmp_path / "zipjunk.npz").write_bytes(b"PK\x05\x06" + b"\0" * 18)  # an empty zip: no elevation in it
+    with pytest.raises(DemFormatError, match="no elevation array"):
+        load_dem(tmp_path / "zipjunk.npz")
 
 
 def test_a_small_cell_size_alone_is_metres_and_small_coordinates_are_degrees(tmp_path):

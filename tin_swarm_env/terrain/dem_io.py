@@ -8,6 +8,7 @@ points do not form a complete regular grid, which comes back as a :class:`PointC
 from __future__ import annotations
 
 import os
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -271,6 +272,8 @@ def _read_npy(p: Path) -> Dem:
 
 
 def _read_npz(p: Path, geographic: bool | None) -> Dem:
+    if not zipfile.is_zipfile(p):  # numpy would say it holds pickled data (its guess for anything not a zip)
+        raise DemFormatError(f"{p}: not an .npz archive (a zip of .npy arrays, as numpy.savez writes)")
     try:
         with np.load(p, allow_pickle=False) as f:
             d = {k: f[k] for k in f.files}
