@@ -221,8 +221,8 @@ def _dem_scenario(tmp_path, path, extra=""):
 
 
 @pytest.mark.parametrize("path, extra, exc, match", [
-    ("dem.npz", "max_vertices = 3", "ArgumentError", r"\[terrain\] \(method = 'greedy', max_vertices = 3.*\): "
-                                                     r"max_vertices must be an integer >= 4"),
+    ("scatter.xyz", "", "ArgumentError", r"\[terrain\] \(method = 'greedy', max_error_m = 0\.5\): .*scatter\.xyz: "
+                                         r"method 'greedy' needs a regular grid"),
     (".", "", "DemFormatError", r"\[terrain\] path: .*: is a directory, not a DEM file"),
     ("nan.npz", "", "DemFormatError", r"\[terrain\] path: .*nan\.npz: every cell is NODATA"),
 ])
@@ -231,6 +231,8 @@ def test_a_terrain_error_names_the_scenario_file_and_its_terrain_keys(tmp_path, 
     scenario file and ``[terrain]`` (the DEM's own error alone did not say which scenario asked for it)."""
     np.savez(tmp_path / "dem.npz", z=np.random.default_rng(0).random((20, 20)) * 5, dx=10.0)
     np.savez(tmp_path / "nan.npz", z=np.full((20, 20), np.nan), dx=10.0)
+    xyz = np.random.default_rng(1).random((40, 3)) * [200.0, 200.0, 5.0]  # scattered points, no grid
+    (tmp_path / "scatter.xyz").write_text("\n".join(f"{x:.3f} {y:.3f} {z:.3f}" for x, y, z in xyz) + "\n")
     p = _dem_scenario(tmp_path, path, extra)
     with pytest.raises(getattr(tse.errors, exc), match=match) as e:
         tse.parallel_env(scenario=str(p))

@@ -84,6 +84,9 @@ def test_wrong_types_and_values_name_the_key(tmp_path):
     p = write(tmp_path, "task = \"goal\"\n[terrain\n")
     with pytest.raises(ScenarioError, match="not valid TOML"):
         load_scenario(p)
+    p = write(tmp_path, BASE.replace('source = "flat"', 'source = "sample"\nmax_vertices = 3'))
+    with pytest.raises(ScenarioError, match=r"bad\.toml.*max_vertices must be 0 \(not set\) or at least 4.*got 3"):
+        load_scenario(p)  # when the file loads, not when the TIN is built
 
 
 def test_missing_dem_file_and_target_in_a_cliff(tmp_path):

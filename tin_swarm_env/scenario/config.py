@@ -339,6 +339,7 @@ _PARTS = {"terrain": TerrainSpec, "robots": RobotsSpec, "world": WorldParams, "t
 
 MAX_SCENARIO_BYTES = 1_000_000  # a scenario file is a few hundred bytes of settings; refuse megabytes unread
 MAX_FLAT_AREA_M2 = 1e10  # a flat plane up to 100 km x 100 km: spawn and sensing grids scale with the area
+MIN_TIN_VERTICES = 4  # [terrain] max_vertices, when set: build_tin's own least (the corners)
 MAX_CYCLES = 10_000_000  # steps per episode: far beyond any task; keeps step counters and budgets sane
 
 # which [terrain] keys each source reads (any other key set away from its default is an error, not ignored);
@@ -373,6 +374,9 @@ def _check_terrain(t: TerrainSpec) -> None:
     if t.method not in METHODS:
         raise ParameterError(f"TerrainSpec.method must be one of {', '.join(METHODS)}, got {t.method!r}")
     check_fields(t, {"max_vertices": {"lo": 0, "integer": True}, "max_error_m": _NONNEG})
+    if 0 < t.max_vertices < MIN_TIN_VERTICES:
+        raise ParameterError(f"TerrainSpec.max_vertices must be 0 (not set) or at least {MIN_TIN_VERTICES} (a TIN's "
+                             f"four corners), got {t.max_vertices}")
     if len(t.size_m) != 2:
         raise ParameterError(f"TerrainSpec.size_m must be (width, height), got {t.size_m!r}")
     for i, v in enumerate(t.size_m):
