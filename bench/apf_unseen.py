@@ -351,15 +351,22 @@ def result_rows(records: dict, emit):
                      f"{s['arrived'] / n:.1%} | {s['fell'] / n:.1%} | {s['timed_out'] / n:.1%} | "
                      f"{s['battery'] / n:.1%} | {s['stalled'] / n:.1%} | {s['looping'] / n:.1%} | {med} | {long} |")
     emit("")
-    for name in POLICY_NAMES:
-        tot = [rec["rows"][image][name] for rec in records.values() for image, _ in IMAGES]
-        n, got = sum(s["n"] for s in tot), sum(s["arrived"] for s in tot)
-        lg = [rec["at_long"][image][name] for rec in records.values() if "at_long" in rec for image, _ in IMAGES]
-        n2 = sum(rec["rows"][image][name]["n"] for rec in records.values() if "at_long" in rec for image, _ in IMAGES)
-        long = (f"; by twice the steps (shapes run so): {sum(s['arrived'] for s in lg)} / {n2} "
-                f"({sum(s['arrived'] for s in lg) / max(n2, 1):.1%}), {sum(s['fell'] for s in lg)} fell") if lg else ""
-        emit(f"- **{name}**, all shapes and images: {got} / {n} robots arrived ({got / max(n, 1):.1%}), "
-             f"{sum(s['fell'] for s in tot)} fell{long}.")
+    for method in sorted({rec.get("method", METHOD) for rec in records.values()}, key=lambda m: m != METHOD):
+        recs = [rec for rec in records.values() if rec.get("method", METHOD) == method]
+        for name in POLICY_NAMES:
+            emit(_total_line(recs, name, "all shapes and images" if method == METHOD else f"on the {method} TIN"))
+
+
+def _total_line(recs: list, name: str, what: str) -> str:
+    """Policy ``name``'s robots arrived and fallen over the records ``recs``, at the horizon and at twice it."""
+    tot = [rec["rows"][image][name] for rec in recs for image, _ in IMAGES]
+    n, got = sum(s["n"] for s in tot), sum(s["arrived"] for s in tot)
+    lg = [rec["at_long"][image][name] for rec in recs if "at_long" in rec for image, _ in IMAGES]
+    n2 = sum(rec["rows"][image][name]["n"] for rec in recs if "at_long" in rec for image, _ in IMAGES)
+    long = (f"; by twice the steps (shapes run so): {sum(s['arrived'] for s in lg)} / {n2} "
+            f"({sum(s['arrived'] for s in lg) / max(n2, 1):.1%}), {sum(s['fell'] for s in lg)} fell") if lg else ""
+    return (f"- **{name}**, {what}: {got} / {n} robots arrived ({got / max(n, 1):.1%}), "
+            f"{sum(s['fell'] for s in tot)} fell{long}.")
 
 
 def where_rows(records: dict, emit):
