@@ -152,6 +152,7 @@ def test_a_small_cell_size_alone_is_metres_and_small_coordinates_are_degrees(tmp
     ({"x": np.arange(6.0) * 5}, "'x' given without the other axis"),
     ({"longitude": np.arange(6.0)}, "'longitude' given without the other axis"),
     ({"lat": np.arange(5.0)}, "'lat' given without the other axis"),
+    ({"dy": 2.0}, "'dy' given without 'dx'"),
     ({"x": np.arange(6.0), "y": np.arange(5.0), "dx": 2.0}, r"both coordinates \('x', 'y'\) and a cell size \(dx\)"),
     ({"longitude": np.arange(6.0), "latitude": np.arange(5.0) + 100}, r"latitudes \('latitude'\) must lie within"),
     ({"longitude": np.arange(6.0), "latitude": np.arange(5.0) + 88}, "must lie within -90..90 degrees, got 88..92"),

@@ -323,6 +323,8 @@ def dem_from_arrays(d: dict, source: str, geographic: bool | None = None) -> Dem
         y = y_lo + dy * (np.arange(rows) + 0.5)
         z = z[::-1]  # image rows (north first) -> ours (south first)
     else:
+        if "dy" in d and "dx" not in d:  # a north-south cell size alone: the east-west one would be a guess
+            raise DemFormatError(f"{source}: 'dy' given without 'dx' (give 'dx' alone for square cells, or both)")
         dx = _scalar(d, "dx", source) if "dx" in d else 1.0
         dy = _scalar(d, "dy", source) if "dy" in d else dx
         if not (dx > 0 and dy > 0):
