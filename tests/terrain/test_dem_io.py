@@ -113,6 +113,8 @@ def test_asc_data_may_start_with_nan_and_an_infinite_value_is_named_by_line(tmp_
     assert np.isnan(dem.z[1, 0]) and dem.z[1, 1] == 2 and dem.n_nodata == 2
     with pytest.raises(DemFormatError, match=r"i\.asc:8: an infinite elevation 'inf'"):
         load_dem(write(tmp_path / "i.asc", ASC.replace("4 -9999 6", "4 inf 6")))
+    with pytest.raises(DemFormatError, match=r"c\.asc:7: not a number: '1,5'"):  # data, if not a number
+        load_dem(write(tmp_path / "c.asc", ASC.replace("1 2 3", "1,5 2 3")))
 
 
 def test_npy_and_npz(tmp_path):

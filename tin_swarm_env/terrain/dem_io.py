@@ -180,7 +180,7 @@ def _asc_header(p: Path, text_lines: list[str]) -> tuple[dict[str, float], dict[
             i += 1
             continue
         key = parts[0].lower()
-        if _is_number(parts[0]):  # the first data row (it may start with nan or inf)
+        if key[0].isdigit() or key[0] in "+-." or _is_number(parts[0]):  # the first data row (nan and inf too)
             break
         if key not in _ASC_KEYS:
             raise DemFormatError(f"{p}:{i + 1}: unknown ESRI ASCII header key {parts[0]!r}")
