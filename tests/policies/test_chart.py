@@ -783,3 +783,83 @@ def test_a_target_walled_in_is_planned_to_through_the_fewest_walls_with_or_witho
     assert out[0] == out[1]
     way = [divmod(v, c) for v in out[0][4]]
     assert out[0][0] and not out[0][3] and [(a, b) for a, b in way if g[a, b] == WALL] == [(11, 16)]
+
+
+def _search_unpruned(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, cross=0.0, pinch=False):
+    """The A* of :func:`_search` as it was before it skipped a neighbour that cannot improve (kept here
+    as the reference, in Python, on the same heap): ``(found, cost, dist, prev, pushes)``."""
+    from tin_swarm_env.policies.chart import STUCK, _beside_wall, _pinched, heap_pop, heap_push
+
+    c = g.shape[0]
+    dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
+    hk, hv = np.empty(16 * c * c), np.empty(16 * c * c, np.int64)
+    s2 = np.sqrt(2.0)
+
+    def h(a, b):
+        dx, dy = abs(a - ta), abs(b - tb)
+        return max(dx, dy) + (s2 - 1.0) * min(dx, dy)
+
+    dist[sa, sb] = 0.0
+    hk[0], hv[0], hn, found, pushes = h(sa, sb), sa * c + sb, 1, False, []
+    while hn > 0:
+        v, hn = heap_pop(hk, hv, hn)
+        a, b = v // c, v % c
+        if closed[a, b]:
+            continue
+        closed[a, b] = True
+        if a == ta and b == tb:
+            found = True
+            break
+        for da in range(-1, 2):
+            for db in range(-1, 2):
+                na, nb = a + da, b + db
+                if (da == 0 and db == 0) or na < 0 or nb < 0 or na >= c or nb >= c or closed[na, nb]:
+                    continue
+                v = g[na, nb]
+                if pinch and v == OPEN and not (na == ta and nb == tb) and _pinched(g, na, nb):
+                    v = WALL
+                if v == STUCK or (v == WALL and cross <= 0.0):
+                    continue
+                step = s2 if da != 0 and db != 0 else 1.0
+                nd = dist[a, b] + step
+                if v == WALL:
+                    nd += cross
+                if da != 0 and db != 0:
+                    c1, c2 = g[a + da, b], g[a, b + db]
+                    if c1 == STUCK or c2 == STUCK or (cross <= 0.0 and (c1 != 0 or c2 != 0)):
+                        continue
+                    if c1 == WALL or c2 == WALL:
+                        nd += cross
+                if a == sa and b == sb and turn > 0:
+                    nd += turn * 0.5 * (1.0 - (da * ha + db * hb) / step)
+                if _beside_wall(g, na, nb):
+                    nd += wall_cost
+                if nd < dist[na, nb]:
+                    dist[na, nb], prev[na, nb] = nd, a * c + b
+                    hn = heap_push(hk, hv, hn, nd + h(na, nb), na * c + nb)
+                    pushes.append((na * c + nb, nd))
+    return found, (dist[ta, tb] if found else math.inf), dist, prev, pushes
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.floats(0.0, 0.5), st.sampled_from([(0.0, False), (0.0, True), (40.0, False),
+                                                                        (40.0, True)]),
+       st.floats(0.0, 6.0), st.floats(-math.pi, math.pi))
+def test_the_search_skips_only_neighbours_that_cannot_improve_the_same_bits_as_the_full_loop(seed, density, mode,
+                                                                                         turn, heading):
+    """Every stuck, wall and open mix (``cross`` 0 and > 0, ``pinch`` on and off, a turn cost from the
+    start): the search that tests a neighbour's cost before its wall price finds the same cost, the
+    same ``dist`` and ``prev`` bit for bit as the loop that priced every neighbour in full (so every
+    robot's way, and every figure, is unchanged)."""
+    rng = np.random.default_rng(seed)
+    c = 14
+    g = rng.choice(np.array([0, 1, 2], np.uint8), size=(c, c), p=[1 - density, density * 0.8, density * 0.2])
+    s, t = (int(rng.integers(0, c)), int(rng.integers(0, c))), (c // 2, c // 2)
+    g[s] = g[t] = 0
+    cross, pinch = mode
+    ha, hb = math.cos(heading), math.sin(heading)
+    found, cost, ref_dist, ref_prev, _ = _search_unpruned(g, *s, *t, 2.0, ha, hb, turn, cross, pinch)
+    dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
+    got = _search(g, *s, *t, 2.0, ha, hb, turn, dist, prev, closed, cross, pinch)
+    assert got[0] == found and (got[1] == cost or (math.isinf(got[1]) and math.isinf(cost)))
+    assert np.array_equal(dist, ref_dist) and np.array_equal(prev, ref_prev)

@@ -86,6 +86,26 @@ if {n: len(p) for n, p in OWN_PARITY.items()} != dict(OWN_FIELDS) or not all(
         f in SLOT_PARITY for fs in SLOT_FIELDS.values() for f in fs):  # pragma: no cover (a new field)
     raise ImportError("observation.py: every own and slot field needs its mirror sign in OWN_PARITY / SLOT_PARITY")
 _COUNT = {"robots": "k_robots", "targets": "k_targets", "breaks": "k_breaks", "assets": "k_assets", "scan": "k_scan"}
+
+
+def _own_slices() -> dict:
+    out, i = {}, 0
+    for name, n in OWN_FIELDS:
+        out[name] = slice(i, i + n)
+        i += n
+    return out
+
+
+_OWN_SLICES = _own_slices()  # the own fields' columns (ObsLayout.own hands out a copy)
+_OWN_SIZE = sum(n for _, n in OWN_FIELDS)
+
+
+@functools.lru_cache(maxsize=256)
+def _part_slice(layout, part: str) -> slice:
+    """:meth:`ObsLayout.part_slice`, once per (layout, part): a step's decode asks for it some ten times."""
+    return layout._part_slice(part)
+
+
 DEFAULT_K_ASSETS = 2  # asset slots of a scenario that has assets and does not set k_assets
 
 # offsets handed to the compiled encoder (named, so the kernel never indexes by number)
@@ -145,15 +165,11 @@ class ObsLayout:
     # -- slices ------------------------------------------------------------------------------
     @property
     def own(self) -> dict[str, slice]:
-        out, i = {}, 0
-        for name, n in OWN_FIELDS:
-            out[name] = slice(i, i + n)
-            i += n
-        return out
+        return dict(_OWN_SLICES)
 
     @property
     def own_size(self) -> int:
-        return sum(n for _, n in OWN_FIELDS)
+        return _OWN_SIZE
 
     def count(self, part: str) -> int:
         """Number of slots ``K`` of ``part`` (robots, targets, breaks, assets; the scan's beams)."""
@@ -163,6 +179,9 @@ class ObsLayout:
 
     def part_slice(self, part: str) -> slice:
         """The columns of ``part`` ("robots", "targets", "breaks", "assets", "scan") in an observation row."""
+        return _part_slice(self, part)
+
+    def _part_slice(self, part: str) -> slice:
         a = self.own_size
         for p in PARTS:
             b = a + len(SLOT_FIELDS[p]) * self.count(p)
@@ -213,9 +232,9 @@ class ObsLayout:
         """One field of every slot of ``part``: ``(..., K)``; ``part="own"`` gives ``obs[..., own[name]]``."""
         obs = np.asarray(obs)
         if part == "own":
-            if name not in self.own:
+            if name not in _OWN_SLICES:
                 raise ObservationLayoutError(f"no own field {name!r}; own fields are {', '.join(self.own)}")
-            return obs[..., self.own[name]]
+            return obs[..., _OWN_SLICES[name]]
         return self.slots(obs, part)[..., self.slot_index(part, name)]
 
     def vectors(self, obs: np.ndarray, part: str, x: str = "x", y: str = "y") -> np.ndarray:
@@ -225,12 +244,12 @@ class ObsLayout:
 
     def target_distance_m(self, obs: np.ndarray, range_m: float) -> np.ndarray:
         """``(...,)`` horizontal distance to the assigned target (inverse of ``d / (d + R)``)."""
-        v = np.clip(np.asarray(obs, dtype=np.float64)[..., self.own["target_dist"].start], 0.0, 1 - 1e-9)
+        v = np.clip(np.asarray(obs, dtype=np.float64)[..., _OWN_SLICES["target_dist"].start], 0.0, 1 - 1e-9)
         return v * range_m / (1 - v)
 
     def target_dz_m(self, obs: np.ndarray) -> np.ndarray:
         """``(...,)`` the assigned target's height above the robot (inverse of ``dz / (|dz| + s)``)."""
-        return _ratio(np.asarray(obs)[..., self.own["target_dz"].start], DZ_SCALE_M)
+        return _ratio(np.asarray(obs)[..., _OWN_SLICES["target_dz"].start], DZ_SCALE_M)
 
     def drop_m(self, obs: np.ndarray) -> np.ndarray:
         """``(..., K_b)`` each break slot's drop in metres (inverse of ``drop / (|drop| + s)``)."""

@@ -16,6 +16,7 @@ from dataclasses import dataclass, fields
 from typing import Protocol, runtime_checkable
 
 import numpy as np
+from numba import njit
 
 from ..errors import ArgumentError
 from ..world.fields import facing
@@ -134,8 +135,7 @@ def _scan_hits(obs, layout, R) -> dict:
     """The scan's beams as body-frame vectors to their hits (``s_rel``) and which met a break (``s_hit``;
     never in an all-zero row: a robot no longer in the episode)."""
     t = layout.field(obs, "scan", "d") * R  # (n, K_s)
-    ang = layout.scan_bearings()
-    unit = np.stack([np.cos(ang), np.sin(ang)], axis=-1)
+    unit = layout.scan_units()  # (cos, sin) of layout.scan_bearings(), made once
     return {"s_rel": t[..., None] * unit, "s_hit": (t < R * (1 - 1e-6)) & np.any(obs != 0, axis=-1)[:, None],
             "s_dir": unit}
 
@@ -151,16 +151,38 @@ def keep_clear(action, rel, valid, gap_m: float, step_m: float, share: float = 2
     of the action toward each is removed (a projection onto each half-plane, ``passes`` sweeps
     over the slots), so the cut never adds motion toward anything. Returns ``(n, 2)``."""
     a = np.array(action, dtype=np.float64)
-    d = np.sqrt(np.sum(rel * rel, axis=-1))
-    ok = (np.asarray(valid) > 0.5) & (d > 1e-9)
-    u = rel / np.maximum(d, 1e-9)[..., None]
-    limit = np.maximum(d - gap_m, 0.0) / (share * step_m)
-    for _ in range(passes):
-        for j in range(rel.shape[1]):
-            excess = np.sum(a * u[:, j], axis=-1) - limit[:, j]
-            cut = np.where(ok[:, j] & (excess > 0), excess, 0.0)
-            a -= cut[:, None] * u[:, j]
+    rel = np.ascontiguousarray(rel, dtype=np.float64)
+    valid = np.ascontiguousarray(np.asarray(valid) > 0.5)
+    if a.ndim != 2 or a.shape[1] != 2 or rel.shape != (len(a), valid.shape[-1], 2):
+        raise ArgumentError(f"keep_clear: action (n, 2), rel (n, K, 2) and valid (n, K) expected, got "
+                            f"{a.shape}, {rel.shape}, {valid.shape}")
+    _keep_clear_rows(a, rel, valid.reshape(len(a), -1), float(gap_m), float(share) * float(step_m), int(passes))
     return a
+
+
+@njit(cache=True)
+def _keep_clear_rows(a, rel, valid, gap_m, den, passes):
+    """:func:`keep_clear`'s cut of ``a (n, 2)`` in place, a row at a time (each row's cut reads that
+    row alone): the same products, sums and quotients, in the same order, as the array version
+    it replaced (``tests/policies/test_base.py`` holds it as the reference), so the same bits."""
+    n, K = rel.shape[0], rel.shape[1]
+    u = np.empty((K, 2))
+    limit = np.empty(K)
+    ok = np.empty(K, np.bool_)
+    for i in range(n):
+        for j in range(K):
+            x, y = rel[i, j, 0], rel[i, j, 1]
+            d = np.sqrt(x * x + y * y)
+            ok[j] = valid[i, j] and d > 1e-9
+            m = max(d, 1e-9)
+            u[j, 0], u[j, 1] = x / m, y / m
+            limit[j] = max(d - gap_m, 0.0) / den
+        for _ in range(passes):
+            for j in range(K):
+                excess = (a[i, 0] * u[j, 0] + a[i, 1] * u[j, 1]) - limit[j]
+                cut = excess if ok[j] and excess > 0 else 0.0
+                a[i, 0] -= cut * u[j, 0]  # (a zero cut too: a -0.0 becomes +0.0 as it did)
+                a[i, 1] -= cut * u[j, 1]
 
 
 def into_view(action, fov_deg: float):

@@ -460,22 +460,23 @@ def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cros
                 if na < 0 or nb < 0 or na >= c or nb >= c or closed[na, nb]:
                     continue
                 v = g[na, nb]
-                if pinch and v == OPEN and not (na == ta and nb == tb) and _pinched(g, na, nb):
-                    v = WALL  # a gap one cell wide: narrower than a pass
                 if v == STUCK or (v == WALL and cross <= 0.0):
                     continue
-                step = s2 if da != 0 and db != 0 else 1.0
-                nd = dist[a, b] + step
-                if v == WALL:
-                    nd += cross
-                if da != 0 and db != 0:  # no corner cut between shut cells (through walls: at a price)
+                diag = da != 0 and db != 0
+                step = s2 if diag else 1.0
+                cw = False
+                if diag:  # no corner cut between shut cells (through walls: at a price)
                     c1, c2 = g[a + da, b], g[a, b + db]
                     if c1 == STUCK or c2 == STUCK or (cross <= 0.0 and (c1 != 0 or c2 != 0)):
                         continue
-                    if c1 == WALL or c2 == WALL:
-                        nd += cross
-                if a == sa and b == sb and turn > 0:  # leaving the start against the way it was going
-                    nd += turn * 0.5 * (1.0 - (da * ha + db * hb) / step)
+                    cw = c1 == WALL or c2 == WALL
+                nd = _step_cost(dist[a, b], step, v == WALL, cross, cw, a == sa and b == sb, turn, da, db, ha, hb)
+                if nd >= dist[na, nb]:
+                    continue  # no better whatever is added below (wall_cost > 0; rounding is monotone)
+                if pinch and v == OPEN and not (na == ta and nb == tb) and _pinched(g, na, nb):
+                    if cross <= 0.0:  # a gap one cell wide: narrower than a pass, a wall
+                        continue
+                    nd = _step_cost(dist[a, b], step, True, cross, cw, a == sa and b == sb, turn, da, db, ha, hb)
                 if _beside_wall(g, na, nb):  # a cell beside a wall costs more: the way keeps a cell off the walls
                     nd += wall_cost
                 if nd < dist[na, nb]:
@@ -490,6 +491,21 @@ def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cros
                         heap_k, heap_v = _doubled(heap_k, hn), _doubled(heap_v, hn)
                     hn = heap_push(heap_k, heap_v, hn, nd + h(na, nb), na * c + nb)
     return found, (dist[ta, tb] if found else np.inf), touched, nt
+
+
+@njit(cache=True, inline="always")
+def _step_cost(d0, step, into_wall, cross, corner_wall, from_start, turn, da, db, ha, hb):
+    """What a step of :func:`_search` costs up to its cell's wall price, the terms added in one fixed
+    order (so the same bits wherever it is computed): the step's length, ``cross`` into a wall cell
+    and past a wall corner, and the turn from the start."""
+    nd = d0 + step
+    if into_wall:
+        nd += cross
+    if corner_wall:
+        nd += cross
+    if from_start and turn > 0:  # leaving the start against the way it was going
+        nd += turn * 0.5 * (1.0 - (da * ha + db * hb) / step)
+    return nd
 
 
 @njit(cache=True)
