@@ -68,3 +68,61 @@ def test_the_compiled_cut_is_the_array_cut_bit_for_bit(n, k, data, share, passes
 def test_keep_clear_refuses_mismatched_shapes_by_name():
     with pytest.raises(ArgumentError, match="keep_clear"):
         keep_clear(np.zeros((3, 2)), np.zeros((2, 4, 2)), np.ones((2, 4)), 1.5, 0.5)
+
+
+def _decode_by_readers(obs, layout, R):
+    """:func:`decode` as it was written before it read each field by its column numbers: every field
+    through the layout's readers (kept here as the reference of the indexed one: the same bits)."""
+    from tin_swarm_env.policies.base import DecodedObs
+
+    obs = np.asarray(obs, dtype=np.float64)
+    dist = layout.target_distance_m(obs, R)
+    slope = np.radians(layout.field(obs, "own", "slope")[:, 0] * 90.0)
+    b_danger = (layout.field(obs, "breaks", "valid") * layout.field(obs, "breaks", "danger")) > 0.5
+    t = layout.field(obs, "scan", "d") * R
+    ang = layout.scan_bearings()
+    unit = np.stack([np.cos(ang), np.sin(ang)], axis=-1)
+    return DecodedObs(
+        has_t=layout.field(obs, "own", "target_valid")[:, 0] > 0.5, dist=dist,
+        rel_t=layout.field(obs, "own", "target_dir") * dist[:, None], dz=layout.target_dz_m(obs),
+        grad_z=np.tan(slope)[:, None] * layout.field(obs, "own", "uphill"),
+        speed=layout.field(obs, "own", "speed")[:, 0],
+        r_rel=layout.vectors(obs, "robots") * R, r_valid=layout.field(obs, "robots", "valid"),
+        b_rel=layout.vectors(obs, "breaks") * R, b_normal=layout.vectors(obs, "breaks", "nx", "ny"),
+        b_danger=b_danger, b_border=b_danger & (layout.field(obs, "breaks", "drop") == 0.0),
+        a_rel=layout.vectors(obs, "assets") * R, a_valid=layout.field(obs, "assets", "valid"),
+        s_rel=t[..., None] * unit, s_hit=(t < R * (1 - 1e-6)) & np.any(obs != 0, axis=-1)[:, None], s_dir=unit)
+
+
+@given(st.integers(0, 4), st.integers(0, 3), st.integers(0, 5), st.integers(0, 2), st.sampled_from([0, 8, 32]),
+       st.integers(0, 6), st.integers(0, 2**31 - 1), st.sampled_from([30.0, 60.0, 150.0]))
+@settings(max_examples=80, deadline=None)
+def test_decode_reads_every_field_as_the_layout_readers_do_bit_for_bit(kr, kt, kb, ka, ks, n, seed, R):
+    """Every layout (parts with no slot, the scan on and off), random observations with rows of
+    zeros (robots out of the episode), exact zeros and ones among the values: :func:`decode` gives the
+    same arrays, bit for bit, as reading each field through the layout's readers."""
+    from dataclasses import fields as dc_fields
+
+    from tin_swarm_env.env.observation import ObsLayout
+    from tin_swarm_env.policies.base import decode
+
+    lay = ObsLayout(k_robots=kr, k_targets=kt, k_breaks=kb, k_assets=ka, k_scan=ks)
+    rng = np.random.default_rng(seed)
+    obs = rng.uniform(-1, 1, (n, lay.size)).astype(np.float32)
+    obs[rng.random(obs.shape) < 0.2] = 0.0
+    obs[rng.random(obs.shape) < 0.1] = 1.0
+    if n:
+        obs[rng.integers(0, n)] = 0.0
+    got, ref = decode(obs, lay, R), _decode_by_readers(obs, lay, R)
+    for f in dc_fields(ref):
+        a, b = getattr(got, f.name), getattr(ref, f.name)
+        assert a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes(), f.name
+
+
+def test_decode_refuses_observations_of_another_layout_by_shape():
+    from tin_swarm_env.env.observation import ObsLayout
+    from tin_swarm_env.policies.base import decode
+
+    lay = ObsLayout()
+    with pytest.raises(ArgumentError, match=rf"decode: observations \(n, {lay.size}\)"):
+        decode(np.zeros((2, lay.size + 1)), lay, 60.0)

@@ -12,6 +12,7 @@ is :class:`~tin_swarm_env.policies.GeodesicPolicy`, the map-knowing reference.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, fields
 from typing import Protocol, runtime_checkable
 
@@ -115,29 +116,70 @@ class DecodedObs:
 def decode(obs, layout, range_m) -> DecodedObs:
     """Observations ``(n, d)`` laid out by ``layout`` (sensor range ``range_m``) -> :class:`DecodedObs`."""
     obs = np.asarray(obs, dtype=np.float64)
+    if obs.ndim != 2 or obs.shape[1] != layout.size:
+        raise ArgumentError(f"decode: observations (n, {layout.size}) expected for this layout, got {obs.shape}")
     R = range_m
+    c = _columns(layout)
     dist = layout.target_distance_m(obs, R)
-    slope = np.radians(layout.field(obs, "own", "slope")[:, 0] * 90.0)
-    b_danger = (layout.field(obs, "breaks", "valid") * layout.field(obs, "breaks", "danger")) > 0.5
+    slope = np.radians(obs[:, c["slope"]] * 90.0)
+    b_valid = obs[:, c["b_valid"]]
+    b_danger = (b_valid * obs[:, c["b_danger"]]) > 0.5
+    s_rel, s_hit = _scan_rows(obs, c["scan"], float(R), float(R * (1 - 1e-6)), layout.scan_units())
     return DecodedObs(
-        has_t=layout.field(obs, "own", "target_valid")[:, 0] > 0.5, dist=dist,
-        rel_t=layout.field(obs, "own", "target_dir") * dist[:, None], dz=layout.target_dz_m(obs),
-        grad_z=np.tan(slope)[:, None] * layout.field(obs, "own", "uphill"),
-        speed=layout.field(obs, "own", "speed")[:, 0],
-        r_rel=layout.vectors(obs, "robots") * R, r_valid=layout.field(obs, "robots", "valid"),
-        b_rel=layout.vectors(obs, "breaks") * R, b_normal=layout.vectors(obs, "breaks", "nx", "ny"),
-        b_danger=b_danger, b_border=b_danger & (layout.field(obs, "breaks", "drop") == 0.0),
-        a_rel=layout.vectors(obs, "assets") * R, a_valid=layout.field(obs, "assets", "valid"),
-        **_scan_hits(obs, layout, R))
+        has_t=obs[:, c["target_valid"]] > 0.5, dist=dist,
+        rel_t=obs[:, c["target_dir"]] * dist[:, None], dz=layout.target_dz_m(obs),
+        grad_z=np.tan(slope)[:, None] * obs[:, c["uphill"]],
+        speed=obs[:, c["speed"]],
+        r_rel=obs[:, c["r_xy"]] * R, r_valid=obs[:, c["r_valid"]],
+        b_rel=obs[:, c["b_xy"]] * R, b_normal=obs[:, c["b_nxy"]],
+        b_danger=b_danger, b_border=b_danger & (obs[:, c["b_drop"]] == 0.0),
+        a_rel=obs[:, c["a_xy"]] * R, a_valid=obs[:, c["a_valid"]],
+        s_rel=s_rel, s_hit=s_hit, s_dir=layout.scan_units())
 
 
-def _scan_hits(obs, layout, R) -> dict:
-    """The scan's beams as body-frame vectors to their hits (``s_rel``) and which met a break (``s_hit``;
-    never in an all-zero row: a robot no longer in the episode)."""
-    t = layout.field(obs, "scan", "d") * R  # (n, K_s)
-    unit = layout.scan_units()  # (cos, sin) of layout.scan_bearings(), made once
-    return {"s_rel": t[..., None] * unit, "s_hit": (t < R * (1 - 1e-6)) & np.any(obs != 0, axis=-1)[:, None],
-            "s_dir": unit}
+@functools.lru_cache(maxsize=64)
+def _columns(layout) -> dict:
+    """The columns :func:`decode` reads, by name, found by running the layout's own readers
+    (:meth:`~tin_swarm_env.env.observation.ObsLayout.field`, ``vectors``) on a row of column numbers:
+    the layout stays the one home of where each field lies, and a step reads each with one index."""
+    row = np.arange(layout.size, dtype=np.float64)[None]
+
+    def at(a):
+        return np.asarray(a[0], dtype=np.int64)
+
+    f, v = layout.field, layout.vectors
+    return {"slope": int(at(f(row, "own", "slope"))[0]), "target_valid": int(at(f(row, "own", "target_valid"))[0]),
+            "speed": int(at(f(row, "own", "speed"))[0]), "target_dir": at(f(row, "own", "target_dir")),
+            "uphill": at(f(row, "own", "uphill")), "r_xy": at(v(row, "robots")),
+            "r_valid": at(f(row, "robots", "valid")),
+            "b_xy": at(v(row, "breaks")), "b_nxy": at(v(row, "breaks", "nx", "ny")),
+            "b_valid": at(f(row, "breaks", "valid")), "b_danger": at(f(row, "breaks", "danger")),
+            "b_drop": at(f(row, "breaks", "drop")), "a_xy": at(v(row, "assets")),
+            "a_valid": at(f(row, "assets", "valid")),
+            "scan": np.ascontiguousarray(at(f(row, "scan", "d")))}
+
+
+@njit(cache=True)
+def _scan_rows(obs, cols, R, hit_below, unit):
+    """The scan's beams (columns ``cols``) as body-frame vectors to their hits, ``s_rel (n, K, 2)``: the
+    beam's reading times ``R`` along its unit vector (``unit (K, 2)``, :meth:`ObsLayout.scan_units`), and
+    which met a break, ``s_hit (n, K)``: nearer than ``hit_below``, never in an all-zero row (a robot no
+    longer in the episode). The same products as the array version it replaced, so the same bits."""
+    n, K = obs.shape[0], cols.shape[0]
+    s_rel = np.empty((n, K, 2))
+    s_hit = np.empty((n, K), np.bool_)
+    for i in range(n):
+        live = False
+        for j in range(obs.shape[1]):
+            if obs[i, j] != 0:
+                live = True
+                break
+        for k in range(K):
+            t = obs[i, cols[k]] * R
+            s_rel[i, k, 0] = t * unit[k, 0]
+            s_rel[i, k, 1] = t * unit[k, 1]
+            s_hit[i, k] = live and t < hit_below
+    return s_rel, s_hit
 
 
 def keep_clear(action, rel, valid, gap_m: float, step_m: float, share: float = 2.0, passes: int = 2):
