@@ -863,3 +863,49 @@ def test_the_search_skips_only_neighbours_that_cannot_improve_the_same_bits_as_t
     got = _search(g, *s, *t, 2.0, ha, hb, turn, dist, prev, closed, cross, pinch)
     assert got[0] == found and (got[1] == cost or (math.isinf(got[1]) and math.isinf(cost)))
     assert np.array_equal(dist, ref_dist) and np.array_equal(prev, ref_prev)
+
+
+def _work_sets(t, c):
+    return np.full((t, c, c), 1e30), np.full((t, c, c), -1, np.int64), np.zeros((t, c, c), np.bool_)
+
+
+@pytest.mark.parametrize("scenario", ["cliff_goal", "containment"])
+def test_the_charts_are_the_same_bits_in_one_run_or_in_several(scenario):
+    """chart_update takes its robots in T runs side by side, each on its own A* work set: one run,
+    three, or one robot's rows in an order of its own, the memory after 60 steps is the same bit for
+    bit (a robot's step reads and writes its own memory only)."""
+    env = tse.parallel_env(scenario=scenario, n_robots=7)
+    states = []
+    for t, order in ((1, None), (3, None), (4, [6, 2, 0, 5, 1, 4, 3])):
+        pol = APFPolicy(env, search="chart")
+        pol.charts.work = _work_sets(t, pol.chart.cells)
+        obs = env.reset_arrays(seed=3)
+        for _ in range(60):
+            if order is None:
+                a = pol.act_batch(obs)
+            else:
+                a = np.empty((len(obs), 2), np.float32)
+                a[order] = pol.act_batch(obs[order], rows=order)
+            obs = env.step_arrays(a)[0]
+        assert pol.charts.work[0].shape[0] == t
+        states.append({f: getattr(pol.charts, f).copy() for f in _ROW_FIELDS})
+    assert states[0]["plans"].sum() > 7  # it planned (more than once each on the whole)
+    for s in states[1:]:
+        for f in _ROW_FIELDS:
+            assert np.array_equal(s[f], states[0][f]), f
+
+
+def test_a_robot_given_twice_in_one_step_is_taken_in_one_run():
+    """Rows naming one robot twice (not what a policy is given, but not refused): its two rows are
+    taken one after the other, in order, as the serial pass took them, whatever the work sets."""
+    env = tse.parallel_env(scenario="cliff_goal", n_robots=3)
+    obs = env.reset_arrays(seed=1)
+    got = []
+    for t in (1, 2):
+        pol = APFPolicy(env, search="chart")
+        pol.charts.work = _work_sets(t, pol.chart.cells)
+        pol.act_batch(obs)
+        pol.act_batch(obs[[0, 1, 0]], rows=[0, 1, 0])
+        got.append({f: getattr(pol.charts, f).copy() for f in _ROW_FIELDS})
+    for f in _ROW_FIELDS:
+        assert np.array_equal(got[0][f], got[1][f]), f

@@ -4,16 +4,18 @@ target on that chart, taking unseen ground as open (planning under the free-spac
 as D* and its kin do). The rule, and why it terminates, is written once, in the
 :mod:`tin_swarm_env.policies.apf` module docstring. A step's chart work (marking, stalls, the
 decision to plan, the A* over each robot's own chart, the point it heads for) is one compiled
-pass over all robot rows (:func:`chart_update`); the numpy version it replaced is the reference
-of ``tests/policies/test_chart_kernels.py``.
+pass over all robot rows (:func:`chart_update`), its blocks of rows run side by side on numba's
+threads (a robot's step touches its own memory only, so the same bits on any number); the numpy
+version of its marks is the reference of ``tests/policies/test_chart.py``.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from .base import DecodedObs, check_positive_fields
 
@@ -125,9 +127,9 @@ class ChartMemory:
 
     Bytes per robot: ``C^2 + 5 ROUTE_PER_CELL C + 17 K + 91`` (the chart, the route, the rest):
     68 238 at 256 cells and 3 break slots (66.6 KiB; the route is 2.5 KiB of it), 267 406 at the
-    default 512 (261 KiB). Besides, for all robots together: one set of A* work arrays (``work``:
-    ``17 C^2`` bytes, 1.06 MiB at 256 cells, 4.25 MiB at 512, made at the first plan) and the heap of
-    the one search under way.
+    default 512 (261 KiB). Besides, for all robots together: one set of A* work arrays for each of
+    numba's threads (``work``: ``17 C^2`` bytes a set, 1.06 MiB at 256 cells, 4.25 MiB at 512, made at
+    the first plan) and the heap of each search under way.
     """
 
     grid: np.ndarray
@@ -169,10 +171,11 @@ class ChartMemory:
                            work=self.work)
 
     def work_arrays(self) -> tuple:
-        """The shared A* work arrays ``(dist, prev, closed)``, ``(C, C)`` each (made once)."""
+        """The A* work arrays ``(dist, prev, closed)``, ``(T, C, C)`` each: one set for each of the
+        ``T`` runs of :func:`_chart_rows` (``T``: numba's thread count when first made; made once)."""
         if self.work is None:
-            c = self.grid.shape[1]
-            self.work = (np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), np.bool_))
+            c, t = self.grid.shape[1], max(1, int(numba.get_num_threads()))
+            self.work = (np.full((t, c, c), 1e30), np.full((t, c, c), -1, np.int64), np.zeros((t, c, c), np.bool_))
         return self.work
 
 
@@ -774,35 +777,48 @@ def _next_way(i, g, w, qx, qy, changed, m_route, m_shut, m_len, m_at, m_way_at, 
     return need
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def _chart_rows(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_normal, b_danger, b_border,
                 s_rel, s_dir, s_hit, prm):
     """:func:`chart_update`'s compiled pass over robot rows ``rows (m,)`` (the memory ``mem``: the
-    arrays of :data:`_ROW_FIELDS`, in order; ``work``: the A* work arrays; ``prm``: :func:`_prm`)."""
+    arrays of :data:`_ROW_FIELDS`, in order; ``work``: ``T`` sets of A* work arrays, ``(T, C, C)`` each;
+    ``prm``: :func:`_prm`), in ``T`` runs side by side: run ``t`` takes the ``t``-th of ``T`` blocks of
+    rows, on work set ``t`` (blocks, not every ``T``-th row: robots side by side in memory in one run). A row reads and writes its own robot's memory only (``rows`` holds no robot twice), and a
+    work set is left as found after each plan, so the same bits whatever ``T`` and in whatever order."""
+    mark_prm = np.array([prm[4], prm[5], prm[6], prm[7], prm[13]])
+    T = work[0].shape[0]
+    for t in prange(T):
+        wk = (work[0][t], work[1][t], work[2][t])
+        for r in range(t * len(rows) // T, (t + 1) * len(rows) // T):
+            _chart_row(r, rows[r], mem, wk, q, cs, sn, has_t, dist_t, crowded, b_rel, b_normal, b_danger, b_border,
+                       s_rel, s_dir, s_hit, prm, mark_prm)
+
+
+@njit(cache=True)
+def _chart_row(r, i, mem, work, q, cs, sn, has_t, dist_t, crowded, b_rel, b_normal, b_danger, b_border, s_rel,
+               s_dir, s_hit, prm, mark_prm):
+    """One robot's step of :func:`_chart_rows`: row ``r`` of the step's inputs, robot ``i`` of the memory."""
     grid, cell, way, dirty, anchor, stall, forgot, last_pts, last_ok, have_way = mem[:10]
     route, shut, route_len, route_at, way_at, plans, walled = mem[10:]
     c = grid.shape[1]
-    mark_prm = np.array([prm[4], prm[5], prm[6], prm[7], prm[13]])
-    for r in range(len(rows)):
-        i = rows[r]
-        qx, qy = q[r, 0], q[r, 1]
-        if cell[i] <= 0 and has_t[r]:  # its first step: a chart centred on its target
-            cell[i] = max(prm[0], 2 * (prm[1] * dist_t[r] + prm[2] * prm[3]) / c)
-            anchor[i, 0], anchor[i, 1] = qx, qy
-            dirty[i] = True
-        w = cell[i]
-        g = grid[i]
-        changed = _mark_row(g, w, qx, qy, cs[r], sn[r], b_rel[r], b_normal[r], b_danger[r], b_border[r],
-                            last_pts[i], last_ok[i], s_rel[r], s_dir, s_hit[r], mark_prm)
-        limit = 2 * prm[8] if crowded[r] else prm[8]
-        stall[i], stuck = _stall_row(g, w, qx, qy, way[i], anchor[i], stall[i], limit, prm[9], has_t[r])
-        if stuck:
-            dirty[i] = True
-        if w <= 0 or not has_t[r]:  # no chart, or no target: no way to plan
-            continue
-        if _next_way(i, g, w, qx, qy, changed, route, shut, route_len, route_at, way_at, way, dirty, have_way,
-                     forgot, work, prm[10:15], walled):
-            plans[i] += 1
+    qx, qy = q[r, 0], q[r, 1]
+    if cell[i] <= 0 and has_t[r]:  # its first step: a chart centred on its target
+        cell[i] = max(prm[0], 2 * (prm[1] * dist_t[r] + prm[2] * prm[3]) / c)
+        anchor[i, 0], anchor[i, 1] = qx, qy
+        dirty[i] = True
+    w = cell[i]
+    g = grid[i]
+    changed = _mark_row(g, w, qx, qy, cs[r], sn[r], b_rel[r], b_normal[r], b_danger[r], b_border[r],
+                        last_pts[i], last_ok[i], s_rel[r], s_dir, s_hit[r], mark_prm)
+    limit = 2 * prm[8] if crowded[r] else prm[8]
+    stall[i], stuck = _stall_row(g, w, qx, qy, way[i], anchor[i], stall[i], limit, prm[9], has_t[r])
+    if stuck:
+        dirty[i] = True
+    if w <= 0 or not has_t[r]:  # no chart, or no target: no way to plan
+        return
+    if _next_way(i, g, w, qx, qy, changed, route, shut, route_len, route_at, way_at, way, dirty, have_way,
+                 forgot, work, prm[10:15], walled):
+        plans[i] += 1
 
 
 def _prm(params: ChartParams, range_m: float, step_m: float, body_m: float, pass_m: float = 0.0) -> np.ndarray:
@@ -842,7 +858,10 @@ def chart_update(mem: ChartMemory, rows, d: DecodedObs, q, psi, params: ChartPar
     else:
         s_rel, s_hit, s_dir = np.zeros((m, 0, 2)), np.zeros((m, 0), bool), np.zeros((0, 2))
     psi = np.asarray(psi, dtype=np.float64)
-    _chart_rows(tuple(getattr(mem, f) for f in _ROW_FIELDS), mem.work_arrays(), rows, _f64(q), np.cos(psi),
+    work = mem.work_arrays()
+    if len(np.unique(rows)) != m:  # a robot twice: its rows one after the other, in one run
+        work = tuple(a[:1] for a in work)
+    _chart_rows(tuple(getattr(mem, f) for f in _ROW_FIELDS), work, rows, _f64(q), np.cos(psi),
                 np.sin(psi), np.ascontiguousarray(d.has_t, bool), _f64(d.dist),
                 np.ascontiguousarray(crowded, bool), _f64(d.b_rel), _f64(d.b_normal),
                 np.ascontiguousarray(d.b_danger, bool), np.ascontiguousarray(d.b_border, bool), s_rel, s_dir,
