@@ -859,7 +859,7 @@ def chart_update(mem: ChartMemory, rows, d: DecodedObs, q, psi, params: ChartPar
         s_rel, s_hit, s_dir = np.zeros((m, 0, 2)), np.zeros((m, 0), bool), np.zeros((0, 2))
     psi = np.asarray(psi, dtype=np.float64)
     work = mem.work_arrays()
-    if len(np.unique(rows)) != m:  # a robot twice: its rows one after the other, in one run
+    if m > 1 and not (rows[1:] > rows[:-1]).all() and len(np.unique(rows)) != m:  # a robot twice: in one run
         work = tuple(a[:1] for a in work)
     _chart_rows(tuple(getattr(mem, f) for f in _ROW_FIELDS), work, rows, _f64(q), np.cos(psi),
                 np.sin(psi), np.ascontiguousarray(d.has_t, bool), _f64(d.dist),
