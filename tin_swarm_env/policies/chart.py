@@ -722,18 +722,16 @@ def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route
 
 
 @njit(cache=True)
-def _next_way(i, g, w, qx, qy, changed, m_route, m_shut, m_len, m_at, m_way_at, way, dirty, have_way, forgot,
-              work, prm, walled):
+def _next_way(i, g, w, qx, qy, changed, m_route, m_shut, m_len, m_at, m_way_at, way, dirty, prm):
     """Robot ``i``'s way after this step's marks (chart search step 2, its chart ``g`` cells ``w``
     wide; ``changed``: a cell of it was shut this step). It plans afresh (A*) when it has no way,
     stalled, was more than a cell off its way, or a cell on or beside the rest of its way was shut
     (its way cut at ``ROUTE_PER_CELL C`` cells: any cell, or near the cut); else, within two cells
     of the point it heads for (or at it), or with its target within ``ahead`` cells (so that a
     target in a straight open line is headed for itself, and its stand-off rules), it picks the next
-    one along its way. True if it planned. A robot whose last way crossed a shut cell (``walled``)
-    floods from the target before it plans (:func:`_plan_row`'s ``flood``: the same way, found
-    sooner where the target is walled in on its chart)."""
-    ahead_m, wall_cost, turn_m, pinch_m = prm[0], prm[1], prm[2], prm[4]
+    one along its way. True if it must plan: the plan is :func:`_plan_way`'s (the pass over the
+    robots that plan, :func:`_chart_rows`)."""
+    ahead_m = prm[0]
     c = g.shape[0]
     h = c // 2
     sa = min(max(int(np.floor(qx / w)) + h, 0), c - 1)
@@ -747,26 +745,50 @@ def _next_way(i, g, w, qx, qy, changed, m_route, m_shut, m_len, m_at, m_way_at, 
         cut = route[n - 1] != h * c + h
         need = off > 1 or (changed and (cut or not _route_open(g, route, shut, at, n))) or (
             cut and n - at <= ahead + 2)
-    dx, dy = way[i, 0] - qx, way[i, 1] - qy
     if need:
-        nrm = np.sqrt(dx * dx + dy * dy)
-        ha, hb = (dx / nrm, dy / nrm) if nrm > 1e-9 and have_way[i] else (0.0, 0.0)
-        tc = turn_m / w if nrm > 1e-9 and have_way[i] else 0.0
-        pinch = 0.0 < w <= pinch_m
-        flood = c * c // 4 if walled[i] else 0
-        ok, n, k, fg = _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, work[0], work[1], work[2], route, shut,
-                                 pinch, flood)
-        walled[i] = ok and _crosses(g, route, n, pinch)
-        forgot[i] += fg
-        dirty[i] = False
-        have_way[i] = ok
-        m_len[i], m_at[i], m_way_at[i] = n, 0, k
-    elif dx * dx + dy * dy <= (2 * w) ** 2 or at >= m_way_at[i] or qx * qx + qy * qy <= (ahead * w) ** 2:
-        k = _pick_way(g, route, n, at, sa, sb, ahead)
-        m_way_at[i] = k
-    else:
-        return False
+        return True
+    dx, dy = way[i, 0] - qx, way[i, 1] - qy
+    if dx * dx + dy * dy <= (2 * w) ** 2 or at >= m_way_at[i] or qx * qx + qy * qy <= (ahead * w) ** 2:
+        m_way_at[i] = _pick_way(g, route, n, at, sa, sb, ahead)
+        _set_way(i, w, c, route, m_len, m_way_at, way)
+    return False
+
+
+@njit(cache=True)
+def _plan_way(i, g, w, qx, qy, m_route, m_shut, m_len, m_at, m_way_at, way, dirty, have_way, forgot, work, prm,
+              walled):
+    """Robot ``i``'s plan when :func:`_next_way` says it must (A*, :func:`_plan_row`, on the work arrays
+    ``work``), and the point it heads for on the new way. A robot whose last way crossed a shut cell
+    (``walled``) floods from the target before it plans (:func:`_plan_row`'s ``flood``: the same way,
+    found sooner where the target is walled in on its chart)."""
+    ahead_m, wall_cost, turn_m, pinch_m = prm[0], prm[1], prm[2], prm[4]
+    c = g.shape[0]
+    h = c // 2
+    sa = min(max(int(np.floor(qx / w)) + h, 0), c - 1)
+    sb = min(max(int(np.floor(qy / w)) + h, 0), c - 1)
+    ahead = max(ahead_m / w, 3.0)
+    route, shut = m_route[i], m_shut[i]
+    dx, dy = way[i, 0] - qx, way[i, 1] - qy
+    nrm = np.sqrt(dx * dx + dy * dy)
+    ha, hb = (dx / nrm, dy / nrm) if nrm > 1e-9 and have_way[i] else (0.0, 0.0)
+    tc = turn_m / w if nrm > 1e-9 and have_way[i] else 0.0
+    pinch = 0.0 < w <= pinch_m
+    flood = c * c // 4 if walled[i] else 0
+    ok, n, k, fg = _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, work[0], work[1], work[2], route, shut,
+                             pinch, flood)
+    walled[i] = ok and _crosses(g, route, n, pinch)
+    forgot[i] += fg
+    dirty[i] = False
+    have_way[i] = ok
+    m_len[i], m_at[i], m_way_at[i] = n, 0, k
+    _set_way(i, w, c, route, m_len, m_way_at, way)
+
+
+@njit(cache=True, inline="always")
+def _set_way(i, w, c, route, m_len, m_way_at, way):
+    """Robot ``i`` heads for route cell ``m_way_at[i]`` (its centre; the target itself at its cell)."""
     if m_len[i] > 0:
+        h = c // 2
         v = route[m_way_at[i]]
         if v == h * c + h:
             way[i, 0] = 0.0
@@ -774,7 +796,6 @@ def _next_way(i, g, w, qx, qy, changed, m_route, m_shut, m_len, m_at, m_way_at, 
         else:
             way[i, 0] = (v // c - h + 0.5) * w
             way[i, 1] = (v % c - h + 0.5) * w
-    return need
 
 
 @njit(cache=True, parallel=True)
@@ -782,22 +803,38 @@ def _chart_rows(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_nor
                 s_rel, s_dir, s_hit, prm):
     """:func:`chart_update`'s compiled pass over robot rows ``rows (m,)`` (the memory ``mem``: the
     arrays of :data:`_ROW_FIELDS`, in order; ``work``: ``T`` sets of A* work arrays, ``(T, C, C)`` each;
-    ``prm``: :func:`_prm`), in ``T`` runs side by side: run ``t`` takes the ``t``-th of ``T`` blocks of
-    rows, on work set ``t`` (blocks, not every ``T``-th row: robots side by side in memory in one run). A row reads and writes its own robot's memory only (``rows`` holds no robot twice), and a
-    work set is left as found after each plan, so the same bits whatever ``T`` and in whatever order."""
+    ``prm``: :func:`_prm`), in two passes of ``T`` runs side by side: the marks, stalls and the
+    decision to plan of every robot (run ``t``: the ``t``-th of ``T`` blocks of rows), then the plans
+    of those that must (run ``t``: the ``t``-th block of them, on work set ``t``). A robot's step reads
+    and writes its own memory only (``rows`` holds no robot twice), in the order the one-robot pass
+    took, and a work set is left as found after each plan, so the same bits whatever ``T``."""
+    grid, cell, way, dirty, anchor, stall, forgot, last_pts, last_ok, have_way = mem[:10]
+    route, shut, route_len, route_at, way_at, plans, walled = mem[10:]
     mark_prm = np.array([prm[4], prm[5], prm[6], prm[7], prm[13]])
     T = work[0].shape[0]
+    m = len(rows)
+    needs = np.zeros(m, np.bool_)
+    for t in prange(T):
+        for r in range(t * m // T, (t + 1) * m // T):
+            needs[r] = _chart_row(r, rows[r], mem, q, cs, sn, has_t, dist_t, crowded, b_rel, b_normal, b_danger,
+                                  b_border, s_rel, s_dir, s_hit, prm, mark_prm)
+    todo = np.flatnonzero(needs)
+    P = len(todo)
     for t in prange(T):
         wk = (work[0][t], work[1][t], work[2][t])
-        for r in range(t * len(rows) // T, (t + 1) * len(rows) // T):
-            _chart_row(r, rows[r], mem, wk, q, cs, sn, has_t, dist_t, crowded, b_rel, b_normal, b_danger, b_border,
-                       s_rel, s_dir, s_hit, prm, mark_prm)
+        for k in range(t * P // T, (t + 1) * P // T):
+            r = todo[k]
+            i = rows[r]
+            _plan_way(i, grid[i], cell[i], q[r, 0], q[r, 1], route, shut, route_len, route_at, way_at, way, dirty,
+                      have_way, forgot, wk, prm[10:15], walled)
+            plans[i] += 1
 
 
 @njit(cache=True)
-def _chart_row(r, i, mem, work, q, cs, sn, has_t, dist_t, crowded, b_rel, b_normal, b_danger, b_border, s_rel,
-               s_dir, s_hit, prm, mark_prm):
-    """One robot's step of :func:`_chart_rows`: row ``r`` of the step's inputs, robot ``i`` of the memory."""
+def _chart_row(r, i, mem, q, cs, sn, has_t, dist_t, crowded, b_rel, b_normal, b_danger, b_border, s_rel, s_dir,
+               s_hit, prm, mark_prm):
+    """One robot's step of :func:`_chart_rows` up to its plan: row ``r`` of the step's inputs, robot ``i``
+    of the memory. True if it must plan (:func:`_next_way`)."""
     grid, cell, way, dirty, anchor, stall, forgot, last_pts, last_ok, have_way = mem[:10]
     route, shut, route_len, route_at, way_at, plans, walled = mem[10:]
     c = grid.shape[1]
@@ -815,10 +852,8 @@ def _chart_row(r, i, mem, work, q, cs, sn, has_t, dist_t, crowded, b_rel, b_norm
     if stuck:
         dirty[i] = True
     if w <= 0 or not has_t[r]:  # no chart, or no target: no way to plan
-        return
-    if _next_way(i, g, w, qx, qy, changed, route, shut, route_len, route_at, way_at, way, dirty, have_way,
-                 forgot, work, prm[10:15], walled):
-        plans[i] += 1
+        return False
+    return _next_way(i, g, w, qx, qy, changed, route, shut, route_len, route_at, way_at, way, dirty, prm[10:15])
 
 
 def _prm(params: ChartParams, range_m: float, step_m: float, body_m: float, pass_m: float = 0.0) -> np.ndarray:
