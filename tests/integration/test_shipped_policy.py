@@ -46,6 +46,8 @@ def test_the_shipped_policy_runs_without_torch_or_pickle():
         "import numpy as np\n"
         "from tin_swarm_env.policies.learned import dense\n"
         "dense(np.zeros((1, 1)), np.zeros((1, 1)), np.zeros(1))  # numba's compile cache is read with pickle\n"
+        "from tin_swarm_env.policies.base import SafetyShield\n"
+        "SafetyShield(env)(np.zeros((3, 2)), np.stack(list(obs.values())))  # so are the shield's kernels'\n"
         "def no(*a, **k): raise AssertionError('pickle used')\n"
         "pickle.load = pickle.loads = no  # from here on: loading the policy file and acting\n"
         f"pol = load_policy({str(SHARED)!r}, env)\n"
