@@ -66,8 +66,17 @@ def test_the_compiled_cut_is_the_array_cut_bit_for_bit(n, k, data, share, passes
 
 
 def test_keep_clear_refuses_mismatched_shapes_by_name():
-    with pytest.raises(ArgumentError, match="keep_clear"):
+    with pytest.raises(ArgumentError, match="keep_clear: action"):
         keep_clear(np.zeros((3, 2)), np.zeros((2, 4, 2)), np.ones((2, 4)), 1.5, 0.5)
+    with pytest.raises(ArgumentError, match="keep_clear: valid"):
+        keep_clear(np.zeros((2, 2)), np.zeros((2, 4, 2)), np.ones((2, 3)), 1.5, 0.5)
+
+
+def test_keep_clear_takes_no_rows_and_a_valid_that_broadcasts_as_the_array_cut_did():
+    assert keep_clear(np.zeros((0, 2)), np.zeros((0, 3, 2)), np.zeros((0, 3)), 1.5, 0.5).shape == (0, 2)
+    a, rel = np.array([[1.0, 0.2], [-0.3, 0.9]]), np.array([[[1.0, 1.0], [0.5, -3.0], [2.0, 0.1]]] * 2)
+    valid = np.array([1.0, 0.0, 1.0])  # one row of slots for every robot
+    assert keep_clear(a, rel, valid, 1.5, 0.5).tobytes() == _keep_clear_arrays(a, rel, valid, 1.5, 0.5).tobytes()
 
 
 def _decode_by_readers(obs, layout, R):

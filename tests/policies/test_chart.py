@@ -18,6 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import tin_swarm_env as tse
+from tin_swarm_env.errors import ArgumentError
 from tin_swarm_env.policies import APFPolicy
 from tin_swarm_env.policies.base import DecodedObs
 from tin_swarm_env.policies.chart import (
@@ -895,17 +896,43 @@ def test_the_charts_are_the_same_bits_in_one_run_or_in_several(scenario):
             assert np.array_equal(s[f], states[0][f]), f
 
 
-def test_a_robot_given_twice_in_one_step_is_taken_in_one_run():
-    """Rows naming one robot twice (not what a policy is given, but not refused): its two rows are
-    taken one after the other, in order, as the serial pass took them, whatever the work sets."""
-    env = tse.parallel_env(scenario="cliff_goal", n_robots=3)
-    obs = env.reset_arrays(seed=1)
-    got = []
-    for t in (1, 2):
-        pol = APFPolicy(env, search="chart")
-        pol.charts.work = _work_sets(t, pol.chart.cells)
-        pol.act_batch(obs)
-        pol.act_batch(obs[[0, 1, 0]], rows=[0, 1, 0])
-        got.append({f: getattr(pol.charts, f).copy() for f in _ROW_FIELDS})
+def _rows_of(d: DecodedObs, r) -> DecodedObs:
+    """Rows ``r`` of a decoded observation (the scan's beam directions are not per row)."""
+    return DecodedObs(**{f: (v if f == "s_dir" or v is None else v[r]) for f, v in d.__dict__.items()})
+
+
+@pytest.mark.parametrize("rows", [[0, 1, 0, 2, 2], [2, 0, -3, 1]])
+def test_rows_that_name_a_robot_twice_are_taken_one_after_another(rows):
+    """Rows naming one robot twice (or one from the end; not what a policy is given, but not refused):
+    each row's step, its plan included, is taken before the next row's, as when each row is its own
+    call, on any number of work sets."""
+    from tin_swarm_env.policies.base import decode
+
+    env = tse.parallel_env(scenario="containment", n_robots=3)
+    pol = APFPolicy(env, search="chart")
+    obs = env.reset_arrays(seed=3)
+    for _ in range(40):  # charts with walls and ways on them
+        obs = env.step_arrays(pol.act_batch(obs))[0]
+    d = decode(obs[np.asarray(rows) % 3], pol.layout, pol.shield.range_m)
+    q = np.random.default_rng(0).uniform(-40, 40, (len(rows), 2))
+    psi = np.linspace(-2.0, 2.0, len(rows))
+    args = (pol.chart, pol.shield.range_m, pol.shield.step_m, 2 * pol.shield.edge_m, np.zeros(len(rows), bool))
+    mems = []
+    for t, one_by_one in ((2, False), (1, True)):
+        mem = ChartMemory(**{f: getattr(pol.charts, f).copy() for f in _ROW_FIELDS})
+        mem.work = _work_sets(t, pol.chart.cells)
+        if one_by_one:
+            for r in range(len(rows)):
+                chart_update(mem, [rows[r]], _rows_of(d, [r]), q[[r]], psi[[r]], *args[:4], args[4][[r]])
+        else:
+            chart_update(mem, rows, d, q, psi, *args)
+        mems.append(mem)
+    assert mems[1].plans.sum() > pol.charts.plans.sum()  # some row planned
     for f in _ROW_FIELDS:
-        assert np.array_equal(got[0][f], got[1][f]), f
+        assert np.array_equal(getattr(mems[0], f), getattr(mems[1], f)), f
+
+
+def test_plan_refuses_a_negative_wall_cost_by_name():
+    g = np.zeros((5, 5), np.uint8)
+    with pytest.raises(ArgumentError, match="plan: wall_cost"):
+        plan(g, 0, 0, 4, 4, 5.0, -0.7)

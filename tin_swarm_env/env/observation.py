@@ -179,6 +179,8 @@ class ObsLayout:
 
     def part_slice(self, part: str) -> slice:
         """The columns of ``part`` ("robots", "targets", "breaks", "assets", "scan") in an observation row."""
+        if not isinstance(part, str) or part not in _COUNT:
+            raise ObservationLayoutError(f"unknown observation part {part!r}; parts are {', '.join(PARTS)}")
         return _part_slice(self, part)
 
     def _part_slice(self, part: str) -> slice:

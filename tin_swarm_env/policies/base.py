@@ -193,12 +193,15 @@ def keep_clear(action, rel, valid, gap_m: float, step_m: float, share: float = 2
     of the action toward each is removed (a projection onto each half-plane, ``passes`` sweeps
     over the slots), so the cut never adds motion toward anything. Returns ``(n, 2)``."""
     a = np.array(action, dtype=np.float64)
-    rel = np.ascontiguousarray(rel, dtype=np.float64)
-    valid = np.ascontiguousarray(np.asarray(valid) > 0.5)
-    if a.ndim != 2 or a.shape[1] != 2 or rel.shape != (len(a), valid.shape[-1], 2):
-        raise ArgumentError(f"keep_clear: action (n, 2), rel (n, K, 2) and valid (n, K) expected, got "
-                            f"{a.shape}, {rel.shape}, {valid.shape}")
-    _keep_clear_rows(a, rel, valid.reshape(len(a), -1), float(gap_m), float(share) * float(step_m), int(passes))
+    rel = np.ascontiguousarray(rel, dtype=np.float64)  # (the cut is computed in float64)
+    if a.ndim != 2 or a.shape[1] != 2 or rel.ndim != 3 or rel.shape[0] != len(a) or rel.shape[2] != 2:
+        raise ArgumentError(f"keep_clear: action (n, 2) and rel (n, K, 2) expected, got {a.shape} and {rel.shape}")
+    try:
+        ok = np.ascontiguousarray(np.broadcast_to(np.asarray(valid) > 0.5, rel.shape[:2]))
+    except ValueError:
+        raise ArgumentError(f"keep_clear: valid {np.shape(valid)} does not match rel's (n, K) = "
+                            f"{rel.shape[:2]}") from None
+    _keep_clear_rows(a, rel, ok, float(gap_m), float(share) * float(step_m), int(passes))
     return a
 
 

@@ -17,6 +17,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
+from ..errors import ArgumentError
 from .base import DecodedObs, check_positive_fields
 
 __all__ = ["ChartMemory", "ChartParams", "ROUTE_PER_CELL", "chart_update", "plan"]
@@ -393,7 +394,10 @@ def plan(g, sa, sb, ta, tb, ahead, wall_cost=2.0, ha=0.0, hb=0.0, turn=0.0):
     (sa, sb) to (ta, tb); only open cells are entered (the start itself may be shut). Returns
     ``(found, wa, wb, cost)``: the farthest cell of the least-cost way within ``ahead`` cells of
     the start (straight-line distance) that is in a straight open line from it (at least the way's
-    first cell), and the way's cost (inf: none)."""
+    first cell), and the way's cost (inf: none). ``wall_cost`` must be ``>= 0`` (the search skips a
+    neighbour whose cost before that price cannot improve; :class:`ChartParams` takes ``> 0``)."""
+    if not wall_cost >= 0.0:
+        raise ArgumentError("plan: wall_cost must be a number >= 0")
     c = g.shape[0]
     dist = np.full((c, c), 1e30)
     prev = np.full((c, c), -1, np.int64)
@@ -807,7 +811,9 @@ def _chart_rows(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_nor
     decision to plan of every robot (run ``t``: the ``t``-th of ``T`` blocks of rows), then the plans
     of those that must (run ``t``: the ``t``-th block of them, on work set ``t``). A robot's step reads
     and writes its own memory only (``rows`` holds no robot twice), in the order the one-robot pass
-    took, and a work set is left as found after each plan, so the same bits whatever ``T``."""
+    took, and a work set is left as found after each plan, so the same bits whatever ``T``
+    (:func:`chart_update` takes rows that name a robot twice one after another,
+    :func:`_chart_rows_serial`)."""
     grid, cell, way, dirty, anchor, stall, forgot, last_pts, last_ok, have_way = mem[:10]
     route, shut, route_len, route_at, way_at, plans, walled = mem[10:]
     mark_prm = np.array([prm[4], prm[5], prm[6], prm[7], prm[13]])
@@ -825,6 +831,24 @@ def _chart_rows(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_nor
         for k in range(t * P // T, (t + 1) * P // T):
             r = todo[k]
             i = rows[r]
+            _plan_way(i, grid[i], cell[i], q[r, 0], q[r, 1], route, shut, route_len, route_at, way_at, way, dirty,
+                      have_way, forgot, wk, prm[10:15], walled)
+            plans[i] += 1
+
+
+@njit(cache=True)
+def _chart_rows_serial(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_normal, b_danger, b_border,
+                       s_rel, s_dir, s_hit, prm):
+    """:func:`_chart_rows` one row after another, each robot's plan made before the next row is taken: rows
+    that name a robot twice (work set 0)."""
+    grid, cell, way, dirty, anchor, stall, forgot, last_pts, last_ok, have_way = mem[:10]
+    route, shut, route_len, route_at, way_at, plans, walled = mem[10:]
+    mark_prm = np.array([prm[4], prm[5], prm[6], prm[7], prm[13]])
+    wk = (work[0][0], work[1][0], work[2][0])
+    for r in range(len(rows)):
+        i = rows[r]
+        if _chart_row(r, i, mem, q, cs, sn, has_t, dist_t, crowded, b_rel, b_normal, b_danger, b_border, s_rel,
+                      s_dir, s_hit, prm, mark_prm):
             _plan_way(i, grid[i], cell[i], q[r, 0], q[r, 1], route, shut, route_len, route_at, way_at, way, dirty,
                       have_way, forgot, wk, prm[10:15], walled)
             plans[i] += 1
@@ -893,14 +917,13 @@ def chart_update(mem: ChartMemory, rows, d: DecodedObs, q, psi, params: ChartPar
     else:
         s_rel, s_hit, s_dir = np.zeros((m, 0, 2)), np.zeros((m, 0), bool), np.zeros((0, 2))
     psi = np.asarray(psi, dtype=np.float64)
-    work = mem.work_arrays()
-    if m > 1 and not (rows[1:] > rows[:-1]).all() and len(np.unique(rows)) != m:  # a robot twice: in one run
-        work = tuple(a[:1] for a in work)
-    _chart_rows(tuple(getattr(mem, f) for f in _ROW_FIELDS), work, rows, _f64(q), np.cos(psi),
-                np.sin(psi), np.ascontiguousarray(d.has_t, bool), _f64(d.dist),
-                np.ascontiguousarray(crowded, bool), _f64(d.b_rel), _f64(d.b_normal),
-                np.ascontiguousarray(d.b_danger, bool), np.ascontiguousarray(d.b_border, bool), s_rel, s_dir,
-                s_hit, _prm(params, range_m, step_m, body_m, pass_m))
+    # rows in increasing order name each robot once; others may name one twice (or from the end): in order
+    serial = m > 1 and not (rows[1:] > rows[:-1]).all() and (len(np.unique(rows)) != m or rows.min() < 0)
+    (_chart_rows_serial if serial else _chart_rows)(
+        tuple(getattr(mem, f) for f in _ROW_FIELDS), mem.work_arrays(), rows, _f64(q), np.cos(psi), np.sin(psi),
+        np.ascontiguousarray(d.has_t, bool), _f64(d.dist), np.ascontiguousarray(crowded, bool), _f64(d.b_rel),
+        _f64(d.b_normal), np.ascontiguousarray(d.b_danger, bool), np.ascontiguousarray(d.b_border, bool), s_rel,
+        s_dir, s_hit, _prm(params, range_m, step_m, body_m, pass_m))
     way = mem.way[rows]
     at_t = ((way[:, 0] == 0.0) & (way[:, 1] == 0.0)) | (np.sum(way * way, axis=-1) < standoff_m ** 2)
     out = _rot(-psi, way - q)
