@@ -875,19 +875,26 @@ def test_the_charts_are_the_same_bits_in_one_run_or_in_several(scenario):
     """chart_update takes its robots in T runs side by side, each on its own A* work set: one run,
     three, or one robot's rows in an order of its own, the memory after 60 steps is the same bit for
     bit (a robot's step reads and writes its own memory only)."""
+    import numba
+
     env = tse.parallel_env(scenario=scenario, n_robots=7)
     states = []
+    k = numba.get_num_threads()
     for t, order in ((1, None), (3, None), (4, [6, 2, 0, 5, 1, 4, 3])):
         pol = APFPolicy(env, search="chart")
         pol.charts.work = _work_sets(t, pol.chart.cells)
         obs = env.reset_arrays(seed=3)
-        for _ in range(60):
-            if order is None:
-                a = pol.act_batch(obs)
-            else:
-                a = np.empty((len(obs), 2), np.float32)
-                a[order] = pol.act_batch(obs[order], rows=order)
-            obs = env.step_arrays(a)[0]
+        numba.set_num_threads(min(t, k))  # (more threads than sets would make more sets)
+        try:
+            for _ in range(60):
+                if order is None:
+                    a = pol.act_batch(obs)
+                else:
+                    a = np.empty((len(obs), 2), np.float32)
+                    a[order] = pol.act_batch(obs[order], rows=order)
+                obs = env.step_arrays(a)[0]
+        finally:
+            numba.set_num_threads(k)
         assert pol.charts.work[0].shape[0] == t
         states.append({f: getattr(pol.charts, f).copy() for f in _ROW_FIELDS})
     assert states[0]["plans"].sum() > 7  # it planned (more than once each on the whole)
@@ -936,3 +943,21 @@ def test_plan_refuses_a_negative_wall_cost_by_name():
     g = np.zeros((5, 5), np.uint8)
     with pytest.raises(ArgumentError, match="plan: wall_cost"):
         plan(g, 0, 0, 4, 4, 5.0, -0.7)
+
+
+def test_the_work_sets_follow_numbas_thread_count_up_and_stay_when_it_falls():
+    import numba
+
+    mem = ChartMemory.empty(2, 16)
+    k = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        assert mem.work_arrays()[0].shape == (1, 16, 16)
+    finally:
+        numba.set_num_threads(k)
+    assert mem.work_arrays()[0].shape == (k, 16, 16)  # more threads: more sets (1 when numba has one)
+    numba.set_num_threads(1)
+    try:
+        assert mem.work_arrays()[0].shape == (k, 16, 16)  # fewer: the sets it has serve
+    finally:
+        numba.set_num_threads(k)

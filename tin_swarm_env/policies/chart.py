@@ -173,9 +173,10 @@ class ChartMemory:
 
     def work_arrays(self) -> tuple:
         """The A* work arrays ``(dist, prev, closed)``, ``(T, C, C)`` each: one set for each of the
-        ``T`` runs of :func:`_chart_rows` (``T``: numba's thread count when first made; made once)."""
-        if self.work is None:
-            c, t = self.grid.shape[1], max(1, int(numba.get_num_threads()))
+        ``T`` runs of :func:`_chart_rows` (``T``: numba's thread count; made again only when it grows)."""
+        t = max(1, int(numba.get_num_threads()))
+        if self.work is None or self.work[0].shape[0] < t:
+            c = self.grid.shape[1]
             self.work = (np.full((t, c, c), 1e30), np.full((t, c, c), -1, np.int64), np.zeros((t, c, c), np.bool_))
         return self.work
 
