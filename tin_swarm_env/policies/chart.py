@@ -726,6 +726,15 @@ def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route
     return False, 0, 0, True
 
 
+@njit(cache=True, inline="always")
+def _start(qx, qy, w, c, ahead_m):
+    """The chart cell ``(sa, sb)`` of a robot at ``(qx, qy)`` (cells ``w`` wide, ``c`` a side, clipped to
+    the chart) and how many cells ahead it looks for the point it heads for."""
+    h = c // 2
+    return (min(max(int(np.floor(qx / w)) + h, 0), c - 1), min(max(int(np.floor(qy / w)) + h, 0), c - 1),
+            max(ahead_m / w, 3.0))
+
+
 @njit(cache=True)
 def _next_way(i, g, w, qx, qy, changed, m_route, m_shut, m_len, m_at, m_way_at, way, dirty, prm):
     """Robot ``i``'s way after this step's marks (chart search step 2, its chart ``g`` cells ``w``
@@ -739,9 +748,7 @@ def _next_way(i, g, w, qx, qy, changed, m_route, m_shut, m_len, m_at, m_way_at, 
     ahead_m = prm[0]
     c = g.shape[0]
     h = c // 2
-    sa = min(max(int(np.floor(qx / w)) + h, 0), c - 1)
-    sb = min(max(int(np.floor(qy / w)) + h, 0), c - 1)
-    ahead = max(ahead_m / w, 3.0)
+    sa, sb, ahead = _start(qx, qy, w, c, ahead_m)
     route, shut, n, at = m_route[i], m_shut[i], m_len[i], m_at[i]
     need = dirty[i] or n == 0
     if not need:
@@ -768,10 +775,7 @@ def _plan_way(i, g, w, qx, qy, m_route, m_shut, m_len, m_at, m_way_at, way, dirt
     found sooner where the target is walled in on its chart)."""
     ahead_m, wall_cost, turn_m, pinch_m = prm[0], prm[1], prm[2], prm[4]
     c = g.shape[0]
-    h = c // 2
-    sa = min(max(int(np.floor(qx / w)) + h, 0), c - 1)
-    sb = min(max(int(np.floor(qy / w)) + h, 0), c - 1)
-    ahead = max(ahead_m / w, 3.0)
+    sa, sb, ahead = _start(qx, qy, w, c, ahead_m)
     route, shut = m_route[i], m_shut[i]
     dx, dy = way[i, 0] - qx, way[i, 1] - qy
     nrm = np.sqrt(dx * dx + dy * dy)
@@ -803,6 +807,12 @@ def _set_way(i, w, c, route, m_len, m_way_at, way):
             way[i, 1] = (v % c - h + 0.5) * w
 
 
+@njit(cache=True, inline="always")
+def _mark_prm(prm):
+    """The constants :func:`_mark_row` reads, from :func:`_prm`'s: behind, extend, link, cos(5 deg), inset."""
+    return np.array([prm[4], prm[5], prm[6], prm[7], prm[13]])
+
+
 @njit(cache=True, parallel=True)
 def _chart_rows(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_normal, b_danger, b_border,
                 s_rel, s_dir, s_hit, prm):
@@ -817,7 +827,7 @@ def _chart_rows(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_nor
     :func:`_chart_rows_serial`)."""
     grid, cell, way, dirty, anchor, stall, forgot, last_pts, last_ok, have_way = mem[:10]
     route, shut, route_len, route_at, way_at, plans, walled = mem[10:]
-    mark_prm = np.array([prm[4], prm[5], prm[6], prm[7], prm[13]])
+    mark_prm = _mark_prm(prm)
     T = work[0].shape[0]
     m = len(rows)
     needs = np.zeros(m, np.bool_)
@@ -844,7 +854,7 @@ def _chart_rows_serial(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel
     that name a robot twice (work set 0)."""
     grid, cell, way, dirty, anchor, stall, forgot, last_pts, last_ok, have_way = mem[:10]
     route, shut, route_len, route_at, way_at, plans, walled = mem[10:]
-    mark_prm = np.array([prm[4], prm[5], prm[6], prm[7], prm[13]])
+    mark_prm = _mark_prm(prm)
     wk = (work[0][0], work[1][0], work[2][0])
     for r in range(len(rows)):
         i = rows[r]
