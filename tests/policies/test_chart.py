@@ -9,6 +9,7 @@ mirrored) run with both searches in test_bug.py."""
 
 from __future__ import annotations
 
+import dataclasses
 import heapq
 import math
 
@@ -191,6 +192,59 @@ def test_a_border_point_closes_the_half_plane_beyond_it_and_nothing_else():
 def test_chart_params_refuse_non_positive_values_by_name(key):
     with pytest.raises(ValueError, match=f"ChartParams.{key}"):
         ChartParams(**{key: 0})
+
+
+@pytest.mark.parametrize("key", ["side_cost", "side_margin"])
+def test_chart_params_take_no_side_preference_and_refuse_a_negative_one_by_name(key):
+    assert getattr(ChartParams(**{key: 0.0}), key) == 0.0
+    for bad in (-1.0, math.nan):
+        with pytest.raises(ValueError, match=f"ChartParams.{key}"):
+            ChartParams(**{key: bad})
+
+
+def _wall_across(c=21):
+    """A chart with a wall across the straight way from cell (18, 10) to the target's (10, 10): column
+    14, rows 4..16, the same way round either end."""
+    g = np.zeros((c, c), np.uint8)
+    g[14, 4:17] = WALL
+    return g
+
+
+def _way_cells(g, s, t, side):
+    c = g.shape[0]
+    dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
+    found, cost, _, _ = _search(g, *s, *t, 2.0, 0.0, 0.0, 0.0, dist, prev, closed, 0.0, False, *side)
+    cells, v = [], t[0] * c + t[1]
+    while v != s[0] * c + s[1]:
+        cells.append(divmod(int(v), c))
+        v = prev[v // c, v % c]
+    return found, cost, cells
+
+
+def test_a_side_preference_takes_the_way_round_its_own_end_of_a_wall_at_the_plain_cost():
+    """Robot at (18, 10), its start on the line east of the target (u = (1, 0)): with ``u`` as is it pays
+    for cells at b < 10 - margin (its left, facing the target) and goes round the wall's b = 16 end; with
+    ``-u`` round the b = 4 end; either way at the cost of the way with no preference (a mirror image)."""
+    g = _wall_across()
+    s, t = (18, 10), (10, 10)
+    found0, cost0, _ = _way_cells(g, s, t, (0.0, 0.0, 0.0, 0.0))
+    for sgn in (1.0, -1.0):
+        found, cost, cells = _way_cells(g, s, t, (1.0, sgn, 0.0, 2.0))
+        assert found and found0 and cost == pytest.approx(cost0)
+        assert all(sgn * (b - 10) >= -2 for _, b in cells)  # never on the side it does not prefer
+        assert any(sgn * (b - 10) >= 7 for _, b in cells)  # round its own end of the wall (b = 16 or 4)
+
+
+def test_a_side_found_shut_is_left_for_the_other_at_its_price():
+    """The wall's preferred end shut (the wall runs to the chart's edge on that side): the way goes round
+    the other end, paying ``1 + side_cost`` per cell length over there."""
+    g = _wall_across()
+    g[14, 4:] = WALL
+    s, t = (18, 10), (10, 10)
+    _, plain, _ = _way_cells(g, s, t, (0.0, 0.0, 0.0, 0.0))
+    found, cost, cells = _way_cells(g, s, t, (1.0, 1.0, 0.0, 2.0))
+    assert found and any(b <= 3 for _, b in cells)
+    assert plain < cost < 2.0 * plain + 1e-9
 
 
 def test_apf_refuses_an_unknown_search_by_name():
@@ -543,11 +597,11 @@ def test_a_robot_at_its_target_cell_heads_for_the_target_and_does_not_plan_again
 
 
 def test_memory_per_robot_is_as_documented():
-    """ChartMemory's docstring: C^2 + 5 ROUTE_PER_CELL C + 17 K + 91 bytes a robot (68 238 at 256 cells, K = 3)."""
+    """ChartMemory's docstring: C^2 + 5 ROUTE_PER_CELL C + 17 K + 107 bytes a robot (68 254 at 256 cells, K = 3)."""
     mem = ChartMemory.empty(1, 256, 3)
     per_robot = sum(getattr(mem, f).nbytes for f in _ROW_FIELDS)
-    assert per_robot == 256**2 + 5 * ROUTE_PER_CELL * 256 + 17 * 3 + 91 == 68238
-    assert "68 238" in ChartMemory.__doc__
+    assert per_robot == 256**2 + 5 * ROUTE_PER_CELL * 256 + 17 * 3 + 107 == 68254
+    assert "68 254" in ChartMemory.__doc__
 
 
 def _plan_row_on(g, sa, sb, pinch=False):
@@ -786,7 +840,7 @@ def test_a_target_walled_in_is_planned_to_through_the_fewest_walls_with_or_witho
     assert out[0][0] and not out[0][3] and [(a, b) for a, b in way if g[a, b] == WALL] == [(11, 16)]
 
 
-def _search_unpruned(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, cross=0.0, pinch=False):
+def _search_unpruned(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, cross=0.0, pinch=False, side=(0.0, 0.0, 0.0, 0.0)):
     """The A* of :func:`_search` as it was before it skipped a neighbour that cannot improve (kept here
     as the reference, in Python, on the same heap): ``(found, cost, dist, prev, pushes)``."""
     from tin_swarm_env.policies.chart import STUCK, _beside_wall, _pinched, heap_pop, heap_push
@@ -833,6 +887,9 @@ def _search_unpruned(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, cross=0.0, pinc
                         nd += cross
                 if a == sa and b == sb and turn > 0:
                     nd += turn * 0.5 * (1.0 - (da * ha + db * hb) / step)
+                side_cost, ux, uy, margin = side
+                if side_cost > 0 and ux * (nb - tb) - uy * (na - ta) < -margin:  # the side it does not prefer
+                    nd += side_cost * step
                 if _beside_wall(g, na, nb):
                     nd += wall_cost
                 if nd < dist[na, nb]:
@@ -845,9 +902,11 @@ def _search_unpruned(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, cross=0.0, pinc
 @settings(max_examples=60, deadline=None)
 @given(st.integers(0, 2**31 - 1), st.floats(0.0, 0.5), st.sampled_from([(0.0, False), (0.0, True), (40.0, False),
                                                                         (40.0, True)]),
-       st.floats(0.0, 6.0), st.floats(-math.pi, math.pi))
+       st.floats(0.0, 6.0), st.floats(-math.pi, math.pi), st.sampled_from([0.0, 0.5, 1.0, 3.0]),
+       st.floats(-math.pi, math.pi), st.sampled_from([0.0, 2.0]))
 def test_the_search_skips_only_neighbours_that_cannot_improve_the_same_bits_as_the_full_loop(seed, density, mode,
-                                                                                         turn, heading):
+                                                                                         turn, heading, side_cost,
+                                                                                         home, margin):
     """Every stuck, wall and open mix (``cross`` 0 and > 0, ``pinch`` on and off, a turn cost from the
     start): the search that tests a neighbour's cost before its wall price finds the same cost, the
     same ``dist`` and ``prev`` bit for bit as the loop that priced every neighbour in full (so every
@@ -859,9 +918,10 @@ def test_the_search_skips_only_neighbours_that_cannot_improve_the_same_bits_as_t
     g[s] = g[t] = 0
     cross, pinch = mode
     ha, hb = math.cos(heading), math.sin(heading)
-    found, cost, ref_dist, ref_prev, _ = _search_unpruned(g, *s, *t, 2.0, ha, hb, turn, cross, pinch)
+    side = (side_cost, math.cos(home), math.sin(home), margin)
+    found, cost, ref_dist, ref_prev, _ = _search_unpruned(g, *s, *t, 2.0, ha, hb, turn, cross, pinch, side)
     dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
-    got = _search(g, *s, *t, 2.0, ha, hb, turn, dist, prev, closed, cross, pinch)
+    got = _search(g, *s, *t, 2.0, ha, hb, turn, dist, prev, closed, cross, pinch, *side)
     assert got[0] == found and (got[1] == cost or (math.isinf(got[1]) and math.isinf(cost)))
     assert np.array_equal(dist, ref_dist) and np.array_equal(prev, ref_prev)
 
@@ -961,3 +1021,37 @@ def test_the_work_sets_follow_numbas_thread_count_up_and_stay_when_it_falls():
         assert mem.work_arrays()[0].shape == (k, 16, 16)  # fewer: the sets it has serve
     finally:
         numba.set_num_threads(k)
+
+
+def test_two_robots_of_one_target_split_round_the_two_ends_of_a_wall():
+    """Robots 0 and 1 at the same place west of their target, a wall across their straight way the same
+    length either side (column 12, rows 8..24 about row 16): robot 0 (even) goes round its right end
+    (rows below 8, facing east), robot 1 (odd) round its left end (rows above 24); with no side
+    preference both take one end."""
+    def run(params):
+        mem = ChartMemory.empty(2, 32, 3)
+        mem.cell[:] = 1.0  # (a chart made here, not at its first step: where it started is set here too)
+        d1, q1 = _one((-10.5, 0.5))
+        mem.home[:] = q1
+        d = DecodedObs(**{f.name: (None if getattr(d1, f.name) is None else
+                                   np.concatenate([getattr(d1, f.name)] * 2)) for f in dataclasses.fields(d1)})
+        q = np.concatenate([q1, q1])
+        chart_update(mem, np.array([0, 1]), d, q, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
+        mem.grid[:, 12, 8:25] = WALL
+        mem.dirty[:] = True
+        chart_update(mem, np.array([0, 1]), d, q, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
+        return [[divmod(int(v), 32)[1] for v in mem.route[i, :mem.route_len[i]]] for i in range(2)]
+
+    rows0, rows1 = run(P)
+    assert min(rows0) < 8 and max(rows0) <= 17  # round the right end (facing east: south, low rows)
+    assert max(rows1) > 24 and min(rows1) >= 15  # round the left end
+    same0, same1 = run(dataclasses.replace(P, side_cost=0.0))
+    assert (min(same0) < 8) == (min(same1) < 8)  # no preference: one way for both
+
+
+def test_where_a_robot_started_is_kept_at_its_first_step_and_not_moved_after():
+    mem = ChartMemory.empty(1, 32, 3)
+    _step(mem, (-10.5, 0.5))
+    assert mem.home[0].tolist() == [-10.5, 0.5] and mem.cell[0] > 0
+    _step(mem, (-6.5, 3.5))
+    assert mem.home[0].tolist() == [-10.5, 0.5]

@@ -74,6 +74,16 @@ class ChartParams:
                     field is a cushion at the wall; one reaching further pushes a robot back out of
                     a funnel narrower than a few body lengths (``realdem``: 66.9 % arrived at 2.5 m,
                     85.5 % at 0.5 m, 0 falls either way)
+    side_cost       robot ``i`` prefers one side of the line from where it started (its first step) to
+                    its target, the right for an even ``i`` and the left for an odd one: a step onto a
+                    cell more than ``side_margin`` cells over on the other side costs ``1 + side_cost``
+                    times its length. Where a wall blocks the straight way, the robots of one target
+                    split between its two ends instead of all trying the end that looks nearer first,
+                    and a robot keeps to its side until that way is ``1 + side_cost`` times as long as
+                    the other; a side found shut is left at once (jacksboro, the target whose robots
+                    meet three dead ends: 71 % of all robots in by 1 800 steps at 0, 83.5 % at 1.0 and
+                    82 % at 2.0; ``docs/figures/apf.md``). 0: no preference
+    side_margin
     """
 
     cells: int = 512
@@ -90,14 +100,17 @@ class ChartParams:
     inset: float = 0.5
     pinch_cells: float = 2.5
     break_decay_m: float = 0.5
+    side_cost: float = 1.0
+    side_margin: float = 2.0
 
     def __post_init__(self):  # the chart is cells x cells bytes per robot: at most MAX_CHART_CELLS a side
         check_positive_fields(self, {"cells": {"lo": 4, "lo_open": False, "hi": MAX_CHART_CELLS},
-                                     "stall_steps": {"hi": 10**9}, "inset": {"lo_open": False, "hi": 1.0}})
+                                     "stall_steps": {"hi": 10**9}, "inset": {"lo_open": False, "hi": 1.0},
+                                     "side_cost": {"lo_open": False}, "side_margin": {"lo_open": False}})
 
 
 _ROW_FIELDS = ("grid", "cell", "way", "dirty", "anchor", "stall", "forgot", "last_pts", "last_ok", "have_way",
-               "route", "route_shut", "route_len", "route_at", "way_at", "plans", "walled")
+               "route", "route_shut", "route_len", "route_at", "way_at", "plans", "walled", "home")
 
 
 @dataclass
@@ -125,9 +138,11 @@ class ChartMemory:
     plans      (n,)      int     times it has run the A* (a count for the benchmark and tests)
     walled     (n,)      bool    its last way crossed a shut cell (no way over open cells): its next
                                  plan first floods from the target (:func:`_walled_in`)
+    home       (n, 2)    m       where it was at its first step, in ``F`` relative to the target (the
+                                 line of :attr:`ChartParams.side_cost`)
 
-    Bytes per robot: ``C^2 + 5 ROUTE_PER_CELL C + 17 K + 91`` (the chart, the route, the rest):
-    68 238 at 256 cells and 3 break slots (66.6 KiB; the route is 2.5 KiB of it), 267 406 at the
+    Bytes per robot: ``C^2 + 5 ROUTE_PER_CELL C + 17 K + 107`` (the chart, the route, the rest):
+    68 254 at 256 cells and 3 break slots (66.7 KiB; the route is 2.5 KiB of it), 267 422 at the
     default 512 (261 KiB). Besides, for all robots together: one set of A* work arrays for each of
     numba's threads (``work``: ``17 C^2`` bytes a set, 1.06 MiB at 256 cells, 4.25 MiB at 512, made at
     the first plan) and the heap of each search under way.
@@ -150,6 +165,7 @@ class ChartMemory:
     way_at: np.ndarray
     plans: np.ndarray
     walled: np.ndarray
+    home: np.ndarray
     work: tuple | None = None
 
     @classmethod
@@ -161,7 +177,7 @@ class ChartMemory:
                    last_pts=np.zeros((n, k, 2)), last_ok=np.zeros((n, k), bool), have_way=np.zeros(n, bool),
                    route=np.zeros((n, L), np.int32), route_shut=np.zeros((n, L), np.uint8),
                    route_len=np.zeros(n, np.int64), route_at=np.zeros(n, np.int64), way_at=np.zeros(n, np.int64),
-                   plans=np.zeros(n, np.int64), walled=np.zeros(n, bool))
+                   plans=np.zeros(n, np.int64), walled=np.zeros(n, bool), home=np.zeros((n, 2)))
 
     def grow(self, n: int) -> ChartMemory:
         have = len(self.cell)
@@ -425,7 +441,8 @@ def _astar(g, sa, sb, ta, tb, ahead, wall_cost, ha, hb, turn, dist, prev, closed
 
 
 @njit(cache=True)
-def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cross=0.0, pinch=False):
+def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cross=0.0, pinch=False, side_cost=0.0,
+            ux=0.0, uy=0.0, margin=0.0):
     """The A* of :func:`plan` on the work arrays of :func:`_astar`, which it leaves filled (``prev``
     holds the way): ``(found, cost, touched, nt)``, the first ``nt`` of ``touched`` the flat indices
     of the cells it set (for :func:`_reset`). ``cross > 0``: wall cells may be entered too, each
@@ -478,13 +495,15 @@ def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cros
                     if c1 == STUCK or c2 == STUCK or (cross <= 0.0 and (c1 != 0 or c2 != 0)):
                         continue
                     cw = c1 == WALL or c2 == WALL
-                nd = _step_cost(dist[a, b], step, v == WALL, cross, cw, a == sa and b == sb, turn, da, db, ha, hb)
+                far = side_cost * step if side_cost > 0.0 and ux * (nb - tb) - uy * (na - ta) < -margin else 0.0
+                nd = _step_cost(dist[a, b], step, v == WALL, cross, cw, a == sa and b == sb, turn, da, db, ha, hb, far)
                 if nd >= dist[na, nb]:
                     continue  # no better whatever is added below (wall_cost > 0; rounding is monotone)
                 if pinch and v == OPEN and not (na == ta and nb == tb) and _pinched(g, na, nb):
                     if cross <= 0.0:  # a gap one cell wide: narrower than a pass, a wall
                         continue
-                    nd = _step_cost(dist[a, b], step, True, cross, cw, a == sa and b == sb, turn, da, db, ha, hb)
+                    nd = _step_cost(dist[a, b], step, True, cross, cw, a == sa and b == sb, turn, da, db, ha, hb,
+                                    far)
                 if _beside_wall(g, na, nb):  # a cell beside a wall costs more: the way keeps a cell off the walls
                     nd += wall_cost
                 if nd < dist[na, nb]:
@@ -502,10 +521,11 @@ def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cros
 
 
 @njit(cache=True, inline="always")
-def _step_cost(d0, step, into_wall, cross, corner_wall, from_start, turn, da, db, ha, hb):
+def _step_cost(d0, step, into_wall, cross, corner_wall, from_start, turn, da, db, ha, hb, far=0.0):
     """What a step of :func:`_search` costs up to its cell's wall price, the terms added in one fixed
     order (so the same bits wherever it is computed): the step's length, ``cross`` into a wall cell
-    and past a wall corner, and the turn from the start."""
+    and past a wall corner, the turn from the start, and ``far`` (the price of a step on the side
+    the robot does not prefer, :attr:`ChartParams.side_cost`)."""
     nd = d0 + step
     if into_wall:
         nd += cross
@@ -513,6 +533,8 @@ def _step_cost(d0, step, into_wall, cross, corner_wall, from_start, turn, da, db
         nd += cross
     if from_start and turn > 0:  # leaving the start against the way it was going
         nd += turn * 0.5 * (1.0 - (da * ha + db * hb) / step)
+    if far > 0.0:
+        nd += far
     return nd
 
 
@@ -693,7 +715,8 @@ def _walled_in(g, sa, sb, ta, tb, pinch, budget, seen):
 
 
 @njit(cache=True)
-def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route, shut, pinch=False, flood=0):
+def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route, shut, pinch=False, flood=0,
+              side_cost=0.0, ux=0.0, uy=0.0, margin=0.0):
     """Plan on chart ``g`` from cell (sa, sb) to the target's cell (chart search steps 2 and 5):
     A* over open cells (``pinch``: but gaps one cell wide, :func:`_search`); if there is no way, the
     way through the fewest walls (each wall cell entered costs a chart's width in cells, stuck cells
@@ -716,7 +739,8 @@ def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route
                         g[a, b] = OPEN
         elif attempt == 3:  # forget the chart: it starts again from what it sees
             g[:, :] = OPEN
-        found, _, touched, nt = _search(g, sa, sb, h, h, wall_cost, ha, hb, tc, dist, prev, closed, cross, pinch)
+        found, _, touched, nt = _search(g, sa, sb, h, h, wall_cost, ha, hb, tc, dist, prev, closed, cross, pinch,
+                                        side_cost, ux, uy, margin)
         n = 0
         if found:
             n = _store_way(g, prev, sa, sb, h, h, _way_length(prev, c, sa, sb, h, h), route, shut)
@@ -768,7 +792,7 @@ def _next_way(i, g, w, qx, qy, changed, m_route, m_shut, m_len, m_at, m_way_at, 
 
 @njit(cache=True)
 def _plan_way(i, g, w, qx, qy, m_route, m_shut, m_len, m_at, m_way_at, way, dirty, have_way, forgot, work, prm,
-              walled):
+              walled, home):
     """Robot ``i``'s plan when :func:`_next_way` says it must (A*, :func:`_plan_row`, on the work arrays
     ``work``), and the point it heads for on the new way. A robot whose last way crossed a shut cell
     (``walled``) floods from the target before it plans (:func:`_plan_row`'s ``flood``: the same way,
@@ -783,8 +807,13 @@ def _plan_way(i, g, w, qx, qy, m_route, m_shut, m_len, m_at, m_way_at, way, dirt
     tc = turn_m / w if nrm > 1e-9 and have_way[i] else 0.0
     pinch = 0.0 < w <= pinch_m
     flood = c * c // 4 if walled[i] else 0
+    side_cost = prm[5]
+    hx, hy = home[i, 0], home[i, 1]
+    hn = np.sqrt(hx * hx + hy * hy)
+    sgn = 1.0 if i % 2 == 0 else -1.0
+    ux, uy = (sgn * hx / hn, sgn * hy / hn) if hn > 1e-9 else (0.0, 0.0)
     ok, n, k, fg = _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, work[0], work[1], work[2], route, shut,
-                             pinch, flood)
+                             pinch, flood, side_cost if hn > 1e-9 else 0.0, ux, uy, prm[6])
     walled[i] = ok and _crosses(g, route, n, pinch)
     forgot[i] += fg
     dirty[i] = False
@@ -826,7 +855,7 @@ def _chart_rows(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_nor
     (:func:`chart_update` takes rows that name a robot twice one after another,
     :func:`_chart_rows_serial`)."""
     grid, cell, way, dirty, anchor, stall, forgot, last_pts, last_ok, have_way = mem[:10]
-    route, shut, route_len, route_at, way_at, plans, walled = mem[10:]
+    route, shut, route_len, route_at, way_at, plans, walled, home = mem[10:]
     mark_prm = _mark_prm(prm)
     T = work[0].shape[0]
     m = len(rows)
@@ -843,7 +872,7 @@ def _chart_rows(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel, b_nor
             r = todo[k]
             i = rows[r]
             _plan_way(i, grid[i], cell[i], q[r, 0], q[r, 1], route, shut, route_len, route_at, way_at, way, dirty,
-                      have_way, forgot, wk, prm[10:15], walled)
+                      have_way, forgot, wk, prm[10:17], walled, home)
             plans[i] += 1
 
 
@@ -853,7 +882,7 @@ def _chart_rows_serial(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel
     """:func:`_chart_rows` one row after another, each robot's plan made before the next row is taken: rows
     that name a robot twice (work set 0)."""
     grid, cell, way, dirty, anchor, stall, forgot, last_pts, last_ok, have_way = mem[:10]
-    route, shut, route_len, route_at, way_at, plans, walled = mem[10:]
+    route, shut, route_len, route_at, way_at, plans, walled, home = mem[10:]
     mark_prm = _mark_prm(prm)
     wk = (work[0][0], work[1][0], work[2][0])
     for r in range(len(rows)):
@@ -861,7 +890,7 @@ def _chart_rows_serial(mem, work, rows, q, cs, sn, has_t, dist_t, crowded, b_rel
         if _chart_row(r, i, mem, q, cs, sn, has_t, dist_t, crowded, b_rel, b_normal, b_danger, b_border, s_rel,
                       s_dir, s_hit, prm, mark_prm):
             _plan_way(i, grid[i], cell[i], q[r, 0], q[r, 1], route, shut, route_len, route_at, way_at, way, dirty,
-                      have_way, forgot, wk, prm[10:15], walled)
+                      have_way, forgot, wk, prm[10:17], walled, home)
             plans[i] += 1
 
 
@@ -871,12 +900,13 @@ def _chart_row(r, i, mem, q, cs, sn, has_t, dist_t, crowded, b_rel, b_normal, b_
     """One robot's step of :func:`_chart_rows` up to its plan: row ``r`` of the step's inputs, robot ``i``
     of the memory. True if it must plan (:func:`_next_way`)."""
     grid, cell, way, dirty, anchor, stall, forgot, last_pts, last_ok, have_way = mem[:10]
-    route, shut, route_len, route_at, way_at, plans, walled = mem[10:]
+    route, shut, route_len, route_at, way_at, plans, walled, home = mem[10:]
     c = grid.shape[1]
     qx, qy = q[r, 0], q[r, 1]
     if cell[i] <= 0 and has_t[r]:  # its first step: a chart centred on its target
         cell[i] = max(prm[0], 2 * (prm[1] * dist_t[r] + prm[2] * prm[3]) / c)
         anchor[i, 0], anchor[i, 1] = qx, qy
+        home[i, 0], home[i, 1] = qx, qy
         dirty[i] = True
     w = cell[i]
     g = grid[i]
@@ -897,7 +927,7 @@ def _prm(params: ChartParams, range_m: float, step_m: float, body_m: float, pass
     return np.array([max(params.min_cell_m, step_m), params.reach, params.range_reach, range_m,
                      params.behind, params.extend, params.link, np.cos(np.radians(5.0)),
                      params.stall_steps, body_m, params.ahead_m, params.wall_cost, params.turn_m, params.inset,
-                     pass_m / params.pinch_cells], np.float64)
+                     pass_m / params.pinch_cells, params.side_cost, params.side_margin], np.float64)
 
 
 def _rot(psi, v):
