@@ -38,6 +38,7 @@ from tin_swarm_env.policies.chart import (
     _way_length,
     chart_update,
     plan,
+    robot_side,
 )
 
 
@@ -888,7 +889,7 @@ def _search_unpruned(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, cross=0.0, pinc
                 if a == sa and b == sb and turn > 0:
                     nd += turn * 0.5 * (1.0 - (da * ha + db * hb) / step)
                 side_cost, ux, uy, margin = side
-                if side_cost > 0 and ux * (nb - tb) - uy * (na - ta) < -margin:  # the side it does not prefer
+                if side_cost > 0 and ux * (nb - tb + 0.5) - uy * (na - ta + 0.5) < -margin:  # the side it does not prefer
                     nd += side_cost * step
                 if _beside_wall(g, na, nb):
                     nd += wall_cost
@@ -1023,35 +1024,55 @@ def test_the_work_sets_follow_numbas_thread_count_up_and_stay_when_it_falls():
         numba.set_num_threads(k)
 
 
-def test_two_robots_of_one_target_split_round_the_two_ends_of_a_wall():
-    """Robots 0 and 1 at the same place west of their target, a wall across their straight way the same
-    length either side (column 12, rows 8..24 about row 16): robot 0 (even) goes round its right end
-    (rows below 8, facing east), robot 1 (odd) round its left end (rows above 24); with no side
-    preference both take one end."""
-    def run(params):
-        mem = ChartMemory.empty(2, 32, 3)
-        mem.cell[:] = 1.0  # (a chart made here, not at its first step: where it started is set here too)
-        d1, q1 = _one((-10.5, 0.5))
-        mem.home[:] = q1
-        d = DecodedObs(**{f.name: (None if getattr(d1, f.name) is None else
-                                   np.concatenate([getattr(d1, f.name)] * 2)) for f in dataclasses.fields(d1)})
-        q = np.concatenate([q1, q1])
-        chart_update(mem, np.array([0, 1]), d, q, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
-        mem.grid[:, 12, 8:25] = WALL
-        mem.dirty[:] = True
-        chart_update(mem, np.array([0, 1]), d, q, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
-        return [[divmod(int(v), 32)[1] for v in mem.route[i, :mem.route_len[i]]] for i in range(2)]
+def _split(params, rows=(6, 7)):
+    """Robots ``rows`` (of 8) at the same place west of their target, a wall across their straight way
+    the same length either side (column 12, rows 8..24 about row 16): the rows of the chart each
+    robot's way passes."""
+    mem = ChartMemory.empty(8, 32, 3)
+    mem.cell[:] = 1.0  # (a chart made here, not at its first step: where it started is set here too)
+    d1, q1 = _one((-10.5, 0.5))
+    mem.home[:] = q1
+    d = DecodedObs(**{f.name: (None if getattr(d1, f.name) is None else np.concatenate([getattr(d1, f.name)] * 2))
+                      for f in dataclasses.fields(d1)})
+    q, rows = np.concatenate([q1, q1]), np.array(rows)
+    chart_update(mem, rows, d, q, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
+    mem.grid[:, 12, 8:25] = WALL
+    mem.dirty[:] = True
+    chart_update(mem, rows, d, q, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
+    return [[divmod(int(v), 32)[1] for v in mem.route[i, :mem.route_len[i]]] for i in rows]
 
-    rows0, rows1 = run(P)
-    assert min(rows0) < 8 and max(rows0) <= 17  # round the right end (facing east: south, low rows)
-    assert max(rows1) > 24 and min(rows1) >= 15  # round the left end
-    same0, same1 = run(dataclasses.replace(P, side_cost=0.0))
-    assert (min(same0) < 8) == (min(same1) < 8)  # no preference: one way for both
+
+def test_robot_side_splits_the_robots_of_every_target_about_evenly():
+    """Robot i goes to target i mod the target count: every such class is split within 4 robots of even
+    (up to 4 targets at 200 robots, 20 robots of one target), where i's parity would give one target of
+    two all one side."""
+    assert [robot_side(i) for i in range(8)] == [1.0, -1.0, 1.0, -1.0, 1.0, 1.0, -1.0, 1.0]
+    for n, targets in ((200, 1), (200, 2), (200, 3), (200, 4), (20, 1), (40, 2)):
+        for t in range(targets):
+            assert abs(sum(robot_side(i) for i in range(t, n, targets))) <= 4
+
+
+def test_two_robots_of_one_target_split_round_the_two_ends_of_a_wall():
+    """Robot 6 (left, :func:`robot_side`) goes round the wall's left end facing east (chart rows above 24),
+    robot 7 round its right end (rows below 8), whatever rows of the step they are in; with no side
+    preference, or one whose margin spans the chart, both take one end."""
+    assert (robot_side(6), robot_side(7)) == (-1.0, 1.0)
+    for rows in ((6, 7), (7, 6)):
+        left, right = _split(P, rows)[::1 if rows[0] == 6 else -1]
+        assert max(left) > 24 and min(left) >= 15
+        assert min(right) < 8 and max(right) <= 17
+    for params in (dataclasses.replace(P, side_cost=0.0), dataclasses.replace(P, side_margin=40.0)):
+        a, b = _split(params)
+        assert (min(a) < 8) == (min(b) < 8)  # no preference: one way for both
 
 
 def test_where_a_robot_started_is_kept_at_its_first_step_and_not_moved_after():
+    """Set with its chart at its first step; kept through moves, stalls (standing still for longer than
+    ``stall_steps``) and replanning."""
     mem = ChartMemory.empty(1, 32, 3)
     _step(mem, (-10.5, 0.5))
     assert mem.home[0].tolist() == [-10.5, 0.5] and mem.cell[0] > 0
     _step(mem, (-6.5, 3.5))
-    assert mem.home[0].tolist() == [-10.5, 0.5]
+    for _ in range(3 * P.stall_steps):
+        _step(mem, (-6.5, 3.5), [(-3.9, 3.5)], [(-1.0, 0.0)])
+    assert mem.plans[0] > 1 and mem.home[0].tolist() == [-10.5, 0.5]

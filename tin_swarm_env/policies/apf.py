@@ -132,8 +132,9 @@ a stall anchor and count. Each step:
 2. *Plan* (A*, 8-connected, no corner cut between two shut cells; a step into a cell beside a shut
    one costs ``wall_cost`` cells more, a first step against the way it was heading up to ``turn_m``
    more, and a step onto the side it does not prefer of the line from where it started to its target
-   ``side_cost`` times its length more: an even robot keeps right, an odd one left, so where a wall
-   blocks the straight way the robots of one target split between its two ends) the least-cost way
+   ``side_cost`` times its length more: robot ``i`` keeps right or left by
+   :func:`~tin_swarm_env.policies.chart.robot_side`, about half of each target's robots each way, so
+   where a wall blocks the straight way the robots of one target split between its two ends) the least-cost way
    over open cells to the target's cell, and keep it. On a fine chart (a
    pass, ``pass_m`` = 3 body diameters, at least ``pinch_cells`` = 2.5 cells wide) an open cell between
    two shut cells on opposite sides counts as a wall: a gap charted one cell wide is much narrower than

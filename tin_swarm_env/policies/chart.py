@@ -20,7 +20,7 @@ from numba import njit, prange
 from ..errors import ArgumentError
 from .base import DecodedObs, check_positive_fields
 
-__all__ = ["ChartMemory", "ChartParams", "ROUTE_PER_CELL", "chart_update", "plan"]
+__all__ = ["ChartMemory", "ChartParams", "ROUTE_PER_CELL", "chart_update", "plan", "robot_side"]
 
 OPEN, WALL, STUCK = 0, 1, 2  # chart cell values: not seen blocked, a dangerous break seen there, a stall there
 
@@ -75,15 +75,20 @@ class ChartParams:
                     a funnel narrower than a few body lengths (``realdem``: 66.9 % arrived at 2.5 m,
                     85.5 % at 0.5 m, 0 falls either way)
     side_cost       robot ``i`` prefers one side of the line from where it started (its first step) to
-                    its target, the right for an even ``i`` and the left for an odd one: a step onto a
-                    cell more than ``side_margin`` cells over on the other side costs ``1 + side_cost``
-                    times its length. Where a wall blocks the straight way, the robots of one target
-                    split between its two ends instead of all trying the end that looks nearer first,
-                    and a robot keeps to its side until that way is ``1 + side_cost`` times as long as
-                    the other; a side found shut is left at once (jacksboro, the target whose robots
-                    meet three dead ends: 71 % of all robots in by 1 800 steps at 0, 83.5 % at 1.0 and
-                    82 % at 2.0; ``docs/figures/apf.md``). 0: no preference
-    side_margin
+                    its target, the right or the left (:func:`robot_side`: the robots of each target
+                    split about evenly): a step onto a cell whose centre lies more than ``side_margin``
+                    cells over on the other side costs ``1 + side_cost`` times its length. Where a wall
+                    blocks the straight way, the robots of one target split between its two ends instead
+                    of all trying the end that looks nearer first; a robot keeps to its side unless the
+                    other way is shorter even with its stretch beyond the margin priced so, and a side
+                    found shut is left at once. jacksboro, 1 800 steps: 71.0-72.5 % of all robots in
+                    without it (``docs/figures/apf_noside.md``), more with it (``docs/figures/apf.md``);
+                    the price is paid where the side a robot does not prefer is the short one and its own
+                    has dead ends (generated forks: 97.7 % without it; at 1.0, 96.6 %, half the robots of a
+                    seed sometimes lost in the pockets of theirs). 0: no preference (the same steps as
+                    before it, bit for bit)
+    side_margin     cells on either side of that line that cost no more (a way that keeps near the line,
+                    as on open ground, pays nothing)
     """
 
     cells: int = 512
@@ -100,7 +105,7 @@ class ChartParams:
     inset: float = 0.5
     pinch_cells: float = 2.5
     break_decay_m: float = 0.5
-    side_cost: float = 1.0
+    side_cost: float = 0.75
     side_margin: float = 2.0
 
     def __post_init__(self):  # the chart is cells x cells bytes per robot: at most MAX_CHART_CELLS a side
@@ -495,7 +500,7 @@ def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cros
                     if c1 == STUCK or c2 == STUCK or (cross <= 0.0 and (c1 != 0 or c2 != 0)):
                         continue
                     cw = c1 == WALL or c2 == WALL
-                far = side_cost * step if side_cost > 0.0 and ux * (nb - tb) - uy * (na - ta) < -margin else 0.0
+                far = side_cost * step if side_cost > 0.0 and _across(ux, uy, na - ta, nb - tb) < -margin else 0.0
                 nd = _step_cost(dist[a, b], step, v == WALL, cross, cw, a == sa and b == sb, turn, da, db, ha, hb, far)
                 if nd >= dist[na, nb]:
                     continue  # no better whatever is added below (wall_cost > 0; rounding is monotone)
@@ -518,6 +523,27 @@ def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cros
                         heap_k, heap_v = _doubled(heap_k, hn), _doubled(heap_v, hn)
                     hn = heap_push(heap_k, heap_v, hn, nd + h(na, nb), na * c + nb)
     return found, (dist[ta, tb] if found else np.inf), touched, nt
+
+
+_GOLDEN = (5.0 ** 0.5 - 1.0) / 2.0  # robot_side's step
+
+
+@njit(cache=True, inline="always")
+def robot_side(i):
+    """Which side of its way robot ``i`` prefers (:attr:`ChartParams.side_cost`): ``1.0`` the right
+    (facing its target), ``-1.0`` the left; the right when the fractional part of ``i`` times
+    ``(sqrt 5 - 1) / 2`` is below one half. A low-discrepancy split: the robots of any one target
+    (robot ``i`` goes to target ``i`` mod the target count) split about evenly between the two sides,
+    whatever the count (within 4 robots of even at 200 robots and up to 4 targets)."""
+    return 1.0 if (i * _GOLDEN) % 1.0 < 0.5 else -1.0
+
+
+@njit(cache=True, inline="always")
+def _across(ux, uy, da, db):
+    """How far (cells) the centre of the cell ``(da, db)`` cells from the target's lies to the left
+    of the unit direction ``(ux, uy)`` (negative: to its right); the target lies at its cell's
+    corner (chart cells are ``[k w, (k + 1) w)`` from it)."""
+    return ux * (db + 0.5) - uy * (da + 0.5)
 
 
 @njit(cache=True, inline="always")
@@ -810,7 +836,7 @@ def _plan_way(i, g, w, qx, qy, m_route, m_shut, m_len, m_at, m_way_at, way, dirt
     side_cost = prm[5]
     hx, hy = home[i, 0], home[i, 1]
     hn = np.sqrt(hx * hx + hy * hy)
-    sgn = 1.0 if i % 2 == 0 else -1.0
+    sgn = robot_side(i if i >= 0 else i + home.shape[0])
     ux, uy = (sgn * hx / hn, sgn * hy / hn) if hn > 1e-9 else (0.0, 0.0)
     ok, n, k, fg = _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, work[0], work[1], work[2], route, shut,
                              pinch, flood, side_cost if hn > 1e-9 else 0.0, ux, uy, prm[6])
@@ -922,8 +948,9 @@ def _chart_row(r, i, mem, q, cs, sn, has_t, dist_t, crowded, b_rel, b_normal, b_
 
 
 def _prm(params: ChartParams, range_m: float, step_m: float, body_m: float, pass_m: float = 0.0) -> np.ndarray:
-    """The constants :func:`_chart_rows` reads, in its order (the last: the widest cell at which
-    gaps one cell wide are left out of the plan, ``ChartParams.pinch_cells``; 0: none)."""
+    """The constants :func:`_chart_rows` reads, in its order (index 14: the widest cell at which gaps
+    one cell wide are left out of the plan, ``ChartParams.pinch_cells``, 0: none; then ``side_cost`` and
+    ``side_margin``)."""
     return np.array([max(params.min_cell_m, step_m), params.reach, params.range_reach, range_m,
                      params.behind, params.extend, params.link, np.cos(np.radians(5.0)),
                      params.stall_steps, body_m, params.ahead_m, params.wall_cost, params.turn_m, params.inset,
