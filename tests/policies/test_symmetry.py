@@ -170,8 +170,10 @@ def test_symmetrize_calls_the_network_once_on_both_images():
 def test_apf_with_its_memory_is_mirror_equivariant_over_an_episode():
     """Why mirrored demonstrations (train --mirror-samples) of the bug search are its own labels: an
     APF fed the mirror images of another's observations acts as its mirror image, memory included.
-    (The chart search, APF's default, plans A* on a grid whose ties break one way: it is mirror
-    equivariant only up to those ties; its mirror gap is measured in docs/figures/apf_mirror.md.)"""
+    (The chart search, APF's default, plans A* on a grid whose ties break one way, and each robot
+    prefers one side of its way (chart.robot_side): a robot's mirror image keeps the same side, not its
+    mirror, so the chart search is mirror equivariant as a swarm, not robot by robot; its mirror gap is
+    measured in docs/figures/apf_mirror.md.)"""
     from tin_swarm_env.policies import APFPolicy
 
     e = _env()

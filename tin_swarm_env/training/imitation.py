@@ -32,8 +32,9 @@ field cache, dropped at each reset), so a label is "what the shortest path says 
 Symmetry with this teacher: the student should be mirror-equivariant by construction
 (``--symmetry mirror``), not fitted on mirrored samples (:meth:`Demos.mirrored`, refused with
 it in ``training/config.py``). A mirrored sample claims that the teacher, in the mirror-image world, would
-act as the mirror image of its action; APF acts from the observation alone and is
-mirror-equivariant on any observation, so that holds for it. GeodesicPolicy's action is a
+act as the mirror image of its action; APF's bug search acts from the observation alone and is
+mirror-equivariant on any observation, so that holds for it (the chart search, the default, only as a
+swarm: each robot keeps to its own side of its way, so the mirrored label is another robot's). GeodesicPolicy's action is a
 function of the map, not of the observation; it is equivariant only between a map and its
 mirror image, and that mirror image is neither a map the robots drove on nor exactly the
 reflection of what the teacher computed (the greedy TIN of a reflected DEM is not the reflected
@@ -131,10 +132,12 @@ class Demos:
     def mirrored(self, layout) -> Demos:
         """The mirror images of these samples (:meth:`~tin_swarm_env.env.observation.ObsLayout.mirror`,
         :func:`~tin_swarm_env.env.observation.mirror_action`): the teacher's action in the
-        mirrored world, since the teacher is mirror-equivariant (APF is, memory included, on
+        mirrored world, since the teacher is mirror-equivariant (APF's bug search is, memory included, on
         random observations and over an episode: tests/policies/test_symmetry.py; a teacher whose
         tie-breaks pick one side would not be, nor is the map-knowing geodesic teacher: module
-        docstring). Returns equal; ``episodes`` 0, so ``demos + demos.mirrored(l)`` keeps the
+        docstring; the chart search, APF's default, is only as a swarm: its A* ties break one way and
+        each robot keeps to its own side of its way, :func:`~tin_swarm_env.policies.chart.robot_side`,
+        so a mirrored label is the label of a robot of the other side). Returns equal; ``episodes`` 0, so ``demos + demos.mirrored(l)`` keeps the
         driving policy's shares and episode count."""
         from ..env.observation import mirror_action
 
