@@ -1076,3 +1076,20 @@ def test_where_a_robot_started_is_kept_at_its_first_step_and_not_moved_after():
     for _ in range(3 * P.stall_steps):
         _step(mem, (-6.5, 3.5), [(-3.9, 3.5)], [(-1.0, 0.0)])
     assert mem.plans[0] > 1 and mem.home[0].tolist() == [-10.5, 0.5]
+
+
+def test_open_ground_costs_no_side_price_whatever_the_distance_to_go():
+    """No wall: both robots of :func:`_split`'s start keep to the straight way's row (16), its cells within
+    ``side_margin`` of the line from where they started, however far that is (the direction is a unit
+    vector: a distance-scaled one would price the row next to the line for one of them)."""
+    for q in ((-10.5, 0.5), (-12.5, 0.5)):
+        mem = ChartMemory.empty(8, 32, 3)
+        mem.cell[:] = 1.0
+        d1, q1 = _one(q)
+        mem.home[:] = q1
+        d = DecodedObs(**{f.name: (None if getattr(d1, f.name) is None else np.concatenate([getattr(d1, f.name)] * 2))
+                          for f in dataclasses.fields(d1)})
+        rows = np.array([6, 7])
+        chart_update(mem, rows, d, np.concatenate([q1, q1]), np.zeros(2), P, 60.0, 1.0, 2.0, np.zeros(2, bool))
+        for i in rows:
+            assert {divmod(int(v), 32)[1] for v in mem.route[i, :mem.route_len[i]]} == {16}
