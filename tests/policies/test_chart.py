@@ -889,7 +889,7 @@ def _search_unpruned(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, cross=0.0, pinc
                 if a == sa and b == sb and turn > 0:
                     nd += turn * 0.5 * (1.0 - (da * ha + db * hb) / step)
                 side_cost, ux, uy, margin = side
-                if side_cost > 0 and ux * (nb - tb + 0.5) - uy * (na - ta + 0.5) < -margin:  # the side it does not prefer
+                if side_cost > 0 and ux * (nb - tb + 0.5) - uy * (na - ta + 0.5) < -margin:  # the side not preferred
                     nd += side_cost * step
                 if _beside_wall(g, na, nb):
                     nd += wall_cost
@@ -1024,21 +1024,22 @@ def test_the_work_sets_follow_numbas_thread_count_up_and_stay_when_it_falls():
         numba.set_num_threads(k)
 
 
-def _split(params, rows=(6, 7)):
-    """Robots ``rows`` (of 8) at the same place west of their target, a wall across their straight way
-    the same length either side (column 12, rows 8..24 about row 16): the rows of the chart each
-    robot's way passes."""
+def _split(params, rows=(6, 7), q=(-10.5, 0.5), wall=True):
+    """Robots ``rows`` (of 8) at ``q``, west of their target, a wall across their straight way the same
+    length either side (column 12, rows 8..24 about row 16; ``wall=False``: none): the rows of the chart
+    each robot's way passes."""
     mem = ChartMemory.empty(8, 32, 3)
     mem.cell[:] = 1.0  # (a chart made here, not at its first step: where it started is set here too)
-    d1, q1 = _one((-10.5, 0.5))
+    d1, q1 = _one(q)
     mem.home[:] = q1
     d = DecodedObs(**{f.name: (None if getattr(d1, f.name) is None else np.concatenate([getattr(d1, f.name)] * 2))
                       for f in dataclasses.fields(d1)})
-    q, rows = np.concatenate([q1, q1]), np.array(rows)
-    chart_update(mem, rows, d, q, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
-    mem.grid[:, 12, 8:25] = WALL
-    mem.dirty[:] = True
-    chart_update(mem, rows, d, q, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
+    qq, rows = np.concatenate([q1, q1]), np.array(rows)
+    chart_update(mem, rows, d, qq, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
+    if wall:
+        mem.grid[:, 12, 8:25] = WALL
+        mem.dirty[:] = True
+        chart_update(mem, rows, d, qq, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
     return [[divmod(int(v), 32)[1] for v in mem.route[i, :mem.route_len[i]]] for i in rows]
 
 
@@ -1083,13 +1084,4 @@ def test_open_ground_costs_no_side_price_whatever_the_distance_to_go():
     ``side_margin`` of the line from where they started, however far that is (the direction is a unit
     vector: a distance-scaled one would price the row next to the line for one of them)."""
     for q in ((-10.5, 0.5), (-12.5, 0.5)):
-        mem = ChartMemory.empty(8, 32, 3)
-        mem.cell[:] = 1.0
-        d1, q1 = _one(q)
-        mem.home[:] = q1
-        d = DecodedObs(**{f.name: (None if getattr(d1, f.name) is None else np.concatenate([getattr(d1, f.name)] * 2))
-                          for f in dataclasses.fields(d1)})
-        rows = np.array([6, 7])
-        chart_update(mem, rows, d, np.concatenate([q1, q1]), np.zeros(2), P, 60.0, 1.0, 2.0, np.zeros(2, bool))
-        for i in rows:
-            assert {divmod(int(v), 32)[1] for v in mem.route[i, :mem.route_len[i]]} == {16}
+        assert [set(r) for r in _split(P, q=q, wall=False)] == [{16}, {16}]

@@ -84,9 +84,9 @@ class ChartParams:
                     found shut is left at once. jacksboro, 1 800 steps: 71.0-72.5 % of all robots in
                     without it (``docs/figures/apf_noside.md``), 82.5 % with it (``docs/figures/apf.md``);
                     the price is paid where the side a robot does not prefer is the short one and its own
-                    has dead ends (generated forks: 97.7 % without it, 97.0 % with it; at 1.0, 96.6 %, half the robots of a
-                    seed sometimes lost in the pockets of theirs). 0: no preference (the same steps as
-                    before it, bit for bit)
+                    has dead ends (generated forks: 97.7 % without it, 97.0 % with it; at 1.0, 96.6 %,
+                    half the robots of a seed sometimes lost in the pockets of theirs). 0: no preference
+                    (the same steps as before it, bit for bit)
     side_margin     cells on either side of that line that cost no more (a way that keeps near the line,
                     as on open ground, pays nothing)
     """

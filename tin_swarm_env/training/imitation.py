@@ -34,8 +34,8 @@ Symmetry with this teacher: the student should be mirror-equivariant by construc
 it in ``training/config.py``). A mirrored sample claims that the teacher, in the mirror-image world, would
 act as the mirror image of its action; APF's bug search acts from the observation alone and is
 mirror-equivariant on any observation, so that holds for it (the chart search, the default, only as a
-swarm: each robot keeps to its own side of its way, so the mirrored label is another robot's). GeodesicPolicy's action is a
-function of the map, not of the observation; it is equivariant only between a map and its
+swarm: each robot keeps to its own side of its way, so the mirrored label is another robot's).
+GeodesicPolicy's action is a function of the map, not of the observation; it is equivariant only between a map and its
 mirror image, and that mirror image is neither a map the robots drove on nor exactly the
 reflection of what the teacher computed (the greedy TIN of a reflected DEM is not the reflected
 TIN, and equal-length paths tie differently), so a mirrored label is a claim about a world nobody
@@ -137,8 +137,8 @@ class Demos:
         tie-breaks pick one side would not be, nor is the map-knowing geodesic teacher: module
         docstring; the chart search, APF's default, is only as a swarm: its A* ties break one way and
         each robot keeps to its own side of its way, :func:`~tin_swarm_env.policies.chart.robot_side`,
-        so a mirrored label is the label of a robot of the other side). Returns equal; ``episodes`` 0, so ``demos + demos.mirrored(l)`` keeps the
-        driving policy's shares and episode count."""
+        so a mirrored label is the label of a robot of the other side). Returns equal; ``episodes`` 0,
+        so ``demos + demos.mirrored(l)`` keeps the driving policy's shares and episode count."""
         from ..env.observation import mirror_action
 
         seqs = tuple(Sequence(layout.mirror(q.obs), mirror_action(q.labels), q.keep, q.live,
