@@ -456,7 +456,7 @@ def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cros
     shut cells on opposite sides (:func:`_pinched`) counts as a wall."""
     c = g.shape[0]
     INF = 1e30
-    cap = 64 * c + 64  # the heap grows by doubling (a cell is pushed at most 8 times)
+    cap = 4 * c + 64  # small at first, then doubled as it fills: one search often touches few cells
     heap_k = np.empty(cap)
     heap_v = np.empty(cap, np.int64)
     touched = np.empty(cap, np.int64)
@@ -704,7 +704,7 @@ def _walled_in(g, sa, sb, ta, tb, pinch, budget, seen):
         return False
     if g[ta, tb] != OPEN:
         return True
-    queue = np.empty(min(budget, 64 * c + 64), np.int64)
+    queue = np.empty(min(budget, 4 * c + 64), np.int64)
     queue[0] = ta * c + tb
     seen[ta, tb] = True
     head, nq = 0, 1
