@@ -1,4 +1,4 @@
-"""The default APF and the map-knowing reference on terrain shapes the project has not seen: nine DEMs
+"""The default APF and the map-knowing reference on terrain shapes the project has not seen: twelve DEMs
 built here (numpy arrays written to a temporary ``.npz``, played through ``scenario_from_dict`` with
 ``[terrain] source = "dem"``), each as built and in its north-south mirror image
 (:func:`~tin_swarm_env.scenario.mirror.mirror_scenario`). Writes ``docs/figures/apf_unseen.md``:
@@ -31,6 +31,12 @@ spiral         cliff     a two-turn spiral of 8 m walls around the target, its m
 switchback     cliff     a 12 m escarpment; the way up a two-leg switchback ramp against its face
                          (leg over leg: a drop between them, and off the ramp's open side)
 nested_u       steep     two nested U pockets of 12 m ridges, both opening toward the robots
+comb           cliff     a 10 m wall across the map, its one gap at the south edge; two spurs on its
+                         face make a 30 m deep pocket on the straight line
+funnel         cliff     a V of 10 m walls opening toward the robots, a 6 m gap at its apex, a wall
+                         behind the gap to go round
+l_ridges       steep     a 12 m ridge across the way with both ends open; past its south end a
+                         second ridge runs east to the map's edge, so only the north end leads on
 ============== ========= ====================================================================
 
 Episode length: GeodesicPolicy (knows the map) runs first with ``--cap`` steps; each shape's horizon
@@ -188,8 +194,26 @@ def nested_u(X, Y):
                       _steep_ridge(_poly_dist(X, Y, inner), 12.0)), (262.0, 150.0)
 
 
+def comb(X, Y):
+    wall = _poly_dist(X, Y, [(150.0, 40.0), (150.0, 330.0)])  # the gap: south of y 37, at the map's edge
+    spurs = np.minimum(_seg_dist(X, Y, (150.0, 120.0), (120.0, 120.0)), _seg_dist(X, Y, (150.0, 180.0), (120.0, 180.0)))
+    return _cliff_wall(np.minimum(wall, spurs), 3.0, 10.0), (250.0, 150.0)
+
+
+def funnel(X, Y):
+    v = np.minimum(_seg_dist(X, Y, (90.0, 60.0), (172.0, 140.0)), _seg_dist(X, Y, (90.0, 240.0), (172.0, 152.0)))
+    block = _seg_dist(X, Y, (195.0, 120.0), (195.0, 180.0))  # behind the 6 m gap at the V's apex
+    return _cliff_wall(np.minimum(v, block), 3.0, 10.0), (250.0, 150.0)
+
+
+def l_ridges(X, Y):
+    z = np.maximum(_steep_ridge(_seg_dist(X, Y, (130.0, 40.0), (130.0, 260.0)), 12.0),
+                   _steep_ridge(_seg_dist(X, Y, (130.0, 100.0), (330.0, 100.0)), 12.0))
+    return z, (250.0, 150.0)  # round the north end; the south end leads under the east ridge, closed
+
+
 SHAPES = {f.__name__: f for f in (u_pocket, s_walls, crater, diag_trench, pillars, ridge_saddle, spiral, switchback,
-                                  nested_u)}
+                                  nested_u, comb, funnel, l_ridges)}
 
 
 def write_dem(name: str, folder) -> Path:
@@ -223,7 +247,8 @@ def shape_config(name: str, folder, image: str = "", robots: int = 20, max_cycle
 CLIFF_DEG = 60.0  # steeper: a cliff (the generators' cliff_min_deg for a 30 deg robot); between max_slope_deg
 # and this: hillside too steep to drive
 GROUND = {"u_pocket": "cliff", "s_walls": "hillside", "crater": "both", "diag_trench": "cliff", "pillars": "cliff",
-          "ridge_saddle": "hillside", "spiral": "cliff", "switchback": "cliff", "nested_u": "hillside"}
+          "ridge_saddle": "hillside", "spiral": "cliff", "switchback": "cliff", "nested_u": "hillside",
+          "comb": "cliff", "funnel": "cliff", "l_ridges": "hillside"}
 
 
 def solvability(cfg, samples: int = 400) -> dict:
