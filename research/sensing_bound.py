@@ -336,29 +336,38 @@ def _jacksboro_env(k_breaks: int | None = None, k_scan: int = 0):
     return tse.parallel_env(scenario=_observing(cfg, k_breaks, k_scan))
 
 
-def ideal_episode(job) -> list[tuple[int, float, int]]:
-    """``job``: (terrain, seed, sensing, k, res, window, part, parts): the robots ``part::parts`` of the
-    episode's robots run. (steps, geodesic steps, forgot) per robot run."""
-    terrain, seed, sensing, k, res, window, part, parts = job
-    env = _jacksboro_env() if terrain == "jacksboro" else _generated_env(terrain)
-    env.reset(seed=seed)
+def ideal_robots(env, rows, sensing: str, k: int, res: float, window=None) -> list[tuple[int, float, int]]:
+    """The idealised robot run from the spawn point of each robot ``rows`` of ``env``'s episode (reset
+    already) to its target on a raster of ``res`` m (over ``window``, default the TIN's bounds), given
+    the episode's ``max_cycles``: (arrival step or ``max_cycles + 1``, geodesic steps at top speed,
+    times it forgot) per robot."""
     b = env.unwrapped
     ras = raster(env, res, window)
     p = b.world.params
     step_m = p.robot.max_speed_mps * p.dt_s
     st = b.world_state
-    pos = st.positions[:, :2] - [ras.x0, ras.y0]
+    pos = np.asarray(st.positions)[:, :2] - [ras.x0, ras.y0]
     tg = np.asarray(st.targets.positions)[:, :2] - [ras.x0, ras.y0]
     asg = b.target_assignment
     geo = b.distance_to_go() / step_m
     arrive = b.config.targets.arrival_radius_m
-    rows = np.nonzero(asg == HARD)[0] if terrain == "jacksboro" else np.nonzero(asg >= 0)[0]
     out = []
-    for i in rows[part::parts]:
+    for i in rows:
         n, forgot = drive(ras, pos[i], tg[asg[i]], sensing=sensing, k=k, range_m=p.sensor.range_m, step_m=step_m,
                           arrive_m=arrive, max_steps=b.max_cycles)
         out.append((n, float(geo[i]), forgot))
     return out
+
+
+def ideal_episode(job) -> list[tuple[int, float, int]]:
+    """``job``: (terrain, seed, sensing, k, res, window, part, parts): the robots ``part::parts`` of the
+    episode's robots run. (steps, geodesic steps, forgot) per robot run (:func:`ideal_robots`)."""
+    terrain, seed, sensing, k, res, window, part, parts = job
+    env = _jacksboro_env() if terrain == "jacksboro" else _generated_env(terrain)
+    env.reset(seed=seed)
+    asg = env.unwrapped.target_assignment
+    rows = np.nonzero(asg == HARD)[0] if terrain == "jacksboro" else np.nonzero(asg >= 0)[0]
+    return ideal_robots(env, rows[part::parts], sensing, k, res, window)
 
 
 def chart_episode(job) -> list[tuple[int, float, int]]:

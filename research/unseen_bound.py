@@ -1,6 +1,6 @@
 """What the unseen shapes' horizon asks of a robot that does not know the map: the idealised map-less
 robot of ``research/sensing_bound.py`` (a point that plans the shortest way under the free-space
-assumption, never forgets, never turns, meets no other robot and drives at top speed) on the nine
+assumption, never forgets, never turns, meets no other robot and drives at top speed) on the
 shapes of ``bench/apf_unseen.py``, both images, beside the episode length that bench scores at
 (twice the map-knowing reference's median steps) and APF's own rows read from its records
 (``docs/figures/apf_unseen_parts/<shape>.json``). Writes ``research/unseen_bound.md``:
@@ -46,23 +46,16 @@ IMAGES = ("", "ns")
 
 
 def ideal_steps(env, seed: int, sensing: str, cap: int) -> tuple[np.ndarray, np.ndarray]:
-    """The idealised robot run from every robot's spawn point of ``env``'s episode ``seed`` to its
-    target: ``(steps, geodesic)`` per robot, ``steps`` its arrival step (``cap + 1``: not by ``cap``),
+    """The idealised robot (:func:`sensing_bound.ideal_robots`, 1 m raster, the layout's scan beams) run
+    from every robot's spawn point of ``env``'s episode ``seed`` (``env``'s ``max_cycles`` = ``cap``) to
+    its target: ``(steps, geodesic)`` per robot, ``steps`` its arrival step (``cap + 1``: not by ``cap``),
     ``geodesic`` the shortest drivable way in steps at top speed."""
     env.reset(seed=seed)
     b = env.unwrapped
-    ras = BOUND.raster(env, RASTER_M)
-    p = b.world.params
-    step_m = p.robot.max_speed_mps * p.dt_s
-    st = b.world_state
-    pos = np.asarray(st.positions)[:, :2] - [ras.x0, ras.y0]
-    tg = np.asarray(st.targets.positions)[:, :2] - [ras.x0, ras.y0]
-    asg = b.target_assignment
-    steps = np.array([BOUND.drive(ras, pos[i], tg[asg[i]], sensing=sensing, k=b.layout.k_scan,
-                                  range_m=p.sensor.range_m, step_m=step_m,
-                                  arrive_m=b.config.targets.arrival_radius_m, max_steps=cap)[0]
-                      for i in range(len(pos))])
-    return steps, b.distance_to_go() / step_m
+    if b.max_cycles != cap:
+        raise ValueError(f"ideal_steps: the env's max_cycles is {b.max_cycles}, not cap = {cap}")
+    res = BOUND.ideal_robots(env, range(b.n), sensing, b.layout.k_scan, RASTER_M)
+    return np.array([r[0] for r in res]), np.array([r[1] for r in res])
 
 
 def share_by(steps, horizon: int) -> float:
