@@ -32,6 +32,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
+import shlex
 import subprocess
 import sys
 import time
@@ -319,7 +320,7 @@ def _header(argv) -> str:
                                 text=True, check=False).stdout.strip() or "?"
     except OSError:
         commit = "?"
-    cmd = " ".join(["python bench/apf.py", *argv])
+    cmd = shlex.join(["python", "bench/apf.py", *argv])  # quoted: the line can be run as it stands
     return (f"Measured with `{cmd}` at commit {commit}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
             f"load average {_load()} at the start ({os.cpu_count()} cores, shared).")
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
+import shlex
 import subprocess
 import sys
 import time
@@ -97,7 +98,7 @@ def main(argv=None) -> int:
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
                             text=True, check=False).stdout.strip() or "?"
     load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
-    cmd = " ".join(["python bench/apf_mirror.py", *argv])
+    cmd = shlex.join(["python", "bench/apf_mirror.py", *argv])  # quoted: the line can be run as it stands
     lines = [f"Measured with `{cmd}`" +
              f" at commit {commit}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load average {load} at "
              f"the start ({os.cpu_count()} cores).", "",

@@ -58,6 +58,7 @@ import importlib.util
 import json
 import math
 import os
+import shlex
 import subprocess
 import sys
 import tempfile
@@ -474,7 +475,7 @@ def main(argv=None) -> int:
         p.error(f"--only: unknown TIN method(s) {bad} after '@'; choose from {','.join(METHODS)}")
     out = args.out if args.out is not None else (None if args.quick or (args.parts and args.only) else
                                                  str(ROOT / "docs" / "figures" / "apf_unseen.md"))
-    cmd = " ".join(["python bench/apf_unseen.py", *argv])
+    cmd = shlex.join(["python", "bench/apf_unseen.py", *argv])  # quoted: the line can be run as it stands
     lines = [f"Written by `{cmd}` at commit {_commit()}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
              f"load average {apf._load()} at the start ({os.cpu_count()} cores, shared); each shape's own run is "
              "listed at the end.", ""]

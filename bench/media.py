@@ -13,6 +13,7 @@ issue's bound: the GIF <= 10 MB (``tests/apps/test_media.py`` checks a size mode
 from __future__ import annotations
 
 import os
+import shlex
 import re
 import subprocess
 import sys
@@ -34,7 +35,7 @@ def _header(argv) -> str:
     except (OSError, subprocess.CalledProcessError):
         commit = "?"
     load = " / ".join(f"{x:.2f}" for x in os.getloadavg())
-    cmd = " ".join(["python bench/media.py", *argv])
+    cmd = shlex.join(["python", "bench/media.py", *argv])  # quoted: the line can be run as it stands
     return (f"Measured with `{cmd}` at commit {commit}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
             f"load average {load} at the start ({os.cpu_count()} cores, shared).")
 

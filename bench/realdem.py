@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
+import shlex
 import subprocess
 import sys
 import time
@@ -108,7 +109,7 @@ def _header(argv) -> str:
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
                             check=False).stdout.strip() or "?"
     load = " / ".join(f"{v:.2f}" for v in os.getloadavg())
-    cmd = " ".join(["python bench/realdem.py", *argv])
+    cmd = shlex.join(["python", "bench/realdem.py", *argv])  # quoted: the line can be run as it stands
     return (f"Measured with `{cmd}` at commit {commit}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
             f"load average {load} at the start (2 cores, shared).")
 
