@@ -3,6 +3,7 @@ the generated fork family (>= 97% arrived) and jacksboro by 1 800 steps (>= 80%)
 
     python research/side_tradeoff.py --jobs 2      # about 20 min on two cores; writes research/side_tradeoff.md
     [--side-costs 0,0.6,0.75] [--fork-sets 0,100,200] [--seeds 50] [--jacksboro-seeds 5] [--out FILE]
+    [--side-leave 60]    # every run with ChartParams.side_leave_m = 60 (a robot leaves its side at a dead end)
 
 For each ``side_cost`` (every other chart constant at its default): fork, 20 robots on each of ``--seeds``
 held-out seeds from ``EVAL_SEED0 + offset`` for each offset of ``--fork-sets`` (the held-out sets of
@@ -56,15 +57,15 @@ def _apf_bench():
 
 
 def episode(job) -> tuple:
-    """``job``: (terrain, side_cost, seed, robots, max_cycles): ``(job, robots, arrived by each step of
-    JACKSBORO_STEPS (fork: by its episode's end, twice), fell)`` of one APF episode. ``robots``/
+    """``job``: (terrain, side_cost, seed, robots, max_cycles, side_leave_m): ``(job, robots, arrived by each
+    step of JACKSBORO_STEPS (fork: by its episode's end, twice), fell)`` of one APF episode. ``robots``/
     ``max_cycles`` None: the scenario's own."""
-    terrain, side_cost, seed, robots, max_cycles = job
+    terrain, side_cost, seed, robots, max_cycles, side_leave = job
     if terrain == "jacksboro":
         env = tse.parallel_env(scenario="jacksboro", n_robots=robots, max_cycles=max_cycles)
     else:
         env = _apf_bench().generated_family(terrain, robots, max_cycles)
-    out = rollout(env, APFPolicy(env, chart=ChartParams(side_cost=side_cost)), seed)
+    out = rollout(env, APFPolicy(env, chart=ChartParams(side_cost=side_cost, side_leave_m=side_leave)), seed)
     by = arrived_by(out, JACKSBORO_STEPS) if terrain == "jacksboro" else [out.count(Reason.ARRIVED)] * 2
     return job, out.n_robots, by, out.count(Reason.FELL)
 
@@ -90,12 +91,14 @@ def ideal_row(seed: int, res: float = 1.0) -> str:
             f"| {b.max_cycles} |")
 
 
-def jobs_for(side_costs, fork_sets, seeds, jacksboro_seeds, robots=None, cycles=None) -> list[tuple]:
-    """Every episode of the study (``robots``/``cycles``: override the scenarios' own, for tests)."""
+def jobs_for(side_costs, fork_sets, seeds, jacksboro_seeds, robots=None, cycles=None, side_leave=0.0) -> list:
+    """Every episode of the study (``robots``/``cycles``: override the scenarios' own, for tests;
+    ``side_leave``: ``ChartParams.side_leave_m`` of every run)."""
     out = []
     for sc in side_costs:
-        out += [("fork", sc, EVAL_SEED0 + off + s, robots, cycles) for off in fork_sets for s in range(seeds)]
-        out += [("jacksboro", sc, s, robots, cycles or JACKSBORO_STEPS[-1]) for s in range(jacksboro_seeds)]
+        out += [("fork", sc, EVAL_SEED0 + off + s, robots, cycles, side_leave) for off in fork_sets
+                for s in range(seeds)]
+        out += [("jacksboro", sc, s, robots, cycles or JACKSBORO_STEPS[-1], side_leave) for s in range(jacksboro_seeds)]
     return out
 
 
@@ -161,6 +164,8 @@ def main(argv=None) -> list[str]:
     p.add_argument("--seeds", type=_at_least_1, default=50, help="fork seeds per set")
     p.add_argument("--jacksboro-seeds", type=_at_least_1, default=5)
     p.add_argument("--jobs", type=_at_least_1, default=1, help="processes (results do not depend on it)")
+    p.add_argument("--side-leave", type=float, default=0.0, metavar="M",
+                   help="ChartParams.side_leave_m of every run (default 0: a robot keeps its side)")
     p.add_argument("--ideal-seeds", type=_offsets, default=None, metavar="S,S,...",
                    help="instead of the study: the idealised map-less robot on these fork seeds (--out then\n"
                         "defaults to research/side_tradeoff_ideal.md)")
@@ -178,7 +183,9 @@ def main(argv=None) -> list[str]:
                     "|---:|---:|---:|---:|---:|", *pool.map(ideal_row, args.ideal_seeds, chunksize=1)]
     else:
         title = "The side preference's trade: fork against jacksboro"
-        jobs = jobs_for(args.side_costs, args.fork_sets, args.seeds, args.jacksboro_seeds)
+        if not (np.isfinite(args.side_leave) and args.side_leave >= 0):
+            p.error(f"--side-leave: expected a finite number >= 0, got {args.side_leave}")
+        jobs = jobs_for(args.side_costs, args.fork_sets, args.seeds, args.jacksboro_seeds, side_leave=args.side_leave)
         with Pool(args.jobs) as pool:
             body = table(pool.map(episode, jobs, chunksize=1), args.side_costs, args.fork_sets, args.seeds)
     cmd = shlex.join(["python", "research/side_tradeoff.py", *(sys.argv[1:] if argv is None else argv)])

@@ -21,7 +21,8 @@ ZERO_OK = {("FieldParams", k) for k in ("robot_gain", "target_gain", "break_gain
     ("BatteryParams", k) for k in ("idle_w", "sensing_w", "drive_j_per_m", "climb_j_per_m")} | {
     ("SensorParams", "height_m"), ("WorldParams", "entity_height_m"), ("WorldParams", "entity_speed_mps"),
     ("WorldParams", "entity_turn_sd_deg"), ("WorldParams", "break_angle_deg"), ("ChartParams", "inset"),
-    ("ChartParams", "side_cost"), ("ChartParams", "side_margin")}  # (0: no side preference; no free band)
+    ("ChartParams", "side_cost"), ("ChartParams", "side_margin"),
+    ("ChartParams", "side_leave_m")}  # (0: no side preference; no free band; a side kept)
 HUGE = {("ChartParams", "cells"): 10 ** 6}  # 10**6 cells a side: a 1 TB chart per robot
 
 

@@ -24,6 +24,7 @@ def test_jobs_cover_every_side_cost_fork_set_and_jacksboro_seed(st):
     assert fork == [EVAL_SEED0 + o + s for o in (0, 100) for s in range(3)]
     assert sorted(j[2] for j in jobs if j[0] == "jacksboro" and j[1] == 0.0) == [0, 1]
     assert all(j[4] == st.JACKSBORO_STEPS[-1] for j in jobs if j[0] == "jacksboro")
+    assert {j[5] for j in jobs} == {0.0} and {j[5] for j in st.jobs_for([0.5], [0], 1, 1, side_leave=60.0)} == {60.0}
 
 
 def test_table_adds_the_episodes_up(st):
@@ -57,12 +58,12 @@ def test_arrived_by_counts_a_robot_arriving_on_the_checkpoint_step(st):
 
 def test_one_short_jacksboro_episode_counts_at_both_checkpoints(st, monkeypatch):
     monkeypatch.setattr(st, "JACKSBORO_STEPS", (3, 6))
-    job, n, by, fell = st.episode(("jacksboro", 0.75, 0, 4, 6))
+    job, n, by, fell = st.episode(("jacksboro", 0.75, 0, 4, 6, 0.0))
     assert n == 4 and 0 <= by[0] <= by[1] <= 4 and fell == 0
 
 
 def test_one_short_episode_runs(st):
-    job, n, by, fell = st.episode(("fork", 0.75, EVAL_SEED0, 4, 60))
+    job, n, by, fell = st.episode(("fork", 0.75, EVAL_SEED0, 4, 60, 30.0))
     assert n == 4 and 0 <= by[0] == by[1] <= 4 and 0 <= fell <= 4
 
 

@@ -195,7 +195,7 @@ def test_chart_params_refuse_non_positive_values_by_name(key):
         ChartParams(**{key: 0})
 
 
-@pytest.mark.parametrize("key", ["side_cost", "side_margin"])
+@pytest.mark.parametrize("key", ["side_cost", "side_margin", "side_leave_m"])
 def test_chart_params_take_no_side_preference_and_refuse_a_negative_one_by_name(key):
     assert getattr(ChartParams(**{key: 0.0}), key) == 0.0
     for bad in (-1.0, math.nan):
@@ -1085,3 +1085,57 @@ def test_open_ground_costs_no_side_price_whatever_the_distance_to_go():
     vector: a distance-scaled one would price the row next to the line for one of them)."""
     for q in ((-10.5, 0.5), (-12.5, 0.5)):
         assert [set(r) for r in _split(P, q=q, wall=False)] == [{16}, {16}]
+
+
+def _homes_after_wall(params):
+    """Robots 6 and 7 of :func:`_split` (left and right): where each started, as kept after the wall
+    across their straight way made them plan again, and each one's route cells before and after."""
+    mem = ChartMemory.empty(8, 32, 3)
+    mem.cell[:] = 1.0
+    d1, q1 = _one((-10.5, 0.5))
+    mem.home[:] = q1
+    d = DecodedObs(**{f.name: (None if getattr(d1, f.name) is None else np.concatenate([getattr(d1, f.name)] * 2))
+                      for f in dataclasses.fields(d1)})
+    qq, rows = np.concatenate([q1, q1]), np.array([6, 7])
+    chart_update(mem, rows, d, qq, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
+    before = mem.route_len[rows] - mem.route_at[rows]
+    mem.grid[:, 12, 8:25] = WALL
+    mem.dirty[:] = True
+    chart_update(mem, rows, d, qq, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
+    return mem.home[rows].copy(), before, mem.route_len[rows].copy()
+
+
+def test_a_robot_leaves_its_side_when_its_plan_grows_by_more_than_side_leave_m():
+    """The wall makes each robot's way round one end longer than the straight way it had: by more than
+    ``side_leave_m`` (cells 1 m wide) its start is forgotten (no side from then on), by less it is kept;
+    at 0 (the default) always kept."""
+    _, before, after = _homes_after_wall(P)
+    grow = after - before
+    assert (grow > 2).all()  # the plan did grow (both ways round are longer than the straight one)
+    for leave, kept in ((0.0, True), (float(grow.min()) - 1.0, False), (float(grow.max()) + 1.0, True)):
+        home, _, _ = _homes_after_wall(dataclasses.replace(P, side_leave_m=leave))
+        assert (np.abs(home).sum(axis=1) > 0).tolist() == [kept, kept], (leave, grow, home)
+
+
+def test_a_robot_that_left_its_side_plans_as_if_it_had_none():
+    """Robots 6 and 7 leave their sides on the plan the wall forces (each round its own end); made to plan
+    again from there (no turn price to speak of: ``turn_m`` 1e-9, so that the way each had does not hold
+    it), both take the shorter end, as robots with no side preference do."""
+    params = dataclasses.replace(P, side_leave_m=1.0, turn_m=1e-9)
+    mem = ChartMemory.empty(8, 32, 3)
+    mem.cell[:] = 1.0
+    d1, q1 = _one((-10.5, 0.5))
+    mem.home[:] = q1
+    d = DecodedObs(**{f.name: (None if getattr(d1, f.name) is None else np.concatenate([getattr(d1, f.name)] * 2))
+                      for f in dataclasses.fields(d1)})
+    qq, rows = np.concatenate([q1, q1]), np.array([6, 7])
+    ends = []
+    for wall in (False, True, True):
+        if wall:  # one row longer south (row 7) than north (24): the north end is the shorter way
+            mem.grid[:, 12, 7:25] = WALL
+        mem.dirty[:] = True
+        chart_update(mem, rows, d, qq, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
+        ends.append([min(divmod(int(v), 32)[1] for v in mem.route[i, :mem.route_len[i]]) < 8 for i in rows])
+    assert ends[1][0] != ends[1][1]  # the plan that grew: each round its own side's end
+    assert (mem.home[rows] == 0).all()
+    assert ends[2] == [False, False]  # the next: no side, both round the shorter (north) end
