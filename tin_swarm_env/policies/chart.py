@@ -92,10 +92,11 @@ class ChartParams:
     side_leave_m    a robot whose new plan is longer than what was left of its last by more than this
                     (its side's way led into a dead end, or round a wall longer than it looked) has no side
                     from then on. 0 (the default): it keeps its side. Not the default because it does not
-                    meet both of the bars it trades (``research/side_tradeoff.md``): at 60 m generated forks
-                    bring 97.4 % in over three held-out sets (96.6 % without it), but jacksboro by 1 800
-                    steps falls to 75-77 % (82.5 % without it) at 60-300 m: there a plan grows as much on
-                    the right side as on the wrong one
+                    meet both of the bars it trades (``research/side_tradeoff_leave60.md``, ``_leave300.md``):
+                    at 60 m generated forks bring 97.4 % in over three held-out sets (96.6 % without it;
+                    94.8 % on one of them), but jacksboro by 1 800 steps falls to 72.5-77.0 % (82.5 %
+                    without it); at 300 m forks are as without it and jacksboro is at 73.5-78.5 %: there a
+                    plan grows as much on the right side as on the wrong one
     """
 
     cells: int = 512
