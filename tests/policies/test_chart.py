@@ -1069,7 +1069,7 @@ def test_two_robots_of_one_target_split_round_the_two_ends_of_a_wall():
 
 def test_where_a_robot_started_is_kept_at_its_first_step_and_not_moved_after():
     """Set with its chart at its first step; kept through moves, stalls (standing still for longer than
-    ``stall_steps``) and replanning."""
+    ``stall_steps``) and replanning (at ``side_leave_m`` 0, the default: it keeps its side)."""
     mem = ChartMemory.empty(1, 32, 3)
     _step(mem, (-10.5, 0.5))
     assert mem.home[0].tolist() == [-10.5, 0.5] and mem.cell[0] > 0
@@ -1087,9 +1087,10 @@ def test_open_ground_costs_no_side_price_whatever_the_distance_to_go():
         assert [set(r) for r in _split(P, q=q, wall=False)] == [{16}, {16}]
 
 
-def _homes_after_wall(params):
+def _homes_after_wall(params, q2=(-10.5, 0.5)):
     """Robots 6 and 7 of :func:`_split` (left and right): where each started, as kept after the wall
-    across their straight way made them plan again, and each one's route cells before and after."""
+    across their straight way made them plan again at ``q2``, the cells left then of the way each had
+    (from the cell of ``q2`` on it) and the length of its new way."""
     mem = ChartMemory.empty(8, 32, 3)
     mem.cell[:] = 1.0
     d1, q1 = _one((-10.5, 0.5))
@@ -1098,10 +1099,18 @@ def _homes_after_wall(params):
                       for f in dataclasses.fields(d1)})
     qq, rows = np.concatenate([q1, q1]), np.array([6, 7])
     chart_update(mem, rows, d, qq, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
-    before = mem.route_len[rows] - mem.route_at[rows]
+    at = int(np.floor(q2[0])) + 16, int(np.floor(q2[1])) + 16  # q2's cell (1 m cells, the target at (16, 16))
+    before = np.array([mem.route_len[i] - list(mem.route[i, :mem.route_len[i]]).index(at[0] * 32 + at[1])
+                       for i in rows])
+    d2, q2_ = _one(q2)
+    d2 = DecodedObs(**{f.name: (None if getattr(d2, f.name) is None else np.concatenate([getattr(d2, f.name)] * 2))
+                       for f in dataclasses.fields(d2)})
+    qq2 = np.concatenate([q2_, q2_])
+    chart_update(mem, rows, d2, qq2, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))  # on along its way
+    assert (mem.route_len[rows] - mem.route_at[rows] == before).all()  # where it is on it, as counted here
     mem.grid[:, 12, 8:25] = WALL
     mem.dirty[:] = True
-    chart_update(mem, rows, d, qq, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
+    chart_update(mem, rows, d2, qq2, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
     return mem.home[rows].copy(), before, mem.route_len[rows].copy()
 
 
@@ -1109,12 +1118,13 @@ def test_a_robot_leaves_its_side_when_its_plan_grows_by_more_than_side_leave_m()
     """The wall makes each robot's way round one end longer than the straight way it had: by more than
     ``side_leave_m`` (cells 1 m wide) its start is forgotten (no side from then on), by less it is kept;
     at 0 (the default) always kept."""
-    _, before, after = _homes_after_wall(P)
-    grow = after - before
-    assert (grow > 2).all()  # the plan did grow (both ways round are longer than the straight one)
-    for leave, kept in ((0.0, True), (float(grow.min()) - 1.0, False), (float(grow.max()) + 1.0, True)):
-        home, _, _ = _homes_after_wall(dataclasses.replace(P, side_leave_m=leave))
-        assert (np.abs(home).sum(axis=1) > 0).tolist() == [kept, kept], (leave, grow, home)
+    for q2 in ((-10.5, 0.5), (-6.5, 0.5)):  # planned again where it started, and 4 cells on along its way
+        _, before, after = _homes_after_wall(P, q2)
+        grow = after - before
+        assert (grow > 2).all()  # the plan did grow (both ways round are longer than the straight one)
+        for leave, kept in ((0.0, True), (float(grow.min()) - 0.5, False), (float(grow.max()) + 0.5, True)):
+            home, _, _ = _homes_after_wall(dataclasses.replace(P, side_leave_m=leave), q2)
+            assert (np.abs(home).sum(axis=1) > 0).tolist() == [kept, kept], (q2, leave, grow, home)
 
 
 def test_a_robot_that_left_its_side_plans_as_if_it_had_none():

@@ -91,12 +91,14 @@ class ChartParams:
                     as on open ground, pays nothing)
     side_leave_m    a robot whose new plan is longer than what was left of its last by more than this
                     (its side's way led into a dead end, or round a wall longer than it looked) has no side
-                    from then on. 0 (the default): it keeps its side. Not the default because it does not
-                    meet both of the bars it trades (``research/side_tradeoff_leave60.md``, ``_leave300.md``):
-                    at 60 m generated forks bring 97.4 % in over three held-out sets (96.6 % without it;
-                    94.8 % on one of them), but jacksboro by 1 800 steps falls to 72.5-77.0 % (82.5 %
-                    without it); at 300 m forks are as without it and jacksboro is at 73.5-78.5 %: there a
-                    plan grows as much on the right side as on the wrong one
+                    from then on (not told where either way is cut at ``ROUTE_PER_CELL`` x ``cells``
+                    cells: its length is not known). 0 (the default): it keeps its side. Not the default
+                    because it does not meet both of the bars it trades
+                    (``research/side_tradeoff_leave60.md``, ``_leave300.md``): at 60 m generated forks
+                    bring 97.4 % in over three held-out sets (96.6 % without it; 94.8 % on one of them),
+                    but jacksboro by 1 800 steps falls to 72.5-77.0 % (82.5 % without it); at 300 m forks
+                    are as without it and jacksboro is at 73.5-78.5 %: there a plan grows as much on the
+                    right side as on the wrong one
     """
 
     cells: int = 512
@@ -154,7 +156,8 @@ class ChartMemory:
     walled     (n,)      bool    its last way crossed a shut cell (no way over open cells): its next
                                  plan first floods from the target (:func:`_walled_in`)
     home       (n, 2)    m       where it was at its first step, in ``F`` relative to the target (the
-                                 line of :attr:`ChartParams.side_cost`)
+                                 line of :attr:`ChartParams.side_cost`); (0, 0) once it has left its
+                                 side (:attr:`ChartParams.side_leave_m`): no side preference
 
     Bytes per robot: ``C^2 + 5 ROUTE_PER_CELL C + 17 K + 107`` (the chart, the route, the rest):
     68 254 at 256 cells and 3 break slots (66.7 KiB; the route is 2.5 KiB of it), 267 422 at the
@@ -848,10 +851,13 @@ def _plan_way(i, g, w, qx, qy, m_route, m_shut, m_len, m_at, m_way_at, way, dirt
     hn = np.sqrt(hx * hx + hy * hy)
     sgn = robot_side(i if i >= 0 else i + home.shape[0])
     ux, uy = (sgn * hx / hn, sgn * hy / hn) if hn > 1e-9 else (0.0, 0.0)
-    left = m_len[i] - m_at[i] if have_way[i] else -1  # cells left on the way it had
+    goal = (c // 2) * c + c // 2
+    # cells left on the way it had (-1: none, or one cut at ROUTE_PER_CELL C cells: its length is not known)
+    left = m_len[i] - m_at[i] if have_way[i] and m_len[i] > 0 and route[m_len[i] - 1] == goal else -1
     ok, n, k, fg = _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, work[0], work[1], work[2], route, shut,
                              pinch, flood, side_cost if hn > 1e-9 else 0.0, ux, uy, prm[6])
-    if prm[7] > 0.0 and hn > 1e-9 and left >= 0 and ok and (n - left) * w > prm[7]:
+    if prm[7] > 0.0 and hn > 1e-9 and left >= 0 and ok and n > 0 and route[n - 1] == goal and (
+            n - left) * w > prm[7]:
         home[i, 0], home[i, 1] = 0.0, 0.0  # its side led into a dead end: no side from now on
     walled[i] = ok and _crosses(g, route, n, pinch)
     forgot[i] += fg
@@ -962,8 +968,8 @@ def _chart_row(r, i, mem, q, cs, sn, has_t, dist_t, crowded, b_rel, b_normal, b_
 
 def _prm(params: ChartParams, range_m: float, step_m: float, body_m: float, pass_m: float = 0.0) -> np.ndarray:
     """The constants :func:`_chart_rows` reads, in its order (index 14: the widest cell at which gaps
-    one cell wide are left out of the plan, ``ChartParams.pinch_cells``, 0: none; then ``side_cost`` and
-    ``side_margin``)."""
+    one cell wide are left out of the plan, ``ChartParams.pinch_cells``, 0: none; then ``side_cost``,
+    ``side_margin`` and ``side_leave_m``)."""
     return np.array([max(params.min_cell_m, step_m), params.reach, params.range_reach, range_m,
                      params.behind, params.extend, params.link, np.cos(np.radians(5.0)),
                      params.stall_steps, body_m, params.ahead_m, params.wall_cost, params.turn_m, params.inset,
