@@ -1024,17 +1024,31 @@ def test_the_work_sets_follow_numbas_thread_count_up_and_stay_when_it_falls():
         numba.set_num_threads(k)
 
 
+def _pair_at(q):
+    """A two-row observation of robots standing at ``q`` (west of their target) and their positions
+    ``(d, qq)``, as :func:`chart_update` takes them for rows (6, 7)."""
+    d1, q1 = _one(q)
+    d = DecodedObs(**{f.name: (None if getattr(d1, f.name) is None else np.concatenate([getattr(d1, f.name)] * 2))
+                      for f in dataclasses.fields(d1)})
+    return d, np.concatenate([q1, q1])
+
+
+def _pair_memory(q):
+    """Memory for 8 robots with 1 m cells (a chart made here, not at a first step: where each started is
+    set to ``q`` too), and :func:`_pair_at` ``q``."""
+    mem = ChartMemory.empty(8, 32, 3)
+    mem.cell[:] = 1.0
+    d, qq = _pair_at(q)
+    mem.home[:] = qq[:1]
+    return mem, d, qq
+
+
 def _split(params, rows=(6, 7), q=(-10.5, 0.5), wall=True):
     """Robots ``rows`` (of 8) at ``q``, west of their target, a wall across their straight way the same
     length either side (column 12, rows 8..24 about row 16; ``wall=False``: none): the rows of the chart
     each robot's way passes."""
-    mem = ChartMemory.empty(8, 32, 3)
-    mem.cell[:] = 1.0  # (a chart made here, not at its first step: where it started is set here too)
-    d1, q1 = _one(q)
-    mem.home[:] = q1
-    d = DecodedObs(**{f.name: (None if getattr(d1, f.name) is None else np.concatenate([getattr(d1, f.name)] * 2))
-                      for f in dataclasses.fields(d1)})
-    qq, rows = np.concatenate([q1, q1]), np.array(rows)
+    mem, d, qq = _pair_memory(q)
+    rows = np.array(rows)
     chart_update(mem, rows, d, qq, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
     if wall:
         mem.grid[:, 12, 8:25] = WALL
@@ -1091,21 +1105,13 @@ def _homes_after_wall(params, q2=(-10.5, 0.5)):
     """Robots 6 and 7 of :func:`_split` (left and right): where each started, as kept after the wall
     across their straight way made them plan again at ``q2``, the cells left then of the way each had
     (from the cell of ``q2`` on it) and the length of its new way."""
-    mem = ChartMemory.empty(8, 32, 3)
-    mem.cell[:] = 1.0
-    d1, q1 = _one((-10.5, 0.5))
-    mem.home[:] = q1
-    d = DecodedObs(**{f.name: (None if getattr(d1, f.name) is None else np.concatenate([getattr(d1, f.name)] * 2))
-                      for f in dataclasses.fields(d1)})
-    qq, rows = np.concatenate([q1, q1]), np.array([6, 7])
+    mem, d, qq = _pair_memory((-10.5, 0.5))
+    rows = np.array([6, 7])
     chart_update(mem, rows, d, qq, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))
     at = int(np.floor(q2[0])) + 16, int(np.floor(q2[1])) + 16  # q2's cell (1 m cells, the target at (16, 16))
     before = np.array([mem.route_len[i] - list(mem.route[i, :mem.route_len[i]]).index(at[0] * 32 + at[1])
                        for i in rows])
-    d2, q2_ = _one(q2)
-    d2 = DecodedObs(**{f.name: (None if getattr(d2, f.name) is None else np.concatenate([getattr(d2, f.name)] * 2))
-                       for f in dataclasses.fields(d2)})
-    qq2 = np.concatenate([q2_, q2_])
+    d2, qq2 = _pair_at(q2)
     chart_update(mem, rows, d2, qq2, np.zeros(2), params, 60.0, 1.0, 2.0, np.zeros(2, bool))  # on along its way
     assert (mem.route_len[rows] - mem.route_at[rows] == before).all()  # where it is on it, as counted here
     mem.grid[:, 12, 8:25] = WALL
@@ -1132,13 +1138,8 @@ def test_a_robot_that_left_its_side_plans_as_if_it_had_none():
     again from there (no turn price to speak of: ``turn_m`` 1e-9, so that the way each had does not hold
     it), both take the shorter end, as robots with no side preference do."""
     params = dataclasses.replace(P, side_leave_m=1.0, turn_m=1e-9)
-    mem = ChartMemory.empty(8, 32, 3)
-    mem.cell[:] = 1.0
-    d1, q1 = _one((-10.5, 0.5))
-    mem.home[:] = q1
-    d = DecodedObs(**{f.name: (None if getattr(d1, f.name) is None else np.concatenate([getattr(d1, f.name)] * 2))
-                      for f in dataclasses.fields(d1)})
-    qq, rows = np.concatenate([q1, q1]), np.array([6, 7])
+    mem, d, qq = _pair_memory((-10.5, 0.5))
+    rows = np.array([6, 7])
     ends = []
     for wall in (False, True, True):
         if wall:  # one row longer south (row 7) than north (24): the north end is the shorter way
