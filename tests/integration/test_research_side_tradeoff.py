@@ -101,3 +101,62 @@ def test_ideal_row_reads_the_idealised_robots_steps(st, monkeypatch):
     assert calls[0][1:] == ("disk", 1.0) and n == 20
     assert row == ["1000112", f"{np.median([100, 300, 1001, 200] + [50] * (n - 4)):.0f}", "1001", f"{n - 1} of {n}",
                    "1000"]
+
+
+def test_jobs_take_realdem_sets_and_the_chart_overrides(st):
+    jobs = st.jobs_for([0.75], [0], 2, 1, realdem_sets=[100], chart=[("min_cell_m", 3.0)])
+    assert sorted(j[2] for j in jobs if j[0] == "realdem") == [EVAL_SEED0 + 100, EVAL_SEED0 + 101]
+    assert len(jobs) == 2 + 2 + 1
+    assert {j[6] for j in jobs} == {(("min_cell_m", 3.0),)}
+    assert {j[6] for j in st.jobs_for([0.75], [0], 1, 1)} == {()}
+
+
+def test_the_chart_overrides_reach_the_policy(st, monkeypatch):
+    seen = []
+    real = st.APFPolicy
+
+    def spy(env, chart):
+        seen.append(chart)
+        return real(env, chart=chart)
+
+    monkeypatch.setattr(st, "APFPolicy", spy)
+    job, n, by, fell = st.episode(("fork", 0.5, EVAL_SEED0, 4, 5, 0.0, (("min_cell_m", 3.0), ("cells", 128))))
+    assert n == 4 and (seen[0].min_cell_m, seen[0].cells, seen[0].side_cost) == (3.0, 128, 0.5)
+
+
+def test_table_gives_realdem_its_own_columns(st):
+    s0 = EVAL_SEED0
+    res = [(("fork", 0.75, s0, None, None, 0.0, ()), 20, [20, 20], 0),
+           (("realdem", 0.75, s0 + 100, None, None, 0.0, ()), 20, [15, 15], 1),
+           (("realdem", 0.75, s0 + 101, None, None, 0.0, ()), 20, [20, 20], 0),
+           (("jacksboro", 0.75, 0, None, 1800, 0.0, ()), 200, [133, 165], 0)]
+    lines = st.table(res, [0.75], [0], 2, [100])
+    assert "realdem: arrived per set" in lines[0] and lines[1].count("|") == lines[0].count("|")
+    row = [c.strip() for c in lines[2].strip("|").split("|")]
+    assert row[1:4] == ["100.0%", "100.0%", "-"]
+    assert row[4:7] == ["87.5%", "87.5%", f"{s0 + 100} (5 lost)"]  # 35 of 40
+    assert row[7:] == ["66.5%", "82.5", "1"]
+
+
+@pytest.mark.parametrize("text", ["min_cell_m", "foo=1", "side_cost=1", "cells=x", "min_cell_m=-1"])
+def test_bad_chart_overrides_are_refused(st, text):
+    with pytest.raises(argparse.ArgumentTypeError):
+        st._chart_items(text)
+
+
+def test_chart_overrides_parse_to_typed_pairs(st):
+    assert st._chart_items("min_cell_m=3,cells=256") == (("min_cell_m", 3.0), ("cells", 256))
+
+
+def test_trace_figure_draws_one_panel_per_chart(st, tmp_path):
+    out = tmp_path / "t.png"
+    got = st.trace_figure(EVAL_SEED0, [("default chart", {}), ("coarse", {"min_cell_m": 3.0})], out, robots=4, cycles=5)
+    assert len(got) == 2 and all(0 <= g <= 4 for g in got)
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("argv", [["--trace", "1000129"], ["--trace", "1,2", "--chart", "min_cell_m=3"]])
+def test_trace_needs_one_seed_and_a_chart(st, argv, capsys):
+    with pytest.raises(SystemExit):
+        st.main(argv)
+    assert "--trace" in capsys.readouterr().err
