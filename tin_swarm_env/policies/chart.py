@@ -39,7 +39,9 @@ class ChartParams:
     reach           its half-width is ``reach`` times the robot's distance to go at its first step
                     plus ``range_reach`` sensor ranges
     range_reach
-    min_cell_m      cells are at least this wide (and at least one step at top speed)
+    min_cell_m      cells are at least this wide (and at least one step at top speed); a coarser chart
+                    (3 m, or 256 cells) brings more of the generated forks' robots in and far fewer of
+                    ``realdem``'s (``research/side_tradeoff_cell3.md``, ``_cells256.md``)
     ahead_m         the robot heads for the farthest point of its planned way within this (and within
                     its sensor range) that it sees in a straight line on its chart
     stall_steps     a robot that has not got two body lengths (or 1.5 cells) from where it was this
