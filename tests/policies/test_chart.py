@@ -25,7 +25,9 @@ from tin_swarm_env.policies.base import DecodedObs
 from tin_swarm_env.policies.chart import (
     _ROW_FIELDS,
     OPEN,
+    PINCH_ONE_CELL,
     ROUTE_PER_CELL,
+    SEEN,
     WALL,
     ChartMemory,
     ChartParams,
@@ -110,7 +112,7 @@ def test_with_pinch_the_search_leaves_out_gaps_one_cell_wide_as_a_plain_dijkstra
     s, t = (int(rng.integers(0, c)), 0), (int(rng.integers(0, c)), c - 1)
     g[s] = g[t] = 0
     dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
-    found, cost, touched, nt = _search(g, *s, *t, 2.0, 0.0, 0.0, 0.0, dist, prev, closed, 0.0, True)
+    found, cost, touched, nt = _search(g, *s, *t, 2.0, 0.0, 0.0, 0.0, dist, prev, closed, 0.0, PINCH_ONE_CELL)
     ref = dijkstra(g, s, t, pinch=True)
     assert found == (ref < math.inf)
     if found:
@@ -612,7 +614,8 @@ def _plan_row_on(g, sa, sb, pinch=False):
     work = (np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), np.bool_))
     route = np.zeros(ROUTE_PER_CELL * c, np.int32)
     shut = np.zeros(ROUTE_PER_CELL * c, np.uint8)
-    found, n, k, forgot = _plan_row(g, sa, sb, 3.0, 2.0, 0.0, 0.0, 0.0, *work, route, shut, pinch)
+    found, n, k, forgot = _plan_row(g, sa, sb, 3.0, 2.0, 0.0, 0.0, 0.0, *work, route, shut,
+                                    PINCH_ONE_CELL if pinch else 0.0)
     return found, [(int(v) // c, int(v) % c) for v in route[:n]], forgot
 
 
@@ -744,11 +747,11 @@ def test_a_target_in_a_gap_one_cell_wide_is_still_reached_over_open_cells():
     g = np.zeros((c, c), np.uint8)
     g[7, 8] = g[9, 8] = WALL  # north and south of the target's cell (8, 8): it is pinched, its row is not
     dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
-    found, cost, touched, nt = _search(g, 8, 1, 8, 8, 2.0, 0.0, 0.0, 0.0, dist, prev, closed, 0.0, True)
+    found, cost, touched, nt = _search(g, 8, 1, 8, 8, 2.0, 0.0, 0.0, 0.0, dist, prev, closed, 0.0, PINCH_ONE_CELL)
     assert found and cost == pytest.approx(dijkstra(g, (8, 1), (8, 8)))  # as without the rule
     _reset(dist, prev, closed, touched, nt, c)
     g[7, 7] = g[9, 7] = WALL  # (8, 7) now lies between (7, 7) and (9, 7): the way comes round by (8, 9)
-    found, cost, touched, nt = _search(g, 8, 1, 8, 8, 2.0, 0.0, 0.0, 0.0, dist, prev, closed, 0.0, True)
+    found, cost, touched, nt = _search(g, 8, 1, 8, 8, 2.0, 0.0, 0.0, 0.0, dist, prev, closed, 0.0, PINCH_ONE_CELL)
     ref = dijkstra(g, (8, 1), (8, 8), pinch=True)
     assert found and cost == pytest.approx(ref) and ref > dijkstra(g, (8, 1), (8, 8))
 
@@ -780,6 +783,7 @@ def test_the_flood_from_the_target_says_walled_in_exactly_when_the_search_finds_
     say False; it leaves its work array as it found it."""
     from tin_swarm_env.policies.chart import _walled_in
 
+    pinch = PINCH_ONE_CELL if pinch else 0.0
     rng = np.random.default_rng(seed)
     c = 24
     g = _ringed(rng, c, walled)
@@ -810,7 +814,8 @@ def test_planning_with_the_flood_first_gives_the_same_way_and_chart_as_without(s
         gg = g.copy()
         work = (np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), np.bool_))
         route, shut = np.zeros(ROUTE_PER_CELL * c, np.int32), np.zeros(ROUTE_PER_CELL * c, np.uint8)
-        found, n, k, forgot = _plan_row(gg, *s, 3.0, 2.0, 0.0, 0.0, 0.0, *work, route, shut, pinch, flood)
+        found, n, k, forgot = _plan_row(gg, *s, 3.0, 2.0, 0.0, 0.0, 0.0, *work, route, shut,
+                                        PINCH_ONE_CELL if pinch else 0.0, flood)
         out.append((found, n, k, forgot, route[:n].tolist(), shut[:n].tolist(), gg.tobytes()))
         assert (work[0] == 1e30).all() and (work[1] == -1).all() and not work[2].any()
     assert out[0] == out[1] == out[2]
@@ -872,7 +877,7 @@ def _search_unpruned(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, cross=0.0, pinc
                 if (da == 0 and db == 0) or na < 0 or nb < 0 or na >= c or nb >= c or closed[na, nb]:
                     continue
                 v = g[na, nb]
-                if pinch and v == OPEN and not (na == ta and nb == tb) and _pinched(g, na, nb):
+                if pinch and v == OPEN and not (na == ta and nb == tb) and _pinched(g, na, nb, pinch):
                     v = WALL
                 if v == STUCK or (v == WALL and cross <= 0.0):
                     continue
@@ -918,6 +923,7 @@ def test_the_search_skips_only_neighbours_that_cannot_improve_the_same_bits_as_t
     s, t = (int(rng.integers(0, c)), int(rng.integers(0, c))), (c // 2, c // 2)
     g[s] = g[t] = 0
     cross, pinch = mode
+    pinch = PINCH_ONE_CELL if pinch else 0.0
     ha, hb = math.cos(heading), math.sin(heading)
     side = (side_cost, math.cos(home), math.sin(home), margin)
     found, cost, ref_dist, ref_prev, _ = _search_unpruned(g, *s, *t, 2.0, ha, hb, turn, cross, pinch, side)
@@ -1150,3 +1156,76 @@ def test_a_robot_that_left_its_side_plans_as_if_it_had_none():
     assert ends[1][0] != ends[1][1]  # the plan that grew: each round its own side's end
     assert (mem.home[rows] == 0).all()
     assert ends[2] == [False, False]  # the next: no side, both round the shorter (north) end
+
+
+def test_a_gap_narrower_than_the_width_is_pinched_unless_a_beam_passed_over_it():
+    """_pinched: a gap between shut cells across a row, a column or a diagonal is left out when it is
+    narrower than ``pinch`` cells (a diagonal's cells count sqrt 2), not when a scan beam has passed
+    over the cell (the SEEN bit), and one cell wide at PINCH_ONE_CELL, as the rule before it."""
+    from tin_swarm_env.policies.chart import _pinched
+
+    g = np.zeros((12, 12), np.uint8)
+    g[5, 3] = g[5, 6] = WALL  # cells (5, 4) and (5, 5): a gap two cells wide along the row
+    assert _pinched(g, 5, 4, 2.5) and _pinched(g, 5, 5, 2.5)
+    assert not _pinched(g, 5, 4, 2.0) and not _pinched(g, 5, 4, PINCH_ONE_CELL)
+    g[5, 4] |= SEEN
+    assert not _pinched(g, 5, 4, 2.5) and _pinched(g, 5, 5, 2.5)
+    d = np.zeros((12, 12), np.uint8)
+    d[3, 3] = d[6, 6] = WALL  # (4, 4) and (5, 5): two cells across a diagonal, 2.83 cells wide
+    assert _pinched(d, 4, 4, 3.0) and not _pinched(d, 4, 4, 2.5)
+    one = np.zeros((12, 12), np.uint8)
+    one[4, 4] = one[6, 6] = WALL  # (5, 5): one cell across a diagonal
+    assert _pinched(one, 5, 5, PINCH_ONE_CELL) and not _pinched(one, 5, 4, PINCH_ONE_CELL)
+
+
+def test_beams_mark_the_open_cells_they_pass_over_up_to_a_cell_short_of_their_end():
+    """_mark_seen: a beam 10 m long east from (0.5, 0.5) on 1 m cells marks SEEN the open cells of its
+    points every half cell from half a cell out to a cell short of its end (x = 1 .. 9), not the cell
+    where it ends (x = 10.5) nor beyond, and leaves a wall a wall."""
+    from tin_swarm_env.policies.chart import _mark_seen
+
+    c = 32
+    h = c // 2
+    g = np.zeros((c, c), np.uint8)
+    g[h + 4, h] = WALL
+    _mark_seen(g, 1.0, 0.5, 0.5, 1.0, 0.0, np.array([[10.0, 0.0]]), np.array([[1.0, 0.0]]))
+    row = g[:, h]
+    assert row[h + 4] == WALL
+    assert all(row[h + k] == SEEN for k in (1, 2, 3, 5, 6, 7, 8, 9))
+    assert row[h + 10] == OPEN and row[h + 11] == OPEN and row[h] == OPEN and row[h - 1] == OPEN
+    assert (g[:, h + 1] == OPEN).all()
+
+
+def test_the_search_goes_through_a_narrow_gap_only_once_it_has_been_seen_through():
+    """A wall across the chart with one gap two cells wide: with gaps narrower than 2.5 cells left out
+    the search over open cells finds no way; with a beam's SEEN bit on the gap it goes through it, and a
+    wall marked on a seen cell shuts it again (_wall_at)."""
+    from tin_swarm_env.policies.chart import _wall_at
+
+    c = 16
+    h = c // 2
+    g = np.zeros((c, c), np.uint8)
+    g[h - 3, :] = WALL
+    g[h - 3, 7] = g[h - 3, 8] = OPEN
+
+    def search():
+        dist, prev, closed = np.full((c, c), 1e30), np.full((c, c), -1, np.int64), np.zeros((c, c), bool)
+        return _search(g, 2, 7, h, h, 2.0, 0.0, 0.0, 0.0, dist, prev, closed, 0.0, 2.5)[0]
+
+    assert not search()
+    g[h - 3, 7] |= SEEN
+    g[h - 3, 8] |= SEEN
+    assert search()
+    g2 = g.copy()
+    assert _wall_at(g2, 1.0, (h - 3 - h) + 0.5, (8 - h) + 0.5) and g2[h - 3, 8] == WALL
+
+
+def test_unseen_gap_reaches_the_plan_and_the_marks():
+    """ChartParams.unseen_gap: 0 leaves the constants as before (no seen marks, the one-cell rule);
+    > 0 puts the widest gap left out, in metres, where the plan reads it and turns the beam marks on."""
+    from tin_swarm_env.policies.chart import _mark_prm, _prm
+
+    off = _prm(ChartParams(), 60.0, 1.0, 1.0, pass_m=3.0)
+    on = _prm(ChartParams(unseen_gap=1.0), 60.0, 1.0, 1.0, pass_m=3.0)
+    assert off[18] == 0.0 and on[18] == 3.0 and (off[:18] == on[:18]).all()
+    assert _mark_prm(off)[5] == 0.0 and _mark_prm(on)[5] == 1.0
