@@ -1229,3 +1229,29 @@ def test_unseen_gap_reaches_the_plan_and_the_marks():
     on = _prm(ChartParams(unseen_gap=1.0), 60.0, 1.0, 1.0, pass_m=3.0)
     assert off[18] == 0.0 and on[18] == 3.0 and (off[:18] == on[:18]).all()
     assert _mark_prm(off)[5] == 0.0 and _mark_prm(on)[5] == 1.0
+
+
+@pytest.mark.parametrize("unseen_gap, beam, through", [(1.0, False, False), (1.0, True, True), (0.0, False, True)])
+def test_with_unseen_gap_the_way_goes_through_a_narrow_gap_only_once_a_beam_has_passed_over_it(unseen_gap, beam,
+                                                                                                through):
+    """chart_update with ``ChartParams.unseen_gap`` 1 (pass_m 3 m, cells 1 m): a gap two cells wide across a
+    wall (rows 15-16) is left out until a scan beam east along row 16 passes over it, and then the way goes
+    through it (its cells carry the SEEN bit); a gap four cells wide (rows 24-27) is never left out. With
+    unseen_gap 0 the one-cell rule keeps the two-cell gap."""
+    mem = ChartMemory.empty(1, 32, 3)
+    mem.cell[:] = 1.0
+    g = mem.grid[0]
+    g[10:12, :] = WALL
+    g[10:12, 15:17] = OPEN
+    g[10:12, 24:28] = OPEN
+    d, q = _one((-10.5, 0.5))  # cell (5, 16)
+    if beam:  # one beam east (body frame = F, heading 0), ending 15 m on with no hit
+        d = dataclasses.replace(d, s_rel=np.array([[[15.0, 0.0]]]), s_hit=np.array([[False]]),
+                                s_dir=np.array([[1.0, 0.0]]))
+    params = dataclasses.replace(P, unseen_gap=unseen_gap)
+    chart_update(mem, np.array([0]), d, q, np.zeros(1), params, 60.0, 1.0, 2.0, np.array([False]), pass_m=3.0)
+    route = [divmod(int(v), 32) for v in mem.route[0, :mem.route_len[0]]]
+    assert route[0] == (5, 16) and route[-1] == (16, 16) and mem.forgot[0] == 0
+    assert any(a == 10 and b in (15, 16) for a, b in route) == through
+    assert any(a == 10 and 24 <= b <= 27 for a, b in route) == (not through)
+    assert bool(mem.grid[0][10, 16] & SEEN) == beam and not mem.grid[0][10, 15] & SEEN

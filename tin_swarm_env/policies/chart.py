@@ -67,7 +67,7 @@ class ChartParams:
                     shut too: a wall two cells thick leaks no diagonal way through its holes
     link            a break point within this many cells of one seen last step shuts the cells
                     between them too (a wall driven along leaves no holes on the chart)
-    pinch_cells     a cell between two shut cells on opposite sides (a gap charted one cell wide)
+    pinch_cells     (``unseen_gap`` 0) a cell between two shut cells on opposite sides (a gap charted one cell wide)
                     is left out of the plan (step 5 crosses it at a wall's price) on a chart whose
                     cells are fine enough that a pass (``SafetyShield.pass_m``: 3 body diameters)
                     is at least this many cells wide: such a gap is narrower than a pass, most often
@@ -112,7 +112,10 @@ class ChartParams:
                     then walls while a narrow pass seen through is not, on a chart of any cell size
                     (``research/side_tradeoff_unseen.md``: at 1, generated forks 98.0 % over three held-out
                     sets, 96.6 % without it; ``realdem`` 93.6 % over two, 91.5 % without; jacksboro as without
-                    it). 0 (the default for now): off, the same steps as before it
+                    it). 0 (the default for now): off, the same steps as before it. Known gaps: a robot
+                    keeps its way until its chart changes near it, so a gap pinched or seen since does not
+                    make it plan again by itself; beams cost ~20 % of APF's speed with the env
+                    (``docs/figures/apf_speed.md``)
     """
 
     cells: int = 512
@@ -151,7 +154,9 @@ class ChartMemory:
     of :func:`~tin_swarm_env.policies.bug.odometry`, kept in the bug memory beside this one):
 
     grid       (n, C, C) uint8   its chart, centred on its target in ``F``: 0 open (or not sensed),
-                                 1 a wall (a dangerous break seen there), 2 stuck (it stalled there)
+                                 1 a wall (a dangerous break seen there), 2 stuck (it stalled there);
+                                 bit 4 (``SEEN``) on an open cell a scan beam passed over
+                                 (``ChartParams.unseen_gap``): the value is ``grid & SHUT``
     cell       (n,)      m       the chart's cell width (0: no chart yet)
     way        (n, 2)    m       the point it heads for, in ``F`` relative to the target
     dirty      (n,)      bool    it must plan afresh (no way yet, or it stalled)
@@ -288,7 +293,8 @@ def _mark_row(g, w, qx, qy, cs, sn, rel, nrm_b, danger, border, lp, lo, s_rel, s
     ``w <= 0``: no chart, nothing marked): at ``q``, heading ``(cs, sn) = (cos, sin) psi``, it sees
     break slots ``rel, nrm_b (K, 2)`` (body frame), ``danger``, ``border (K,)``, and scan hits
     ``s_rel (K_s, 2)`` along ``s_dir`` (``s_hit``); ``lp, lo``: last step's points in ``F``, replaced
-    by this step's. ``prm``: behind, extend, link, cos(5 deg) and inset (0 if left out). True where a
+    by this step's. ``prm``: behind, extend, link, cos(5 deg), inset (0 if left out) and whether scan
+    beams mark the open cells they pass over (:func:`_mark_seen`; 0 if left out). True where a
     cell changed."""
     behind, extend, link, cos_sq = prm[0], prm[1], prm[2], prm[3]
     inset = prm[4] if prm.shape[0] > 4 else 0.0
@@ -502,8 +508,8 @@ def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cros
     holds the way): ``(found, cost, touched, nt)``, the first ``nt`` of ``touched`` the flat indices
     of the cells it set (for :func:`_reset`). ``cross > 0``: wall cells may be entered too, each
     for ``cross`` more, and so may a diagonal step past one (stuck cells stay shut): the way through
-    the fewest walls (chart search step 5). ``pinch``: an open cell (not the target's) between two
-    shut cells on opposite sides (:func:`_pinched`) counts as a wall."""
+    the fewest walls (chart search step 5). ``pinch`` > 0: an open cell (not the target's) in a gap
+    narrower than ``pinch`` cells that no beam has passed over (:func:`_pinched`) counts as a wall."""
     c = g.shape[0]
     INF = 1e30
     cap = 4 * c + 64  # small at first, then doubled as it fills: one search often touches few cells
@@ -555,7 +561,7 @@ def _search(g, sa, sb, ta, tb, wall_cost, ha, hb, turn, dist, prev, closed, cros
                 if nd >= dist[na, nb]:
                     continue  # no better whatever is added below (wall_cost > 0; rounding is monotone)
                 if pinch and v == OPEN and not (na == ta and nb == tb) and _pinched(g, na, nb, pinch):
-                    if cross <= 0.0:  # a gap one cell wide: narrower than a pass, a wall
+                    if cross <= 0.0:  # a gap narrower than a pass, not seen through: a wall
                         continue
                     nd = _step_cost(dist[a, b], step, True, cross, cw, a == sa and b == sb, turn, da, db, ha, hb,
                                     far)
@@ -739,8 +745,8 @@ def _route_open(g, route, shut, at, n):
 
 @njit(cache=True)
 def _crosses(g, route, n, pinch):
-    """A cell of ``route[1:n]`` (after its start) is shut on chart ``g``, or (``pinch``) lies in a gap
-    one cell wide, but the target's (the way went through the fewest walls)."""
+    """A cell of ``route[1:n]`` (after its start) is shut on chart ``g``, or (``pinch`` > 0) lies in a gap
+    :func:`_pinched` leaves out, but the target's (the way went through the fewest walls)."""
     c = g.shape[0]
     h = c // 2
     for k in range(1, n):
@@ -814,7 +820,7 @@ def _walled_in(g, sa, sb, ta, tb, pinch, budget, seen):
 def _plan_row(g, sa, sb, ahead, wall_cost, ha, hb, tc, dist, prev, closed, route, shut, pinch=0.0, flood=0,
               side_cost=0.0, ux=0.0, uy=0.0, margin=0.0):
     """Plan on chart ``g`` from cell (sa, sb) to the target's cell (chart search steps 2 and 5):
-    A* over open cells (``pinch``: but gaps one cell wide, :func:`_search`); if there is no way, the
+    A* over open cells (``pinch`` > 0: but gaps :func:`_pinched` leaves out); if there is no way, the
     way through the fewest walls (each wall cell entered costs a chart's width in cells, stuck cells
     stay shut), then that again after forgetting its stuck cells, then on a forgotten chart (on
     which there is always a way). Stores the way in ``route``/``shut`` (:func:`_store_way`).
@@ -1054,7 +1060,8 @@ def chart_update(mem: ChartMemory, rows, d: DecodedObs, q, psi, params: ChartPar
     open straight to it, or when that point lies within ``standoff_m`` of the target: the ring
     around a threat is the target field's to hold, never a point inside it). ``pass_m``: the
     narrowest gap the robot drives through (``SafetyShield.pass_m``; 0: every open cell may be
-    planned through, ``ChartParams.pinch_cells``). One compiled pass over the rows
+    planned through, ``ChartParams.pinch_cells``; it turns ``ChartParams.unseen_gap`` off too). One compiled
+    pass over the rows
     (:func:`_chart_rows`)."""
     rows = np.ascontiguousarray(rows, dtype=np.int64)
     m, k = len(rows), d.b_rel.shape[1]
