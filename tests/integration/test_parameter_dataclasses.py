@@ -22,7 +22,8 @@ ZERO_OK = {("FieldParams", k) for k in ("robot_gain", "target_gain", "break_gain
     ("SensorParams", "height_m"), ("WorldParams", "entity_height_m"), ("WorldParams", "entity_speed_mps"),
     ("WorldParams", "entity_turn_sd_deg"), ("WorldParams", "break_angle_deg"), ("ChartParams", "inset"),
     ("ChartParams", "side_cost"), ("ChartParams", "side_margin"),
-    ("ChartParams", "side_leave_m")}  # (0: no side preference; no free band; a side kept)
+    ("ChartParams", "side_leave_m"), ("ChartParams", "unseen_gap")}
+# (ChartParams' zeros: no side preference; no free band; a side kept; no gap left out for being unseen)
 HUGE = {("ChartParams", "cells"): 10 ** 6}  # 10**6 cells a side: a 1 TB chart per robot
 
 
