@@ -28,6 +28,7 @@ from tin_swarm_env.policies.chart import (
     PINCH_ONE_CELL,
     ROUTE_PER_CELL,
     SEEN,
+    STUCK,
     WALL,
     ChartMemory,
     ChartParams,
@@ -1178,10 +1179,22 @@ def test_a_gap_narrower_than_the_width_is_pinched_unless_a_beam_passed_over_it()
     assert _pinched(one, 5, 5, PINCH_ONE_CELL) and not _pinched(one, 5, 4, PINCH_ONE_CELL)
 
 
+@settings(max_examples=100, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.floats(0.0, 1.0))
+def test_no_cell_is_pinched_below_one_cell(seed, pinch):
+    """_pinched with ``pinch <= 1``: no cell of any chart is pinched (a gap between shut cells spans at
+    least one cell), which lets the plan skip the test there (_plan_way sets such a pinch to 0)."""
+    from tin_swarm_env.policies.chart import _pinched
+
+    rng = np.random.default_rng(seed)
+    g = rng.choice(np.array([OPEN, WALL, STUCK, SEEN], np.uint8), size=(10, 10), p=[0.4, 0.3, 0.1, 0.2])
+    assert not any(_pinched(g, a, b, pinch) for a in range(10) for b in range(10))
+
+
 def test_beams_mark_the_open_cells_they_pass_over_up_to_a_cell_short_of_their_end():
-    """_mark_seen: a beam 10 m long east from (0.5, 0.5) on 1 m cells marks SEEN the open cells of its
-    points every half cell from half a cell out to a cell short of its end (x = 1 .. 9), not the cell
-    where it ends (x = 10.5) nor beyond, and leaves a wall a wall."""
+    """_mark_seen: a beam 10 m long east from (0.5, 0.5) on 1 m cells marks SEEN the open cells it
+    passes over from half a cell out to a cell short of its end (x = 1 .. 9.5), not the cell where it
+    ends (x = 10.5) nor beyond, nor the robot's own cell, and leaves a wall a wall."""
     from tin_swarm_env.policies.chart import _mark_seen
 
     c = 32
@@ -1194,6 +1207,49 @@ def test_beams_mark_the_open_cells_they_pass_over_up_to_a_cell_short_of_their_en
     assert all(row[h + k] == SEEN for k in (1, 2, 3, 5, 6, 7, 8, 9))
     assert row[h + 10] == OPEN and row[h + 11] == OPEN and row[h] == OPEN and row[h - 1] == OPEN
     assert (g[:, h + 1] == OPEN).all()
+
+
+def _cells_crossed(x0, y0, dx, dy, t0, t1, c):
+    """The slow reference of _mark_seen's walk: every chart cell (a, b) the segment
+    ``(x0, y0) + t (dx, dy)``, ``t0 <= t < t1`` (cell units), crosses over a positive length, found by
+    clipping the segment to each cell of its bounding box."""
+    out = set()
+    xs, ys = (x0 + t0 * dx, x0 + t1 * dx), (y0 + t0 * dy, y0 + t1 * dy)
+    for a in range(max(int(math.floor(min(xs))), 0), min(int(math.floor(max(xs))), c - 1) + 1):
+        for b in range(max(int(math.floor(min(ys))), 0), min(int(math.floor(max(ys))), c - 1) + 1):
+            lo, hi = t0, t1
+            for p0, d, k in ((x0, dx, a), (y0, dy, b)):
+                if d == 0.0:
+                    if not k <= p0 < k + 1:
+                        lo = hi
+                    continue
+                e0, e1 = sorted(((k - p0) / d, (k + 1 - p0) / d))
+                lo, hi = max(lo, e0), min(hi, e1)
+            if lo < hi:
+                out.add((a, b))
+    return out
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.floats(-20.0, 20.0), st.floats(-20.0, 20.0), st.floats(0.0, 2 * math.pi), st.floats(0.0, 2 * math.pi),
+       st.floats(0.0, 40.0), st.sampled_from([0.7, 1.0, 1.37]))
+def test_beams_mark_every_cell_their_segment_crosses_and_no_other(qx, qy, psi, phi, length, w):
+    """_mark_seen against a slow reference (the cells each segment crosses, clipped cell by cell): a beam
+    at angle ``phi`` in the body frame of a robot at ``q`` heading ``psi``, ``length`` m long, marks SEEN
+    exactly the chart cells its segment from half a cell out to a cell short of its end crosses, the
+    chart's edge included (cells off the chart are skipped)."""
+    from tin_swarm_env.policies.chart import _mark_seen
+
+    c = 32
+    h = c // 2
+    g = np.zeros((c, c), np.uint8)
+    d = np.array([[math.cos(phi), math.sin(phi)]])
+    _mark_seen(g, w, qx, qy, math.cos(psi), math.sin(psi), length * d, d)
+    bx = math.cos(psi) * d[0, 0] - math.sin(psi) * d[0, 1]
+    by = math.sin(psi) * d[0, 0] + math.cos(psi) * d[0, 1]
+    want = _cells_crossed(qx / w + h, qy / w + h, bx, by, 0.5, length / w - 1.0, c) if length / w - 1.0 > 0.5 else set()
+    got = {(int(a), int(b)) for a, b in zip(*np.nonzero(g == SEEN))}
+    assert got == want
 
 
 def test_the_search_goes_through_a_narrow_gap_only_once_it_has_been_seen_through():
@@ -1255,3 +1311,4 @@ def test_with_unseen_gap_the_way_goes_through_a_narrow_gap_only_once_a_beam_has_
     assert any(a == 10 and b in (15, 16) for a, b in route) == through
     assert any(a == 10 and 24 <= b <= 27 for a, b in route) == (not through)
     assert bool(mem.grid[0][10, 16] & SEEN) == beam and not mem.grid[0][10, 15] & SEEN
+

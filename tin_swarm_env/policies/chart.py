@@ -356,21 +356,36 @@ def _mark_row(g, w, qx, qy, cs, sn, rel, nrm_b, danger, border, lp, lo, s_rel, s
 
 @njit(cache=True, inline="always")
 def _mark_seen(g, w, qx, qy, cs, sn, s_rel, s_dir):
-    """Every open cell a scan beam passed over, up to a cell short of where it ends (its hit, or the
-    range), gets the ``SEEN`` bit (beam ``j``: from ``q`` along ``s_dir[j]`` turned by the heading
-    ``(cs, sn)``, ``|s_rel[j]|`` long; sampled every half cell)."""
+    """Every open cell a scan beam passed over, from half a cell out to a cell short of where it ends
+    (its hit, or the range), gets the ``SEEN`` bit (beam ``j``: from ``q`` along ``s_dir[j]`` turned by
+    the heading ``(cs, sn)``, ``|s_rel[j]|`` long). Each cell the segment enters is visited once, in
+    order along it (a grid walk: the next cell is the one whose edge the segment crosses first)."""
     c = g.shape[0]
     h = c // 2
     for j in range(s_rel.shape[0]):
         bx = cs * s_dir[j, 0] - sn * s_dir[j, 1]
         by = sn * s_dir[j, 0] + cs * s_dir[j, 1]
-        end = np.sqrt(s_rel[j, 0] * s_rel[j, 0] + s_rel[j, 1] * s_rel[j, 1]) - w
-        t = 0.5 * w
-        while t < end:
-            a, b = int(np.floor((qx + t * bx) / w)) + h, int(np.floor((qy + t * by) / w)) + h
-            if 0 <= a < c and 0 <= b < c and g[a, b] == OPEN:
-                g[a, b] = SEEN
-            t += 0.5 * w
+        end = np.sqrt(s_rel[j, 0] * s_rel[j, 0] + s_rel[j, 1] * s_rel[j, 1]) / w - 1.0  # in cells
+        t = 0.5
+        if t >= end:
+            continue
+        x, y = qx / w + h + t * bx, qy / w + h + t * by
+        a, b = int(np.floor(x)), int(np.floor(y))
+        sa, sb = (1 if bx > 0 else -1), (1 if by > 0 else -1)
+        ta = t + ((a + 1 - x) if bx > 0 else (x - a)) / abs(bx) if bx != 0.0 else np.inf  # t at the next edge
+        tb = t + ((b + 1 - y) if by > 0 else (y - b)) / abs(by) if by != 0.0 else np.inf
+        while True:
+            if 0 <= a < c and 0 <= b < c:
+                if g[a, b] == OPEN:
+                    g[a, b] = SEEN
+            elif (a < 0 and sa < 0) or (a >= c and sa > 0) or (b < 0 and sb < 0) or (b >= c and sb > 0):
+                break  # off the chart and going away from it
+            if ta <= tb:
+                t, ta, a = ta, ta + 1.0 / abs(bx), a + sa
+            else:
+                t, tb, b = tb, tb + 1.0 / abs(by), b + sb
+            if t >= end:
+                break
 
 
 @njit(cache=True)
@@ -909,6 +924,8 @@ def _plan_way(i, g, w, qx, qy, m_route, m_shut, m_len, m_at, m_way_at, way, dirt
     tc = turn_m / w if nrm > 1e-9 and have_way[i] else 0.0
     # gaps narrower than unseen_gap passes, or (a fine chart) one cell wide, are left out (_pinched)
     pinch = prm[8] / w if prm[8] > 0.0 else (PINCH_ONE_CELL if 0.0 < w <= pinch_m else 0.0)
+    if pinch <= 1.0:  # no gap between shut cells is narrower than one cell: nothing is pinched
+        pinch = 0.0
     flood = c * c // 4 if walled[i] else 0
     side_cost = prm[5]
     hx, hy = home[i, 0], home[i, 1]
