@@ -7,9 +7,9 @@ ratio to the env alone in the same process. By hand:
     [--steps 900] [--seed 0] [--k-scan 32] [--repeats 3] [--out docs/figures/apf_speed.md]
 
 Rows: the chart search (``APFPolicy(env, search="chart")``) at the default
-:class:`~tin_swarm_env.policies.chart.ChartParams` (512 cells), at 256 cells and with ``unseen_gap = 1`` (narrow
-gaps left out unless seen through: every scan beam marks the cells it passes over), and the bug search
-(``search="bug"``). Each run is one episode from the same reset with a fresh policy, its actions
+:class:`~tin_swarm_env.policies.chart.ChartParams` (512 cells, ``unseen_gap = 1``: narrow gaps left out unless
+seen through, every scan beam marks the cells it passes over), at 256 cells and with ``unseen_gap = 0`` (the
+default before: no beam marks), and the bug search (``search="bug"``). Each run is one episode from the same reset with a fresh policy, its actions
 recorded; the env alone then replays those actions from the same reset, so it drives the same
 trajectory (the same robots live, arriving, colliding) with no policy. Each the best of
 ``--repeats`` runs, interleaved. Robot-steps count every row ``step_arrays`` takes (robots x
@@ -41,7 +41,8 @@ ROOT = Path(__file__).resolve().parents[1]
 POLICIES = {
     "chart search, 512 cells (default ChartParams)": lambda env: APFPolicy(env, search="chart"),
     "chart search, 256 cells": lambda env: APFPolicy(env, search="chart", chart=ChartParams(cells=256)),
-    "chart search, unseen_gap = 1": lambda env: APFPolicy(env, search="chart", chart=ChartParams(unseen_gap=1.0)),
+    "chart search, unseen_gap = 0 (the default before)":
+        lambda env: APFPolicy(env, search="chart", chart=ChartParams(unseen_gap=0.0)),
     "bug search": lambda env: APFPolicy(env, search="bug"),
 }
 QUICK = {"robots": 20, "steps": 30, "repeats": 1}

@@ -544,6 +544,7 @@ def _one(q, pts=(), normals=()):
 
 
 P = ChartParams(cells=32, ahead_m=3.0)  # cells 1 m wide (set below): the way point 3 cells ahead
+P_ONE_CELL = dataclasses.replace(P, unseen_gap=0.0)  # the rule before unseen_gap: gaps one cell wide left out
 
 
 def _step(mem, q, pts=(), normals=()):
@@ -717,7 +718,7 @@ def _walled(mem):
 @pytest.mark.parametrize("pass_m, cell, through_hole", [(0.0, 1.0, True), (3.0, 1.0, False), (3.0, 1.19, False),
                                                          (3.0, 1.21, True), (2.4, 1.0, True)])
 def test_on_a_fine_chart_the_way_keeps_out_of_a_gap_one_cell_wide(pass_m, cell, through_hole):
-    """A gap one cell wide is left out of the plan where a pass (pass_m) is at least pinch_cells (2.5)
+    """With the one-cell rule (unseen_gap 0), a gap one cell wide is left out of the plan where a pass (pass_m) is at least pinch_cells (2.5)
     cells wide: the way goes round by the gap two cells wide; with no such gap it crosses the narrow
     one as it would a wall, forgetting nothing. On a coarser chart, or with no pass_m, it goes
     through the narrow gap (a real pass, perhaps)."""
@@ -725,7 +726,7 @@ def test_on_a_fine_chart_the_way_keeps_out_of_a_gap_one_cell_wide(pass_m, cell, 
     mem.cell[:] = cell
     _walled(mem)
     d, q = _one((-10.5 * cell, 0.5 * cell))  # cell (5, 16)
-    chart_update(mem, np.array([0]), d, q, np.zeros(1), P, 60.0, 1.0, 2.0, np.array([False]), pass_m=pass_m)
+    chart_update(mem, np.array([0]), d, q, np.zeros(1), P_ONE_CELL, 60.0, 1.0, 2.0, np.array([False]), pass_m=pass_m)
     route = [divmod(int(v), 32) for v in mem.route[0, :mem.route_len[0]]]
     assert route[0] == (5, 16) and route[-1] == (16, 16) and mem.forgot[0] == 0
     assert all(mem.grid[0][a, b] == OPEN for a, b in route)
@@ -736,7 +737,7 @@ def test_on_a_fine_chart_the_way_keeps_out_of_a_gap_one_cell_wide(pass_m, cell, 
         mem.cell[:] = cell
         _walled(mem)
         mem.grid[0, 10:12, 24:26] = WALL
-        chart_update(mem, np.array([0]), d, q, np.zeros(1), P, 60.0, 1.0, 2.0, np.array([False]), pass_m=pass_m)
+        chart_update(mem, np.array([0]), d, q, np.zeros(1), P_ONE_CELL, 60.0, 1.0, 2.0, np.array([False]), pass_m=pass_m)
         route = [divmod(int(v), 32) for v in mem.route[0, :mem.route_len[0]]]
         assert (10, 16) in route and (11, 16) in route and mem.forgot[0] == 0
         assert (mem.grid[0, 10:12, 16] == OPEN).all()  # crossed at a wall's price, not charted shut
@@ -1277,11 +1278,11 @@ def test_the_search_goes_through_a_narrow_gap_only_once_it_has_been_seen_through
 
 
 def test_unseen_gap_reaches_the_plan_and_the_marks():
-    """ChartParams.unseen_gap: 0 leaves the constants as before (no seen marks, the one-cell rule);
+    """ChartParams.unseen_gap (default 1): 0 leaves the constants as before (no seen marks, the one-cell rule);
     > 0 puts the widest gap left out, in metres, where the plan reads it and turns the beam marks on."""
     from tin_swarm_env.policies.chart import _mark_prm, _prm
 
-    off = _prm(ChartParams(), 60.0, 1.0, 1.0, pass_m=3.0)
+    off = _prm(ChartParams(unseen_gap=0.0), 60.0, 1.0, 1.0, pass_m=3.0)
     on = _prm(ChartParams(unseen_gap=1.0), 60.0, 1.0, 1.0, pass_m=3.0)
     assert off[18] == 0.0 and on[18] == 3.0 and (off[:18] == on[:18]).all()
     assert _mark_prm(off)[5] == 0.0 and _mark_prm(on)[5] == 1.0
@@ -1312,3 +1313,11 @@ def test_with_unseen_gap_the_way_goes_through_a_narrow_gap_only_once_a_beam_has_
     assert any(a == 10 and 24 <= b <= 27 for a, b in route) == (not through)
     assert bool(mem.grid[0][10, 16] & SEEN) == beam and not mem.grid[0][10, 15] & SEEN
 
+
+
+def test_unseen_gap_is_on_by_default():
+    """The default chart leaves unseen gaps narrower than one pass out of the plan (ChartParams.unseen_gap 1),
+    and APFPolicy's default chart is that one."""
+    assert ChartParams().unseen_gap == 1.0
+    env = tse.parallel_env(scenario="cliff_goal", n_robots=2)
+    assert APFPolicy(env).chart.unseen_gap == 1.0

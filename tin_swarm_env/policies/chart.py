@@ -67,8 +67,8 @@ class ChartParams:
                     shut too: a wall two cells thick leaks no diagonal way through its holes
     link            a break point within this many cells of one seen last step shuts the cells
                     between them too (a wall driven along leaves no holes on the chart)
-    pinch_cells     (``unseen_gap`` 0) a cell between two shut cells on opposite sides (a gap charted one cell wide)
-                    is left out of the plan (step 5 crosses it at a wall's price) on a chart whose
+    pinch_cells     (with ``unseen_gap`` 0 only) a cell between two shut cells on opposite sides (a gap
+                    charted one cell wide) is left out of the plan (step 5 crosses it at a wall's price) on a chart whose
                     cells are fine enough that a pass (``SafetyShield.pass_m``: 3 body diameters)
                     is at least this many cells wide: such a gap is narrower than a pass, most often
                     a hole between two sightings of one wall; on a coarser chart it may be a real pass
@@ -105,17 +105,18 @@ class ChartParams:
                     but jacksboro by 1 800 steps falls to 72.5-77.0 % (82.5 % without it); at 300 m forks
                     are as without it and jacksboro is at 73.5-78.5 %: there a plan grows as much on the
                     right side as on the wrong one
-    unseen_gap      > 0: a gap in the charted walls narrower than this many passes
-                    (``SafetyShield.pass_m``) is left out of the plan (crossed at a wall's price, as
-                    ``pinch_cells``' gaps, whose rule it replaces) unless a scan beam has passed over it: every
-                    open cell a beam passes over is marked seen. The holes between a wall's sightings are
-                    then walls while a narrow pass seen through is not, on a chart of any cell size
-                    (``research/side_tradeoff_unseen.md``: at 1, generated forks 98.0 % over three held-out
-                    sets, 96.6 % without it; ``realdem`` 93.6 % over two, 91.5 % without; jacksboro as without
-                    it). 0 (the default for now): off, the same steps as before it. Known gaps: a robot
-                    keeps its way until its chart changes near it, so a gap pinched or seen since does not
-                    make it plan again by itself; beams cost ~20 % of APF's speed with the env
-                    (``docs/figures/apf_speed.md``)
+    unseen_gap      a gap in the charted walls narrower than this many passes (``SafetyShield.pass_m``) is
+                    left out of the plan (crossed at a wall's price, as ``pinch_cells``' gaps, whose rule
+                    it replaces) unless a scan beam has passed over it: every open cell a beam passes
+                    over is marked seen. The holes between a wall's sightings are then walls while a
+                    narrow pass seen through is not, on a chart of any cell size. At 1 (the default;
+                    ``research/side_tradeoff_unseen.md``) generated forks bring 98.0 % in over three
+                    held-out sets (96.6 % at 0) and ``realdem`` 93.9 % over two (91.5 % at 0); jacksboro
+                    as at 0. 0: off (the one-cell rule of ``pinch_cells``; the default before it). Known
+                    gaps: a robot keeps its way until its chart changes near it, so a gap seen since does
+                    not make it plan again by itself (planning again then was tried: fork 98.9 / 96.8 /
+                    98.0 %, realdem 94.2 / 93.1 %, no gain); the beams' marks cost a few per cent of APF's
+                    speed with the env (``docs/figures/apf_speed.md``)
     """
 
     cells: int = 512
@@ -135,7 +136,7 @@ class ChartParams:
     side_cost: float = 0.75
     side_margin: float = 2.0
     side_leave_m: float = 0.0
-    unseen_gap: float = 0.0
+    unseen_gap: float = 1.0
 
     def __post_init__(self):  # the chart is cells x cells bytes per robot: at most MAX_CHART_CELLS a side
         check_positive_fields(self, {"cells": {"lo": 4, "lo_open": False, "hi": MAX_CHART_CELLS},
