@@ -128,18 +128,22 @@ a stall anchor and count. Each step:
    the cell behind it along the beam: a pocket's far wall is charted from its mouth, not only when driven along
    (``research/sensing_bound.md`` measures what that buys). A layout with a scan and no break
    slots (``k_breaks = 0``) is charted from the beams alone, with no wall to slide along (step 3);
-   the bug search reads only the break slots, so without them APF is the fields alone.
+   the bug search reads only the break slots, so without them APF is the fields alone. Where a chart's
+   cells are narrower than ``unseen_gap`` passes (step 2), every open cell a beam passes over (from half
+   a cell out to a cell short of where it ends) is marked *seen*.
 2. *Plan* (A*, 8-connected, no corner cut between two shut cells; a step into a cell beside a shut
    one costs ``wall_cost`` cells more, a first step against the way it was heading up to ``turn_m``
    more, and a step onto the side it does not prefer of the line from where it started to its target
    ``side_cost`` times its length more: robot ``i`` keeps right or left by
    :func:`~tin_swarm_env.policies.chart.robot_side`, about half of each target's robots each way, so
    where a wall blocks the straight way the robots of one target split between its two ends) the least-cost way
-   over open cells to the target's cell, and keep it. On a fine chart (a
-   pass, ``pass_m`` = 3 body diameters, at least ``pinch_cells`` = 2.5 cells wide) an open cell between
-   two shut cells on opposite sides counts as a wall: a gap charted one cell wide is much narrower than
-   a pass there, and is most often a hole between two sightings of one wall (beams far apart); on a
-   coarser chart it is kept (real hillside has passes a little narrower than ``pass_m``).
+   over open cells to the target's cell, and keep it. An open cell in a gap between shut cells on
+   opposite sides (across a row, a column or a diagonal) narrower than ``unseen_gap`` passes
+   (``pass_m`` = 3 body diameters) counts as a wall unless it is marked seen: such a gap is most
+   often a hole between two sightings of one wall (beams far apart), while a pass that narrow on
+   real hillside is one the beams have looked through. (``unseen_gap = 0``: the rule before it, an
+   open cell between two shut cells counts as a wall only on a chart fine enough that a pass is at
+   least ``pinch_cells`` = 2.5 cells wide.)
    It plans again only when the rest of that way may have stopped being least-cost: a cell on or beside it (in the 3 x 3
    block of one of its cells from where the robot is on) became shut; or the robot is more than a
    cell off it (pushed aside, sliding along a wall); or it stalled (step 4); or the way was longer

@@ -68,8 +68,8 @@ class ChartParams:
     link            a break point within this many cells of one seen last step shuts the cells
                     between them too (a wall driven along leaves no holes on the chart)
     pinch_cells     (with ``unseen_gap`` 0 only) a cell between two shut cells on opposite sides (a gap
-                    charted one cell wide) is left out of the plan (step 5 crosses it at a wall's price) on a chart whose
-                    cells are fine enough that a pass (``SafetyShield.pass_m``: 3 body diameters)
+                    charted one cell wide) is left out of the plan (step 5 crosses it at a wall's price)
+                    on a chart whose cells are fine enough that a pass (``SafetyShield.pass_m``: 3 body diameters)
                     is at least this many cells wide: such a gap is narrower than a pass, most often
                     a hole between two sightings of one wall; on a coarser chart it may be a real pass
                     (real hillside has passes narrower than ``pass_m``: at 1.5 the rule shut them on
@@ -109,14 +109,15 @@ class ChartParams:
                     left out of the plan (crossed at a wall's price, as ``pinch_cells``' gaps, whose rule
                     it replaces) unless a scan beam has passed over it: every open cell a beam passes
                     over is marked seen. The holes between a wall's sightings are then walls while a
-                    narrow pass seen through is not, on a chart of any cell size. At 1 (the default;
-                    ``research/side_tradeoff_unseen.md``) generated forks bring 98.0 % in over three
-                    held-out sets (96.6 % at 0) and ``realdem`` 93.9 % over two (91.5 % at 0); jacksboro
-                    as at 0. 0: off (the one-cell rule of ``pinch_cells``; the default before it). Known
+                    narrow pass seen through is not, on a chart of any cell size. At 1 (the default)
+                    generated forks bring 98.8 / 97.1 / 98.0 % in on three held-out sets
+                    (``docs/figures/apf.md``, ``apf_seeds100.md``, ``apf_seeds200_fork.md``; 97.0 / 96.1 /
+                    96.8 % at 0) and ``realdem`` 94.3 / 93.5 % on two (92.3 / 90.6 % at 0); jacksboro as
+                    at 0. 0: off (the one-cell rule of ``pinch_cells``; the default before it). Known
                     gaps: a robot keeps its way until its chart changes near it, so a gap seen since does
                     not make it plan again by itself (planning again then was tried: fork 98.9 / 96.8 /
-                    98.0 %, realdem 94.2 / 93.1 %, no gain); the beams' marks cost a few per cent of APF's
-                    speed with the env (``docs/figures/apf_speed.md``)
+                    98.0 %, realdem 94.2 / 93.1 %, no gain); what the beams' marks cost: the
+                    ``unseen_gap = 0`` row of ``docs/figures/apf_speed.md``
     """
 
     cells: int = 512
@@ -232,7 +233,7 @@ class ChartMemory:
         t = max(1, int(numba.get_num_threads()))
         if self.work is None or self.work[0].shape[0] < t:
             c = self.grid.shape[1]
-            self.work = (np.full((t, c, c), 1e30), np.full((t, c, c), -1, np.int64), np.zeros((t, c, c), np.bool_))
+            self.work = (np.full((t, c, c), 1e30), np.full((t, c, c), -1, np.int32), np.zeros((t, c, c), np.bool_))
         return self.work
 
 
@@ -294,12 +295,13 @@ def _mark_row(g, w, qx, qy, cs, sn, rel, nrm_b, danger, border, lp, lo, s_rel, s
     ``w <= 0``: no chart, nothing marked): at ``q``, heading ``(cs, sn) = (cos, sin) psi``, it sees
     break slots ``rel, nrm_b (K, 2)`` (body frame), ``danger``, ``border (K,)``, and scan hits
     ``s_rel (K_s, 2)`` along ``s_dir`` (``s_hit``); ``lp, lo``: last step's points in ``F``, replaced
-    by this step's. ``prm``: behind, extend, link, cos(5 deg), inset (0 if left out) and whether scan
-    beams mark the open cells they pass over (:func:`_mark_seen`; 0 if left out). True where a
-    cell changed."""
+    by this step's. ``prm``: behind, extend, link, cos(5 deg), inset (0 if left out) and the widest gap
+    left out of the plan unless seen, in metres (0 if left out): where it is wider than a cell, scan beams
+    mark the open cells they pass over (:func:`_mark_seen`; elsewhere no gap is left out, and the marks
+    would change nothing). True where a cell changed."""
     behind, extend, link, cos_sq = prm[0], prm[1], prm[2], prm[3]
     inset = prm[4] if prm.shape[0] > 4 else 0.0
-    seen = prm.shape[0] > 5 and prm[5] > 0.0
+    seen = prm.shape[0] > 5 and prm[5] > w  # only where a gap can be left out: wider than one cell (_plan_way)
     k = rel.shape[0]
     pts = np.empty((k, 2))
     nrm = np.empty((k, 2))
@@ -360,7 +362,9 @@ def _mark_seen(g, w, qx, qy, cs, sn, s_rel, s_dir):
     """Every open cell a scan beam passed over, from half a cell out to a cell short of where it ends
     (its hit, or the range), gets the ``SEEN`` bit (beam ``j``: from ``q`` along ``s_dir[j]`` turned by
     the heading ``(cs, sn)``, ``|s_rel[j]|`` long). Each cell the segment enters is visited once, in
-    order along it (a grid walk: the next cell is the one whose edge the segment crosses first)."""
+    order along it (a grid walk: the next cell is the one whose edge the segment crosses first; through a
+    corner, the diagonal one). A segment that starts on an edge starts in the cell on the side it goes. A
+    position or length that is not a finite number marks nothing."""
     c = g.shape[0]
     h = c // 2
     for j in range(s_rel.shape[0]):
@@ -368,23 +372,29 @@ def _mark_seen(g, w, qx, qy, cs, sn, s_rel, s_dir):
         by = sn * s_dir[j, 0] + cs * s_dir[j, 1]
         end = np.sqrt(s_rel[j, 0] * s_rel[j, 0] + s_rel[j, 1] * s_rel[j, 1]) / w - 1.0  # in cells
         t = 0.5
-        if t >= end:
-            continue
         x, y = qx / w + h + t * bx, qy / w + h + t * by
-        a, b = int(np.floor(x)), int(np.floor(y))
-        sa, sb = (1 if bx > 0 else -1), (1 if by > 0 else -1)
-        ta = t + ((a + 1 - x) if bx > 0 else (x - a)) / abs(bx) if bx != 0.0 else np.inf  # t at the next edge
-        tb = t + ((b + 1 - y) if by > 0 else (y - b)) / abs(by) if by != 0.0 else np.inf
+        if not (t < end and abs(x) < 1e9 and abs(y) < 1e9):  # nothing to mark (NaN: nothing either)
+            continue
+        a = int(np.floor(x)) if bx >= 0.0 else int(np.ceil(x)) - 1
+        b = int(np.floor(y)) if by >= 0.0 else int(np.ceil(y)) - 1
+        sa = 1 if bx > 0.0 else (-1 if bx < 0.0 else 0)
+        sb = 1 if by > 0.0 else (-1 if by < 0.0 else 0)
+        da = 1.0 / abs(bx) if sa != 0 else np.inf  # t from one edge to the next
+        db = 1.0 / abs(by) if sb != 0 else np.inf
+        ta = t + ((a + 1 - x) if sa > 0 else (x - a)) * da if sa != 0 else np.inf  # t at the next edge
+        tb = t + ((b + 1 - y) if sb > 0 else (y - b)) * db if sb != 0 else np.inf
         while True:
             if 0 <= a < c and 0 <= b < c:
                 if g[a, b] == OPEN:
                     g[a, b] = SEEN
-            elif (a < 0 and sa < 0) or (a >= c and sa > 0) or (b < 0 and sb < 0) or (b >= c and sb > 0):
-                break  # off the chart and going away from it
-            if ta <= tb:
-                t, ta, a = ta, ta + 1.0 / abs(bx), a + sa
-            else:
-                t, tb, b = tb, tb + 1.0 / abs(by), b + sb
+            elif (a < 0 and sa <= 0) or (a >= c and sa >= 0) or (b < 0 and sb <= 0) or (b >= c and sb >= 0):
+                break  # off the chart and not coming back
+            if ta < tb:
+                t, ta, a = ta, ta + da, a + sa
+            elif tb < ta:
+                t, tb, b = tb, tb + db, b + sb
+            else:  # through a corner
+                t, ta, tb, a, b = ta, ta + da, tb + db, a + sa, b + sb
             if t >= end:
                 break
 
@@ -966,8 +976,8 @@ def _set_way(i, w, c, route, m_len, m_way_at, way):
 @njit(cache=True, inline="always")
 def _mark_prm(prm):
     """The constants :func:`_mark_row` reads, from :func:`_prm`'s: behind, extend, link, cos(5 deg), inset and
-    whether beams mark the cells they pass over (``ChartParams.unseen_gap`` > 0)."""
-    return np.array([prm[4], prm[5], prm[6], prm[7], prm[13], 1.0 if prm[18] > 0.0 else 0.0])
+    the widest gap left out unless seen, in metres (``ChartParams.unseen_gap`` passes; 0: off)."""
+    return np.array([prm[4], prm[5], prm[6], prm[7], prm[13], prm[18]])
 
 
 @njit(cache=True, parallel=True)
