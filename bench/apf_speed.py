@@ -9,14 +9,13 @@ ratio to the env alone in the same process. By hand:
 Rows: the chart search (``APFPolicy(env, search="chart")``) at the default
 :class:`~tin_swarm_env.policies.chart.ChartParams` (512 cells, ``unseen_gap = 1``: narrow gaps left out unless
 seen through, every scan beam marks the cells it passes over), at 256 cells and with ``unseen_gap = 0`` (the
-default before: no beam marks), and the bug search (``search="bug"``). Each run is one episode from the same reset with a fresh policy, its actions
-recorded; the env alone then replays those actions from the same reset, so it drives the same
-trajectory (the same robots live, arriving, colliding) with no policy. Each the best of
-``--repeats`` runs, interleaved. Robot-steps count every row ``step_arrays`` takes (robots x
-steps, as ``bench/env.py`` counts agent-steps); the live share says how many of them were robots
-still in the episode. For the chart search also the A* runs per live robot-step
-(``ChartMemory.plans``: it plans again only when its way may no longer be least-cost, the
-:mod:`tin_swarm_env.policies.apf` docstring's rule).
+default before: no beam marks), and the bug search (``search="bug"``). Each run is one episode from the same
+reset with a fresh policy, its actions recorded; the env alone then replays those actions from the same reset,
+so it drives the same trajectory (the same robots live, arriving, colliding) with no policy. Each the best of
+``--repeats`` runs, interleaved. Robot-steps count every row ``step_arrays`` takes (robots x steps, as
+``bench/env.py`` counts agent-steps); the live share says how many of them were robots still in the episode. For
+the chart search also the A* runs per live robot-step (``ChartMemory.plans``: it plans again only when its way
+may no longer be least-cost, the :mod:`tin_swarm_env.policies.apf` docstring's rule).
 """
 
 from __future__ import annotations
