@@ -1213,16 +1213,17 @@ def test_beams_mark_the_open_cells_they_pass_over_up_to_a_cell_short_of_their_en
 
 def _cells_crossed(x0, y0, dx, dy, t0, t1, c, eps):
     """The slow reference of _mark_seen's walk: the chart cells (a, b) the segment ``(x0, y0) + t (dx, dy)``,
-    ``t0 <= t < t1`` (cell units), crosses over more than ``eps`` of its length, each cell grown by ``eps``
-    on every side first (``eps > 0``: the cells it crosses or passes within ``eps`` of; ``eps < 0``: those it
-    crosses over more than ``|eps|``), found by clipping the segment to each cell near it."""
+    ``t0 <= t < t1`` (cell units), crosses, each cell grown by ``eps`` on every side first (``eps > 0``: the
+    cells it crosses or passes within ``eps`` of; ``eps < 0``: those whose inside, ``|eps|`` in from every
+    edge, it crosses over more than ``|eps|`` of its length: a segment that runs along an edge, a hair to one
+    side, is a cell of either side as rounding has it), found by clipping the segment to each cell near it."""
     out = set()
     xs, ys = (x0 + t0 * dx, x0 + t1 * dx), (y0 + t0 * dy, y0 + t1 * dy)
     for a in range(max(int(math.floor(min(xs))) - 1, 0), min(int(math.floor(max(xs))) + 1, c - 1) + 1):
         for b in range(max(int(math.floor(min(ys))) - 1, 0), min(int(math.floor(max(ys))) + 1, c - 1) + 1):
             lo, hi = t0, t1
             for p0, d, k in ((x0, dx, a), (y0, dy, b)):
-                k0, k1 = k - max(eps, 0.0), k + 1 + max(eps, 0.0)
+                k0, k1 = k - eps, k + 1 + eps
                 if d == 0.0:
                     if not k0 <= p0 < k1:
                         lo = hi
