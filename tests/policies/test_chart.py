@@ -1185,12 +1185,27 @@ def test_a_gap_narrower_than_the_width_is_pinched_unless_a_beam_passed_over_it()
 @given(st.integers(0, 2 ** 32 - 1), st.floats(0.0, 1.0))
 def test_no_cell_is_pinched_below_one_cell(seed, pinch):
     """_pinched with ``pinch <= 1``: no cell of any chart is pinched (a gap between shut cells spans at
-    least one cell), which lets the plan skip the test there (_plan_way sets such a pinch to 0)."""
+    least one cell), which lets the plan skip the test there (_unseen_pinch gives 0 there)."""
     from tin_swarm_env.policies.chart import _pinched
 
     rng = np.random.default_rng(seed)
     g = rng.choice(np.array([OPEN, WALL, STUCK, SEEN], np.uint8), size=(10, 10), p=[0.4, 0.3, 0.1, 0.2])
     assert not any(_pinched(g, a, b, pinch) for a in range(10) for b in range(10))
+
+
+def test_the_unseen_pinch_is_the_gap_in_cells_where_it_is_wider_than_a_cell():
+    """_unseen_pinch: a 3 m gap on 1 m cells is 3 cells; on cells 3 m or wider no gap can be left out (0), so
+    the plan skips the test and the beams mark nothing (a 2 m beam from the centre of a 3 m chart cell)."""
+    from tin_swarm_env.policies.chart import _mark_prm, _prm, _unseen_pinch
+
+    assert _unseen_pinch(3.0, 1.0) == 3.0 and _unseen_pinch(3.0, 3.0) == 0.0 and _unseen_pinch(0.0, 1.0) == 0.0
+    prm = _mark_prm(_prm(ChartParams(), 60.0, 1.0, 1.0, pass_m=3.0))
+    none = np.zeros((0, 2))
+    for w, marked in ((1.0, True), (3.0, False)):
+        g = np.zeros((32, 32), np.uint8)
+        _mark_row(g, w, 0.5 * w, 0.5 * w, 1.0, 0.0, none, none, np.zeros(0, bool), np.zeros(0, bool), none,
+                  np.zeros(0, bool), np.array([[8.0 * w, 0.0]]), np.array([[1.0, 0.0]]), np.array([False]), prm)
+        assert bool((g == SEEN).any()) == marked
 
 
 def test_beams_mark_the_open_cells_they_pass_over_up_to_a_cell_short_of_their_end():

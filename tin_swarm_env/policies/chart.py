@@ -301,7 +301,7 @@ def _mark_row(g, w, qx, qy, cs, sn, rel, nrm_b, danger, border, lp, lo, s_rel, s
     would change nothing). True where a cell changed."""
     behind, extend, link, cos_sq = prm[0], prm[1], prm[2], prm[3]
     inset = prm[4] if prm.shape[0] > 4 else 0.0
-    seen = prm.shape[0] > 5 and prm[5] > w  # only where a gap can be left out: wider than one cell (_plan_way)
+    seen = prm.shape[0] > 5 and _unseen_pinch(prm[5], w) > 0.0  # only where a gap can be left out
     k = rel.shape[0]
     pts = np.empty((k, 2))
     nrm = np.empty((k, 2))
@@ -355,6 +355,15 @@ def _mark_row(g, w, qx, qy, cs, sn, rel, nrm_b, danger, border, lp, lo, s_rel, s
     lp[:, :] = pts
     lo[:] = danger
     return changed
+
+
+@njit(cache=True, inline="always")
+def _unseen_pinch(gap_m, w):
+    """The width in cells below which :func:`_pinched` leaves an unseen gap out, on a chart of cells ``w`` wide,
+    for gaps narrower than ``gap_m`` metres (``ChartParams.unseen_gap`` passes): 0 (none) where ``gap_m <= w``,
+    since a gap between shut cells spans at least one cell. The plan reads it (:func:`_plan_way`), and the
+    beams mark cells seen only where it is not 0 (:func:`_mark_row`)."""
+    return gap_m / w if gap_m > w else 0.0
 
 
 @njit(cache=True, inline="always")
@@ -934,9 +943,7 @@ def _plan_way(i, g, w, qx, qy, m_route, m_shut, m_len, m_at, m_way_at, way, dirt
     ha, hb = (dx / nrm, dy / nrm) if nrm > 1e-9 and have_way[i] else (0.0, 0.0)
     tc = turn_m / w if nrm > 1e-9 and have_way[i] else 0.0
     # gaps narrower than unseen_gap passes, or (a fine chart) one cell wide, are left out (_pinched)
-    pinch = prm[8] / w if prm[8] > 0.0 else (PINCH_ONE_CELL if 0.0 < w <= pinch_m else 0.0)
-    if pinch <= 1.0:  # no gap between shut cells is narrower than one cell: nothing is pinched
-        pinch = 0.0
+    pinch = _unseen_pinch(prm[8], w) if prm[8] > 0.0 else (PINCH_ONE_CELL if 0.0 < w <= pinch_m else 0.0)
     flood = c * c // 4 if walled[i] else 0
     side_cost = prm[5]
     hx, hy = home[i, 0], home[i, 1]
