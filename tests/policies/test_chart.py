@@ -1195,13 +1195,15 @@ def test_no_cell_is_pinched_below_one_cell(seed, pinch):
 
 def test_the_unseen_pinch_is_the_gap_in_cells_where_it_is_wider_than_a_cell():
     """_unseen_pinch: a 3 m gap on 1 m cells is 3 cells; on cells 3 m or wider no gap can be left out (0), so
-    the plan skips the test and the beams mark nothing (a 2 m beam from the centre of a 3 m chart cell)."""
+    the plan skips the test and the beams mark nothing (a 2 m beam from the centre of a 3 m chart cell), nor on
+    a chart not yet sized (w = 0), where the rule once divided by zero."""
     from tin_swarm_env.policies.chart import _mark_prm, _prm, _unseen_pinch
 
     assert _unseen_pinch(3.0, 1.0) == 3.0 and _unseen_pinch(3.0, 3.0) == 0.0 and _unseen_pinch(0.0, 1.0) == 0.0
+    assert _unseen_pinch(3.0, 0.0) == 0.0  # a chart not yet sized (w = 0: before the first step) leaves none out
     prm = _mark_prm(_prm(ChartParams(), 60.0, 1.0, 1.0, pass_m=3.0))
     none = np.zeros((0, 2))
-    for w, marked in ((1.0, True), (3.0, False)):
+    for w, marked in ((1.0, True), (3.0, False), (0.0, False)):
         g = np.zeros((32, 32), np.uint8)
         _mark_row(g, w, 0.5 * w, 0.5 * w, 1.0, 0.0, none, none, np.zeros(0, bool), np.zeros(0, bool), none,
                   np.zeros(0, bool), np.array([[8.0 * w, 0.0]]), np.array([[1.0, 0.0]]), np.array([False]), prm)
