@@ -411,6 +411,27 @@ def test_out_of_range_is_range_class_saying_clearly_out(seed, r, length, base, r
             assert SK.out_of_range.py_func(x, y, a[0], a[1], b[0], b[1], hi2) == want
 
 
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 2 ** 31), st.sampled_from([0.0, 1e-3, 1.0, 50.0, 1e4]), st.sampled_from([0.0, 1e3, 5e6]),
+       st.sampled_from([1e-3, 1.0, 60.0, 500.0]))
+def test_sq_dist_is_the_squared_distance_within_the_keep_tolerance(seed, length, base, spread):
+    """sq_dist's ``num / den`` is the squared distance _closest gives (to its ends, feet and points at
+    random; on segments of every length, points too, far from the origin), off by far less than the tolerance
+    break_row's nearest-kept filter allows (:data:`KEEP_TOL` of a 1 m range): the filter never drops a
+    segment that _closest would keep."""
+    rng = np.random.default_rng(seed)
+    for _ in range(20):
+        a = base + rng.uniform(-100, 100, 2)
+        b = a + length * rng.normal(0, 1, 2)
+        for x, y in (a, b, (a + b) / 2, a + spread * rng.normal(0, 1, 2), b + spread * rng.normal(0, 1, 2)):
+            num, den = SK.sq_dist(x, y, a[0], a[1], b[0], b[1])
+            d = SK._closest(x, y, a[0], a[1], b[0], b[1])[2]
+            assert den > 0.0 and num >= 0.0
+            assert abs(np.sqrt(num / den) - d) < 1e-9 * (1 + d) + 1e-15 * (abs(x) + abs(y) + length) * 16
+            assert abs(np.sqrt(num / den) - d) < SK.KEEP_TOL
+            assert SK.out_of_range(x, y, a[0], a[1], b[0], b[1], 2.0) == (num > 2.0 * den)
+
+
 # -- break_row: the vector env's break contacts kept as the observation reads them, with the scan
 
 _ROW = []

@@ -292,8 +292,17 @@ def range_class(x, y, ax, ay, bx, by, lo2, hi2):
 @njit(cache=True, inline="always")
 def out_of_range(x, y, ax, ay, bx, by, hi2):
     """``range_class(x, y, ax, ay, bx, by, 0.0, hi2) == 0`` (segment ``a -> b`` clearly out of range), the
-    same products and comparisons, every case computed and the one that applies selected, so no branch
-    waits on the test."""
+    same products and comparisons (:func:`sq_dist`), every case computed and the one that applies selected, so
+    no branch waits on the test."""
+    num, den = sq_dist(x, y, ax, ay, bx, by)
+    return num > hi2 * den
+
+
+@njit(cache=True, inline="always")
+def sq_dist(x, y, ax, ay, bx, by):
+    """``(num, den)``: the squared distance from ``(x, y)`` to segment ``a -> b`` is ``num / den``, with no
+    division or root: to the nearer end (``den`` 1), or ``cross^2 / L^2`` along the segment, as
+    :func:`range_class` computes them (every case computed, the one that applies selected)."""
     apx = x - ax
     apy = y - ay
     abx = bx - ax
@@ -303,8 +312,9 @@ def out_of_range(x, y, ax, ay, bx, by, hi2):
     qx = x - bx
     qy = y - by
     cr = apx * aby - apy * abx
-    d2 = apx * apx + apy * apy if dot <= 0.0 else (qx * qx + qy * qy if dot >= L2 else cr * cr)
-    return d2 > hi2 * (1.0 if dot <= 0.0 or dot >= L2 else L2)
+    end = dot <= 0.0 or dot >= L2
+    num = apx * apx + apy * apy if dot <= 0.0 else (qx * qx + qy * qy if dot >= L2 else cr * cr)
+    return num, 1.0 if end else L2
 
 
 @njit(cache=True)  # called, not inlined: one compiled body for the env and the vector env
@@ -333,10 +343,12 @@ BREAK_CHUNK = 128  # break_row takes a robot's candidate segments this many at a
 @njit(cache=True, inline="always")
 def break_scratch(K):
     """:func:`break_row`'s scratch (one per thread's run of robots): ``(b (K, 3)`` the scan's beams,
-    ``near (BREAK_CHUNK,)`` a chunk's segments in range, ``geo (BREAK_CHUNK, 4)`` its dangerous ones
-    relative to the robot, ``pairs (2 BREAK_CHUNK + 2, 2))`` their beams (:func:`~.scan_kernels.scan_wedges`)."""
-    return (np.empty((max(K, 1), 3)), np.empty(BREAK_CHUNK, dtype=np.int64), np.empty((BREAK_CHUNK, 4)),
-            np.empty((2 * BREAK_CHUNK + 2, 2), dtype=np.int64))
+    ``near (2, BREAK_CHUNK)`` a chunk's segments in range and their places in it, ``geo (BREAK_CHUNK, 4)`` its
+    dangerous ones relative to the robot, ``pairs (2 BREAK_CHUNK + 2, 2)`` their beams
+    (:func:`~.scan_kernels.scan_wedges`), ``nd (2, BREAK_CHUNK)`` the chunk's :func:`sq_dist` and ``ga (4,
+    BREAK_CHUNK))`` its segments' ends (:func:`_near_chunk`)."""
+    return (np.empty((max(K, 1), 3)), np.empty((2, BREAK_CHUNK), dtype=np.int64), np.empty((BREAK_CHUNK, 4)),
+            np.empty((2 * BREAK_CHUNK + 2, 2), dtype=np.int64), np.empty((2, BREAK_CHUNK)), np.empty((4, BREAK_CHUNK)))
 
 
 @njit(cache=True)  # called, not inlined
@@ -354,11 +366,12 @@ def break_row(i, x, y, B, lo, hi, gridded, range_m, S, OB, c, s, W):
     ``(c, s)`` the heading's cos and sin; ``W`` the scratch of :func:`break_scratch`. The rows are taken
     :data:`BREAK_CHUNK` at a time, each in three passes with few branches on fresh results (those that
     stall the pipeline when mispredicted): the segments in range (:func:`_near_chunk`), the nearest kept
-    and the dangerous ones listed (:func:`_keep_chunk`), the scan (:func:`~.scan_kernels.scan_wedges`).
+    and the dangerous ones listed (:func:`_keep_chunk`: the exact distance only for a segment in the range's
+    band or one that may be among the ``kb`` nearest), the scan (:func:`~.scan_kernels.scan_wedges`).
     The kept slots and the scan do not depend on the order the contacts come in, so the same bits."""
     s_idx, s_dist, s_cl, scan = S
     danger, ends, units = OB
-    b, near, geo, pairs = W
+    b, near, geo, pairs, nd, ga = W
     kb = s_idx.shape[1]
     K = scan.shape[1]
     for q in range(kb):
@@ -366,9 +379,10 @@ def break_row(i, x, y, B, lo, hi, gridded, range_m, S, OB, c, s, W):
     m = 0
     used = False
     hi2 = range_m * range_m * (1.0 + RANGE_BAND)
+    lo2 = range_m * range_m * (1.0 - RANGE_BAND)
     for w0 in range(lo, hi, BREAK_CHUNK):
-        nb = _near_chunk(x, y, ends, B[4], w0, min(w0 + BREAK_CHUNK, hi), gridded, hi2, near)
-        m, nc = _keep_chunk(i, x, y, near, nb, range_m, S, m, danger, ends, geo)
+        nb = _near_chunk(x, y, ends, B[4], w0, min(w0 + BREAK_CHUNK, hi), gridded, hi2, near, nd, ga)
+        m, nc = _keep_chunk(i, x, y, near, nd, ga, nb, range_m, lo2, S, m, danger, geo)
         if K == 0 or nc == 0:
             continue
         if not used:
@@ -380,35 +394,61 @@ def break_row(i, x, y, B, lo, hi, gridded, range_m, S, OB, c, s, W):
 
 
 @njit(cache=True, inline="always")
-def _near_chunk(x, y, ends, bitems, w0, w1, gridded, hi2, near):
-    """The segments of rows ``w0:w1`` not clearly out of range (:func:`out_of_range`), written to
-    ``near`` in row order without a branch on the test; returns how many."""
+def _near_chunk(x, y, ends, bitems, w0, w1, gridded, hi2, near, nd, ga):
+    """The segments of rows ``w0:w1`` not clearly out of range (:func:`out_of_range`): their ids written to
+    ``near[0, :nb]`` and their places in the chunk to ``near[1, :nb]``, in row order; returns ``nb``. In three
+    loops: the ends gathered to ``ga (4, chunk)`` (``ax, ay, bx, by``), every :func:`sq_dist` to ``nd (2,
+    chunk)`` (a loop with no gather or branch, which the compiler runs several segments at a time), the ones
+    not clearly out listed without a branch on the test (no loop-carried wait on a fresh result)."""
+    L = w1 - w0
+    for q in range(L):
+        e = bitems[w0 + q] if gridded else w0 + q
+        ga[0, q] = ends[e, 0]
+        ga[1, q] = ends[e, 1]
+        ga[2, q] = ends[e, 2]
+        ga[3, q] = ends[e, 3]
+    for q in range(L):
+        num, den = sq_dist(x, y, ga[0, q], ga[1, q], ga[2, q], ga[3, q])
+        nd[0, q] = num
+        nd[1, q] = den
     nb = 0
-    for w in range(w0, w1):
-        e = bitems[w] if gridded else w
-        near[nb] = e
-        nb += 0 if out_of_range(x, y, ends[e, 0], ends[e, 1], ends[e, 2], ends[e, 3], hi2) else 1
+    for q in range(L):
+        near[0, nb] = bitems[w0 + q] if gridded else w0 + q
+        near[1, nb] = q
+        nb += 0 if nd[0, q] > hi2 * nd[1, q] else 1
     return nb
 
 
+KEEP_TOL = 1e-6  # of a range (and 1e-6 m): how much nearer than sq_dist says a segment is taken to be, at most
+
+
 @njit(cache=True, inline="always")
-def _keep_chunk(i, x, y, near, nb, range_m, S, m, danger, ends, geo):
-    """The ``nb`` segments ``near``: those within ``range_m`` (:func:`_closest`) kept in row ``i``'s slots
-    (:func:`_keep_nearest`, ``m`` kept so far) and, when dangerous, written to ``geo`` as ``(wx, wy, ex, ey)``
-    (``w -> w + e`` relative to the robot). Returns ``(m, how many in geo)``."""
+def _keep_chunk(i, x, y, near, nd, ga, nb, range_m, lo2, S, m, danger, geo):
+    """The ``nb`` segments ``near`` (:func:`_near_chunk`'s: ``nd`` their :func:`sq_dist`, ``ga`` their ends): those within ``range_m`` kept in row ``i``'s
+    slots (:func:`_keep_nearest`, ``m`` kept so far) and, when dangerous, written to ``geo`` as ``(wx, wy, ex,
+    ey)`` (``w -> w + e`` relative to the robot). Returns ``(m, how many in geo)``. A segment is in range when
+    its squared distance is clearly below the range's (``lo2``, as :func:`range_class`), else when
+    :func:`_closest`'s distance is at most ``range_m``; :func:`_closest` (a division and a root) runs only there
+    and for a segment that may be among the ``kb`` nearest: while fewer are kept, or when ``sq_dist`` is not
+    clearly beyond the farthest kept (by :data:`KEEP_TOL` of a range, far above its rounding: ~1e-15 of the
+    coordinates and the range), so the same slots, bit for bit, as every contact's distance would give."""
     s_idx, s_dist, s_cl, scan = S
     kb = s_idx.shape[1]
+    tol = KEEP_TOL * (range_m + 1.0)
     nc = 0
     for q in range(nb):
-        e = near[q]
-        ax = ends[e, 0]
-        ay = ends[e, 1]
-        bx = ends[e, 2]
-        by = ends[e, 3]
-        cx, cy, d = _closest(x, y, ax, ay, bx, by)
-        if d > range_m:
-            continue
-        if kb:
+        e = near[0, q]
+        p = near[1, q]
+        num = nd[0, p]
+        den = nd[1, p]
+        ax = ga[0, p]
+        ay = ga[1, p]
+        bx = ga[2, p]
+        by = ga[3, p]
+        if num >= lo2 * den and _closest(x, y, ax, ay, bx, by)[2] > range_m:
+            continue  # in the range's band and out by the exact distance
+        if kb and (m < kb or num <= (s_dist[i, kb - 1] + tol) ** 2 * den):
+            cx, cy, d = _closest(x, y, ax, ay, bx, by)
             m = _keep_nearest(s_idx, s_dist, s_cl, i, m, kb, e, d, cx, cy)
         geo[nc, 0] = ax - x
         geo[nc, 1] = ay - y
