@@ -20,7 +20,7 @@ import math
 from numba import njit
 
 __all__ = ["ANGLE_ERROR", "SPAN_MARGIN", "approx_angle", "beam_span", "crossing", "scan_start", "scan_contact",
-           "scan_wedges"]
+           "scan_wedges", "wedge_spans"]
 
 ANGLE_ERROR = 1e-3  # rad: a bound on how far :func:`approx_angle` is off (2e-4 at worst: tests/env/test_observation.py)
 SPAN_MARGIN = 0.02  # rad: :func:`beam_span` takes the beams this close to the wedge too
@@ -29,16 +29,15 @@ SPAN_MARGIN = 0.02  # rad: :func:`beam_span` takes the beams this close to the w
 @njit(cache=True, inline="always")
 def approx_angle(x, y):
     """``atan2(y, x)`` within :data:`ANGLE_ERROR` (a polynomial on the octant, no libm call; ``(x, y)``
-    not both 0): where the exact angle is not needed, only which beams are near it."""
+    not both 0, where it reads 0): where the exact angle is not needed, only which beams are near it.
+    No branch: every case is a selection, so a loop over many points runs several at a time."""
     ax = abs(x)
     ay = abs(y)
-    a = min(ax, ay) / max(ax, ay)
+    a = min(ax, ay) / max(ax, ay, 1e-300)
     s = a * a
     r = ((-0.0464964749 * s + 0.15931422) * s - 0.327622764) * s * a + a
-    if ay > ax:
-        r = 0.5 * math.pi - r
-    if x < 0.0:
-        r = math.pi - r
+    r = 0.5 * math.pi - r if ay > ax else r
+    r = math.pi - r if x < 0.0 else r
     return -r if y < 0.0 else r
 
 
@@ -53,25 +52,35 @@ def beam_span(ax, ay, bx, by, c, s, K):
     to the segment). The margin is far above what the angle's error (:data:`ANGLE_ERROR`), the
     crossing's tolerance (1e-12 of the segment: < 1e-6 rad at that distance) and rounding can turn a
     beam by, so no beam outside ``lo..hi`` passes :func:`scan_beams`' exact test. No libm call: a few
-    multiplications and three divisions."""
+    multiplications and three divisions; no branch (every case computed, the one that applies
+    selected: :func:`wedge_spans` runs it over many segments at a time)."""
     step = 2.0 * math.pi / K
     tiny2 = 2e-12 * ((bx - ax) ** 2 + (by - ay) ** 2 + 1.0)  # >= (1e-6 (L + 1))^2
-    if ax * ax + ay * ay < tiny2 or bx * bx + by * by < tiny2:
-        return 0, K - 1
+    at_robot = (ax * ax + ay * ay < tiny2) | (bx * bx + by * by < tiny2)
     fa = approx_angle(c * ax + s * ay, c * ay - s * ax)
     fb = approx_angle(c * bx + s * by, c * by - s * bx)
-    if ax * by - ay * bx < 0.0:  # b comes first counter-clockwise
-        fa, fb = fb, fa
-    span = fb - fa
-    if span < 0.0:
-        span += 2.0 * math.pi
-    if span > math.pi - 2.0 * step:
-        return 0, K - 1
-    lo = math.ceil((fa - SPAN_MARGIN) * (K / (2.0 * math.pi)))
-    hi = math.floor((fa + span + SPAN_MARGIN) * (K / (2.0 * math.pi)))
-    if hi - lo + 1 >= K:
-        return 0, K - 1
-    return int(lo), int(hi)
+    swap = ax * by - ay * bx < 0.0  # b comes first counter-clockwise
+    f0 = fb if swap else fa
+    f1 = fa if swap else fb
+    span = f1 - f0
+    span = span + 2.0 * math.pi if span < 0.0 else span
+    lo = math.ceil((f0 - SPAN_MARGIN) * (K / (2.0 * math.pi)))
+    hi = math.floor((f0 + span + SPAN_MARGIN) * (K / (2.0 * math.pi)))
+    every = at_robot | (span > math.pi - 2.0 * step) | (hi - lo + 1 >= K)
+    return (0 if every else int(lo)), (K - 1 if every else int(hi))
+
+
+@njit(cache=True, inline="always")
+def wedge_spans(geo, nc, c, s, K, spans):
+    """:func:`beam_span` of the ``nc`` segments ``geo[:, j] = (wx, wy, ex, ey)`` (``w -> w + e`` relative to
+    the robot) to ``spans (2, nc)``: a loop with no branch, which the compiler runs several segments at a
+    time where divisions by zero are not checked (``error_model="numpy"``, :func:`~.sense_kernels.break_row`)."""
+    for j in range(nc):
+        wx = geo[0, j]
+        wy = geo[1, j]
+        lo, hi = beam_span(wx, wy, wx + geo[2, j], wy + geo[3, j], c, s, K)
+        spans[0, j] = lo
+        spans[1, j] = hi
 
 
 @njit(cache=True, inline="always")
@@ -122,22 +131,21 @@ def scan_contact(b, wx, wy, ex, ey, c, s, K):
 
 
 @njit(cache=True, inline="always")
-def scan_wedges(b, geo, nc, pairs, c, s, K):
-    """:func:`scan_contact` over the ``nc`` dangerous segments ``geo[j] = (wx, wy, ex, ey)`` (``w -> w + e``
-    relative to the robot), the same crossings in two passes: first every wedge (:func:`beam_span`), its
-    at most two beams written as ``(beam, j)`` to ``pairs ((2 nc + 2, 2)`` scratch; a wider wedge, rare,
-    crossed at once by :func:`scan_contact`), then every pair's :func:`crossing`. Each beam's best is the
-    minimum over its crossings, so the same bits in any order; in two passes no branch waits on a wedge
-    (computed long before it is read), which the beam loop of :func:`scan_contact` did per contact."""
+def scan_wedges(b, geo, nc, pairs, c, s, K, spans):
+    """:func:`scan_contact` over the ``nc`` dangerous segments ``geo[:, j] = (wx, wy, ex, ey)`` (``w -> w + e``
+    relative to the robot), the same crossings in three passes: every wedge (:func:`wedge_spans`, to ``spans
+    (2, nc)`` scratch), then each wedge's at most two beams written as ``(beam, j)`` to ``pairs ((2 nc + 2, 2)``
+    scratch; a wider wedge, rare, crossed at once by :func:`scan_contact`), then every pair's :func:`crossing`.
+    Each beam's best is the minimum over its crossings, so the same bits in any order; in passes no branch
+    waits on a wedge (computed long before it is read), which the beam loop of :func:`scan_contact` did per
+    contact."""
+    wedge_spans(geo, nc, c, s, K, spans)
     p = 0
     for j in range(nc):
-        wx = geo[j, 0]
-        wy = geo[j, 1]
-        ex = geo[j, 2]
-        ey = geo[j, 3]
-        lo, hi = beam_span(wx, wy, wx + ex, wy + ey, c, s, K)
+        lo = spans[0, j]
+        hi = spans[1, j]
         if hi - lo > 1:
-            scan_contact(b, wx, wy, ex, ey, c, s, K)
+            scan_contact(b, geo[0, j], geo[1, j], geo[2, j], geo[3, j], c, s, K)
             continue
         k = lo + K if lo < 0 else (lo - K if lo >= K else lo)  # (lo, lo + 1), of which hi - lo + 1 count
         pairs[p, 0] = k
@@ -148,4 +156,4 @@ def scan_wedges(b, geo, nc, pairs, c, s, K):
     for q in range(p):
         k = pairs[q, 0]
         j = pairs[q, 1]
-        b[k, 0] = crossing(b[k, 1], b[k, 2], geo[j, 2], geo[j, 3], geo[j, 0], geo[j, 1], b[k, 0])
+        b[k, 0] = crossing(b[k, 1], b[k, 2], geo[2, j], geo[3, j], geo[0, j], geo[1, j], b[k, 0])

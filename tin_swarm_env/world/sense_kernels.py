@@ -343,15 +343,17 @@ BREAK_CHUNK = 128  # break_row takes a robot's candidate segments this many at a
 @njit(cache=True, inline="always")
 def break_scratch(K):
     """:func:`break_row`'s scratch (one per thread's run of robots): ``(b (K, 3)`` the scan's beams,
-    ``near (2, BREAK_CHUNK)`` a chunk's segments in range and their places in it, ``geo (BREAK_CHUNK, 4)`` its
+    ``near (2, BREAK_CHUNK)`` a chunk's segments in range and their places in it, ``geo (4, BREAK_CHUNK)`` its
     dangerous ones relative to the robot, ``pairs (2 BREAK_CHUNK + 2, 2)`` their beams
-    (:func:`~.scan_kernels.scan_wedges`), ``nd (2, BREAK_CHUNK)`` the chunk's :func:`sq_dist` and ``ga (4,
-    BREAK_CHUNK))`` its segments' ends (:func:`_near_chunk`)."""
-    return (np.empty((max(K, 1), 3)), np.empty((2, BREAK_CHUNK), dtype=np.int64), np.empty((BREAK_CHUNK, 4)),
-            np.empty((2 * BREAK_CHUNK + 2, 2), dtype=np.int64), np.empty((2, BREAK_CHUNK)), np.empty((4, BREAK_CHUNK)))
+    (:func:`~.scan_kernels.scan_wedges`), ``nd (2, BREAK_CHUNK)`` the chunk's :func:`sq_dist`, ``ga (4,
+    BREAK_CHUNK)`` its segments' ends (:func:`_near_chunk`), ``spans (2, BREAK_CHUNK))`` the wedges' beams
+    (:func:`~.scan_kernels.wedge_spans`)."""
+    return (np.empty((max(K, 1), 3)), np.empty((2, BREAK_CHUNK), dtype=np.int64), np.empty((4, BREAK_CHUNK)),
+            np.empty((2 * BREAK_CHUNK + 2, 2), dtype=np.int64), np.empty((2, BREAK_CHUNK)), np.empty((4, BREAK_CHUNK)),
+            np.empty((2, BREAK_CHUNK), dtype=np.int64))
 
 
-@njit(cache=True)  # called, not inlined
+@njit(cache=True, error_model="numpy")  # called, not inlined; no division is by zero (no check needed)
 def break_row(i, x, y, B, lo, hi, gridded, range_m, S, OB, c, s, W):
     """Robot ``i``'s break contacts (rows ``lo:hi`` of :func:`break_range`, as :func:`gather_breaks`
     finds them: the same tests on the same numbers) kept only as what the observation reads: its
@@ -371,7 +373,7 @@ def break_row(i, x, y, B, lo, hi, gridded, range_m, S, OB, c, s, W):
     The kept slots and the scan do not depend on the order the contacts come in, so the same bits."""
     s_idx, s_dist, s_cl, scan = S
     danger, ends, units = OB
-    b, near, geo, pairs, nd, ga = W
+    b, near, geo, pairs, nd, ga, spans = W
     kb = s_idx.shape[1]
     K = scan.shape[1]
     for q in range(kb):
@@ -388,7 +390,7 @@ def break_row(i, x, y, B, lo, hi, gridded, range_m, S, OB, c, s, W):
         if not used:
             used = True
             scan_start(b, c, s, units, range_m, K)
-        scan_wedges(b, geo, nc, pairs, c, s, K)
+        scan_wedges(b, geo, nc, pairs, c, s, K, spans)
     for k in range(K):
         scan[i, k] = b[k, 0] / range_m if used else 1.0
 
@@ -426,7 +428,7 @@ KEEP_TOL = 1e-6  # of a range (and 1e-6 m): how much nearer than sq_dist says a 
 def _keep_chunk(i, x, y, near, nd, ga, nb, range_m, lo2, S, m, danger, geo):
     """The ``nb`` segments ``near`` (:func:`_near_chunk`'s: ``nd`` their :func:`sq_dist`, ``ga`` their ends): those within ``range_m`` kept in row ``i``'s
     slots (:func:`_keep_nearest`, ``m`` kept so far) and, when dangerous, written to ``geo`` as ``(wx, wy, ex,
-    ey)`` (``w -> w + e`` relative to the robot). Returns ``(m, how many in geo)``. A segment is in range when
+    ey)`` (``w -> w + e`` relative to the robot; ``geo (4, chunk)``). Returns ``(m, how many in geo)``. A segment is in range when
     its squared distance is clearly below the range's (``lo2``, as :func:`range_class`), else when
     :func:`_closest`'s distance is at most ``range_m``; :func:`_closest` (a division and a root) runs only there
     and for a segment that may be among the ``kb`` nearest: while fewer are kept, or when ``sq_dist`` is not
@@ -450,10 +452,10 @@ def _keep_chunk(i, x, y, near, nd, ga, nb, range_m, lo2, S, m, danger, geo):
         if kb and (m < kb or num <= (s_dist[i, kb - 1] + tol) ** 2 * den):
             cx, cy, d = _closest(x, y, ax, ay, bx, by)
             m = _keep_nearest(s_idx, s_dist, s_cl, i, m, kb, e, d, cx, cy)
-        geo[nc, 0] = ax - x
-        geo[nc, 1] = ay - y
-        geo[nc, 2] = bx - ax
-        geo[nc, 3] = by - ay
+        geo[0, nc] = ax - x
+        geo[1, nc] = ay - y
+        geo[2, nc] = bx - ax
+        geo[3, nc] = by - ay
         nc += 1 if danger[e] != 0.0 else 0
     return m, nc
 
