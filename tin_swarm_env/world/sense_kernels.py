@@ -426,12 +426,12 @@ KEEP_TOL = 1e-6  # of a range (and 1e-6 m): how much nearer than sq_dist says a 
 
 @njit(cache=True, inline="always")
 def _keep_chunk(i, x, y, near, nd, ga, nb, range_m, lo2, S, m, danger, geo):
-    """The ``nb`` segments ``near`` (:func:`_near_chunk`'s: ``nd`` their :func:`sq_dist`, ``ga`` their ends): those within ``range_m`` kept in row ``i``'s
-    slots (:func:`_keep_nearest`, ``m`` kept so far) and, when dangerous, written to ``geo`` as ``(wx, wy, ex,
-    ey)`` (``w -> w + e`` relative to the robot; ``geo (4, chunk)``). Returns ``(m, how many in geo)``. A segment is in range when
-    its squared distance is clearly below the range's (``lo2``, as :func:`range_class`), else when
-    :func:`_closest`'s distance is at most ``range_m``; :func:`_closest` (a division and a root) runs only there
-    and for a segment that may be among the ``kb`` nearest: while fewer are kept, or when ``sq_dist`` is not
+    """The ``nb`` segments ``near`` (:func:`_near_chunk`'s: ``nd`` their :func:`sq_dist`, ``ga`` their ends):
+    those within ``range_m`` kept in row ``i``'s slots (:func:`_keep_nearest`, ``m`` kept so far) and, when
+    dangerous, written to ``geo`` as ``(wx, wy, ex, ey)`` (``w -> w + e`` relative to the robot; ``geo (4,
+    chunk)``). Returns ``(m, how many in geo)``. A segment is in range when its squared distance is clearly
+    below the range's (``lo2``, as :func:`range_class`), else when :func:`_closest`'s distance is at most
+    ``range_m``; :func:`_closest` (a division and a root) runs only there and for a segment that may be among the ``kb`` nearest: while fewer are kept, or when ``sq_dist`` is not
     clearly beyond the farthest kept (by :data:`KEEP_TOL` of a range, far above its rounding: ~1e-15 of the
     coordinates and the range), so the same slots, bit for bit, as every contact's distance would give."""
     s_idx, s_dist, s_cl, scan = S
