@@ -361,8 +361,8 @@ def _mark_row(g, w, qx, qy, cs, sn, rel, nrm_b, danger, border, lp, lo, s_rel, s
 def _unseen_pinch(gap_m, w):
     """The width in cells below which :func:`_pinched` leaves an unseen gap out, on a chart of cells ``w`` wide,
     for gaps narrower than ``gap_m`` metres (``ChartParams.unseen_gap`` passes): 0 (none) where ``gap_m <= w``,
-    since a gap between shut cells spans at least one cell, and on a chart not yet sized (``w <= 0``). The plan reads it (:func:`_plan_way`), and the
-    beams mark cells seen only where it is not 0 (:func:`_mark_row`)."""
+    since a gap between shut cells spans at least one cell, and on a chart not yet sized (``w <= 0``). The plan
+    reads it (:func:`_plan_way`), and the beams mark cells seen only where it is not 0 (:func:`_mark_row`)."""
     return gap_m / w if gap_m > w > 0.0 else 0.0
 
 

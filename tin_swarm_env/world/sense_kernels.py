@@ -431,9 +431,10 @@ def _keep_chunk(i, x, y, near, nd, ga, nb, range_m, lo2, S, m, danger, geo):
     dangerous, written to ``geo`` as ``(wx, wy, ex, ey)`` (``w -> w + e`` relative to the robot; ``geo (4,
     chunk)``). Returns ``(m, how many in geo)``. A segment is in range when its squared distance is clearly
     below the range's (``lo2``, as :func:`range_class`), else when :func:`_closest`'s distance is at most
-    ``range_m``; :func:`_closest` (a division and a root) runs only there and for a segment that may be among the ``kb`` nearest: while fewer are kept, or when ``sq_dist`` is not
-    clearly beyond the farthest kept (by :data:`KEEP_TOL` of a range, far above its rounding: ~1e-15 of the
-    coordinates and the range), so the same slots, bit for bit, as every contact's distance would give."""
+    ``range_m``; :func:`_closest` (a division and a root) runs only there and for a segment that may be among
+    the ``kb`` nearest: while fewer are kept, or when ``sq_dist`` is not clearly beyond the farthest kept (by
+    :data:`KEEP_TOL` of a range, far above its rounding: ~1e-15 of the coordinates and the range), so the same
+    slots, bit for bit, as every contact's distance would give."""
     s_idx, s_dist, s_cl, scan = S
     kb = s_idx.shape[1]
     tol = KEEP_TOL * (range_m + 1.0)
