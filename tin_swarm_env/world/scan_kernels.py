@@ -28,8 +28,9 @@ SPAN_MARGIN = 0.02  # rad: :func:`beam_span` takes the beams this close to the w
 
 @njit(cache=True, inline="always")
 def approx_angle(x, y):
-    """``atan2(y, x)`` within :data:`ANGLE_ERROR` (a polynomial on the octant, no libm call; ``(x, y)``
-    not both 0, where it reads 0): where the exact angle is not needed, only which beams are near it.
+    """``atan2(y, x)`` within :data:`ANGLE_ERROR` (a polynomial on the octant, no libm call) where ``|x|`` or
+    ``|y|`` is at least 1e-300 (nearer the origin it is no angle: :func:`beam_span` takes such a point as at the
+    robot and reads every beam): where the exact angle is not needed, only which beams are near it.
     No branch: every case is a selection, so a loop over many points runs several at a time."""
     ax = abs(x)
     ay = abs(y)
