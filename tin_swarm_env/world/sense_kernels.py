@@ -270,30 +270,14 @@ def range_class(x, y, ax, ay, bx, by, lo2, hi2):
     :data:`RANGE_BAND`; both distances are within ~1e-15 (1 + L / range + |coordinates| / range) of
     the true one, far inside the band (coordinates below 1e7 m, segments below 1e6 ranges), so
     outside it they agree with :func:`_closest`'s test."""
-    apx = x - ax
-    apy = y - ay
-    abx = bx - ax
-    aby = by - ay
-    dot = apx * abx + apy * aby
-    L2 = abx * abx + aby * aby
-    if dot <= 0.0:
-        d2 = apx * apx + apy * apy
-        return 1 if d2 < lo2 else (0 if d2 > hi2 else 2)
-    if dot >= L2:
-        qx = x - bx
-        qy = y - by
-        d2 = qx * qx + qy * qy
-        return 1 if d2 < lo2 else (0 if d2 > hi2 else 2)
-    cr = apx * aby - apy * abx
-    c2 = cr * cr
-    return 1 if c2 < lo2 * L2 else (0 if c2 > hi2 * L2 else 2)
+    num, den = sq_dist(x, y, ax, ay, bx, by)
+    return 1 if num < lo2 * den else (0 if num > hi2 * den else 2)
 
 
 @njit(cache=True, inline="always")
 def out_of_range(x, y, ax, ay, bx, by, hi2):
-    """``range_class(x, y, ax, ay, bx, by, 0.0, hi2) == 0`` (segment ``a -> b`` clearly out of range), the
-    same products and comparisons (:func:`sq_dist`), every case computed and the one that applies selected, so
-    no branch waits on the test."""
+    """``range_class(x, y, ax, ay, bx, by, 0.0, hi2) == 0`` (segment ``a -> b`` clearly out of range): the
+    same :func:`sq_dist` and comparison, no branch waiting on the test."""
     num, den = sq_dist(x, y, ax, ay, bx, by)
     return num > hi2 * den
 
@@ -301,8 +285,8 @@ def out_of_range(x, y, ax, ay, bx, by, hi2):
 @njit(cache=True, inline="always")
 def sq_dist(x, y, ax, ay, bx, by):
     """``(num, den)``: the squared distance from ``(x, y)`` to segment ``a -> b`` is ``num / den``, with no
-    division or root: to the nearer end (``den`` 1), or ``cross^2 / L^2`` along the segment, as
-    :func:`range_class` computes them (every case computed, the one that applies selected)."""
+    division or root: to the nearer end (``den`` 1), or ``cross^2 / L^2`` along the segment (every case
+    computed, the one that applies selected). :func:`range_class` and :func:`out_of_range` read it."""
     apx = x - ax
     apy = y - ay
     abx = bx - ax
