@@ -64,3 +64,30 @@ def test_arrays_are_the_worlds_arrays_shifted():
     for k in pk.a:
         np.testing.assert_array_equal(step.a[k], pk.a[k], err_msg=k)
     assert pk.index(worlds[1]) == 1 and worlds[2] in pk and pk.nbytes > 0
+
+
+def test_every_pack_has_the_same_array_types_so_the_passes_compile_once():
+    """numba types a read-only array apart from a writable one, and compiles a pass again for each new
+    combination (minutes for the sensing pass). One world's pack (some arrays the TIN's own, read-only), a
+    join's concatenations and an append's buffers must give the kernels the same types: every array
+    read-only. (Before, the env's pack and the vector env's differed in ``tris``/``nbrs``, so every pass
+    compiled twice.)"""
+    from numba import typeof
+
+    from tin_swarm_env.env.observation import ObsLayout
+    from tin_swarm_env.world.batch_kernels import _NO_UNITS
+    from tin_swarm_env.world.pack import pack_one
+
+    a, b, c = _worlds()
+    one = pack_one(a)
+    joined = join([pack_one(b), pack_one(c)])
+    grown = joined.copy()
+    grown.append(a)
+    for pk in (one, joined, grown):
+        assert all(not v.flags.writeable for v in pk.a.values()), [k for k, v in pk.a.items() if v.flags.writeable]
+        for part in ("T0", "B", "OB", "tilt"):
+            assert typeof(getattr(pk, part)) == typeof(getattr(one, part)), part
+    assert typeof(a.tin.planes) == typeof(one.T0[5])  # the env's observation reads the planes, the vector env grad
+    assert typeof(_NO_UNITS) == typeof(ObsLayout().scan_units())  # the env without rows, the vector env with
+    grown.append(b)  # the buffers stay writable: an append still grows a pack in place
+    assert len(grown.worlds) == 4 and not grown.a["tris"].flags.writeable

@@ -63,6 +63,7 @@ from ..errors import ObservationLayoutError
 from ..scenario.config import ObservationSpec
 from ..terrain import ANGLE
 from ..world.fields import HEIGHT_SCALE_M as DZ_SCALE_M
+from ..world.pack import frozen
 from ..world.scan_kernels import (  # noqa: F401 (re-exported: the scan's primitives, world/scan_kernels.py)
     ANGLE_ERROR, SPAN_MARGIN, approx_angle, beam_span, crossing, scan_contact, scan_start)
 from ..world.world import serial_if_small
@@ -586,11 +587,11 @@ def _break_arrays(world):
     got = world.__dict__.get("_obs_break_arrays")
     if got is None or got[0] is not world.breaks:
         br = world.breaks
-        got = world.__dict__["_obs_break_arrays"] = (br, np.ascontiguousarray(br.normals.reshape(-1, 2)),
-                                                     np.ascontiguousarray(br.drops_m.reshape(-1)),
-                                                     (br.kinds != ANGLE).astype(np.float64),
-                                                     np.ascontiguousarray(br.segments[:, :, :2].reshape(-1, 4),
-                                                                          dtype=np.float64))
+        arrays = (np.ascontiguousarray(br.normals.reshape(-1, 2)), np.ascontiguousarray(br.drops_m.reshape(-1)),
+                  (br.kinds != ANGLE).astype(np.float64),
+                  np.ascontiguousarray(br.segments[:, :, :2].reshape(-1, 4), dtype=np.float64))
+        # read-only, as the vector env's (its pack's, world/pack.py frozen): the encoder compiles once for both
+        got = world.__dict__["_obs_break_arrays"] = (br,) + tuple(frozen(a) for a in arrays)
     return got[1:]
 
 

@@ -237,6 +237,7 @@ class Tin:
 
     def _bucket_locate(self, px, py):
         b = self._bucket
+        px, py = (np.require(v, np.float64, "CW") for v in (px, py))  # writable: one compiled signature for all
         return K.bucket_locate(self._vx, self._vy, self.triangles, b["start"], b["tris"],
                                b["x0"], b["y0"], b["inv_cs"], b["nx"], b["ny"], px, py, self._tol[0])
 

@@ -26,7 +26,7 @@ import numpy as np
 from ..terrain import ANGLE
 from .sense_kernels import deep_margin, terrain_arrays
 
-__all__ = ["WorldPack", "pack_worlds", "join", "pack_one", "one_copy"]
+__all__ = ["WorldPack", "pack_worlds", "join", "pack_one", "one_copy", "frozen"]
 
 
 # the global arrays of a pack, in order, and what their values index (shifted on a join): "v" vertices,
@@ -55,7 +55,7 @@ class WorldPack:
 
     def __init__(self, worlds: tuple, a: dict):
         self.worlds = worlds
-        self.a = a
+        self.a = {k: frozen(v) for k, v in a.items()}
         self._where = {id(w): k for k, w in enumerate(worlds)}
 
     def index(self, world) -> int:
@@ -131,13 +131,23 @@ class WorldPack:
                 grown[:n0] = self.a[name]
                 b = buf[name] = grown
             b[n0:n1] = v
-            self.a[name] = b[:n1]
+            self.a[name] = frozen(b[:n1])
         for name in _PER_WORLD:
-            self.a[name] = np.concatenate([self.a[name], new.a[name]])
+            self.a[name] = frozen(np.concatenate([self.a[name], new.a[name]]))
         for name, key in _OFFSETS:
-            self.a[name] = np.concatenate([self.a[name], new.a[name][1:] + size[key]]).astype(np.int64)
+            self.a[name] = frozen(np.concatenate([self.a[name], new.a[name][1:] + size[key]]).astype(np.int64))
         self.worlds = self.worlds + (world,)
         self._where[id(world)] = len(self.worlds) - 1
+
+
+def frozen(v: np.ndarray) -> np.ndarray:
+    """A read-only view of ``v``. Every array of a pack is one, whichever way the pack was built (one world's
+    arrays, some of them the TIN's own read-only ones; a join's concatenations; an append's buffers), so the
+    compiled passes see the same array types from the env and the vector env and compile once (numba types a
+    read-only array apart from a writable one: each difference is another compilation of the whole pass)."""
+    v = v.view()
+    v.flags.writeable = False
+    return v
 
 
 @functools.lru_cache(maxsize=8)
