@@ -22,6 +22,7 @@ import numpy as np
 from numba import njit, prange
 
 from .grid import grid_build_copies, sense_cell
+from .pack import frozen
 from .sense_kernels import (
     break_range,
     break_row,
@@ -181,8 +182,7 @@ def _sense2(T0, wor, px, py, sz, tri, active, items, range_m, check_los, r_idx, 
 
 
 _NO_ROWS = (np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0)), np.zeros((0, 0, 2)), np.zeros((0, 0)))
-_NO_UNITS = np.zeros((0, 2))
-_NO_UNITS.flags.writeable = False  # as the vector env's units (ObsLayout.scan_units): one compilation for both
+_NO_UNITS = frozen(np.zeros((0, 2)))  # read-only as the vector env's units (ObsLayout.scan_units): one compilation
 
 
 def sense_copies(pack, wor, cop, off, px, py, head, tri, heights, status, params, R, TG, AS, rows=None):
