@@ -5,11 +5,10 @@ jacksboro). This study measures, in one process, the raw vector env on jacksboro
 issue's sizes, then the mix again with parts of its sensing switched off, as floors: with no break
 sensing at all (every break grid emptied: no contact, no scan), with no line of sight (the terrain blocks
 nothing), and with neither. A floor is not an env anyone may ship (its observations differ); it says how
-fast the mix could step if that part cost nothing. It also counts what one robot senses per step on each scenario (robots
-in range and in view, line-of-sight walks, break segments in range) and how many copies reset per step,
-the workload that sets the rates.
+fast the mix could step if that part cost nothing. What each robot senses on each terrain, the workload
+that sets these rates, is ``bench/vector_load.py``'s table (``docs/figures/vector_load.md``).
 
-    python research/vector_mix_floor.py [--steps 20] [--out research/vector_mix_floor.md]
+    python research/vector_mix_floor.py [--steps 20] [--rounds 7] [--out research/vector_mix_floor.md]
 """
 
 from __future__ import annotations
@@ -24,7 +23,6 @@ import numpy as np
 
 import tin_swarm_env as tse
 import tin_swarm_env.env.vector as V
-from tin_swarm_env.world import sense_kernels as SK
 
 ROWS = (("jacksboro", 1024, 4), ("jacksboro", 256, 16), ("generated", 1024, 4), ("generated", 256, 16))
 FLOORS = {"full": (True, True), "no break sensing": (False, True), "no line of sight": (True, False),
@@ -76,33 +74,6 @@ def timed_run(env, steps: int, rng, breaks: bool = True, los: bool = True) -> tu
         V.sense_copies = real
 
 
-def workload(env) -> dict:
-    """Per live robot, after a step: robots in range and in view, line-of-sight walks (pairs in view of one
-    of the two, walked once), break segments in range (the grid's rows read, and those in range)."""
-    idx, dist, vis, cnt = env._slots[0]
-    live = env._live & (env._status == 0)
-    n = int(live.sum())
-    in_range = cnt[live].sum() / n
-    in_view = sum(int((idx[i, :cnt[i]] >= 0).sum()) for i in np.flatnonzero(live)) / n
-    pairs = set()
-    for i in np.flatnonzero(live):
-        for j in idx[i, :cnt[i]]:
-            if j >= 0:
-                pairs.add((min(i, j), max(i, j)))
-    pk = env._pack
-    bax, bay, bbx, bby, gx0, gy0, ginv, gnx, gny, gstart, gitems, gs_off, b_off = pk.B[:13]
-    rows = segs = 0
-    for i in np.flatnonzero(live):
-        w = int(env._wor[i])
-        x, y = env._pos[i]
-        bst = gstart[gs_off[w]:gs_off[w + 1]]
-        lo, hi, gridded = SK.break_range(bst, gx0[w], gy0[w], ginv[w], gnx[w], gny[w], b_off[w], b_off[w + 1], x, y)
-        rows += hi - lo
-        segs += SK.count_breaks(x, y, bax, bay, bbx, bby, gitems, lo, hi, gridded, float(env.params.sensor.range_m))
-    return {"robots in range": in_range, "robots in view": in_view, "sight walks": len(pairs) / n,
-            "break rows read": rows / n, "break segments in range": segs / n}
-
-
 def _commit() -> str:
     try:
         return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
@@ -141,23 +112,17 @@ def main(argv=None) -> None:
                      f"{E * N * args.steps / np.median(t):.3g} | {100 * np.median(ref / t):.0f}% | "
                      f"{resets[key, name] / (args.rounds * args.steps):.2f} |")
         print(lines[-1], flush=True)
-    work = []
-    for key, env in envs.items():
-        env.step(rng.uniform(-1, 1, (key[1], key[2], 2)))
-        work.append((*key, workload(env)))
-    keys = list(work[0][3])
-    out = [f"Measured at commit {_commit()}, with `python research/vector_mix_floor.py --steps {args.steps} --rounds {args.rounds}` in one "
-           f"process (each row timed once a round, in turn), 2 numba threads, load average at the start "
-           f"{load0[0]:.2f} / {load0[1]:.2f} / {load0[2]:.2f}, at the end "
+    out = [f"Measured at commit {_commit()}, with `python research/vector_mix_floor.py --steps {args.steps} "
+           f"--rounds {args.rounds}` in one process (each row timed once a round, in turn), 2 numba threads, "
+           f"load average at the start {load0[0]:.2f} / {load0[1]:.2f} / {load0[2]:.2f}, at the end "
            "{:.2f} / {:.2f} / {:.2f}.".format(*os.getloadavg()), "",
            "**Raw vector env, robot-steps/s** (random actions; a floor switches a part of the sensing off, so its "
            "observations are not the env's; against jacksboro 256 x 16: the median over the rounds of the rate "
            "ratio within a round)", "",
            "| scenario | E x N | sensing | best | median | against jacksboro 256 x 16 | copies reset per step |",
            "|---|---|---|---:|---:|---:|---:|",
-           *lines, "", "**What one live robot senses per step** (after one more step)", "",
-           "| scenario | E x N | " + " | ".join(keys) + " |", "|---|---|" + "---:|" * len(keys)]
-    out += [f"| {s} | {E} x {N} | " + " | ".join(f"{w[k]:.1f}" for k in keys) + " |" for s, E, N, w in work]
+           *lines, "", "What a robot senses on each terrain (the workload behind these rates): "
+           "`docs/figures/vector_load.md` (`bench/vector_load.py`)."]
     with open(args.out, "w") as f:
         f.write("\n".join(out) + "\n")
     print("\n".join(out))
