@@ -285,6 +285,26 @@ def test_deep_inside_means_the_sight_start_search_keeps_the_triangle(random_tin)
     assert deep_seen > 150
 
 
+def test_an_entity_s_sight_is_tin_line_of_sight_and_compiled_out_of_line(random_tin):
+    """sight_of_entity (what entity_row calls for each target and asset in view) answers as the TIN's own
+    line of sight, and is a call, not an inlined copy: inlined, the sensing pass's parallel loop carried two
+    more copies of the triangle walk, and compiled ~80 s longer (2026-12-03, empty cache)."""
+    assert SK.sight_of_entity.targetoptions.get("inline", "never") == "never"
+    tin = random_tin(5, 80)
+    T = SK.terrain_arrays(tin)
+    rng = np.random.default_rng(1)
+    x0, y0, x1, y1 = tin.bounds
+    a = rng.uniform([x0, y0], [x1, y1], (300, 2))
+    b = rng.uniform([x0, y0], [x1, y1], (300, 2))
+    za = tin.height_at(a) + rng.uniform(0, 30, 300)
+    zb = tin.height_at(b) + rng.uniform(0, 30, 300)
+    ta = tin.locate(a)
+    want = tin.line_of_sight(np.column_stack([a, za]), np.column_stack([b, zb]))
+    got = [SK.sight_of_entity(T, *a[k], za[k], *b[k], zb[k], int(ta[k]), False) for k in range(300)]
+    assert 0 < sum(want) < 300  # both answers met
+    np.testing.assert_array_equal(np.array(got, dtype=bool), np.asarray(want, dtype=bool))
+
+
 _SORT = []
 
 

@@ -126,6 +126,14 @@ def sight1(T, ax, ay, az, bx, by, bz, ta, deep):
     return r
 
 
+@njit(cache=True)  # called, not inlined: see the docstring
+def sight_of_entity(T, ax, ay, az, bx, by, bz, ta, deep):
+    """:func:`sight1`, compiled once and called: :func:`entity_row` runs it for the targets and for the
+    assets, and inlined there the sensing pass's loop would carry two more copies of the triangle walk
+    (its compilation grows with each). A call costs a few ns beside the walk's hundreds."""
+    return sight1(T, ax, ay, az, bx, by, bz, ta, deep)
+
+
 @njit(cache=True, inline="always")
 def insert_sorted(idx, dist, i, cnt, k, j, d):
     """Insert (d, j) into row i's sorted buffer of at most k, ordered by (distance, index)."""
@@ -207,7 +215,7 @@ def entity_row(T, i, qx, qy, qz, h, ch, sh, ti, deep, ex, ey, ez, x0, y0, inv, n
         j = idx[i, s]
         v = 1 if in_view(ex[j] - qx, ey[j] - qy, dist[i, s], ch, sh, h, half_fov, cos_hf) else 0
         if v and check_los:
-            v = sight1(T, qx, qy, qz, ex[j], ey[j], ez[j], ti, deep)
+            v = sight_of_entity(T, qx, qy, qz, ex[j], ey[j], ez[j], ti, deep)
         vis[i, s] = v
     return c
 
