@@ -23,6 +23,7 @@ import numpy as np
 
 import tin_swarm_env as tse
 import tin_swarm_env.env.vector as V
+from tin_swarm_env.world.pack import frozen
 
 ROWS = (("jacksboro", 1024, 4), ("jacksboro", 256, 16), ("generated", 1024, 4), ("generated", 256, 16))
 FLOORS = {"full": (True, True), "no break sensing": (False, True), "no line of sight": (True, False),
@@ -31,13 +32,14 @@ REF = ("jacksboro", 256, 16)  # the row the others are given against, round by r
 
 
 class _NoBreaks:
-    """A pack seen through a sensing pass with no break segment: every break-grid cell and world empty."""
+    """A pack seen through a sensing pass with no break segment: every break-grid cell and world empty (read-only,
+    as every pack array: the same compiled pass, not a second one for writable arrays)."""
 
     def __init__(self, pack):
         self.T0, self.margin, self.OB = pack.T0, pack.margin, pack.OB
         B = list(pack.B)
-        B[9] = np.zeros_like(B[9])  # gstart: every cell lists no segment
-        B[12] = np.zeros_like(B[12])  # brk_off: no world has a segment (the points off the grid)
+        B[9] = frozen(np.zeros_like(B[9]))  # gstart: every cell lists no segment
+        B[12] = frozen(np.zeros_like(B[12]))  # brk_off: no world has a segment (the points off the grid)
         self.B = tuple(B)
 
 
