@@ -10,12 +10,13 @@
 set -e
 cd "$(dirname "$0")/.."
 mkdir -p runs/ablation
+TRAIN=agents/scenarios/train_generated.toml  # the training families only: the held-out split stays out
 PY=${PY:-python}
 MINUTES=${MINUTES:-12}
 PPO="--n-robots 8 --n-envs 2 --net-arch 256,256 --shield safety_cut --learning-rate 1e-4 --n-steps 256 \
   --batch-size 1024 --n-epochs 5 --gamma 0.995 --ent-coef 0.0 --eval-every 200000 --eval-episodes 2 \
   --checkpoint-every 1000000 --seed 0 --progress-bar false"
-$PY agents/train_sb3.py --scenario generated,generated,cliff_goal,ramp $PPO --total-timesteps 50000000 \
+$PY agents/train_sb3.py --scenario $TRAIN,$TRAIN,cliff_goal,ramp $PPO --total-timesteps 50000000 \
   --max-minutes "$MINUTES" --out-dir runs/ablation/ppo_geodesic > runs/ablation/ppo_geodesic.log 2>&1
 E=research/scenarios
 $PY agents/train_sb3.py --scenario $E/generated_euclid.toml,$E/generated_euclid.toml,$E/cliff_goal_euclid.toml,$E/ramp_euclid.toml \

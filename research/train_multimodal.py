@@ -65,7 +65,8 @@ from tin_swarm_env.training import recurrent_imitation
 from tin_swarm_env.training.config import Args
 from tin_swarm_env.training.student import train_student
 
-COMMON = dict(scenario="generated,generated,cliff_goal,ramp", bc_robots=8, teacher="geodesic", symmetry="mirror",
+TRAIN = "agents/scenarios/train_generated.toml"  # the training families only (tests/training/test_held_out.py)
+COMMON = dict(scenario=f"{TRAIN},{TRAIN},cliff_goal,ramp", bc_robots=8, teacher="geodesic", symmetry="mirror",
               shield="safety_cut", bc_episodes=32, dagger_rounds=2, dagger_episodes=16, dagger_beta=0.5,
               stall_steps=60, bc_lr=1e-3, net_arch="128,128", gamma=0.995, total_timesteps=0, eval_every=0,
               seed=0, torch_threads=1, progress_bar=False)
