@@ -1,22 +1,28 @@
 """PPO with PufferLib (``pufferlib.pufferl.PuffeRL``) on the vector env, to a wall-clock budget.
 
-    python agents/train_puffer.py --scenario generated --n-envs 256 --n-robots 16 --max-minutes 30
+    python agents/train_puffer.py --scenario agents/scenarios/train_generated.toml --max-minutes 30
 
 Every robot of every copy is one PufferLib agent of one native ``PufferEnv``
 (:mod:`tin_swarm_env.adapters.puffer`: ``n_envs * n_robots`` agents stepped by one call). The
-policy is PufferLib's ``models.Default`` (one hidden layer of ``--hidden`` units, GELU, a Gaussian
-head), trained by PuffeRL's PPO; each epoch prints the steps per second, the mean reward and the
-shares of the robots that ended (arrived, fell, battery, timed out), and ``progress.csv`` keeps them.
-The torch weights go to ``OUT_DIR/model.pt`` (a state dict). Needs the ``[puffer]`` extra
-(``pufferlib-core``).
+policy is PufferLib's ``models.Default`` with a deeper encoder (:class:`TanhMLP`: two tanh layers
+of ``--hidden`` units; the value head shares them, a Gaussian head with a learned log-std), trained
+by PuffeRL's PPO from scratch, behind the safety shield (``--shield``) and with the rewards scaled
+(``--reward-scale``: PuffeRL clips rewards to ``[-1, 1]``). Each epoch prints the steps per second
+and the shares of the robots that ended (arrived, fell, battery, timed out); ``progress.csv`` keeps
+them. Then the actor's deterministic action (its mean, clipped to the action box, as PuffeRL clips
+its samples) is exported pickle-free to ``OUT_DIR/policy`` and checked against torch on real
+observations; the torch weights go to ``OUT_DIR/model.pt`` (a state dict). The default scenario is
+the recipes' training mix: the held-out families and maps of the standard suite stay out. Needs the
+``[puffer]`` extra (``pufferlib-core``).
 """
 
 from __future__ import annotations
 
 import csv
+import json
 import time
 from collections import defaultdict
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -26,11 +32,16 @@ from tin_swarm_env.apps.args import opt, parse_dataclass
 
 @dataclass
 class Args:
-    scenario: str = opt("generated", "scenario name or TOML file")
+    scenario: str = opt("agents/scenarios/train_generated.toml", "scenario name or TOML file (default: the "
+                        "training families only)")
     n_envs: int = opt(64, "copies of the swarm stepped by one call", lo=1)
     n_robots: int = opt(16, "robots per copy", lo=1)
     max_cycles: int = opt(0, "steps per episode (0: the scenario's)", lo=0)
-    hidden: int = opt(64, "hidden units of PufferLib's Default policy", lo=1)
+    hidden: int = opt(128, "units of each of the two tanh layers", lo=1)
+    shield: str = opt("safety_cut", "the safety shield the actor acts behind (and its exported file)",
+                      choices=("none", "safety_cut"))
+    reward_scale: float = opt(0.01, "rewards are multiplied by this (PuffeRL clips them to [-1, 1]: a fall is -1)",
+                              lo=0, lo_open=True)
     horizon: int = opt(64, "steps collected per agent per epoch (PuffeRL's bptt_horizon)", lo=2)
     minibatch_size: int = opt(8192, "samples per PPO minibatch", lo=1)
     update_epochs: int = opt(2, "PPO passes over each batch", lo=1)
@@ -40,7 +51,9 @@ class Args:
     max_steps: int = opt(10**9, "agent steps at most", lo=1)
     seed: int = opt(0, "seed of the copies' seed streams and of torch", lo=0)
     torch_threads: int = opt(1, "torch threads (1: the env gets the other core)", lo=1)
-    out_dir: str = opt("runs/ppo_puffer", "run directory: progress.csv, model.pt")
+    snapshot_minutes: float = opt(5.0, "write the actor to OUT_DIR/snapshots/mMMM every this many minutes (its "
+                                  "learning curve: agents/plot_curves.py)", lo=0, lo_open=True)
+    out_dir: str = opt("runs/ppo_puffer", "run directory: progress.csv, model.pt, run.json, policy/")
 
 
 def config(args: Args, total_agents: int) -> dict:
@@ -57,6 +70,65 @@ def config(args: Args, total_agents: int) -> dict:
             "vtrace_rho_clip": 1.0, "checkpoint_interval": 10**9, "data_dir": "/tmp/puffer_unused", "env": "tin_swarm"}
 
 
+def tanh_mlp_class():
+    """:class:`TanhMLP`, made on first use (it derives from PufferLib's ``models.Default``)."""
+    import torch
+    from pufferlib import models, pytorch
+
+    class TanhMLP(models.Default):
+        """PufferLib's ``Default`` with a two-layer tanh encoder (the policy file's ``tanh`` MLP)."""
+
+        def __init__(self, env, hidden_size=128):
+            super().__init__(env, hidden_size=hidden_size)
+            n_obs = int(np.prod(env.single_observation_space.shape))
+            self.encoder = torch.nn.Sequential(pytorch.layer_init(torch.nn.Linear(n_obs, hidden_size)), torch.nn.Tanh(),
+                                               pytorch.layer_init(torch.nn.Linear(hidden_size, hidden_size)),
+                                               torch.nn.Tanh())
+
+    return TanhMLP
+
+
+def mean_layers(policy) -> list:
+    """``[(W, b), ...]`` of the actor's mean network (the encoder's two layers, then ``decoder_mean``)."""
+    lin = [policy.encoder[0], policy.encoder[2], policy.decoder_mean]
+    return [(m.weight.detach().double().numpy(), m.bias.detach().double().numpy()) for m in lin]
+
+
+def export(policy, args: Args, rows: list, out: Path, check: bool = True) -> float:
+    """Write the actor's deterministic action to ``out/policy`` and (``check``) check it against torch's."""
+    import torch
+
+    import tin_swarm_env as tse
+    from tin_swarm_env.policies.base import SafetyShield, unwrap_env
+    from tin_swarm_env.policies.export import export_actor, max_action_gap, real_observations
+
+    env = tse.parallel_env(scenario=args.scenario, n_robots=args.n_robots,
+                           **({"max_cycles": args.max_cycles} if args.max_cycles else {}))
+    extra = {"library": "pufferlib", "algorithm": "ppo", "agent_steps": rows[-1]["agent_steps"] if rows else 0,
+             "epochs": len(rows), "minutes": rows[-1]["minutes"] if rows else 0.0, "args": asdict(args),
+             "torch": torch.__version__, "tin_swarm_env": tse.__version__}
+    out.mkdir(parents=True, exist_ok=True)
+    export_actor(out / "policy", mean_layers(policy), "tanh", squash="clip", layout=unwrap_env(env).layout,
+                 scenario=args.scenario, extra=extra, shield=args.shield)
+    if not check:
+        return float("nan")
+    shield = SafetyShield(env) if args.shield == "safety_cut" else None
+
+    def torch_actions(o):
+        with torch.no_grad():
+            mean = policy.decoder_mean(policy.encoder(torch.as_tensor(o, dtype=torch.float32)))
+            a = np.clip(mean.double().numpy(), -1, 1)
+        return a if shield is None else shield(a, o)
+
+    obs = real_observations(env, seeds=(args.seed + 100, args.seed + 101))
+    gap = max_action_gap(out / "policy", env, torch_actions, obs)
+    if not gap <= 1e-4:
+        raise SystemExit(f"{out / 'policy'}: the exported actions differ from torch's by {gap:.3g}")
+    (out / "run.json").write_text(json.dumps({**extra, "export_max_action_gap": gap}, indent=1) + "\n")
+    print(f"exported {out / 'policy'}: numpy vs torch actions differ by at most {gap:.2e}", flush=True)
+    return gap
+
+
 def main(argv=None) -> Path:
     args = parse_dataclass(Args, argv, description=__doc__.splitlines()[0])
     import torch
@@ -64,18 +136,19 @@ def main(argv=None) -> Path:
     from tin_swarm_env.adapters.puffer import make_puffer_env, use_cpu_advantage
 
     use_cpu_advantage()  # PufferLib's compiled advantage kernel needs CUDA torch: the same kernel in torch
-    from pufferlib import models, pufferl
+    from pufferlib import pufferl
 
     torch.set_num_threads(args.torch_threads)
     torch.manual_seed(args.seed)
     kw = {"max_cycles": args.max_cycles} if args.max_cycles else {}
-    env = make_puffer_env(args.scenario, n_envs=args.n_envs, n_robots=args.n_robots, seed=args.seed, **kw)
-    policy = models.Default(env, hidden_size=args.hidden)
+    env = make_puffer_env(args.scenario, n_envs=args.n_envs, n_robots=args.n_robots, seed=args.seed,
+                          shield=args.shield, reward_scale=args.reward_scale, **kw)
+    policy = tanh_mlp_class()(env, hidden_size=args.hidden)
     pufferl.PuffeRL.print_dashboard = lambda *a, **k: None  # one line per epoch instead of the full-screen dashboard
     trainer = pufferl.PuffeRL(config(args, env.num_agents), env, policy)
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    rows, t0 = [], time.perf_counter()
+    rows, t0, snap = [], time.perf_counter(), 0.0
     while trainer.global_step < args.max_steps and time.perf_counter() - t0 < 60 * args.max_minutes:
         stats = trainer.evaluate()
         ended = defaultdict(list)
@@ -89,6 +162,9 @@ def main(argv=None) -> Path:
                **{k: round(float(np.mean(v)), 4) for k, v in ended.items() if v}}
         rows.append(row)
         print(row, flush=True)
+        if minutes >= snap + args.snapshot_minutes:
+            snap = args.snapshot_minutes * (minutes // args.snapshot_minutes)
+            export(policy, args, rows, out / "snapshots" / f"m{minutes:05.1f}", check=False)
     trainer.utilization.stop()  # PuffeRL's monitor thread (not a daemon: the process would not exit)
     torch.save(policy.state_dict(), out / "model.pt")
     keys = sorted({k for r in rows for k in r})
@@ -97,6 +173,7 @@ def main(argv=None) -> Path:
         w.writeheader()
         w.writerows(rows)
     env.close()
+    export(policy, args, rows, out)
     return out
 
 

@@ -96,3 +96,61 @@ def test_pufferl_trains_on_it(tmp_path):
                     "--minibatch-size", "64", "--max-steps", "400", "--hidden", "8", "--out-dir", str(tmp_path)])
     state = torch.load(out / "model.pt", weights_only=True)
     assert (out / "progress.csv").read_text().count("\n") >= 2 and "decoder_mean.weight" in state
+
+
+def test_the_shield_cuts_the_actions_and_the_rewards_are_scaled():
+    """``shield="safety_cut"`` steps the vector env with the shield's cut of the actions (read from
+    the observations they were chosen from); ``reward_scale`` multiplies every reward; bad values
+    are refused by name."""
+    from tin_swarm_env.errors import ArgumentError
+    from tin_swarm_env.policies.base import SafetyShield
+
+    pe = make_puffer_env("cliff_goal", n_envs=2, n_robots=3, seed=4, max_cycles=60, shield="safety_cut",
+                         reward_scale=0.01)
+    ve = tse.vector_env("cliff_goal", n_envs=2, n_robots=3, seed=4, max_cycles=60)
+    shield = SafetyShield(tse.parallel_env(scenario="cliff_goal", n_robots=3, max_cycles=60))
+    o = pe.reset()[0].copy()
+    ve.reset()
+    cut_any = False
+    for _ in range(60):
+        act = o[:, 7:9].astype(np.float64) * 2.0  # toward the target, over the cliff
+        cut = shield(act, o)
+        cut_any |= bool(np.abs(cut - np.clip(act, -1, 1)).max() > 1e-3)
+        vo, vr, *_ = ve.step(cut.reshape(2, 3, 2))
+        o, r, *_ = pe.step(act)
+        o = o.copy()
+        np.testing.assert_allclose(r, vr.reshape(-1) * np.float32(0.01), rtol=1e-6)
+    assert cut_any
+    with pytest.raises(ArgumentError, match="shield"):
+        make_puffer_env("ramp", shield="bogus")
+    with pytest.raises(ArgumentError, match="reward_scale"):
+        make_puffer_env("ramp", reward_scale=0.0)
+
+
+def test_train_puffer_writes_a_checked_pickle_free_policy_and_snapshots(tmp_path):
+    """agents/train_puffer.py: a tiny run exports the actor (its deterministic action, behind the
+    shield) to OUT/policy, checked against torch's, with snapshots for the learning curve."""
+    import importlib.util
+    import json
+    from pathlib import Path
+
+    from tin_swarm_env.policies.learned import load_policy
+
+    root = Path(__file__).resolve().parents[2]
+    spec = importlib.util.spec_from_file_location("train_puffer", root / "agents" / "train_puffer.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    out = tmp_path / "run"
+    mod.main(["--scenario", "ramp", "--n-envs", "2", "--n-robots", "2", "--max-cycles", "40", "--horizon", "8",
+              "--minibatch-size", "32", "--max-minutes", "0.05", "--snapshot-minutes", "0.01", "--hidden", "8",
+              "--torch-threads", "1", "--out-dir", str(out)])
+    meta = json.loads((out / "policy" / "policy.json").read_text())
+    assert meta["shield"] == "safety_cut" and meta["network"]["layer_sizes"][1:] == [8, 8, 2]
+    run = json.loads((out / "run.json").read_text())
+    assert run["export_max_action_gap"] <= 1e-4 and run["library"] == "pufferlib"
+    assert sorted(p.name for p in (out / "policy").iterdir()) == ["policy.json", "weights.npz"]
+    assert list((out / "snapshots").glob("m*/policy/policy.json"))
+    env = tse.parallel_env(scenario="ramp", n_robots=2)
+    obs, _ = env.reset(seed=0)
+    a = load_policy(out / "policy", env).act_batch(np.stack(list(obs.values())))
+    assert a.shape == (2, 2) and np.isfinite(a).all()

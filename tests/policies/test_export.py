@@ -70,3 +70,21 @@ def test_export_refuses_what_it_cannot_write_exactly(env, tmp_path):
     with pytest.raises(ArgumentError, match=r"shape \(4, 2\), the file's \(3, 2\)"):
         export_actor(tmp_path / "d", layers, "tanh", squash="clip", layout=lay, scenario="ramp")
         max_action_gap(tmp_path / "d", env, lambda o: np.zeros((len(o) + 1, 2)), np.zeros((3, layers[0][0].shape[1])))
+
+
+def test_a_shielded_export_acts_behind_the_safety_cut(env, tmp_path):
+    """``shield="safety_cut"``: the file records it and its actions are the network's, cut by the
+    env's shield (an actor trained or deployed behind it)."""
+    from tin_swarm_env.policies.base import SafetyShield
+
+    rng = np.random.default_rng(5)
+    d = env.observation_space("robot_0").shape[0]
+    obs = real_observations(env, seeds=(0, 1), steps=20, every=4)
+    layers = _layers(d, rng, scale=3.0)
+    lay = unwrap_env(env).layout
+    export_actor(tmp_path / "s", layers, "tanh", squash="clip", layout=lay, scenario="ramp", shield="safety_cut")
+    assert json.loads((tmp_path / "s" / "policy.json").read_text())["shield"] == "safety_cut"
+    want = SafetyShield(env)(_reference(layers, obs, "clip"), obs)
+    np.testing.assert_allclose(load_policy(tmp_path / "s", env).act_batch(obs), want, atol=1e-6)
+    export_actor(tmp_path / "n", layers, "tanh", squash="clip", layout=lay, scenario="ramp")
+    assert json.loads((tmp_path / "n" / "policy.json").read_text()).get("shield", "none") == "none"

@@ -38,10 +38,14 @@ _CLASS = None
 
 
 def make_puffer_env(scenario="cliff_goal", n_envs: int = 1, n_robots: int | None = None, seed: int | None = None,
-                    buf=None, **env_kwargs):
+                    buf=None, shield: str = "none", reward_scale: float = 1.0, **env_kwargs):
     """A native ``pufferlib.PufferEnv`` over ``tse.vector_env(scenario, n_envs, n_robots, seed,
-    **env_kwargs)`` (module docstring); ``buf``: PufferLib's shared buffers (its backends pass them)."""
-    return puffer_env_class()(scenario, n_envs=n_envs, n_robots=n_robots, seed=seed, buf=buf, **env_kwargs)
+    **env_kwargs)`` (module docstring); ``buf``: PufferLib's shared buffers (its backends pass them).
+    ``shield="safety_cut"`` filters the actions as a policy file's shield does (the SB3 VecEnv's
+    option); ``reward_scale`` multiplies every reward (PuffeRL clips rewards to ``[-1, 1]``: at 1.0 a
+    fall's -100 and an arrival's +10 would read as -1 and +1)."""
+    return puffer_env_class()(scenario, n_envs=n_envs, n_robots=n_robots, seed=seed, buf=buf, shield=shield,
+                              reward_scale=reward_scale, **env_kwargs)
 
 
 def puff_advantage(values, rewards, dones, importance, advantages, gamma, lam, rho_clip, c_clip) -> None:
@@ -110,8 +114,21 @@ def puffer_env_class():
     class TinSwarmPufferEnv(pufferlib.PufferEnv):
         """The vector env as a native PufferLib env (module docstring)."""
 
-        def __init__(self, scenario="cliff_goal", n_envs=1, n_robots=None, seed=None, buf=None, **env_kwargs):
+        def __init__(self, scenario="cliff_goal", n_envs=1, n_robots=None, seed=None, buf=None, shield="none",
+                     reward_scale=1.0, **env_kwargs):
+            from ..errors import ArgumentError, check_range
+            from ..policies.base import SafetyShield
+            from ..policies.learned import SHIELDS
+
+            if shield not in SHIELDS:
+                raise ArgumentError(f"make_puffer_env: shield must be one of {list(SHIELDS)}, got {shield!r}")
+            check_range("make_puffer_env", "reward_scale", reward_scale, 0, lo_open=True, exc=ArgumentError)
             self.vec = VectorEnv(scenario, n_envs=n_envs, n_robots=n_robots, seed=seed, **env_kwargs)
+            self.reward_scale = np.float32(reward_scale)
+            # the shield of each scenario of the mix, over the rows of its copies (as the SB3 VecEnv)
+            scen_of_row = np.repeat(self.vec.copy_scenario, self.vec.n_robots)
+            self._shields = [] if shield == "none" else [
+                (SafetyShield(p), scen_of_row == k) for k, p in enumerate(self.vec._protos)]
             self.single_observation_space = self.vec.single_observation_space
             self.single_action_space = self.vec.single_action_space
             self.num_agents = self.vec.n_envs * self.vec.n_robots
@@ -130,7 +147,10 @@ def puffer_env_class():
         def step(self, actions):
             v = self.vec
             live_before = v._live.copy()
-            a = np.asarray(actions, dtype=np.float64).reshape(v.n_envs, v.n_robots, 2)
+            a = np.asarray(actions, dtype=np.float64).reshape(v.n_envs * v.n_robots, 2)
+            for sh, rows in self._shields:  # the shield reads the observations the actions were chosen from
+                a[rows] = sh(a[rows], self.observations[rows])
+            a = a.reshape(v.n_envs, v.n_robots, 2)
             obs, rew, term, trunc, info = v.step(a)
             final = np.repeat(info["_final"], v.n_robots)
             term, trunc = term.reshape(-1), trunc.reshape(-1)
@@ -139,7 +159,7 @@ def puffer_env_class():
             # while its copy goes on reads zeros from now until its copy resets
             self.observations[:] = np.where((ended & ~final)[:, None], np.float32(0.0),
                                             obs.reshape(self.num_agents, -1))
-            self.rewards[:] = rew.reshape(-1)
+            self.rewards[:] = rew.reshape(-1) * self.reward_scale
             self.terminals[:] = term
             self.truncations[:] = trunc
             self.masks[:] = live_before
