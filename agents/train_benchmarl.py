@@ -36,7 +36,8 @@ from tin_swarm_env.apps.args import opt, parse_dataclass  # noqa: E402
 
 @dataclass
 class Args:
-    scenario: str = opt("generated", "built-in scenario (a TinSwarmTask member) or a scenario TOML file")
+    scenario: str = opt("agents/scenarios/train_generated.toml", "built-in scenario (a TinSwarmTask member) or a "
+                        "scenario TOML file (default: the training families only)")
     n_robots: int = opt(8, "robots per environment (one BenchMARL group)", lo=1)
     max_cycles: int = opt(0, "steps per episode (0: the scenario's)", lo=0)
     algorithm: str = opt("mappo", "mappo (centralised critic) or ippo (one critic input per robot)",
@@ -55,6 +56,10 @@ class Args:
     seed: int = opt(0, "seed (torch and the first env reset; training seeds stay far below EVAL_SEED0)", lo=0,
                     hi=999_999)
     torch_threads: int = opt(0, "torch threads (0: torch's default)", lo=0)
+    snapshot_minutes: float = opt(5.0, "write the actor to OUT_DIR/snapshots/mMMM.M/policy every this many "
+                                  "minutes (its learning curve)", lo=0, lo_open=True)
+    shield: str = opt("safety_cut", "the exported file acts behind this shield (the actor trains without it)",
+                      choices=("none", "safety_cut"))
     out_dir: str = opt("runs/mappo_benchmarl", "run directory: progress.csv, run.json, actor.pt (torch), policy/")
 
 
@@ -63,15 +68,37 @@ class TimeUp(KeyboardInterrupt):
     cleanly on a KeyboardInterrupt (its collector and envs) and re-raises it to us."""
 
 
+class Snapshot:
+    """Writes the actor to ``OUT_DIR/snapshots/mMMM.M/policy`` (unchecked: the final export is
+    checked), a point of the learning curve. Plain data, as BenchMARL pickles its callbacks."""
+
+    def __init__(self, args: Args):
+        self.out, self.scenario, self.shield = Path(args.out_dir), args.scenario, args.shield
+        self.n_robots = args.n_robots
+
+    def __call__(self, experiment, minutes: float) -> None:
+        import tin_swarm_env as tse
+        from tin_swarm_env.adapters.benchmarl import actor_mean_layers
+        from tin_swarm_env.policies.export import export_actor as write
+
+        layers, activation, squash = actor_mean_layers(experiment, "robot")
+        d = self.out / "snapshots" / f"m{minutes:05.1f}"
+        d.mkdir(parents=True, exist_ok=True)
+        layout = tse.parallel_env(scenario=self.scenario, n_robots=self.n_robots).unwrapped.layout
+        write(d / "policy", layers, activation, squash=squash, layout=layout, scenario=self.scenario,
+              extra={"minutes": round(minutes, 2)}, shield=self.shield)
+
+
 class Budget(Callback):
     """Prints one progress line per iteration and stops the run (:class:`TimeUp` after a training
     step) once another iteration would pass ``seconds``."""
 
-    def __init__(self, seconds: float, rows: list):
+    def __init__(self, seconds: float, rows: list, snapshot=None, snapshot_s: float = float("inf")):
         super().__init__()
         self.seconds, self.rows = seconds, rows
         self.t0 = self.last = time.perf_counter()
         self.frames, self.row = 0, {}
+        self.snapshot, self.snapshot_s, self.next_snap = snapshot, snapshot_s, snapshot_s
 
     def on_batch_collected(self, batch):
         live = batch["robot", "mask"]  # robots still running before the step
@@ -92,6 +119,9 @@ class Budget(Callback):
         print(f"iter {len(self.rows)}: frames {row['frames']}, reward/robot-step {row['reward_per_robot_step']:.4f},"
               f" robot episodes ended {row['robot_episodes_ended']} (arrived {row['arrived_share']:.2f}, fell "
               f"{row['fell_share']:.2f}, timed out {row['max_cycles_share']:.2f}), {row['seconds']:.0f} s", flush=True)
+        if self.snapshot is not None and now - self.t0 >= self.next_snap:  # the learning curve's points
+            self.snapshot(self.experiment, (now - self.t0) / 60)
+            self.next_snap += self.snapshot_s
         if now - self.t0 + (now - self.last) > self.seconds:
             raise TimeUp()
         self.last = now
@@ -138,7 +168,8 @@ def main(args: Args):
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     rows: list = []
-    experiment = build_experiment(args, [Budget(60 * args.max_minutes, rows)])
+    budget = Budget(60 * args.max_minutes, rows, Snapshot(args), 60 * args.snapshot_minutes)
+    experiment = build_experiment(args, [budget])
     t0 = time.perf_counter()
     try:
         experiment.run()
@@ -157,7 +188,8 @@ def main(args: Args):
     extra = {"algorithm": args.algorithm, "frames": rows[-1]["frames"] if rows else 0, "iterations": len(rows),
              "minutes": round(minutes, 2), "args": asdict(args), "benchmarl": benchmarl.__version__,
              "torch": torch.__version__, "tin_swarm_env": tse.__version__}
-    gap = export_actor(experiment, out / "policy", env, obs=obs, scenario=args.scenario, extra=extra)
+    gap = export_actor(experiment, out / "policy", env, obs=obs, scenario=args.scenario, extra=extra,
+                       shield=args.shield)
     (out / "run.json").write_text(json.dumps({**extra, "export_max_action_gap": gap}, indent=1) + "\n")
     print(f"exported {out / 'policy'}: numpy vs torch actions differ by at most {gap:.2e} on {len(obs)} "
           f"observations; {len(rows)} iterations, {extra['frames']} frames, {minutes:.1f} min")

@@ -9,6 +9,20 @@ from tin_swarm_env.adapters.benchmarl import TinSwarmTask  # noqa: E402
 from tin_swarm_env.scenario import list_scenarios  # noqa: E402
 
 
+@pytest.fixture(autouse=True)
+def _no_distribution_checks():
+    """torchrl's TanhNormal cannot be validated (its ``support`` calls a constraint instance).
+    Importing torchrl turns torch's default distribution checks off; importing ``pufferlib.pufferl``
+    turns them back on, so a PufferLib test earlier in the same process broke these. Each test
+    here runs with them off, as BenchMARL does, and puts the setting back."""
+    from torch.distributions import Distribution
+
+    before = Distribution._validate_args
+    Distribution.set_default_validate_args(False)
+    yield
+    Distribution.set_default_validate_args(before)
+
+
 def test_one_member_per_builtin_scenario_and_specs():
     assert sorted(m.name.lower() for m in TinSwarmTask) == sorted(list_scenarios())
     task = TinSwarmTask.RAMP.get_task(config={"n_robots": 3, "max_cycles": 7})
@@ -97,6 +111,13 @@ def test_export_gives_the_torch_actors_deterministic_actions(tmp_path):
     np.testing.assert_allclose(load_policy(tmp_path / "policy", env).act_batch(obs), torch_act, atol=1e-5)
     meta = json.loads((tmp_path / "policy" / "policy.json").read_text())
     assert meta["training"]["library"] == "benchmarl" and meta["training"]["note"] == "untrained"
+    # deployed behind the safety shield: the file says so, and the check cuts torch's actions alike
+    from tin_swarm_env.policies.base import SafetyShield
+
+    gap = export_actor(exp, tmp_path / "shielded", env, obs=obs, scenario="ramp", shield="safety_cut")
+    assert gap < 1e-5 and json.loads((tmp_path / "shielded" / "policy.json").read_text())["shield"] == "safety_cut"
+    np.testing.assert_allclose(load_policy(tmp_path / "shielded", env).act_batch(obs),
+                               SafetyShield(env)(torch_act.astype(np.float64), obs), atol=1e-5)
 
 
 def test_export_refuses_one_network_per_robot(tmp_path):

@@ -30,6 +30,8 @@ Needs the ``[benchmarl]`` extra (benchmarl 1.5.2, which pins torchrl < 0.12).
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..errors import ArgumentError, require
 
 require("benchmarl", "benchmarl", "The BenchMARL task")
@@ -194,18 +196,25 @@ def deterministic_actions(experiment, group: str = "robot"):
 
 
 def export_actor(experiment, path, env, *, obs, scenario: str, extra: dict | None = None,
-                 group: str = "robot", tol: float = 1e-5) -> float:
+                 group: str = "robot", tol: float = 1e-5, shield: str = "none") -> float:
     """Write ``experiment``'s actor as the policy directory ``path`` for ``env`` (a tin_swarm
     env, whose observation layout the file records), then check the file's actions against the
     torch actor's deterministic actions on ``obs (n, d)``; returns the largest difference and
-    raises if it exceeds ``tol``."""
-    from ..policies.base import unwrap_env
+    raises if it exceeds ``tol``. ``shield="safety_cut"``: the file acts behind the safety shield
+    (deployed behind it: the actor trained without), and the check filters torch's actions too."""
+    from ..policies.base import SafetyShield, unwrap_env
     from ..policies.export import export_actor as write, max_action_gap
 
     layers, activation, squash = actor_mean_layers(experiment, group)
     write(path, layers, activation, squash=squash, layout=unwrap_env(env).layout, scenario=scenario,
-          extra={"library": "benchmarl", **(extra or {})})
-    gap = max_action_gap(path, env, deterministic_actions(experiment, group), obs)
+          extra={"library": "benchmarl", **(extra or {})}, shield=shield)
+    torch_actions = deterministic_actions(experiment, group)
+    if shield == "safety_cut":
+        cut, plain = SafetyShield(env), torch_actions
+
+        def torch_actions(o):
+            return cut(np.asarray(plain(o), dtype=np.float64), o)
+    gap = max_action_gap(path, env, torch_actions, obs)
     if not gap <= tol:
         raise ArgumentError(f"{path}: the exported policy's actions differ from the torch actor's by {gap:.3g} "
                             f"(> {tol:g}) on {len(obs)} observations")
