@@ -40,6 +40,8 @@ class Args:
     hidden: int = opt(128, "units of each of the two tanh layers", lo=1)
     shield: str = opt("safety_cut", "the safety shield the actor acts behind (and its exported file)",
                       choices=("none", "safety_cut"))
+    symmetry: str = opt("none", "mirror: the actor and critic mirror-equivariant by construction (TanhMLP)",
+                        choices=("none", "mirror"))
     reward_scale: float = opt(0.01, "rewards are multiplied by this (PuffeRL clips them to [-1, 1]: a fall is -1)",
                               lo=0, lo_open=True)
     horizon: int = opt(64, "steps collected per agent per epoch (PuffeRL's bptt_horizon)", lo=2)
@@ -75,15 +77,41 @@ def tanh_mlp_class():
     import torch
     from pufferlib import models, pytorch
 
-    class TanhMLP(models.Default):
-        """PufferLib's ``Default`` with a two-layer tanh encoder (the policy file's ``tanh`` MLP)."""
+    from tin_swarm_env.env.observation import ACTION_PARITY
 
-        def __init__(self, env, hidden_size=128):
+    class TanhMLP(models.Default):
+        """PufferLib's ``Default`` with a two-layer tanh encoder (the policy file's ``tanh`` MLP).
+        ``mirror``: ``(perm, signs)`` of :func:`~tin_swarm_env.policies.symmetry.mirror_map`: the
+        Gaussian's mean is ``(g(o) + M g(M o)) / 2`` and the value ``(v(o) + v(M o)) / 2``, as SB3's
+        ``MirrorActorCriticPolicy``: mirror-equivariant by construction, the policy file's
+        ``"symmetry": "mirror"`` with the same weights."""
+
+        def __init__(self, env, hidden_size=128, mirror=None):
             super().__init__(env, hidden_size=hidden_size)
             n_obs = int(np.prod(env.single_observation_space.shape))
             self.encoder = torch.nn.Sequential(pytorch.layer_init(torch.nn.Linear(n_obs, hidden_size)), torch.nn.Tanh(),
                                                pytorch.layer_init(torch.nn.Linear(hidden_size, hidden_size)),
                                                torch.nn.Tanh())
+            self.mirrored = mirror is not None
+            if self.mirrored:
+                self.register_buffer("_perm", torch.as_tensor(np.asarray(mirror[0]), dtype=torch.long))
+                self.register_buffer("_signs", torch.as_tensor(np.asarray(mirror[1]), dtype=torch.float32))
+                self.register_buffer("_parity", torch.as_tensor(ACTION_PARITY, dtype=torch.float32))
+
+        def mean(self, x):
+            """The deterministic action before its clip, ``(n, 2)``, from observations ``(n, d)``."""
+            return self.forward_eval(x)[0].loc
+
+        def forward_eval(self, observations, state=None):
+            if not self.mirrored:
+                return super().forward_eval(observations, state)
+            x = observations.view(observations.shape[0], -1).float()
+            n = x.shape[0]
+            h = self.encoder(torch.cat([x, x[:, self._perm] * self._signs]))
+            mean, value = self.decoder_mean(h), self.value(h)
+            mean = (mean[:n] + mean[n:] * self._parity) / 2
+            std = torch.exp(self.decoder_logstd.expand_as(mean))
+            return torch.distributions.Normal(mean, std), (value[:n] + value[n:]) / 2
 
     return TanhMLP
 
@@ -109,15 +137,14 @@ def export(policy, args: Args, rows: list, out: Path, check: bool = True) -> flo
              "torch": torch.__version__, "tin_swarm_env": tse.__version__}
     out.mkdir(parents=True, exist_ok=True)
     export_actor(out / "policy", mean_layers(policy), "tanh", squash="clip", layout=unwrap_env(env).layout,
-                 scenario=args.scenario, extra=extra, shield=args.shield)
+                 scenario=args.scenario, extra=extra, shield=args.shield, symmetry=args.symmetry)
     if not check:
         return float("nan")
     shield = SafetyShield(env) if args.shield == "safety_cut" else None
 
     def torch_actions(o):
         with torch.no_grad():
-            mean = policy.decoder_mean(policy.encoder(torch.as_tensor(o, dtype=torch.float32)))
-            a = np.clip(mean.double().numpy(), -1, 1)
+            a = np.clip(policy.mean(torch.as_tensor(o, dtype=torch.float32)).double().numpy(), -1, 1)
         return a if shield is None else shield(a, o)
 
     obs = real_observations(env, seeds=(args.seed + 100, args.seed + 101))
@@ -143,7 +170,12 @@ def main(argv=None) -> Path:
     kw = {"max_cycles": args.max_cycles} if args.max_cycles else {}
     env = make_puffer_env(args.scenario, n_envs=args.n_envs, n_robots=args.n_robots, seed=args.seed,
                           shield=args.shield, reward_scale=args.reward_scale, **kw)
-    policy = tanh_mlp_class()(env, hidden_size=args.hidden)
+    mirror = None
+    if args.symmetry == "mirror":
+        from tin_swarm_env.policies.symmetry import mirror_map
+
+        mirror = mirror_map(env.vec.layout)
+    policy = tanh_mlp_class()(env, hidden_size=args.hidden, mirror=mirror)
     pufferl.PuffeRL.print_dashboard = lambda *a, **k: None  # one line per epoch instead of the full-screen dashboard
     trainer = pufferl.PuffeRL(config(args, env.num_agents), env, policy)
     out = Path(args.out_dir)

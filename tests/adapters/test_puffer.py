@@ -127,23 +127,34 @@ def test_the_shield_cuts_the_actions_and_the_rewards_are_scaled():
         make_puffer_env("ramp", reward_scale=0.0)
 
 
-def test_train_puffer_writes_a_checked_pickle_free_policy_and_snapshots(tmp_path):
-    """agents/train_puffer.py: a tiny run exports the actor (its deterministic action, behind the
-    shield) to OUT/policy, checked against torch's, with snapshots for the learning curve."""
+def _train_puffer():
     import importlib.util
-    import json
+    import sys
     from pathlib import Path
-
-    from tin_swarm_env.policies.learned import load_policy
 
     root = Path(__file__).resolve().parents[2]
     spec = importlib.util.spec_from_file_location("train_puffer", root / "agents" / "train_puffer.py")
     mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # its dataclass looks its module up
     spec.loader.exec_module(mod)
+    return mod
+
+
+def _tiny_run(out, *extra):
+    _train_puffer().main(["--scenario", "ramp", "--n-envs", "2", "--n-robots", "2", "--max-cycles", "40",
+                          "--horizon", "8", "--minibatch-size", "32", "--max-minutes", "0.05", "--snapshot-minutes",
+                          "0.01", "--hidden", "8", "--torch-threads", "1", "--out-dir", str(out), *extra])
+
+
+def test_train_puffer_writes_a_checked_pickle_free_policy_and_snapshots(tmp_path):
+    """agents/train_puffer.py: a tiny run exports the actor (its deterministic action, behind the
+    shield) to OUT/policy, checked against torch's, with snapshots for the learning curve."""
+    import json
+
+    from tin_swarm_env.policies.learned import load_policy
+
     out = tmp_path / "run"
-    mod.main(["--scenario", "ramp", "--n-envs", "2", "--n-robots", "2", "--max-cycles", "40", "--horizon", "8",
-              "--minibatch-size", "32", "--max-minutes", "0.05", "--snapshot-minutes", "0.01", "--hidden", "8",
-              "--torch-threads", "1", "--out-dir", str(out)])
+    _tiny_run(out)
     meta = json.loads((out / "policy" / "policy.json").read_text())
     assert meta["shield"] == "safety_cut" and meta["network"]["layer_sizes"][1:] == [8, 8, 2]
     run = json.loads((out / "run.json").read_text())
@@ -154,3 +165,35 @@ def test_train_puffer_writes_a_checked_pickle_free_policy_and_snapshots(tmp_path
     obs, _ = env.reset(seed=0)
     a = load_policy(out / "policy", env).act_batch(np.stack(list(obs.values())))
     assert a.shape == (2, 2) and np.isfinite(a).all()
+
+
+def test_the_mirror_actor_is_equivariant_and_exports_to_a_mirror_file(tmp_path):
+    """``--symmetry mirror``: the torch actor's mean is mirror-equivariant exactly (by construction),
+    and its file (``"symmetry": "mirror"``) acts as it does (the run's export check) and is
+    equivariant too."""
+    import json
+
+    from tin_swarm_env.env.observation import mirror_action
+    from tin_swarm_env.policies.learned import load_policy
+    from tin_swarm_env.policies.symmetry import mirror_map
+
+    out = tmp_path / "mirror"
+    _tiny_run(out, "--symmetry", "mirror", "--shield", "none")
+    meta = json.loads((out / "policy" / "policy.json").read_text())
+    assert meta["symmetry"] == "mirror" and meta.get("shield", "none") == "none"
+    assert json.loads((out / "run.json").read_text())["export_max_action_gap"] <= 1e-4
+    env = tse.parallel_env(scenario="ramp", n_robots=2)
+    pol = load_policy(out / "policy", env)
+    o = np.random.default_rng(0).uniform(-1, 1, (100, env.layout.size))
+    np.testing.assert_allclose(pol.act_batch(env.layout.mirror(o)), mirror_action(pol.act_batch(o)), atol=1e-6)
+    mod = _train_puffer()
+    pe = make_puffer_env("ramp", n_envs=1, n_robots=2)
+    net = mod.tanh_mlp_class()(pe, hidden_size=8, mirror=mirror_map(env.layout))
+    with torch.no_grad():
+        net.decoder_mean.weight.mul_(100.0)  # means far from zero, so a wrong mirror would show
+        x = torch.as_tensor(o, dtype=torch.float32)
+        a, b = net.mean(x).numpy(), net.mean(torch.as_tensor(env.layout.mirror(o), dtype=torch.float32)).numpy()
+        va, vb = net.forward_eval(x)[1], net.forward_eval(torch.as_tensor(env.layout.mirror(o), dtype=torch.float32))[1]
+    np.testing.assert_allclose(b, mirror_action(a), atol=1e-4)
+    np.testing.assert_allclose(va.numpy(), vb.numpy(), atol=1e-5)
+    assert np.abs(a[:, 1]).max() > 0.1
