@@ -1,4 +1,4 @@
-"""The BenchMARL and RLlib policies docs/figures/ecosystem_training.md evaluates, committed under agents/models:
+"""The BenchMARL, RLlib and PufferLib policies docs/figures/ecosystem_training.md evaluates, committed under agents/models:
 small pickle-free data that loads on the core install for the scenario they were trained on, recording the
 library, the run's budget and the export check (numpy against the library's own actions), and acting as the
 recorded network says (layer sizes, squash)."""
@@ -16,7 +16,9 @@ from tin_swarm_env.training.policy_factory import policy_scenario
 from tin_swarm_env.policies import load_policy
 
 ROOT = Path(__file__).resolve().parents[2]
-MODELS = {"mappo_benchmarl": ("benchmarl", "tanh"), "ppo_rllib": ("rllib", "clip")}
+MODELS = {"mappo_benchmarl": ("benchmarl", "tanh"), "ppo_rllib": ("rllib", "clip"), "ppo_puffer": ("pufferlib", "clip"),
+          "mappo_benchmarl_vec": ("benchmarl", "tanh")}
+SHIELDED = {"ppo_puffer", "mappo_benchmarl_vec"}  # files with the safety shield (PufferLib trained behind it)
 
 
 @pytest.mark.parametrize("name", sorted(MODELS))
@@ -29,7 +31,9 @@ def test_committed_model_is_small_checked_data(name):
     t = meta["training"]
     assert t["library"] == library and t["action_squash"].startswith(squash)
     assert 0 < t["minutes"] <= 31 and t["args"]["max_minutes"] <= 30  # the wall-clock budget of the run
-    env = tse.parallel_env(scenario=policy_scenario(meta["scenario"], str(d)), n_robots=4)  # the layout it was trained on
+    assert (meta.get("shield", "none") == "safety_cut") == (name in SHIELDED)
+    scenario = str(ROOT / meta["scenario"]) if "/" in meta["scenario"] else meta["scenario"]  # a recipe's TOML
+    env = tse.parallel_env(scenario=policy_scenario(scenario, str(d)), n_robots=4)  # the layout it was trained on
     pol = load_policy(d, env)
     sizes = meta["network"]["layer_sizes"]
     assert sizes[0] == env.observation_space("robot_0").shape[0] and sizes[-1] == 2
