@@ -37,6 +37,7 @@ import argparse
 import csv
 import dataclasses
 import os
+import re
 import shlex
 import subprocess
 import sys
@@ -93,7 +94,12 @@ def shipped_recipe():
     from tin_swarm_env.training.config import Args
 
     text = RECIPE.read_text().replace("\\\n", " ")
-    line = next(ln for ln in text.splitlines() if "agents/train_sb3.py" in ln and not ln.lstrip().startswith("#"))
+    lines = [ln for ln in text.splitlines() if not ln.lstrip().startswith("#")]
+    line = next(ln for ln in lines if "agents/train_sb3.py" in ln)
+    for ln in lines:  # plain NAME=value assignments (the recipe's TRAIN)
+        m = re.fullmatch(r"(\w+)=([^\s$]+)(\s+#.*)?", ln.strip())
+        if m:
+            line = line.replace(f"${m.group(1)}", m.group(2))
     words = shlex.split(line.replace('"$MINUTES"', "40"))
     argv = words[words.index("agents/train_sb3.py") + 1:]
     argv = argv[:argv.index(">")] if ">" in argv else argv
