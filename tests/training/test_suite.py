@@ -62,7 +62,8 @@ def test_the_splits_hold_out_what_the_shipped_policy_did_not_train_on():
     from tin_swarm_env.scenario.mirror import reflect_region, reflect_xy, terrain_bounds
 
     recipe = (ROOT / "agents" / "reproduce_shared.sh").read_text()
-    assert "--scenario generated,generated,cliff_goal,ramp" in recipe
+    assert "--scenario $TRAIN,$TRAIN,cliff_goal,ramp" in recipe
+    assert "TRAIN=agents/scenarios/train_generated.toml" in recipe  # the training families (test_held_out.py)
     by_key = {s.key: s for s in S.SPLITS}
     train = {f for m in by_key["train_seeds"].maps for f in m.families}
     held = {f for m in by_key["held_out"].maps for f in m.families}
