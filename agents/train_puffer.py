@@ -28,12 +28,13 @@ from pathlib import Path
 import numpy as np
 
 from tin_swarm_env.apps.args import opt, parse_dataclass
+from tin_swarm_env.training.config import scenarios_of
 
 
 @dataclass
 class Args:
-    scenario: str = opt("agents/scenarios/train_generated.toml", "scenario name or TOML file (default: the "
-                        "training families only)")
+    scenario: str = opt("agents/scenarios/train_generated.toml", "scenario names or TOML files, comma-separated: "
+                        "the copies take them in turn (default: the training families only)")
     n_envs: int = opt(64, "copies of the swarm stepped by one call", lo=1)
     n_robots: int = opt(16, "robots per copy", lo=1)
     max_cycles: int = opt(0, "steps per episode (0: the scenario's)", lo=0)
@@ -130,7 +131,7 @@ def export(policy, args: Args, rows: list, out: Path, check: bool = True) -> flo
     from tin_swarm_env.policies.base import SafetyShield, unwrap_env
     from tin_swarm_env.policies.export import export_actor, max_action_gap, real_observations
 
-    env = tse.parallel_env(scenario=args.scenario, n_robots=args.n_robots,
+    env = tse.parallel_env(scenario=scenarios_of(args)[0], n_robots=args.n_robots,
                            **({"max_cycles": args.max_cycles} if args.max_cycles else {}))
     extra = {"library": "pufferlib", "algorithm": "ppo", "agent_steps": rows[-1]["agent_steps"] if rows else 0,
              "epochs": len(rows), "minutes": rows[-1]["minutes"] if rows else 0.0, "args": asdict(args),
@@ -168,7 +169,7 @@ def main(argv=None) -> Path:
     torch.set_num_threads(args.torch_threads)
     torch.manual_seed(args.seed)
     kw = {"max_cycles": args.max_cycles} if args.max_cycles else {}
-    env = make_puffer_env(args.scenario, n_envs=args.n_envs, n_robots=args.n_robots, seed=args.seed,
+    env = make_puffer_env(scenarios_of(args), n_envs=args.n_envs, n_robots=args.n_robots, seed=args.seed,
                           shield=args.shield, reward_scale=args.reward_scale, **kw)
     mirror = None
     if args.symmetry == "mirror":

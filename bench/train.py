@@ -37,8 +37,6 @@ import argparse
 import csv
 import dataclasses
 import os
-import re
-import shlex
 import subprocess
 import sys
 import tempfile
@@ -92,17 +90,9 @@ def shipped_recipe():
     the redirection dropped)."""
     from tin_swarm_env.apps.args import parse_dataclass
     from tin_swarm_env.training.config import Args
+    from tin_swarm_env.training.held_out import recipe_command
 
-    text = RECIPE.read_text().replace("\\\n", " ")
-    lines = [ln for ln in text.splitlines() if not ln.lstrip().startswith("#")]
-    line = next(ln for ln in lines if "agents/train_sb3.py" in ln)
-    for ln in lines:  # plain NAME=value assignments (the recipe's TRAIN)
-        m = re.fullmatch(r"(\w+)=([^\s$]+)(\s+#.*)?", ln.strip())
-        if m:
-            line = line.replace(f"${m.group(1)}", m.group(2))
-    words = shlex.split(line.replace('"$MINUTES"', "40"))
-    argv = words[words.index("agents/train_sb3.py") + 1:]
-    argv = argv[:argv.index(">")] if ">" in argv else argv
+    argv = recipe_command(RECIPE.read_text(), "agents/train_sb3.py", where=str(RECIPE))
     return parse_dataclass(Args, argv)
 
 

@@ -6,14 +6,15 @@ copy of its ground)."""
 from __future__ import annotations
 
 import re
-import shlex
 from pathlib import Path
 
 import pytest
 
 from tin_swarm_env.training.config import Args
 from tin_swarm_env.training.evaluation import EVAL_SEED0
-from tin_swarm_env.training.held_out import held_out_families, held_out_use, same_ground
+from tin_swarm_env.errors import ArgumentError
+from tin_swarm_env.training.held_out import (
+    expand, held_out_families, held_out_use, recipe_command, recipe_words, same_ground)
 from tin_swarm_env.training.suite import SPLITS
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -21,42 +22,15 @@ TRAINERS = sorted((ROOT / "agents").glob("train_*.py")) + sorted((ROOT / "resear
 SCRIPTS = sorted((ROOT / "agents").glob("*.sh")) + sorted((ROOT / "research").glob("*.sh"))
 
 
-def _shell_words(text: str) -> list[tuple[str, dict]]:
-    """``(word, variables)`` for each shell word of ``text`` (continuation lines joined), with the
-    plain ``NAME=value`` assignments and ``for NAME in ...`` loop values seen before it."""
-    text = text.replace("\\\n", " ")
-    env: dict = {}
-    out = []
-    for line in text.splitlines():
-        line = line.split(" #")[0].strip()
-        if not line or line.startswith("#"):
-            continue
-        m = re.fullmatch(r"(\w+)=(\S+)", line)
-        if m and "$" not in m.group(2):
-            env[m.group(1)] = [m.group(2)]
-        m = re.match(r"for (\w+) in ([^;]+); do", line)
-        if m:
-            env[m.group(1)] = m.group(2).split()
-        out.extend((w, dict(env)) for w in shlex.split(line))
-    return out
-
-
-def _expand(word: str, env: dict) -> list[str]:
-    words = [word]
-    for name, values in env.items():
-        words = [w.replace(f"${name}", v).replace(f"${{{name}}}", v) for w in words for v in values]
-    return words
-
-
 def recipe_scenarios() -> dict[str, set[str]]:
     """Every training scenario a recipe names: ``--scenario`` of the shell recipes, the trainers'
     ``scenario`` defaults and fixed ``scenario=`` lists, and the training Args' default."""
     found: dict[str, set[str]] = {}
     for p in SCRIPTS:
-        words = _shell_words(p.read_text())
+        words = recipe_words(p.read_text())
         for i, (w, env) in enumerate(words[:-1]):
             if w == "--scenario":
-                for v in _expand(words[i + 1][0], env):
+                for v in expand(words[i + 1][0], env):
                     assert "$" not in v, f"{p.name}: --scenario {words[i + 1][0]!r} is not resolvable here"
                     found.setdefault(p.name, set()).update(v.split(","))
     for p in TRAINERS:
@@ -93,7 +67,7 @@ def test_no_recipe_trains_on_the_held_out_split():
 def test_the_recipes_seeds_are_training_seeds():
     seeds = []
     for p in SCRIPTS:
-        words = _shell_words(p.read_text())
+        words = recipe_words(p.read_text())
         seeds += [(p.name, int(words[i + 1][0])) for i, (w, _) in enumerate(words[:-1]) if w == "--seed"]
     assert seeds, "no --seed in the recipes"
     assert all(0 <= s < EVAL_SEED0 for _, s in seeds), seeds
@@ -144,3 +118,26 @@ def test_same_ground_tells_terrains_apart():
     assert not same_ground(load_scenario("cliff_goal"), load_scenario("ramp"))
     assert [m.label for s in SPLITS if s.key == "held_out" for m in s.maps if not m.families] == ["canyon_left",
                                                                                                     "valley"]
+
+
+def test_recipe_command_reads_a_hand_built_recipe():
+    """Continuation lines, comments, NAME=value, NAME=${NAME:-default}, a for loop, a redirection."""
+    text = """#!/usr/bin/env bash
+# a comment naming agents/train_x.py --scenario held_out
+T=a.toml  # the terrain
+PY=${PY:-python}
+MIN=${MIN:-7}
+for S in cliff_goal ramp; do
+  $PY agents/train_x.py --scenario $T,$S \\
+    --max-minutes "$MIN" --seed 3 > runs/x.log 2>&1
+done
+"""
+    assert recipe_command(text, "agents/train_x.py") == [
+        "--scenario", "a.toml,cliff_goal", "--max-minutes", "7", "--seed", "3"]
+    words = recipe_words(text)
+    at = [w for w, _ in words].index("--scenario")
+    assert expand(words[at + 1][0], words[at + 1][1]) == ["a.toml,cliff_goal", "a.toml,ramp"]
+    with pytest.raises(ArgumentError, match="no command runs agents/train_y.py"):
+        recipe_command(text, "agents/train_y.py", where="x.sh")
+    with pytest.raises(ArgumentError, match="'\\$HOME'"):
+        recipe_command("python t.py --out $HOME\n", "t.py")

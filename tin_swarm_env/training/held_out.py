@@ -19,13 +19,22 @@ A scenario uses the held-out split (:data:`~tin_swarm_env.training.suite.SPLITS`
 
 The seeds are the other half of the split: training draws seeds below
 :data:`~tin_swarm_env.training.evaluation.EVAL_SEED0`, the suite plays from it.
+
+The recipes are shell scripts; :func:`recipe_words` and :func:`recipe_command` read them as data
+(never run them): continuation lines joined, comments dropped, ``NAME=value`` and
+``NAME=${NAME:-value}`` assignments and ``for NAME in ...; do`` loop values resolved.
 """
 
 from __future__ import annotations
 
+import re
+import shlex
+
 import numpy as np
 
-__all__ = ["held_out_use", "held_out_families", "same_ground"]
+from ..errors import ArgumentError
+
+__all__ = ["expand", "held_out_use", "held_out_families", "recipe_command", "recipe_words", "same_ground"]
 
 HELD_OUT = "held_out"  # the key of the split in SPLITS
 BOUNDS_TOL_M = 1.0
@@ -96,3 +105,56 @@ def held_out_use(scenario) -> list[str]:
                 out.append(f"the ground of held-out map {m.label!r}" + (f" (its mirror image {axis})" if axis else ""))
                 break
     return out
+
+
+def recipe_words(text: str) -> list[tuple[str, dict]]:
+    """``(word, variables)`` for each shell word of the recipe ``text`` (continuation lines joined,
+    comments and redirections' targets kept as words), with the values of the plain ``NAME=value``
+    and ``NAME=${NAME:-value}`` assignments and of the ``for NAME in ...; do`` loops seen before it:
+    ``{NAME: [value, ...]}``."""
+    text = text.replace("\\\n", " ")
+    env: dict = {}
+    out = []
+    for line in text.splitlines():
+        line = line.split(" #")[0].strip()
+        if not line or line.startswith("#"):
+            continue
+        m = re.fullmatch(r"(\w+)=(\S+)", line)
+        if m:
+            d = re.fullmatch(r"\$\{%s:-([^}$]+)\}" % m.group(1), m.group(2))
+            if d or "$" not in m.group(2):
+                env[m.group(1)] = [d.group(1) if d else m.group(2)]
+        m = re.match(r"for (\w+) in ([^;]+); do", line)
+        if m:
+            env[m.group(1)] = m.group(2).split()
+        out.extend((w, dict(env)) for w in shlex.split(line))
+    return out
+
+
+def expand(word: str, env: dict) -> list[str]:
+    """``word`` with every ``$NAME`` / ``${NAME}`` of ``env`` replaced, once per combination of the
+    names' values (a loop variable gives one word per value)."""
+    words = [word]
+    for name in sorted(env, key=len, reverse=True):  # $TRAIN_B before $TRAIN
+        words = [w.replace(f"${{{name}}}", v).replace(f"${name}", v) for w in words for v in env[name]]
+    return words
+
+
+def recipe_command(text: str, script: str, where: str = "recipe") -> list[str]:
+    """The arguments of the first command of the recipe ``text`` that runs ``script`` (a path such
+    as ``agents/train_puffer.py``), variables resolved (their first value), up to a redirection
+    or the end of the command. :class:`~tin_swarm_env.errors.ArgumentError` naming ``where`` if
+    no command runs it or a word stays unresolved."""
+    words = recipe_words(text)
+    at = next((i for i, (w, _) in enumerate(words) if w == script), None)
+    if at is None:
+        raise ArgumentError(f"{where}: no command runs {script}")
+    argv = []
+    for w, env in words[at + 1:]:
+        if w in (">", ">>", "2>&1", "&&", "||", ";", "|") or w.startswith(">"):
+            break
+        v = expand(w, env)[0]
+        if "$" in v:
+            raise ArgumentError(f"{where}: {w!r} of the {script} command is not resolvable here")
+        argv.append(v)
+    return argv
