@@ -135,3 +135,21 @@ def test_decode_refuses_observations_of_another_layout_by_shape():
     lay = ObsLayout()
     with pytest.raises(ArgumentError, match=rf"decode: observations \(n, {lay.size}\)"):
         decode(np.zeros((2, lay.size + 1)), lay, 60.0)
+
+
+def test_the_first_scenarios_shield_is_every_copys_in_a_mix():
+    """The adapters shield a mix's rows with its first scenario's SafetyShield: on a goal and a
+    containment mix (different tasks and standoffs), each copy's own shield cuts its rows the same."""
+    import tin_swarm_env as tse
+    from tin_swarm_env.policies.base import SafetyShield
+
+    vec = tse.vector_env(["cliff_goal", "containment"], n_envs=4, n_robots=5, seed=1)
+    obs = vec.reset().reshape(20, -1)
+    act = np.random.default_rng(0).uniform(-1, 1, (20, 2))
+    first = SafetyShield(tse.parallel_env("cliff_goal", n_robots=5))
+    got = first(act, obs)
+    assert got.dtype == np.float32 and not np.array_equal(got, act.astype(np.float32))  # the cut did something
+    for c in range(4):
+        rows = slice(5 * c, 5 * c + 5)
+        own = SafetyShield(tse.parallel_env(["cliff_goal", "containment"][c % 2], n_robots=5))
+        np.testing.assert_array_equal(got[rows], own(act[rows], obs[rows]))

@@ -125,10 +125,7 @@ def puffer_env_class():
             check_range("make_puffer_env", "reward_scale", reward_scale, 0, lo_open=True, exc=ArgumentError)
             self.vec = VectorEnv(scenario, n_envs=n_envs, n_robots=n_robots, seed=seed, **env_kwargs)
             self.reward_scale = np.float32(reward_scale)
-            # the shield of each scenario of the mix, over the rows of its copies (as the SB3 VecEnv)
-            scen_of_row = np.repeat(self.vec.copy_scenario, self.vec.n_robots)
-            self._shields = [] if shield == "none" else [
-                (SafetyShield(p), scen_of_row == k) for k, p in enumerate(self.vec._protos)]
+            self._shield = None if shield == "none" else SafetyShield(self.vec._protos[0])
             self.single_observation_space = self.vec.single_observation_space
             self.single_action_space = self.vec.single_action_space
             self.num_agents = self.vec.n_envs * self.vec.n_robots
@@ -148,8 +145,8 @@ def puffer_env_class():
             v = self.vec
             live_before = v._live.copy()
             a = np.asarray(actions, dtype=np.float64).reshape(v.n_envs * v.n_robots, 2)
-            for sh, rows in self._shields:  # the shield reads the observations the actions were chosen from
-                a[rows] = sh(a[rows], self.observations[rows])
+            if self._shield is not None:  # it reads the observations the actions were chosen from
+                a = self._shield(a, self.observations)
             a = a.reshape(v.n_envs, v.n_robots, 2)
             obs, rew, term, trunc, info = v.step(a)
             final = np.repeat(info["_final"], v.n_robots)

@@ -95,10 +95,8 @@ class _VecEnvBody:
         self.n_robots = self.vec.n_robots
         self.n_copies = n_envs
         self.shield = shield
-        # the shield of each scenario of the mix, over the rows of its copies (one call per scenario)
-        scen_of_row = np.repeat(self.vec.copy_scenario, self.n_robots)
-        self._shields = None if shield != "safety_cut" else [
-            (SafetyShield(p), scen_of_row == k) for k, p in enumerate(self.vec._protos)]
+        # one shield serves every copy of the mix (SafetyShield's docstring)
+        self._shield = SafetyShield(self.vec._protos[0]) if shield == "safety_cut" else None
         super().__init__(n_envs * self.n_robots, self.vec.single_observation_space, self.vec.single_action_space)
         self.render_mode = None
         self._seed = seed
@@ -130,12 +128,7 @@ class _VecEnvBody:
                                     else actions, "step_async(actions)", (self.num_envs, 2), finite=False)
 
     def _shielded(self, act):
-        if self._shields is None:
-            return act
-        out = np.array(act, dtype=np.float32)
-        for sh, rows in self._shields:
-            out[rows] = sh(act[rows], self._obs[rows])
-        return out
+        return act if self._shield is None else self._shield(act, self._obs)
 
     def step_wait(self):
         E, N = self.n_copies, self.n_robots

@@ -272,7 +272,9 @@ class SafetyShield:
     body diameters: the narrowest gap between breaks a robot drives through).
     ``shield(action, obs)`` is :func:`safety_cut` of ``action (n, 2)`` for observations
     ``obs (n, d)`` (the break cut when the layout has break slots), float32; :meth:`cut` the same
-    from an observation already decoded."""
+    from an observation already decoded. The cut reads only world parameters a vector env's mix
+    shares (:class:`~tin_swarm_env.env.vector.VectorEnv` checks them) and the layout, so the
+    shield of a mix's first scenario is every copy's (the SB3 and PufferLib adapters' shield)."""
 
     def __init__(self, env):
         base = unwrap_env(env)
@@ -306,3 +308,4 @@ class SafetyShield:
 
     def __call__(self, action, obs) -> np.ndarray:
         return self.cut(action, self.decode(obs), edges=bool(self.layout.k_breaks))
+
