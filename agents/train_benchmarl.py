@@ -32,6 +32,7 @@ from benchmarl.experiment.callback import Callback  # noqa: E402
 
 from tin_swarm_env import Reason  # noqa: E402
 from tin_swarm_env.apps.args import opt, parse_dataclass  # noqa: E402
+from tin_swarm_env.policies.network import SHIELDS  # noqa: E402
 
 
 @dataclass
@@ -59,7 +60,7 @@ class Args:
     snapshot_minutes: float = opt(5.0, "write the actor to OUT_DIR/snapshots/mMMM.M/policy every this many "
                                   "minutes (its learning curve)", lo=0, lo_open=True)
     shield: str = opt("safety_cut", "the exported file acts behind this shield (the actor trains without it)",
-                      choices=("none", "safety_cut"))
+                      choices=SHIELDS)
     out_dir: str = opt("runs/mappo_benchmarl", "run directory: progress.csv, run.json, actor.pt (torch), policy/")
 
 

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from tin_swarm_env.apps.args import opt, parse_dataclass
+from tin_swarm_env.policies.network import SHIELDS
 from tin_swarm_env.training.config import scenarios_of
 
 
@@ -40,7 +41,7 @@ class Args:
     max_cycles: int = opt(0, "steps per episode (0: the scenario's)", lo=0)
     hidden: int = opt(128, "units of each of the two tanh layers", lo=1)
     shield: str = opt("safety_cut", "the safety shield the actor acts behind (and its exported file)",
-                      choices=("none", "safety_cut"))
+                      choices=SHIELDS)
     symmetry: str = opt("none", "mirror: the actor and critic mirror-equivariant by construction (TanhMLP)",
                         choices=("none", "mirror"))
     reward_scale: float = opt(0.01, "rewards are multiplied by this (PuffeRL clips them to [-1, 1]: a fall is -1)",
@@ -128,7 +129,7 @@ def export(policy, args: Args, rows: list, out: Path, check: bool = True) -> flo
     import torch
 
     import tin_swarm_env as tse
-    from tin_swarm_env.policies.base import SafetyShield, unwrap_env
+    from tin_swarm_env.policies.base import make_shield, unwrap_env
     from tin_swarm_env.policies.export import export_actor, max_action_gap, real_observations
 
     env = tse.parallel_env(scenario=scenarios_of(args)[0], n_robots=args.n_robots,
@@ -141,7 +142,7 @@ def export(policy, args: Args, rows: list, out: Path, check: bool = True) -> flo
                  scenario=args.scenario, extra=extra, shield=args.shield, symmetry=args.symmetry)
     if not check:
         return float("nan")
-    shield = SafetyShield(env) if args.shield == "safety_cut" else None
+    shield = make_shield(args.shield, env)
 
     def torch_actions(o):
         with torch.no_grad():

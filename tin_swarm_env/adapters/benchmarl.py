@@ -202,15 +202,15 @@ def export_actor(experiment, path, env, *, obs, scenario: str, extra: dict | Non
     torch actor's deterministic actions on ``obs (n, d)``; returns the largest difference and
     raises if it exceeds ``tol``. ``shield="safety_cut"``: the file acts behind the safety shield
     (deployed behind it: the actor trained without), and the check filters torch's actions too."""
-    from ..policies.base import SafetyShield, unwrap_env
+    from ..policies.base import make_shield, unwrap_env
     from ..policies.export import export_actor as write, max_action_gap
 
     layers, activation, squash = actor_mean_layers(experiment, group)
     write(path, layers, activation, squash=squash, layout=unwrap_env(env).layout, scenario=scenario,
           extra={"library": "benchmarl", **(extra or {})}, shield=shield)
     torch_actions = deterministic_actions(experiment, group)
-    if shield == "safety_cut":
-        cut, plain = SafetyShield(env), torch_actions
+    if shield != "none":
+        cut, plain = make_shield(shield, env), torch_actions
 
         def torch_actions(o):
             return cut(np.asarray(plain(o), dtype=np.float64), o)

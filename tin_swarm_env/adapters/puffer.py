@@ -117,7 +117,7 @@ def puffer_env_class():
         def __init__(self, scenario="cliff_goal", n_envs=1, n_robots=None, seed=None, buf=None, shield="none",
                      reward_scale=1.0, **env_kwargs):
             from ..errors import ArgumentError, check_range
-            from ..policies.base import SafetyShield
+            from ..policies.base import make_shield
             from ..policies.learned import SHIELDS
 
             if shield not in SHIELDS:
@@ -125,7 +125,7 @@ def puffer_env_class():
             check_range("make_puffer_env", "reward_scale", reward_scale, 0, lo_open=True, exc=ArgumentError)
             self.vec = VectorEnv(scenario, n_envs=n_envs, n_robots=n_robots, seed=seed, **env_kwargs)
             self.reward_scale = np.float32(reward_scale)
-            self._shield = None if shield == "none" else SafetyShield(self.vec._protos[0])
+            self._shield = make_shield(shield, self.vec._protos[0])
             self.single_observation_space = self.vec.single_observation_space
             self.single_action_space = self.vec.single_action_space
             self.num_agents = self.vec.n_envs * self.vec.n_robots

@@ -77,7 +77,7 @@ class _VecEnvBody:
         from ..env.checks import ENV_ARGS, check_env_kwargs, check_seed
         from ..env.vector import VectorEnv
         from ..errors import check_range
-        from ..policies.base import SafetyShield
+        from ..policies.base import make_shield
         from ..policies.learned import SHIELDS
 
         check_range("make_sb3_vec_env", "n_envs", n_envs, 1, integer=True, exc=ArgumentError)
@@ -96,7 +96,7 @@ class _VecEnvBody:
         self.n_copies = n_envs
         self.shield = shield
         # one shield serves every copy of the mix (SafetyShield's docstring)
-        self._shield = SafetyShield(self.vec._protos[0]) if shield == "safety_cut" else None
+        self._shield = make_shield(shield, self.vec._protos[0])
         super().__init__(n_envs * self.n_robots, self.vec.single_observation_space, self.vec.single_action_space)
         self.render_mode = None
         self._seed = seed

@@ -274,20 +274,27 @@ class SafetyShield:
     ``obs (n, d)`` (the break cut when the layout has break slots), float32; :meth:`cut` the same
     from an observation already decoded. The cut reads only world parameters a vector env's mix
     shares (:class:`~tin_swarm_env.env.vector.VectorEnv` checks them) and the layout, so the
-    shield of a mix's first scenario is every copy's (the SB3 and PufferLib adapters' shield)."""
+    shield of a mix's first scenario is every copy's (the SB3 and PufferLib adapters' shield).
 
-    def __init__(self, env):
+    ``scan=True`` (the policy files' ``"safety_cut_scan"``): ``shield(action, obs)`` then also
+    keeps every robot ``edge_m`` off the points where its terrain scan's beams meet a dangerous
+    break (:func:`scan_cut`), so a policy cannot drive down onto ground too steep to hold it
+    where the break slots (the nearest few break points) miss it, as on real hillside. The
+    built-in controllers' :meth:`cut` is unchanged."""
+
+    def __init__(self, env, scan: bool = False):
         base = unwrap_env(env)
-        self._set(base.config, base.layout)
+        self._set(base.config, base.layout, scan)
 
     @classmethod
-    def from_config(cls, cfg, layout) -> SafetyShield:
+    def from_config(cls, cfg, layout, scan: bool = False) -> SafetyShield:
         s = cls.__new__(cls)
-        s._set(cfg, layout)
+        s._set(cfg, layout, scan)
         return s
 
-    def _set(self, cfg, layout):
+    def _set(self, cfg, layout, scan: bool = False):
         self.layout = layout
+        self.scan = bool(scan) and bool(layout.k_scan)
         self.range_m = cfg.world.sensor.range_m
         self.standoff_m = cfg.targets.standoff_m if cfg.task == "containment" else 0.0
         self.guard_m = cfg.assets.standoff_m
@@ -307,5 +314,36 @@ class SafetyShield:
                           self.fov_deg).astype(np.float32)
 
     def __call__(self, action, obs) -> np.ndarray:
-        return self.cut(action, self.decode(obs), edges=bool(self.layout.k_breaks))
+        a = self.cut(action, self.decode(obs), edges=bool(self.layout.k_breaks))
+        return scan_cut(a, obs, self) if self.scan else a
+
+
+def scan_cut(action, obs, shield: SafetyShield) -> np.ndarray:
+    """``action (n, 2)`` cut so that no robot comes within ``shield.edge_m`` of a point where a
+    beam of its terrain scan meets a dangerous break (:func:`keep_clear`, ``share`` 1, over the
+    beams that hit), float32. The beams are cut one after another, and the mirror image permutes
+    them, so the cut is made both ways and averaged, ``(k(a, o) + M k(M a, M o)) / 2``: exactly
+    mirror-equivariant (a mirror-equivariant network stays so behind it), and inside the cut's
+    half-planes as each way is (they are convex)."""
+    from ..env.observation import mirror_action
+
+    obs = np.asarray(obs)
+
+    def one_way(a, o):
+        d = shield.decode(o)
+        return keep_clear(a, d.s_rel, d.s_hit, shield.edge_m, shield.step_m, share=1.0)
+
+    there = one_way(mirror_action(np.asarray(action, dtype=np.float64)), shield.layout.mirror(obs))
+    return ((one_way(action, obs) + mirror_action(there)) / 2).astype(np.float32)
+
+
+def make_shield(name: str, env) -> SafetyShield | None:
+    """The shield a policy file's ``"shield"`` names (``policies.network.SHIELDS``) for ``env``:
+    None for ``"none"``, :class:`SafetyShield` for ``"safety_cut"``, with ``scan=True`` for
+    ``"safety_cut_scan"``; :class:`~tin_swarm_env.errors.ArgumentError` for another name."""
+    from .network import SHIELDS
+
+    if name not in SHIELDS:
+        raise ArgumentError(f"shield must be one of {list(SHIELDS)}, got {name!r}")
+    return None if name == "none" else SafetyShield(env, scan=name == "safety_cut_scan")
 

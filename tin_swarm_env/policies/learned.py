@@ -14,7 +14,7 @@ loaded that way; export them once with :func:`tin_swarm_env.adapters.sb3.export_
                                              "names": ["own.battery", ...]}},
      "action": {"size": 2, "low": -1.0, "high": 1.0},
      "scenario": "cliff_goal",
-     "shield": "safety_cut",                 # optional: "none" (default) or "safety_cut"
+     "shield": "safety_cut",                 # optional: "none" (default), "safety_cut" or "safety_cut_scan"
      "symmetry": "mirror",                   # optional: "none" (default) or "mirror"
      "training": {...}}                      # free-form metadata (library versions, steps...)
 
@@ -30,7 +30,10 @@ the blind sector, none that closes on a robot the robot sees to within 1.5 body 
 a dangerous break it sees to within one diameter). The filter reads only the observation, so
 the policy stays observation-only; it is a shield in the safe-RL sense (the network proposes,
 the filter removes the unsafe part). The constants come from the environment the policy is
-loaded for, so a shielded policy needs ``load_policy(path, env)``.
+loaded for, so a shielded policy needs ``load_policy(path, env)``. ``"shield": "safety_cut_scan"``
+adds the scan's cut (:func:`tin_swarm_env.policies.base.scan_cut`): no robot comes within one body
+diameter of a point where a beam of its terrain scan meets a dangerous break, so the policy cannot
+drive down onto ground too steep to hold it that the break slots miss (real hillside).
 
 ``"network": {"type": "recurrent", "cell": "lstm" | "gru", ...}``: a memory cell before the MLP,
 state per robot reset with the episode (:mod:`tin_swarm_env.policies.recurrent` describes it).
@@ -58,7 +61,7 @@ import numpy as np
 
 from ..env.observation import ObsLayout
 from ..errors import ArgumentError, ObservationLayoutError, OutputError, PolicyFileError
-from .base import SafetyShield, act_dict, unwrap_env
+from .base import act_dict, make_shield, unwrap_env
 from .network import (ACTIVATIONS, MAX_ABS_WEIGHT, MAX_JSON_BYTES, MAX_JSON_DEPTH, MAX_LAYER_WIDTH,  # noqa: F401
                       MAX_LAYERS, MAX_PARAMETERS, MAX_WEIGHTS_BYTES, SHIELDS, checked_array, dense)
 from .heads import CategoricalHead, check_head
@@ -173,12 +176,14 @@ class MLPPolicy:
 
 class ShieldedPolicy:
     """Any policy (``act_batch(obs (n, d)) -> (n, 2)``, optional ``reset()``) acting through the
-    ``"safety_cut"`` shield of ``env`` (see the module docstring): what training uses for a
-    shielded learner before it is exported."""
+    shield ``shield`` (``"safety_cut"`` or ``"safety_cut_scan"``) of ``env`` (see the module
+    docstring): what training uses for a shielded learner before it is exported."""
 
-    def __init__(self, policy, env):
+    def __init__(self, policy, env, shield: str = "safety_cut"):
         self.policy = policy
-        self.shield = SafetyShield(env)
+        self.shield = make_shield(shield, env)
+        if self.shield is None:
+            raise ArgumentError("ShieldedPolicy: shield 'none' shields nothing; use the policy itself")
 
     def reset(self):
         if hasattr(self.policy, "reset"):

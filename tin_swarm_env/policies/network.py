@@ -44,7 +44,7 @@ def dense(x, W, b):
     return out
 
 
-SHIELDS = ("none", "safety_cut")
+SHIELDS = ("none", "safety_cut", "safety_cut_scan")  # policies.base.make_shield builds each
 
 # Limits checked before anything is read into memory (a policy file is data from anywhere):
 MAX_JSON_BYTES = 1_000_000  # policy.json: metadata and the layout's element names, a few KB in practice

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..env.observation import ACTION_PARITY, ObsLayout
 from ..errors import ArgumentError
-from .base import SafetyShield
+from .base import make_shield
 from .network import SHIELDS
 
 __all__ = ["SYMMETRIES", "Mirror", "mirror_signs", "mirror_map", "check_mirror_map", "symmetrize", "file_options"]
@@ -97,14 +97,14 @@ def symmetrize(f, x, mirror) -> np.ndarray:
 
 def file_options(shield: str, symmetry: str, layout, env, source: str):
     """A policy file's ``shield`` and ``symmetry`` options, checked: returns ``(mirror, shield_cut)``,
-    the reflection of observations (a :class:`Mirror`; None without symmetry) and the
-    :class:`SafetyShield` applied to the network's actions (None without a shield). Shared by the
-    MLP and recurrent policies."""
+    the reflection of observations (a :class:`Mirror`; None without symmetry) and the shield
+    applied to the network's actions (:func:`~tin_swarm_env.policies.base.make_shield`; None
+    without one). Shared by the MLP and recurrent policies."""
     if shield not in SHIELDS:
         raise ArgumentError(f"{source}: shield {shield!r} is not one of {list(SHIELDS)}")
     if symmetry not in SYMMETRIES:
         raise ArgumentError(f"{source}: symmetry {symmetry!r} is not one of {list(SYMMETRIES)}")
     mirror = Mirror(layout) if symmetry == "mirror" else None
-    if shield == "safety_cut" and env is None:
+    if shield != "none" and env is None:
         raise ArgumentError(f"{source}: a shielded policy needs the env it acts in (load_policy(path, env))")
-    return mirror, (SafetyShield(env) if shield == "safety_cut" else None)
+    return mirror, make_shield(shield, env)

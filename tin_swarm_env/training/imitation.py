@@ -288,9 +288,9 @@ def collect(scenarios, episodes: int, seed: int, *, n_robots=None, max_cycles=No
         kw["max_cycles"] = max_cycles
     envs = [parallel_env(scenario=s, n_robots=n_robots or None, **kw) for s in scenarios]
     teachers = [make_teacher(teacher, e) for e in envs]
-    from ..policies.base import SafetyShield
+    from ..policies.base import make_shield
 
-    shields = [SafetyShield(e) if shield == "safety_cut" else None for e in envs]
+    shields = [make_shield(shield, e) for e in envs]
     parts, reasons, seqs = [], [], []
     for k in range(episodes):
         s = k % len(scenarios)

@@ -52,7 +52,7 @@ def evaluate_model(model, args: Args, episodes: int, seed: int = EVAL_SEED0) -> 
 
     def policy_of(env):
         pol = RecurrentSB3Policy(model) if args.recurrent else SB3Policy(model)
-        return ShieldedPolicy(pol, env) if args.shield != "none" else pol
+        return ShieldedPolicy(pol, env, args.shield) if args.shield != "none" else pol
 
     return _evaluate(policy_of, args, episodes, seed)
 
