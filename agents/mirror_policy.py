@@ -1,7 +1,7 @@
 """Re-export a pickle-free policy directory with ``"symmetry": "mirror"`` (or back to ``"none"``):
 the same weights, acting as ``clip((g(o) + M g(M o)) / 2)`` (:mod:`tin_swarm_env.policies.symmetry`).
 
-    python agents/mirror_policy.py agents/models/shared runs/shared_mirror
+    python agents/mirror_policy.py agents/models/shared_sb3 runs/shared_mirror
     python agents/mirror_policy.py runs/shared_mirror runs/shared_plain --symmetry none
 
 The training metadata is kept; ``training.symmetry_added`` records that the option was switched

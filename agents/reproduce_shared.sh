@@ -1,33 +1,29 @@
 #!/usr/bin/env bash
-# Reproduces the shipped policy (agents/models/shared) on 2 cores in under 60 minutes, then its
-# evaluation table.   bash agents/reproduce_shared.sh        # outputs in runs/shared (log: runs/shared.log)
-# Recipe (all through agents/train_sb3.py):
-# * terrain: generated terrains (a new seeded terrain per reset: canyons, mesas, hills; training seeds
-#   below EVAL_SEED0 (tin_swarm_env.training.evaluation), evaluation seeds from it, so the table's "generated" rows are terrains never trained on),
-#   half of the episodes, plus cliff_goal and ramp; hill, valley, the canyon files and jacksboro stay
-#   held out;
-# * behaviour cloning from APF (40 episodes), two DAgger rounds of 20 episodes with beta-mixing (APF
-#   drives each robot-step with probability 0.5, then 0.25) and stalled robots' samples dropped after
-#   60 steps without progress;
-# * the learner acts through the policy-file shield (--shield safety_cut: APF's last cut, from the
-#   observation) in DAgger, in PPO's environment and in the exported file;
-# * PPO fine-tuning with the geodesic progress reward (the goal task's default), to 40 minutes in all
-#   (the shipped run: imitation 12.6 min, then 3.49 M PPO timesteps; 40.2 min on the idle 2-core machine).
-# runs/shared/policy_imitation is the policy before PPO (the "BC+DAgger" row), runs/shared/policy after.
+# Reproduces the shipped policy (agents/models/shared) on 2 cores in under 60 minutes through the vector env,
+# then its learning curve on the standard suite's held-out split.
+#   bash agents/reproduce_shared.sh        # outputs in runs/shared (log: runs/shared.log)
+# Recipe (agents/train_puffer.py: PufferLib's PPO on the vector env, 64 copies x 16 robots stepped by one call):
+# * terrain: generated terrains of the training families (agents/scenarios/train_generated.toml: canyons, mesas,
+#   hills; a new seeded terrain per reset, training seeds below EVAL_SEED0) on half of the copies, cliff_goal and
+#   ramp on the others; the held-out families (fork, trap, realdem), the held-out maps, hill and jacksboro stay out
+#   (tests/training/test_held_out.py);
+# * the default observation layout (its 32-beam terrain scan);
+# * a mirror-equivariant actor and critic (--symmetry mirror: (g(o) + M g(M o)) / 2, exported as a
+#   "symmetry": "mirror" file), two tanh layers of 128 units, trained behind the safety shield (safety_cut, the
+#   default) and deployed behind the scan shield (--export-shield safety_cut_scan: also one body diameter off
+#   where the scan's beams meet a dangerous break, which stops the falls on real hillside), the rewards scaled
+#   by 0.01 (PuffeRL clips them to [-1, 1]);
+# * PPO from scratch with the geodesic progress reward (the goal task's default) for MINUTES of wall clock
+#   (snapshots every 5 minutes: the learning curve's points).
+# agents/models/shared is runs/shared/policy of the shipped run (cp -r). The budget is wall clock, so a rerun
+# stops after a different number of steps and does not give the same weights bit for bit; docs/learning.md
+# gives the shipped run's and a rerun's figures.
 set -e
 cd "$(dirname "$0")/.."
 mkdir -p runs
 TRAIN=agents/scenarios/train_generated.toml  # the training families only: the held-out split stays out
 PY=${PY:-python}
-MINUTES=${MINUTES:-40}
-$PY agents/train_sb3.py --scenario $TRAIN,$TRAIN,cliff_goal,ramp --n-robots 8 --n-envs 2 --net-arch 256,256 \
-  --bc-episodes 40 --dagger-rounds 2 --dagger-episodes 20 --dagger-beta 0.5 --stall-steps 60 \
-  --bc-epochs 30 --bc-std 0.3 --value-epochs 10 --shield safety_cut \
-  --learning-rate 1e-4 --n-steps 256 --batch-size 1024 --n-epochs 5 --gamma 0.995 --ent-coef 0.0 \
-  --total-timesteps 50000000 --max-minutes "$MINUTES" --eval-every 200000 --eval-episodes 2 --checkpoint-every 400000 \
-  --seed 0 --out-dir runs/shared --progress-bar false > runs/shared.log 2>&1
-# agents/models/shared is runs/shared/policy of the shipped run (cp -r). The budget is wall clock, so a rerun
-# stops after a different number of PPO steps and does not give the same weights bit for bit; the table of
-# docs/figures/shipped_policy.md says which of the issue's numbers the shipped file meets.
-$PY agents/evaluate.py --scenarios cliff_goal,ramp,hill,generated,scenarios/canyon_left.toml,scenarios/canyon_right.toml,scenarios/valley.toml,jacksboro \
-  --seeds 20 --robots 20 --models "shared=runs/shared/policy,bc+dagger=runs/shared/policy_imitation" --out runs/eval_shared
+MINUTES=${MINUTES:-30}
+$PY agents/train_puffer.py --scenario $TRAIN,$TRAIN,cliff_goal,ramp --symmetry mirror --hidden 128 --export-shield safety_cut_scan \
+  --max-minutes "$MINUTES" --seed 0 --out-dir runs/shared > runs/shared.log 2>&1
+$PY agents/suite_curve.py --runs runs/shared --splits held_out --out runs/shared/curve_held_out.png >> runs/shared.log 2>&1

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Reproduces the mirror-equivariant policy agents/models/shared_mirror (the candidate to replace the shipped
-# agents/models/shared; docs/figures/shared_mirror.md) on 2 cores in under 60 minutes, then its evaluation
+# agents/models/shared_sb3; docs/figures/shared_mirror.md) on 2 cores in under 60 minutes, then its evaluation
 # tables.   bash agents/reproduce_shared_mirror.sh     # outputs in runs/shared_mirror (log: runs/shared_mirror.log)
 # Recipe (all through agents/train_sb3.py):
 # * terrain: generated terrains (a new seeded terrain per reset, every family: canyons, mesas, hills,
@@ -38,9 +38,9 @@ $PY agents/train_sb3.py --scenario $TRAIN,$TRAIN,cliff_goal,ramp --n-robots 32 -
 # Held-out seeds of every generated family, the canyon files and valley, each also as its north-south mirror
 # image (a pass on the left becomes one on the right), then the thesis maps, then jacksboro given 1800 steps.
 $PY agents/evaluate.py --scenarios generated,scenarios/canyon_left.toml,scenarios/canyon_right.toml,scenarios/valley.toml \
-  --by-family --mirror --seeds 20 --robots 20 --policies apf --models "shared=agents/models/shared,shared_mirror=runs/shared_mirror/policy,imitation=runs/shared_mirror/policy_imitation" \
+  --by-family --mirror --seeds 20 --robots 20 --policies apf --models "shared=agents/models/shared_sb3,shared_mirror=runs/shared_mirror/policy,imitation=runs/shared_mirror/policy_imitation" \
   --out runs/eval_shared_mirror
 $PY agents/evaluate.py --scenarios cliff_goal,ramp,hill --seeds 20 --robots 20 --policies apf \
-  --models "shared=agents/models/shared,shared_mirror=runs/shared_mirror/policy" --out runs/eval_shared_mirror_thesis
+  --models "shared=agents/models/shared_sb3,shared_mirror=runs/shared_mirror/policy" --out runs/eval_shared_mirror_thesis
 $PY agents/evaluate.py --scenarios jacksboro --mirror --max-cycles 1800 --seeds 20 --robots 20 --policies apf \
-  --models "shared=agents/models/shared,shared_mirror=runs/shared_mirror/policy" --out runs/eval_shared_mirror_jacksboro
+  --models "shared=agents/models/shared_sb3,shared_mirror=runs/shared_mirror/policy" --out runs/eval_shared_mirror_jacksboro

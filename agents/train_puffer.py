@@ -42,6 +42,8 @@ class Args:
     hidden: int = opt(128, "units of each of the two tanh layers", lo=1)
     shield: str = opt("safety_cut", "the safety shield the actor acts behind (and its exported file)",
                       choices=SHIELDS)
+    export_shield: str = opt("", "the exported file's shield, if not --shield's (a file trained behind safety_cut "
+                             "deployed behind safety_cut_scan)", choices=("",) + SHIELDS)
     symmetry: str = opt("none", "mirror: the actor and critic mirror-equivariant by construction (TanhMLP)",
                         choices=("none", "mirror"))
     reward_scale: float = opt(0.01, "rewards are multiplied by this (PuffeRL clips them to [-1, 1]: a fall is -1)",
@@ -124,6 +126,10 @@ def mean_layers(policy) -> list:
     return [(m.weight.detach().double().numpy(), m.bias.detach().double().numpy()) for m in lin]
 
 
+def file_shield(args: Args) -> str:
+    return args.export_shield or args.shield
+
+
 def export(policy, args: Args, rows: list, out: Path, check: bool = True) -> float:
     """Write the actor's deterministic action to ``out/policy`` and (``check``) check it against torch's."""
     import torch
@@ -139,10 +145,10 @@ def export(policy, args: Args, rows: list, out: Path, check: bool = True) -> flo
              "torch": torch.__version__, "tin_swarm_env": tse.__version__}
     out.mkdir(parents=True, exist_ok=True)
     export_actor(out / "policy", mean_layers(policy), "tanh", squash="clip", layout=unwrap_env(env).layout,
-                 scenario=args.scenario, extra=extra, shield=args.shield, symmetry=args.symmetry)
+                 scenario=args.scenario, extra=extra, shield=file_shield(args), symmetry=args.symmetry)
     if not check:
         return float("nan")
-    shield = make_shield(args.shield, env)
+    shield = make_shield(file_shield(args), env)
 
     def torch_actions(o):
         with torch.no_grad():

@@ -1,5 +1,5 @@
 """The standard evaluation suite's leaderboard for the docs: random, APF, the geodesic reference, the
-shipped SB3 policy (agents/models/shared) and every extra ``--model NAME=DIR``, written to
+shipped policy (agents/models/shared) and every extra ``--model NAME=DIR``, written to
 docs/figures/standard_suite.md (its first line: the exact command, commit, date and load average),
 .csv (the leaderboard) and _maps.csv (per map). The suite itself is tin_swarm_env/training/suite.py.
 

@@ -19,7 +19,7 @@
    (``--throughput-timesteps 0`` skips the separate measurement).
 
 3. **Where the time goes** (``--split``, ``--quick``): PPO with the shipped recipe, the arguments
-   of ``agents/train_sb3.py`` in ``agents/reproduce_shared.sh`` (read from the script, so the recipe
+   of ``agents/train_sb3.py`` in ``agents/reproduce_shared_sb3.sh`` (read from the script, so the recipe
    has one home; its imitation stage is not run: this times PPO), timed per phase over
    ``--rollouts`` rollouts after one warm-up rollout: *collection* (``collect_rollouts``: env steps,
    of which the VecEnv's own ``step_wait`` is shown apart, plus the policy's forward passes) in
@@ -44,7 +44,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-RECIPE = ROOT / "agents" / "reproduce_shared.sh"
+RECIPE = ROOT / "agents" / "reproduce_shared_sb3.sh"  # the SB3 recipe (the shipped one is PufferLib's)
 
 
 def throughput(scenario, n_envs, n_robots, timesteps):
@@ -86,7 +86,7 @@ def time_to_solve(label, cap_minutes, eval_every, target=0.9, **imitation):
 
 def shipped_recipe():
     """The :class:`~tin_swarm_env.training.config.Args` of the ``agents/train_sb3.py`` command in
-    ``agents/reproduce_shared.sh`` (continuation lines joined, shell variables at their defaults,
+    ``agents/reproduce_shared_sb3.sh`` (continuation lines joined, shell variables at their defaults,
     the redirection dropped)."""
     from tin_swarm_env.apps.args import parse_dataclass
     from tin_swarm_env.training.config import Args

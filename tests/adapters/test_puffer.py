@@ -197,3 +197,17 @@ def test_the_mirror_actor_is_equivariant_and_exports_to_a_mirror_file(tmp_path):
     np.testing.assert_allclose(b, mirror_action(a), atol=1e-4)
     np.testing.assert_allclose(va.numpy(), vb.numpy(), atol=1e-5)
     assert np.abs(a[:, 1]).max() > 0.1
+
+
+def test_train_puffer_trains_on_a_mix_and_exports_behind_another_shield(tmp_path):
+    """``--scenario ramp,cliff_goal``: the vector env's mix (copies take them in turn);
+    ``--export-shield safety_cut_scan``: trained behind safety_cut, the file names the scan shield
+    and the export check holds behind it."""
+    import json
+
+    out = tmp_path / "run"
+    _tiny_run(out, "--scenario", "ramp,cliff_goal", "--export-shield", "safety_cut_scan")
+    meta = json.loads((out / "policy" / "policy.json").read_text())
+    run = json.loads((out / "run.json").read_text())
+    assert meta["shield"] == "safety_cut_scan" and run["args"]["shield"] == "safety_cut"
+    assert run["args"]["scenario"] == "ramp,cliff_goal" and run["export_max_action_gap"] <= 1e-4

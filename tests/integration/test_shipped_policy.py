@@ -1,6 +1,7 @@
-"""The trained policy docs/figures/shipped_policy.md quotes, committed at agents/models/shared: it
-loads on the core install (no torch, no pickle), is refused by an env whose observation layout differs, and drives
-robots to the goal on cliff_goal (a reduced budget of that evaluation)."""
+"""The shipped policy, committed at agents/models/shared (docs/learning.md, "The shipped policy";
+agents/reproduce_shared.sh): it loads on the core install (no torch, no pickle), is refused by an env whose
+observation layout differs, is exactly mirror-equivariant behind its scan shield, and drives robots to the goal on
+cliff_goal (a reduced budget of that evaluation); the same for the mirror candidate agents/models/shared_mirror."""
 
 from __future__ import annotations
 
@@ -29,7 +30,8 @@ def test_the_shipped_policy_is_small_pickle_free_data():
     assert files == ["policy.json", "weights.npz"]
     assert sum(p.stat().st_size for p in SHARED.iterdir()) < 4 * 2**20
     meta = json.loads((SHARED / "policy.json").read_text())
-    assert meta["format"] == "tin_swarm_env.policy" and meta["shield"] == "safety_cut"
+    assert meta["format"] == "tin_swarm_env.policy" and meta["shield"] == "safety_cut_scan"
+    assert meta["symmetry"] == "mirror" and meta["observation"]["layout"]["k_scan"] == 32  # the default layout's scan
     with np.load(SHARED / "weights.npz", allow_pickle=False) as w:  # raises on any object array
         assert all(w[k].dtype.kind == "f" and np.isfinite(w[k]).all() for k in w.files)
 
@@ -46,8 +48,8 @@ def test_the_shipped_policy_runs_without_torch_or_pickle():
         "import numpy as np\n"
         "from tin_swarm_env.policies.learned import dense\n"
         "dense(np.zeros((1, 1)), np.zeros((1, 1)), np.zeros(1))  # numba's compile cache is read with pickle\n"
-        "from tin_swarm_env.policies.base import SafetyShield\n"
-        "SafetyShield(env)(np.zeros((3, 2)), np.stack(list(obs.values())))  # so are the shield's kernels'\n"
+        "from tin_swarm_env.policies.base import make_shield\n"
+        "make_shield('safety_cut_scan', env)(np.zeros((3, 2)), np.stack(list(obs.values())))  # so are the shield's\n"
         "def no(*a, **k): raise AssertionError('pickle used')\n"
         "pickle.load = pickle.loads = no  # from here on: loading the policy file and acting\n"
         f"pol = load_policy({str(SHARED)!r}, env)\n"
@@ -81,16 +83,17 @@ def test_cli_runs_and_evaluates_the_shipped_policy(tmp_path):
     assert "shared" in out.with_suffix(".md").read_text()
 
 
-def test_the_mirror_policy_file_is_pickle_free_equivariant_and_brings_robots_in():
-    """agents/models/shared_mirror (docs/figures/shared_mirror.md): small pickle-free data, a
-    mirror-equivariant file (its action on the mirror image of any observation is the mirror image
-    of its action), and it drives robots in on cliff_goal."""
+@pytest.mark.parametrize("name,shield", [("shared", "safety_cut_scan"), ("shared_mirror", "safety_cut")])
+def test_the_mirror_policy_files_are_pickle_free_equivariant_and_bring_robots_in(name, shield):
+    """agents/models/shared (the shipped policy) and shared_mirror (docs/figures/shared_mirror.md):
+    small pickle-free data, mirror-equivariant files behind their shields (the action on the mirror
+    image of any observation is the mirror image of the action), and they drive robots in on cliff_goal."""
     from tin_swarm_env.env.observation import mirror_action
 
-    d = ROOT / "agents" / "models" / "shared_mirror"
+    d = ROOT / "agents" / "models" / name
     assert sorted(p.name for p in d.iterdir()) == ["policy.json", "weights.npz"]
     meta = json.loads((d / "policy.json").read_text())
-    assert meta["symmetry"] == "mirror" and meta["shield"] == "safety_cut"
+    assert meta["symmetry"] == "mirror" and meta["shield"] == shield
     env = tse.parallel_env(scenario=policy_scenario("cliff_goal", str(d)), n_robots=6)
     pol = load_policy(d, env)
     o = np.random.default_rng(0).uniform(-1, 1, (200, env.layout.size))
