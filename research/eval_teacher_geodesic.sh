@@ -10,7 +10,7 @@ set -e
 cd "$(dirname "$0")/.."
 PY=${PY:-python}
 RUN=${RUN:-runs/geodesic}
-MODELS=${MODELS:-shared=agents/models/shared,geo_bc=$RUN/policy_imitation,geo_ppo=$RUN/policy}
+MODELS=${MODELS:-shared=agents/models/shared_sb3,geo_bc=$RUN/policy_imitation,geo_ppo=$RUN/policy}
 POLICIES=${POLICIES-apf,geodesic}
 OUT=${OUT:-runs/eval_teacher}
 mkdir -p runs/eval_cfg

@@ -204,6 +204,14 @@ def test_the_scan_shield_is_exactly_mirror_equivariant(seed):
 def test_make_shield_names_a_bad_shield():
     from tin_swarm_env.policies.base import make_shield
 
-    with pytest.raises(ArgumentError, match="shield must be one of .*'safety_cut_scan'.*got 'scan'"):
-        make_shield("scan", _scan_env())
+    with pytest.raises(ArgumentError, match="x.json: shield must be one of .*'safety_cut_scan'.*got 'scan'"):
+        make_shield("scan", _scan_env(), "x.json")
     assert make_shield("none", _scan_env()) is None
+    import tin_swarm_env as tse
+    from tin_swarm_env.scenario import load_scenario
+
+    from tin_swarm_env.env.observation import ObsLayout
+
+    no_scan = tse.parallel_env(load_scenario("ramp").with_layout(ObsLayout(k_scan=0)))
+    with pytest.raises(ArgumentError, match="'safety_cut_scan' needs an observation layout with a terrain scan"):
+        make_shield("safety_cut_scan", no_scan)

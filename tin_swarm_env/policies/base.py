@@ -337,13 +337,17 @@ def scan_cut(action, obs, shield: SafetyShield) -> np.ndarray:
     return ((one_way(action, obs) + mirror_action(there)) / 2).astype(np.float32)
 
 
-def make_shield(name: str, env) -> SafetyShield | None:
+def make_shield(name: str, env, where: str = "make_shield") -> SafetyShield | None:
     """The shield a policy file's ``"shield"`` names (``policies.network.SHIELDS``) for ``env``:
     None for ``"none"``, :class:`SafetyShield` for ``"safety_cut"``, with ``scan=True`` for
-    ``"safety_cut_scan"``; :class:`~tin_swarm_env.errors.ArgumentError` for another name."""
+    ``"safety_cut_scan"``; :class:`~tin_swarm_env.errors.ArgumentError` naming ``where`` for
+    another name, or for the scan shield on a layout without a terrain scan (it would cut nothing)."""
     from .network import SHIELDS
 
     if name not in SHIELDS:
-        raise ArgumentError(f"shield must be one of {list(SHIELDS)}, got {name!r}")
+        raise ArgumentError(f"{where}: shield must be one of {list(SHIELDS)}, got {name!r}")
+    if name == "safety_cut_scan" and not unwrap_env(env).layout.k_scan:
+        raise ArgumentError(f"{where}: shield 'safety_cut_scan' needs an observation layout with a terrain scan "
+                            "([observation] k_scan > 0); this one has none")
     return None if name == "none" else SafetyShield(env, scan=name == "safety_cut_scan")
 

@@ -107,4 +107,4 @@ def file_options(shield: str, symmetry: str, layout, env, source: str):
     mirror = Mirror(layout) if symmetry == "mirror" else None
     if shield != "none" and env is None:
         raise ArgumentError(f"{source}: a shielded policy needs the env it acts in (load_policy(path, env))")
-    return mirror, make_shield(shield, env)
+    return mirror, make_shield(shield, env, source)
