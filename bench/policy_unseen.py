@@ -6,6 +6,7 @@ episodes of ``--robots`` robots, ``--steps`` steps. Writes ``docs/figures/policy
     python bench/policy_unseen.py --model shared=agents/models/shared --model ppo_puffer=agents/models/ppo_puffer
     python bench/policy_unseen.py --quick      # a smoke run (seconds): one shape, 1 seed of 4 robots; prints only
     [--seeds 5] [--robots 20] [--steps 1000] [--only u_pocket,spiral,...] [--out FILE]
+    --model NAME=DIR#SHIELD                    # the file behind another shield (none, safety_cut, safety_cut_scan)
 
 The question is the issue's "where it cannot find the way it stops on drivable ground": a robot that
 fell drove onto ground too steep to hold it; one that timed out stopped or wandered on drivable ground.
@@ -16,7 +17,9 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import json
 import os
+import shutil
 import shlex
 import sys
 import tempfile
@@ -60,12 +63,25 @@ def play(path: str, cfg, seeds: int) -> dict:
             "battery": int(np.sum(reasons == Reason.BATTERY))}
 
 
-def _models(specs: list[str], p) -> list[tuple[str, str]]:
+def _models(specs: list[str], p, folder) -> list[tuple[str, str]]:
+    """``(name, policy dir)`` of each ``NAME=DIR`` or ``NAME=DIR#SHIELD`` (the file behind another
+    shield: a copy with its ``"shield"`` replaced, in ``folder``)."""
+    from tin_swarm_env.policies.network import SHIELDS
+
     out = []
     for s in specs:
         name, eq, path = s.partition("=")
-        if not eq or not name or not Path(path, "policy.json").is_file():
-            p.error(f"--model {s!r}: give NAME=DIR, DIR a policy directory (policy.json and weights.npz)")
+        path, _, shield = path.partition("#")
+        if not eq or not name or not Path(path, "policy.json").is_file() or (shield and shield not in SHIELDS):
+            p.error(f"--model {s!r}: give NAME=DIR or NAME=DIR#SHIELD, DIR a policy directory (policy.json and "
+                    f"weights.npz), SHIELD one of {list(SHIELDS)}")
+        if shield:
+            copy = Path(folder) / f"model_{name}"
+            shutil.copytree(path, copy)
+            meta = json.loads((copy / "policy.json").read_text())
+            meta["shield"] = shield
+            (copy / "policy.json").write_text(json.dumps(meta))
+            path = str(copy)
         out.append((name, path))
     return out
 
@@ -82,7 +98,6 @@ def main(argv=None) -> int:
     p.add_argument("--out", default=None, help="Markdown file (default docs/figures/policy_unseen.md; none with "
                                                 "--quick)")
     args = p.parse_args(argv)
-    models = _models(args.model or ["shared=" + str(ROOT / "agents" / "models" / "shared")], p)
     if args.quick:
         args.only = args.only or QUICK["only"]
         for k in ("seeds", "robots", "steps"):
@@ -98,11 +113,14 @@ def main(argv=None) -> int:
              f"load average {unseen.apf._load()} at the start ({os.cpu_count()} cores, shared).", "",
              f"{args.seeds} x {args.robots} robots per shape, image and policy, {args.steps} steps; percentages of "
              "robots. timed out: stopped or wandering on drivable ground at the end (the safe way to fail). The "
-             "shapes: `bench/apf_unseen.py`; APF's and the reference's rows: [apf_unseen.md](apf_unseen.md).", "",
-             "| policy | shape | image | arrived % | fell % | timed out % | battery % |", "|---|---|---|---:|---:|---:|---:|"]
-    totals = {name: np.zeros(5, dtype=np.int64) for name, _ in models}
+             "shapes: `bench/apf_unseen.py`; APF's and the reference's rows: "
+             "[APF on unseen shapes](figures.md#apf-on-terrain-shapes-the-project-has-not-seen).", "",
+             "| policy | shape | image | arrived % | fell % | timed out % | battery % |",
+             "|---|---|---|---:|---:|---:|---:|"]
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="policy_unseen_") as folder:
+        models = _models(args.model or ["shared=" + os.path.relpath(ROOT / "agents" / "models" / "shared")], p, folder)
+        totals = {name: np.zeros(5, dtype=np.int64) for name, _ in models}
         for name, path in models:
             for shape in shapes:
                 for image, label in unseen.IMAGES:
@@ -117,7 +135,8 @@ def main(argv=None) -> int:
     lines += ["", "All shapes and images:", "", "| policy | robots | arrived % | fell % | timed out % | battery % |",
               "|---|---:|---:|---:|---:|---:|"]
     for name, (n, a, f, t, b) in totals.items():
-        lines.append(f"| {name} | {n} | {100 * a / n:.1f} | {100 * f / n:.1f} | {100 * t / n:.1f} | {100 * b / n:.1f} |")
+        pct = " | ".join(f"{100 * k / n:.1f}" for k in (a, f, t, b))
+        lines.append(f"| {name} | {n} | {pct} |")
     lines.append(f"\n{time.perf_counter() - t0:.0f} s; load average at the end: {unseen.apf._load()}.")
     print("\n".join(lines[-len(totals) - 3:]))
     if out:
