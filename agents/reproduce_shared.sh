@@ -5,7 +5,7 @@
 # Recipe (agents/train_puffer.py: PufferLib's PPO on the vector env, 64 copies x 16 robots stepped by one call):
 # * terrain: generated terrains of the training families (agents/scenarios/train_generated.toml: canyons, mesas,
 #   hills; a new seeded terrain per reset, training seeds below EVAL_SEED0) on half of the copies, cliff_goal and
-#   ramp on the others; the held-out families (fork, trap, realdem), the held-out maps, hill and jacksboro stay out
+#   ramp on the others; the held-out families (fork, trap, the real-DEM crops), the held-out maps, hill and jacksboro stay out
 #   (tests/training/test_held_out.py);
 # * the default observation layout (its 32-beam terrain scan);
 # * a mirror-equivariant actor and critic (--symmetry mirror: (g(o) + M g(M o)) / 2, exported as a
