@@ -14,7 +14,10 @@ per-iteration progress goes to stdout and ``progress.csv``.
 Then the actor's deterministic action (``tanh`` of the Gaussian's mean, as BenchMARL evaluates) is
 written to ``OUT_DIR/policy`` (``policy.json`` + ``weights.npz``, :mod:`tin_swarm_env.policies.export`)
 and checked: the numpy policy's actions against the torch actor's on observations of real episodes.
-Evaluate it with ``tin-swarm eval --policies OUT_DIR/policy`` (or ``agents/evaluate.py``). Needs the
+``--symmetry mirror``: the actor and the critic are
+:class:`~tin_swarm_env.adapters.benchmarl.MirrorMlp` (mirror-equivariant by construction), the actor a
+plain Gaussian (``use_tanh_normal=False``; the world clips the command), and the file says
+``"symmetry": "mirror"``. Evaluate it with ``tin-swarm eval --policies OUT_DIR/policy`` (or ``agents/evaluate.py``). Needs the
 ``[benchmarl]`` extra.
 """
 
@@ -59,6 +62,8 @@ class Args:
     torch_threads: int = opt(0, "torch threads (0: torch's default)", lo=0)
     snapshot_minutes: float = opt(5.0, "write the actor to OUT_DIR/snapshots/mMMM.M/policy every this many "
                                   "minutes (its learning curve)", lo=0, lo_open=True)
+    symmetry: str = opt("none", "mirror: the actor and critic mirror-equivariant by construction (MirrorMlp; the "
+                        "actor a plain Gaussian whose command the world clips)", choices=("none", "mirror"))
     shield: str = opt("safety_cut", "the exported file acts behind this shield (the actor trains without it)",
                       choices=SHIELDS)
     out_dir: str = opt("runs/mappo_benchmarl", "run directory: progress.csv, run.json, actor.pt (torch), policy/")
@@ -79,7 +84,7 @@ class Snapshot:
 
     def __call__(self, experiment, minutes: float) -> None:
         import tin_swarm_env as tse
-        from tin_swarm_env.adapters.benchmarl import actor_mean_layers
+        from tin_swarm_env.adapters.benchmarl import actor_mean_layers, actor_symmetry
         from tin_swarm_env.policies.export import export_actor as write
 
         layers, activation, squash = actor_mean_layers(experiment, "robot")
@@ -87,7 +92,7 @@ class Snapshot:
         d.mkdir(parents=True, exist_ok=True)
         layout = tse.parallel_env(scenario=self.scenario, n_robots=self.n_robots).unwrapped.layout
         write(d / "policy", layers, activation, squash=squash, layout=layout, scenario=self.scenario,
-              extra={"minutes": round(minutes, 2)}, shield=self.shield)
+              extra={"minutes": round(minutes, 2)}, shield=self.shield, symmetry=actor_symmetry(experiment))
 
 
 class Budget(Callback):
@@ -133,7 +138,8 @@ def build_experiment(args: Args, callbacks=()):
     from benchmarl.experiment import Experiment, ExperimentConfig
     from benchmarl.models.mlp import MlpConfig
 
-    from tin_swarm_env.adapters.benchmarl import TinSwarmTask
+    import tin_swarm_env as tse
+    from tin_swarm_env.adapters.benchmarl import TinSwarmTask, mirror_mlp_config
 
     env_kw = {"n_robots": args.n_robots, **({"max_cycles": args.max_cycles} if args.max_cycles else {})}
     member = args.scenario.upper() if args.scenario.upper() in TinSwarmTask.__members__ else "GENERATED"
@@ -144,6 +150,11 @@ def build_experiment(args: Args, callbacks=()):
     algo.lmbda, algo.entropy_coef = args.lmbda, args.entropy_coef
     model = MlpConfig.get_from_yaml()
     model.num_cells = [int(h) for h in args.hidden.split(",")]
+    critic = model
+    if args.symmetry == "mirror":
+        layout = tse.parallel_env(scenario=args.scenario, n_robots=args.n_robots).unwrapped.layout
+        model, critic = mirror_mlp_config(layout, model), mirror_mlp_config(layout, model)
+        algo.use_tanh_normal = False  # the mean is averaged before any squash, as the policy file does
     cfg = ExperimentConfig.get_from_yaml()
     cfg.max_n_frames, cfg.max_n_iters = args.max_frames, None
     cfg.on_policy_collected_frames_per_batch, cfg.on_policy_n_envs_per_worker = args.frames_per_batch, args.n_envs
@@ -152,7 +163,7 @@ def build_experiment(args: Args, callbacks=()):
     cfg.evaluation, cfg.render = False, False  # evaluated afterwards on held-out seeds (tin-swarm eval)
     cfg.loggers, cfg.create_json, cfg.checkpoint_at_end = [], False, False  # no wandb: progress to stdout/csv
     cfg.save_folder = str(Path(args.out_dir).resolve())
-    return Experiment(task=task, algorithm_config=algo, model_config=model, critic_model_config=model,
+    return Experiment(task=task, algorithm_config=algo, model_config=model, critic_model_config=critic,
                       seed=args.seed, config=cfg, callbacks=list(callbacks))
 
 

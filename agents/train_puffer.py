@@ -14,6 +14,13 @@ its samples) is exported pickle-free to ``OUT_DIR/policy`` and checked against t
 observations; the torch weights go to ``OUT_DIR/model.pt`` (a state dict). The default scenario is
 the recipes' training mix: the held-out families and maps of the standard suite stay out. Needs the
 ``[puffer]`` extra (``pufferlib-core``).
+
+``--cell gru``: a memory (:class:`MirrorGRU`): a GRU reads the observation and the two heads (the
+Gaussian's mean, the value) read its state; with ``--symmetry mirror`` two streams (the observations
+and their mirror images) go through it, equivariant over whole histories. PuffeRL starts every
+robot's state at zero at each epoch's first step and replays the epoch's ``--horizon`` steps from zero
+in its update, so the memory it trains spans ``--horizon`` steps; the exported recurrent file
+(:mod:`tin_swarm_env.policies.recurrent`) starts at zero at each episode and runs over all of it.
 """
 
 from __future__ import annotations
@@ -44,8 +51,10 @@ class Args:
                       choices=SHIELDS)
     export_shield: str = opt("", "the exported file's shield, if not --shield's (a file trained behind safety_cut "
                              "deployed behind safety_cut_scan)", choices=("",) + SHIELDS)
-    symmetry: str = opt("none", "mirror: the actor and critic mirror-equivariant by construction (TanhMLP)",
+    symmetry: str = opt("none", "mirror: the actor and critic mirror-equivariant by construction (TanhMLP, MirrorGRU)",
                         choices=("none", "mirror"))
+    cell: str = opt("none", "gru: a memory cell before the heads (MirrorGRU; its memory spans --horizon steps in "
+                    "training, the whole episode in the exported file)", choices=("none", "gru"))
     reward_scale: float = opt(0.01, "rewards are multiplied by this (PuffeRL clips them to [-1, 1]: a fall is -1)",
                               lo=0, lo_open=True)
     horizon: int = opt(64, "steps collected per agent per epoch (PuffeRL's bptt_horizon)", lo=2)
@@ -67,7 +76,8 @@ def config(args: Args, total_agents: int) -> dict:
     batch = total_agents * args.horizon
     mb = min(args.minibatch_size, batch) // args.horizon * args.horizon
     return {"seed": args.seed, "torch_deterministic": True, "device": "cpu", "cpu_offload": False, "compile": False,
-            "compile_mode": "default", "compile_fullgraph": False, "precision": "float32", "use_rnn": False,
+            "compile_mode": "default", "compile_fullgraph": False, "precision": "float32",
+            "use_rnn": args.cell != "none",
             "batch_size": batch, "bptt_horizon": args.horizon, "minibatch_size": mb, "max_minibatch_size": mb,
             "update_epochs": args.update_epochs, "total_timesteps": args.max_steps, "optimizer": "adam",
             "learning_rate": args.lr, "adam_beta1": 0.9, "adam_beta2": 0.999, "adam_eps": 1e-8, "anneal_lr": False,
@@ -98,8 +108,8 @@ def tanh_mlp_class():
                                                torch.nn.Tanh())
             self.mirrored = mirror is not None
             if self.mirrored:
-                self.register_buffer("_perm", torch.as_tensor(np.asarray(mirror[0]), dtype=torch.long))
-                self.register_buffer("_signs", torch.as_tensor(np.asarray(mirror[1]), dtype=torch.float32))
+                self.register_buffer("_perm", torch.as_tensor(np.array(mirror[0]), dtype=torch.long))
+                self.register_buffer("_signs", torch.as_tensor(np.array(mirror[1]), dtype=torch.float32))
                 self.register_buffer("_parity", torch.as_tensor(ACTION_PARITY, dtype=torch.float32))
 
         def mean(self, x):
@@ -120,6 +130,92 @@ def tanh_mlp_class():
     return TanhMLP
 
 
+def mirror_gru_class():
+    """:class:`MirrorGRU`, made on first use (torch)."""
+    import torch
+    from torch import nn
+
+    from tin_swarm_env.env.observation import ACTION_PARITY
+
+    class MirrorGRU(nn.Module):
+        """A GRU on the observation, then a tanh head for the Gaussian's mean and one for the value
+        (the recurrent policy file's network: :mod:`tin_swarm_env.policies.recurrent`, cell ``"gru"``).
+        ``mirror`` (``(perm, signs)``): two streams through the same GRU, one fed the observations and
+        one their mirror images; the mean is ``(g(h) + M g(h_m)) / 2``, the value ``(v(h) + v(h_m)) / 2``
+        (the file's ``"symmetry": "mirror"``). PuffeRL keeps the state (its ``lstm_h``, ``hidden_size``
+        wide: both streams side by side; its ``lstm_c`` is unused) over one epoch's ``bptt_horizon`` steps,
+        from zero, and :meth:`forward` replays those steps from zero: memory spans the horizon in training."""
+
+        is_continuous = True
+
+        def __init__(self, env, hidden_size=128, mirror=None):
+            super().__init__()
+            d = int(np.prod(env.single_observation_space.shape))
+            self.H, self.mirrored = hidden_size, mirror is not None
+            self.hidden_size = hidden_size * (2 if self.mirrored else 1)
+            self.gru = nn.GRU(d, hidden_size)
+            self.cell = nn.GRUCell(d, hidden_size)  # the same weights, one step at a time
+            self.cell.weight_ih, self.cell.weight_hh = self.gru.weight_ih_l0, self.gru.weight_hh_l0
+            self.cell.bias_ih, self.cell.bias_hh = self.gru.bias_ih_l0, self.gru.bias_hh_l0
+            self.actor = nn.Sequential(nn.Linear(hidden_size, hidden_size), nn.Tanh(), nn.Linear(hidden_size, 2))
+            self.value = nn.Sequential(nn.Linear(hidden_size, hidden_size), nn.Tanh(), nn.Linear(hidden_size, 1))
+            nn.init.orthogonal_(self.actor[2].weight, 0.01)
+            nn.init.zeros_(self.actor[2].bias)
+            self.logstd = nn.Parameter(torch.zeros(1, 2))
+            if self.mirrored:
+                self.register_buffer("_perm", torch.as_tensor(np.array(mirror[0]), dtype=torch.long))
+                self.register_buffer("_signs", torch.as_tensor(np.array(mirror[1]), dtype=torch.float32))
+                self.register_buffer("_parity", torch.as_tensor(ACTION_PARITY, dtype=torch.float32))
+
+        def _streams(self, x):
+            """``x (..., B, d)`` and its mirror image side by side: ``(..., 2B, d)`` (``x`` alone without)."""
+            return torch.cat([x, x[..., self._perm] * self._signs], dim=-2) if self.mirrored else x
+
+        def _heads(self, y, b):
+            """The mean and value from GRU outputs ``y (..., 2B or B, H)`` of ``b`` robots."""
+            mean, value = self.actor(y), self.value(y)[..., 0]
+            if self.mirrored:
+                mean = (mean[..., :b, :] + mean[..., b:, :] * self._parity) / 2
+                value = (value[..., :b] + value[..., b:]) / 2
+            return mean, value
+
+        def _dist(self, mean):
+            return torch.distributions.Normal(mean, torch.exp(self.logstd.expand_as(mean)))
+
+        def forward_eval(self, observations, state):
+            """One step of every robot: the state ``(n, hidden_size)`` in ``state["lstm_h"]`` advances."""
+            x = observations.view(observations.shape[0], -1).float()
+            n, h = x.shape[0], state.get("lstm_h")
+            h = None if h is None else (torch.cat([h[:, :self.H], h[:, self.H:]]) if self.mirrored else h)
+            y = self.cell(self._streams(x), h)
+            state["lstm_h"] = torch.cat([y[:n], y[n:]], dim=1) if self.mirrored else y
+            mean, value = self._heads(y, n)
+            return self._dist(mean), value
+
+        def sequence_mean(self, x):
+            """The mean before its clip, ``(T, B, 2)``, of sequences ``x (T, B, d)`` from a zero state."""
+            y, _ = self.gru(self._streams(x.float()))
+            return self._heads(y, x.shape[1])[0]
+
+        def forward(self, observations, state):
+            """Training: ``observations (B, T, d)`` (PuffeRL's segments), every sequence from zero."""
+            B, T = observations.shape[:2]
+            y, _ = self.gru(self._streams(observations.reshape(B, T, -1).transpose(0, 1).float()))
+            mean, value = self._heads(y, B)
+            return self._dist(mean.transpose(0, 1).reshape(B * T, 2)), value.transpose(0, 1)
+
+        def file_arrays(self):
+            """``(cell, head layers)`` of the recurrent policy file."""
+            g = {k: getattr(self.gru, f"{k}_l0").detach().double().numpy() for k in ("weight_ih", "weight_hh",
+                                                                                      "bias_ih", "bias_hh")}
+            cell = {"cell_W_ih": g["weight_ih"], "cell_W_hh": g["weight_hh"], "cell_b_ih": g["bias_ih"],
+                    "cell_b_hh": g["bias_hh"]}
+            return cell, [(m.weight.detach().double().numpy(), m.bias.detach().double().numpy())
+                          for m in (self.actor[0], self.actor[2])]
+
+    return MirrorGRU
+
+
 def mean_layers(policy) -> list:
     """``[(W, b), ...]`` of the actor's mean network (the encoder's two layers, then ``decoder_mean``)."""
     lin = [policy.encoder[0], policy.encoder[2], policy.decoder_mean]
@@ -130,6 +226,27 @@ def file_shield(args: Args) -> str:
     return args.export_shield or args.shield
 
 
+def sequence_action_gap(path, env, policy, shield, obs, batch: int = 8) -> float:
+    """The largest difference between the recurrent file's actions and the torch policy's, both run
+    from a zero state over the same sequences: ``obs (n, d)`` real observations cut into ``batch``
+    robots' sequences (the file's rows advance one step per call)."""
+    import torch
+
+    from tin_swarm_env.policies.learned import load_policy
+
+    T = len(obs) // batch
+    x = np.asarray(obs[:T * batch], dtype=np.float64).reshape(T, batch, -1)
+    with torch.no_grad():
+        mean = np.clip(policy.sequence_mean(torch.as_tensor(x, dtype=torch.float32)).double().numpy(), -1, 1)
+    file = load_policy(path, env)
+    file.reset()
+    gaps = []
+    for t in range(T):
+        want = mean[t] if shield is None else shield(mean[t], x[t])
+        gaps.append(np.abs(file.act_batch(x[t]) - want).max())
+    return float(max(gaps))
+
+
 def export(policy, args: Args, rows: list, out: Path, check: bool = True) -> float:
     """Write the actor's deterministic action to ``out/policy`` and (``check``) check it against torch's."""
     import torch
@@ -137,6 +254,7 @@ def export(policy, args: Args, rows: list, out: Path, check: bool = True) -> flo
     import tin_swarm_env as tse
     from tin_swarm_env.policies.base import make_shield, unwrap_env
     from tin_swarm_env.policies.export import export_actor, max_action_gap, real_observations
+    from tin_swarm_env.policies.learned import save_policy
 
     env = tse.parallel_env(scenario=scenarios_of(args)[0], n_robots=args.n_robots,
                            **({"max_cycles": args.max_cycles} if args.max_cycles else {}))
@@ -144,19 +262,27 @@ def export(policy, args: Args, rows: list, out: Path, check: bool = True) -> flo
              "epochs": len(rows), "minutes": rows[-1]["minutes"] if rows else 0.0, "args": asdict(args),
              "torch": torch.__version__, "tin_swarm_env": tse.__version__}
     out.mkdir(parents=True, exist_ok=True)
-    export_actor(out / "policy", mean_layers(policy), "tanh", squash="clip", layout=unwrap_env(env).layout,
-                 scenario=args.scenario, extra=extra, shield=file_shield(args), symmetry=args.symmetry)
+    layout = unwrap_env(env).layout
+    if args.cell == "none":
+        export_actor(out / "policy", mean_layers(policy), "tanh", squash="clip", layout=layout,
+                     scenario=args.scenario, extra=extra, shield=file_shield(args), symmetry=args.symmetry)
+    else:
+        cell, head = policy.file_arrays()
+        save_policy(out / "policy", head, "tanh", layout=layout, scenario=args.scenario, extra=extra,
+                    shield=file_shield(args), symmetry=args.symmetry, cell=(args.cell, cell))
     if not check:
         return float("nan")
     shield = make_shield(file_shield(args), env)
-
-    def torch_actions(o):
-        with torch.no_grad():
-            a = np.clip(policy.mean(torch.as_tensor(o, dtype=torch.float32)).double().numpy(), -1, 1)
-        return a if shield is None else shield(a, o)
-
     obs = real_observations(env, seeds=(args.seed + 100, args.seed + 101))
-    gap = max_action_gap(out / "policy", env, torch_actions, obs)
+    if args.cell == "none":
+        def torch_actions(o):
+            with torch.no_grad():
+                a = np.clip(policy.mean(torch.as_tensor(o, dtype=torch.float32)).double().numpy(), -1, 1)
+            return a if shield is None else shield(a, o)
+
+        gap = max_action_gap(out / "policy", env, torch_actions, obs)
+    else:
+        gap = sequence_action_gap(out / "policy", env, policy, shield, obs)
     if not gap <= 1e-4:
         raise SystemExit(f"{out / 'policy'}: the exported actions differ from torch's by {gap:.3g}")
     (out / "run.json").write_text(json.dumps({**extra, "export_max_action_gap": gap}, indent=1) + "\n")
@@ -183,7 +309,8 @@ def main(argv=None) -> Path:
         from tin_swarm_env.policies.symmetry import mirror_map
 
         mirror = mirror_map(env.vec.layout)
-    policy = tanh_mlp_class()(env, hidden_size=args.hidden, mirror=mirror)
+    cls = tanh_mlp_class() if args.cell == "none" else mirror_gru_class()
+    policy = cls(env, hidden_size=args.hidden, mirror=mirror)
     pufferl.PuffeRL.print_dashboard = lambda *a, **k: None  # one line per epoch instead of the full-screen dashboard
     trainer = pufferl.PuffeRL(config(args, env.num_agents), env, policy)
     out = Path(args.out_dir)

@@ -66,20 +66,66 @@ def test_a_tiny_mappo_experiment_runs(tmp_path):
     assert any(not (a == b.detach()).all() for a, b in zip(before, exp.policy.parameters()))  # it trained
 
 
-def _tiny_experiment(tmp_path, share=True, scenario="RAMP"):
+def _tiny_experiment(tmp_path, share=True, scenario="RAMP", mirror=False):
     from benchmarl.algorithms import MappoConfig
     from benchmarl.experiment import Experiment, ExperimentConfig
     from benchmarl.models.mlp import MlpConfig
+
+    import tin_swarm_env as tse
+    from tin_swarm_env.adapters.benchmarl import mirror_mlp_config
 
     cfg = ExperimentConfig.get_from_yaml()
     cfg.max_n_frames, cfg.on_policy_collected_frames_per_batch, cfg.on_policy_n_envs_per_worker = 60, 60, 1
     cfg.evaluation, cfg.render, cfg.loggers, cfg.create_json = False, False, [], False
     cfg.save_folder, cfg.share_policy_params = str(tmp_path), share
+    algo = MappoConfig.get_from_yaml()
     model = MlpConfig.get_from_yaml()
     model.num_cells = [16, 16]
+    critic = model
+    if mirror:
+        layout = tse.parallel_env(scenario=scenario.lower(), n_robots=3).unwrapped.layout
+        model, critic = mirror_mlp_config(layout, model), mirror_mlp_config(layout, model)
+        algo.use_tanh_normal = False
     task = TinSwarmTask[scenario].get_task(config={"n_robots": 3, "max_cycles": 40})
-    return Experiment(task=task, algorithm_config=MappoConfig.get_from_yaml(), model_config=model,
-                      critic_model_config=model, seed=0, config=cfg)
+    return Experiment(task=task, algorithm_config=algo, model_config=model,
+                      critic_model_config=critic, seed=0, config=cfg)
+
+
+def test_a_mirror_mlp_actor_and_critic_are_equivariant_and_export_exactly(tmp_path):
+    import json
+
+    import numpy as np
+    import torch
+    from tensordict import TensorDict
+
+    import tin_swarm_env as tse
+    from tin_swarm_env.adapters.benchmarl import actor_symmetry, deterministic_actions, export_actor
+    from tin_swarm_env.policies.export import real_observations
+    from tin_swarm_env.policies.learned import load_policy
+    from tin_swarm_env.policies.symmetry import mirror_map
+
+    exp = _tiny_experiment(tmp_path, mirror=True)
+    assert actor_symmetry(exp) == "mirror" and actor_symmetry(_tiny_experiment(tmp_path)) == "none"
+    env = tse.parallel_env(scenario="ramp", n_robots=3, max_cycles=40)
+    perm, signs = mirror_map(env.unwrapped.layout)
+    mlp = next(m for m in exp.group_policies["robot"].modules() if type(m).__name__ == "MultiAgentMLP")
+    with torch.no_grad():  # large enough that the clip and the mirror's sign both matter
+        mlp.params["4", "weight"].mul_(20.0)
+    rng = np.random.default_rng(0)
+    obs = np.concatenate([real_observations(env, seeds=(0,), steps=30, every=3), rng.normal(size=(30, len(perm)))])
+    act = deterministic_actions(exp)
+    a, am = act(obs.astype(np.float32)), act((obs[:, perm] * signs).astype(np.float32))
+    assert np.abs(a[:, 1]).max() > 0.1  # not the trivial vy = 0
+    np.testing.assert_allclose(am, a * [1.0, -1.0], atol=1e-6)  # the actor: mirrored observation, mirrored action
+    critic = exp.algorithm.get_critic("robot")  # the critic (MAPPO's, on the swarm): the same value mirrored
+    x = torch.as_tensor(obs[:30].reshape(10, 3, -1), dtype=torch.float32)
+    values = [critic(TensorDict({("robot", "observation"): o}, batch_size=[10]))[critic.out_keys[0]]
+              for o in (x, x[..., torch.as_tensor(perm)] * torch.as_tensor(signs, dtype=torch.float32))]
+    assert values[0].abs().max() > 0 and torch.allclose(values[0], values[1], atol=1e-6)
+    gap = export_actor(exp, tmp_path / "policy", env, obs=obs, scenario="ramp")
+    assert gap < 1e-5 and json.loads((tmp_path / "policy" / "policy.json").read_text())["symmetry"] == "mirror"
+    file = load_policy(tmp_path / "policy", env)
+    np.testing.assert_array_equal(file.act_batch(obs[:, perm] * signs), file.act_batch(obs) * [1.0, -1.0])
 
 
 def test_export_gives_the_torch_actors_deterministic_actions(tmp_path):

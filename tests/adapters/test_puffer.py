@@ -16,7 +16,7 @@ def test_buffers_hold_the_vector_envs_numbers_and_frozen_robots_read_zeros():
     ve = tse.vector_env("cliff_goal", n_envs=2, n_robots=4, seed=3, max_cycles=120)
     obs, infos = pe.reset()
     np.testing.assert_array_equal(obs, ve.reset().reshape(8, -1))
-    assert pe.num_agents == 8 and obs is pe.observations and infos == []
+    assert pe.num_agents == pe.agents_per_batch == 8 and obs is pe.observations and infos == []
     ended_once = np.zeros(8, dtype=bool)
     saw_frozen = False
     for _ in range(120):
@@ -211,3 +211,51 @@ def test_train_puffer_trains_on_a_mix_and_exports_behind_another_shield(tmp_path
     run = json.loads((out / "run.json").read_text())
     assert meta["shield"] == "safety_cut_scan" and run["args"]["shield"] == "safety_cut"
     assert run["args"]["scenario"] == "ramp,cliff_goal" and run["export_max_action_gap"] <= 1e-4
+
+
+def test_the_mirror_gru_steps_as_it_trains_is_equivariant_over_histories_and_exports(tmp_path):
+    """``--cell gru --symmetry mirror``: PuffeRL's one-step forward (its state carried in ``lstm_h``)
+    gives the training forward's sequence step by step; a mirrored history gives mirrored actions
+    and the same values at every step; the run writes a recurrent mirror file that acts as torch
+    does over sequences (the run's export check) and keeps its memory per row."""
+    import json
+
+    from tin_swarm_env.env.observation import mirror_action
+    from tin_swarm_env.policies.learned import load_policy
+    from tin_swarm_env.policies.symmetry import mirror_map
+
+    env = tse.parallel_env(scenario="ramp", n_robots=2)
+    mod = _train_puffer()
+    pe = make_puffer_env("ramp", n_envs=1, n_robots=2)
+    net = mod.mirror_gru_class()(pe, hidden_size=8, mirror=mirror_map(env.layout))
+    assert net.hidden_size == 16  # both streams' states side by side in PuffeRL's lstm_h
+    rng = np.random.default_rng(0)
+    x = torch.as_tensor(rng.uniform(-1, 1, (3, 12, env.layout.size)), dtype=torch.float32)  # (B, T, d)
+    xm = torch.as_tensor(env.layout.mirror(x.numpy()), dtype=torch.float32)
+    with torch.no_grad():
+        net.actor[2].weight.mul_(300.0)  # means far from zero, so a wrong mirror would show
+        dist, value = net(x, {"lstm_h": None, "lstm_c": None})
+        dist_m, value_m = net(xm, {"lstm_h": None, "lstm_c": None})
+        state, steps, values = {"lstm_h": None}, [], []
+        for t in range(12):
+            d, v = net.forward_eval(x[:, t], state)
+            steps.append(d.loc)
+            values.append(v)
+    mean = dist.loc.numpy().reshape(3, 12, 2)
+    assert value.shape == (3, 12) and state["lstm_h"].shape == (3, 16) and np.abs(mean[..., 1]).max() > 0.1
+    np.testing.assert_allclose(torch.stack(steps, 1).numpy(), mean, atol=1e-5)
+    np.testing.assert_allclose(torch.stack(values, 1).numpy(), value.numpy(), atol=1e-5)
+    np.testing.assert_allclose(dist_m.loc.numpy().reshape(3, 12, 2), mirror_action(mean), atol=1e-5)
+    np.testing.assert_allclose(value_m.numpy(), value.numpy(), atol=1e-5)
+    out = tmp_path / "gru"
+    _tiny_run(out, "--cell", "gru", "--symmetry", "mirror")
+    meta = json.loads((out / "policy" / "policy.json").read_text())
+    assert meta["network"]["type"] == "recurrent" and meta["network"]["cell"] == "gru"
+    assert meta["symmetry"] == "mirror" and meta["network"]["layer_sizes"] == [8, 8, 2]
+    assert json.loads((out / "run.json").read_text())["export_max_action_gap"] <= 1e-4
+    pol = load_policy(out / "policy", env)
+    o = rng.uniform(-1, 1, (5, 4, env.layout.size))  # 5 steps of 4 robots
+    a = [pol.act_batch(o[t]) for t in range(5)]
+    pol.reset()
+    b = [pol.act_batch(env.layout.mirror(o[t])) for t in range(5)]
+    np.testing.assert_allclose(b, mirror_action(np.array(a)), atol=1e-9)

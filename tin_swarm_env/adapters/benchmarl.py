@@ -25,6 +25,13 @@ samples for the critic, as in BenchMARL's own PettingZoo tasks with ``done_on_an
 (:mod:`tin_swarm_env.policies.export`) and checks it against the torch actor;
 ``agents/train_benchmarl.py`` trains MAPPO and exports it.
 
+:func:`mirror_mlp_config` makes BenchMARL's ``MlpConfig`` mirror-equivariant by construction
+(:class:`MirrorMlp`): the actor's Gaussian mean is ``(g(o) + M g(M o)) / 2`` and the critic's value
+``(v(o) + v(M o)) / 2`` (``M`` the reflection of every robot's observation,
+:func:`~tin_swarm_env.policies.symmetry.mirror_map`), as PufferLib's and SB3's mirror networks; the
+actor must then act through a plain Gaussian (``use_tanh_normal=False``: the world clips the
+command), so the exported file is the same network with ``"symmetry": "mirror"``.
+
 Needs the ``[benchmarl]`` extra (benchmarl 1.5.2, which pins torchrl < 0.12).
 """
 
@@ -37,11 +44,16 @@ from ..errors import ArgumentError, require
 require("benchmarl", "benchmarl", "The BenchMARL task")
 
 from benchmarl.environments.common import Task, TaskClass  # noqa: E402
+from dataclasses import asdict, dataclass  # noqa: E402
+from typing import Sequence  # noqa: E402
+
+from benchmarl.models.mlp import Mlp, MlpConfig  # noqa: E402
 from torchrl.data import Composite  # noqa: E402
 
 from .torchrl import make_torchrl_env  # noqa: E402
 
-__all__ = ["TinSwarmTask", "TinSwarmTaskClass", "actor_mean_layers", "deterministic_actions", "export_actor"]
+__all__ = ["TinSwarmTask", "TinSwarmTaskClass", "MirrorMlp", "MirrorMlpConfig", "mirror_mlp_config",
+           "actor_symmetry", "actor_mean_layers", "deterministic_actions", "export_actor"]
 
 
 class TinSwarmTaskClass(TaskClass):
@@ -128,9 +140,86 @@ class TinSwarmTask(Task):
         return TinSwarmTaskClass(name=self.name, config=dict(config or {}))
 
 
+# -- mirror symmetry ------------------------------------------------------------------------
+
+
+class MirrorMlp(Mlp):
+    """BenchMARL's ``Mlp`` averaged with its mirror image: ``(f(o) + P f(M o)) / 2``, ``M o`` each
+    robot's observation reflected (``o[..., perm] * signs``), ``P`` the output's parity: for the
+    actor (its output the Gaussian's ``loc, scale`` halves) ``vy`` of the mean negated and the scale
+    kept; for a critic every output kept (the value is invariant). One set of weights ``f``."""
+
+    def __init__(self, mirror_perm: Sequence[int], mirror_signs: Sequence[float], **kwargs):
+        import torch
+
+        from ..env.observation import ACTION_PARITY
+
+        super().__init__(**kwargs)
+        if len(mirror_perm) != self.input_features or len(mirror_signs) != self.input_features:
+            raise ArgumentError(f"MirrorMlp: the mirror map has {len(mirror_perm)} entries, the model's input "
+                                f"{self.input_features} features (in_keys {self.in_keys}): the input must be the "
+                                "observation alone")
+        parity = torch.ones(self.output_features)
+        if not self.is_critic:
+            if self.output_features != 2 * len(ACTION_PARITY):
+                raise ArgumentError(f"MirrorMlp: the actor has {self.output_features} outputs; a Gaussian's "
+                                    f"loc and scale over the {len(ACTION_PARITY)} action components are "
+                                    f"{2 * len(ACTION_PARITY)}")
+            parity[:len(ACTION_PARITY)] = torch.as_tensor(ACTION_PARITY)
+        self.register_buffer("_perm", torch.as_tensor(list(mirror_perm), dtype=torch.long, device=self.device))
+        self.register_buffer("_signs", torch.as_tensor(list(mirror_signs), dtype=torch.float32, device=self.device))
+        self.register_buffer("_parity", parity.to(self.device))
+
+    def _net(self, x):
+        if self.input_has_agent_dim:
+            res = self.mlp.forward(x)
+            return res if self.output_has_agent_dim else res[..., 0, :]
+        if not self.share_params:
+            import torch
+
+            return torch.stack([net(x) for net in self.mlp], dim=-2)
+        return self.mlp[0](x)
+
+    def _forward(self, tensordict):
+        import torch
+
+        x = torch.cat([torch.flatten(tensordict.get(k), start_dim=-self.num_feature_dims) for k in self.in_keys],
+                      dim=-1)
+        res = (self._net(x) + self._net(x[..., self._perm] * self._signs) * self._parity) / 2
+        tensordict.set(self.out_key, res)
+        return tensordict
+
+
+@dataclass
+class MirrorMlpConfig(MlpConfig):
+    """:class:`MirrorMlp`'s config: ``MlpConfig``'s fields and the reflection (:func:`mirror_mlp_config`)."""
+
+    mirror_perm: Sequence[int] = ()
+    mirror_signs: Sequence[float] = ()
+
+    @staticmethod
+    def associated_class():
+        return MirrorMlp
+
+
+def mirror_mlp_config(layout, base: MlpConfig | None = None) -> MirrorMlpConfig:
+    """``base`` (default: BenchMARL's ``MlpConfig.get_from_yaml()``) as a :class:`MirrorMlpConfig` for the
+    observation ``layout`` (an :class:`~tin_swarm_env.env.observation.ObsLayout`)."""
+    from ..policies.symmetry import mirror_map
+
+    perm, signs = mirror_map(layout)
+    fields = asdict(base if base is not None else MlpConfig.get_from_yaml())
+    return MirrorMlpConfig(**fields, mirror_perm=[int(i) for i in perm], mirror_signs=[float(v) for v in signs])
+
+
 # -- export ---------------------------------------------------------------------------------
 
 _ACTIVATIONS = {"Tanh": "tanh", "ReLU": "relu", "ELU": "elu", "LeakyReLU": "leaky_relu"}
+
+
+def actor_symmetry(experiment, group: str = "robot") -> str:
+    """``"mirror"`` if ``experiment``'s actor for ``group`` is a :class:`MirrorMlp`, else ``"none"``."""
+    return "mirror" if any(isinstance(m, MirrorMlp) for m in experiment.group_policies[group].modules()) else "none"
 
 
 def actor_mean_layers(experiment, group: str = "robot") -> tuple[list, str, str]:
@@ -175,7 +264,8 @@ def actor_mean_layers(experiment, group: str = "robot") -> tuple[list, str, str]
 
 def deterministic_actions(experiment, group: str = "robot"):
     """``f(obs (n, d) float32) -> (n, 2)``: the torch actor's deterministic actions
-    (``ExplorationType.DETERMINISTIC``, as BenchMARL evaluates), one robot per row."""
+    (``ExplorationType.DETERMINISTIC``, as BenchMARL evaluates), one robot per row, clipped to the
+    action box as the world clips a command (a ``TanhNormal``'s are inside it already)."""
     import torch
     from tensordict import TensorDict
     from torchrl.envs.utils import ExplorationType, set_exploration_type
@@ -190,7 +280,8 @@ def deterministic_actions(experiment, group: str = "robot"):
         x = torch.cat([x, x.new_zeros(pad, x.shape[1])]).reshape(-1, n_agents, x.shape[1])
         td = TensorDict({(group, "observation"): x}, batch_size=[x.shape[0]])
         with torch.no_grad(), set_exploration_type(ExplorationType.DETERMINISTIC):
-            return actor(td)[group, "action"].reshape(-1, 2)[:n].double().numpy()
+            a = actor(td)[group, "action"].reshape(-1, 2)[:n].double().numpy()
+        return np.clip(a, -1.0, 1.0)  # a plain Gaussian's mean can leave the box; the world clips the command
 
     return act
 
@@ -206,8 +297,12 @@ def export_actor(experiment, path, env, *, obs, scenario: str, extra: dict | Non
     from ..policies.export import export_actor as write, max_action_gap
 
     layers, activation, squash = actor_mean_layers(experiment, group)
+    symmetry = actor_symmetry(experiment, group)
+    if symmetry == "mirror" and squash != "clip":
+        raise ArgumentError("a MirrorMlp actor averages the Gaussian's mean before its squash; a TanhNormal "
+                            "actor's file would squash first: train it with use_tanh_normal=False")
     write(path, layers, activation, squash=squash, layout=unwrap_env(env).layout, scenario=scenario,
-          extra={"library": "benchmarl", **(extra or {})}, shield=shield)
+          extra={"library": "benchmarl", **(extra or {})}, shield=shield, symmetry=symmetry)
     torch_actions = deterministic_actions(experiment, group)
     if shield != "none":
         cut, plain = make_shield(shield, env), torch_actions

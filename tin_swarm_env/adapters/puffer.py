@@ -129,6 +129,7 @@ def puffer_env_class():
             self.single_observation_space = self.vec.single_observation_space
             self.single_action_space = self.vec.single_action_space
             self.num_agents = self.vec.n_envs * self.vec.n_robots
+            self.agents_per_batch = self.num_agents  # one batch of every agent (PuffeRL's recurrent state's rows)
             self.render_mode = None
             super().__init__(buf)
 
