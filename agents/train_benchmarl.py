@@ -17,8 +17,8 @@ and checked: the numpy policy's actions against the torch actor's on observation
 ``--symmetry mirror``: the actor and the critic are
 :class:`~tin_swarm_env.adapters.benchmarl.MirrorMlp` (mirror-equivariant by construction), the actor a
 plain Gaussian (``use_tanh_normal=False``; the world clips the command), and the file says
-``"symmetry": "mirror"``. Evaluate it with ``tin-swarm eval --policies OUT_DIR/policy`` (or ``agents/evaluate.py``). Needs the
-``[benchmarl]`` extra.
+``"symmetry": "mirror"``. Evaluate it with ``tin-swarm eval --policies OUT_DIR/policy`` (or
+``agents/evaluate.py``). Needs the ``[benchmarl]`` extra.
 """
 
 from __future__ import annotations
