@@ -8,8 +8,11 @@
 #   ramp on the others; the held-out families (fork, trap, the real-DEM crops), the held-out maps, hill and jacksboro stay out
 #   (tests/training/test_held_out.py);
 # * the default observation layout (its 32-beam terrain scan);
-# * a mirror-equivariant actor and critic (--symmetry mirror: (g(o) + M g(M o)) / 2, exported as a
-#   "symmetry": "mirror" file), two tanh layers of 128 units, trained behind the safety shield (safety_cut, the
+# * a mirror-equivariant recurrent actor and critic (--symmetry mirror --cell gru: a GRU of 128 units runs over
+#   the observations and, in a second stream, over their mirror images, so it remembers the walls it has met;
+#   the action is (g(h) + M g(M h)) / 2 of the two streams' heads, exported as a recurrent "symmetry": "mirror"
+#   file whose state runs over the whole episode; PuffeRL trains it over --horizon 128 steps at a time),
+#   heads of two tanh layers of 128 units, trained behind the safety shield (safety_cut, the
 #   default) and deployed behind the scan shield (--export-shield safety_cut_scan: also one body diameter off
 #   where the scan's beams meet a dangerous break, which stops the falls on real hillside), the rewards scaled
 #   by 0.01 (PuffeRL clips them to [-1, 1]);
@@ -24,6 +27,7 @@ mkdir -p runs
 TRAIN=agents/scenarios/train_generated.toml  # the training families only: the held-out split stays out
 PY=${PY:-python}
 MINUTES=${MINUTES:-30}
-$PY agents/train_puffer.py --scenario $TRAIN,$TRAIN,cliff_goal,ramp --symmetry mirror --hidden 128 --export-shield safety_cut_scan \
+$PY agents/train_puffer.py --scenario $TRAIN,$TRAIN,cliff_goal,ramp --symmetry mirror --cell gru --hidden 128 --horizon 128 \
+  --export-shield safety_cut_scan \
   --max-minutes "$MINUTES" --seed 0 --out-dir runs/shared > runs/shared.log 2>&1
 $PY agents/suite_curve.py --runs runs/shared --splits held_out --out runs/shared/curve_held_out.png >> runs/shared.log 2>&1

@@ -1,7 +1,8 @@
 """The shipped policy, committed at agents/models/shared (docs/learning.md, "The shipped policy";
 agents/reproduce_shared.sh): it loads on the core install (no torch, no pickle), is refused by an env whose
-observation layout differs, is exactly mirror-equivariant behind its scan shield, and drives robots to the goal on
-cliff_goal (a reduced budget of that evaluation); the same for the mirror candidate agents/models/shared_mirror."""
+observation layout differs, is exactly mirror-equivariant behind its scan shield (over whole histories: it is
+a recurrent file), and drives robots to the goal on cliff_goal (a reduced budget of that evaluation); the same
+for the mirror candidate agents/models/shared_mirror and the feed-forward file it replaced, shared_mlp."""
 
 from __future__ import annotations
 
@@ -32,6 +33,7 @@ def test_the_shipped_policy_is_small_pickle_free_data():
     meta = json.loads((SHARED / "policy.json").read_text())
     assert meta["format"] == "tin_swarm_env.policy" and meta["shield"] == "safety_cut_scan"
     assert meta["symmetry"] == "mirror" and meta["observation"]["layout"]["k_scan"] == 32  # the default layout's scan
+    assert meta["network"]["type"] == "recurrent" and meta["network"]["cell"] == "gru"  # a memory of dead ends
     with np.load(SHARED / "weights.npz", allow_pickle=False) as w:  # raises on any object array
         assert all(w[k].dtype.kind == "f" and np.isfinite(w[k]).all() for k in w.files)
 
@@ -83,7 +85,8 @@ def test_cli_runs_and_evaluates_the_shipped_policy(tmp_path):
     assert "shared" in out.with_suffix(".md").read_text()
 
 
-@pytest.mark.parametrize("name,shield", [("shared", "safety_cut_scan"), ("shared_mirror", "safety_cut")])
+@pytest.mark.parametrize("name,shield", [("shared", "safety_cut_scan"), ("shared_mirror", "safety_cut"),
+                                         ("shared_mlp", "safety_cut_scan")])
 def test_the_mirror_policy_files_are_pickle_free_equivariant_and_bring_robots_in(name, shield):
     """agents/models/shared (the shipped policy) and shared_mirror (docs/figures/shared_mirror.md):
     small pickle-free data, mirror-equivariant files behind their shields (the action on the mirror
@@ -95,9 +98,13 @@ def test_the_mirror_policy_files_are_pickle_free_equivariant_and_bring_robots_in
     meta = json.loads((d / "policy.json").read_text())
     assert meta["symmetry"] == "mirror" and meta["shield"] == shield
     env = tse.parallel_env(scenario=policy_scenario("cliff_goal", str(d)), n_robots=6)
-    pol = load_policy(d, env)
-    o = np.random.default_rng(0).uniform(-1, 1, (200, env.layout.size))
-    np.testing.assert_allclose(pol.act_batch(env.layout.mirror(o)), mirror_action(pol.act_batch(o)), atol=1e-9)
+    pol, twin = load_policy(d, env), load_policy(d, env)  # twin sees the mirror images (a recurrent file: its own
+    # state, so the check holds over whole histories, not only one step)
+    o = np.random.default_rng(0).uniform(-1, 1, (12, 200, env.layout.size))  # 12 steps of 200 robots
+    for t in range(len(o)):
+        np.testing.assert_allclose(twin.act_batch(env.layout.mirror(o[t])), mirror_action(pol.act_batch(o[t])),
+                                   atol=1e-9, err_msg=f"step {t}")
+    pol.reset()
     out = rollout(env, pol, seed=EVAL_SEED0)
     assert out.count(Reason.FELL) == 0
     assert out.count(Reason.ARRIVED) >= 5, out.counts()
