@@ -88,9 +88,10 @@ def test_cli_runs_and_evaluates_the_shipped_policy(tmp_path):
 @pytest.mark.parametrize("name,shield", [("shared", "safety_cut_scan"), ("shared_mirror", "safety_cut"),
                                          ("shared_mlp", "safety_cut_scan")])
 def test_the_mirror_policy_files_are_pickle_free_equivariant_and_bring_robots_in(name, shield):
-    """agents/models/shared (the shipped policy) and shared_mirror (docs/figures/shared_mirror.md):
-    small pickle-free data, mirror-equivariant files behind their shields (the action on the mirror
-    image of any observation is the mirror image of the action), and they drive robots in on cliff_goal."""
+    """agents/models/shared (the shipped policy, recurrent), shared_mlp (the feed-forward file it replaced)
+    and shared_mirror (docs/figures/shared_mirror.md): small pickle-free data, mirror-equivariant files behind
+    their shields (the action on the mirror image of any observation history is the mirror image of the
+    action), and they drive robots in on cliff_goal."""
     from tin_swarm_env.env.observation import mirror_action
 
     d = ROOT / "agents" / "models" / name
