@@ -1,5 +1,5 @@
 """Generated terrains (scenario/generators.py): reproducibility, solvability, the detour side,
-parameter validation.
+parameter validation; the opt-in families bay and rough (at the end).
 
 Solvability is checked here against a small stand-in for ``terrain.cost_to_go``: connectivity of
 the DEM cells whose slope to each 4-neighbour is at most the robots' limit (a grid BFS, done by
@@ -15,9 +15,13 @@ import pytest
 from scipy import ndimage, sparse, stats
 from scipy.sparse.csgraph import dijkstra
 
+from tin_swarm_env import terrain as T
 from tin_swarm_env.scenario import generators as gen
-from tin_swarm_env.scenario.config import ScenarioError
-from tin_swarm_env.scenario.generators import ALL_FAMILIES, DEFAULT_RANGES, PARAMS, generate, replay, validate_ranges
+from tin_swarm_env.scenario import realdem as rd
+from tin_swarm_env.scenario.build import build_stage
+from tin_swarm_env.scenario.config import ScenarioError, load_scenario
+from tin_swarm_env.scenario.generators import (ALL_FAMILIES, DEFAULT_RANGES, EXTRA_FAMILIES, PARAMS, generate, replay,
+                                               validate_ranges)
 
 MAX_SLOPE = 30.0
 
@@ -678,3 +682,136 @@ def test_a_pass_keeps_its_designed_width_through_the_cliff_on_the_greedy_tin(fam
                 width = disc_clearance(tin, hi + (m - reach) * ax, hi + (m + reach) * ax, half)
                 worst.append((width / w, seed, side, round(width, 1), round(w, 1)))
     assert min(worst)[0] >= 0.75, min(worst)
+
+# -- the families drawn only where named (EXTRA_FAMILIES): bay and rough ----------------------------
+# bay: a U-shaped dead end across the way, open toward the spawn; rough: steep hillside, no cliff,
+# placed as realdem is. Exact geometry on the grid stand-in above, the route's side on the greedy TIN,
+# the drawn slope limit on the TIN.
+
+
+EXTRA_SEEDS = range(12)
+
+
+def draw(family, seed, **ranges):
+    return generate(np.random.default_rng(seed), (family,), {family: ranges} if ranges else None)
+
+
+def rc_of(task, xy):
+    """(row, col) of the cell nearest to ``xy`` (2,)."""
+    return int(round((xy[1] - task.dem.y[0]) / task.dem.dy)), int(round((xy[0] - task.dem.x[0]) / task.dem.dx))
+
+
+def along(task):
+    """(rows, cols) m: each cell's distance along the line spawn centre -> target, from the spawn centre."""
+    s, t = task.spawn_centre, task.targets[0]
+    d = (t - s) / np.linalg.norm(t - s)
+    X, Y = np.meshgrid(task.dem.x, task.dem.y)
+    return d[0] * (X - s[0]) + d[1] * (Y - s[1])
+
+
+@pytest.mark.parametrize("family", EXTRA_FAMILIES)
+def test_same_seed_same_task_replay_rebuilds_it_and_the_default_mix_never_draws_them(family):
+    a, b = draw(family, 3), draw(family, 3)
+    assert same(a, b) and same(replay(a), a) and not same(a, draw(family, 4))
+    assert a.family == family and a.dem.source == f"generated:{family}"
+    assert family not in ALL_FAMILIES and family in gen.FAMILIES
+
+
+def check_bay(t, side):
+    """The bay's promises on the grid: solvable; the straight way runs into the bay past its dead
+    end's far point before it meets the barrier; the far point is open ground reached from the spawn
+    region; the way round is on ``side`` (shutting that side disconnects the target, the other does
+    not; "both": neither alone does, the two together do)."""
+    assert t.detour_side == side, t.params
+    ok = passable_cells(t.dem)
+    assert grid_solvable(t), t.params
+    lat, ahead = lateral(t), along(t)  # + = left of the straight way; m along it from the spawn centre
+    s, g = t.spawn_centre, t.targets[0]
+    unit = (g - s) / np.linalg.norm(g - s)
+    (enter, far), = t.dead_ends
+    back = float(np.dot(far - s, unit))  # the far point, m along the straight way
+    assert float(np.dot(enter - s, unit)) < back
+    line = s + np.linspace(0, 1, 2000)[:, None] * (g - s)
+    blocked = ~np.array([ok[rc_of(t, q)] for q in line])
+    assert blocked.any() and np.dot(line[np.argmax(blocked)] - s, unit) >= back - t.dem.dx, t.params
+    spawn_rc, far_rc, goal_rc = rc_of(t, s), rc_of(t, far), rc_of(t, g)
+    assert ok[far_rc] and connected(ok, spawn_rc, far_rc)
+    beside = (ahead > 0) & (ahead < back + max(4.0, 2 * t.dem.dx) + t.params["thickness_m"] + 3 * t.dem.dx)
+    half = t.params["spawn_m"] / 2
+    left_shut, right_shut = ok & ~(beside & (lat > half)), ok & ~(beside & (lat < -half))
+    assert connected(left_shut, spawn_rc, goal_rc) == (side != "left"), t.params
+    assert connected(right_shut, spawn_rc, goal_rc) == (side != "right"), t.params
+    assert not connected(left_shut & right_shut, spawn_rc, goal_rc), t.params
+
+
+@pytest.mark.parametrize("barrier", ["wall", "trench"])
+@pytest.mark.parametrize("side", ["left", "right", "both"])
+def test_a_bay_is_a_dead_end_on_the_straight_way_and_the_way_round_is_on_its_side(side, barrier):
+    for seed in range(6):
+        t = draw("bay", seed, side=[side], barrier=[barrier])
+        assert t.params["barrier"] == barrier
+        check_bay(t, side)
+
+
+def test_a_bay_at_the_ends_of_its_ranges_keeps_its_promises_or_is_refused():
+    """Narrow bays, short arms, targets far off the axis: each layout that fits keeps them."""
+    rng, kept = np.random.default_rng(0), 0
+    for i in range(60):
+        side = ("left", "right", "both")[i % 3]
+        p = {"size_m": float(rng.choice([100.0, 400.0])), "cell_m": float(rng.choice([1.0, 4.0])), "side": side,
+             "width_frac": float(rng.choice([0.1, 0.3, 0.8])), "depth_frac": float(rng.choice([0.1, 1.0])),
+             "target_u_frac": float(rng.choice([-0.9, -0.2, 0.0, 0.9])),
+             "back_v_frac": float(rng.choice([-0.5, 0.0, 0.6])), "thickness_m": float(rng.choice([1.0, 20.0]))}
+        try:
+            t = gen.bay(np.random.default_rng(i), **p)
+        except gen.NoFitError:
+            continue
+        kept += 1
+        check_bay(t, side)
+    assert kept >= 5
+
+
+def test_bay_routes_on_the_greedy_tin_go_the_labelled_way():
+    for seed in range(8):
+        t = draw("bay", seed, side=["left", "right"])
+        tin = T.build_tin(t.dem, method="greedy", max_error_m=0.5)
+        assert tin_route(t, tin) == t.detour_side, (seed, t.params)
+
+
+def test_a_bay_that_does_not_fit_its_map_is_refused_by_name():
+    with pytest.raises(gen.NoFitError, match="bay"):
+        gen.bay(np.random.default_rng(0), size_m=200.0, width_frac=0.8, thickness_m=10.0)
+    with pytest.raises(ScenarioError, match="bay.width_frac"):
+        draw("bay", 0, width_frac=[0.3, 0.95])
+
+
+@pytest.fixture(scope="module")
+def rough_tasks():
+    return [draw("rough", s) for s in EXTRA_SEEDS]
+
+
+def test_rough_is_steep_hillside_with_no_cliff_and_a_detour(rough_tasks):
+    for t in rough_tasks:
+        tin = T.build_tin(t.dem, **rd.MESH)
+        passable = tin.slope_deg <= t.params["max_slope_deg"]
+        v = tin.vertices[tin.triangles, :2]
+        e1, e2 = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
+        area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+        assert abs(area[~passable].sum() / area.sum() - t.params["steep_frac"]) <= 0.02, t.seed
+        assert rd.SLOPE_LIMITS_DEG[0] <= t.params["max_slope_deg"] <= rd.SLOPE_LIMITS_DEG[1]
+        # no cliff: the TIN's triangles stay under 50 deg (the grid's slopes are capped at 45)
+        assert tin.slope_deg.max() < 50.0, (t.seed, tin.slope_deg.max())
+        f = T.cost_to_go(tin, t.targets[0], passable)
+        s, g = t.spawn_centre, t.targets[0]
+        way, line = f.distance_at(s[None])[0], np.hypot(*(g - s))
+        assert np.isfinite(way) and way >= 1.3 * line, (t.seed, way, line)
+    assert len({round(t.params["max_slope_deg"], 3) for t in rough_tasks}) == len(rough_tasks)  # drawn per task
+
+
+def test_rough_ignores_a_given_slope_limit_and_the_builder_gives_the_robots_the_drawn_one(rough_tasks):
+    t = rough_tasks[0]
+    again = gen.FAMILIES["rough"](np.random.default_rng(t.seed), **{**t.params, "max_slope_deg": 30.0})
+    assert same(gen.dataclasses.replace(again, seed=t.seed), t)
+    st = build_stage(load_scenario("generated").with_families(("rough",)), np.random.default_rng(1))
+    assert st.task.family == "rough" and st.world.params.robot.max_slope_deg == st.task.params["max_slope_deg"]
+    np.testing.assert_array_equal(st.world.steep, st.world.tin.slope_deg > st.task.params["max_slope_deg"])

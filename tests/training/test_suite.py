@@ -58,7 +58,7 @@ def test_the_split_table_is_the_one_the_docs_show():
 
 
 def test_the_splits_hold_out_what_the_shipped_policy_did_not_train_on():
-    from tin_swarm_env.scenario.generators import ALL_FAMILIES, REAL_FAMILIES
+    from tin_swarm_env.scenario.generators import ALL_FAMILIES, EXTRA_FAMILIES, PARAMS, REAL_FAMILIES
     from tin_swarm_env.scenario.mirror import reflect_region, reflect_xy, terrain_bounds
 
     recipe = (ROOT / "agents" / "reproduce_shared.sh").read_text()
@@ -68,7 +68,9 @@ def test_the_splits_hold_out_what_the_shipped_policy_did_not_train_on():
     train = {f for m in by_key["train_seeds"].maps for f in m.families}
     held = {f for m in by_key["held_out"].maps for f in m.families}
     assert train == {"canyon", "mesa", "hills"} and held == {"fork", "trap", "realdem"}
-    assert train | held == set(ALL_FAMILIES + REAL_FAMILIES) and not train & held
+    # every family is trained on, held out, or one of the opt-in synthetic ones (drawn only where named)
+    assert train | held | set(EXTRA_FAMILIES) == set(PARAMS) and not train & held
+    assert set(ALL_FAMILIES) <= train | held and not held & set(EXTRA_FAMILIES)
     # no training recipe draws realdem: the recipes name no family, so they draw the default mix, which lacks it
     for recipe_file in sorted((ROOT / "agents").glob("*.sh")) + sorted((ROOT / "agents").glob("*.py")):
         assert "realdem" not in recipe_file.read_text(), recipe_file

@@ -105,7 +105,7 @@ class TerrainSpec:
     params          recipe parameters, e.g. ``{cell = 2.0}``
     families        generated: family names, or ``{name = weight}``; empty: the synthetic ones
                     (:data:`~tin_swarm_env.scenario.generators.ALL_FAMILIES`; ``realdem``, crops
-                    of real DEMs, is drawn only where named)
+                    of real DEMs, and ``bay`` and ``rough`` are drawn only where named)
     ranges          generated: per-family parameter ranges, ``{family = {parameter = [lo, hi] or choices}}``
     resample        generated: "reset" (a new terrain on every ``reset(seed)``) or "once" (one, from
                     the scenario's seed)

@@ -105,7 +105,27 @@ realdem     detour_min       [1.3, 1.3]       the drivable way from the spawn ce
 realdem     orient           none, flip_x,    the crop's turn: mirror east-west or north-south,
                                  flip_y, ...      transpose, quarter turns (the 8 symmetries of
                                               the square, ``realdem.ORIENTS``)
+bay         heading          n/e/s/w          direction of travel
+bay         side             left/right/both  the way round the bay ("both": past either arm)
+bay         barrier          wall, trench     raised wall or sunk trench (one-cell cliffs)
+bay         bay_m            [6, 12]          height of the wall or depth of the trench, m
+bay         thickness_m      [4, 10]          thickness of the barrier, m (at least 3 cells)
+bay         width_frac       [0.3, 0.5]       the inside's half-width, of half the size
+bay         depth_frac       [0.4, 0.9]       the arms' length, of the room between the spawn
+                                              region and the back wall
+bay         back_v_frac      [-0.1, 0.3]      the back wall's place along travel, of half
+                                              the size
+bay         target_u_frac    [-0.15, 0.15]    target's lateral offset, of half the size
+rough       relief_m         [20, 60]         amplitude of the fractal relief, m (no cliff)
+rough       relief_scale_m   [80, 200]        its longest wavelength, m
+rough       steep_frac       [0.1, 0.4]       share of the map too steep to drive (as realdem)
+rough       detour_min       [1.3, 1.3]       as realdem
 =========== ================ ================ ===================================================
+
+``bay`` and ``rough`` (in :data:`EXTRA_FAMILIES`) are drawn only where a scenario names them, so the
+default mix (:data:`ALL_FAMILIES`) draws what it drew before they existed: ``bay`` is a dead end of
+another shape than fork's and trap's (a U-shaped barrier across the way, open toward the spawn),
+``rough`` ground too steep to drive with no cliff, built as ``realdem`` is but on fractal relief.
 
 ``realdem`` (held out: in :data:`REAL_FAMILIES`, not :data:`ALL_FAMILIES`, so a scenario draws it
 only where its ``families`` name it) crops the real DEMs bundled with matplotlib; it has no noise,
@@ -143,7 +163,7 @@ from . import realdem as RD
 
 __all__ = ["GeneratedTask", "PARAMS", "ALL_FAMILIES", "REAL_FAMILIES", "DEFAULT_RANGES", "FAMILIES", "HEADINGS", "generate",
            "validate_ranges", "family_weights", "draw_params", "replay", "canyon", "mesa", "hills", "fork", "trap",
-           "realdem", "NoFitError"]
+           "realdem", "bay", "rough", "EXTRA_FAMILIES", "NoFitError"]
 
 HEADINGS = {"north": (0.0, 1.0), "east": (1.0, 0.0), "south": (0.0, -1.0), "west": (-1.0, 0.0)}
 SIDES = ("left", "right", "both")
@@ -205,10 +225,19 @@ PARAMS: dict[str, dict[str, Param]] = {
                 "dem": _c("jacksboro", "topobathy"), "crop_cells": _f(24, 48, 8, 80), "steep_frac": _f(0.1, 0.4, 0.02, 0.6),
                 "detour_min": _f(1.3, 1.3, 1.0, 3.0),
                 "orient": _c("none", "flip_x", "flip_y", "rot180", "transpose", "rot90", "rot270", "anti_transpose")},
+    "bay": {**_COMMON, "heading": _c(*HEADINGS), "side": _c(*SIDES), "barrier": _c("wall", "trench"),
+            "bay_m": _f(6, 12, 1, 200), "thickness_m": _f(4, 10, 1, 200), "width_frac": _f(0.3, 0.5, 0.1, 0.8),
+            "depth_frac": _f(0.4, 0.9, 0.1, 1.0), "back_v_frac": _f(-0.1, 0.3, -0.5, 0.6),
+            "target_u_frac": _f(-0.15, 0.15, -0.9, 0.9)},
+    "rough": {"size_m": _COMMON["size_m"], "cell_m": _COMMON["cell_m"], "spawn_m": _COMMON["spawn_m"],
+              "relief_m": _f(20, 60, 1, 500), "relief_scale_m": _f(80, 200, 10, 2000),
+              "steep_frac": _f(0.1, 0.4, 0.02, 0.6), "detour_min": _f(1.3, 1.3, 1.0, 3.0)},
 }
 REAL_FAMILIES: tuple[str, ...] = ("realdem",)  # drawn only where a scenario names them (held out of every default mix)
-ALL_FAMILIES: tuple[str, ...] = tuple(f for f in PARAMS if f not in REAL_FAMILIES)  # the synthetic families, the
-# default of every family list (a scenario naming none draws these)
+EXTRA_FAMILIES: tuple[str, ...] = ("bay", "rough")  # synthetic, drawn only where a scenario names them (the default
+# mix, and so every task drawn before they existed, stays as it was)
+# the synthetic families, the default of every family list (a scenario naming none draws these)
+ALL_FAMILIES: tuple[str, ...] = tuple(f for f in PARAMS if f not in REAL_FAMILIES + EXTRA_FAMILIES)
 MAX_GRID_CELLS = 4_000_000  # a generated DEM's cells (size_m / cell_m + 1)^2: ~120 bytes each while it is built
 # and meshed, so ~0.5 GB at the limit (2 km at 1 m); checked before any allocation
 DEFAULT_RANGES: dict[str, dict[str, list]] = {
@@ -794,9 +823,82 @@ def realdem(rng: np.random.Generator, **params) -> GeneratedTask:
                      f"fitted in {RD.CROP_TRIES} tries; the last: {why}")
 
 
+def bay(rng: np.random.Generator, **params) -> GeneratedTask:
+    """A U-shaped barrier across the way, open toward the spawn: a dead end that robots heading
+    straight for the target drive into (the potential field's classic trap). A ``wall`` ``bay_m``
+    high or a ``trench`` ``bay_m`` deep (one-cell cliffs both sides), ``thickness_m`` thick (at least
+    three cells); its inside is ``2 width_frac`` of the half size wide (at least the spawn region
+    and two margins) and reaches from its back, ``back_v_frac`` of the half size along the way, back
+    toward the spawn for ``depth_frac`` of the room there. ``side`` "both": the way round is past
+    either arm; "left" / "right": the back runs on to the map edge on the other side, so the way
+    round is past the arm on ``side``. A corridor ``16 m + 2 cells`` wide is kept between each open
+    arm and the map edge. ``rng`` draws only the noise."""
+    p = _resolve("bay", params)
+    x, half = _grid(p)
+    u, v, to_world = _frame(x, half, p["heading"])
+    sg = -1.0 if p["side"] == "left" else 1.0
+    lat = sg * u  # (n, n) m, + toward the way round (either way for "both")
+    h_min, _, _ = _slopes(p)
+    hb = max(p["bay_m"], h_min)
+    s, cell = p["spawn_m"], p["cell_m"]
+    thick, corridor = max(p["thickness_m"], 3 * cell), 16.0 + 2 * cell
+    a = max(p["width_frac"] * half, s / 2 + 2 * MARGIN_M)  # the inside's half-width, m
+    _fit(a + thick + corridor <= half, "bay", f"a bay {2 * (a + thick):.0f} m wide with a corridor round it", p)
+    vs, vt = -half + MARGIN_M + s / 2, half - 3 * MARGIN_M  # the spawn centre and the target along the way
+    back = p["back_v_frac"] * half  # the back wall's inner face
+    room = back - (vs + s / 2 + MARGIN_M)  # from the spawn region's front to the back wall, m
+    _fit(room >= 8 * MARGIN_M and back + thick <= vt - 2 * MARGIN_M, "bay", "the bay between spawn and target", p)
+    mouth = back - p["depth_frac"] * room  # the arms' open ends
+    _fit(back - mouth >= 2 * MARGIN_M + 2 * cell, "bay", "arms long enough to make a dead end", p)
+    tu = p["target_u_frac"] * half
+    _fit(abs(tu) * (back - vs) / (vt - vs) + s / 2 <= a, "bay", "the straight way into the bay's mouth", p)
+    inside = (np.abs(lat) < a) & (v >= mouth) & (v < back)
+    shell = (np.abs(lat) <= a + thick) & (v >= mouth) & (v <= back + thick) & ~inside
+    if p["side"] != "both":  # the back runs on to the map edge on the closed side
+        shell |= (lat <= -a) & (v >= back) & (v <= back + thick)
+    z = np.where(shell, hb if p["barrier"] == "wall" else -hb, 0.0)
+    ways = [1.0] if p["side"] != "both" else [1.0, -1.0]
+    passes = [[[w * (a + thick + corridor / 2), mouth], [w * (a + thick + corridor / 2), back + thick]] for w in ways]
+    uv = lambda pts: np.asarray(pts, dtype=np.float64) * [sg, 1.0]  # noqa: E731 - (lat, v) -> (u, v)
+    spawn, target = np.array([0.0, vs]), np.array([tu, vt])
+    return _task("bay", p, x, z, to_world(uv(spawn)), to_world(uv(target)), to_world(uv(passes)), rng,
+                 dead_ends=to_world(uv([[[0.0, mouth], [0.0, back - max(MARGIN_M, 2 * cell)]]])))
+
+
+def rough(rng: np.random.Generator, **params) -> GeneratedTask:
+    """Steep hillside with no cliff, the synthetic kin of ``realdem``: fractal relief (four octaves)
+    ``relief_m`` high, ``relief_scale_m`` its longest wavelength, scaled down where needed so that no
+    cell slope passes 45 deg (the robots' climb limit); the robots' slope limit drawn so
+    that ``steep_frac`` of the map is too steep, spawn and target placed a detour apart on the TIN,
+    both as ``realdem`` does (:mod:`~tin_swarm_env.scenario.realdem`). ``max_slope_deg`` among
+    ``params`` is ignored (the task's ``params["max_slope_deg"]`` is the drawn limit). ``rng`` draws
+    the relief and the places (bounded tries; a :class:`NoFitError` says why none fitted)."""
+    p = _resolve("rough", {k: v for k, v in params.items() if k != "max_slope_deg"})
+    x, _ = _grid(p)
+    why = "none drawn"
+    for _ in range(RD.CROP_TRIES):
+        z = _capped(_noise(rng, x, p["relief_scale_m"], octaves=4), p["relief_m"], 1.0, p["cell_m"])  # <= 45 deg
+        dem = Dem(z, x, x, source="generated:rough")
+        tin = T.build_tin(dem, **RD.MESH)
+        limit = RD.steep_quantile_deg(tin, p["steep_frac"])
+        if not RD.SLOPE_LIMITS_DEG[0] <= limit <= RD.SLOPE_LIMITS_DEG[1]:
+            why = f"its slope limit {limit:.1f} deg lies outside {list(RD.SLOPE_LIMITS_DEG)}"
+            continue
+        placed = RD.place(rng, tin, tin.slope_deg <= limit, p["spawn_m"], p["detour_min"], MARGIN_M)
+        if placed is None:
+            why = f"no spawn and target {p['detour_min']:.2f}x apart by the drivable way"
+            continue
+        spawn, target, side = placed
+        p["max_slope_deg"] = limit
+        return GeneratedTask(dem, _square(spawn, p["spawn_m"]), _frozen(np.reshape(target, (1, 2))), "rough", p,
+                             side, _frozen(np.zeros((0, 2, 2))), detour_min=float(p["detour_min"]))
+    raise NoFitError(f"rough: no relief ({p['relief_m']:.0f} m, steep_frac {p['steep_frac']:.2f}) fitted in "
+                     f"{RD.CROP_TRIES} tries; the last: {why}")
+
+
 FAMILIES: dict[str, Callable[..., GeneratedTask]] = {"canyon": canyon, "mesa": mesa, "hills": hills, "fork": fork,
-                                                     "trap": trap, "realdem": realdem}
-assert tuple(FAMILIES) == tuple(PARAMS) == ALL_FAMILIES + REAL_FAMILIES
+                                                     "trap": trap, "realdem": realdem, "bay": bay, "rough": rough}
+assert tuple(FAMILIES) == tuple(PARAMS) == ALL_FAMILIES + REAL_FAMILIES + EXTRA_FAMILIES
 
 
 # -- the dispatcher ---------------------------------------------------------------------------
