@@ -3,10 +3,11 @@
 # then its learning curve on the standard suite's held-out split.
 #   bash agents/reproduce_shared.sh        # outputs in runs/shared (log: runs/shared.log)
 # Recipe (agents/train_puffer.py: PufferLib's PPO on the vector env, 64 copies x 16 robots stepped by one call):
-# * terrain: generated terrains of the training families (agents/scenarios/train_generated.toml: canyons, mesas,
-#   hills; a new seeded terrain per reset, training seeds below EVAL_SEED0) on half of the copies, cliff_goal and
-#   ramp on the others; the held-out families (fork, trap, the real-DEM crops), the held-out maps, hill and jacksboro stay out
-#   (tests/training/test_held_out.py);
+# * terrain: generated terrains of the training families and two opt-in ones
+#   (agents/scenarios/train_generated_extra.toml: canyons, mesas, hills, bays (a U-shaped dead end across the
+#   way) and rough (steep hillside with no cliff); a new seeded terrain per reset, training seeds below
+#   EVAL_SEED0) on half of the copies, cliff_goal and ramp on the others; the held-out families (fork, trap, the
+#   real-DEM crops), the held-out maps, hill and jacksboro stay out (tests/training/test_held_out.py);
 # * the default observation layout (its 32-beam terrain scan);
 # * a mirror-equivariant recurrent actor and critic (--symmetry mirror --cell gru: a GRU of 128 units runs over
 #   the observations and, in a second stream, over their mirror images, so it remembers the walls it has met;
@@ -24,7 +25,7 @@
 set -e
 cd "$(dirname "$0")/.."
 mkdir -p runs
-TRAIN=agents/scenarios/train_generated.toml  # the training families only: the held-out split stays out
+TRAIN=agents/scenarios/train_generated_extra.toml  # the training families and bay, rough: the held-out split stays out
 PY=${PY:-python}
 MINUTES=${MINUTES:-30}
 $PY agents/train_puffer.py --scenario $TRAIN,$TRAIN,cliff_goal,ramp --symmetry mirror --cell gru --hidden 128 --horizon 128 \

@@ -2,7 +2,7 @@
 agents/reproduce_shared.sh): it loads on the core install (no torch, no pickle), is refused by an env whose
 observation layout differs, is exactly mirror-equivariant behind its scan shield (over whole histories: it is
 a recurrent file), and drives robots to the goal on cliff_goal (a reduced budget of that evaluation); the same
-for the mirror candidate agents/models/shared_mirror and the feed-forward file it replaced, shared_mlp."""
+for the mirror candidate agents/models/shared_mirror and the files it replaced, shared_gru and shared_mlp."""
 
 from __future__ import annotations
 
@@ -85,11 +85,11 @@ def test_cli_runs_and_evaluates_the_shipped_policy(tmp_path):
     assert "shared" in out.with_suffix(".md").read_text()
 
 
-@pytest.mark.parametrize("name,shield", [("shared", "safety_cut_scan"), ("shared_mirror", "safety_cut"),
-                                         ("shared_mlp", "safety_cut_scan")])
+@pytest.mark.parametrize("name,shield", [("shared", "safety_cut_scan"), ("shared_gru", "safety_cut_scan"),
+                                         ("shared_mirror", "safety_cut"), ("shared_mlp", "safety_cut_scan")])
 def test_the_mirror_policy_files_are_pickle_free_equivariant_and_bring_robots_in(name, shield):
-    """agents/models/shared (the shipped policy, recurrent), shared_mlp (the feed-forward file it replaced)
-    and shared_mirror (docs/figures/shared_mirror.md): small pickle-free data, mirror-equivariant files behind
+    """agents/models/shared (the shipped policy, recurrent), shared_gru (the recurrent file it replaced, trained
+    without the bay and rough families), shared_mlp (the feed-forward file before that) and shared_mirror (docs/figures/shared_mirror.md): small pickle-free data, mirror-equivariant files behind
     their shields (the action on the mirror image of any observation history is the mirror image of the
     action), and they drive robots in on cliff_goal."""
     from tin_swarm_env.env.observation import mirror_action

@@ -55,7 +55,7 @@ def test_the_recipes_are_found():
                  "train_rllib.py", "ablation.sh", "reproduce_ppo.sh", "train_multimodal.py"):
         assert found.get(name), f"no training scenario found for {name}: {found}"
     assert "cliff_goal" in found["reproduce_ppo.sh"] and "ramp" in found["reproduce_ppo.sh"]  # a for loop
-    assert "agents/scenarios/train_generated.toml" in found["reproduce_shared.sh"]  # a variable
+    assert "agents/scenarios/train_generated_extra.toml" in found["reproduce_shared.sh"]  # a variable
 
 
 def test_no_recipe_trains_on_the_held_out_split():
@@ -77,6 +77,7 @@ def test_the_check_catches_every_way_in():
     assert held_out_families() == {"fork", "trap", "realdem"}
     assert held_out_use("generated") == ["generated families fork, trap"]  # every synthetic family
     assert held_out_use("agents/scenarios/train_generated.toml") == []
+    assert held_out_use("agents/scenarios/train_generated_extra.toml") == []  # bay and rough are not held out
     assert held_out_use(str(ROOT / "scenarios/canyon_left.toml")) == ["the ground of held-out map 'canyon_left'"]
     assert held_out_use(str(ROOT / "scenarios/canyon_right.toml")) == [
         "the ground of held-out map 'canyon_left' (its mirror image ns)"]

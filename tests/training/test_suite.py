@@ -63,7 +63,7 @@ def test_the_splits_hold_out_what_the_shipped_policy_did_not_train_on():
 
     recipe = (ROOT / "agents" / "reproduce_shared.sh").read_text()
     assert "--scenario $TRAIN,$TRAIN,cliff_goal,ramp" in recipe
-    assert "TRAIN=agents/scenarios/train_generated.toml" in recipe  # the training families (test_held_out.py)
+    assert "TRAIN=agents/scenarios/train_generated_extra.toml" in recipe  # the training families (test_held_out.py)
     by_key = {s.key: s for s in S.SPLITS}
     train = {f for m in by_key["train_seeds"].maps for f in m.families}
     held = {f for m in by_key["held_out"].maps for f in m.families}
@@ -71,6 +71,11 @@ def test_the_splits_hold_out_what_the_shipped_policy_did_not_train_on():
     # every family is trained on, held out, or one of the opt-in synthetic ones (drawn only where named)
     assert train | held | set(EXTRA_FAMILIES) == set(PARAMS) and not train & held
     assert set(ALL_FAMILIES) <= train | held and not held & set(EXTRA_FAMILIES)
+    # the shipped recipe trains on the train split's families and the opt-in ones (bay, rough), none held out
+    from tin_swarm_env.scenario import load_scenario
+
+    trained = load_scenario(str(ROOT / "agents" / "scenarios" / "train_generated_extra.toml")).terrain.families
+    assert set(trained) == train | set(EXTRA_FAMILIES)
     # no training recipe draws realdem: the recipes name no family, so they draw the default mix, which lacks it
     for recipe_file in sorted((ROOT / "agents").glob("*.sh")) + sorted((ROOT / "agents").glob("*.py")):
         assert "realdem" not in recipe_file.read_text(), recipe_file

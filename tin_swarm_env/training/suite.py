@@ -9,8 +9,9 @@ Every policy (random, APF, the geodesic reference, then each ``--model``) plays 
 :data:`SPLITS` on the seeds ``EVAL_SEED0 .. EVAL_SEED0 + seeds - 1``
 (:data:`~tin_swarm_env.training.evaluation.EVAL_SEED0`; training uses the seeds below it). The shipped
 policy (``agents/models/shared``, ``agents/reproduce_shared.sh``; before it ``shared_sb3``) trained on
-generated terrains of the canyon, mesa and hills families and on ``cliff_goal`` and ``ramp``;
-everything else is held out from it. The splits are
+generated terrains of the canyon, mesa and hills families (and of the opt-in ``bay`` and ``rough``,
+:data:`~tin_swarm_env.scenario.generators.EXTRA_FAMILIES`, which no split plays) and on ``cliff_goal``
+and ``ramp``; everything else is held out from it. The splits are
 named for that policy: one trained on another mix has seen other kinds of terrain (the BenchMARL
 MAPPO and RLlib PPO files, ``agents/models/mappo_benchmarl`` and ``ppo_rllib``, trained on every
 generated family, fork and trap included; their seeds: docs/figures/ecosystem_training.md; so did the
