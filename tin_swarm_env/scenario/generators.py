@@ -801,11 +801,23 @@ def realdem(rng: np.random.Generator, **params) -> GeneratedTask:
     if np.any(room < 2 * pad):
         raise NoFitError(f"realdem: a crop {p['crop_cells']:g} cells wide does not fit {p['dem']} "
                          f"({side_m / 1000:.1f} km; {RD.SPLINE_MARGIN:g} cells kept off its edges)")
+    task, why = _hillside("realdem", p, rng, lambda: RD.crop_heights(
+        p["dem"], rng.uniform(pad, room - pad), p["crop_cells"], p["size_m"], p["cell_m"], p["orient"]))
+    if task is None:
+        raise NoFitError(f"realdem: no crop of {p['dem']} ({p['crop_cells']:g} cells, steep_frac "
+                         f"{p['steep_frac']:.2f}) fitted in {RD.CROP_TRIES} tries; the last: {why}")
+    return task
+
+
+def _hillside(family: str, p: dict, rng, heights) -> tuple[GeneratedTask | None, str]:
+    """Up to ``RD.CROP_TRIES`` tries of ``heights() -> (x, z)``: mesh each, draw the robots' slope limit
+    so that ``p["steep_frac"]`` of it is too steep and place spawn and target a detour apart
+    (:mod:`~tin_swarm_env.scenario.realdem`); ``(task, "")``, or ``(None, why the last try failed)``.
+    Sets ``p["max_slope_deg"]`` to the drawn limit."""
     why = "none drawn"
     for _ in range(RD.CROP_TRIES):
-        x, z = RD.crop_heights(p["dem"], rng.uniform(pad, room - pad), p["crop_cells"], p["size_m"], p["cell_m"],
-                               p["orient"])
-        dem = Dem(z, x, x, source="generated:realdem")
+        x, z = heights()
+        dem = Dem(z, x, x, source=f"generated:{family}")
         tin = T.build_tin(dem, **RD.MESH)
         limit = RD.steep_quantile_deg(tin, p["steep_frac"])
         if not RD.SLOPE_LIMITS_DEG[0] <= limit <= RD.SLOPE_LIMITS_DEG[1]:
@@ -817,10 +829,9 @@ def realdem(rng: np.random.Generator, **params) -> GeneratedTask:
             continue
         spawn, target, side = placed
         p["max_slope_deg"] = limit
-        return GeneratedTask(dem, _square(spawn, p["spawn_m"]), _frozen(np.reshape(target, (1, 2))), "realdem", p,
-                             side, _frozen(np.zeros((0, 2, 2))), detour_min=float(p["detour_min"]))
-    raise NoFitError(f"realdem: no crop of {p['dem']} ({p['crop_cells']:g} cells, steep_frac {p['steep_frac']:.2f}) "
-                     f"fitted in {RD.CROP_TRIES} tries; the last: {why}")
+        return GeneratedTask(dem, _square(spawn, p["spawn_m"]), _frozen(np.reshape(target, (1, 2))), family, p,
+                             side, _frozen(np.zeros((0, 2, 2))), detour_min=float(p["detour_min"])), ""
+    return None, why
 
 
 def bay(rng: np.random.Generator, **params) -> GeneratedTask:
@@ -875,25 +886,12 @@ def rough(rng: np.random.Generator, **params) -> GeneratedTask:
     the relief and the places (bounded tries; a :class:`NoFitError` says why none fitted)."""
     p = _resolve("rough", {k: v for k, v in params.items() if k != "max_slope_deg"})
     x, _ = _grid(p)
-    why = "none drawn"
-    for _ in range(RD.CROP_TRIES):
-        z = _capped(_noise(rng, x, p["relief_scale_m"], octaves=4), p["relief_m"], 1.0, p["cell_m"])  # <= 45 deg
-        dem = Dem(z, x, x, source="generated:rough")
-        tin = T.build_tin(dem, **RD.MESH)
-        limit = RD.steep_quantile_deg(tin, p["steep_frac"])
-        if not RD.SLOPE_LIMITS_DEG[0] <= limit <= RD.SLOPE_LIMITS_DEG[1]:
-            why = f"its slope limit {limit:.1f} deg lies outside {list(RD.SLOPE_LIMITS_DEG)}"
-            continue
-        placed = RD.place(rng, tin, tin.slope_deg <= limit, p["spawn_m"], p["detour_min"], MARGIN_M)
-        if placed is None:
-            why = f"no spawn and target {p['detour_min']:.2f}x apart by the drivable way"
-            continue
-        spawn, target, side = placed
-        p["max_slope_deg"] = limit
-        return GeneratedTask(dem, _square(spawn, p["spawn_m"]), _frozen(np.reshape(target, (1, 2))), "rough", p,
-                             side, _frozen(np.zeros((0, 2, 2))), detour_min=float(p["detour_min"]))
-    raise NoFitError(f"rough: no relief ({p['relief_m']:.0f} m, steep_frac {p['steep_frac']:.2f}) fitted in "
-                     f"{RD.CROP_TRIES} tries; the last: {why}")
+    task, why = _hillside("rough", p, rng, lambda: (
+        x, _capped(_noise(rng, x, p["relief_scale_m"], octaves=4), p["relief_m"], 1.0, p["cell_m"])))  # <= 45 deg
+    if task is None:
+        raise NoFitError(f"rough: no relief ({p['relief_m']:.0f} m, steep_frac {p['steep_frac']:.2f}) fitted in "
+                         f"{RD.CROP_TRIES} tries; the last: {why}")
+    return task
 
 
 FAMILIES: dict[str, Callable[..., GeneratedTask]] = {"canyon": canyon, "mesa": mesa, "hills": hills, "fork": fork,
