@@ -479,6 +479,12 @@ def _cut_pass(z, along, across, start, run, h, width_m, p, cross=None):
     return np.where(on, np.clip(z, ramp - flank, ramp + flank), z)
 
 
+def _lat_to_u(sg: float):
+    """``(lat, v) -> (u, v)`` for points ``(..., 2)`` m: the families that draw a ``side`` build in a
+    lateral coordinate ``lat = sg * u``, + toward the way round."""
+    return lambda pts: np.asarray(pts, dtype=np.float64) * [sg, 1.0]
+
+
 def _square(centre, side):
     cx, cy = (float(c) for c in centre)
     return (cx - side / 2, cy - side / 2, cx + side / 2, cy + side / 2)
@@ -730,7 +736,7 @@ def fork(rng: np.random.Generator, **params) -> GeneratedTask:
     if p["spawn_on"] == "bottom":
         z = h - z
         passes = [e[::-1] for e in passes]
-    uv = lambda pts: np.asarray(pts, dtype=np.float64) * [sg, 1.0]  # noqa: E731 - (lat, v) -> (u, v)
+    uv = _lat_to_u(sg)
     return _task("fork", p, x, z, to_world(uv(spawn)), to_world(uv(target)), to_world(uv(passes)), rng,
                  dead_ends=to_world(uv(ends)).reshape(-1, 2, 2) if ends else ())
 
@@ -782,7 +788,7 @@ def trap(rng: np.random.Generator, **params) -> GeneratedTask:
         band = (r >= r_in) & (r <= r_out) & (np.abs(off) >= p["gap_deg"] / 2)
         z = np.where(band, hb if p["barrier"] == "wall" else -hb, 0.0)
         opening = [spawn + (r_in - MARGIN_M) * scale * dirn, spawn + (r_out + MARGIN_M) * scale * dirn]
-    uv = lambda pts: np.asarray(pts, dtype=np.float64) * [sg, 1.0]  # noqa: E731 - (lat, v) -> (u, v)
+    uv = _lat_to_u(sg)
     target = np.array([p["target_u_frac"] * half, vt])
     return _task("trap", p, x, z, to_world(uv(spawn)), to_world(uv(target)), to_world(uv([opening])), rng)
 
@@ -870,7 +876,7 @@ def bay(rng: np.random.Generator, **params) -> GeneratedTask:
     z = np.where(shell, hb if p["barrier"] == "wall" else -hb, 0.0)
     ways = [1.0] if p["side"] != "both" else [1.0, -1.0]
     passes = [[[w * (a + thick + corridor / 2), mouth], [w * (a + thick + corridor / 2), back + thick]] for w in ways]
-    uv = lambda pts: np.asarray(pts, dtype=np.float64) * [sg, 1.0]  # noqa: E731 - (lat, v) -> (u, v)
+    uv = _lat_to_u(sg)
     spawn, target = np.array([0.0, vs]), np.array([tu, vt])
     return _task("bay", p, x, z, to_world(uv(spawn)), to_world(uv(target)), to_world(uv(passes)), rng,
                  dead_ends=to_world(uv([[[0.0, mouth], [0.0, back - max(MARGIN_M, 2 * cell)]]])))
