@@ -55,6 +55,15 @@ class Args:
                         choices=("none", "mirror"))
     cell: str = opt("none", "gru: a memory cell before the heads (MirrorGRU; its memory spans --horizon steps in "
                     "training, the whole episode in the exported file)", choices=("none", "gru"))
+    prior: str = opt("none", "apf: a residual policy, its actions added to the default APF's commands (before the "
+                     "clip and the shield; the exported file's \"prior\"); apf_mirror: to the mirror-equivariant "
+                     "APF of two streams (tin_swarm_env/policies/residual.py)", choices=("none", "apf", "apf_mirror"))
+    critic_warmup_minutes: float = opt(0.0, "the actor's own head (the mean's last layer, the log-std) stays as it "
+                                       "starts for this long while the critic learns (the shared encoder learns "
+                                       "too, so the mean moves a little: a residual stays near its prior until the "
+                                       "values are fitted)", lo=0)
+    init_logstd: float = opt(0.0, "the Gaussian's log-std at the start (a residual starts near its prior: -1.6 "
+                             "is a std of 0.2)")
     reward_scale: float = opt(0.01, "rewards are multiplied by this (PuffeRL clips them to [-1, 1]: a fall is -1)",
                               lo=0, lo_open=True)
     horizon: int = opt(64, "steps collected per agent per epoch (PuffeRL's bptt_horizon)", lo=2)
@@ -222,6 +231,13 @@ def mean_layers(policy) -> list:
     return [(m.weight.detach().double().numpy(), m.bias.detach().double().numpy()) for m in lin]
 
 
+def actor_parameters(policy) -> list:
+    """The parameters only the actor uses: the Gaussian's mean head and log-std."""
+    if hasattr(policy, "decoder_mean"):  # TanhMLP (the encoder is shared with the value head)
+        return [*policy.decoder_mean.parameters(), policy.decoder_logstd]
+    return [*policy.actor.parameters(), policy.logstd]  # MirrorGRU (the GRU is shared)
+
+
 def file_shield(args: Args) -> str:
     return args.export_shield or args.shield
 
@@ -265,7 +281,8 @@ def export(policy, args: Args, rows: list, out: Path, check: bool = True) -> flo
     layout = unwrap_env(env).layout
     if args.cell == "none":
         export_actor(out / "policy", mean_layers(policy), "tanh", squash="clip", layout=layout,
-                     scenario=args.scenario, extra=extra, shield=file_shield(args), symmetry=args.symmetry)
+                     scenario=args.scenario, extra=extra, shield=file_shield(args), symmetry=args.symmetry,
+                     prior=args.prior)
     else:
         cell, head = policy.file_arrays()
         save_policy(out / "policy", head, "tanh", layout=layout, scenario=args.scenario, extra=extra,
@@ -275,10 +292,18 @@ def export(policy, args: Args, rows: list, out: Path, check: bool = True) -> flo
     shield = make_shield(file_shield(args), env)
     obs = real_observations(env, seeds=(args.seed + 100, args.seed + 101))
     if args.cell == "none":
+        from tin_swarm_env.policies.residual import add_prior, make_prior
+
+        prior = make_prior(args.prior, env, "export")
+
         def torch_actions(o):
             with torch.no_grad():
-                a = np.clip(policy.mean(torch.as_tensor(o, dtype=torch.float32)).double().numpy(), -1, 1)
-            return a if shield is None else shield(a, o)
+                g = policy.mean(torch.as_tensor(o, dtype=torch.float32)).double().numpy()
+            a = np.clip(g, -1, 1) if prior is None else add_prior(prior(o), g)
+            a = a if shield is None else shield(a, o)
+            if prior is not None:
+                prior.driven(a)
+            return a
 
         gap = max_action_gap(out / "policy", env, torch_actions, obs)
     else:
@@ -303,7 +328,7 @@ def main(argv=None) -> Path:
     torch.manual_seed(args.seed)
     kw = {"max_cycles": args.max_cycles} if args.max_cycles else {}
     env = make_puffer_env(scenarios_of(args), n_envs=args.n_envs, n_robots=args.n_robots, seed=args.seed,
-                          shield=args.shield, reward_scale=args.reward_scale, **kw)
+                          shield=args.shield, reward_scale=args.reward_scale, prior=args.prior, **kw)
     mirror = None
     if args.symmetry == "mirror":
         from tin_swarm_env.policies.symmetry import mirror_map
@@ -311,12 +336,22 @@ def main(argv=None) -> Path:
         mirror = mirror_map(env.vec.layout)
     cls = tanh_mlp_class() if args.cell == "none" else mirror_gru_class()
     policy = cls(env, hidden_size=args.hidden, mirror=mirror)
+    if args.prior != "none" and args.cell != "none":
+        raise SystemExit("--prior needs --cell none: a residual policy file is an MLP (APF holds the memory)")
+    with torch.no_grad():  # the Gaussian's log-std at the start (TanhMLP: decoder_logstd, MirrorGRU: logstd)
+        (policy.decoder_logstd if args.cell == "none" else policy.logstd).fill_(args.init_logstd)
     pufferl.PuffeRL.print_dashboard = lambda *a, **k: None  # one line per epoch instead of the full-screen dashboard
     trainer = pufferl.PuffeRL(config(args, env.num_agents), env, policy)
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     rows, t0, snap = [], time.perf_counter(), 0.0
+    actor = actor_parameters(policy)
+    for p in actor:  # the critic's warm-up (--critic-warmup-minutes): Adam skips parameters without gradients
+        p.requires_grad_(args.critic_warmup_minutes <= 0)
     while trainer.global_step < args.max_steps and time.perf_counter() - t0 < 60 * args.max_minutes:
+        if not actor[0].requires_grad and time.perf_counter() - t0 >= 60 * args.critic_warmup_minutes:
+            for p in actor:
+                p.requires_grad_(True)
         stats = trainer.evaluate()
         ended = defaultdict(list)
         for k, v in stats.items():

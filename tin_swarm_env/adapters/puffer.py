@@ -38,14 +38,18 @@ _CLASS = None
 
 
 def make_puffer_env(scenario="cliff_goal", n_envs: int = 1, n_robots: int | None = None, seed: int | None = None,
-                    buf=None, shield: str = "none", reward_scale: float = 1.0, **env_kwargs):
+                    buf=None, shield: str = "none", reward_scale: float = 1.0, prior: str = "none", **env_kwargs):
     """A native ``pufferlib.PufferEnv`` over ``tse.vector_env(scenario, n_envs, n_robots, seed,
     **env_kwargs)`` (module docstring); ``buf``: PufferLib's shared buffers (its backends pass them).
     ``shield="safety_cut"`` filters the actions as a policy file's shield does (the SB3 VecEnv's
     option); ``reward_scale`` multiplies every reward (PuffeRL clips rewards to ``[-1, 1]``: at 1.0 a
-    fall's -100 and an arrival's +10 would read as -1 and +1)."""
+    fall's -100 and an arrival's +10 would read as -1 and +1). ``prior="apf"``: the actions are a
+    residual policy's corrections, added to the default APF's commands before the clip and the shield
+    (:mod:`tin_swarm_env.policies.residual`; APF's memory of a copy is forgotten when it resets, and
+    robot ``i`` of every copy has the side preference of robot ``i`` of an episode of its own:
+    :func:`~tin_swarm_env.policies.residual.side_rows`)."""
     return puffer_env_class()(scenario, n_envs=n_envs, n_robots=n_robots, seed=seed, buf=buf, shield=shield,
-                              reward_scale=reward_scale, **env_kwargs)
+                              reward_scale=reward_scale, prior=prior, **env_kwargs)
 
 
 def puff_advantage(values, rewards, dones, importance, advantages, gamma, lam, rho_clip, c_clip) -> None:
@@ -107,6 +111,7 @@ def puffer_env_class():
     import pufferlib.spaces  # noqa: F401
 
     from ..env.vector import VectorEnv
+    from ..policies.residual import add_prior, side_rows
     from ..world.state import Reason
 
     labels = {int(r): r.label for r in Reason if r != Reason.NONE}
@@ -115,10 +120,11 @@ def puffer_env_class():
         """The vector env as a native PufferLib env (module docstring)."""
 
         def __init__(self, scenario="cliff_goal", n_envs=1, n_robots=None, seed=None, buf=None, shield="none",
-                     reward_scale=1.0, **env_kwargs):
+                     reward_scale=1.0, prior="none", **env_kwargs):
             from ..errors import ArgumentError, check_range
             from ..policies.base import make_shield
             from ..policies.learned import SHIELDS
+            from ..policies.residual import PRIORS, make_prior
 
             if shield not in SHIELDS:
                 raise ArgumentError(f"make_puffer_env: shield must be one of {list(SHIELDS)}, got {shield!r}")
@@ -126,6 +132,11 @@ def puffer_env_class():
             self.vec = VectorEnv(scenario, n_envs=n_envs, n_robots=n_robots, seed=seed, **env_kwargs)
             self.reward_scale = np.float32(reward_scale)
             self._shield = make_shield(shield, self.vec._protos[0])
+            if prior not in PRIORS:
+                raise ArgumentError(f"make_puffer_env: prior must be one of {list(PRIORS)}, got {prior!r}")
+            self._prior = make_prior(prior, self.vec._protos[0], "make_puffer_env")
+            self._prior_act = None  # the prior's commands on the current observations
+            self._rows = side_rows(self.vec.n_envs, self.vec.n_robots)  # the prior's memory row of each agent
             self.single_observation_space = self.vec.single_observation_space
             self.single_action_space = self.vec.single_action_space
             self.num_agents = self.vec.n_envs * self.vec.n_robots
@@ -140,14 +151,21 @@ def puffer_env_class():
             self.terminals[:] = False
             self.truncations[:] = False
             self.masks[:] = True
+            if self._prior is not None:
+                self._prior.reset()
+                self._prior_act = self._prior(self.observations, self._rows)
             return self.observations, []
 
         def step(self, actions):
             v = self.vec
             live_before = v._live.copy()
             a = np.asarray(actions, dtype=np.float64).reshape(v.n_envs * v.n_robots, 2)
+            if self._prior is not None:  # a residual: the correction plus the prior's command
+                a = add_prior(self._prior_act, a)
             if self._shield is not None:  # it reads the observations the actions were chosen from
                 a = self._shield(a, self.observations)
+            if self._prior is not None:
+                self._prior.driven(a, self._rows)
             a = a.reshape(v.n_envs, v.n_robots, 2)
             obs, rew, term, trunc, info = v.step(a)
             final = np.repeat(info["_final"], v.n_robots)
@@ -161,6 +179,9 @@ def puffer_env_class():
             self.terminals[:] = term
             self.truncations[:] = trunc
             self.masks[:] = live_before
+            if self._prior is not None:  # a copy that reset starts its robots' memories afresh
+                self._prior.forget(self._rows[final])
+                self._prior_act = self._prior(self.observations, self._rows)
             infos = []
             if ended.any():
                 why = info["reasons"].reshape(-1)[ended]

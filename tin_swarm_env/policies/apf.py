@@ -335,6 +335,24 @@ class APFPolicy:
         self.charts = ChartMemory.empty(0, self.chart.cells, self.layout.k_breaks)
         self._rows: dict = {}
 
+    def forget(self, rows) -> None:
+        """Forget the memory of the robots in ``rows`` only (their next step is a first step, as after
+        :meth:`reset`): a vector env's copy that starts a new episode while the others go on."""
+        rows = np.asarray(rows, dtype=np.int64).reshape(-1)
+        rows = rows[(rows >= 0) & (rows < len(self.memory.side))]
+        if not len(rows):
+            return
+        e = BugMemory.empty(len(rows))
+        for f in dataclasses.fields(self.memory):
+            getattr(self.memory, f.name)[rows] = getattr(e, f.name)
+        m = min(len(self.charts.cell), len(self.memory.side))
+        r = rows[rows < m]
+        if len(r):
+            c = ChartMemory.empty(len(r), self.charts.grid.shape[1], self.charts.last_ok.shape[1])
+            for f in dataclasses.fields(c):
+                if f.name != "work":
+                    getattr(self.charts, f.name)[r] = getattr(c, f.name)
+
     def forces(self, obs, rows=None) -> dict:
         """Per-field forces (:func:`apf_forces`) for observations ``obs (n, d)`` of the robots in
         ``rows`` (default ``0..n-1``); advances their memory by one step."""

@@ -34,11 +34,12 @@ SQUASHES = ("clip", "tanh")
 
 
 def export_actor(path, layers, activation: str, *, squash: str, layout, scenario: str, extra: dict | None = None,
-                 shield: str = "none", symmetry: str = "none"):
+                 shield: str = "none", symmetry: str = "none", prior: str = "none"):
     """Write the mean network ``layers`` with hidden ``activation`` and the library's action
     ``squash`` (see the module docstring) as a policy directory ``path`` (``shield``: the file's
     shield, for an actor trained behind it; ``symmetry``: ``"mirror"`` for an actor whose mean is
-    ``(g(o) + M g(M o)) / 2``, ``layers`` being ``g``); returns the path."""
+    ``(g(o) + M g(M o)) / 2``, ``layers`` being ``g``; ``prior``: ``"apf"`` or ``"apf_mirror"`` for a residual
+    actor whose mean is added to APF's command, :mod:`~tin_swarm_env.policies.residual`); returns the path."""
     if squash not in SQUASHES:
         raise ArgumentError(f"squash must be one of {list(SQUASHES)}, got {squash!r}")
     layers = [(np.asarray(W, dtype=np.float64), np.asarray(b, dtype=np.float64)) for W, b in layers]
@@ -53,7 +54,7 @@ def export_actor(path, layers, activation: str, *, squash: str, layout, scenario
         layers.append((np.eye(ACTION_SIZE), np.zeros(ACTION_SIZE)))
         extra["action_squash"] = "tanh (the last layer is the identity after the network's tanh)"
     return save_policy(path, layers, activation, layout=layout, scenario=scenario, action_transform="clip",
-                       extra=extra, shield=shield, symmetry=symmetry)
+                       extra=extra, shield=shield, symmetry=symmetry, prior=prior)
 
 
 def real_observations(env, policy=None, *, seeds=(0,), steps: int = 60, every: int = 5) -> np.ndarray:

@@ -42,6 +42,11 @@ state per robot reset with the episode (:mod:`tin_swarm_env.policies.recurrent` 
 with ``g`` the network before its clip (:mod:`tin_swarm_env.policies.symmetry`), before the
 shield; it needs the layout's named fields, which every policy file records.
 
+``"prior": "apf"`` or ``"apf_mirror"`` (optional; default ``"none"``; an MLP with the mean head): a
+residual policy, ``shield(clip(apf(o) + clip(g(o))))`` with the env's default APF beside the network
+(``"apf_mirror"``: two of them, one fed the mirror images, so that the file can be exactly
+mirror-equivariant; :mod:`tin_swarm_env.policies.residual` describes both).
+
 ``"head": {"type": "categorical", "actions": [[vx, vy], ...], "acting": "mode", "seed": 0}``
 (optional; default ``{"type": "mean"}``, the clipped output above): the last layer gives one logit
 per class instead of the action, and the action is a class's (:mod:`tin_swarm_env.policies.heads`
@@ -66,6 +71,7 @@ from .network import (ACTIVATIONS, MAX_ABS_WEIGHT, MAX_JSON_BYTES, MAX_JSON_DEPT
                       MAX_LAYERS, MAX_PARAMETERS, MAX_WEIGHTS_BYTES, SHIELDS, checked_array, dense)
 from .heads import CategoricalHead, check_head
 from .recurrent import FEEDBACKS, RecurrentPolicy, check_cell, recurrent_network
+from .residual import PRIORS, add_prior, make_prior
 from .symmetry import SYMMETRIES, file_options, symmetrize
 
 __all__ = ["MLPPolicy", "ShieldedPolicy", "save_policy", "load_policy", "policy_layout", "FORMAT", "VERSION", "ACTIVATIONS",
@@ -98,7 +104,8 @@ class MLPPolicy:
 
     def __init__(self, layers, activation: str = "tanh", action_transform: str = "clip", *, layout: dict,
                  scenario: str = "", training: dict | None = None, source: str = "<memory>",
-                 shield: str = "none", env=None, symmetry: str = "none", head: dict | None = None):
+                 shield: str = "none", env=None, symmetry: str = "none", head: dict | None = None,
+                 prior: str = "none"):
         self.layers = [(np.ascontiguousarray(W, dtype=np.float64), np.ascontiguousarray(b, dtype=np.float64))
                        for W, b in layers]
         self.head = None if head is None or head.get("type", "mean") == "mean" else CategoricalHead(
@@ -112,19 +119,32 @@ class MLPPolicy:
         self.obs_size = self.layers[0][0].shape[1]
         self.shield, self.symmetry = shield, symmetry
         self._mirror, self.shield_cut = file_options(shield, symmetry, layout, env, source)
+        if prior != "none" and self.head is not None:
+            raise ArgumentError(f"{source}: prior {prior!r} adds the network's mean to the prior's command; a "
+                                "categorical head has no mean")
+        self.prior_name, self.prior = prior, make_prior(prior, env, source)
         self._rows: dict = {}  # agent name -> row, for act() (a sampling head's draws follow the robot)
 
     def act_batch(self, obs, rows=None) -> np.ndarray:
-        """``rows``: each row's robot, for a sampling categorical head's per-robot draws (default 0..n-1)."""
-        a = self.net_batch(obs, rows)
-        return a if self.shield_cut is None else self.shield_cut(a, obs)
+        """``rows``: each row's robot, for a sampling categorical head's per-robot draws and a prior's
+        memory (default 0..n-1)."""
+        if self.prior is None:
+            a = self.net_batch(obs, rows)
+        else:  # residual: the prior's command plus the network's, before the clip (policies/residual.py)
+            a = add_prior(self.prior(obs, rows), self._mean(obs))
+        a = a if self.shield_cut is None else self.shield_cut(a, obs)
+        if self.prior is not None:
+            self.prior.driven(a, rows)
+        return a
 
     def reset(self) -> None:
-        """Restart a sampling head's per-robot draws and forget the agent names (the network itself
-        has no memory)."""
+        """Restart a sampling head's per-robot draws, forget the agent names and the prior's memory
+        (the network itself has no memory)."""
         self._rows = {}
         if self.head is not None:
             self.head.reset()
+        if self.prior is not None:
+            self.prior.reset()
 
     def logits(self, obs) -> np.ndarray:
         """A categorical head's ``(n, K)`` float64 logits (mirror-averaged with the symmetry)."""
@@ -139,13 +159,17 @@ class MLPPolicy:
         return self.head.mirror(both[:len(x)], both[len(x):])
 
     def net_batch(self, obs, rows=None) -> np.ndarray:
+        """The network's action, clipped, before the shield (without a prior's command)."""
         if self.head is not None:
             return self.head.act(self.logits(obs), rows).astype(np.float32)
+        return np.clip(self._mean(obs), -1.0, 1.0).astype(np.float32)
+
+    def _mean(self, obs) -> np.ndarray:
+        """The mean head's output before its clip (mirror-averaged with the symmetry), ``(n, 2)`` float64."""
         x = np.ascontiguousarray(obs, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != self.obs_size:
             raise ArgumentError(f"{self.source}: obs must have shape (n, {self.obs_size}), got {x.shape}")
-        a = symmetrize(self._forward, x, self._mirror) if self._mirror is not None else self._forward(x)
-        return np.clip(a, -1.0, 1.0).astype(np.float32)
+        return symmetrize(self._forward, x, self._mirror) if self._mirror is not None else self._forward(x)
 
     def _forward(self, x) -> np.ndarray:
         """The network alone: ``x (n, d)`` float64 -> ``(n, 2)`` float64, before the clip."""
@@ -170,8 +194,9 @@ class MLPPolicy:
         shield = "" if self.shield == "none" else f", shield={self.shield!r}"
         sym = "" if self.symmetry == "none" else f", symmetry={self.symmetry!r}"
         head = "" if self.head is None else f", head=categorical({len(self.head.actions)}, {self.head.acting})"
+        prior = "" if self.prior is None else f", prior={self.prior_name!r}"
         return (f"MLPPolicy({self.source!r}, {sizes}, {self.activation}, scenario={self.scenario!r}{shield}{sym}"
-                f"{head})")
+                f"{head}{prior})")
 
 
 class ShieldedPolicy:
@@ -201,12 +226,13 @@ class ShieldedPolicy:
 
 def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str, action_transform: str = "clip",
                 extra: dict | None = None, shield: str = "none", symmetry: str = "none", cell=None,
-                head: dict | None = None, feedback: str = "none") -> Path:
+                head: dict | None = None, feedback: str = "none", prior: str = "none") -> Path:
     """Write a policy directory ``path/`` (``policy.json`` + ``weights.npz``) atomically (``shield``:
     ``"none"`` or ``"safety_cut"``, ``symmetry``: ``"none"`` or ``"mirror"``, see the module
     docstring; ``cell``: ``(name, {cell_W_ih: ..., ...})`` for a recurrent policy whose head is
     ``layers``, :mod:`tin_swarm_env.policies.recurrent`, ``feedback`` its ``"network.feedback"``
-    (``"action"``: the cell also reads the previous action); ``head``: the ``"head"`` entry, e.g.
+    (``"action"``: the cell also reads the previous action); ``prior``: ``"apf"`` or ``"apf_mirror"`` for a residual
+    network (:mod:`tin_swarm_env.policies.residual`); ``head``: the ``"head"`` entry, e.g.
     :func:`~tin_swarm_env.policies.heads.categorical_head`, None: the mean head): both
     files go into a temporary directory beside it, which is then renamed into place; an existing
     policy directory at ``path`` is replaced, anything else there is refused. Returns the path."""
@@ -238,6 +264,8 @@ def save_policy(path, layers, activation: str = "tanh", *, layout, scenario: str
         meta["symmetry"] = symmetry
     if head is not None and head.get("type") != "mean":
         meta["head"] = head
+    if prior != "none":
+        meta["prior"] = prior
     validate_policy(meta, arrays, str(p / POLICY_JSON), str(p / WEIGHTS))
     if p.exists() and not (p.is_dir() and (p / POLICY_JSON).is_file()):
         raise PolicyFileError(f"{p}: exists and is not a policy directory; refusing to replace it")
@@ -353,7 +381,8 @@ def load_policy(path, env):
                                feedback=net.get("feedback", "none"))
     return MLPPolicy(layers, net["activation"], net["action_transform"], layout=meta["observation"]["layout"],
                      scenario=meta["scenario"], training=meta.get("training", {}), source=str(d),
-                     shield=meta.get("shield", "none"), env=env, symmetry=meta.get("symmetry", "none"), head=head)
+                     shield=meta.get("shield", "none"), env=env, symmetry=meta.get("symmetry", "none"), head=head,
+                     prior=meta.get("prior", "none"))
 
 
 def _check_depth(text: str, where: str) -> None:
@@ -423,7 +452,8 @@ def _get(d, key, typ, where):
 
 
 KEYS = {  # the keys a policy file may hold, per table ("training" is the trainer's own record: any keys)
-    "": ("format", "version", "network", "observation", "action", "scenario", "training", "shield", "symmetry", "head"),
+    "": ("format", "version", "network", "observation", "action", "scenario", "training", "shield", "symmetry", "head",
+         "prior"),
     "network": ("type", "layer_sizes", "activation", "action_transform", "cell", "input_size", "hidden_size",
                 "feedback"),
     "observation": ("size", "layout"),
@@ -500,7 +530,19 @@ def validate_policy(meta, arrays: dict | None, jname: str, wname: str) -> list:
         raise PolicyFileError(f"{jname}: key 'symmetry' is {meta['symmetry']!r}; known: {list(SYMMETRIES)}")
     if "head" in meta:
         check_head(meta["head"], sizes[-1], meta.get("symmetry", "none"), jname)
+    if "prior" in meta:
+        _check_prior(meta, jname)
     return [] if arrays is None else _check_weights(arrays, sizes, wname)
+
+
+def _check_prior(meta: dict, jname: str) -> None:
+    prior = _get(meta, "prior", str, jname)
+    if prior not in PRIORS:
+        raise PolicyFileError(f"{jname}: key 'prior' is {prior!r}; known: {list(PRIORS)}")
+    if prior != "none" and (meta["network"]["type"] != "mlp" or meta.get("head", {}).get("type", "mean") != "mean"):
+        raise PolicyFileError(f"{jname}: key 'prior' {prior!r} needs an 'mlp' network with the mean head (the "
+                              f"network's mean is added to the prior's command); this one is "
+                              f"{meta['network']['type']!r} with head {meta.get('head', {}).get('type', 'mean')!r}")
 
 
 def _check_weights(arrays: dict, sizes: list, wname: str) -> list:
