@@ -217,8 +217,8 @@ MUTANTS = [
     # -- policies/learned.py --------------------------------------------------------------------------------
     M("learned-last-layer-activated", "policies/learned.py", "if i < len(self.layers) - 1:", "if i < len(self.layers):",
       LEARNED),
-    M("learned-no-clip", "policies/learned.py", "return np.clip(a, -1.0, 1.0).astype(np.float32)",
-      "return a.astype(np.float32)", LEARNED),
+    M("learned-no-clip", "policies/learned.py", "return np.clip(self._mean(obs), -1.0, 1.0).astype(np.float32)",
+      "return self._mean(obs).astype(np.float32)", LEARNED),
     M("learned-dense-bias", "policies/network.py", "            s = b[j]\n", "            s = 0.0\n", LEARNED),
     M("learned-relu-leaky", "policies/network.py", '"relu": lambda x: np.maximum(x, 0.0)',
       '"relu": lambda x: np.maximum(x, 0.01 * x)', LEARNED),

@@ -1,8 +1,9 @@
 """The shipped policy, committed at agents/models/shared (docs/learning.md, "The shipped policy";
 agents/reproduce_shared.sh): it loads on the core install (no torch, no pickle), is refused by an env whose
-observation layout differs, is exactly mirror-equivariant behind its scan shield (over whole histories: it is
-a recurrent file), and drives robots to the goal on cliff_goal (a reduced budget of that evaluation); the same
-for the mirror candidate agents/models/shared_mirror and the files it replaced, shared_gru and shared_mlp."""
+observation layout differs, is exactly mirror-equivariant behind its scan shield (over whole histories: a
+residual file over the two-stream APF, which has a memory), and drives robots to the goal on cliff_goal (a
+reduced budget of that evaluation); the same for the mirror candidate agents/models/shared_mirror and the
+files it replaced, shared_gru_extra, shared_gru and shared_mlp."""
 
 from __future__ import annotations
 
@@ -33,7 +34,7 @@ def test_the_shipped_policy_is_small_pickle_free_data():
     meta = json.loads((SHARED / "policy.json").read_text())
     assert meta["format"] == "tin_swarm_env.policy" and meta["shield"] == "safety_cut_scan"
     assert meta["symmetry"] == "mirror" and meta["observation"]["layout"]["k_scan"] == 32  # the default layout's scan
-    assert meta["network"]["type"] == "recurrent" and meta["network"]["cell"] == "gru"  # a memory of dead ends
+    assert meta["network"]["type"] == "mlp" and meta["prior"] == "apf_mirror"  # a correction to the equivariant APF
     with np.load(SHARED / "weights.npz", allow_pickle=False) as w:  # raises on any object array
         assert all(w[k].dtype.kind == "f" and np.isfinite(w[k]).all() for k in w.files)
 
@@ -52,6 +53,8 @@ def test_the_shipped_policy_runs_without_torch_or_pickle():
         "dense(np.zeros((1, 1)), np.zeros((1, 1)), np.zeros(1))  # numba's compile cache is read with pickle\n"
         "from tin_swarm_env.policies.base import make_shield\n"
         "make_shield('safety_cut_scan', env)(np.zeros((3, 2)), np.stack(list(obs.values())))  # so are the shield's\n"
+        "from tin_swarm_env.policies import APFPolicy\n"
+        "APFPolicy(env).act_batch(np.stack(list(obs.values())))  # and APF's (the file's prior)\n"
         "def no(*a, **k): raise AssertionError('pickle used')\n"
         "pickle.load = pickle.loads = no  # from here on: loading the policy file and acting\n"
         f"pol = load_policy({str(SHARED)!r}, env)\n"
@@ -85,11 +88,13 @@ def test_cli_runs_and_evaluates_the_shipped_policy(tmp_path):
     assert "shared" in out.with_suffix(".md").read_text()
 
 
-@pytest.mark.parametrize("name,shield", [("shared", "safety_cut_scan"), ("shared_gru", "safety_cut_scan"),
+@pytest.mark.parametrize("name,shield", [("shared", "safety_cut_scan"), ("shared_gru_extra", "safety_cut_scan"),
+                                         ("shared_gru", "safety_cut_scan"),
                                          ("shared_mirror", "safety_cut"), ("shared_mlp", "safety_cut_scan")])
 def test_the_mirror_policy_files_are_pickle_free_equivariant_and_bring_robots_in(name, shield):
-    """agents/models/shared (the shipped policy, recurrent), shared_gru (the recurrent file it replaced, trained
-    without the bay and rough families), shared_mlp (the feed-forward file before that) and shared_mirror (docs/figures/shared_mirror.md): small pickle-free data, mirror-equivariant files behind
+    """agents/models/shared (the shipped policy, a residual over the two-stream APF), shared_gru_extra (the
+    recurrent file it replaced), shared_gru (the recurrent file before that, trained without the bay and rough
+    families), shared_mlp (the feed-forward file before that) and shared_mirror (docs/figures/shared_mirror.md): small pickle-free data, mirror-equivariant files behind
     their shields (the action on the mirror image of any observation history is the mirror image of the
     action), and they drive robots in on cliff_goal."""
     from tin_swarm_env.env.observation import mirror_action

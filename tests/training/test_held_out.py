@@ -68,7 +68,8 @@ def test_the_recipes_seeds_are_training_seeds():
     seeds = []
     for p in SCRIPTS:
         words = recipe_words(p.read_text())
-        seeds += [(p.name, int(words[i + 1][0])) for i, (w, _) in enumerate(words[:-1]) if w == "--seed"]
+        seeds += [(p.name, int(v)) for i, (w, _) in enumerate(words[:-1]) if w == "--seed"
+                  for v in expand(*words[i + 1])]  # a shell variable's default (SEED=${SEED:-0})
     assert seeds, "no --seed in the recipes"
     assert all(0 <= s < EVAL_SEED0 for _, s in seeds), seeds
 

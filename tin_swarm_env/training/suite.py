@@ -8,8 +8,9 @@ made train/test splits standard for generalisation, and one leaderboard row per 
 Every policy (random, APF, the geodesic reference, then each ``--model``) plays every map of
 :data:`SPLITS` on the seeds ``EVAL_SEED0 .. EVAL_SEED0 + seeds - 1``
 (:data:`~tin_swarm_env.training.evaluation.EVAL_SEED0`; training uses the seeds below it). The shipped
-policy (``agents/models/shared``, ``agents/reproduce_shared.sh``; before it ``shared_sb3``) trained on
-generated terrains of the canyon, mesa and hills families (and of the opt-in ``bay`` and ``rough``,
+policy (``agents/models/shared``, ``agents/reproduce_shared.sh``: a residual over APF, whose network was;
+before it ``shared_gru_extra`` and ``shared_sb3``) trained on generated terrains of the canyon, mesa and
+hills families (and of the opt-in ``bay`` and ``rough``,
 :data:`~tin_swarm_env.scenario.generators.EXTRA_FAMILIES`, which no split plays) and on ``cliff_goal``
 and ``ramp``; everything else is held out from it. The splits are
 named for that policy: one trained on another mix has seen other kinds of terrain (the BenchMARL
