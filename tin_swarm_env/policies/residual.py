@@ -55,20 +55,29 @@ class APFPrior:
     def driven(self, act, rows=None) -> None:
         """Record the commands ``act (n, 2)`` that moved the robots ``rows`` (default ``0..n-1``)
         this step, after the last call: APF's odometry integrates them next step."""
-        mem = self.apf.memory
-        a = np.asarray(act, dtype=np.float64)
-        rows = np.arange(len(a)) if rows is None else np.asarray(rows, dtype=np.int64)
-        if a.shape != (len(rows), 2):
-            raise ArgumentError(f"APFPrior.driven: act must have shape ({len(rows)}, 2), one command per row, got "
-                                f"{a.shape}")
-        if len(mem.side):  # no memory (the break field off): nothing integrates
-            mem.last_act[rows] = a
+        _record(self.apf, *_executed(act, rows, "APFPrior.driven"))
 
     def reset(self) -> None:
         self.apf.reset()
 
     def forget(self, rows) -> None:
         self.apf.forget(rows)
+
+
+def _executed(act, rows, who: str) -> tuple[np.ndarray, np.ndarray]:
+    """``act`` as ``(n, 2)`` float64 and its rows (default ``0..n-1``), checked against each other."""
+    a = np.asarray(act, dtype=np.float64)
+    rows = np.arange(len(a)) if rows is None else np.asarray(rows, dtype=np.int64)
+    if a.shape != (len(rows), 2):
+        raise ArgumentError(f"{who}: act must have shape ({len(rows)}, 2), one command per row, got {a.shape}")
+    return a, rows
+
+
+def _record(apf, a, rows) -> None:
+    """APF's odometry integrates ``a`` as the last command of ``rows`` (no memory, the break field off:
+    nothing integrates)."""
+    if len(apf.memory.side):
+        apf.memory.last_act[rows] = a
 
 
 def way_left(apf, obs, rows) -> np.ndarray:
@@ -131,14 +140,9 @@ class MirrorAPFPrior:
         """Tell both streams the executed commands ``act (n, 2)`` (the mirror stream their images)."""
         from ..env.observation import mirror_action
 
-        a = np.asarray(act, dtype=np.float64)
-        rows = np.arange(len(a)) if rows is None else np.asarray(rows, dtype=np.int64)
-        if a.shape != (len(rows), 2):
-            raise ArgumentError(f"MirrorAPFPrior.driven: act must have shape ({len(rows)}, 2), one command per row, "
-                                f"got {a.shape}")
-        for apf, x in ((self.a, a), (self.b, mirror_action(a))):
-            if len(apf.memory.side):
-                apf.memory.last_act[rows] = x
+        a, rows = _executed(act, rows, "MirrorAPFPrior.driven")
+        _record(self.a, a, rows)
+        _record(self.b, mirror_action(a), rows)
 
     def reset(self) -> None:
         self.a.reset()
@@ -178,17 +182,13 @@ def side_rows(n_envs: int, n_robots: int) -> np.ndarray:
     vector env is the APF that acts for its robots when the file is deployed (rows ``0..n-1``)."""
     from .chart import robot_side
 
-    want = np.array([robot_side(i) for i in range(n_robots)])
-    cand = np.arange(2 * n_envs * n_robots + 4 * n_robots + 8)
+    n = n_envs * n_robots
+    cand = np.arange(n_robots, 2 * n + 4 * n_robots + 8)  # copy 0 keeps rows 0..n_robots-1
     side = np.array([robot_side(int(r)) for r in cand])
-    pools = {s: list(cand[side == s]) for s in (1.0, -1.0)}
-    for s in pools:  # copy 0 keeps rows 0..n-1; the others take the next free rows of the same side
-        pools[s] = [r for r in pools[s] if r >= n_robots]
-    out = np.empty(n_envs * n_robots, dtype=np.int64)
-    out[:n_robots] = np.arange(n_robots)
-    nxt = {1.0: 0, -1.0: 0}
-    for k in range(n_robots, n_envs * n_robots):
-        s = want[k % n_robots]
-        out[k] = pools[s][nxt[s]]
-        nxt[s] += 1
+    want = np.tile([robot_side(i) for i in range(n_robots)], n_envs)
+    out = np.arange(n, dtype=np.int64)
+    for s in (1.0, -1.0):  # the other copies' robots of side s take the free rows of side s, in order
+        k = np.flatnonzero(want == s)
+        k = k[k >= n_robots]
+        out[k] = cand[side == s][:len(k)]
     return out
